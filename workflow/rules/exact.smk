@@ -1,0 +1,17 @@
+# Exact (non-smooth, piecewise-linear) NNM1 family with one impact per stop per period,
+# Section 3.1 of the paper. Thin rule: everything happens in nnmstop.exact.
+
+
+rule exact_two_impacts:
+    """Closed-form quarter-period orbits followed by pseudo-arclength continuation."""
+    output:
+        dataset="results/exact/nnm1_two_impacts.nc",
+    params:
+        model=config["model"],
+        exact=config["exact"],
+    log:
+        "logs/exact_two_impacts.log",
+    benchmark:
+        "benchmarks/runs/exact_two_impacts.tsv"
+    script:
+        "../scripts/exact_two_impacts.py"
