@@ -1,0 +1,260 @@
+r"""Asymptotic Numerical Method (ANM): continuation by high-order power series.
+
+For a quadratic system ``S(U) = L(U) + Q(U, U) = 0`` the branch through a regular
+point ``U_0`` is expanded as ``U(a) = sum_{p=0..N} a^p U_p`` in the path parameter
+``a = <U - U_0, t>``, with ``t`` the unit tangent at ``U_0``. Identifying powers of
+``a`` gives, with ``J = dS/dU(U_0)`` (the same matrix at every order)::
+
+    order 1:  J U_1 = 0,                                   <U_1, t> = 1
+    order p:  J U_p = - sum_{r=1}^{p-1} Q(U_r, U_{p-r}),   <U_p, t> = 0
+
+so one LU factorization of the bordered matrix ``[J; t^T]`` serves all orders.
+The series is trusted up to the step length (Cochelin's estimate)::
+
+    a_max = (tolerance * ||U_1|| / ||U_N||) ** (1 / (N - 1))
+
+which keeps the last term below ``tolerance``. The end point ``U(a_max)`` becomes
+the next start point; the tangent there, ``dU/da(a_max)``, orients the next step.
+If the residual at the end of a step exceeds ``newton_threshold`` the end point is
+corrected by Newton iterations (counted as extra factorizations).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import lu_solve
+
+from .continuation import (
+    Branch,
+    ContinuationError,
+    ContinuationStats,
+    Progress,
+    StopCriterion,
+    bordered_factor,
+    newton_correct,
+    relative_residual,
+    unit_tangent,
+)
+
+__all__ = ["ANMSettings", "anm_series", "evaluate_series", "anm_step", "continue_anm"]
+
+logger = logging.getLogger("nnmstop.anm")
+
+
+@dataclass(frozen=True)
+class ANMSettings:
+    """Settings of the ANM continuation.
+
+    Parameters
+    ----------
+    order : int
+        Series order ``N`` (>= 2).
+    tolerance : float
+        Accuracy target of the step-length estimate (> 0).
+    newton_threshold : float
+        Relative residual beyond which a step end is corrected by Newton.
+    max_steps : int
+        Largest number of steps before the continuation gives up.
+    points_per_step : int
+        Points stored per step along the series (the end point included), for
+        smooth curves; >= 1.
+    """
+
+    order: int = 20
+    tolerance: float = 1e-8
+    newton_threshold: float = 1e-7
+    max_steps: int = 3000
+    points_per_step: int = 1
+
+    def __post_init__(self):
+        if not (isinstance(self.order, (int, np.integer)) and self.order >= 2):
+            raise ValueError(f"order must be an integer >= 2, got {self.order!r}")
+        for name in ("tolerance", "newton_threshold"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+        if self.max_steps < 1:
+            raise ValueError(f"max_steps must be >= 1, got {self.max_steps!r}")
+        if self.points_per_step < 1:
+            raise ValueError(f"points_per_step must be >= 1, got {self.points_per_step!r}")
+
+    @classmethod
+    def from_config(cls, anm_config: dict, **overrides) -> "ANMSettings":
+        keys = ("order", "tolerance", "newton_threshold", "max_steps")
+        return cls(**{k: anm_config[k] for k in keys}, **overrides)
+
+
+def anm_series(system, U0, tangent, order: int, stats: ContinuationStats):
+    """Taylor coefficients ``[U_0, ..., U_N]`` of the branch at ``U0`` (one factorization)."""
+    lu = bordered_factor(system, U0, tangent, stats)
+    n = system.n_unknowns
+    rhs = np.zeros(n)
+    rhs[-1] = 1.0
+    series = [np.asarray(U0, dtype=float), lu_solve(lu, rhs)]
+    cache: list = []
+    for p in range(2, order + 1):
+        rhs = np.concatenate([-system.series_products(series, p, cache), [0.0]])
+        series.append(lu_solve(lu, rhs))
+    return series
+
+
+def evaluate_series(series, a, derivative: bool = False):
+    """``U(a)`` (or ``dU/da``) by Horner's rule."""
+    if derivative:
+        out = np.zeros_like(series[0])
+        for p in range(len(series) - 1, 0, -1):
+            out = out * a + p * series[p]
+        return out
+    out = np.zeros_like(series[0])
+    for term in reversed(series):
+        out = out * a + term
+    return out
+
+
+def step_length(series, tolerance: float, last_terms: int = 1) -> float:
+    """Cochelin's estimate of the validity range of the series.
+
+    With ``last_terms > 1`` the smallest estimate over the last few orders is taken
+    (used after a geometric tail was removed, which zeroes the very last term).
+    """
+    n = len(series) - 1
+    u1 = np.linalg.norm(series[1])
+    estimates = [
+        (tolerance * u1 / max(np.linalg.norm(series[q]), 1e-300)) ** (1.0 / (q - 1))
+        for q in range(max(2, n - last_terms + 1), n + 1)
+    ]
+    return float(min(estimates))
+
+
+def remove_geometric_tail(series, a_max: float, alignment: float = 1e-6, reach: float = 3.0):
+    """Split off a geometric progression from the last series terms (simple bifurcation).
+
+    Near a simple bifurcation point the terms of the series become collinear and grow
+    (or decay) geometrically, ``U_p ~ w / a_b**p``: the bifurcation at ``a = a_b``
+    limits the radius of convergence and steps shrink towards it without passing.
+    Following Cochelin & Medale (2013), when the last three terms are aligned to within
+    ``alignment`` and the singular point is within ``reach`` step lengths ``a_max``
+    (so that it is what limits the step), the geometric part is subtracted from every
+    term ``p >= 1``; the remaining series describes the branch being followed beyond
+    ``a_b``.
+
+    Returns
+    -------
+    series : list
+        Cleaned series (a new list) or the input when no progression was found.
+    a_b : float or None
+        Signed path parameter of the singular point, None when none was found.
+    """
+    n = len(series) - 1
+    if n < 4:
+        return series, None
+    last, prev, prev2 = series[n], series[n - 1], series[n - 2]
+    norms = [np.linalg.norm(v) for v in (last, prev, prev2)]
+    if min(norms) == 0.0:
+        return series, None
+    cos1 = np.dot(last, prev) / (norms[0] * norms[1])
+    cos2 = np.dot(prev, prev2) / (norms[1] * norms[2])
+    if abs(cos1) < 1 - alignment or abs(cos2) < 1 - alignment or np.sign(cos1) != np.sign(cos2):
+        return series, None
+    a_b = np.dot(prev, prev) / np.dot(last, prev)
+    if abs(a_b) > reach * a_max:
+        return series, None
+    cleaned = [series[0]] + [series[p] - last * a_b ** (n - p) for p in range(1, n + 1)]
+    return cleaned, float(a_b)
+
+
+def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStats):
+    """One ANM step from ``U0``: returns ``(series, a_max, U_end, t_end, corrected)``."""
+    series = anm_series(system, U0, tangent, settings.order, stats)
+    series, a_b = remove_geometric_tail(series, step_length(series, settings.tolerance))
+    if a_b is not None:
+        stats.geometric_tails += 1
+    a_max = step_length(series, settings.tolerance, last_terms=1 if a_b is None else 4)
+    U_end = evaluate_series(series, a_max)
+    t_end = evaluate_series(series, a_max, derivative=True)
+    t_end /= np.linalg.norm(t_end)
+    corrected = False
+    if relative_residual(system, U_end) > settings.newton_threshold:
+        U_end, _ = newton_correct(system, U_end, t_end, stats, tol=0.01 * settings.newton_threshold)
+        stats.corrected_steps += 1
+        corrected = True
+    return series, a_max, U_end, t_end, corrected
+
+
+def continue_anm(
+    system,
+    U_start,
+    direction,
+    stop: StopCriterion,
+    settings: ANMSettings = ANMSettings(),
+    label: str = "ANM",
+    progress_seconds: float = 2.0,
+) -> Branch:
+    """Follow the branch through ``U_start`` along ``direction`` until ``stop`` says so.
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+        Provides ``residual``, ``jacobian``, ``series_products`` and ``diagnostics``.
+    U_start : ndarray
+        A point of the branch (residual at round-off).
+    direction : ndarray
+        Rough direction of travel; the tangent is oriented along it.
+    stop : callable
+        ``stop(U, diagnostics) -> str``; a non-empty string ends the continuation and
+        is recorded as the end reason.
+
+    Returns
+    -------
+    Branch
+        The start point, then the end point of every step (and ``points_per_step - 1``
+        interior points per step).
+
+    Raises
+    ------
+    ContinuationError
+        When a step fails or ``max_steps`` is exhausted; the message names the step
+        and the energy.
+    """
+    stats = ContinuationStats()
+    started = time.perf_counter()
+    branch = Branch(stats=stats)
+    U = np.array(U_start, dtype=float)
+    tangent = unit_tangent(system, U, np.asarray(direction, dtype=float), stats)
+    diag = system.diagnostics(U)
+    branch.add(U, 0)
+    progress = Progress(label, progress_seconds, logger)
+    for step in range(1, settings.max_steps + 1):
+        try:
+            series, a_max, U_new, t_new, _ = anm_step(system, U, tangent, settings, stats)
+        except (ContinuationError, np.linalg.LinAlgError) as err:
+            raise ContinuationError(
+                f"{label}: step {step} failed at energy {diag['energy']:.6g} "
+                f"(frequency {diag['frequency']:.6g} Hz): {err}"
+            ) from err
+        if not (np.all(np.isfinite(U_new)) and a_max > 0):
+            raise ContinuationError(
+                f"{label}: step {step} produced non-finite values at energy {diag['energy']:.6g}"
+            )
+        for j in range(1, settings.points_per_step):
+            branch.add(evaluate_series(series, a_max * j / settings.points_per_step), step)
+        U, tangent = U_new, t_new
+        diag = system.diagnostics(U)
+        branch.add(U, step)
+        stats.steps = step
+        progress(step, diag, a_max)
+        reason = stop(U, diag)
+        if reason:
+            branch.end_reason = reason
+            branch.end_tangent = tangent
+            stats.wall_time = time.perf_counter() - started
+            progress(step, diag, a_max, force=True)
+            return branch
+    raise ContinuationError(
+        f"{label}: no stop criterion met after max_steps = {settings.max_steps} steps "
+        f"(last energy {diag['energy']:.6g}, frequency {diag['frequency']:.6g} Hz)"
+    )

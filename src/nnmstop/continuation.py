@@ -1,0 +1,144 @@
+"""Pieces shared by the two continuation methods (ANM and Newton pseudo-arclength).
+
+A continuation follows the solution curve of ``S(U) = 0`` (``n`` equations,
+``n + 1`` unknowns) from a start point in a given direction. Both methods use the
+bordered matrix ``[J(U); t^T]``, with ``t`` the unit tangent at the start of the
+step, so that one LU factorization of it serves a whole step (ANM) or a Newton
+iteration (pseudo-arclength).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy.linalg import lu_factor, lu_solve
+
+__all__ = [
+    "ContinuationError",
+    "ContinuationStats",
+    "Branch",
+    "relative_residual",
+    "bordered_factor",
+    "newton_correct",
+    "unit_tangent",
+    "StopCriterion",
+]
+
+logger = logging.getLogger("nnmstop.continuation")
+
+
+class ContinuationError(RuntimeError):
+    """A continuation could not go on; the message names the step and the energy."""
+
+
+@dataclass
+class ContinuationStats:
+    """Cost counters of one continuation run."""
+
+    steps: int = 0
+    factorizations: int = 0
+    newton_iterations: int = 0
+    corrected_steps: int = 0
+    geometric_tails: int = 0
+    wall_time: float = 0.0
+
+
+@dataclass
+class Branch:
+    """Points of a continued branch, in order along the curve.
+
+    ``points`` are unknown vectors; ``step`` is the index of the continuation step
+    that produced each point (interior points of one ANM step share it).
+    """
+
+    points: list = field(default_factory=list)
+    step: list = field(default_factory=list)
+    stats: ContinuationStats = field(default_factory=ContinuationStats)
+    end_reason: str = ""
+    end_tangent: np.ndarray | None = None
+
+    def add(self, U, step):
+        self.points.append(np.array(U, dtype=float))
+        self.step.append(int(step))
+
+
+# A stop criterion gets the new point and its diagnostics dict and returns a reason
+# string when the continuation must stop (or "" to go on).
+StopCriterion = Callable[[np.ndarray, dict], str]
+
+
+def relative_residual(system, U) -> float:
+    """``||S(U)|| / max(||U||, 1)``: the accuracy measure used by both methods."""
+    return float(np.linalg.norm(system.residual(U)) / max(np.linalg.norm(U), 1.0))
+
+
+def bordered_factor(system, U, tangent, stats: ContinuationStats):
+    """LU factors of ``[J(U); tangent^T]`` (counted in ``stats``)."""
+    A = np.vstack([system.jacobian(U), tangent[None, :]])
+    stats.factorizations += 1
+    lu = lu_factor(A, check_finite=True)
+    pivots = np.abs(np.diag(lu[0]))
+    if pivots.min() <= 1e-14 * pivots.max():
+        raise np.linalg.LinAlgError("bordered Jacobian is singular to working precision")
+    return lu
+
+
+def unit_tangent(system, U, direction, stats: ContinuationStats, lu=None):
+    """Unit tangent of the curve at ``U``, oriented along ``direction``."""
+    if lu is None:
+        lu = bordered_factor(system, U, direction / np.linalg.norm(direction), stats)
+    rhs = np.zeros(system.n_unknowns)
+    rhs[-1] = 1.0
+    t = lu_solve(lu, rhs)
+    return t / np.linalg.norm(t)
+
+
+def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max_iter: int = 12):
+    """Newton iterations on ``S(U) = 0`` in the hyperplane orthogonal to ``tangent``.
+
+    Every iteration refactorizes (full Newton). Returns the corrected point and the
+    number of iterations; raises ``ContinuationError`` when it does not converge.
+    """
+    U = np.array(U, dtype=float)
+    for it in range(1, max_iter + 1):
+        lu = bordered_factor(system, U, tangent, stats)
+        r = system.residual(U)
+        dU = lu_solve(lu, -np.concatenate([r, [0.0]]))
+        U += dU
+        stats.newton_iterations += 1
+        if relative_residual(system, U) <= tol and np.linalg.norm(dU) <= 1e3 * tol * max(np.linalg.norm(U), 1.0):
+            return U, it
+    raise ContinuationError(
+        f"Newton correction did not converge in {max_iter} iterations (relative residual "
+        f"{relative_residual(system, U):.2e} > {tol:.1e})"
+    )
+
+
+class Progress:
+    """Throttled progress messages (energy, frequency, step) for long runs."""
+
+    def __init__(self, label: str, every_seconds: float = 2.0, log=logger):
+        self.label = label
+        self.every = every_seconds
+        self.log = log
+        self.start = time.perf_counter()
+        self.last = -np.inf
+
+    def __call__(self, step: int, diag: dict, step_length: float, force: bool = False):
+        now = time.perf_counter()
+        if force or now - self.last >= self.every:
+            self.last = now
+            self.log.info(
+                "%s step %d: energy %.6g, frequency %.6g Hz, step length %.3g, %d impacts/period (%.1f s)",
+                self.label,
+                step,
+                diag["energy"],
+                diag["frequency"],
+                step_length,
+                diag["impacts_per_period"],
+                now - self.start,
+            )
