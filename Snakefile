@@ -14,9 +14,12 @@ validate_config(config)
 
 
 include: "workflow/rules/exact.smk"
+include: "workflow/rules/hbm.smk"
 
 
 rule all:
     default_target: True
     input:
         "results/exact/nnm1_two_impacts.nc",
+        "results/hbm/nnm1.nc",
+        "results/hbm/nnm2.nc",

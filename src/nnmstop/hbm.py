@@ -347,6 +347,8 @@ class HarmonicBalanceSystem:
             "time_residual": time_residual,
             "force_error": force_error,
             "impacts_per_period": impacts_per_period(h["x"]),
+            "x_max": float(h["x"].max()),
+            "u_max": float(h["u"].max()),
             "truncation": max(self.truncation_indicator(lam * self.second_derivative(x)), self.truncation_indicator(f)),
         }
 

@@ -1,0 +1,227 @@
+"""Regularized NNM branches: staged ANM continuation and their labelled datasets.
+
+A branch (NNM1 or NNM2) starts from its linear mode of the regularized system near
+rest and is continued in *stages*: each stage starts from the last point of the
+previous one and ends at the first point that meets its ``until`` criterion, for
+example ``{impacts_above: 2}`` (the first orbit with more than one excursion beyond
+each stop) or ``{energy_above: 1.0e5}``. A figure that needs only the low-energy part
+of a branch then needs only the first stages. The stages of a branch concatenated
+give the whole branch (:func:`combine_stages`).
+
+Dataset layout (one per stage, and one per branch)
+--------------------------------------------------
+dimensions ``point`` (along the branch) and ``harmonic`` (0..H);
+``x_cos(point, harmonic)``, ``x_sin``, and likewise ``u``, ``f``, ``z``: the Fourier
+coefficients of Eq. (13) (``x_cos[:, 0]`` is the mean ``x_0``; the sine coefficients
+are zero in the cosine basis); ``omega_squared`` and ``unfolding`` (the extra unknowns);
+``energy``, ``frequency``, ``period``, ``x_max``, ``u_max``, ``impacts_per_period``,
+``algebraic_residual``, ``time_residual``, ``force_error``, ``energy_spread``,
+``truncation``, ``step``, ``stage``.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import xarray as xr
+
+from .anm import ANMSettings, continue_anm
+from .continuation import ContinuationError, ContinuationStats, newton_correct, relative_residual
+from .hbm import HarmonicBalanceSystem
+from .model import ModelParameters, linear_modes
+
+__all__ = [
+    "system_from_config",
+    "start_point",
+    "stage_criterion",
+    "continue_stage",
+    "branch_dataset",
+    "dataset_unknowns",
+    "combine_stages",
+]
+
+logger = logging.getLogger("nnmstop.branches")
+
+CRITERIA = ("energy_above", "impacts_above", "impacts_at_most", "frequency_within_gap_zero")
+
+
+def system_from_config(config: dict, harmonics: int | None = None, eta: float | None = None) -> HarmonicBalanceSystem:
+    """The HBM system of the configuration (optionally with other ``H`` or ``eta``)."""
+    model = dict(config["model"])
+    if eta is not None:
+        model["eta"] = eta
+    params = ModelParameters.from_config(model)
+    H = config["hbm"]["harmonics"] if harmonics is None else harmonics
+    return HarmonicBalanceSystem(params, H, time_samples=config["hbm"]["time_samples"])
+
+
+def start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float):
+    """A point of NNM ``mode`` at small amplitude, and the direction of growing amplitude.
+
+    The linear mode of the regularized system (``x = amplitude cos(theta)``) is
+    corrected by Newton with the amplitude ``x_c^1`` held fixed.
+    """
+    if not (np.isfinite(amplitude) and 0 < amplitude < 1):
+        raise ValueError(f"start amplitude must lie in (0, 1) (inside the gap), got {amplitude!r}")
+    U0 = system.linear_mode_guess(mode, amplitude)
+    direction = np.zeros(system.n_unknowns)
+    direction[system.slices["x"].start + 1] = 1.0
+    U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=1e-13)
+    return U0, direction
+
+
+def stage_criterion(until: dict, params: ModelParameters, mode: int):
+    """Stop criterion ``stop(U, diagnostics) -> reason`` from a stage's ``until`` mapping.
+
+    ``frequency_within_gap_zero: r`` stops within the relative distance ``r`` of the
+    gap-0 linear mode of the same index ``mode`` as the branch.
+    """
+    if len(until) != 1 or next(iter(until)) not in CRITERIA:
+        raise ValueError(f"a stage's 'until' must hold exactly one of {CRITERIA}, got {until!r}")
+    (kind, value), = until.items()
+    if kind == "energy_above":
+        return lambda U, d: f"energy above {value:g}" if d["energy"] > value else ""
+    if kind == "impacts_above":
+        return lambda U, d: f"more than {value} impacts per period" if d["impacts_per_period"] > value else ""
+    if kind == "impacts_at_most":
+        return lambda U, d: f"at most {value} impacts per period" if d["impacts_per_period"] <= value else ""
+    limit = linear_modes(params, "gap_zero")[0][mode - 1] / (2 * np.pi)
+
+    def near_gap_zero(U, d):
+        gap = abs(d["frequency"] - limit) / limit
+        return f"frequency within {value:g} of the gap-0 linear mode {mode} ({limit:.6g} Hz)" if gap <= value else ""
+
+    return near_gap_zero
+
+
+def _stage_settings(config: dict) -> ANMSettings:
+    return ANMSettings.from_config(config["anm"], points_per_step=config["hbm"].get("points_per_step", 1))
+
+
+def continue_stage(config: dict, branch_name: str, stage: int, previous: xr.Dataset | None = None) -> xr.Dataset:
+    """Continue stage ``stage`` (1-based) of ``branch_name`` and return its dataset.
+
+    Stage 1 starts from the linear mode; stage ``k > 1`` starts from the last point
+    of ``previous`` (the dataset of stage ``k - 1``), in the direction of its last
+    secant.
+
+    Raises
+    ------
+    ContinuationError
+        With the branch, stage, step and energy where the continuation failed.
+    """
+    spec = config["branches"][branch_name]
+    stages = spec["stages"]
+    if not 1 <= stage <= len(stages):
+        raise ValueError(f"stage must be in 1..{len(stages)} for branch {branch_name!r}, got {stage!r}")
+    system = system_from_config(config)
+    if stage == 1:
+        U0, direction = start_point(system, spec["mode"], spec["start_amplitude"])
+    else:
+        if previous is None:
+            raise ValueError(f"stage {stage} of {branch_name!r} needs the dataset of stage {stage - 1}")
+        points = dataset_unknowns(previous, system)
+        U0, direction = points[-1], points[-1] - points[-2]
+    stop = stage_criterion(stages[stage - 1]["until"], system.params, spec["mode"])
+    label = f"{branch_name} stage {stage} ({stages[stage - 1]['name']})"
+    branch = continue_anm(system, U0, direction, stop, _stage_settings(config), label=label)
+    return branch_dataset(system, branch.points, branch.step, stage, config, branch_name, branch.end_reason, branch.stats)
+
+
+def branch_dataset(system, points, steps, stage, config, branch_name, end_reason, stats: ContinuationStats) -> xr.Dataset:
+    """Labelled dataset of a list of HBM unknown vectors (see the module docstring)."""
+    H = system.H
+    U = np.array(points)
+    diags = [system.diagnostics(u) for u in U]
+    if not all(np.isfinite(d["energy"]) for d in diags):
+        raise ContinuationError(f"{branch_name} stage {stage}: non-finite energy in the branch")
+    x, u, f, z, lam, nu = system.split(U)
+    coords = {"point": np.arange(len(U)), "harmonic": np.arange(H + 1)}
+
+    def series(c, name, symbol):
+        full = system.to_full(c)
+        cos = np.concatenate([full[:, :1], full[:, 1 : H + 1]], axis=1)
+        sin = np.concatenate([np.zeros((len(U), 1)), full[:, H + 1 :]], axis=1)
+        return {
+            f"{symbol}_cos": (("point", "harmonic"), cos, {"long_name": f"cosine Fourier coefficients of {name}", "units": "1"}),
+            f"{symbol}_sin": (("point", "harmonic"), sin, {"long_name": f"sine Fourier coefficients of {name}", "units": "1"}),
+        }
+
+    def col(key):
+        return np.array([d[key] for d in diags])
+
+    data = {}
+    for c, name, symbol in ((x, "x (first mass)", "x"), (u, "u (second mass)", "u"), (f, "regularized contact force f", "f"), (z, "internal variable z = (f/alpha - x)^2", "z")):
+        data.update(series(c, name, symbol))
+    omega = np.sqrt(lam)
+    data.update(
+        {
+            "omega_squared": ("point", lam, {"long_name": "squared angular frequency (unknown lambda of the HBM system)", "units": "1"}),
+            "unfolding": ("point", nu, {"long_name": "unfolding parameter nu (fictitious damping times omega; zero on periodic orbits)", "units": "1"}),
+            "energy": ("point", col("energy"), {"long_name": "total energy of the regularized model (contact potential included), mean over the period", "units": "1"}),
+            "frequency": ("point", col("frequency"), {"long_name": "frequency omega/(2 pi) in Hz of the nondimensional time", "units": "Hz"}),
+            "period": ("point", 2 * np.pi / omega, {"long_name": "period of the orbit in nondimensional time", "units": "1"}),
+            "x_max": ("point", col("x_max"), {"long_name": "largest displacement of the first mass over the period", "units": "1"}),
+            "u_max": ("point", col("u_max"), {"long_name": "largest displacement of the second mass over the period", "units": "1"}),
+            "impacts_per_period": ("point", col("impacts_per_period").astype(np.int32), {"long_name": "number of excursions of x beyond the stops (|x| > 1) per period", "units": "1"}),
+            "algebraic_residual": ("point", np.array([relative_residual(system, p) for p in U]), {"long_name": "norm of the residual of the HBM algebraic system relative to the norm of the unknowns", "units": "1"}),
+            "time_residual": ("point", col("time_residual"), {"long_name": "largest residual in time of the regularized equation of x (true cubic root for f) relative to the largest restoring force", "units": "1"}),
+            "force_error": ("point", col("force_error"), {"long_name": "largest difference between the HBM contact force and the cubic root f(x(t)), relative to max |f|", "units": "1"}),
+            "energy_spread": ("point", col("energy_spread"), {"long_name": "relative variation of the total energy over the period (zero for an exact orbit)", "units": "1"}),
+            "truncation": ("point", col("truncation"), {"long_name": "share of the mean square of x'' or f carried by the top tenth of the harmonics (larger of the two)", "units": "1"}),
+            "step": ("point", np.asarray(steps, dtype=np.int32), {"long_name": "index of the ANM step that produced the point", "units": "1"}),
+            "stage": ("point", np.full(len(U), stage, dtype=np.int32), {"long_name": "continuation stage of the point", "units": "1"}),
+        }
+    )
+    ds = xr.Dataset(data, coords=coords)
+    ds["point"].attrs = {"long_name": "index of the point along the branch", "units": "1"}
+    ds["harmonic"].attrs = {"long_name": "harmonic number k (0 is the mean)", "units": "1"}
+    anm = config["anm"]
+    ds.attrs = {
+        **system.params.as_attrs(),
+        "branch": branch_name,
+        "mode": int(config["branches"][branch_name]["mode"]),
+        "harmonics": H,
+        "time_samples": system.M,
+        "basis": system.basis,
+        "order": anm["order"],
+        "tolerance": anm["tolerance"],
+        "newton_threshold": anm["newton_threshold"],
+        "stages": len(config["branches"][branch_name]["stages"]),
+        "end_reason": end_reason,
+        "anm_steps": stats.steps,
+        "factorizations": stats.factorizations,
+    }
+    return ds
+
+
+def dataset_unknowns(ds: xr.Dataset, system: HarmonicBalanceSystem) -> np.ndarray:
+    """Unknown vectors of every point of a branch dataset, for ``system``'s layout."""
+    H = system.H
+    if ds.sizes["harmonic"] != H + 1:
+        raise ValueError(f"dataset has {ds.sizes['harmonic'] - 1} harmonics, the system {H}")
+    parts = []
+    for symbol in ("x", "u", "f", "z"):
+        cos = ds[f"{symbol}_cos"].values
+        sin = ds[f"{symbol}_sin"].values
+        full = np.concatenate([cos, sin[:, 1:]], axis=1)
+        parts.append(full[:, : system.nc])
+    tail = [ds["omega_squared"].values[:, None]]
+    if system.full:
+        tail.append(ds["unfolding"].values[:, None])
+    return np.concatenate(parts + tail, axis=1)
+
+
+def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
+    """Concatenate the stage datasets of a branch (the repeated start points dropped)."""
+    if not stages:
+        raise ValueError("combine_stages needs at least one stage dataset")
+    parts = [stages[0]] + [ds.isel(point=slice(1, None)) for ds in stages[1:]]
+    out = xr.concat(parts, dim="point", data_vars="all", coords="minimal", combine_attrs="override")
+    out = out.assign_coords(point=np.arange(out.sizes["point"]))
+    out["point"].attrs = stages[0]["point"].attrs
+    out.attrs["end_reason"] = stages[-1].attrs["end_reason"]
+    out.attrs["anm_steps"] = int(sum(ds.attrs["anm_steps"] for ds in stages))
+    out.attrs["factorizations"] = int(sum(ds.attrs["factorizations"] for ds in stages))
+    return out

@@ -1,0 +1,98 @@
+"""Shared pieces of the figures: colours, axes of a frequency-energy plot, orbit
+reconstruction from a branch dataset, and deterministic saving."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import xarray as xr  # noqa: E402
+
+__all__ = [
+    "EXACT_COLOR",
+    "REGULARIZED_COLOR",
+    "NNM2_COLOR",
+    "RESONANCE_COLOR",
+    "frequency_energy_axes",
+    "open_dataset",
+    "orbit",
+    "save_figure",
+]
+
+EXACT_COLOR = "tab:red"  # non-smooth model
+REGULARIZED_COLOR = "tab:blue"  # regularized NNM1
+NNM2_COLOR = "tab:green"
+RESONANCE_COLOR = "tab:red"  # f2/5 curve, as in the paper's Figs 9-10
+
+plt.rcParams.update(
+    {
+        "font.size": 9,
+        "axes.grid": True,
+        "grid.alpha": 0.3,
+        "savefig.bbox": "standard",
+        "path.simplify": False,
+        "svg.hashsalt": "nnmstop",
+    }
+)
+
+
+def open_dataset(path) -> xr.Dataset:
+    """Load a NetCDF dataset fully into memory and close the file."""
+    with xr.open_dataset(path) as ds:
+        return ds.load()
+
+
+def frequency_energy_axes(ax, title: str | None = None):
+    """Logarithmic energy axis, frequency in Hz of the nondimensional time."""
+    ax.set_xscale("log")
+    ax.set_xlabel("energy (nondimensional)")
+    ax.set_ylabel("frequency (Hz, nondimensional time)")
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def orbit(ds: xr.Dataset, point: int, samples: int = 512) -> dict:
+    """Time history of one period of HBM point ``point`` of a branch dataset.
+
+    Evaluates the Fourier series of Eq. (13) on ``samples`` instants; returns ``t``
+    and ``x, u, xdot, udot, f`` (velocities by differentiating the series).
+    """
+    p = ds.isel(point=point)
+    omega = float(np.sqrt(p["omega_squared"]))
+    k = ds["harmonic"].values
+    t = np.arange(samples + 1) * (2 * np.pi / omega) / samples
+    phase = np.outer(omega * t, k)
+    cos, sin = np.cos(phase), np.sin(phase)
+    out = {"t": t}
+    for symbol in ("x", "u", "f"):
+        a, b = p[f"{symbol}_cos"].values, p[f"{symbol}_sin"].values
+        out[symbol] = cos @ a + sin @ b
+        if symbol != "f":
+            out[f"{symbol}dot"] = omega * (cos @ (k * b) - sin @ (k * a))
+    return out
+
+
+def save_figure(fig, pdf_path, png_dpi: int = 150) -> tuple[Path, Path]:
+    """Save ``fig`` as PDF and PNG (same stem), byte-reproducibly, and close it.
+
+    No creation date, creator or software tags: two runs give identical files.
+    """
+    pdf_path = Path(pdf_path)
+    png_path = pdf_path.with_suffix(".png")
+    pdf_path.parent.mkdir(parents=True, exist_ok=True)
+    os.environ.setdefault("SOURCE_DATE_EPOCH", "0")
+    for path, meta, kwargs in (
+        (pdf_path, {"CreationDate": None, "ModDate": None, "Creator": None, "Producer": None}, {}),
+        (png_path, {"Software": None}, {"dpi": png_dpi}),
+    ):
+        tmp = path.with_name(path.stem + ".tmp" + path.suffix)
+        fig.savefig(tmp, metadata=meta, **kwargs)
+        os.replace(tmp, path)
+    plt.close(fig)
+    return pdf_path, png_path

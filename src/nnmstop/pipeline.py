@@ -1,0 +1,146 @@
+"""Tasks of the Snakemake workflow, callable from rules and from the command line.
+
+Every rule of ``workflow/rules/*.smk`` is a one-line call of :func:`run_task`; the
+same task runs standalone for debugging::
+
+    python -m nnmstop.pipeline hbm_stage --branch nnm1 --stage 2 \\
+        --input previous=results/hbm/stages/nnm1_stage1.nc \\
+        --output dataset=/tmp/nnm1_stage2.nc
+
+A task reads the validated configuration, its named inputs and writes its named
+outputs; its log goes to the rule's ``log:`` file (or stderr).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+import xarray as xr
+
+__all__ = ["TASKS", "run_task", "main"]
+
+logger = logging.getLogger("nnmstop.pipeline")
+
+
+def exact_two_impacts(config, inputs, outputs):
+    """Exact two-impact NNM1 family of the non-smooth system (Section 3.1)."""
+    from .exact import build_two_impact_dataset
+
+    build_two_impact_dataset(config, outputs["dataset"])
+
+
+def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
+    """One stage of a regularized NNM branch (HBM + ANM)."""
+    from .branches import continue_stage
+    from .datasets import write_dataset
+
+    stage = int(stage)
+    previous = None
+    if stage > 1:
+        with xr.open_dataset(inputs["previous"]) as prev:
+            previous = prev.load()
+    ds = continue_stage(config, branch, stage, previous)
+    name = config["branches"][branch]["stages"][stage - 1]["name"]
+    write_dataset(
+        ds,
+        outputs["dataset"],
+        title=f"Regularized {branch.upper()}, stage {stage} ({name}): HBM-ANM continuation",
+        summary=(
+            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
+            f"{branch.upper()}, stage {stage} ({name}), computed by harmonic balance with "
+            f"{ds.attrs['harmonics']} harmonics and the asymptotic numerical method."
+        ),
+    )
+
+
+def hbm_branch(config, inputs, outputs, branch: str):
+    """Concatenate the stages of a branch into one dataset."""
+    from .branches import combine_stages
+    from .datasets import write_dataset
+
+    stages = []
+    for path in inputs["stages"]:
+        with xr.open_dataset(path) as ds:
+            stages.append(ds.load())
+    combined = combine_stages(stages)
+    write_dataset(
+        combined,
+        outputs["dataset"],
+        title=f"Regularized {branch.upper()}: HBM-ANM continuation, whole branch",
+        summary=(
+            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
+            f"{branch.upper()}, from its linear mode to the end of the last continuation stage."
+        ),
+    )
+
+
+TASKS = {f.__name__: f for f in (exact_two_impacts, hbm_stage, hbm_branch)}
+
+
+def configure_logging(log_path: str | None) -> None:
+    """Send INFO messages to ``log_path`` (or stderr when None or '-')."""
+    if log_path and log_path != "-":
+        Path(log_path).parent.mkdir(parents=True, exist_ok=True)
+        handler: logging.Handler = logging.FileHandler(log_path, mode="w")
+    else:
+        handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
+    root = logging.getLogger()
+    for old in list(root.handlers):
+        root.removeHandler(old)
+    root.addHandler(handler)
+    root.setLevel(logging.INFO)
+
+
+def run_task(name: str, config: dict, inputs=None, outputs=None, log: str | None = None, **wildcards):
+    """Run task ``name`` with named inputs/outputs (Snakemake ``Namedlist`` or dict).
+
+    ``log`` is the path of the log file (None or '-' for stderr).
+    """
+    if name not in TASKS:
+        raise ValueError(f"unknown task {name!r}; tasks are {sorted(TASKS)}")
+    configure_logging(log)
+    inputs = dict(inputs.items()) if hasattr(inputs, "items") else dict(inputs or {})
+    outputs = dict(outputs.items()) if hasattr(outputs, "items") else dict(outputs or {})
+    try:
+        TASKS[name](config, inputs, outputs, **wildcards)
+    except Exception:
+        logger.exception("task %s failed", name)
+        raise
+
+
+def _pairs(values):
+    out = {}
+    for item in values or []:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise argparse.ArgumentTypeError(f"expected key=path, got {item!r}")
+        out.setdefault(key, []).append(value)
+    return {k: v[0] if len(v) == 1 else v for k, v in out.items()}
+
+
+def main(argv=None) -> None:
+    """Command line: ``python -m nnmstop.pipeline TASK [options]``."""
+    from .config import load_config
+
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.pipeline", description=__doc__.splitlines()[0])
+    parser.add_argument("task", choices=sorted(TASKS))
+    parser.add_argument("--config", default="config/config.yaml")
+    parser.add_argument("--input", action="append", metavar="KEY=PATH", help="named input (repeatable)")
+    parser.add_argument("--output", action="append", metavar="KEY=PATH", help="named output (repeatable)")
+    parser.add_argument("--log", default="-", help="log file, '-' for stderr")
+    parser.add_argument("--branch")
+    parser.add_argument("--stage")
+    args = parser.parse_args(argv)
+    wildcards = {k: getattr(args, k) for k in ("branch", "stage") if getattr(args, k) is not None}
+    inputs = _pairs(args.input)
+    if "stages" in inputs and isinstance(inputs["stages"], str):
+        inputs["stages"] = [inputs["stages"]]
+    run_task(args.task, load_config(args.config), inputs, _pairs(args.output), args.log, **wildcards)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,52 @@
+# Regularized NNMs by harmonic balance (H harmonics) and ANM continuation, in stages:
+# stage k starts from the last point of stage k-1, so a figure that needs only the
+# low-energy part of a branch builds only the first stages.
+
+
+def previous_stage(wildcards):
+    stage = int(wildcards.stage)
+    if stage == 1:
+        return {}
+    return {"previous": f"results/hbm/stages/{wildcards.branch}_stage{stage - 1}.nc"}
+
+
+def branch_stages(wildcards):
+    n = len(config["branches"][wildcards.branch]["stages"])
+    return {"stages": [f"results/hbm/stages/{wildcards.branch}_stage{k}.nc" for k in range(1, n + 1)]}
+
+
+rule hbm_stage:
+    """One continuation stage of a regularized NNM branch."""
+    input:
+        unpack(previous_stage),
+    output:
+        dataset="results/hbm/stages/{branch}_stage{stage}.nc",
+    wildcard_constraints:
+        branch="nnm[12]",
+        stage=r"\d+",
+    log:
+        "logs/hbm/{branch}_stage{stage}.log",
+    benchmark:
+        "benchmarks/runs/hbm_{branch}_stage{stage}.tsv"
+    params:
+        task="hbm_stage",
+    script:
+        "../scripts/run_task.py"
+
+
+rule hbm_branch:
+    """A whole regularized NNM branch: its stages concatenated."""
+    input:
+        unpack(branch_stages),
+    output:
+        dataset="results/hbm/{branch}.nc",
+    wildcard_constraints:
+        branch="nnm[12]",
+    log:
+        "logs/hbm/{branch}.log",
+    benchmark:
+        "benchmarks/runs/hbm_{branch}.tsv"
+    params:
+        task="hbm_branch",
+    script:
+        "../scripts/run_task.py"
