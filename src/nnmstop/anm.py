@@ -226,34 +226,43 @@ def continue_anm(
     U = np.array(U_start, dtype=float)
     tangent = unit_tangent(system, U, np.asarray(direction, dtype=float), stats)
     diag = system.diagnostics(U)
-    branch.add(U, 0)
+    branch.add(U, 0, diag)
     progress = Progress(label, progress_seconds, logger)
+    n_sub = settings.points_per_step
     for step in range(1, settings.max_steps + 1):
         try:
-            series, a_max, U_new, t_new, _ = anm_step(system, U, tangent, settings, stats)
+            series, a_max, U_end, t_end, _ = anm_step(system, U, tangent, settings, stats)
         except (ContinuationError, np.linalg.LinAlgError) as err:
             raise ContinuationError(
                 f"{label}: step {step} failed at energy {diag['energy']:.6g} "
                 f"(frequency {diag['frequency']:.6g} Hz): {err}"
             ) from err
-        if not (np.all(np.isfinite(U_new)) and a_max > 0):
+        if not (np.all(np.isfinite(U_end)) and a_max > 0):
             raise ContinuationError(
                 f"{label}: step {step} produced non-finite values at energy {diag['energy']:.6g}"
             )
-        for j in range(1, settings.points_per_step):
-            branch.add(evaluate_series(series, a_max * j / settings.points_per_step), step)
-        U, tangent = U_new, t_new
-        diag = system.diagnostics(U)
-        branch.add(U, step)
         stats.steps = step
+        # Interior points along the series, then the (possibly corrected) end point; the
+        # stop criterion is checked at each, so a stage ends at the first point meeting it.
+        for j in range(1, n_sub + 1):
+            if j < n_sub:
+                a = a_max * j / n_sub
+                U_j = evaluate_series(series, a)
+                t_j = evaluate_series(series, a, derivative=True)
+                t_j /= np.linalg.norm(t_j)
+            else:
+                U_j, t_j = U_end, t_end
+            diag = system.diagnostics(U_j)
+            branch.add(U_j, step, diag)
+            reason = stop(U_j, diag)
+            if reason:
+                branch.end_reason = reason
+                branch.end_tangent = t_j
+                stats.wall_time = time.perf_counter() - started
+                progress(step, diag, a_max, force=True)
+                return branch
+        U, tangent = U_end, t_end
         progress(step, diag, a_max)
-        reason = stop(U, diag)
-        if reason:
-            branch.end_reason = reason
-            branch.end_tangent = tangent
-            stats.wall_time = time.perf_counter() - started
-            progress(step, diag, a_max, force=True)
-            return branch
     raise ContinuationError(
         f"{label}: no stop criterion met after max_steps = {settings.max_steps} steps "
         f"(last energy {diag['energy']:.6g}, frequency {diag['frequency']:.6g} Hz)"

@@ -27,7 +27,7 @@ import numpy as np
 import xarray as xr
 
 from .anm import ANMSettings, continue_anm
-from .continuation import ContinuationError, ContinuationStats, newton_correct, relative_residual
+from .continuation import Branch, ContinuationError, ContinuationStats, newton_correct, relative_residual
 from .hbm import HarmonicBalanceSystem
 from .model import ModelParameters, linear_modes
 
@@ -126,14 +126,15 @@ def continue_stage(config: dict, branch_name: str, stage: int, previous: xr.Data
     stop = stage_criterion(stages[stage - 1]["until"], system.params, spec["mode"])
     label = f"{branch_name} stage {stage} ({stages[stage - 1]['name']})"
     branch = continue_anm(system, U0, direction, stop, _stage_settings(config), label=label)
-    return branch_dataset(system, branch.points, branch.step, stage, config, branch_name, branch.end_reason, branch.stats)
+    return branch_dataset(system, branch, stage, config, branch_name)
 
 
-def branch_dataset(system, points, steps, stage, config, branch_name, end_reason, stats: ContinuationStats) -> xr.Dataset:
-    """Labelled dataset of a list of HBM unknown vectors (see the module docstring)."""
+def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name: str) -> xr.Dataset:
+    """Labelled dataset of a continued branch (see the module docstring)."""
     H = system.H
-    U = np.array(points)
-    diags = [system.diagnostics(u) for u in U]
+    U = np.array(branch.points)
+    diags = [d if d is not None else system.diagnostics(u) for u, d in zip(U, branch.diagnostics)]
+    steps, end_reason, stats = branch.step, branch.end_reason, branch.stats
     if not all(np.isfinite(d["energy"]) for d in diags):
         raise ContinuationError(f"{branch_name} stage {stage}: non-finite energy in the branch")
     x, u, f, z, lam, nu = system.split(U)

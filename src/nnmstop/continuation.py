@@ -52,18 +52,22 @@ class Branch:
     """Points of a continued branch, in order along the curve.
 
     ``points`` are unknown vectors; ``step`` is the index of the continuation step
-    that produced each point (interior points of one ANM step share it).
+    that produced each point (interior points of one ANM step share it);
+    ``diagnostics`` the dict of ``system.diagnostics`` of each point (None where the
+    method did not compute it).
     """
 
     points: list = field(default_factory=list)
     step: list = field(default_factory=list)
+    diagnostics: list = field(default_factory=list)
     stats: ContinuationStats = field(default_factory=ContinuationStats)
     end_reason: str = ""
     end_tangent: np.ndarray | None = None
 
-    def add(self, U, step):
+    def add(self, U, step, diagnostics=None):
         self.points.append(np.array(U, dtype=float))
         self.step.append(int(step))
+        self.diagnostics.append(diagnostics)
 
 
 # A stop criterion gets the new point and its diagnostics dict and returns a reason

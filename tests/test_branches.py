@@ -1,0 +1,108 @@
+"""Staged continuation of the regularized NNMs and their datasets."""
+
+import copy
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from nnmstop.branches import combine_stages, continue_stage, dataset_unknowns, system_from_config
+from nnmstop.config import load_config
+from nnmstop.continuation import ContinuationError
+from nnmstop.datasets import check_labelled
+from nnmstop.model import ModelParameters, linear_modes
+from nnmstop.pipeline import run_task
+
+
+@pytest.fixture(scope="module")
+def small_config():
+    """Paper physics, few harmonics, NNM1 in two stages up to the first energy fold."""
+    config = copy.deepcopy(load_config("config/config.yaml"))
+    config["hbm"]["harmonics"] = 24
+    config["hbm"]["points_per_step"] = 2
+    config["branches"]["nnm1"]["stages"] = [
+        {"name": "no_impact", "until": {"impacts_above": 0}},
+        {"name": "one_impact_per_stop", "until": {"energy_above": 20.0}},
+    ]
+    return config
+
+
+@pytest.fixture(scope="module")
+def nnm1_stages(small_config):
+    first = continue_stage(small_config, "nnm1", 1)
+    second = continue_stage(small_config, "nnm1", 2, first)
+    return first, second
+
+
+def test_nnm2_approaches_gap_zero_mode_from_below(small_config):
+    ds = continue_stage(small_config, "nnm2", 1)
+    params = ModelParameters.from_config(small_config["model"])
+    limit = linear_modes(params, "gap_zero")[0][1] / (2 * np.pi)
+    start = linear_modes(params, "regularized")[0][1] / (2 * np.pi)
+    freq = ds["frequency"].values
+    assert freq[0] == pytest.approx(start, rel=1e-4)  # linear limit at low energy
+    assert 0.98 * limit <= freq[-1] < limit
+    # hardening all the way: frequency grows with energy along NNM2
+    order = np.argsort(ds["energy"].values)
+    assert np.all(np.diff(freq[order]) > -1e-9)
+    check_labelled(ds)
+
+
+def test_stage_ends_where_its_criterion_is_first_met(nnm1_stages):
+    first, second = nnm1_stages
+    assert first["impacts_per_period"].values[-1] > 0
+    assert np.all(first["impacts_per_period"].values[:-1] == 0)
+    assert second["energy"].values[-1] > 20.0
+    assert np.all(second["energy"].values[:-1] <= 20.0)
+    assert "impacts" in first.attrs["end_reason"] and "energy" in second.attrs["end_reason"]
+
+
+def test_stages_join_continuously(small_config, nnm1_stages):
+    """Stage 2 starts exactly where stage 1 ends; the combined branch has every point once."""
+    first, second = nnm1_stages
+    xr.testing.assert_allclose(first.isel(point=-1).drop_vars(["point", "step", "stage"]),
+                               second.isel(point=0).drop_vars(["point", "step", "stage"]))
+    both = combine_stages([first, second])
+    assert both.sizes["point"] == first.sizes["point"] + second.sizes["point"] - 1
+    np.testing.assert_array_equal(both["point"].values, np.arange(both.sizes["point"]))
+
+
+def test_staged_branch_matches_a_single_run(small_config, nnm1_stages):
+    """Two stages trace the same curve as one continuation run with the last criterion."""
+    single_config = copy.deepcopy(small_config)
+    single_config["branches"]["nnm1"]["stages"] = [small_config["branches"]["nnm1"]["stages"][1]]
+    single = continue_stage(single_config, "nnm1", 1)
+    staged = combine_stages(list(nnm1_stages))
+    # energy grows monotonically up to E = 20 on NNM1 here: compare frequency at matched energies
+    for ds in (single, staged):
+        assert np.all(np.diff(ds["energy"].values) > 0)
+    e = np.geomspace(0.01, 19.0, 40)
+    f_single = np.interp(np.log(e), np.log(single["energy"].values), single["frequency"].values)
+    f_staged = np.interp(np.log(e), np.log(staged["energy"].values), staged["frequency"].values)
+    np.testing.assert_allclose(f_staged, f_single, rtol=2e-4)
+
+
+def test_dataset_round_trip_gives_solutions(small_config, nnm1_stages):
+    """Unknowns rebuilt from the stored coefficients solve the HBM system."""
+    system = system_from_config(small_config)
+    ds = nnm1_stages[1]
+    U = dataset_unknowns(ds, system)
+    residuals = [np.linalg.norm(system.residual(u)) / max(np.linalg.norm(u), 1) for u in U]
+    assert max(residuals) < 10 * small_config["anm"]["newton_threshold"]
+    np.testing.assert_allclose(ds["algebraic_residual"].values, residuals, rtol=1e-6, atol=1e-15)
+    assert np.all(np.abs(ds["unfolding"].values) == 0.0)  # cosine basis: no unfolding term
+
+
+def test_failed_stage_names_step_and_energy_and_leaves_no_dataset(small_config, tmp_path):
+    config = copy.deepcopy(small_config)
+    config["anm"]["max_steps"] = 2
+    out = tmp_path / "nnm1_stage1.nc"
+    with pytest.raises(ContinuationError, match=r"energy"):
+        run_task("hbm_stage", config, {}, {"dataset": str(out)}, None, branch="nnm1", stage="1")
+    assert not out.exists()
+    assert not list(tmp_path.iterdir())
+
+
+def test_stage_number_out_of_range_is_rejected(small_config):
+    with pytest.raises(ValueError, match="stage must be in 1..2"):
+        continue_stage(small_config, "nnm1", 3)
