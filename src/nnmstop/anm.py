@@ -35,6 +35,7 @@ from .continuation import (
     Progress,
     StopCriterion,
     bordered_factor,
+    determinant_sign,
     newton_correct,
     relative_residual,
     unit_tangent,
@@ -88,9 +89,13 @@ class ANMSettings:
         return cls(**{k: anm_config[k] for k in keys}, **overrides)
 
 
-def anm_series(system, U0, tangent, order: int, stats: ContinuationStats):
-    """Taylor coefficients ``[U_0, ..., U_N]`` of the branch at ``U0`` (one factorization)."""
-    lu = bordered_factor(system, U0, tangent, stats)
+def anm_series(system, U0, tangent, order: int, stats: ContinuationStats, lu=None):
+    """Taylor coefficients ``[U_0, ..., U_N]`` of the branch at ``U0`` (one factorization).
+
+    ``lu`` may pass the factors of ``[J(U0); tangent^T]`` when the caller has them.
+    """
+    if lu is None:
+        lu = bordered_factor(system, U0, tangent, stats)
     n = system.n_unknowns
     rhs = np.zeros(n)
     rhs[-1] = 1.0
@@ -168,8 +173,15 @@ def remove_geometric_tail(series, a_max: float, alignment: float = 1e-6, reach: 
 
 
 def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStats):
-    """One ANM step from ``U0``: returns ``(series, a_max, U_end, t_end, corrected)``."""
-    series = anm_series(system, U0, tangent, settings.order, stats)
+    """One ANM step from ``U0``.
+
+    Returns ``(series, a_max, U_end, t_end, det_sign)``: the (cleaned) series, the
+    step length, the end point (Newton-corrected if needed), the unit tangent there,
+    and the sign of ``det [J(U0); tangent^T]``, which changes across a simple branch
+    point (and not across a fold) when the tangent keeps its orientation.
+    """
+    lu = bordered_factor(system, U0, tangent, stats)
+    series = anm_series(system, U0, tangent, settings.order, stats, lu=lu)
     series, a_b = remove_geometric_tail(series, step_length(series, settings.tolerance))
     if a_b is not None:
         stats.geometric_tails += 1
@@ -177,12 +189,10 @@ def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStat
     U_end = evaluate_series(series, a_max)
     t_end = evaluate_series(series, a_max, derivative=True)
     t_end /= np.linalg.norm(t_end)
-    corrected = False
     if relative_residual(system, U_end) > settings.newton_threshold:
         U_end, _ = newton_correct(system, U_end, t_end, stats, tol=0.01 * settings.newton_threshold)
         stats.corrected_steps += 1
-        corrected = True
-    return series, a_max, U_end, t_end, corrected
+    return series, a_max, U_end, t_end, determinant_sign(lu)
 
 
 def continue_anm(
@@ -229,9 +239,10 @@ def continue_anm(
     branch.add(U, 0, diag)
     progress = Progress(label, progress_seconds, logger)
     n_sub = settings.points_per_step
+    previous_sign = None
     for step in range(1, settings.max_steps + 1):
         try:
-            series, a_max, U_end, t_end, _ = anm_step(system, U, tangent, settings, stats)
+            series, a_max, U_end, t_end, det_sign = anm_step(system, U, tangent, settings, stats)
         except (ContinuationError, np.linalg.LinAlgError) as err:
             raise ContinuationError(
                 f"{label}: step {step} failed at energy {diag['energy']:.6g} "
@@ -242,6 +253,12 @@ def continue_anm(
                 f"{label}: step {step} produced non-finite values at energy {diag['energy']:.6g}"
             )
         stats.steps = step
+        if previous_sign is not None and det_sign != previous_sign:
+            # The branch point lies within the previous step: between its start and U.
+            branch.branch_points.append(len(branch.points) - 1)
+            logger.info("%s: simple branch point passed near energy %.6g, frequency %.6g Hz (step %d)",
+                        label, diag["energy"], diag["frequency"], step - 1)
+        previous_sign = det_sign
         # Interior points along the series, then the (possibly corrected) end point; the
         # stop criterion is checked at each, so a stage ends at the first point meeting it.
         for j in range(1, n_sub + 1):

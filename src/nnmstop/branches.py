@@ -16,7 +16,7 @@ coefficients of Eq. (13) (``x_cos[:, 0]`` is the mean ``x_0``; the sine coeffici
 are zero in the cosine basis); ``omega_squared`` and ``unfolding`` (the extra unknowns);
 ``energy``, ``frequency``, ``period``, ``x_max``, ``u_max``, ``impacts_per_period``,
 ``algebraic_residual``, ``time_residual``, ``force_error``, ``energy_spread``,
-``truncation``, ``step``, ``stage``.
+``truncation``, ``step``, ``stage``, ``branch_point`` and ``energy_fold`` (flags).
 """
 
 from __future__ import annotations
@@ -175,6 +175,15 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
             "stage": ("point", np.full(len(U), stage, dtype=np.int32), {"long_name": "continuation stage of the point", "units": "1"}),
         }
     )
+    branch_point = np.zeros(len(U), dtype=bool)
+    branch_point[branch.branch_points] = True
+    fold = energy_folds(col("energy"))
+    data.update(
+        {
+            "branch_point": ("point", branch_point.astype(np.int8), {"long_name": "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies between the previous point and this one", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular branch_point"}),
+            "energy_fold": ("point", fold.astype(np.int8), {"long_name": "1 where the energy has a local extremum along the branch (energy fold)", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular fold"}),
+        }
+    )
     ds = xr.Dataset(data, coords=coords)
     ds["point"].attrs = {"long_name": "index of the point along the branch", "units": "1"}
     ds["harmonic"].attrs = {"long_name": "harmonic number k (0 is the mean)", "units": "1"}
@@ -195,6 +204,15 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
         "factorizations": stats.factorizations,
     }
     return ds
+
+
+def energy_folds(energy) -> np.ndarray:
+    """Boolean flags of the local extrema of the energy along a branch."""
+    energy = np.asarray(energy)
+    fold = np.zeros(energy.shape, dtype=bool)
+    slope = np.diff(energy)
+    fold[1:-1] = slope[:-1] * slope[1:] < 0
+    return fold
 
 
 def dataset_unknowns(ds: xr.Dataset, system: HarmonicBalanceSystem) -> np.ndarray:
@@ -222,6 +240,8 @@ def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
     out = xr.concat(parts, dim="point", data_vars="all", coords="minimal", combine_attrs="override")
     out = out.assign_coords(point=np.arange(out.sizes["point"]))
     out["point"].attrs = stages[0]["point"].attrs
+    # folds at the junction of two stages are only visible on the combined branch
+    out["energy_fold"].values[:] = energy_folds(out["energy"].values).astype(np.int8)
     out.attrs["end_reason"] = stages[-1].attrs["end_reason"]
     out.attrs["anm_steps"] = int(sum(ds.attrs["anm_steps"] for ds in stages))
     out.attrs["factorizations"] = int(sum(ds.attrs["factorizations"] for ds in stages))

@@ -25,6 +25,7 @@ __all__ = [
     "bordered_factor",
     "newton_correct",
     "unit_tangent",
+    "determinant_sign",
     "StopCriterion",
 ]
 
@@ -63,6 +64,9 @@ class Branch:
     stats: ContinuationStats = field(default_factory=ContinuationStats)
     end_reason: str = ""
     end_tangent: np.ndarray | None = None
+    # Indices i of points such that the sign of det [J; t^T] changes between the
+    # continuation steps ending at points i and i+1: a simple branch point lies there.
+    branch_points: list = field(default_factory=list)
 
     def add(self, U, step, diagnostics=None):
         self.points.append(np.array(U, dtype=float))
@@ -89,6 +93,14 @@ def bordered_factor(system, U, tangent, stats: ContinuationStats):
     if pivots.min() <= 1e-14 * pivots.max():
         raise np.linalg.LinAlgError("bordered Jacobian is singular to working precision")
     return lu
+
+
+def determinant_sign(lu) -> int:
+    """Sign of the determinant of a matrix from its ``scipy.linalg.lu_factor`` factors."""
+    factors, pivots = lu
+    swaps = np.count_nonzero(pivots != np.arange(len(pivots)))
+    negative = np.count_nonzero(np.diag(factors) < 0)
+    return -1 if (swaps + negative) % 2 else 1
 
 
 def unit_tangent(system, U, direction, stats: ContinuationStats, lu=None):
