@@ -5,9 +5,9 @@ Standalone (for debugging)::
 
     python workflow/scripts/exact_two_impacts.py [--config config/config.yaml]
         [--output results/exact/nnm1_two_impacts.nc] [--log -]
-"""
 
-from __future__ import annotations
+(Snakemake prepends its own preamble to this file, so no ``from __future__`` import here.)
+"""
 
 import argparse
 import logging
@@ -26,7 +26,11 @@ def main(config: dict, output: str, log_path: str | None) -> None:
     from nnmstop.exact import build_two_impact_dataset
 
     _configure_logging(log_path)
-    build_two_impact_dataset(config, output)
+    try:
+        build_two_impact_dataset(config, output)
+    except Exception:
+        logging.getLogger("exact_two_impacts").exception("computing the two-impact family failed")
+        raise
 
 
 if "snakemake" in globals():
