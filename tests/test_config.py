@@ -1,0 +1,99 @@
+"""Configuration validation: the shipped file, each kind of bad value, and the workflow refusing it."""
+
+import copy
+import shutil
+import subprocess
+
+import pytest
+import yaml
+
+from nnmstop.config import ConfigError, load_config, validate_config
+
+
+@pytest.fixture(scope="module")
+def shipped(repo_root):
+    return load_config(repo_root / "config" / "config.yaml")
+
+
+def _with(config, dotted, value):
+    """Deep copy of ``config`` with ``dotted`` set to ``value`` (or deleted if value is ...)."""
+    out = copy.deepcopy(config)
+    *parents, leaf = dotted.split(".")
+    node = out
+    for key in parents:
+        node = node[key]
+    if value is ...:
+        del node[leaf]
+    else:
+        node[leaf] = value
+    return out
+
+
+def test_shipped_config_validates(shipped):
+    assert validate_config(shipped) is shipped
+    assert shipped["model"]["eta"] < shipped["model"]["alpha"]
+
+
+@pytest.mark.parametrize("key", ["model.alpha", "model.beta", "model.delta", "model.eta"])
+@pytest.mark.parametrize("bad", [0.0, -1.0])
+def test_non_positive_model_parameters_are_rejected(shipped, key, bad):
+    with pytest.raises(ConfigError, match=f"'{key}'"):
+        validate_config(_with(shipped, key, bad))
+
+
+@pytest.mark.parametrize("eta", [30.0, 45.0])
+def test_eta_not_below_alpha_is_rejected(shipped, eta):
+    with pytest.raises(ConfigError, match="'model.eta'.*alpha"):
+        validate_config(_with(shipped, "model.eta", eta))
+
+
+@pytest.mark.parametrize(
+    "key, bad",
+    [
+        ("model.alpha", "thirty"),
+        ("model.beta", [1.0]),
+        ("exact.step", "0.02"),
+        ("exact.max_points", 40.5),
+        ("hbm.harmonics", "100"),
+        ("anm.order", None),
+    ],
+)
+def test_wrong_types_are_rejected(shipped, key, bad):
+    with pytest.raises(ConfigError, match=f"'{key}'"):
+        validate_config(_with(shipped, key, bad))
+
+
+@pytest.mark.parametrize("key", ["model.gamma", "exact.tolerance", "plots"])
+def test_unknown_keys_are_rejected(shipped, key):
+    with pytest.raises(ConfigError, match=f"'{key}'"):
+        validate_config(_with(shipped, key, 1.0))
+
+
+@pytest.mark.parametrize("key", ["model.alpha", "model.eta", "exact.step", "exact.max_points", "hbm"])
+def test_missing_keys_are_rejected(shipped, key):
+    with pytest.raises(ConfigError, match=f"'{key}'"):
+        validate_config(_with(shipped, key, ...))
+
+
+@pytest.mark.parametrize("key, bad", [("exact.step", 0.0), ("exact.step", 1.5), ("exact.max_points", 3)])
+def test_out_of_range_continuation_settings_are_rejected(shipped, key, bad):
+    with pytest.raises(ConfigError, match=f"'{key}'"):
+        validate_config(_with(shipped, key, bad))
+
+
+def test_missing_file_is_a_config_error(tmp_path):
+    with pytest.raises(ConfigError, match="not found"):
+        load_config(tmp_path / "nope.yaml")
+
+
+@pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not on PATH")
+def test_workflow_refuses_a_negative_alpha(repo_root, tmp_path):
+    override = tmp_path / "bad.yaml"
+    override.write_text(yaml.safe_dump({"model": {"alpha": -1.0}}))
+    proc = subprocess.run(
+        ["snakemake", "-n", "--configfile", str(override)],
+        cwd=repo_root, capture_output=True, text=True, timeout=120,
+    )
+    output = proc.stdout + proc.stderr
+    assert proc.returncode != 0, output
+    assert "model.alpha" in output and "-1.0" in output, output
