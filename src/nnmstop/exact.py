@@ -99,7 +99,10 @@ MARGIN_REASONS = {
         "between the impacts has grown until it strikes the other stop"
     ),
     "leaves_stop": "x leaves the stop during the contact phase (x < 1 before T1)",
-    "final_position": "x(T1) <= 1 at the turning point",
+    "final_position": (
+        "x is back at the stop position (x(T1) = 1) when both velocities vanish: the turning point "
+        "leaves the contact region"
+    ),
 }
 
 _ROUND_OFF = np.finfo(float).eps
@@ -742,6 +745,11 @@ def family_dataset(family: TwoImpactFamily) -> xr.Dataset:
             "period": var(4.0 * y[:, 3], "period T = 4 T1", one),
             "x_max": var(x_max, "maximum of x over the period (x_max - 1 is the penetration into the stop)", one),
             "u_at_x_max": var(u_at, "u at the time of the maximum of x", one),
+            "x_turning_point": var(
+                [a.margins["final_position"] + 1.0 for a in family.assessments],
+                "x(T1) where both velocities vanish (equals x_max unless x peaks earlier during contact)",
+                one,
+            ),
             "xdot0": var(y[:, 0], "velocity of x at x = u = 0 (t = 0)", one),
             "udot0": var(y[:, 1], "velocity of u at x = u = 0 (t = 0)", one),
             "free_flight_time": var(y[:, 2], "free-flight duration tau1 of the quarter period", one),

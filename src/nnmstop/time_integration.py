@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .model import ModelParameters, regularized_contact_force
+from .model import ModelParameters, linear_modes, regularized_contact_force
 
 __all__ = ["Trajectory", "integrate_nonsmooth", "integrate_regularized"]
 
@@ -72,7 +72,13 @@ def _region(x, xdot, acc_free):
 
 
 def integrate_nonsmooth(
-    params: ModelParameters, z0, t_eval, rtol: float = 1e-12, atol: float = 1e-13, max_switches: int = 100000
+    params: ModelParameters,
+    z0,
+    t_eval,
+    rtol: float = 1e-12,
+    atol: float = 1e-13,
+    max_step: float | None = None,
+    max_switches: int = 100000,
 ) -> Trajectory:
     """Integrate the non-smooth system (3)-(4) with event location at ``x = +-1``.
 
@@ -93,6 +99,8 @@ def integrate_nonsmooth(
         Increasing output times.
     rtol, atol : float
         Tolerances of DOP853.
+    max_step : float, optional
+        Largest step; by default 1/200 of the shortest linear period of the contact phase.
     max_switches : int
         Safety limit on the number of restarts.
 
@@ -102,6 +110,10 @@ def integrate_nonsmooth(
     """
     z0, t_eval = _check_inputs(z0, t_eval)
     a, b, d = params.alpha, params.beta, params.delta
+    if max_step is None:
+        max_step = 2.0 * np.pi / linear_modes(params, "gap_zero")[0][-1] / 200.0
+    if not max_step > 0:
+        raise ValueError(f"max_step must be > 0, got {max_step!r}")
 
     def rhs_for(region):
         def rhs(_t, z):
@@ -139,12 +151,14 @@ def integrate_nonsmooth(
             raise RuntimeError(f"more than max_switches={max_switches} stop crossings; grazing chatter?")
         sol = solve_ivp(
             rhs_for(region), (t, t_eval[-1]), z, method="DOP853", rtol=rtol, atol=atol,
-            events=events[region], t_eval=t_eval[k:],
+            events=events[region], t_eval=t_eval[k:], max_step=max_step,
         )
         if sol.status < 0:
             raise RuntimeError(f"solve_ivp failed: {sol.message}")
-        n_out = sol.t.size
-        out[k : k + n_out] = sol.y.T
+        # with t_eval, solve_ivp returns plain empty lists when no output time was reached
+        n_out = np.asarray(sol.t).size
+        if n_out:
+            out[k : k + n_out] = np.asarray(sol.y).reshape(4, n_out).T
         k += n_out
         if sol.status == 1:  # a terminal event
             which = next(i for i, te in enumerate(sol.t_events) if te.size)
