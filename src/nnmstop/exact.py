@@ -232,22 +232,31 @@ class TwoImpactProblem:
         _, z1, z2 = self.switch_states(y)
         return np.array([z1[0] - 1.0, z2[2], z2[3]])
 
-    def jacobian(self, y) -> np.ndarray:
-        """Analytic 3 x 4 Jacobian of :meth:`residual` with respect to ``(xdot0, udot0, tau1, T1)``.
+    def state_derivatives(self, y):
+        """Exact derivatives of ``z(tau1)`` and ``z(T1)`` with respect to ``(xdot0, udot0, tau1, T1)``.
 
-        ``z1 = F_free(tau1) z0``, ``z2 = F_contact(T1 - tau1) z1``; derivatives with respect to
+        ``z1 = F_free(tau1) z0`` and ``z2 = F_contact(T1 - tau1) z1``: derivatives with respect to
         the initial velocities come from the transition matrices, those with respect to the
         durations from the vector fields.
+
+        Returns
+        -------
+        dz1, dz2 : ndarray, shape (4, 4)
+            Row ``i`` is state component ``i``, column ``j`` unknown ``j``.
         """
         _, z1, z2 = self.switch_states(y)
         e_free = self.free.transition(y[2])
         e_contact = self.contact.transition(y[3] - y[2])
-        f1 = self.free.field(z1)
         f2 = self.contact.field(z2)
-        dz1 = np.column_stack([e_free[:, 2], e_free[:, 3], f1, np.zeros(4)])
+        dz1 = np.column_stack([e_free[:, 2], e_free[:, 3], self.free.field(z1), np.zeros(4)])
         dz2 = e_contact @ dz1
         dz2[:, 2] -= f2  # d(T1 - tau1)/d tau1 = -1
         dz2[:, 3] = f2
+        return dz1, dz2
+
+    def jacobian(self, y) -> np.ndarray:
+        """Analytic 3 x 4 Jacobian of :meth:`residual` with respect to ``(xdot0, udot0, tau1, T1)``."""
+        dz1, dz2 = self.state_derivatives(y)
         return np.vstack([dz1[0], dz2[2], dz2[3]])
 
     def energy(self, y) -> float:
@@ -320,15 +329,8 @@ def high_energy_orbit(params: ModelParameters, x_max: float) -> np.ndarray:
         return np.append(problem.residual(y), z2[0] - x_max)
 
     def jac(y):
-        _, z1, z2 = problem.switch_states(y)
-        e_free = problem.free.transition(y[2])
-        e_contact = problem.contact.transition(y[3] - y[2])
-        dz1 = np.column_stack([e_free[:, 2], e_free[:, 3], problem.free.field(z1), np.zeros(4)])
-        dz2 = e_contact @ dz1
-        f2 = problem.contact.field(z2)
-        dz2[:, 2] -= f2
-        dz2[:, 3] = f2
-        return np.vstack([problem.jacobian(y), dz2[0]])
+        dz1, dz2 = problem.state_derivatives(y)
+        return np.vstack([dz1[0], dz2[2], dz2[3], dz2[0]])
 
     y, ok = _newton(fun, jac, y0)
     if not ok:
@@ -379,16 +381,23 @@ def _extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 
     """Interior local extrema of x over ``(0, duration)`` of a phase: (times, values, is_max).
 
     Sign changes of xdot on a grid that resolves the fastest mode, refined by Brent's
-    method on the closed-form xdot, classified by the sign of the acceleration.
+    method on the closed-form xdot, classified by the sign of the acceleration. Two extrema
+    closer than one grid interval (a nearly degenerate inflection) would be missed; with 64
+    samples per period of the fastest mode their amplitude is negligible.
     """
     if duration <= 0:
         return np.empty(0), np.empty(0), np.empty(0, dtype=bool)
     n = samples_per_period * max(1, int(np.ceil(duration * phase.omega.max() / (2 * np.pi)))) + 1
     t = np.linspace(0.0, duration, n)
     xdot = phase.state(z0, t)[:, 2]
-    times = []
-    for i in np.flatnonzero(np.sign(xdot[:-1]) * np.sign(xdot[1:]) < 0):
-        times.append(scipy.optimize.brentq(lambda s: phase.state(z0, s)[2], t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF))
+
+    def velocity(s):
+        return phase.state(z0, s)[2]
+
+    times = [
+        scipy.optimize.brentq(velocity, t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF)
+        for i in np.flatnonzero(np.sign(xdot[:-1]) * np.sign(xdot[1:]) < 0)
+    ]
     times.extend(t[1:-1][xdot[1:-1] == 0.0])
     # discard the end points themselves (they are not interior extrema)
     tol = 1e-12 * max(duration, 1.0)
@@ -438,7 +447,7 @@ def assess_orbit(y, params: ModelParameters, problem: TwoImpactProblem | None = 
     k = int(np.argmax(cand_x))
     t_max = float(cand_t[k])
     u_max = float(_quarter_state(problem, y, np.array([t_max]))[0, 1])
-    return OrbitAssessment({k: float(v) for k, v in margins.items()}, float(cand_x[k]), t_max, u_max)
+    return OrbitAssessment({name: float(v) for name, v in margins.items()}, float(cand_x[k]), t_max, u_max)
 
 
 def _quarter_state(problem: TwoImpactProblem, y, t):
@@ -509,12 +518,12 @@ def _tangent(jac: np.ndarray, previous: np.ndarray) -> np.ndarray:
     return t / np.linalg.norm(t)
 
 
-def _correct(problem, y_prev, tangent, sigma, guess=None, max_iter=12):
+def _correct(problem, y_prev, tangent, sigma, max_iter=12):
     """Pseudo-arclength corrector: F(y) = 0 and tangent . (y - y_prev) = sigma.
 
     Returns ``(y, residual norm)`` or ``(None, inf)`` if Newton fails.
     """
-    y = y_prev + sigma * tangent if guess is None else np.array(guess, dtype=float)
+    y = y_prev + sigma * tangent
     converged = False
     for _ in range(max_iter):
         f = np.append(problem.residual(y), tangent @ (y - y_prev) - sigma)
@@ -766,7 +775,9 @@ def family_dataset(family: TwoImpactFamily) -> xr.Dataset:
         },
         coords={
             "point": ("point", np.arange(n), {"long_name": "index of the orbit along the family", "units": one}),
-            "arclength": var(family.arclength, "pseudo-arclength in (xdot0, udot0, tau1, T1) from the first orbit", one),
+            "arclength": var(
+                family.arclength, "pseudo-arclength in (xdot0, udot0, tau1, T1) from the first orbit", one
+            ),
         },
     )
     ds.attrs = {
