@@ -13,6 +13,7 @@ configfile: "config/config.yaml"
 validate_config(config)
 
 
+include: "workflow/rules/common.smk"
 include: "workflow/rules/exact.smk"
 include: "workflow/rules/hbm.smk"
 

@@ -6,12 +6,13 @@ rule exact_two_impacts:
     """Closed-form quarter-period orbits followed by pseudo-arclength continuation."""
     output:
         dataset="results/exact/nnm1_two_impacts.nc",
-    params:
-        model=config["model"],
-        exact=config["exact"],
     log:
         "logs/exact_two_impacts.log",
     benchmark:
         "benchmarks/runs/exact_two_impacts.tsv"
+    params:
+        task="exact_two_impacts",
+    conda:
+        "../envs/nnmstop.yaml"
     script:
-        "../scripts/exact_two_impacts.py"
+        "../scripts/run_task.py"

@@ -3,18 +3,6 @@
 # low-energy part of a branch builds only the first stages.
 
 
-def previous_stage(wildcards):
-    stage = int(wildcards.stage)
-    if stage == 1:
-        return {}
-    return {"previous": f"results/hbm/stages/{wildcards.branch}_stage{stage - 1}.nc"}
-
-
-def branch_stages(wildcards):
-    n = len(config["branches"][wildcards.branch]["stages"])
-    return {"stages": [f"results/hbm/stages/{wildcards.branch}_stage{k}.nc" for k in range(1, n + 1)]}
-
-
 rule hbm_stage:
     """One continuation stage of a regularized NNM branch."""
     input:
@@ -30,6 +18,8 @@ rule hbm_stage:
         "benchmarks/runs/hbm_{branch}_stage{stage}.tsv"
     params:
         task="hbm_stage",
+    conda:
+        "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
 
@@ -48,5 +38,7 @@ rule hbm_branch:
         "benchmarks/runs/hbm_{branch}.tsv"
     params:
         task="hbm_branch",
+    conda:
+        "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
