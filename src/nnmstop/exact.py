@@ -750,7 +750,7 @@ def family_dataset(family: TwoImpactFamily) -> xr.Dataset:
                 "+ stop potential alpha/2 (|x|-1)^2, conserved along the orbit",
                 one,
             ),
-            "frequency": var(family.frequency, "frequency 1/T of the periodic orbit", "Hz (nondimensional time)"),
+            "frequency": var(family.frequency, "frequency 1/T of the periodic orbit, in Hz of the nondimensional time", "Hz"),
             "period": var(4.0 * y[:, 3], "period T = 4 T1", one),
             "x_max": var(x_max, "maximum of x over the period (x_max - 1 is the penetration into the stop)", one),
             "u_at_x_max": var(u_at, "u at the time of the maximum of x", one),
