@@ -1,0 +1,549 @@
+"""Figs 5-11 of the paper: frequency-energy plots of the regularized NNMs with modal lines.
+
+Every figure is built from branch datasets only (layout of :mod:`nnmstop.branches`):
+it reads the energies, frequencies and impact counts of the points and reconstructs
+the modal lines of the labelled points from their Fourier coefficients; it never
+continues a branch. NNM1 is blue, NNM2 green, the NNM2 curve divided by 5 red (as in
+the paper). Frequencies are ``omega / (2 pi)`` in Hz of the nondimensional time,
+energies are on a logarithmic axis.
+
+* Fig 5: NNM1 and NNM2 over the whole energy range (whole-branch datasets).
+* Fig 6: NNM2 with modal lines a)-f) (the NNM2 dataset only).
+* Fig 7: NNM1 at low energy, a)-c) (NNM1 stage 1).
+* Fig 8: NNM1 and NNM2 at ``f2/3`` (same energy), the 3:1 internal resonance, d)-i).
+* Figs 9-10: NNM1 and NNM2 at ``f2/5``, the 5:1 internal resonance, j)-m) and o)-q).
+* Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode.
+
+An NNM2 orbit of frequency ``f2`` read as an orbit of period ``3T`` (``5T``) has the
+fundamental frequency ``f2/3`` (``f2/5``) at the same energy (the paper's "three time /
+five time FEP", see the project NOTES); where that curve meets NNM1 the 3:1 (5:1)
+internal resonance occurs. The dashed horizontal lines are the linear modes of the
+gap-0 system (stop always engaged), computed from the model parameters stored in the
+datasets.
+
+Which stages of NNM1 a figure reads, the plotted window and the labelled points are
+set in the ``figures:`` section of the configuration (see :func:`figure_config`).
+Anything a figure cannot honour (a NaN in a dataset, a label energy outside the
+data, a label outside the plotted window) raises a :class:`ValueError` naming it.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
+from matplotlib.lines import Line2D
+from matplotlib.ticker import LogFormatterSciNotation
+
+from ..model import ModelParameters, linear_modes
+from .common import (
+    NNM2_COLOR,
+    REGULARIZED_COLOR,
+    RESONANCE_COLOR,
+    frequency_energy_axes,
+    open_dataset,
+    save_figure,
+)
+from .modal_lines import LabelSpec, draw_modal_line, label_specs, mark_point, select_point
+
+__all__ = [
+    "PAPER_FIGURES",
+    "figure_config",
+    "check_finite",
+    "combine_nnm1_stages",
+    "model_parameters",
+    "gap_zero_frequencies",
+    "figure_05",
+    "figure_06",
+    "figure_07",
+    "figure_08",
+    "figure_09",
+    "figure_10",
+    "figure_11",
+    "nnm1_stage_files",
+    "build_paper_figure",
+]
+
+logger = logging.getLogger("nnmstop.figures")
+
+NNM1_COLOR = REGULARIZED_COLOR
+GAP_ZERO_STYLE = {"color": "0.25", "ls": (0, (5, 3)), "lw": 0.9}
+BRANCH_POINT_STYLE = {"marker": "x", "ms": 5, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5}
+PARAMETER_KEYS = ("alpha", "beta", "delta", "eta")
+
+
+@dataclass(frozen=True)
+class _FigureKind:
+    """What a paper figure shows: the branch with the modal lines and its companions."""
+
+    branch: str  # "nnm1" or "nnm2": the branch whose points are labelled
+    title: str
+    resonance: int | None = None  # n: the NNM2 curve at f2/n is drawn
+    resonance_color: str = NNM2_COLOR
+    gap_zero_modes: tuple[int, ...] = (1,)
+    inset_gap_zero_mode: int | None = None  # draw this gap-0 modal line (dashed) in the insets
+
+
+PAPER_FIGURES = {
+    "fig05": _FigureKind("nnm1", "Fig. 5: first (NNM1) and second (NNM2) nonlinear normal modes", gap_zero_modes=(1, 2)),
+    "fig06": _FigureKind("nnm2", "Fig. 6: second NNM and its modal lines", gap_zero_modes=(2,), inset_gap_zero_mode=2),
+    "fig07": _FigureKind("nnm1", "Fig. 7: first NNM at low energy"),
+    "fig08": _FigureKind("nnm1", "Fig. 8: first NNM, three then two impacts per stop, 3:1 internal resonance", 3, NNM2_COLOR),
+    "fig09": _FigureKind("nnm1", "Fig. 9: first NNM, four then five impacts per stop, 5:1 internal resonance", 5, RESONANCE_COLOR),
+    "fig10": _FigureKind("nnm1", "Fig. 10: first NNM after the 5:1 internal resonance, back to one impact per stop", 5, RESONANCE_COLOR),
+    "fig11": _FigureKind("nnm1", "Fig. 11: first NNM at high energy, tending to the gap-0 first linear mode", inset_gap_zero_mode=1),
+}
+
+
+# --------------------------------------------------------------------------- configuration, checks
+
+
+def figure_config(config: dict, name: str) -> dict:
+    """The ``figures.<name>`` section of a validated configuration.
+
+    Raises
+    ------
+    ValueError
+        If the configuration has no ``figures`` section or no entry ``name``.
+    """
+    figures = config.get("figures")
+    if not isinstance(figures, dict):
+        raise ValueError("the configuration has no 'figures' section (config/config.yaml, key 'figures')")
+    if name not in figures:
+        raise ValueError(f"the configuration has no entry 'figures.{name}'")
+    return figures[name]
+
+
+def _dataset_name(ds: xr.Dataset) -> str:
+    branch = str(ds.attrs.get("branch", "dataset")).upper()
+    if "stage" in ds:
+        stages = np.unique(ds["stage"].values)
+        text = f"{branch} stage{'s' if stages.size > 1 else ''} {', '.join(str(int(s)) for s in stages)}"
+    else:
+        text = branch
+    source = ds.encoding.get("source")
+    return f"{text} ({source})" if source else text
+
+
+def check_finite(ds: xr.Dataset, where: str) -> None:
+    """Raise ``ValueError`` if a numeric variable of ``ds`` holds NaN or infinite values.
+
+    The message names ``where`` (the figure), the dataset, the variable and the
+    first offending point.
+    """
+    for name, var in {**ds.coords, **ds.data_vars}.items():
+        if not np.issubdtype(var.dtype, np.number):
+            continue
+        bad = ~np.isfinite(var.values)
+        if bad.any():
+            first = ""
+            if "point" in var.dims:
+                axis = var.dims.index("point")
+                rows = np.flatnonzero(bad.any(axis=tuple(a for a in range(bad.ndim) if a != axis)))
+                first = f" (first at point {int(rows[0])})"
+            raise ValueError(
+                f"{where}: dataset {_dataset_name(ds)}: variable {name!r} holds {int(bad.sum())} NaN or "
+                f"infinite value(s){first}; refusing to draw it"
+            )
+
+
+def _check_branch(ds: xr.Dataset, branch: str, where: str) -> None:
+    found = ds.attrs.get("branch")
+    if found != branch:
+        raise ValueError(f"{where}: expected a dataset of branch {branch!r}, got branch {found!r} ({_dataset_name(ds)})")
+
+
+def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int] | None = None) -> xr.Dataset:
+    """Check and concatenate consecutive stage datasets of NNM1.
+
+    Parameters
+    ----------
+    stages : list of xarray.Dataset
+        Stage datasets in order (each holds a single ``stage`` value).
+    where : str
+        Figure name, for messages.
+    expected : list of int, optional
+        Stage numbers the datasets must hold, in order (from the configuration).
+
+    Raises
+    ------
+    ValueError
+        On NaN, a dataset of another branch, non-consecutive stages or stages
+        other than ``expected``.
+    """
+    from ..branches import combine_stages
+
+    if not stages:
+        raise ValueError(f"{where}: no NNM1 stage dataset given")
+    numbers = []
+    for ds in stages:
+        check_finite(ds, where)
+        _check_branch(ds, "nnm1", where)
+        held = np.unique(ds["stage"].values)
+        if held.size != 1:
+            raise ValueError(f"{where}: {_dataset_name(ds)} is not a single-stage dataset")
+        numbers.append(int(held[0]))
+    if expected is not None and numbers != list(expected):
+        raise ValueError(f"{where}: the NNM1 datasets hold stages {numbers}, the configuration asks for {list(expected)}")
+    if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
+        raise ValueError(f"{where}: NNM1 stages must be consecutive to be joined, got {numbers}")
+    if len(stages) == 1:
+        return stages[0]
+    combined = combine_stages(stages)
+    combined.encoding = {}  # the first stage's file name would misname the combined branch
+    return combined
+
+
+def model_parameters(*datasets: xr.Dataset, where: str = "figure") -> ModelParameters:
+    """Model parameters stored in the datasets' attributes, checked to agree.
+
+    Raises
+    ------
+    ValueError
+        If a dataset lacks a parameter or two datasets disagree.
+    """
+    values = None
+    for ds in datasets:
+        missing = [k for k in PARAMETER_KEYS if k not in ds.attrs]
+        if missing:
+            raise ValueError(f"{where}: dataset {_dataset_name(ds)} lacks the model attribute(s) {missing}")
+        these = {k: float(ds.attrs[k]) for k in PARAMETER_KEYS}
+        if values is None:
+            values = these
+        elif these != values:
+            raise ValueError(f"{where}: datasets of different models: {values} and {these} ({_dataset_name(ds)})")
+    return ModelParameters(**values)
+
+
+def gap_zero_frequencies(params: ModelParameters) -> np.ndarray:
+    """Frequencies (Hz) of the two linear modes of the gap-0 system (stop always engaged)."""
+    return linear_modes(params, "gap_zero")[0] / (2 * np.pi)
+
+
+def _parameter_line(params: ModelParameters, ds: xr.Dataset) -> str:
+    text = f"α = {params.alpha:g}, β = {params.beta:g}, δ = {params.delta:g}, η = {params.eta:g}"
+    if "harmonics" in ds.attrs:
+        text += f", H = {int(ds.attrs['harmonics'])}"
+    return text
+
+
+# --------------------------------------------------------------------------- drawing
+
+
+def _range(spec: dict, key: str, where: str):
+    value = spec.get(key)
+    if value is None:
+        return None
+    lo, hi = (float(v) for v in value)
+    if not lo < hi:
+        raise ValueError(f"{where}: {key} must be increasing, got {value!r}")
+    return lo, hi
+
+
+def _branch_points(ax, ds: xr.Dataset) -> bool:
+    """Mark the flagged branch points of ``ds`` (if the dataset records them)."""
+    if "branch_point" not in ds:
+        return False
+    idx = np.flatnonzero(ds["branch_point"].values)
+    if idx.size == 0:
+        return False
+    ax.plot(ds["energy"].values[idx], ds["frequency"].values[idx], **BRANCH_POINT_STYLE)
+    return True
+
+
+def _auto_limits(ds_list, energy_range, levels=()):
+    """Frequency limits covering the branches within the energy window and the
+    horizontal ``levels`` (the gap-0 asymptotes), with room for the letters above."""
+    freqs = [np.asarray(levels, dtype=float)]
+    for ds in ds_list:
+        e, f = ds["energy"].values, ds["frequency"].values
+        inside = np.ones(e.shape, dtype=bool) if energy_range is None else (e >= energy_range[0]) & (e <= energy_range[1])
+        freqs.append(f[inside])
+    f = np.concatenate(freqs)
+    if f.size == 0:
+        return None
+    span = max(float(f.max() - f.min()), 1e-3 * float(f.max()))
+    return float(f.min()) - 0.05 * span, float(f.max()) + 0.1 * span
+
+
+def _check_in_window(ds, point, spec: LabelSpec, energy_range, frequency_range, where):
+    e = float(ds["energy"].values[point])
+    f = float(ds["frequency"].values[point])
+    for value, window, what in ((e, energy_range, "energy"), (f, frequency_range, "frequency")):
+        if window is not None and not window[0] <= value <= window[1]:
+            raise ValueError(
+                f"{where}: label {spec.label}) lies at {what} {value:.6g}, outside the plotted "
+                f"{what}_range [{window[0]:g}, {window[1]:g}]"
+            )
+
+
+def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None, params, spec, where, branch_label):
+    """Frequency-energy plot of ``branch`` with its companions; returns the legend handles."""
+    color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
+    energy_range = _range(spec, "energy_range", where)
+    frequency_range = _range(spec, "frequency_range", where)
+    handles = []
+    ax.plot(branch["energy"].values, branch["frequency"].values, color=color, lw=1.2, zorder=3)
+    handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
+    if kind.resonance is not None:
+        n = kind.resonance
+        ax.plot(nnm2["energy"].values, nnm2["frequency"].values / n, color=kind.resonance_color, lw=1.2, zorder=2)
+        handles.append(Line2D([], [], color=kind.resonance_color, lw=1.2, label=f"NNM2 frequency / {n} (same energy)"))
+    gap_zero = gap_zero_frequencies(params)
+    levels = [float(gap_zero[mode - 1]) for mode in kind.gap_zero_modes]
+    if frequency_range is None:
+        frequency_range = _auto_limits([branch], energy_range, levels)
+    for mode, value in zip(kind.gap_zero_modes, levels):
+        if frequency_range is None or frequency_range[0] <= value <= frequency_range[1]:
+            ax.axhline(value, zorder=1, **GAP_ZERO_STYLE)
+            text = f"gap-0 linear mode {mode} ({value:.4f} Hz)"
+            if kind.inset_gap_zero_mode == mode:
+                text += ";\nits modal line dashed in the insets"
+            handles.append(Line2D([], [], label=text, **GAP_ZERO_STYLE))
+    if _branch_points(ax, branch):
+        handles.append(Line2D([], [], label="branch point", **{k: v for k, v in BRANCH_POINT_STYLE.items() if k != "zorder"}))
+    frequency_energy_axes(ax)
+    _label_minor_decades(ax)
+    if energy_range is not None:
+        ax.set_xlim(*energy_range)
+    if frequency_range is not None:
+        ax.set_ylim(*frequency_range)
+    return handles, energy_range, frequency_range
+
+
+def _label_minor_decades(ax) -> None:
+    """Label some minor ticks of the energy axis when it spans fewer than two decades."""
+    ax.xaxis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+    ax.tick_params(axis="x", which="minor", labelsize=7)
+
+
+def _inset_grid(n: int) -> tuple[int, int]:
+    """(rows, columns) of the modal-line panels: one row up to 4, else rows of 3."""
+    if n <= 4:
+        return 1, max(n, 1)
+    cols = 3 if n <= 6 else 4
+    return int(np.ceil(n / cols)), cols
+
+
+def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path, nnm2=None, png_dpi: int = 150, branch_label=None):
+    """Frequency-energy plot of ``branch`` on top, the modal lines of its labels below."""
+    kind = PAPER_FIGURES[name]
+    where = name
+    datasets = [branch] + ([nnm2] if nnm2 is not None else [])
+    for ds in datasets:
+        check_finite(ds, where)
+    _check_branch(branch, kind.branch, where)
+    if kind.resonance is not None:
+        if nnm2 is None:
+            raise ValueError(f"{where}: the NNM2 dataset is needed for the f2/{kind.resonance} curve")
+        _check_branch(nnm2, "nnm2", where)
+    params = model_parameters(*datasets, where=where)
+    labels = label_specs(spec.get("labels"))
+    if not labels:
+        raise ValueError(f"{where}: no labelled points configured (figures.{name}.labels)")
+    points = [select_point(branch, s, f"{where}, {_dataset_name(branch)}") for s in labels]
+
+    slope = None
+    if kind.inset_gap_zero_mode is not None:
+        slope = float(linear_modes(params, "gap_zero")[1][1, kind.inset_gap_zero_mode - 1])
+    if branch_label is None:
+        branch_label = kind.branch.upper()
+    color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
+
+    rows, cols = _inset_grid(len(labels))
+    fig = plt.figure(figsize=(7.5, 4.0 + 2.3 * rows), layout="constrained")
+    try:
+        fig.get_layout_engine().set(h_pad=0.06, w_pad=0.06, hspace=0.04, wspace=0.06)
+        grid = fig.add_gridspec(1 + rows, cols, height_ratios=[4.0] + [2.3] * rows)
+        ax = fig.add_subplot(grid[0, :])
+        handles, energy_range, frequency_range = _draw_fep(ax, kind, branch, nnm2, params, spec, where, branch_label)
+        for i, (s, p) in enumerate(zip(labels, points)):
+            _check_in_window(branch, p, s, energy_range, frequency_range, where)
+            mark_point(ax, branch, p, s)
+            draw_modal_line(fig.add_subplot(grid[1 + i // cols, i % cols]), branch, p, s, color, reference_slope=slope)
+        ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=7.5, framealpha=0.9)
+        fig.suptitle(f"{kind.title}\n{_parameter_line(params, branch)}", fontsize=9.5, linespacing=1.4)
+    except Exception:
+        plt.close(fig)
+        raise
+    return save_figure(fig, pdf_path, png_dpi=png_dpi)
+
+
+# --------------------------------------------------------------------------- the figures
+
+
+def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
+    """Fig 5: FEP of NNM1 (blue) and NNM2 (green) over the whole energy range.
+
+    Parameters
+    ----------
+    nnm1, nnm2 : xarray.Dataset
+        Whole-branch datasets.
+    spec : dict
+        ``figures.fig05`` of the configuration (optional ``energy_range``,
+        ``frequency_range``, ``legend``).
+    pdf_path : path-like
+        The PDF to write; the PNG goes beside it.
+
+    Returns
+    -------
+    tuple of pathlib.Path
+        The PDF and PNG written.
+    """
+    where = "fig05"
+    kind = PAPER_FIGURES[where]
+    for ds, branch in ((nnm1, "nnm1"), (nnm2, "nnm2")):
+        check_finite(ds, where)
+        _check_branch(ds, branch, where)
+    params = model_parameters(nnm1, nnm2, where=where)
+    energy_range = _range(spec, "energy_range", where)
+    frequency_range = _range(spec, "frequency_range", where)
+    fig, ax = plt.subplots(figsize=(7.5, 4.8), layout="constrained")
+    handles = []
+    for ds, color, label in ((nnm1, NNM1_COLOR, "NNM1"), (nnm2, NNM2_COLOR, "NNM2")):
+        ax.plot(ds["energy"].values, ds["frequency"].values, color=color, lw=1.3, zorder=3)
+        handles.append(Line2D([], [], color=color, lw=1.3, label=label))
+    gap_zero = gap_zero_frequencies(params)
+    for mode in kind.gap_zero_modes:
+        value = float(gap_zero[mode - 1])
+        ax.axhline(value, zorder=1, **GAP_ZERO_STYLE)
+    handles.append(Line2D([], [], label="gap-0 linear modes", **GAP_ZERO_STYLE))
+    marked = [_branch_points(ax, ds) for ds in (nnm1, nnm2)]
+    if any(marked):
+        handles.append(Line2D([], [], label="branch point", **{k: v for k, v in BRANCH_POINT_STYLE.items() if k != "zorder"}))
+    frequency_energy_axes(ax)
+    if energy_range is not None:
+        ax.set_xlim(*energy_range)
+    if frequency_range is None:
+        frequency_range = _auto_limits([nnm1, nnm2], energy_range, gap_zero)
+    ax.set_ylim(*frequency_range)
+    # label the dashed lines at the left edge, just above them
+    left = ax.get_xlim()[0]
+    for mode in kind.gap_zero_modes:
+        value = float(gap_zero[mode - 1])
+        ax.annotate(f"gap-0 linear mode {mode}: {value:.4f} Hz", xy=(left, value), xytext=(4, 3),
+                    textcoords="offset points", fontsize=7.5, color="0.2", va="bottom", ha="left")
+    ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=8, framealpha=0.9)
+    fig.suptitle(f"{kind.title}\n{_parameter_line(params, nnm1)}", fontsize=9.5, linespacing=1.4)
+    return save_figure(fig, pdf_path, png_dpi=png_dpi)
+
+
+def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
+    """Fig 6: FEP of NNM2 with the modal lines a)-f) of ``spec['labels']``.
+
+    Needs only the NNM2 dataset. Returns the PDF and PNG paths.
+    """
+    return _figure_with_modal_lines("fig06", nnm2, spec, pdf_path, png_dpi=png_dpi)
+
+
+def _nnm1_figure(name, nnm1_stages, spec, pdf_path, nnm2=None, png_dpi=150):
+    branch = combine_nnm1_stages(list(nnm1_stages), name, spec.get("nnm1_stages"))
+    stages = np.unique(branch["stage"].values)
+    text = f"stage {stages[0]}" if stages.size == 1 else f"stages {stages[0]}-{stages[-1]}"
+    return _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi,
+                                    branch_label=f"NNM1 ({text} of the continuation)")
+
+
+def figure_07(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150):
+    """Fig 7: NNM1 at low energy, modal lines a)-c) (no impact, one impact per stop,
+    secondary oscillation between impacts). ``nnm1_stages``: the stage datasets read."""
+    return _nnm1_figure("fig07", nnm1_stages, spec, pdf_path, png_dpi=png_dpi)
+
+
+def figure_08(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
+    """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; three then two impacts per stop and
+    the 3:1 internal resonance, modal lines d)-i)."""
+    return _nnm1_figure("fig08", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi)
+
+
+def figure_09(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
+    """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; four then five impacts per stop and
+    the 5:1 internal resonance, modal lines j)-m)."""
+    return _nnm1_figure("fig09", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi)
+
+
+def figure_10(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
+    """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance: impacts
+    without oscillation between the stops, back to one impact per stop, o)-q)."""
+    return _nnm1_figure("fig10", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi)
+
+
+def figure_11(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150):
+    """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dashed)."""
+    return _nnm1_figure("fig11", nnm1_stages, spec, pdf_path, png_dpi=png_dpi)
+
+
+# --------------------------------------------------------------------------- pipeline entry
+
+STAGE_PATH = "results/hbm/stages/nnm1_stage{stage}.nc"
+
+
+def nnm1_stage_files(config: dict, figure: str) -> list[str]:
+    """Paths of the NNM1 stage datasets read by paper figure ``figure`` (its rule's inputs).
+
+    Taken from ``figures.<figure>.nnm1_stages``.
+
+    Raises
+    ------
+    ValueError
+        If the figure is not configured or names a stage that ``branches.nnm1`` lacks.
+    """
+    stages = figure_config(config, figure).get("nnm1_stages")
+    if not stages:
+        raise ValueError(f"the configuration has no 'figures.{figure}.nnm1_stages'")
+    available = len(config["branches"]["nnm1"]["stages"])
+    unknown = [k for k in stages if not 1 <= k <= available]
+    if unknown:
+        raise ValueError(f"figures.{figure}.nnm1_stages: stage(s) {unknown} do not exist (branches.nnm1 has {available} stages)")
+    return [STAGE_PATH.format(stage=k) for k in stages]
+
+
+
+def _as_list(value) -> list:
+    if value is None:
+        return []
+    if isinstance(value, (str, Path)):
+        return [value]
+    return list(value)
+
+
+def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
+    """Build paper figure ``name`` from the named inputs of its rule.
+
+    Inputs: ``nnm1`` and ``nnm2`` (whole branches) for ``fig05``; ``nnm2`` for
+    ``fig06``; ``nnm1_stages`` (list of stage files) and, for Figs 8-10, ``nnm2``.
+    Outputs: ``pdf`` and ``png`` (same stem).
+
+    Raises
+    ------
+    ValueError
+        If the outputs do not share a stem, an input is missing, or the figure
+        cannot honour its configuration.
+    """
+    if name not in PAPER_FIGURES:
+        raise ValueError(f"unknown paper figure {name!r}; figures are {sorted(PAPER_FIGURES)}")
+    spec = figure_config(config, name)
+    png_dpi = int(config["figures"].get("png_dpi", 150))
+    pdf, png = Path(outputs["pdf"]), Path(outputs["png"])
+    if pdf.suffix != ".pdf" or png != pdf.with_suffix(".png"):
+        raise ValueError(f"{name}: outputs must be NAME.pdf and NAME.png side by side, got {pdf} and {png}")
+
+    def need(key):
+        if key not in inputs or not inputs[key]:
+            raise ValueError(f"{name}: missing input {key!r}")
+        return inputs[key]
+
+    if name == "fig05":
+        return figure_05(open_dataset(need("nnm1")), open_dataset(need("nnm2")), spec, pdf, png_dpi)
+    if name == "fig06":
+        return figure_06(open_dataset(need("nnm2")), spec, pdf, png_dpi)
+    stages = [open_dataset(p) for p in _as_list(need("nnm1_stages"))]
+    if name in ("fig07", "fig11"):
+        builder = figure_07 if name == "fig07" else figure_11
+        return builder(stages, spec, pdf, png_dpi)
+    builder = {"fig08": figure_08, "fig09": figure_09, "fig10": figure_10}[name]
+    return builder(stages, open_dataset(need("nnm2")), spec, pdf, png_dpi)
