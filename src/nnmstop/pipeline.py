@@ -77,7 +77,51 @@ def hbm_branch(config, inputs, outputs, branch: str):
     )
 
 
-TASKS = {f.__name__: f for f in (exact_two_impacts, hbm_stage, hbm_branch)}
+def _paper_figure(name, config, inputs, outputs):
+    """Draw paper figure ``name`` from its rule's datasets (``pdf`` and ``png`` outputs)."""
+    from .figures.frequency_energy import build_paper_figure
+
+    build_paper_figure(name, config, inputs, outputs)
+
+
+def paper_fig05(config, inputs, outputs):
+    """Fig 5: FEP of NNM1 and NNM2 over the whole energy range (inputs ``nnm1``, ``nnm2``)."""
+    _paper_figure("fig05", config, inputs, outputs)
+
+
+def paper_fig06(config, inputs, outputs):
+    """Fig 6: FEP of NNM2 with modal lines a)-f) (input ``nnm2`` only)."""
+    _paper_figure("fig06", config, inputs, outputs)
+
+
+def paper_fig07(config, inputs, outputs):
+    """Fig 7: NNM1 at low energy, modal lines a)-c) (input ``nnm1_stages``)."""
+    _paper_figure("fig07", config, inputs, outputs)
+
+
+def paper_fig08(config, inputs, outputs):
+    """Fig 8: NNM1 and NNM2 at f2/3, 3:1 internal resonance, d)-i) (``nnm1_stages``, ``nnm2``)."""
+    _paper_figure("fig08", config, inputs, outputs)
+
+
+def paper_fig09(config, inputs, outputs):
+    """Fig 9: NNM1 and NNM2 at f2/5, 5:1 internal resonance, j)-m) (``nnm1_stages``, ``nnm2``)."""
+    _paper_figure("fig09", config, inputs, outputs)
+
+
+def paper_fig10(config, inputs, outputs):
+    """Fig 10: NNM1 and NNM2 at f2/5 after the 5:1 resonance, o)-q) (``nnm1_stages``, ``nnm2``)."""
+    _paper_figure("fig10", config, inputs, outputs)
+
+
+def paper_fig11(config, inputs, outputs):
+    """Fig 11: NNM1 at high energy towards the gap-0 first mode (input ``nnm1_stages``)."""
+    _paper_figure("fig11", config, inputs, outputs)
+
+
+PAPER_FIGURE_TASKS = (paper_fig05, paper_fig06, paper_fig07, paper_fig08, paper_fig09, paper_fig10, paper_fig11)
+
+TASKS = {f.__name__: f for f in (exact_two_impacts, hbm_stage, hbm_branch, *PAPER_FIGURE_TASKS)}
 
 
 def configure_logging(log_path: str | None) -> None:
