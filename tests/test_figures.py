@@ -1,0 +1,221 @@
+"""Paper Figs 5-11: built from datasets, byte-reproducible, and loud on bad input.
+
+The datasets are real small-H branches (H = 15, well under a second each): NNM2 up
+to a moderate energy, and the first NNM1 stage cut into four consecutive pieces that
+stand in for the four continuation stages (each piece starts at the last point of
+the previous one, as real stages do), so that every figure function, including the
+multi-stage ones, runs on genuine HBM orbits.
+"""
+
+import copy
+
+import numpy as np
+import pytest
+
+from nnmstop.branches import combine_stages, continue_stage
+from nnmstop.config import ConfigError, load_config, validate_config
+from nnmstop.figures import frequency_energy as fe
+from nnmstop.figures.modal_lines import LabelSpec, energy_crossings, label_specs, select_point
+from nnmstop.model import ModelParameters, linear_modes
+from nnmstop.pipeline import run_task
+
+PNG_DPI = 60  # small PNGs keep the tests fast; the pipeline uses figures.png_dpi
+
+
+@pytest.fixture(scope="module")
+def small_config():
+    """Paper physics at H = 15: NNM1 up to its first orbit with > 2 impacts, NNM2 to E > 50."""
+    config = copy.deepcopy(load_config("config/config.yaml"))
+    config["hbm"]["harmonics"] = 15
+    config["hbm"]["points_per_step"] = 2
+    config["branches"]["nnm1"]["stages"] = [{"name": "one_impact_per_stop", "until": {"impacts_above": 2}}]
+    config["branches"]["nnm2"]["stages"] = [{"name": "moderate_energy", "until": {"energy_above": 50.0}}]
+    return config
+
+
+@pytest.fixture(scope="module")
+def nnm2(small_config):
+    return continue_stage(small_config, "nnm2", 1)
+
+
+@pytest.fixture(scope="module")
+def nnm1_stages(small_config):
+    """NNM1 stage 1 cut into four consecutive 'stages' sharing their junction points."""
+    whole = continue_stage(small_config, "nnm1", 1)
+    n = whole.sizes["point"]
+    cuts = np.linspace(0, n - 1, 5).round().astype(int)
+    stages = []
+    for k in range(4):
+        part = whole.isel(point=slice(cuts[k], cuts[k + 1] + 1)).copy(deep=True)
+        part = part.assign_coords(point=np.arange(part.sizes["point"]))
+        part["stage"].values[:] = k + 1
+        part.attrs["stages"] = 4
+        stages.append(part)
+    return stages
+
+
+def _mid_energy(ds):
+    return float(ds["energy"].values[ds.sizes["point"] // 2])
+
+
+def _label(letter, ds, stage=None, **extra):
+    entry = {"label": letter, "energy": _mid_energy(ds), **extra}
+    if stage is not None:
+        entry["stage"] = stage
+    return entry
+
+
+@pytest.fixture(scope="module")
+def specs(nnm1_stages, nnm2):
+    """A figure configuration per paper figure, with labels inside the fixture data."""
+    s = nnm1_stages
+    return {
+        "fig05": {},
+        "fig06": {"labels": [{"label": "a", "energy": float(nnm2["energy"].values[3])}, _label("b", nnm2)]},
+        "fig07": {"nnm1_stages": [1], "labels": [_label("a", s[0], 1), {"label": "b", "energy": float(s[0]["energy"].values[-2]), "stage": 1}]},
+        "fig08": {"nnm1_stages": [1, 2], "labels": [_label("d", s[1], 2), _label("e", s[0], 1)]},
+        "fig09": {"nnm1_stages": [2, 3], "labels": [_label("j", s[2], 3)]},
+        "fig10": {"nnm1_stages": [3, 4], "labels": [_label("o", s[2], 3), _label("p", s[3], 4)]},
+        "fig11": {"nnm1_stages": [4], "labels": [_label("r", s[3], 4)]},
+    }
+
+
+def _draw(name, nnm1_stages, nnm2, spec, pdf):
+    """Call the figure function of ``name`` with the datasets it reads."""
+    if name == "fig05":
+        return fe.figure_05(combine_stages(nnm1_stages), nnm2, spec, pdf, PNG_DPI)
+    if name == "fig06":
+        return fe.figure_06(nnm2, spec, pdf, PNG_DPI)
+    stages = [nnm1_stages[k - 1] for k in spec["nnm1_stages"]]
+    if name in ("fig07", "fig11"):
+        return getattr(fe, f"figure_{name[3:]}")(stages, spec, pdf, PNG_DPI)
+    return getattr(fe, f"figure_{name[3:]}")(stages, nnm2, spec, pdf, PNG_DPI)
+
+
+@pytest.mark.parametrize("name", sorted(fe.PAPER_FIGURES))
+def test_figure_writes_pdf_and_png_byte_reproducibly(name, nnm1_stages, nnm2, specs, tmp_path):
+    first = _draw(name, nnm1_stages, nnm2, specs[name], tmp_path / "a" / f"{name}.pdf")
+    second = _draw(name, nnm1_stages, nnm2, specs[name], tmp_path / "b" / f"{name}.pdf")
+    pdf, png = first
+    assert pdf.read_bytes().startswith(b"%PDF") and png.read_bytes().startswith(b"\x89PNG")
+    assert pdf.with_suffix(".png") == png
+    for a, b in zip(first, second):
+        assert a.read_bytes() == b.read_bytes(), f"{a.name} differs between two builds"
+
+
+def test_nan_in_a_dataset_is_refused_with_its_name(nnm1_stages, nnm2, specs, tmp_path):
+    bad = nnm2.copy(deep=True)
+    bad["energy"].values[4] = np.nan
+    with pytest.raises(ValueError, match=r"fig06.*NNM2.*'energy'.*NaN.*point 4"):
+        fe.figure_06(bad, specs["fig06"], tmp_path / "fig06.pdf", PNG_DPI)
+    stage = nnm1_stages[0].copy(deep=True)
+    stage["x_cos"].values[2, 3] = np.inf
+    with pytest.raises(ValueError, match=r"fig07.*NNM1 stage 1.*'x_cos'"):
+        fe.figure_07([stage], specs["fig07"], tmp_path / "fig07.pdf", PNG_DPI)
+    assert not (tmp_path / "fig06.pdf").exists() and not (tmp_path / "fig07.pdf").exists()
+
+
+def test_label_energy_outside_the_data_is_refused(nnm1_stages, nnm2, specs, tmp_path):
+    spec = copy.deepcopy(specs["fig06"])
+    spec["labels"].append({"label": "f", "energy": 1.0e9})
+    with pytest.raises(ValueError, match=r"label f\).*1e\+09 is outside the energy range"):
+        fe.figure_06(nnm2, spec, tmp_path / "fig06.pdf", PNG_DPI)
+    spec = copy.deepcopy(specs["fig08"])
+    spec["labels"][0]["energy"] = float(nnm1_stages[0]["energy"].values[1])  # a stage-1 energy asked of stage 2
+    with pytest.raises(ValueError, match=r"label d\).*outside the energy range .* of stage 2"):
+        fe.figure_08(nnm1_stages[:2], nnm2, spec, tmp_path / "fig08.pdf", PNG_DPI)
+    assert not list(tmp_path.iterdir())
+
+
+def test_label_of_a_stage_not_read_is_refused(nnm1_stages, nnm2, specs, tmp_path):
+    spec = copy.deepcopy(specs["fig11"])
+    spec["labels"][0]["stage"] = 2
+    with pytest.raises(ValueError, match=r"no stage 2 \(stages held: 4\)"):
+        fe.figure_11([nnm1_stages[3]], spec, tmp_path / "fig11.pdf", PNG_DPI)
+
+
+def test_stages_other_than_configured_or_not_consecutive_are_refused(nnm1_stages, nnm2, specs, tmp_path):
+    with pytest.raises(ValueError, match=r"hold stages \[1\], the configuration asks for \[4\]"):
+        fe.figure_11([nnm1_stages[0]], specs["fig11"], tmp_path / "fig11.pdf", PNG_DPI)
+    spec = dict(specs["fig08"], nnm1_stages=[1, 3])
+    with pytest.raises(ValueError, match="consecutive"):
+        fe.figure_08([nnm1_stages[0], nnm1_stages[2]], nnm2, spec, tmp_path / "fig08.pdf", PNG_DPI)
+
+
+def test_swapped_branches_and_mixed_models_are_refused(nnm1_stages, nnm2, specs, tmp_path):
+    with pytest.raises(ValueError, match="expected a dataset of branch 'nnm2'"):
+        fe.figure_06(nnm1_stages[0], specs["fig06"], tmp_path / "fig06.pdf", PNG_DPI)
+    other = nnm2.copy()
+    other.attrs = {**nnm2.attrs, "alpha": 50.0}
+    with pytest.raises(ValueError, match="different models"):
+        fe.figure_08(nnm1_stages[:2], other, specs["fig08"], tmp_path / "fig08.pdf", PNG_DPI)
+
+
+def test_label_outside_the_plotted_window_is_refused(nnm2, specs, tmp_path):
+    spec = dict(specs["fig06"], energy_range=[float(nnm2["energy"].values[10]), 1.0e3])
+    with pytest.raises(ValueError, match=r"label a\) lies at energy .* outside the plotted energy_range"):
+        fe.figure_06(nnm2, spec, tmp_path / "fig06.pdf", PNG_DPI)
+
+
+def test_energy_crossings_follow_the_branch_and_its_turning_points():
+    energy = np.array([1.0, 2.0, 4.0, 8.0, 4.0, 2.0, 3.0, 6.0])
+    everywhere = np.ones(energy.size, dtype=bool)
+    assert energy_crossings(energy, everywhere, 3.0) == [2, 4, 6]  # nearest end in log(E) on each crossing
+    assert energy_crossings(energy, everywhere, 4.0) == [2, 4, 6]  # exact hits count once
+    assert energy_crossings(energy, everywhere, 7.9) == [3]  # both sides of the fold pick the same point
+    allowed = everywhere.copy()
+    allowed[4] = False  # a run broken by a filtered point: no crossing across the gap
+    assert energy_crossings(energy, allowed, 3.0) == [2, 6]
+
+
+def test_select_point_honours_stage_impacts_and_occurrence(nnm1_stages):
+    branch = combine_stages(nnm1_stages)
+    target = float(branch["energy"].values[-3])
+    p = select_point(branch, LabelSpec("c", target, stage=4, impacts=2), "test")
+    assert p == branch.sizes["point"] - 3 and int(branch["stage"].values[p]) == 4
+    with pytest.raises(ValueError, match="no point of stage 4 with 0 impacts/period"):
+        select_point(branch, LabelSpec("c", target, stage=4, impacts=0), "test")
+    with pytest.raises(ValueError, match=r"met 1 time\(s\).*fewer than occurrence 2"):
+        select_point(branch, LabelSpec("c", target, occurrence=2), "test")
+
+
+def test_label_specs_refuse_duplicates_and_bad_values():
+    with pytest.raises(ValueError, match=r"used twice.*\['a'\]"):
+        label_specs([{"label": "a", "energy": 1.0}, {"label": "a", "energy": 2.0}])
+    with pytest.raises(ValueError, match="energy must be finite"):
+        label_specs([{"label": "a", "energy": float("nan")}])
+
+
+def test_gap_zero_lines_come_from_the_dataset_parameters(nnm2):
+    params = fe.model_parameters(nnm2)
+    assert params == ModelParameters(**{k: float(nnm2.attrs[k]) for k in ("alpha", "beta", "delta", "eta")})
+    expected = linear_modes(params, "gap_zero")[0] / (2 * np.pi)
+    np.testing.assert_allclose(fe.gap_zero_frequencies(params), expected, rtol=1e-14)
+
+
+def test_pipeline_task_draws_fig06_from_the_nnm2_file_alone(small_config, nnm2, specs, tmp_path):
+    config = copy.deepcopy(small_config)
+    config["figures"] = {**config["figures"], "png_dpi": PNG_DPI, "fig06": specs["fig06"]}
+    validate_config(config)
+    path = tmp_path / "nnm2.nc"
+    nnm2.to_netcdf(path)
+    outputs = {"pdf": str(tmp_path / "out" / "fig06.pdf"), "png": str(tmp_path / "out" / "fig06.png")}
+    run_task("paper_fig06", config, {"nnm2": str(path)}, outputs, log=str(tmp_path / "fig06.log"))
+    assert all((tmp_path / "out" / name).stat().st_size > 0 for name in ("fig06.pdf", "fig06.png"))
+    assert "label b)" in (tmp_path / "fig06.log").read_text()
+    with pytest.raises(ValueError, match="missing input 'nnm2'"):
+        run_task("paper_fig06", config, {}, outputs, log=str(tmp_path / "fig06.log"))
+
+
+def test_figures_section_of_the_configuration_is_validated():
+    config = load_config("config/config.yaml")
+    assert set(fe.PAPER_FIGURES) <= set(config["figures"])
+    for bad in ({"label": "ab", "energy": 1.0}, {"label": "a", "energy": -1.0}, {"label": "a", "energy": 1.0, "colour": "red"}):
+        broken = copy.deepcopy(config)
+        broken["figures"]["fig07"]["labels"][0] = bad
+        with pytest.raises(ConfigError, match=r"figures\.fig07\.labels\.0"):
+            validate_config(broken)
+    broken = copy.deepcopy(config)
+    del broken["figures"]["fig08"]["nnm1_stages"]
+    with pytest.raises(ConfigError, match=r"figures\.fig08\.nnm1_stages"):
+        validate_config(broken)
