@@ -23,9 +23,9 @@ PNG_DPI = 60  # small PNGs keep the tests fast; the pipeline uses figures.png_dp
 
 
 @pytest.fixture(scope="module")
-def small_config():
+def small_config(repo_root):
     """Paper physics at H = 15: NNM1 up to its first orbit with > 2 impacts, NNM2 to E > 50."""
-    config = copy.deepcopy(load_config("config/config.yaml"))
+    config = copy.deepcopy(load_config(repo_root / "config" / "config.yaml"))
     config["hbm"]["harmonics"] = 15
     config["hbm"]["points_per_step"] = 2
     config["branches"]["nnm1"]["stages"] = [{"name": "one_impact_per_stop", "until": {"impacts_above": 2}}]
@@ -207,8 +207,8 @@ def test_pipeline_task_draws_fig06_from_the_nnm2_file_alone(small_config, nnm2, 
         run_task("paper_fig06", config, {}, outputs, log=str(tmp_path / "fig06.log"))
 
 
-def test_figures_section_of_the_configuration_is_validated():
-    config = load_config("config/config.yaml")
+def test_figures_section_of_the_configuration_is_validated(repo_root):
+    config = load_config(repo_root / "config" / "config.yaml")
     assert set(fe.PAPER_FIGURES) <= set(config["figures"])
     for bad in ({"label": "ab", "energy": 1.0}, {"label": "a", "energy": -1.0}, {"label": "a", "energy": 1.0, "colour": "red"}):
         broken = copy.deepcopy(config)
