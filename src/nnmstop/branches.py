@@ -180,7 +180,7 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
     fold = energy_folds(col("energy"))
     data.update(
         {
-            "branch_point": ("point", branch_point.astype(np.int8), {"long_name": "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies between the previous point and this one", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular branch_point"}),
+            "branch_point": ("point", branch_point.astype(np.int8), {"long_name": "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM step that ends at this point", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular branch_point"}),
             "energy_fold": ("point", fold.astype(np.int8), {"long_name": "1 where the energy has a local extremum along the branch (energy fold)", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular fold"}),
         }
     )
