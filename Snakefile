@@ -17,11 +17,16 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/exact.smk"
 include: "workflow/rules/hbm.smk"
 include: "workflow/rules/figures.smk"
+include: "workflow/rules/manifest.smk"
+
+
+PAPER_FIGURES = [f"paper_figures/fig{n:02d}.{ext}" for n in range(5, 12) for ext in ("pdf", "png")]
 
 
 rule all:
+    """Every figure of the paper, the datasets behind them and their SHA-256 manifest."""
     default_target: True
     input:
-        "results/exact/nnm1_two_impacts.nc",
-        "results/hbm/nnm1.nc",
-        "results/hbm/nnm2.nc",
+        PAPER_FIGURES,
+        PAPER_DATASETS,
+        "results/MANIFEST.sha256",

@@ -119,9 +119,22 @@ def paper_fig11(config, inputs, outputs):
     _paper_figure("fig11", config, inputs, outputs)
 
 
+def dataset_manifest(config, inputs, outputs):
+    """SHA-256 manifest of the datasets (``sha256sum -c`` format, paths as given)."""
+    import hashlib
+
+    lines = []
+    for path in sorted(inputs["datasets"] if not isinstance(inputs["datasets"], str) else [inputs["datasets"]]):
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        lines.append(f"{digest}  {path}\n")
+    out = Path(outputs["manifest"])
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text("".join(lines))
+
+
 PAPER_FIGURE_TASKS = (paper_fig05, paper_fig06, paper_fig07, paper_fig08, paper_fig09, paper_fig10, paper_fig11)
 
-TASKS = {f.__name__: f for f in (exact_two_impacts, hbm_stage, hbm_branch, *PAPER_FIGURE_TASKS)}
+TASKS = {f.__name__: f for f in (exact_two_impacts, hbm_stage, hbm_branch, *PAPER_FIGURE_TASKS, dataset_manifest)}
 
 
 def configure_logging(log_path: str | None) -> None:

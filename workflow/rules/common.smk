@@ -11,5 +11,20 @@ def previous_stage(wildcards):
 
 def branch_stages(wildcards):
     """All stage datasets of a branch, in order."""
-    n = len(config["branches"][wildcards.branch]["stages"])
-    return {"stages": [f"results/hbm/stages/{wildcards.branch}_stage{k}.nc" for k in range(1, n + 1)]}
+    return {"stages": stage_files(wildcards.branch)}
+
+
+def stage_files(branch):
+    """Stage datasets of a branch, in order."""
+    n = len(config["branches"][branch]["stages"])
+    return [f"results/hbm/stages/{branch}_stage{k}.nc" for k in range(1, n + 1)]
+
+
+# Every dataset behind the paper's figures (the study's measurements are kept apart).
+PAPER_DATASETS = [
+    "results/exact/nnm1_two_impacts.nc",
+    "results/hbm/nnm1.nc",
+    "results/hbm/nnm2.nc",
+    *stage_files("nnm1"),
+    *stage_files("nnm2"),
+]
