@@ -77,6 +77,38 @@ def hbm_branch(config, inputs, outputs, branch: str):
     )
 
 
+def compare_nnm1(config, inputs, outputs):
+    """Exact vs regularized NNM1 at matched energies (inputs ``exact``, ``nnm1`` = stage 1)."""
+    from .compare import build_comparison_dataset
+
+    build_comparison_dataset(config, inputs, outputs["dataset"])
+
+
+def _exact_vs_regularized_figure(name, config, inputs, outputs):
+    """Draw paper figure ``name`` (Figs 2-4) from the exact family, NNM1 stage 1 and the comparison."""
+    from .figures.exact_vs_regularized import build_figure
+
+    build_figure(name, config, inputs, outputs)
+
+
+def paper_fig02(config, inputs, outputs):
+    """Fig 2: FEP of NNM1, exact vs regularized, a) and b) (inputs ``exact``, ``nnm1``, ``comparison``)."""
+    _exact_vs_regularized_figure("fig02", config, inputs, outputs)
+
+
+def paper_fig03(config, inputs, outputs):
+    """Fig 3: orbits at a) and b), exact vs regularized (input ``comparison``)."""
+    _exact_vs_regularized_figure("fig03", config, inputs, outputs)
+
+
+def paper_fig04(config, inputs, outputs):
+    """Fig 4: contact force at a) and b), regularized vs piecewise-linear (input ``comparison``)."""
+    _exact_vs_regularized_figure("fig04", config, inputs, outputs)
+
+
+COMPARE_TASKS = (compare_nnm1, paper_fig02, paper_fig03, paper_fig04)
+
+
 def _paper_figure(name, config, inputs, outputs):
     """Draw paper figure ``name`` from its rule's datasets (``pdf`` and ``png`` outputs)."""
     from .figures.frequency_energy import build_paper_figure
@@ -134,7 +166,7 @@ def dataset_manifest(config, inputs, outputs):
 
 PAPER_FIGURE_TASKS = (paper_fig05, paper_fig06, paper_fig07, paper_fig08, paper_fig09, paper_fig10, paper_fig11)
 
-TASKS = {f.__name__: f for f in (exact_two_impacts, hbm_stage, hbm_branch, *PAPER_FIGURE_TASKS, dataset_manifest)}
+TASKS = {f.__name__: f for f in (exact_two_impacts, hbm_stage, hbm_branch, *COMPARE_TASKS, *PAPER_FIGURE_TASKS, dataset_manifest)}
 
 
 def configure_logging(log_path: str | None) -> None:

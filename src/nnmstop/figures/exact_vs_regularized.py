@@ -1,0 +1,387 @@
+"""Figs 2-4 of the paper: exact (non-smooth) versus regularized NNM1, Section 4.1.
+
+* Fig 2: frequency-energy plot of NNM1 over the range with zero or one impact per stop
+  per period. Red: the non-smooth system, i.e. its linear mode (no impact, closed form)
+  up to the grazing orbit, then the exact two-impact family up to its end, where the
+  secondary oscillation of x strikes the other stop. Blue: regularized NNM1 stage 1
+  (HBM), from the linear mode of the regularized system to its last orbit with at most
+  one impact per stop. Points a) (intermediate energy) and b) (high energy) are the
+  labelled compared orbits; an inset enlarges the grazing neighbourhood, where the exact
+  family first loses energy (the energy fold) and a) lies.
+* Fig 3: the orbits at a) and b): x-phase plane ``(x, xdot)``, u-phase plane
+  ``(u, udot)`` and modal line ``(x, u)``; exact red, regularized blue.
+* Fig 4: the contact force at a) and b): over one period against ``t/T`` (origin at the
+  maximum of x), and the ``(x, f)`` curve of the regularized orbit (blue) against the
+  piecewise-linear law, Eq. (4) (red).
+
+Inputs are datasets only: the exact family (:mod:`nnmstop.exact`), NNM1 stage 1
+(:mod:`nnmstop.branches`) and the comparison at matched energies
+(:mod:`nnmstop.compare`), which holds both orbits at a) and b) at exactly the same
+energy. Orbits are reconstructed in closed form (exact: :func:`nnmstop.exact.time_history`
+from the stored unknowns; regularized: the stored Fourier series); nothing is solved.
+Frequencies are in Hz of the nondimensional time, energies on a logarithmic axis.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
+
+from ..compare import MAX_IMPACTS
+from ..exact import time_history
+from ..model import ModelParameters, linear_modes, piecewise_contact_force
+from .common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, save_figure
+
+__all__ = [
+    "FIGURES",
+    "marked_points",
+    "aligned_orbits",
+    "figure_02",
+    "figure_03",
+    "figure_04",
+    "build_figure",
+]
+
+logger = logging.getLogger("nnmstop.figures")
+
+FIGURES = ("fig02", "fig03", "fig04")
+LABELS = ("a", "b")
+STOP_STYLE = {"color": "0.55", "lw": 0.7, "ls": ":", "zorder": 0}
+GAP_ZERO_STYLE = {"color": "0.35", "ls": (0, (5, 3)), "lw": 0.8}
+REG_LINE = {"color": REGULARIZED_COLOR, "lw": 1.3, "zorder": 3}
+EXACT_LINE = {"color": EXACT_COLOR, "lw": 1.3, "ls": (0, (5, 2.2)), "zorder": 4}
+
+
+# --------------------------------------------------------------------------- checks and data
+
+
+def _check(ds: xr.Dataset, where: str, required: tuple) -> None:
+    """Required variables present, numeric values finite."""
+    missing = [v for v in required if v not in ds.variables]
+    if missing:
+        raise ValueError(f"{where}: the dataset lacks the variable(s) {missing}")
+    for name, var in {**ds.coords, **ds.data_vars}.items():
+        if np.issubdtype(var.dtype, np.number) and not np.all(np.isfinite(var.values)):
+            raise ValueError(f"{where}: variable {name!r} holds NaN or infinite values; refusing to draw it")
+
+
+def _parameters(*datasets: xr.Dataset, where: str) -> ModelParameters:
+    """Model parameters of the datasets, checked to agree (the exact family has no eta)."""
+    values: dict = {}
+    for ds in datasets:
+        for key in ("alpha", "beta", "delta", "eta"):
+            if key not in ds.attrs:
+                continue
+            v = float(ds.attrs[key])
+            if key in values and not np.isclose(values[key], v, rtol=1e-12, atol=0):
+                raise ValueError(f"{where}: datasets disagree on {key}: {values[key]!r} and {v!r}")
+            values[key] = v
+    missing = [k for k in ("alpha", "beta", "delta", "eta") if k not in values]
+    if missing:
+        raise ValueError(f"{where}: no dataset gives the model parameter(s) {missing}")
+    return ModelParameters(**values)
+
+
+def _parameter_text(params: ModelParameters, comparison: xr.Dataset) -> str:
+    return (
+        f"α = {params.alpha:g}, β = {params.beta:g}, δ = {params.delta:g}, η = {params.eta:g}, "
+        f"H = {int(comparison.attrs['harmonics'])}"
+    )
+
+
+def marked_points(comparison: xr.Dataset, where: str = "figure") -> dict:
+    """Label -> point index of the labelled points a) and b) of a comparison dataset."""
+    _check(comparison, where, ("marked", "energy"))
+    flags = comparison["marked"]
+    meanings = str(flags.attrs.get("flag_meanings", "")).split()
+    values = list(np.asarray(flags.attrs.get("flag_values", [])).tolist())
+    out = {}
+    for label in LABELS:
+        name = f"point_{label}"
+        if name not in meanings:
+            raise ValueError(f"{where}: the comparison dataset has no labelled point {label}) (flag_meanings {meanings})")
+        hits = np.flatnonzero(flags.values == values[meanings.index(name)])
+        if hits.size != 1:
+            raise ValueError(f"{where}: point {label}) is flagged {hits.size} times in the comparison dataset")
+        out[label] = int(hits[0])
+    return out
+
+
+def aligned_orbits(comparison: xr.Dataset, point: int, phase) -> tuple[dict, dict]:
+    """Exact and regularized orbits of a compared point on the phase ``t/T``.
+
+    Origin on the symmetry axis where x is maximum (as in :mod:`nnmstop.compare`): the
+    turning point ``T1`` of the exact orbit, ``t = 0`` of the cosine series shifted by
+    ``regularized_origin_shift`` periods.
+
+    Returns
+    -------
+    exact, regularized : dict
+        ``x, u, xdot, udot, f`` on ``phase`` (exact force: the piecewise-linear law).
+    """
+    phase = np.asarray(phase, dtype=float)
+    p = comparison.isel(point=point)
+    params = _parameters(comparison, where="aligned_orbits")
+    y = np.array([float(p[v]) for v in ("exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1")])
+    h = time_history(y, params, y[3] + phase * 4.0 * y[3])
+    exact = {"x": h.x, "u": h.u, "xdot": h.xdot, "udot": h.udot, "f": h.force}
+    omega = float(np.sqrt(p["omega_squared"]))
+    k = comparison["harmonic"].values
+    theta = 2.0 * np.pi * (phase + float(p["regularized_origin_shift"]))
+    c, s = np.cos(np.outer(theta, k)), np.sin(np.outer(theta, k))
+    reg = {}
+    for symbol in ("x", "u", "f"):
+        a, b = p[f"{symbol}_cos"].values, p[f"{symbol}_sin"].values
+        reg[symbol] = c @ a + s @ b
+        if symbol != "f":
+            reg[symbol + "dot"] = omega * (c @ (k * b) - s @ (k * a))
+    return exact, reg
+
+
+def _title(comparison: xr.Dataset, label: str, point: int) -> str:
+    e = float(comparison["energy"].values[point])
+    fe = float(comparison["frequency_exact"].values[point])
+    fr = float(comparison["frequency_regularized"].values[point])
+    return f"{label})  E = {e:.3g}\nexact {fe:.4f} Hz, regularized {fr:.4f} Hz"
+
+
+def _legend_handles():
+    return [
+        plt.Line2D([], [], **{**EXACT_LINE, "zorder": None}, label="non-smooth (exact)"),
+        plt.Line2D([], [], **{**REG_LINE, "zorder": None}, label="regularized (HBM)"),
+    ]
+
+
+# --------------------------------------------------------------------------- Fig 2
+
+
+def _regularized_range(stage1: xr.Dataset) -> int:
+    """Number of leading points of stage 1 with at most one impact per stop per period."""
+    impacts = np.asarray(stage1["impacts_per_period"].values)
+    above = np.flatnonzero(impacts > MAX_IMPACTS)
+    return int(above[0]) if above.size else impacts.size
+
+
+def figure_02(exact: xr.Dataset, stage1: xr.Dataset, comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
+    """Fig 2: FEP of NNM1, non-smooth (red) vs regularized (blue), with a) and b).
+
+    Parameters
+    ----------
+    exact, stage1, comparison : xarray.Dataset
+        Exact two-impact family, regularized NNM1 stage 1, comparison at matched energies.
+    pdf_path : str or Path
+        The PDF; the PNG is written beside it.
+    png_dpi : int
+    """
+    where = "fig02"
+    _check(exact, where + " (exact family)", ("energy", "frequency"))
+    _check(stage1, where + " (NNM1 stage 1)", ("energy", "frequency", "impacts_per_period"))
+    _check(comparison, where + " (comparison)", ("frequency_exact", "frequency_regularized"))
+    params = _parameters(exact, stage1, comparison, where=where)
+    marks = marked_points(comparison, where)
+
+    n_reg = _regularized_range(stage1)
+    e_reg = stage1["energy"].values[:n_reg]
+    f_reg = stage1["frequency"].values[:n_reg]
+    e_ex = exact["energy"].values
+    f_ex = exact["frequency"].values
+    f_lin = linear_modes(params, "no_contact")[0][0] / (2 * np.pi)
+    f_gap0 = linear_modes(params, "gap_zero")[0][0] / (2 * np.pi)
+    e_lo = 0.5 * min(e_reg[0], e_ex.min())
+    e_hi = 1.6 * max(e_reg[-1], e_ex.max())
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
+    frequency_energy_axes(ax)
+
+    def draw(axis, lw=1.3):
+        axis.axhline(f_gap0, **GAP_ZERO_STYLE)
+        # non-smooth NNM1: the linear mode (no impact) up to grazing, then the exact family
+        axis.plot([e_lo, e_ex[0]], [f_lin, f_lin], color=EXACT_COLOR, lw=lw, zorder=3)
+        axis.plot(e_ex, f_ex, color=EXACT_COLOR, lw=lw, zorder=3)
+        axis.plot(e_reg, f_reg, color=REGULARIZED_COLOR, lw=2.0 * lw, zorder=2)  # wider: visible under red
+        axis.plot([e_ex[0]], [f_ex[0]], marker="o", ms=5, mfc="white", mec=EXACT_COLOR, mew=1.3, ls="none", zorder=6)
+        axis.plot([e_ex[-1]], [f_ex[-1]], marker="s", ms=5, mfc="white", mec=EXACT_COLOR, mew=1.3, ls="none", zorder=6)
+        axis.plot([e_reg[-1]], [f_reg[-1]], marker="s", ms=5, mfc="white", mec=REGULARIZED_COLOR, mew=1.3, ls="none", zorder=6)
+        for label, i in marks.items():
+            e = float(comparison["energy"].values[i])
+            for key, colour in (("frequency_exact", EXACT_COLOR), ("frequency_regularized", REGULARIZED_COLOR)):
+                axis.plot([e], [float(comparison[key].values[i])], marker="o", ms=4.5, color=colour, mec="black", mew=0.6, ls="none", zorder=7)
+
+    draw(ax)
+    ax.set_xlim(e_lo, e_hi)
+    f_all = np.concatenate([f_reg, f_ex, [f_lin, f_gap0]])
+    pad = 0.04 * (f_all.max() - f_all.min())
+    ax.set_ylim(f_all.min() - pad, f_all.max() + pad)
+    ax.annotate("gap-0 first linear mode (stop always engaged)", xy=(e_lo, f_gap0), xytext=(4, -3),
+                textcoords="offset points", fontsize=7.5, color="0.3", ha="left", va="top")
+
+    # labels a), b)
+    for label, i in marks.items():
+        e = float(comparison["energy"].values[i])
+        f = float(comparison["frequency_regularized"].values[i])
+        offset = (-14, 12)
+        ax.annotate(f"{label})", xy=(e, f), xytext=offset, textcoords="offset points", fontsize=10, fontweight="bold",
+                    ha="center", va="center", zorder=8,
+                    arrowprops={"arrowstyle": "-", "lw": 0.6, "color": "black", "shrinkA": 0, "shrinkB": 3})
+    ax.annotate("end of the exact family:\nx reaches the other stop\nbetween the impacts", xy=(e_ex[-1], f_ex[-1]),
+                xytext=(0, -62), textcoords="offset points", fontsize=7.5, ha="center", va="top", color=EXACT_COLOR,
+                arrowprops={"arrowstyle": "-", "lw": 0.6, "color": EXACT_COLOR, "shrinkB": 4})
+    ax.annotate("regularized: last orbit with\none impact per stop", xy=(e_reg[-1], f_reg[-1]), xytext=(-6, -20),
+                textcoords="offset points", fontsize=7.5, ha="right", va="top", color=REGULARIZED_COLOR,
+                arrowprops={"arrowstyle": "-", "lw": 0.6, "color": REGULARIZED_COLOR, "shrinkB": 4})
+
+    # inset: the grazing neighbourhood (energy fold of the exact family, point a)
+    ia = ax.inset_axes([0.655, 0.07, 0.33, 0.36])
+    draw(ia, lw=1.2)
+    i_a = marks["a"]
+    e_a = float(comparison["energy"].values[i_a])
+    fold = int(np.argmin(e_ex))
+    win_e = (min(e_ex[fold], e_a) / 1.2, max(e_ex[0], e_a) * 1.25)
+    ia.set_xscale("log")
+    ia.set_xlim(*win_e)
+    inside = lambda e: (e >= win_e[0]) & (e <= win_e[1])  # noqa: E731
+    f_win = np.concatenate([f_ex[inside(e_ex)], f_reg[inside(e_reg)], [f_lin]])
+    fpad = 0.08 * (f_win.max() - f_win.min())
+    ia.set_ylim(f_win.min() - fpad, f_win.max() + fpad)
+    ia.tick_params(labelsize=6.5)
+    ia.minorticks_off()
+    ticks = [0.6, 0.7, 0.8]
+    ia.set_xticks([t for t in ticks if win_e[0] < t < win_e[1]])
+    ia.set_xticklabels([f"{t:g}" for t in ticks if win_e[0] < t < win_e[1]])
+    ia.annotate("grazing", xy=(e_ex[0], f_ex[0]), xytext=(5, 4), textcoords="offset points", fontsize=7, color=EXACT_COLOR)
+    ia.annotate("energy fold", xy=(e_ex[fold], f_ex[fold]), xytext=(-3, 12), textcoords="offset points", fontsize=7,
+                color=EXACT_COLOR, ha="right", arrowprops={"arrowstyle": "-", "lw": 0.5, "color": EXACT_COLOR, "shrinkB": 2})
+    ia.annotate("a)", xy=(e_a, float(comparison["frequency_regularized"].values[i_a])), xytext=(-10, 8),
+                textcoords="offset points", fontsize=8, fontweight="bold", ha="center")
+    ax.indicate_inset_zoom(ia, edgecolor="0.4", lw=0.6)
+
+    handles = [
+        plt.Line2D([], [], color=EXACT_COLOR, lw=1.3, label="non-smooth (linear mode, then exact family)"),
+        plt.Line2D([], [], color=REGULARIZED_COLOR, lw=2.6, label="regularized (HBM)"),
+        plt.Line2D([], [], marker="o", ms=5, mfc="white", mec=EXACT_COLOR, mew=1.3, ls="none", label="grazing orbit"),
+        plt.Line2D([], [], marker="s", ms=5, mfc="white", mec="0.3", mew=1.3, ls="none", label="end of the range"),
+    ]
+    ax.legend(handles=handles, loc="center left", fontsize=7.5, framealpha=0.95)
+    ax.set_title(f"NNM1, non-smooth vs regularized   ({_parameter_text(params, comparison)})", fontsize=8.5)
+    return save_figure(fig, pdf_path, png_dpi)
+
+
+# --------------------------------------------------------------------------- Figs 3 and 4
+
+
+_ORBIT_VARS = (
+    "marked", "energy", "exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1", "omega_squared",
+    "x_cos", "x_sin", "u_cos", "u_sin", "f_cos", "f_sin", "regularized_origin_shift",
+    "frequency_exact", "frequency_regularized",
+)
+
+
+def _phase(samples: int = 2000, start: float = 0.0) -> np.ndarray:
+    return start + np.arange(samples + 1) / samples
+
+
+def figure_03(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
+    """Fig 3: orbits at a) and b): (x, xdot), (u, udot) and (x, u); exact red, regularized blue."""
+    where = "fig03"
+    _check(comparison, where, _ORBIT_VARS)
+    params = _parameters(comparison, where=where)
+    marks = marked_points(comparison, where)
+    rows = (("x", "xdot", "x", "ẋ"), ("u", "udot", "u", "u̇"), ("x", "u", "x", "u"))
+    fig, axes = plt.subplots(3, 2, figsize=(6.6, 8.6), layout="constrained")
+    phase = _phase()
+    for col, (label, i) in enumerate(marks.items()):
+        exact, reg = aligned_orbits(comparison, i, phase)
+        axes[0, col].set_title(_title(comparison, label, i), fontsize=8.5)
+        for row, (a, b, la, lb) in enumerate(rows):
+            ax = axes[row, col]
+            ax.plot(reg[a], reg[b], **REG_LINE)
+            ax.plot(exact[a], exact[b], **EXACT_LINE)
+            ax.set_xlabel(la)
+            ax.set_ylabel(lb)
+            if a == "x":
+                for stop in (-1.0, 1.0):
+                    ax.axvline(stop, **STOP_STYLE)
+    axes[1, 0].legend(handles=_legend_handles(), loc="center", fontsize=7, framealpha=0.9)
+    fig.suptitle(
+        "NNM1 orbits at the same energy: x-phase plane, u-phase plane, modal line\n"
+        f"({_parameter_text(params, comparison)}; dotted: stops x = ±1)",
+        fontsize=8.5,
+    )
+    return save_figure(fig, pdf_path, png_dpi)
+
+
+def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
+    """Fig 4: contact force at a) and b): f over one period, and (x, f) vs the piecewise law."""
+    where = "fig04"
+    _check(comparison, where, _ORBIT_VARS)
+    params = _parameters(comparison, where=where)
+    marks = marked_points(comparison, where)
+    fig, axes = plt.subplots(2, 2, figsize=(6.6, 5.8), layout="constrained")
+    phase = _phase(start=-0.25)
+    for col, (label, i) in enumerate(marks.items()):
+        exact, reg = aligned_orbits(comparison, i, phase)
+        ax = axes[0, col]
+        ax.plot(phase, reg["f"], **REG_LINE)
+        ax.plot(phase, exact["f"], **EXACT_LINE)
+        ax.set_xlim(phase[0], phase[-1])
+        ax.set_xlabel("t / T   (t = 0 at the maximum of x)")
+        ax.set_ylabel("contact force f")
+        ax.set_title(_title(comparison, label, i), fontsize=8.5)
+        ax = axes[1, col]
+        xmax = 1.08 * max(np.abs(reg["x"]).max(), np.abs(exact["x"]).max())
+        xs = np.linspace(-xmax, xmax, 2001)
+        ax.plot(reg["x"], reg["f"], **REG_LINE)
+        ax.plot(xs, piecewise_contact_force(xs, params.alpha), **EXACT_LINE)
+        for stop in (-1.0, 1.0):
+            ax.axvline(stop, **STOP_STYLE)
+        fmax = 1.25 * max(np.abs(reg["f"]).max(), np.abs(exact["f"]).max())
+        ax.set_xlim(-xmax, xmax)
+        ax.set_ylim(-fmax, fmax)
+        ax.set_xlabel("x")
+        ax.set_ylabel("f")
+    handles = [
+        plt.Line2D([], [], **{**EXACT_LINE, "zorder": None}, label="piecewise law (exact orbit)"),
+        plt.Line2D([], [], **{**REG_LINE, "zorder": None}, label="regularized (HBM)"),
+    ]
+    axes[0, 0].legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.9)
+    fig.suptitle(f"NNM1 contact force at the same energy ({_parameter_text(params, comparison)})", fontsize=8.5)
+    return save_figure(fig, pdf_path, png_dpi)
+
+
+# --------------------------------------------------------------------------- pipeline entry
+
+
+def build_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
+    """Build paper figure ``name`` (``fig02``, ``fig03`` or ``fig04``) from its rule's inputs.
+
+    Inputs: ``comparison`` (all three), plus ``exact`` and ``nnm1`` (stage 1) for
+    ``fig02``. Outputs: ``pdf`` and ``png`` side by side. The PNG resolution is
+    ``compare.png_dpi`` of the configuration.
+
+    Raises
+    ------
+    ValueError
+        On an unknown figure, a missing input, or outputs that are not NAME.pdf/NAME.png.
+    """
+    if name not in FIGURES:
+        raise ValueError(f"unknown figure {name!r}; this module draws {FIGURES}")
+    if "compare" not in config:
+        raise ValueError("config lacks the section 'compare'")
+    png_dpi = int(config["compare"]["png_dpi"])
+    pdf, png = Path(outputs["pdf"]), Path(outputs["png"])
+    if pdf.suffix != ".pdf" or png != pdf.with_suffix(".png"):
+        raise ValueError(f"{name}: outputs must be NAME.pdf and NAME.png side by side, got {pdf} and {png}")
+
+    needed = ("exact", "nnm1", "comparison") if name == "fig02" else ("comparison",)
+    for key in needed:
+        if key not in inputs or not inputs[key]:
+            raise ValueError(f"{name}: missing input {key!r}, got {sorted(inputs)}")
+    data = {key: open_dataset(inputs[key]) for key in needed}
+    if name == "fig02":
+        return figure_02(data["exact"], data["nnm1"], data["comparison"], pdf, png_dpi)
+    builder = figure_03 if name == "fig03" else figure_04
+    return builder(data["comparison"], pdf, png_dpi)

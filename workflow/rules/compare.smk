@@ -1,0 +1,89 @@
+# Section 4.1, Figs 2-4: the exact (non-smooth) NNM1 two-impact family against the
+# regularized NNM1 (HBM), stage 1 only (from the linear mode to the first orbit with
+# more than one impact per stop). Figs 2-4 read only the exact family, NNM1 stage 1 and
+# the comparison dataset: building them computes no NNM2 and no later NNM1 stage.
+# Energies of the labelled points a) and b): `compare.points` in config/config.yaml.
+
+
+rule compare_nnm1:
+    """Exact vs regularized NNM1 at matched energies: frequency and orbit differences."""
+    input:
+        exact="results/exact/nnm1_two_impacts.nc",
+        nnm1="results/hbm/stages/nnm1_stage1.nc",
+    output:
+        dataset="results/compare/nnm1_exact_vs_regularized.nc",
+    log:
+        "logs/compare/nnm1_exact_vs_regularized.log",
+    benchmark:
+        "benchmarks/runs/compare_nnm1.tsv"
+    params:
+        task="compare_nnm1",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule paper_fig02:
+    """Fig 2: FEP of NNM1, non-smooth (red) vs regularized (blue), points a) and b)."""
+    input:
+        exact="results/exact/nnm1_two_impacts.nc",
+        nnm1="results/hbm/stages/nnm1_stage1.nc",
+        comparison="results/compare/nnm1_exact_vs_regularized.nc",
+    output:
+        pdf="paper_figures/fig02.pdf",
+        png="paper_figures/fig02.png",
+    log:
+        "logs/figures/fig02.log",
+    benchmark:
+        "benchmarks/runs/paper_fig02.tsv"
+    params:
+        task="paper_fig02",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule paper_fig03:
+    """Fig 3: orbits at a) and b): x-phase plane, u-phase plane, modal line."""
+    input:
+        comparison="results/compare/nnm1_exact_vs_regularized.nc",
+    output:
+        pdf="paper_figures/fig03.pdf",
+        png="paper_figures/fig03.png",
+    log:
+        "logs/figures/fig03.log",
+    benchmark:
+        "benchmarks/runs/paper_fig03.tsv"
+    params:
+        task="paper_fig03",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule paper_fig04:
+    """Fig 4: contact force at a) and b): over one period, and (x, f) vs the piecewise law."""
+    input:
+        comparison="results/compare/nnm1_exact_vs_regularized.nc",
+    output:
+        pdf="paper_figures/fig04.pdf",
+        png="paper_figures/fig04.png",
+    log:
+        "logs/figures/fig04.log",
+    benchmark:
+        "benchmarks/runs/paper_fig04.tsv"
+    params:
+        task="paper_fig04",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule paper_figs_02_04:
+    """Figs 2-4 (PDF and PNG)."""
+    input:
+        expand("paper_figures/fig{number}.{ext}", number=["02", "03", "04"], ext=["pdf", "png"]),
