@@ -25,6 +25,7 @@ PAPER_DATASETS = [
     "results/exact/nnm1_two_impacts.nc",
     "results/hbm/nnm1.nc",
     "results/hbm/nnm2.nc",
+    "results/compare/nnm1_exact_vs_regularized.nc",
     *stage_files("nnm1"),
     *stage_files("nnm2"),
 ]
