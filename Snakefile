@@ -22,6 +22,7 @@ for _threads_variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_TH
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/exact.smk"
+include: "workflow/rules/exact_multi.smk"
 include: "workflow/rules/hbm.smk"
 include: "workflow/rules/compare.smk"
 include: "workflow/rules/figures.smk"

@@ -32,6 +32,13 @@ def exact_two_impacts(config, inputs, outputs):
     build_two_impact_dataset(config, outputs["dataset"])
 
 
+def exact_nnm1(config, inputs, outputs):
+    """Exact NNM1 with any number of impacts per period, continued from the two-impact family."""
+    from .exact_multi import build_multi_impact_dataset
+
+    build_multi_impact_dataset(config, inputs["two_impacts"], outputs["dataset"])
+
+
 def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
     """One stage of a regularized NNM branch (HBM + ANM)."""
     from .branches import continue_stage
@@ -166,7 +173,7 @@ def dataset_manifest(config, inputs, outputs):
 
 PAPER_FIGURE_TASKS = (paper_fig05, paper_fig06, paper_fig07, paper_fig08, paper_fig09, paper_fig10, paper_fig11)
 
-TASKS = {f.__name__: f for f in (exact_two_impacts, hbm_stage, hbm_branch, *COMPARE_TASKS, *PAPER_FIGURE_TASKS, dataset_manifest)}
+TASKS = {f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_branch, *COMPARE_TASKS, *PAPER_FIGURE_TASKS, dataset_manifest)}
 
 
 def configure_logging(log_path: str | None) -> None:
