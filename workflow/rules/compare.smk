@@ -32,7 +32,7 @@ rule paper_fig02:
         comparison="results/compare/nnm1_exact_vs_regularized.nc",
     output:
         pdf="paper_figures/fig02.pdf",
-        png="paper_figures/fig02.png",
+        png=report("paper_figures/fig02.png", category="Paper figures"),
     log:
         "logs/figures/fig02.log",
     benchmark:
@@ -51,7 +51,7 @@ rule paper_fig03:
         comparison="results/compare/nnm1_exact_vs_regularized.nc",
     output:
         pdf="paper_figures/fig03.pdf",
-        png="paper_figures/fig03.png",
+        png=report("paper_figures/fig03.png", category="Paper figures"),
     log:
         "logs/figures/fig03.log",
     benchmark:
@@ -70,7 +70,7 @@ rule paper_fig04:
         comparison="results/compare/nnm1_exact_vs_regularized.nc",
     output:
         pdf="paper_figures/fig04.pdf",
-        png="paper_figures/fig04.png",
+        png=report("paper_figures/fig04.png", category="Paper figures"),
     log:
         "logs/figures/fig04.log",
     benchmark:

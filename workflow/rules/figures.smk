@@ -14,7 +14,7 @@ rule paper_fig05:
         nnm2="results/hbm/nnm2.nc",
     output:
         pdf="paper_figures/fig05.pdf",
-        png="paper_figures/fig05.png",
+        png=report("paper_figures/fig05.png", category="Paper figures"),
     log:
         "logs/figures/fig05.log",
     benchmark:
@@ -33,7 +33,7 @@ rule paper_fig06:
         nnm2="results/hbm/nnm2.nc",
     output:
         pdf="paper_figures/fig06.pdf",
-        png="paper_figures/fig06.png",
+        png=report("paper_figures/fig06.png", category="Paper figures"),
     log:
         "logs/figures/fig06.log",
     benchmark:
@@ -52,7 +52,7 @@ rule paper_fig07:
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig07"),
     output:
         pdf="paper_figures/fig07.pdf",
-        png="paper_figures/fig07.png",
+        png=report("paper_figures/fig07.png", category="Paper figures"),
     log:
         "logs/figures/fig07.log",
     benchmark:
@@ -72,7 +72,7 @@ rule paper_fig08:
         nnm2="results/hbm/nnm2.nc",
     output:
         pdf="paper_figures/fig08.pdf",
-        png="paper_figures/fig08.png",
+        png=report("paper_figures/fig08.png", category="Paper figures"),
     log:
         "logs/figures/fig08.log",
     benchmark:
@@ -92,7 +92,7 @@ rule paper_fig09:
         nnm2="results/hbm/nnm2.nc",
     output:
         pdf="paper_figures/fig09.pdf",
-        png="paper_figures/fig09.png",
+        png=report("paper_figures/fig09.png", category="Paper figures"),
     log:
         "logs/figures/fig09.log",
     benchmark:
@@ -112,7 +112,7 @@ rule paper_fig10:
         nnm2="results/hbm/nnm2.nc",
     output:
         pdf="paper_figures/fig10.pdf",
-        png="paper_figures/fig10.png",
+        png=report("paper_figures/fig10.png", category="Paper figures"),
     log:
         "logs/figures/fig10.log",
     benchmark:
@@ -131,7 +131,7 @@ rule paper_fig11:
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig11"),
     output:
         pdf="paper_figures/fig11.pdf",
-        png="paper_figures/fig11.png",
+        png=report("paper_figures/fig11.png", category="Paper figures"),
     log:
         "logs/figures/fig11.log",
     benchmark:

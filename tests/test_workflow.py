@@ -1,0 +1,149 @@
+"""End-to-end runs of the Snakemake workflow on a small configuration.
+
+The small configuration (tests/data/small_config.yaml) keeps the paper's physics with
+16 harmonics and short energy ranges, so the whole default target (Figs 2-11, every
+dataset, the manifest) builds in well under a minute.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from nnmstop.datasets import check_labelled
+from nnmstop.model import ModelParameters, linear_modes
+
+REPO = Path(__file__).resolve().parents[1]
+SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
+ACDD = ("Conventions", "title", "summary", "keywords", "date_created", "source", "references", "creator_name", "license")
+
+
+def snakemake(workdir: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess:
+    cmd = ["snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
+           "--configfile", str(SMALL_CONFIG), *args]
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    if check and result.returncode != 0:
+        raise AssertionError(f"{' '.join(cmd)} failed:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}")
+    return result
+
+
+def planned_rules(workdir: Path, target: str) -> set[str]:
+    """Rules a dry run plans for ``target`` from scratch."""
+    out = snakemake(workdir, "-n", "--forceall", target).stdout
+    return set(re.findall(r"^(?:local)?rule (\w+):", out, flags=re.MULTILINE))
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """The default target of the workflow, built once from scratch."""
+    workdir = tmp_path_factory.mktemp("workflow")
+    snakemake(workdir, "--cores", "2")
+    return workdir
+
+
+def outputs(workdir: Path) -> list[Path]:
+    return sorted(p for d in ("results", "paper_figures") for p in (workdir / d).rglob("*") if p.is_file())
+
+
+def test_every_declared_output_exists(built):
+    figures = {p.name for p in (built / "paper_figures").iterdir()}
+    assert figures == {f"fig{n:02d}.{ext}" for n in range(2, 12) for ext in ("pdf", "png")}
+    for name in ("exact/nnm1_two_impacts.nc", "hbm/nnm1.nc", "hbm/nnm2.nc",
+                 "compare/nnm1_exact_vs_regularized.nc", "MANIFEST.sha256"):
+        assert (built / "results" / name).is_file(), name
+    assert not [p for p in outputs(built) if p.name.endswith(".tmp") or ".tmp." in p.name]
+
+
+def test_datasets_are_labelled_and_shareable(built):
+    for path in (built / "results").rglob("*.nc"):
+        with xr.open_dataset(path) as ds:
+            check_labelled(ds)  # long_name and units everywhere, no NaN
+            missing = [a for a in ACDD if a not in ds.attrs]
+            assert not missing, f"{path.name} lacks {missing}"
+            assert "ACDD-1.3" in ds.attrs["Conventions"] and "CF" in ds.attrs["Conventions"]
+            for key in ("alpha", "beta", "delta"):
+                assert key in ds.attrs
+
+
+def test_manifest_lists_every_dataset_with_its_sha256(built):
+    lines = (built / "results" / "MANIFEST.sha256").read_text().splitlines()
+    listed = {}
+    for line in lines:
+        digest, path = line.split("  ")
+        listed[path] = digest
+    on_disk = {str(p.relative_to(built)) for p in (built / "results").rglob("*.nc")}
+    assert set(listed) == on_disk
+    for path, digest in listed.items():
+        assert hashlib.sha256((built / path).read_bytes()).hexdigest() == digest
+
+
+def test_physics_sanity_of_the_outputs(built):
+    with xr.open_dataset(built / "results/hbm/nnm1.nc") as nnm1, xr.open_dataset(built / "results/hbm/nnm2.nc") as nnm2:
+        params = ModelParameters(**{k: float(nnm1.attrs[k]) for k in ("alpha", "beta", "delta", "eta")})
+        start = linear_modes(params, "regularized")[0] / (2 * np.pi)
+        gap0 = linear_modes(params, "gap_zero")[0] / (2 * np.pi)
+        # linear limits at low energy, hardening towards the gap-0 modes, never beyond them
+        assert nnm1["frequency"].values[0] == pytest.approx(start[0], rel=1e-4)
+        assert nnm2["frequency"].values[0] == pytest.approx(start[1], rel=1e-4)
+        assert np.all(nnm1["frequency"].values < gap0[0])
+        assert 0.7 * gap0[1] <= nnm2["frequency"].values[-1] < gap0[1]
+        assert nnm1["energy"].values[-1] > 30.0  # the last stage's criterion
+        assert np.all(np.diff(nnm1["stage"].values) >= 0)
+        assert nnm1.attrs["harmonics"] == 16
+    with xr.open_dataset(built / "results/exact/nnm1_two_impacts.nc") as exact:
+        assert float(exact["residual"].max()) < 1e-11
+        assert exact["frequency"].values[0] == pytest.approx(linear_modes(params, "no_contact")[0][0] / (2 * np.pi), rel=1e-9)
+    with xr.open_dataset(built / "results/compare/nnm1_exact_vs_regularized.nc") as cmp:
+        # near grazing the regularized law (f >= the piecewise law, f ~ eta x inside the gap)
+        # is clearly stiffer: the regularized NNM1 sits above the exact one there
+        assert cmp["frequency_regularized"].values[0] > cmp["frequency_exact"].values[0] * 1.01
+        assert float(np.abs(cmp["relative_frequency_difference"]).max()) < 0.05
+
+
+def test_rerun_from_scratch_is_byte_identical(built, tmp_path):
+    """A second fresh run of the same targets reproduces datasets and figures byte for byte."""
+    targets = ["results/hbm/nnm2.nc", "paper_figures/fig06.pdf", "results/exact/nnm1_two_impacts.nc",
+               "results/compare/nnm1_exact_vs_regularized.nc", "paper_figures/fig02.pdf"]
+    snakemake(tmp_path, "--cores", "2", *targets)
+    produced = outputs(tmp_path)
+    assert len(produced) >= 8
+    for path in produced:
+        reference = built / path.relative_to(tmp_path)
+        assert path.read_bytes() == reference.read_bytes(), f"{path.relative_to(tmp_path)} differs between runs"
+
+
+def test_a_figure_alone_plans_only_what_it_needs(tmp_path):
+    fig06 = planned_rules(tmp_path, "paper_figures/fig06.pdf")
+    assert fig06 == {"hbm_stage", "hbm_branch", "paper_fig06"}
+    fig02 = planned_rules(tmp_path, "paper_figures/fig02.pdf")
+    assert "exact_two_impacts" in fig02 and "hbm_branch" not in fig02
+    out = snakemake(tmp_path, "-n", "--forceall", "paper_figures/fig02.pdf").stdout
+    assert "nnm2" not in out and "nnm1_stage2" not in out
+
+
+def test_slurm_profile_plans_the_jobs(tmp_path):
+    """A dry run with the SLURM profile plans the cluster jobs (no cluster needed)."""
+    profile = REPO / "profiles" / "slurm"
+    out = snakemake(tmp_path, "-n", "--forceall", "--profile", str(profile), "results/hbm/nnm1.nc").stdout
+    assert "hbm_stage" in out and "hbm_branch" in out
+
+
+def test_report_holds_the_figures(built):
+    report = built / "report.html"
+    snakemake(built, "--report", str(report))
+    text = report.read_text(errors="replace")
+    assert report.stat().st_size > 10_000
+    assert "fig06" in text
+
+
+def test_workflow_lint_is_clean():
+    result = subprocess.run(["snakemake", "--lint"], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert "Congratulations" in result.stdout + result.stderr, (result.stdout + result.stderr)[-2000:]
+    assert shutil.which("snakemake")
