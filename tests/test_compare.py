@@ -8,8 +8,8 @@ orbit and from the HBM series synthesized by the HBM system itself.
 """
 
 import copy
-import shutil
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -276,10 +276,9 @@ def test_figures_refuse_bad_datasets(tmp_path, exact_family, stage1, comparison)
         fig.build_figure("fig02", small_config(), {"comparison": "x.nc"}, {"pdf": "a.pdf", "png": "a.png"})
 
 
-@pytest.mark.skipif(shutil.which("snakemake") is None, reason="snakemake not installed")
 def test_fig02_needs_no_nnm2_and_no_later_nnm1_stage(repo_root):
     out = subprocess.run(
-        ["snakemake", "-n", "--forceall", "paper_figures/fig02.pdf", "paper_figures/fig03.pdf", "paper_figures/fig04.pdf"],
+        [sys.executable, "-m", "snakemake", "-n", "--forceall", "paper_figures/fig02.pdf", "paper_figures/fig03.pdf", "paper_figures/fig04.pdf"],
         cwd=repo_root, capture_output=True, text=True, timeout=120,
     )
     assert out.returncode == 0, out.stderr
