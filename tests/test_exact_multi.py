@@ -12,7 +12,7 @@ import xarray as xr
 
 from nnmstop import exact, exact_multi as em
 from nnmstop.hbm import impacts_per_period as sampled_impacts
-from nnmstop.model import ModelParameters, total_energy
+from nnmstop.model import total_energy
 from nnmstop.time_integration import integrate_nonsmooth
 
 #: One orbit inside each phase-sequence segment of the paper's NNM1 (12 digits; refined below).
