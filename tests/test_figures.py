@@ -219,3 +219,35 @@ def test_figures_section_of_the_configuration_is_validated(repo_root):
     del broken["figures"]["fig08"]["nnm1_stages"]
     with pytest.raises(ConfigError, match=r"figures\.fig08\.nnm1_stages"):
         validate_config(broken)
+
+
+def test_exact_overlay_is_drawn_and_changes_the_figure(nnm1_stages, specs, tmp_path):
+    """figures.overlay_exact: the exact NNM1 curve is drawn (a non-smooth dataset with its
+    own energy/frequency, no alpha-eta mismatch check against the regularized model)."""
+    import matplotlib.pyplot as plt
+    import xarray as xr
+
+    stage = nnm1_stages[0]
+    energy = stage["energy"].values
+    exact = xr.Dataset(
+        {
+            "energy": ("point", energy, {"long_name": "energy", "units": "1"}),
+            "frequency": ("point", 0.99 * stage["frequency"].values, {"long_name": "frequency", "units": "Hz"}),
+        },
+        attrs={k: stage.attrs[k] for k in ("alpha", "beta", "delta")},
+    )
+    drawn = []
+    original = plt.Axes.plot
+
+    def recording_plot(self, *args, **kwargs):
+        drawn.append(kwargs.get("ls"))
+        return original(self, *args, **kwargs)
+
+    plain = fe.figure_07([stage], specs["fig07"], tmp_path / "plain" / "fig07.pdf", PNG_DPI)
+    plt.Axes.plot = recording_plot
+    try:
+        overlaid = fe.figure_07([stage], specs["fig07"], tmp_path / "overlay" / "fig07.pdf", PNG_DPI, exact=exact)
+    finally:
+        plt.Axes.plot = original
+    assert ":" in drawn
+    assert plain[1].read_bytes() != overlaid[1].read_bytes()

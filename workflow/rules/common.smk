@@ -29,3 +29,10 @@ PAPER_DATASETS = [
     *stage_files("nnm1"),
     *stage_files("nnm2"),
 ]
+
+
+def exact_overlay(wildcards):
+    """The exact multi-impact NNM1, for Figs 7-11 when figures.overlay_exact is true."""
+    if config.get("figures", {}).get("overlay_exact", False):
+        return {"exact": "results/exact/nnm1.nc"}
+    return {}

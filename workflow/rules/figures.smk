@@ -49,6 +49,7 @@ rule paper_fig06:
 rule paper_fig07:
     """Fig 7: NNM1 at low energy, modal lines a)-c)."""
     input:
+        unpack(exact_overlay),
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig07"),
     output:
         pdf="paper_figures/fig07.pdf",
@@ -68,6 +69,7 @@ rule paper_fig07:
 rule paper_fig08:
     """Fig 8: NNM1 with the NNM2 curve at f2/3, the 3:1 internal resonance, d)-i)."""
     input:
+        unpack(exact_overlay),
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig08"),
         nnm2="results/hbm/nnm2.nc",
     output:
@@ -88,6 +90,7 @@ rule paper_fig08:
 rule paper_fig09:
     """Fig 9: NNM1 with the NNM2 curve at f2/5, the 5:1 internal resonance, j)-m)."""
     input:
+        unpack(exact_overlay),
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig09"),
         nnm2="results/hbm/nnm2.nc",
     output:
@@ -108,6 +111,7 @@ rule paper_fig09:
 rule paper_fig10:
     """Fig 10: NNM1 with the NNM2 curve at f2/5 after the 5:1 resonance, o)-q)."""
     input:
+        unpack(exact_overlay),
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig10"),
         nnm2="results/hbm/nnm2.nc",
     output:
@@ -128,6 +132,7 @@ rule paper_fig10:
 rule paper_fig11:
     """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode."""
     input:
+        unpack(exact_overlay),
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig11"),
     output:
         pdf="paper_figures/fig11.pdf",

@@ -18,6 +18,7 @@ __all__ = [
     "REGULARIZED_COLOR",
     "NNM2_COLOR",
     "RESONANCE_COLOR",
+    "EXACT_OVERLAY_COLOR",
     "frequency_energy_axes",
     "open_dataset",
     "orbit",
@@ -28,6 +29,7 @@ EXACT_COLOR = "tab:red"  # non-smooth model
 REGULARIZED_COLOR = "tab:blue"  # regularized NNM1
 NNM2_COLOR = "tab:green"
 RESONANCE_COLOR = "tab:red"  # f2/5 curve, as in the paper's Figs 9-10
+EXACT_OVERLAY_COLOR = "black"  # optional exact multi-impact NNM1 on Figs 7-11
 
 plt.rcParams.update(
     {

@@ -41,6 +41,7 @@ from matplotlib.ticker import LogFormatterSciNotation
 
 from ..model import ModelParameters, linear_modes
 from .common import (
+    EXACT_OVERLAY_COLOR,
     NNM2_COLOR,
     REGULARIZED_COLOR,
     RESONANCE_COLOR,
@@ -281,14 +282,22 @@ def _check_in_window(ds, point, spec: LabelSpec, energy_range, frequency_range, 
             )
 
 
-def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None, params, spec, where, branch_label):
-    """Frequency-energy plot of ``branch`` with its companions; returns the legend handles."""
+def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None, params, spec, where, branch_label,
+              exact: xr.Dataset | None = None):
+    """Frequency-energy plot of ``branch`` with its companions; returns the legend handles.
+
+    ``exact``: optional exact NNM1 of the non-smooth system (results/exact/nnm1.nc),
+    drawn dotted in black (red is taken by the f2/5 curve) under the regularized branch.
+    """
     color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
     energy_range = _range(spec, "energy_range", where)
     frequency_range = _range(spec, "frequency_range", where)
     handles = []
     ax.plot(branch["energy"].values, branch["frequency"].values, color=color, lw=1.2, zorder=3)
     handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
+    if exact is not None:
+        ax.plot(exact["energy"].values, exact["frequency"].values, color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", zorder=2.5)
+        handles.append(Line2D([], [], color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", label="non-smooth model, exact orbits"))
     if kind.resonance is not None:
         n = kind.resonance
         ax.plot(nnm2["energy"].values, nnm2["frequency"].values / n, color=kind.resonance_color, lw=1.2, zorder=2)
@@ -329,11 +338,12 @@ def _inset_grid(n: int) -> tuple[int, int]:
     return int(np.ceil(n / cols)), cols
 
 
-def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path, nnm2=None, png_dpi: int = 150, branch_label=None):
+def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path, nnm2=None, png_dpi: int = 150, branch_label=None,
+                            exact=None):
     """Frequency-energy plot of ``branch`` on top, the modal lines of its labels below."""
     kind = PAPER_FIGURES[name]
     where = name
-    datasets = [branch] + ([nnm2] if nnm2 is not None else [])
+    datasets = [branch] + [ds for ds in (nnm2, exact) if ds is not None]
     for ds in datasets:
         check_finite(ds, where)
     _check_branch(branch, kind.branch, where)
@@ -341,7 +351,7 @@ def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path
         if nnm2 is None:
             raise ValueError(f"{where}: the NNM2 dataset is needed for the f2/{kind.resonance} curve")
         _check_branch(nnm2, "nnm2", where)
-    params = model_parameters(*datasets, where=where)
+    params = model_parameters(*[ds for ds in datasets if ds is not exact], where=where)
     labels = label_specs(spec.get("labels"))
     if not labels:
         raise ValueError(f"{where}: no labelled points configured (figures.{name}.labels)")
@@ -360,7 +370,7 @@ def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path
         fig.get_layout_engine().set(h_pad=0.06, w_pad=0.06, hspace=0.04, wspace=0.06)
         grid = fig.add_gridspec(1 + rows, cols, height_ratios=[4.0] + [2.3] * rows)
         ax = fig.add_subplot(grid[0, :])
-        handles, energy_range, frequency_range = _draw_fep(ax, kind, branch, nnm2, params, spec, where, branch_label)
+        handles, energy_range, frequency_range = _draw_fep(ax, kind, branch, nnm2, params, spec, where, branch_label, exact)
         for i, (s, p) in enumerate(zip(labels, points)):
             _check_in_window(branch, p, s, energy_range, frequency_range, where)
             mark_point(ax, branch, p, s)
@@ -440,41 +450,41 @@ def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
     return _figure_with_modal_lines("fig06", nnm2, spec, pdf_path, png_dpi=png_dpi)
 
 
-def _nnm1_figure(name, nnm1_stages, spec, pdf_path, nnm2=None, png_dpi=150):
+def _nnm1_figure(name, nnm1_stages, spec, pdf_path, nnm2=None, png_dpi=150, exact=None):
     branch = combine_nnm1_stages(list(nnm1_stages), name, spec.get("nnm1_stages"))
     stages = np.unique(branch["stage"].values)
     text = f"stage {stages[0]}" if stages.size == 1 else f"stages {stages[0]}-{stages[-1]}"
     return _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi,
-                                    branch_label=f"NNM1 ({text} of the continuation)")
+                                    branch_label=f"NNM1 ({text} of the continuation)", exact=exact)
 
 
-def figure_07(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150):
+def figure_07(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 7: NNM1 at low energy, modal lines a)-c) (no impact, one impact per stop,
     secondary oscillation between impacts). ``nnm1_stages``: the stage datasets read."""
-    return _nnm1_figure("fig07", nnm1_stages, spec, pdf_path, png_dpi=png_dpi)
+    return _nnm1_figure("fig07", nnm1_stages, spec, pdf_path, png_dpi=png_dpi, exact=exact)
 
 
-def figure_08(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
+def figure_08(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; three then two impacts per stop and
     the 3:1 internal resonance, modal lines d)-i)."""
-    return _nnm1_figure("fig08", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi)
+    return _nnm1_figure("fig08", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact)
 
 
-def figure_09(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
+def figure_09(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; four then five impacts per stop and
     the 5:1 internal resonance, modal lines j)-m)."""
-    return _nnm1_figure("fig09", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi)
+    return _nnm1_figure("fig09", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact)
 
 
-def figure_10(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
+def figure_10(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance: impacts
     without oscillation between the stops, back to one impact per stop, o)-q)."""
-    return _nnm1_figure("fig10", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi)
+    return _nnm1_figure("fig10", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact)
 
 
-def figure_11(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150):
+def figure_11(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dashed)."""
-    return _nnm1_figure("fig11", nnm1_stages, spec, pdf_path, png_dpi=png_dpi)
+    return _nnm1_figure("fig11", nnm1_stages, spec, pdf_path, png_dpi=png_dpi, exact=exact)
 
 
 # --------------------------------------------------------------------------- pipeline entry
@@ -542,8 +552,10 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
     if name == "fig06":
         return figure_06(open_dataset(need("nnm2")), spec, pdf, png_dpi)
     stages = [open_dataset(p) for p in _as_list(need("nnm1_stages"))]
+    # optional overlay of the exact multi-impact NNM1 (figures.overlay_exact)
+    exact = open_dataset(inputs["exact"]) if inputs.get("exact") else None
     if name in ("fig07", "fig11"):
         builder = figure_07 if name == "fig07" else figure_11
-        return builder(stages, spec, pdf, png_dpi)
+        return builder(stages, spec, pdf, png_dpi, exact=exact)
     builder = {"fig08": figure_08, "fig09": figure_09, "fig10": figure_10}[name]
-    return builder(stages, open_dataset(need("nnm2")), spec, pdf, png_dpi)
+    return builder(stages, open_dataset(need("nnm2")), spec, pdf, png_dpi, exact=exact)
