@@ -190,7 +190,8 @@ def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStat
     t_end = evaluate_series(series, a_max, derivative=True)
     t_end /= np.linalg.norm(t_end)
     if relative_residual(system, U_end) > settings.newton_threshold:
-        U_end, _ = newton_correct(system, U_end, t_end, stats, tol=0.01 * settings.newton_threshold)
+        # chord iterations with the step's own factors first: usually no new factorization
+        U_end, _ = newton_correct(system, U_end, t_end, stats, tol=0.01 * settings.newton_threshold, lu=lu)
         stats.corrected_steps += 1
     return series, a_max, U_end, t_end, determinant_sign(lu)
 

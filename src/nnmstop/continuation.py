@@ -113,30 +113,47 @@ def unit_tangent(system, U, direction, stats: ContinuationStats, lu=None):
     return t / np.linalg.norm(t)
 
 
-def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max_iter: int = 12):
+def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max_iter: int = 12, lu=None):
     """Newton iterations on ``S(U) = 0`` in the hyperplane orthogonal to ``tangent``.
 
-    Every iteration refactorizes (full Newton). Converged when the relative residual is
-    below ``tol`` and the last update is small. Returns the corrected point
-    and the number of iterations; raises ``ContinuationError`` when it does not converge.
+    Full Newton refactorizes at every iteration. With ``lu``, the factors of a nearby
+    bordered matrix ``[J(U_0); t^T]`` (for example those of the ANM step that produced
+    ``U``), chord iterations reuse them first (corrections then stay orthogonal to
+    that ``t``) and full Newton takes over only if they do not converge. Converged
+    when the relative residual is below ``tol`` and the last update is small. Returns
+    the corrected point and the number of iterations; raises ``ContinuationError``
+    when it does not converge.
     """
     U = np.array(U, dtype=float)
+    if lu is not None:
+        chord = U.copy()
+        for it in range(1, 3 * max_iter + 1):  # chord iterations are cheap: no factorization
+            dU = lu_solve(lu, -np.concatenate([system.residual(chord), [0.0]]))
+            chord += dU
+            stats.newton_iterations += 1
+            if _converged(system, chord, dU, tol):
+                return chord, it
+            if not np.all(np.isfinite(chord)):
+                break
     for it in range(1, max_iter + 1):
         lu = bordered_factor(system, U, tangent, stats)
-        r = system.residual(U)
-        dU = lu_solve(lu, -np.concatenate([r, [0.0]]))
+        dU = lu_solve(lu, -np.concatenate([system.residual(U), [0.0]]))
         U += dU
         stats.newton_iterations += 1
-        residual = relative_residual(system, U)
-        small_update = np.linalg.norm(dU) <= 1e3 * tol * max(np.linalg.norm(U), 1.0)
-        # Near a singular Jacobian (branch points) the update may stall above round-off
-        # while the residual is already at it: accept the residual then.
-        if residual <= tol and (small_update or residual <= 1e-3 * tol):
+        if _converged(system, U, dU, tol):
             return U, it
     raise ContinuationError(
         f"Newton correction did not converge in {max_iter} iterations (relative residual "
         f"{relative_residual(system, U):.2e} > {tol:.1e})"
     )
+
+
+def _converged(system, U, dU, tol: float) -> bool:
+    residual = relative_residual(system, U)
+    small_update = np.linalg.norm(dU) <= 1e3 * tol * max(np.linalg.norm(U), 1.0)
+    # Near a singular Jacobian (branch points) the update may stall above round-off
+    # while the residual is already at it: accept the residual then.
+    return residual <= tol and (small_update or residual <= 1e-3 * tol)
 
 
 class Progress:

@@ -148,39 +148,43 @@ def piecewise_contact_potential(x, alpha):
 def _branch_coordinate(abs_x, params: ModelParameters):
     """Solve ``x(y) = abs_x`` for ``y = -g`` in ``[0, min(abs_x, sqrt(c)))``.
 
-    ``phi(y) = (x - y)(c - y**2) - eps*y`` is positive at ``y = 0`` and negative at
-    ``y = min(x, sqrt(c))``, and decreasing in between (``x(y)`` is increasing), so a
-    bracketed Newton iteration converges to the unique root from any start.
-    Returns ``y`` and ``s = c - y**2`` computed without cancellation.
+    ``psi(y) = y + eps*y/(c - y**2) - x`` is increasing and convex on ``[0, sqrt(c))``
+    (``psi'' > 0``), negative at 0 and positive (or infinite) at ``min(x, sqrt(c))``.
+    Newton's method on a convex increasing function converges monotonically once an
+    iterate lies right of the root, which the first step ensures; a step leaving the
+    bracket is replaced by bisection. Returns ``y`` and ``s = c - y**2`` computed
+    without cancellation.
     """
     eps = params.eps
     c = 1.0 - eps
     sqrt_c = np.sqrt(c)
     lo = np.zeros_like(abs_x)
     hi = np.minimum(abs_x, sqrt_c)
-    # Start from the piecewise-linear law, which is close everywhere but at the knee.
+    # Start from the linear law inside the gap, from the far-field asymptote outside.
     with np.errstate(divide="ignore", invalid="ignore"):
         s_guess = eps * sqrt_c / np.maximum(abs_x - sqrt_c, np.sqrt(eps))
     y = np.where(abs_x < 1.0, abs_x * c / (c + eps), np.sqrt(np.maximum(c - s_guess, 0.0)))
     y = np.clip(y, lo, hi)
-    for _ in range(200):
-        phi = (abs_x - y) * (c - y * y) - eps * y
-        dphi = -(c - y * y) - 2.0 * y * (abs_x - y) - eps
-        lo = np.where(phi > 0, y, lo)
-        hi = np.where(phi <= 0, y, hi)
-        y_new = y - phi / dphi
-        # Fall back to bisection whenever Newton leaves the bracket.
-        outside = ~((y_new > lo) & (y_new < hi))
+    tiny = np.finfo(float).tiny
+    for _ in range(100):
+        gap = (sqrt_c - y) * (sqrt_c + y)  # c - y**2, accurate near sqrt(c)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            psi = y + eps * y / gap - abs_x
+            dpsi = 1.0 + eps * (c + y * y) / (gap * gap)
+            y_new = y - psi / dpsi
+        lo = np.where(psi < 0, y, lo)
+        hi = np.where(psi >= 0, y, hi)
+        outside = ~((y_new >= lo) & (y_new <= hi)) | ~np.isfinite(y_new)
         y_new = np.where(outside, 0.5 * (lo + hi), y_new)
-        if np.all(np.abs(y_new - y) <= 4 * np.finfo(float).eps * np.maximum(y, 1e-300)):
-            y = y_new
-            break
+        done = np.abs(y_new - y) <= 4 * np.finfo(float).eps * np.maximum(y, tiny)
         y = y_new
-    # s = c - y^2 loses all its digits when y -> sqrt(c) (large |x|); there the branch
+        if np.all(done):
+            break
+    # s = c - y^2 loses its digits when y -> sqrt(c) (large |x|); there the branch
     # relation s = eps*y/(x - y) is exact and free of cancellation.
     with np.errstate(divide="ignore", invalid="ignore"):
         s_far = eps * y / (abs_x - y)
-    s = np.where(abs_x > 1.0, s_far, c - y * y)
+    s = np.where(abs_x > 1.0, s_far, (sqrt_c - y) * (sqrt_c + y))
     return y, s
 
 
