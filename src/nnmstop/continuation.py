@@ -128,16 +128,20 @@ def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max
     if lu is not None:
         chord = U.copy()
         for it in range(1, 3 * max_iter + 1):  # chord iterations are cheap: no factorization
-            dU = lu_solve(lu, -np.concatenate([system.residual(chord), [0.0]]))
+            r = system.residual(chord)
+            if not np.all(np.isfinite(r)):
+                break  # diverged (lu_solve would raise ValueError): full Newton from U
+            dU = lu_solve(lu, -np.concatenate([r, [0.0]]))
             chord += dU
             stats.newton_iterations += 1
             if _converged(system, chord, dU, tol):
                 return chord, it
-            if not np.all(np.isfinite(chord)):
-                break
     for it in range(1, max_iter + 1):
+        r = system.residual(U)
+        if not (np.all(np.isfinite(U)) and np.all(np.isfinite(r))):
+            raise ContinuationError(f"Newton correction diverged (non-finite values after {it - 1} iterations)")
         lu = bordered_factor(system, U, tangent, stats)
-        dU = lu_solve(lu, -np.concatenate([system.residual(U), [0.0]]))
+        dU = lu_solve(lu, -np.concatenate([r, [0.0]]))
         U += dU
         stats.newton_iterations += 1
         if _converged(system, U, dU, tol):
