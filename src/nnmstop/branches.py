@@ -16,7 +16,10 @@ coefficients of Eq. (13) (``x_cos[:, 0]`` is the mean ``x_0``; the sine coeffici
 are zero in the cosine basis); ``omega_squared`` and ``unfolding`` (the extra unknowns);
 ``energy``, ``frequency``, ``period``, ``x_max``, ``u_max``, ``impacts_per_period``,
 ``algebraic_residual``, ``time_residual``, ``force_error``, ``energy_spread``,
-``truncation``, ``step``, ``stage``, ``branch_point`` and ``energy_fold`` (flags).
+``truncation``, ``step``, ``stage``, ``branch_point`` and ``energy_fold`` (flags);
+Floquet stability by Hill's method (:mod:`nnmstop.stability`): ``stable`` (flag),
+``multiplier_real``/``multiplier_imag(point, multiplier)``, ``max_multiplier``,
+``stability_orbit_residual``, ``stability_resolved``.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from .anm import ANMSettings, continue_anm
 from .continuation import Branch, ContinuationError, ContinuationStats, newton_correct, relative_residual
 from .hbm import HarmonicBalanceSystem
 from .model import ModelParameters, linear_modes
+from .stability import branch_stability
 
 __all__ = [
     "system_from_config",
@@ -184,8 +188,13 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
             "energy_fold": ("point", fold.astype(np.int8), {"long_name": "1 where the energy has a local extremum along the branch (energy fold)", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular fold"}),
         }
     )
+    # Floquet stability of every point (Hill's method on the HBM representation)
+    stability = branch_stability(system, U)
+    data.update(stability.data_vars())
+    coords["multiplier"] = np.arange(stability.multipliers.shape[1])
     ds = xr.Dataset(data, coords=coords)
     ds["point"].attrs = {"long_name": "index of the point along the branch", "units": "1"}
+    ds["multiplier"].attrs = {"long_name": "index of the Floquet multiplier: 0, 1 trivial pair; 2, 3 non-trivial pair", "units": "1"}
     ds["harmonic"].attrs = {"long_name": "harmonic number k (0 is the mean)", "units": "1"}
     anm = config["anm"]
     ds.attrs = {

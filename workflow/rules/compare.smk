@@ -18,6 +18,7 @@ rule compare_nnm1:
         "benchmarks/runs/compare_nnm1.tsv"
     params:
         task="compare_nnm1",
+        settings=lambda wildcards: repr(config["compare"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -39,6 +40,7 @@ rule paper_fig02:
         "benchmarks/runs/paper_fig02.tsv"
     params:
         task="paper_fig02",
+        settings=lambda wildcards: repr(config["compare"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -58,6 +60,7 @@ rule paper_fig03:
         "benchmarks/runs/paper_fig03.tsv"
     params:
         task="paper_fig03",
+        settings=lambda wildcards: repr(config["compare"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -77,6 +80,7 @@ rule paper_fig04:
         "benchmarks/runs/paper_fig04.tsv"
     params:
         task="paper_fig04",
+        settings=lambda wildcards: repr(config["compare"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:

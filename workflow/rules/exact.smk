@@ -12,6 +12,7 @@ rule exact_two_impacts:
         "benchmarks/runs/exact_two_impacts.tsv"
     params:
         task="exact_two_impacts",
+        settings=lambda wildcards: repr([config["model"], config["exact"]]),
     conda:
         "../envs/nnmstop.yaml"
     script:

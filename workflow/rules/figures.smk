@@ -21,6 +21,7 @@ rule paper_fig05:
         "benchmarks/runs/paper_fig05.tsv"
     params:
         task="paper_fig05",
+        settings=lambda wildcards: repr(config["figures"]["fig05"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -40,6 +41,7 @@ rule paper_fig06:
         "benchmarks/runs/paper_fig06.tsv"
     params:
         task="paper_fig06",
+        settings=lambda wildcards: repr(config["figures"]["fig06"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -60,6 +62,7 @@ rule paper_fig07:
         "benchmarks/runs/paper_fig07.tsv"
     params:
         task="paper_fig07",
+        settings=lambda wildcards: repr(config["figures"]["fig07"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -81,6 +84,7 @@ rule paper_fig08:
         "benchmarks/runs/paper_fig08.tsv"
     params:
         task="paper_fig08",
+        settings=lambda wildcards: repr(config["figures"]["fig08"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -102,6 +106,7 @@ rule paper_fig09:
         "benchmarks/runs/paper_fig09.tsv"
     params:
         task="paper_fig09",
+        settings=lambda wildcards: repr(config["figures"]["fig09"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -123,6 +128,7 @@ rule paper_fig10:
         "benchmarks/runs/paper_fig10.tsv"
     params:
         task="paper_fig10",
+        settings=lambda wildcards: repr(config["figures"]["fig10"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -143,6 +149,7 @@ rule paper_fig11:
         "benchmarks/runs/paper_fig11.tsv"
     params:
         task="paper_fig11",
+        settings=lambda wildcards: repr(config["figures"]["fig11"]),  # rerun when they change
     conda:
         "../envs/nnmstop.yaml"
     script:

@@ -18,6 +18,7 @@ rule hbm_stage:
         "benchmarks/runs/hbm_{branch}_stage{stage}.tsv"
     params:
         task="hbm_stage",
+        settings=lambda wildcards: repr([config[k] for k in ("model", "hbm", "anm")] + [config["branches"][wildcards.branch]]),
     conda:
         "../envs/nnmstop.yaml"
     script:

@@ -20,6 +20,7 @@ __all__ = [
     "RESONANCE_COLOR",
     "EXACT_OVERLAY_COLOR",
     "frequency_energy_axes",
+    "plot_branch",
     "open_dataset",
     "orbit",
     "save_figure",
@@ -78,6 +79,28 @@ def orbit(ds: xr.Dataset, point: int, samples: int = 512) -> dict:
         if symbol != "f":
             out[f"{symbol}dot"] = omega * (cos @ (k * b) - sin @ (k * a))
     return out
+
+
+def plot_branch(ax, ds: xr.Dataset, color, lw: float = 1.2, zorder: float = 3, frequency_divisor: float = 1.0):
+    """Frequency-energy curve of a branch: solid where stable, dashed where unstable.
+
+    Uses the ``stable`` flag of the dataset (Floquet multipliers by Hill's method);
+    without it the whole curve is solid. Consecutive runs share their end points so
+    the curve stays continuous. Returns True if an unstable part was drawn.
+    """
+    energy = ds["energy"].values
+    frequency = ds["frequency"].values / frequency_divisor
+    if "stable" not in ds:
+        ax.plot(energy, frequency, color=color, lw=lw, zorder=zorder)
+        return False
+    stable = ds["stable"].values.astype(bool)
+    breaks = np.flatnonzero(np.diff(stable.astype(int))) + 1
+    start = 0
+    for stop in list(breaks) + [len(stable)]:
+        run = slice(start, min(stop + 1, len(stable)))
+        ax.plot(energy[run], frequency[run], color=color, lw=lw, zorder=zorder, ls="-" if stable[start] else "--")
+        start = stop
+    return bool(np.any(~stable))
 
 
 def save_figure(fig, pdf_path, png_dpi: int = 150) -> tuple[Path, Path]:

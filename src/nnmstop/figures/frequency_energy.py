@@ -41,6 +41,7 @@ from matplotlib.ticker import LogFormatterSciNotation
 
 from ..model import ModelParameters, linear_modes
 from .common import (
+    plot_branch,
     EXACT_OVERLAY_COLOR,
     NNM2_COLOR,
     REGULARIZED_COLOR,
@@ -293,8 +294,10 @@ def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None
     energy_range = _range(spec, "energy_range", where)
     frequency_range = _range(spec, "frequency_range", where)
     handles = []
-    ax.plot(branch["energy"].values, branch["frequency"].values, color=color, lw=1.2, zorder=3)
+    unstable = plot_branch(ax, branch, color, lw=1.2, zorder=3)
     handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
+    if unstable:
+        handles.append(Line2D([], [], color=color, lw=1.2, ls="--", label="unstable orbits (Floquet, Hill's method)"))
     if exact is not None:
         ax.plot(exact["energy"].values, exact["frequency"].values, color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", zorder=2.5)
         handles.append(Line2D([], [], color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", label="non-smooth model, exact orbits"))
@@ -414,9 +417,12 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
     frequency_range = _range(spec, "frequency_range", where)
     fig, ax = plt.subplots(figsize=(7.5, 4.8), layout="constrained")
     handles = []
+    unstable = False
     for ds, color, label in ((nnm1, NNM1_COLOR, "NNM1"), (nnm2, NNM2_COLOR, "NNM2")):
-        ax.plot(ds["energy"].values, ds["frequency"].values, color=color, lw=1.3, zorder=3)
+        unstable |= plot_branch(ax, ds, color, lw=1.3, zorder=3)
         handles.append(Line2D([], [], color=color, lw=1.3, label=label))
+    if unstable:
+        handles.append(Line2D([], [], color="0.3", lw=1.3, ls="--", label="unstable orbits (dashed)"))
     gap_zero = gap_zero_frequencies(params)
     for mode in kind.gap_zero_modes:
         value = float(gap_zero[mode - 1])
