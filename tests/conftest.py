@@ -1,10 +1,17 @@
 """Shared pytest fixtures."""
 
-from pathlib import Path
+import os
 
-import pytest
+# One BLAS thread, set before numpy loads: the matrices here are small, and threads
+# oversubscribed on a busy 2-core machine slow dense factorizations tenfold.
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
 
-from nnmstop.model import ModelParameters
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+
+from nnmstop.model import ModelParameters  # noqa: E402
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 

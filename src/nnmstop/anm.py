@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import lu_solve
@@ -41,7 +42,7 @@ from .continuation import (
     unit_tangent,
 )
 
-__all__ = ["ANMSettings", "anm_series", "evaluate_series", "anm_step", "continue_anm"]
+__all__ = ["ANMSettings", "ANMStep", "anm_series", "evaluate_series", "anm_step", "continue_anm"]
 
 logger = logging.getLogger("nnmstop.anm")
 
@@ -172,14 +173,26 @@ def remove_geometric_tail(series, a_max: float, alignment: float = 1e-6, reach: 
     return cleaned, float(a_b)
 
 
-def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStats):
-    """One ANM step from ``U0``.
+class ANMStep(NamedTuple):
+    """Result of one ANM step.
 
-    Returns ``(series, a_max, U_end, t_end, det_sign)``: the (cleaned) series, the
-    step length, the end point (Newton-corrected if needed), the unit tangent there,
-    and the sign of ``det [J(U0); tangent^T]``, which changes across a simple branch
-    point (and not across a fold) when the tangent keeps its orientation.
+    ``series`` (cleaned of a geometric tail if one was found), the step length
+    ``a_max``, the end point ``U_end`` (Newton-corrected if needed), the unit tangent
+    ``t_end`` there, the sign ``det_sign`` of ``det [J(U0); tangent^T]`` (it changes
+    across a simple branch point, not across a fold, when the tangent keeps its
+    orientation) and the LU factors ``lu`` of that matrix, reused by corrections.
     """
+
+    series: list
+    a_max: float
+    U_end: np.ndarray
+    t_end: np.ndarray
+    det_sign: int
+    lu: tuple
+
+
+def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStats) -> ANMStep:
+    """One ANM step from ``U0`` (see :class:`ANMStep`)."""
     lu = bordered_factor(system, U0, tangent, stats)
     series = anm_series(system, U0, tangent, settings.order, stats, lu=lu)
     series, a_b = remove_geometric_tail(series, step_length(series, settings.tolerance))
@@ -193,7 +206,7 @@ def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStat
         # chord iterations with the step's own factors first: usually no new factorization
         U_end, _ = newton_correct(system, U_end, t_end, stats, tol=0.01 * settings.newton_threshold, lu=lu)
         stats.corrected_steps += 1
-    return series, a_max, U_end, t_end, determinant_sign(lu)
+    return ANMStep(series, a_max, U_end, t_end, determinant_sign(lu), lu)
 
 
 def continue_anm(
@@ -243,7 +256,8 @@ def continue_anm(
     previous_sign = None
     for step in range(1, settings.max_steps + 1):
         try:
-            series, a_max, U_end, t_end, det_sign = anm_step(system, U, tangent, settings, stats)
+            result = anm_step(system, U, tangent, settings, stats)
+            series, a_max, U_end, t_end, det_sign = result[:5]
         except (ContinuationError, np.linalg.LinAlgError) as err:
             raise ContinuationError(
                 f"{label}: step {step} failed at energy {diag['energy']:.6g} "
@@ -268,6 +282,15 @@ def continue_anm(
                 U_j = evaluate_series(series, a)
                 t_j = evaluate_series(series, a, derivative=True)
                 t_j /= np.linalg.norm(t_j)
+                # interior points meet the same accuracy as step ends (chord corrections
+                # on the step's factors, no new factorization in general)
+                if relative_residual(system, U_j) > settings.newton_threshold:
+                    try:
+                        U_j, _ = newton_correct(system, U_j, t_j, stats, tol=0.01 * settings.newton_threshold, lu=result.lu)
+                    except ContinuationError as err:
+                        raise ContinuationError(
+                            f"{label}: step {step}, interior point {j}, failed at energy {diag['energy']:.6g}: {err}"
+                        ) from err
             else:
                 U_j, t_j = U_end, t_end
             diag = system.diagnostics(U_j)
