@@ -1,6 +1,6 @@
 """Time a cold build of the whole pipeline and each rule's share.
 
-Copies the tracked files of this checkout into a fresh temporary directory (no
+Extracts the committed tree (HEAD) into a fresh temporary directory (no
 ``results/``, no ``.snakemake/``), runs ``snakemake --cores N`` there (the default
 target: every figure, dataset and the manifest), and reads the per-job
 ``benchmark:`` files to report each rule's wall time.
@@ -30,14 +30,9 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def tracked_copy(destination: Path) -> None:
-    """Copy the files git tracks (as they are in the work tree) into ``destination``."""
-    files = subprocess.run(["git", "-C", str(REPO), "ls-files"], capture_output=True, text=True, check=True).stdout.split()
-    for name in files:
-        src = REPO / name
-        if src.is_file():
-            dst = destination / name
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(src, dst)
+    """Extract the committed tree (HEAD) into ``destination``, as a fresh clone would have it."""
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", "HEAD"], capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(destination)], input=archive, check=True)
 
 
 def rule_of(benchmark_file: Path) -> str:
