@@ -362,19 +362,34 @@ class OrbitAssessment:
     @property
     def valid(self) -> bool:
         """All assumptions hold strictly."""
-        return all(m > 0 for m in self.margins.values())
+        return margins_valid(self.margins)
 
     @property
     def violated(self) -> list:
         """Names of the violated assumptions, most violated first."""
-        bad = [k for k, m in self.margins.items() if not m > 0]
-        return sorted(bad, key=lambda k: self.margins[k])
+        return violated_margins(self.margins)
 
     @property
     def min_margin(self) -> float:
-        """Smallest finite margin."""
-        finite = [m for m in self.margins.values() if np.isfinite(m)]
-        return float(min(finite))
+        """Smallest finite margin (``inf`` when none is finite)."""
+        return smallest_margin(self.margins)
+
+
+def margins_valid(margins: dict) -> bool:
+    """All validity margins strictly positive."""
+    return all(m > 0 for m in margins.values())
+
+
+def violated_margins(margins: dict) -> list:
+    """Keys of the violated (non-positive) margins, most violated first."""
+    bad = [k for k, m in margins.items() if not m > 0]
+    return sorted(bad, key=lambda k: margins[k])
+
+
+def smallest_margin(margins: dict) -> float:
+    """Smallest finite margin, ``inf`` when none is finite."""
+    finite = [m for m in margins.values() if np.isfinite(m)]
+    return float(min(finite)) if finite else np.inf
 
 
 def _extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 64):

@@ -121,7 +121,7 @@ import scipy.optimize
 import xarray as xr
 
 from .datasets import write_dataset
-from .exact import LinearPhase, OrbitTimeHistory
+from .exact import LinearPhase, OrbitTimeHistory, margins_valid, smallest_margin, violated_margins
 from .model import ModelParameters, mass_matrix, piecewise_contact_force, stiffness_matrix, total_energy
 
 __all__ = [
@@ -362,19 +362,17 @@ class OrbitAssessment:
     @property
     def valid(self) -> bool:
         """All assumptions hold strictly."""
-        return all(m > 0 for m in self.margins.values())
+        return margins_valid(self.margins)
 
     @property
     def violated(self) -> list:
         """Keys of the violated margins, most violated first."""
-        bad = [k for k, m in self.margins.items() if not m > 0]
-        return sorted(bad, key=lambda k: self.margins[k])
+        return violated_margins(self.margins)
 
     @property
     def min_margin(self) -> float:
-        """Smallest finite margin."""
-        finite = [m for m in self.margins.values() if np.isfinite(m)]
-        return float(min(finite)) if finite else np.inf
+        """Smallest finite margin (``inf`` when none is finite)."""
+        return smallest_margin(self.margins)
 
 
 def _interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 64):
