@@ -27,6 +27,7 @@ include: "workflow/rules/hbm.smk"
 include: "workflow/rules/compare.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/manifest.smk"
+include: "workflow/rules/study.smk"
 
 
 PAPER_FIGURES = [f"paper_figures/fig{n:02d}.{ext}" for n in range(2, 12) for ext in ("pdf", "png")]

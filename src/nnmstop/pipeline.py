@@ -173,7 +173,96 @@ def dataset_manifest(config, inputs, outputs):
 
 PAPER_FIGURE_TASKS = (paper_fig05, paper_fig06, paper_fig07, paper_fig08, paper_fig09, paper_fig10, paper_fig11)
 
-TASKS = {f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_branch, *COMPARE_TASKS, *PAPER_FIGURE_TASKS, dataset_manifest)}
+
+# Study (issue 5): error against run time, stiff cases. Measurements, kept apart from Figs 2-11.
+
+
+def study_error_case(config, inputs, outputs, harmonics, eta):
+    """One (H, eta) setting of the error-against-run-time study (input ``exact``)."""
+    from .study.error_runtime import build_error_case
+
+    build_error_case(config, inputs, outputs["dataset"], harmonics, eta)
+
+
+def study_anm_case(config, inputs, outputs, order, tolerance):
+    """One ANM (order, tolerance) setting at ``study.error_runtime.anm_harmonics`` and ``model.eta``."""
+    from .study.error_runtime import build_error_case
+
+    H = config["study"]["error_runtime"]["anm_harmonics"]
+    build_error_case(config, inputs, outputs["dataset"], H, config["model"]["eta"], order, tolerance)
+
+
+def study_reference(config, inputs, outputs, eta):
+    """Large-H reference orbits of one eta (truncation/regularization split)."""
+    from .study.error_runtime import build_reference
+
+    build_reference(config, inputs, outputs["dataset"], eta)
+
+
+def study_exact_cost(config, inputs, outputs):
+    """Cost per orbit of the exact solver."""
+    from .study.error_runtime import build_exact_cost
+
+    build_exact_cost(config, inputs, outputs["dataset"])
+
+
+def study_error_vs_runtime(config, inputs, outputs):
+    """Gather the sweep into results/study/error_vs_runtime.nc."""
+    from .study.error_runtime import build_error_vs_runtime
+
+    build_error_vs_runtime(config, inputs, outputs["dataset"])
+
+
+def study_error_vs_runtime_figure(config, inputs, outputs):
+    """paper_figures/error_vs_runtime.pdf/.png (input ``dataset``)."""
+    from .figures.study import build_error_vs_runtime_figure
+
+    build_error_vs_runtime_figure(config, inputs["dataset"], outputs["pdf"])
+
+
+def study_stiff_exact(config, inputs, outputs, alpha, beta, delta):
+    """Exact family and its exactness checks for one (alpha, beta, delta)."""
+    from .study.stiff_cases import build_stiff_exact
+
+    build_stiff_exact(config, inputs, outputs["dataset"], alpha, beta, delta)
+
+
+def study_stiff_branch(config, inputs, outputs, alpha, beta, delta, eta):
+    """Harmonics ladder of NNM1 stage 1 for one stiff case (input ``exact``)."""
+    from .study.stiff_cases import build_stiff_branch
+
+    build_stiff_branch(config, inputs, outputs["dataset"], alpha, beta, delta, eta)
+
+
+def study_stiff_energy(config, inputs, outputs, alpha):
+    """Exact solver and HBM at energies 1e-6..1e6 for one alpha."""
+    from .study.stiff_cases import build_stiff_energy
+
+    build_stiff_energy(config, inputs, outputs["dataset"], alpha)
+
+
+def study_stiff_cases(config, inputs, outputs):
+    """Gather the stiff cases into results/study/stiff_cases.nc."""
+    from .study.stiff_cases import build_stiff_cases
+
+    build_stiff_cases(config, inputs, outputs["dataset"])
+
+
+def study_stiff_cases_figure(config, inputs, outputs):
+    """paper_figures/stiff_cases.pdf/.png (input ``dataset``)."""
+    from .figures.study import build_stiff_cases_figure
+
+    build_stiff_cases_figure(config, inputs["dataset"], outputs["pdf"])
+
+
+STUDY_TASKS = (
+    study_error_case, study_anm_case, study_reference, study_exact_cost, study_error_vs_runtime,
+    study_error_vs_runtime_figure, study_stiff_exact, study_stiff_branch, study_stiff_energy, study_stiff_cases,
+    study_stiff_cases_figure,
+)
+
+
+TASKS = {f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_branch, *COMPARE_TASKS, *PAPER_FIGURE_TASKS, dataset_manifest, *STUDY_TASKS)}
 
 
 def configure_logging(log_path: str | None) -> None:

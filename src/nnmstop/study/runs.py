@@ -1,0 +1,476 @@
+"""Shared pieces of the study: a guarded, timed continuation of NNM1 and matched-energy errors.
+
+Guarded continuation
+--------------------
+:func:`run_stage_one` continues stage 1 of the regularized NNM1 (from the linear mode to
+the first orbit with more than one impact per stop, as ``continue_stage`` does) with the
+engine's public pieces (:func:`nnmstop.branches.start_point`,
+:func:`nnmstop.branches.stage_criterion`, :func:`nnmstop.anm.continue_anm`), measures its
+wall-clock and CPU time and its cost counters, and adds one check the engine does not
+make yet: a :class:`TruncationGuard` that stops the continuation with an
+:class:`UnresolvedBranchError` (naming the energy, the frequency, the truncation
+indicator and ``H``) as soon as the top harmonics carry more than ``max_truncation`` of
+the signal. Without it, too few harmonics for the sharpness of the stop give a branch
+that "converges" (every algebraic residual at round-off) but is not an orbit of Eq. (7):
+for example ``H = 10`` with ``eta = 1e-3``, or ``H = 100`` with ``alpha = 1e4``.
+
+The truncation indicator is :meth:`nnmstop.hbm.HarmonicBalanceSystem.truncation_indicator`
+(share of the mean square of a series carried by its top harmonics) of ``x''`` and of
+``f``, the larger of the two, as in the branch datasets, **except** that the top share
+always holds at least two harmonics (:func:`truncation_level`): NNM1 orbits are
+symmetric (``q(t + T/2) = -q(t)``), so ``x``, ``u`` and ``f`` carry odd harmonics only,
+and with the engine's "top tenth" the top share of ``H = 10`` is the single (even,
+identically zero) harmonic 10, which reports a perfectly resolved orbit whatever the
+truth.
+
+Matched energies
+----------------
+Errors against the exact non-smooth orbits reuse :mod:`nnmstop.compare`
+(:class:`~nnmstop.compare.EnergyMatcher`, :func:`~nnmstop.compare.orbit_differences`):
+both orbits are solved at exactly the requested energy, and their differences are
+maxima over the phase ``t/T`` aligned at the maximum of ``x``. For small ``eta`` the
+regularized branch has an energy fold just after grazing (as the exact family has), and
+:func:`nnmstop.compare.regularized_monotone_part` would stop there;
+:func:`two_impact_arm` hands the matcher the branch from the start of the
+increasing-energy run that best covers the exact family's increasing arm, so that the
+increasing arms of both models are compared.
+
+Missing values
+--------------
+A quantity that does not exist for a case (the error of a branch that did not converge)
+is stored as ``FILL_VALUE`` with the CF attribute ``_FillValue``: readers
+(:func:`xarray.open_dataset`) get NaN, never a number that looks valid.
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import xarray as xr
+
+from ..anm import ANMSettings, continue_anm
+from ..branches import branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
+from ..compare import EnergyMatcher, _regularized_on_phase, exact_increasing_arm, orbit_differences
+from ..config import validate_config
+from ..continuation import ContinuationError, ContinuationStats, newton_correct
+from ..hbm import HarmonicBalanceSystem
+
+__all__ = [
+    "FILL_VALUE",
+    "UnresolvedBranchError",
+    "TruncationGuard",
+    "StageRun",
+    "MatchedErrors",
+    "case_config",
+    "format_number",
+    "truncation_level",
+    "run_stage_one",
+    "two_impact_arm",
+    "match_energies",
+    "hbm_orbit_differences",
+    "path_error",
+    "variable",
+    "string_variable",
+]
+
+logger = logging.getLogger("nnmstop.study")
+
+#: Fill value of missing floats (netCDF default fill of doubles); read back as NaN.
+FILL_VALUE = 9.969209968386869e36
+
+#: Per-energy quantities of :func:`match_energies` (keys of :class:`MatchedErrors`).
+ERROR_KEYS = (
+    "relative_frequency_difference",
+    "max_x_difference",
+    "max_u_difference",
+    "max_force_difference",
+    "force_max_exact",
+)
+
+
+class UnresolvedBranchError(ContinuationError):
+    """The harmonics do not resolve the orbit: the truncation indicator exceeded its limit."""
+
+
+# --------------------------------------------------------------------------- configuration
+
+
+def format_number(value: float) -> str:
+    """Compact text of a number for file names and wildcards: ``0.001``, ``1e-08``, ``1e06``."""
+    value = float(value)
+    if not np.isfinite(value):
+        raise ValueError(f"cannot format the non-finite value {value!r} for a file name")
+    return f"{value:g}".replace("e+", "e")
+
+
+def case_config(config: dict, **overrides) -> dict:
+    """Deep copy of ``config`` with study overrides, validated again.
+
+    Keywords ``harmonics``, ``alpha``, ``beta``, ``delta``, ``eta``, ``order``,
+    ``tolerance``, ``max_steps`` and ``start_amplitude`` (NNM1) override the corresponding
+    keys; ``None`` leaves a key alone.
+
+    Raises
+    ------
+    nnmstop.config.ConfigError
+        If an override makes the configuration invalid (naming the key and the value).
+    ValueError
+        For an unknown keyword.
+    """
+    places = {
+        "harmonics": ("hbm", "harmonics"),
+        "alpha": ("model", "alpha"),
+        "beta": ("model", "beta"),
+        "delta": ("model", "delta"),
+        "eta": ("model", "eta"),
+        "order": ("anm", "order"),
+        "tolerance": ("anm", "tolerance"),
+        "max_steps": ("anm", "max_steps"),
+    }
+    out = copy.deepcopy(config)
+    for key, value in overrides.items():
+        if value is None:
+            continue
+        if key == "start_amplitude":
+            out["branches"]["nnm1"]["start_amplitude"] = float(value)
+        elif key in places:
+            section, name = places[key]
+            cast = int if key in ("harmonics", "order", "max_steps") else float
+            out[section][name] = cast(value)
+        else:
+            raise ValueError(f"unknown study override {key!r} (allowed: {sorted(places) + ['start_amplitude']})")
+    return validate_config(out)
+
+
+# --------------------------------------------------------------------------- truncation
+
+
+def truncation_level(system: HarmonicBalanceSystem, U) -> float:
+    """Truncation indicator of an HBM orbit: top share of ``x''`` or ``f``, at least two harmonics.
+
+    Same measure as the ``truncation`` of the branch datasets (share of the mean square
+    carried by the top tenth of the harmonics, the larger for ``x''`` and ``f``), with the
+    top share widened to two harmonics when ``H < 20`` so that it always contains an odd
+    harmonic (see the module docstring).
+    """
+    x, _, f, _, lam, _ = system.split(np.asarray(U, dtype=float))
+    share = max(0.1, 2.0 / system.H)
+    return max(
+        system.truncation_indicator(lam * system.second_derivative(x), share),
+        system.truncation_indicator(f, share),
+    )
+
+
+@dataclass
+class TruncationGuard:
+    """Stop criterion wrapper that refuses unresolved orbits.
+
+    Called like a stop criterion ``(U, diagnostics) -> reason``; raises
+    :class:`UnresolvedBranchError` when :func:`truncation_level` exceeds ``limit``, and
+    otherwise defers to ``inner``. ``largest`` keeps the largest level seen.
+    """
+
+    system: HarmonicBalanceSystem
+    inner: object
+    limit: float
+    label: str = "NNM1"
+    largest: float = 0.0
+    points: int = 0
+
+    def __post_init__(self):
+        if not (np.isfinite(self.limit) and 0.0 < self.limit < 1.0):
+            raise ValueError(f"max_truncation must be a number in (0, 1), got {self.limit!r}")
+
+    def __call__(self, U, diag) -> str:
+        self.points += 1
+        level = truncation_level(self.system, U)
+        self.largest = max(self.largest, level)
+        if level > self.limit:
+            p = self.system.params
+            raise UnresolvedBranchError(
+                f"{self.label}: truncation indicator {level:.4g} > max_truncation = {self.limit:g} at energy "
+                f"{diag['energy']:.6g} (frequency {diag['frequency']:.6g} Hz, point {self.points - 1}): H = "
+                f"{self.system.H} harmonics do not resolve the stop (alpha = {p.alpha:g}, eta = {p.eta:g}); "
+                "more harmonics or a larger eta are needed"
+            )
+        return self.inner(U, diag)
+
+
+# --------------------------------------------------------------------------- one guarded run
+
+
+@dataclass
+class StageRun:
+    """A timed, guarded continuation of NNM1 stage 1.
+
+    Attributes
+    ----------
+    dataset : xarray.Dataset or None
+        Branch dataset (layout of :mod:`nnmstop.branches`); None when the run failed.
+    failure : str
+        Why the run failed ('' when it converged).
+    runtime, cpu_time : float
+        Wall-clock and CPU seconds of the continuation (start point included).
+    stats : ContinuationStats or None
+        Cost counters (None when the run failed: the engine does not return them then).
+    truncation : float
+        Largest :func:`truncation_level` met along the run (up to the failure if any).
+    harmonics : int
+    """
+
+    dataset: xr.Dataset | None
+    failure: str
+    runtime: float
+    cpu_time: float
+    stats: ContinuationStats | None
+    truncation: float
+    harmonics: int
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def converged(self) -> bool:
+        return self.dataset is not None and not self.failure
+
+
+def _settings(config: dict) -> ANMSettings:
+    return ANMSettings.from_config(config["anm"], points_per_step=config["hbm"].get("points_per_step", 1))
+
+
+def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 1", energy_limit: float | None = None) -> StageRun:
+    """Continue NNM1 stage 1 of ``config`` with a :class:`TruncationGuard`; time it.
+
+    ``energy_limit`` (optional) also ends the stage at the first orbit above that energy
+    (past the range that will be compared), whichever comes first.
+
+    Never raises for a numerical failure: a :class:`~nnmstop.continuation.ContinuationError`
+    (a failed step, ``max_steps`` exhausted, an unresolved orbit), a
+    :class:`numpy.linalg.LinAlgError`, or a ``ValueError``/``FloatingPointError`` escaping
+    the engine (e.g. NaN reaching a linear solve) becomes ``StageRun.failure``;
+    ``StageRun.extra`` says whether it was an unresolved orbit (``unresolved``).
+    """
+    system = system_from_config(config)
+    spec = config["branches"]["nnm1"]
+    until = spec["stages"][0]["until"]
+    inner = stage_criterion(until, system.params, spec["mode"])
+    if energy_limit is not None:
+        stage_end, limit = inner, float(energy_limit)
+
+        def inner(U, diag):  # noqa: F811 - the stage criterion, or the energy limit first
+            return stage_end(U, diag) or (f"energy above {limit:g} (past the compared range)" if diag["energy"] > limit else "")
+
+    guard = TruncationGuard(system, inner, max_truncation, label)
+    wall, cpu = time.perf_counter(), time.process_time()
+    dataset, failure, stats = None, "", None
+    try:
+        U0, direction = start_point(system, spec["mode"], spec["start_amplitude"])
+        branch = continue_anm(system, U0, direction, guard, _settings(config), label=label, progress_seconds=30.0)
+        stats = branch.stats
+    except (ContinuationError, np.linalg.LinAlgError) as err:
+        failure = str(err) or type(err).__name__
+        unresolved = isinstance(err, UnresolvedBranchError)
+    except (ValueError, FloatingPointError) as err:  # the engine should have raised a ContinuationError
+        failure = f"{label}: the engine raised {type(err).__name__} (no step or energy given): {err}"
+        unresolved = False
+    else:
+        unresolved = False
+    runtime, cpu_time = time.perf_counter() - wall, time.process_time() - cpu
+    if not failure:
+        dataset = branch_dataset(system, branch, 1, config, "nnm1")
+    logger.info("%s, H = %d: %s in %.2f s", label, system.H, failure or "converged", runtime)
+    return StageRun(dataset, failure, runtime, cpu_time, stats, guard.largest, system.H, {"unresolved": unresolved})
+
+
+def path_error(system: HarmonicBalanceSystem, branch: xr.Dataset) -> tuple[float, float]:
+    """How far the stored points of a branch are from the HBM solution curve.
+
+    The point with the largest algebraic residual (interior points of ANM steps are not
+    Newton-corrected by the engine) is corrected by Newton's method at fixed amplitude
+    ``x_c^1`` (as :func:`nnmstop.branches.start_point` does). Returns the largest relative
+    algebraic residual and the relative frequency shift of that point.
+    """
+    residual = np.asarray(branch["algebraic_residual"].values, dtype=float)
+    k = int(np.argmax(residual))
+    U = dataset_unknowns(branch, system)[k]
+    direction = np.zeros(system.n_unknowns)
+    direction[system.slices["x"].start + 1] = 1.0
+    try:
+        corrected, _ = newton_correct(system, U, direction, ContinuationStats(), tol=1e-13)
+    except ContinuationError:
+        return float(residual[k]), float("nan")
+    f_point, f_curve = float(system.frequency_hz(U)), float(system.frequency_hz(corrected))
+    return float(residual[k]), abs(f_point - f_curve) / f_curve
+
+
+# --------------------------------------------------------------------------- matched energies
+
+
+def two_impact_arm(branch: xr.Dataset, exact: xr.Dataset | None = None) -> xr.Dataset:
+    """The branch from the start of its increasing-energy run that best covers the exact family.
+
+    Among the leading points with at most two impacts per period, the maximal runs of
+    strictly increasing energy are found; the one whose energy range overlaps the
+    increasing arm of the ``exact`` family (:func:`nnmstop.compare.exact_increasing_arm`)
+    the most, in ratio of energies, is kept (without ``exact``: the run reaching the
+    highest energy). That is the run from the linear mode for a large ``eta``, and from
+    the energy minimum after the grazing fold for a small one. The returned dataset
+    starts there, so that :func:`nnmstop.compare.regularized_monotone_part` (which takes
+    the leading increasing points) selects exactly that run.
+
+    Raises
+    ------
+    ValueError
+        If the branch has fewer than two leading points with at most two impacts.
+    """
+    impacts = np.asarray(branch["impacts_per_period"].values)
+    energy = np.asarray(branch["energy"].values, dtype=float)
+    over = np.flatnonzero(impacts > 2)
+    end = int(over[0]) if over.size else energy.size
+    if end < 2:
+        raise ValueError(f"the regularized branch has fewer than two leading orbits with at most two impacts (impacts {impacts[:3]})")
+    if exact is not None:
+        arm = np.asarray(exact["energy"].values[exact_increasing_arm(exact)], dtype=float)
+        lo, hi = float(arm[0]), float(arm[-1])
+    else:
+        lo, hi = 0.0, np.inf
+    runs, run_start = [], 0
+    for i in range(1, end + 1):
+        if i == end or energy[i] <= energy[i - 1]:
+            if i - 1 > run_start:
+                runs.append((run_start, i - 1))
+            run_start = i
+    if not runs:
+        raise ValueError("the regularized branch has no two consecutive orbits of increasing energy with at most two impacts")
+
+    def score(run):
+        first, last = run
+        if exact is None:
+            return energy[last]
+        return np.log(min(energy[last], hi) / max(energy[first], lo)) if energy[last] > lo and energy[first] < hi else -np.inf
+
+    best = max(runs, key=score)[0]
+    return branch.isel(point=slice(best, None))
+
+
+@dataclass
+class MatchedErrors:
+    """Errors of a regularized branch against the exact orbits at given energies.
+
+    ``values[key]`` (key in ``ERROR_KEYS``) holds one value per energy (NaN where the
+    energy could not be matched); ``orbits`` the matched HBM unknown vectors (None where
+    unmatched); ``failure`` the first matching failure ('' if all matched).
+    """
+
+    energies: np.ndarray
+    values: dict
+    orbits: list
+    system: HarmonicBalanceSystem | None
+    failure: str
+    exact_seconds_per_orbit: float
+    regularized_seconds_per_orbit: float
+    range: tuple = (np.nan, np.nan)
+
+    @property
+    def complete(self) -> bool:
+        return not self.failure
+
+
+def match_energies(
+    exact: xr.Dataset,
+    branch: xr.Dataset,
+    energies,
+    phase_samples: int = 2048,
+    end_margin: float = 0.01,
+) -> MatchedErrors:
+    """Match exact and regularized NNM1 orbits at ``energies`` with :mod:`nnmstop.compare`.
+
+    ``branch`` is a regularized NNM1 dataset (its :func:`two_impact_arm` is used). Energies
+    that cannot be matched (outside the common range, Newton failure, an exact orbit whose
+    maximum of ``x`` is not on a symmetry axis so that the phase alignment of
+    :func:`nnmstop.compare.orbit_differences` does not apply) get NaN and the first such
+    reason is recorded; nothing is raised for them.
+    """
+    energies = np.asarray(energies, dtype=float)
+    values = {key: np.full(energies.size, np.nan) for key in ERROR_KEYS}
+    orbits: list = [None] * energies.size
+    try:
+        matcher = EnergyMatcher(exact, two_impact_arm(branch, exact), end_margin)
+    except ValueError as err:
+        return MatchedErrors(energies, values, orbits, None, f"no common two-impact range: {err}", np.nan, np.nan)
+    failure = ""
+    t_exact, t_reg, n_exact, n_reg = 0.0, 0.0, 0, 0
+    for i, energy in enumerate(energies):
+        try:
+            start = time.perf_counter()
+            matcher.exact_orbit(energy)
+            seconds_exact = time.perf_counter() - start
+            start = time.perf_counter()
+            pair = matcher.match(energy)  # solves the exact orbit again (cheap), then the HBM one
+            seconds_match = time.perf_counter() - start
+            diff = orbit_differences(pair, matcher.system, phase_samples)
+        except ValueError as err:  # outside the common range, Newton failure, no common phase alignment
+            failure = failure or f"energy {energy:g}: {err}"
+            continue
+        t_exact += seconds_exact
+        n_exact += 1
+        t_reg += max(seconds_match - seconds_exact, 0.0)
+        n_reg += 1
+        for key in ERROR_KEYS:
+            values[key][i] = diff[key]
+        orbits[i] = pair.regularized
+    return MatchedErrors(
+        energies, values, orbits, matcher.system, failure,
+        t_exact / n_exact if n_exact else np.nan, t_reg / n_reg if n_reg else np.nan, matcher.energy_range,
+    )
+
+
+def hbm_orbit_differences(
+    system: HarmonicBalanceSystem, U, reference_system: HarmonicBalanceSystem, U_reference, phase_samples: int = 2048
+) -> dict:
+    """Differences between two HBM orbits (e.g. ``H`` and a much larger ``H``) at one energy.
+
+    Same phase alignment and same maximum as :func:`nnmstop.compare.orbit_differences`
+    (``t/T`` of each orbit, origin at the maximum of ``x``; the largest difference on
+    ``phase_samples`` phases, refined on a grid 256 times finer around it). Returns the
+    frequency difference relative to the reference frequency and the largest differences
+    of ``x``, ``u`` and ``f``.
+    """
+    n = int(phase_samples)
+    phase = np.arange(n) / n
+    a, shift_a = _regularized_on_phase(system, U, phase)
+    b, shift_b = _regularized_on_phase(reference_system, U_reference, phase)
+    fa, fb = float(system.frequency_hz(U)), float(reference_system.frequency_hz(U_reference))
+    out = {"relative_frequency_difference": (fa - fb) / fb}
+    for key, name in (("x", "max_x_difference"), ("u", "max_u_difference"), ("f", "max_force_difference")):
+        diff = np.abs(a[key] - b[key])
+        j = int(np.argmax(diff))
+        local = phase[j] + np.linspace(-1.0, 1.0, 513) / n
+        fine = np.abs(
+            _regularized_on_phase(system, U, local, shift_a)[0][key]
+            - _regularized_on_phase(reference_system, U_reference, local, shift_b)[0][key]
+        )
+        out[name] = float(max(diff[j], fine.max()))
+    return out
+
+
+# --------------------------------------------------------------------------- dataset variables
+
+
+def variable(dims, values, long_name: str, units: str = "1", dtype=float, **extra):
+    """A labelled variable tuple; NaN floats become ``FILL_VALUE`` with ``_FillValue`` set."""
+    values = np.asarray(values, dtype=dtype)
+    attrs = {"long_name": long_name, "units": units, **extra}
+    if np.issubdtype(values.dtype, np.floating):
+        missing = ~np.isfinite(values)
+        if missing.any():
+            values = np.where(missing, FILL_VALUE, values)
+        attrs["_FillValue"] = FILL_VALUE
+    return (dims, values, attrs)
+
+
+def string_variable(dims, values, long_name: str):
+    """A labelled variable of strings (empty string: nothing to report)."""
+    return (dims, np.asarray(values, dtype=str), {"long_name": long_name, "units": "1"})

@@ -1,0 +1,635 @@
+"""Stiff and extreme cases: does each solver stay exact, converge, or say plainly that it cannot.
+
+Three sweeps (issue 5, part 2), each case its own Snakemake job:
+
+``alpha x eta`` (``beta``, ``delta`` of the configuration)
+    Exact family (:func:`exact_checks`) and a guarded continuation of NNM1 stage 1
+    (:func:`nnmstop.study.runs.run_stage_one`) tried with the harmonics of
+    ``study.stiff.harmonics`` in increasing order until one resolves the branch
+    (truncation indicator at most ``study.max_truncation`` at every orbit). The first
+    that does is kept with its steps, factorizations and run time, and its orbits are
+    compared with the exact ones at ``study.stiff.compare_count`` energies inside the
+    exact family's increasing arm (:func:`exact_energies`: the same for every ``eta``).
+    When none does, the case is ``converged = False`` with every attempt's reason; a
+    failure that more harmonics do not address (a failed step, ``max_steps``) ends the
+    ladder at once.
+``beta x delta`` (``alpha``, ``eta`` of the configuration)
+    The same for the stiffness and mass ratios.
+``energy x energy_alpha``
+    The exact solver at energies from ``1e-6`` to ``1e6`` (:func:`energy_case`): the
+    linear mode below grazing, the first two-impact family, or the high-energy
+    two-impact segment (:func:`nnmstop.exact.high_energy_orbit`, exactly at the energy);
+    where no two-impact orbit exists the solver must refuse (validity margins), and it
+    is recorded so. Each exact orbit is checked for periodicity by the event-locating
+    integrator (:func:`nnmstop.time_integration.integrate_nonsmooth`), and an HBM orbit
+    of the regularized model is computed at the same place (``H`` and ``eta`` of
+    ``study.stiff.energy_harmonics`` / ``energy_eta``) and compared.
+
+Exactness of the exact solver
+-----------------------------
+For every family: the largest residual of the quarter-period equations, and one orbit
+(the middle one) integrated over a period with event location at the stops: the
+largest ``|z(T) - z(0)|`` and the largest difference from the closed form at 16 times,
+both relative to the largest state component. The end of the family is *confirmed* by
+restarting the continuation just before it with a step 100 times smaller: a
+continuation step much longer than the contact duration (``~ pi / sqrt(alpha)``) can
+otherwise stop the family at a point that is not its end (with ``alpha = 1e6`` and the
+default step the family "ends" two orbits after grazing). An unconfirmed end is
+recorded and the family is recomputed with a step ten times smaller.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.optimize
+import xarray as xr
+
+from ..branches import start_point, system_from_config
+from ..compare import exact_increasing_arm
+from ..continuation import ContinuationError, ContinuationStats, newton_correct
+from ..datasets import write_dataset
+from ..exact import (
+    TwoImpactProblem,
+    assess_orbit,
+    family_dataset,
+    follow_family,
+    grazing_orbit,
+    high_energy_orbit,
+    time_history,
+)
+from ..model import ModelParameters, linear_modes, stiffness_matrix
+from ..time_integration import integrate_nonsmooth
+from .error_runtime import study_settings
+from .runs import (
+    case_config,
+    format_number,
+    match_energies,
+    run_stage_one,
+    string_variable,
+    truncation_level,
+    variable,
+)
+
+__all__ = [
+    "stiff_paths",
+    "exact_checks",
+    "periodicity_check",
+    "stiff_exact_dataset",
+    "exact_energies",
+    "stiff_branch_dataset",
+    "energy_case",
+    "energy_sweep_dataset",
+    "gather_stiff_cases",
+    "build_stiff_exact",
+    "build_stiff_branch",
+    "build_stiff_energy",
+    "build_stiff_cases",
+]
+
+logger = logging.getLogger("nnmstop.study.stiff")
+
+STIFF_DIR = "results/study/stiff"
+ENERGY_KINDS = ("linear", "family", "high_energy", "none")
+
+
+# --------------------------------------------------------------------------- file names
+
+
+def _tag(alpha, beta, delta) -> str:
+    return f"a{format_number(alpha)}_b{format_number(beta)}_d{format_number(delta)}"
+
+
+def stiff_paths(config: dict) -> dict:
+    """Files of the stiff-case jobs: ``exact`` and ``branches`` (unique, sorted) and ``energy``."""
+    stiff = study_settings(config)["stiff"]
+    model = config["model"]
+    combos = {(float(a), float(model["beta"]), float(model["delta"]), float(e)) for a in stiff["alpha"] for e in stiff["eta"]}
+    combos |= {(float(model["alpha"]), float(b), float(d), float(model["eta"])) for b in stiff["ratios"] for d in stiff["ratios"]}
+    combos = sorted(combos)
+    exact = sorted({f"{STIFF_DIR}/exact_{_tag(a, b, d)}.nc" for a, b, d, _ in combos})
+    branches = [f"{STIFF_DIR}/nnm1_{_tag(a, b, d)}_e{format_number(e)}.nc" for a, b, d, e in combos]
+    energy = [f"{STIFF_DIR}/energy_a{format_number(a)}.nc" for a in stiff["energy_alpha"]]
+    return {"exact": exact, "branches": branches, "energy": energy}
+
+
+def _params(config: dict, alpha, beta, delta, eta=None) -> ModelParameters:
+    eta = float(config["model"]["eta"] if eta is None else eta)
+    return ModelParameters(alpha=float(alpha), beta=float(beta), delta=float(delta), eta=eta)
+
+
+# --------------------------------------------------------------------------- exact solver checks
+
+
+def periodicity_check(params: ModelParameters, y, samples: int = 16) -> dict:
+    """Integrate the exact orbit ``y`` over one period with event location; compare.
+
+    Returns ``periodicity_error`` (``max |z(T) - z(0)|``) and ``integration_difference``
+    (largest difference from the closed form at ``samples`` times), both relative to
+    the largest state component, and the integration time.
+    """
+    y = np.asarray(y, dtype=float)
+    period = 4.0 * y[3]
+    t = np.linspace(0.0, period, samples + 1)
+    start = time.perf_counter()
+    trajectory = integrate_nonsmooth(params, [0.0, 0.0, y[0], y[1]], t)
+    seconds = time.perf_counter() - start
+    exact = time_history(y, params, t)
+    closed = np.column_stack([exact.x, exact.u, exact.xdot, exact.udot])
+    scale = float(np.abs(closed).max())
+    return {
+        "periodicity_error": float(np.abs(trajectory.states[-1] - trajectory.states[0]).max() / scale),
+        "integration_difference": float(np.abs(trajectory.states - closed).max() / scale),
+        "integration_seconds": seconds,
+    }
+
+
+def exact_checks(params: ModelParameters, step: float, max_points: int) -> tuple:
+    """Follow the exact family, confirm its end, check an orbit by integration.
+
+    Returns ``(family, checks)``: the family (recomputed with a step ten times smaller
+    when the end was not confirmed) and a dict of the checks (see the module docstring).
+    """
+    start = time.perf_counter()
+    family = follow_family(params, step=step, max_points=max_points)
+    seconds = time.perf_counter() - start
+    confirmed, note = _confirm_end(params, family)
+    used_step = step
+    if not confirmed:
+        logger.warning("alpha = %g: %s; following the family again with step %g", params.alpha, note, step / 10)
+        used_step = step / 10
+        start = time.perf_counter()
+        family = follow_family(params, step=used_step, max_points=max_points)
+        seconds = time.perf_counter() - start
+    problem = TwoImpactProblem(params)
+    residuals = np.array([np.linalg.norm(problem.residual(y)) for y in family.unknowns])
+    # the residual relative to the scale of the equations (velocities times the contact frequency)
+    scale = max(1.0, float(np.sqrt(1.0 + params.beta + params.alpha)) * float(np.abs(family.unknowns[:, :2]).max()))
+    middle = family.unknowns[len(family) // 2]
+    checks = {
+        "orbits": len(family),
+        "energy_min": float(family.energy.min()),
+        "energy_max": float(family.energy.max()),
+        "end_reason": family.end_reason,
+        "end_margin": family.end_margin or "none",
+        "end_confirmed": bool(confirmed),
+        "end_check": note,
+        "step": float(used_step),
+        "max_residual": float(residuals.max()),
+        "relative_residual": float(residuals.max() / scale),
+        "seconds_per_orbit": seconds / len(family),
+        **periodicity_check(params, middle),
+    }
+    return family, checks
+
+
+def _confirm_end(params: ModelParameters, family) -> tuple[bool, str]:
+    """Restart before the end with a step 100 times smaller; the end must be met again."""
+    if not family.end_margin:
+        return True, "the family did not end on a violated assumption (nothing to confirm)"
+    if len(family) < 3:
+        start_y, direction = family.unknowns[0], family.unknowns[-1] - family.unknowns[0]
+    else:
+        start_y, direction = family.unknowns[-3], family.unknowns[-2] - family.unknowns[-3]
+    span = float(np.linalg.norm(family.unknowns[-1] - start_y))
+    fine_step = family.step / 100.0
+    points = int(min(20000, max(50, 3.0 * span / fine_step)))
+    fine = follow_family(params, step=fine_step, max_points=points, start=start_y, direction=direction)
+    end_a, end_b = family.energy[-1], fine.energy[-1]
+    same = fine.end_margin == family.end_margin and abs(end_b - end_a) <= 1e-6 * abs(end_a)
+    if same:
+        return True, f"end confirmed with step {fine_step:g} ({fine.end_margin} at energy {end_b:.9g})"
+    return False, (
+        f"end NOT confirmed: with step {family.step:g} the family ends at energy {end_a:.9g} ({family.end_margin}), "
+        f"restarted with step {fine_step:g} it goes on to {end_b:.9g} ({fine.end_margin or fine.end_reason})"
+    )
+
+
+def stiff_exact_dataset(config: dict, alpha, beta, delta) -> xr.Dataset:
+    """The exact family of one ``(alpha, beta, delta)`` with its checks as scalar variables."""
+    params = _params(config, alpha, beta, delta)
+    family, checks = exact_checks(params, float(config["exact"]["step"]), int(config["exact"]["max_points"]))
+    ds = family_dataset(family)
+    for key, long_name, units in (
+        ("relative_residual", "largest residual of the quarter-period equations, relative to max velocity * sqrt(1 + beta + alpha)", "1"),
+        ("periodicity_error", "middle orbit integrated over one period with event location: max |z(T) - z(0)| / max |z|", "1"),
+        ("integration_difference", "middle orbit: largest difference between integration and closed form / max |z|", "1"),
+        ("integration_seconds", "time of that integration", "s"),
+        ("seconds_per_orbit", "time per orbit of the family continuation", "s"),
+        ("step", "continuation step used", "1"),
+    ):
+        ds[f"check_{key}"] = variable((), checks[key], long_name, units)
+    ds["check_end_confirmed"] = ((), checks["end_confirmed"], {"long_name": "the end of the family was met again with a step 100 times smaller", "units": "1"})
+    ds["check_end_note"] = string_variable((), checks["end_check"], "how the end of the family was confirmed")
+    return ds
+
+
+def build_stiff_exact(config: dict, inputs: dict, output_path, alpha, beta, delta) -> Path:
+    """Pipeline task: exact family and checks of one ``(alpha, beta, delta)``."""
+    ds = stiff_exact_dataset(config, float(alpha), float(beta), float(delta))
+    return write_dataset(
+        ds, output_path, title="Study (stiff cases): exact two-impact NNM1 family with exactness checks",
+        summary="Exact family, residuals, periodicity by event-located integration (measurement of the study).",
+        keywords="study, stiff cases",
+    )
+
+
+# --------------------------------------------------------------------------- regularized branch
+
+
+def exact_energies(exact: xr.Dataset, count: int) -> np.ndarray:
+    """``count`` energies inside the exact family's increasing arm, at the log-fractions k/(count+1).
+
+    They depend on the exact family only, so every ``eta`` of one ``alpha`` is compared at
+    the same energies, away from both ends of the family (folds, where matching is
+    ill-conditioned).
+    """
+    if int(count) != count or count < 1:
+        raise ValueError(f"compare_count must be an integer >= 1, got {count!r}")
+    arm = np.asarray(exact["energy"].values[exact_increasing_arm(exact)], dtype=float)
+    fractions = np.arange(1, int(count) + 1) / (int(count) + 1)
+    return arm[0] * (arm[-1] / arm[0]) ** fractions
+
+
+def stiff_branch_dataset(config: dict, exact: xr.Dataset, alpha, beta, delta, eta) -> xr.Dataset:
+    """Harmonics ladder for NNM1 stage 1 of one case, and errors against the exact family.
+
+    The ladder goes on to more harmonics only when an attempt is refused as unresolved;
+    any other failure (a step that fails, ``max_steps`` exhausted) is not a matter of
+    harmonics and ends it. Each attempt stops at the end of stage 1 or past
+    ``study.stiff.energy_limit_factor`` times the highest energy of the exact family.
+    """
+    study = study_settings(config)
+    stiff = study["stiff"]
+    ladder = [int(h) for h in stiff["harmonics"]]
+    energies = exact_energies(exact, int(stiff["compare_count"])) if "energy" in exact else np.array([])
+    energy_limit = float(stiff["energy_limit_factor"]) * float(exact["energy"].max()) if "energy" in exact else None
+    attempts, run = [], None
+    total = 0.0
+    for H in ladder:
+        cfg = case_config(config, harmonics=H, alpha=alpha, beta=beta, delta=delta, eta=eta, max_steps=stiff["max_steps"])
+        run = run_stage_one(
+            cfg, float(study["max_truncation"]), energy_limit=energy_limit,
+            label=f"NNM1 stage 1 (alpha {alpha:g}, beta {beta:g}, delta {delta:g}, eta {eta:g}, H {H})",
+        )
+        total += run.runtime
+        attempts.append(f"H={H}: " + (run.failure or f"converged ({run.stats.steps} steps, {run.stats.factorizations} factorizations)"))
+        if run.converged or not run.extra.get("unresolved"):
+            break
+    converged = run.converged
+    if converged:
+        failure = ""
+    elif run.extra.get("unresolved"):
+        failure = "no number of harmonics tried resolves the branch: " + " | ".join(attempts)
+    else:
+        failure = "the continuation fails for a reason more harmonics do not address: " + attempts[-1]
+    errors = {"relative_frequency_difference": np.nan, "max_x_difference": np.nan, "max_u_difference": np.nan, "max_force_difference": np.nan}
+    relative_force = np.nan
+    energy_range = (float(energies[0]), float(energies[-1])) if energies.size else (np.nan, np.nan)
+    compared = False
+    if converged:
+        matched = match_energies(exact, run.dataset, energies, int(study["phase_samples"]), float(study["end_margin"]))
+        if matched.complete:
+            for key in errors:
+                errors[key] = float(np.max(np.abs(matched.values[key])))
+            relative_force = float(np.max(matched.values["max_force_difference"] / matched.values["force_max_exact"]))
+            compared = True
+        else:
+            failure = f"converged but not compared with the exact family: {matched.failure}"
+    stats = run.stats
+    data = {
+        "converged": ((), converged, {"long_name": "NNM1 stage 1 converged with every orbit resolved, for one of the harmonics tried", "units": "1"}),
+        "compared": ((), compared, {"long_name": "converged and compared with the exact family at every chosen energy", "units": "1"}),
+        "failure": string_variable((), failure, "why the case did not converge or was not compared ('' if it was)"),
+        "attempts": string_variable((), " | ".join(attempts), "every number of harmonics tried, with its outcome"),
+        "harmonics": ((), np.int32(run.harmonics if converged else -1), {"long_name": "smallest number of harmonics tried that resolves the branch (-1: none)", "units": "1"}),
+        "steps": ((), np.int32(stats.steps if converged else -1), {"long_name": "ANM steps of the resolving run (-1: none)", "units": "1"}),
+        "factorizations": ((), np.int32(stats.factorizations if converged else -1), {"long_name": "LU factorizations of the resolving run (-1: none)", "units": "1"}),
+        "runtime": variable((), run.runtime if converged else np.nan, "wall-clock time of the resolving run", "s"),
+        "total_runtime": variable((), total, "wall-clock time of every attempt together", "s"),
+        "truncation": variable((), run.truncation, "largest truncation indicator of the last attempt (up to its end or failure)"),
+        "frequency_error": variable((), errors["relative_frequency_difference"], "largest |relative frequency error| against the exact orbits at the compared energies"),
+        "x_error": variable((), errors["max_x_difference"], "largest |x_regularized - x_exact| over the period and the compared energies"),
+        "u_error": variable((), errors["max_u_difference"], "largest |u_regularized - u_exact| over the period and the compared energies"),
+        "force_error": variable((), errors["max_force_difference"], "largest contact-force difference over the period and the compared energies"),
+        "relative_force_error": variable((), relative_force, "largest contact-force difference relative to the largest exact force"),
+        "compared_energy_min": variable((), energy_range[0], "lowest compared energy (log-fraction 1/(n+1) of the exact increasing arm)"),
+        "compared_energy_max": variable((), energy_range[1], "highest compared energy (log-fraction n/(n+1) of the exact increasing arm)"),
+    }
+    ds = xr.Dataset(data)
+    ds.attrs = {"alpha": float(alpha), "beta": float(beta), "delta": float(delta), "eta": float(eta),
+                "harmonics_tried": ", ".join(str(h) for h in ladder), "max_truncation": float(study["max_truncation"])}
+    return ds
+
+
+def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, delta, eta) -> Path:
+    """Pipeline task: harmonics ladder of one stiff case against its exact family."""
+    with xr.open_dataset(inputs["exact"]) as ds:
+        exact = ds.load()
+    out = stiff_branch_dataset(config, exact, float(alpha), float(beta), float(delta), float(eta))
+    logger.info("converged %s with H = %d; %s", bool(out["converged"]), int(out["harmonics"]), str(out["failure"].values) or "compared")
+    return write_dataset(
+        out, output_path, title="Study (stiff cases): regularized NNM1 stage 1, harmonics needed and error",
+        summary="Harmonics ladder of a guarded continuation against the exact family (measurement of the study).",
+        keywords="study, stiff cases",
+    )
+
+
+# --------------------------------------------------------------------------- energy sweep
+
+
+def _linear_amplitude(params: ModelParameters, energy: float, limit: str) -> tuple[float, np.ndarray, float]:
+    """x amplitude of the first linear mode of ``limit`` with total energy ``energy``."""
+    omega, shapes = linear_modes(params, limit)
+    phi = shapes[:, 0]
+    added = {"no_contact": 0.0, "regularized": params.eta}[limit]
+    stiffness = float(phi @ stiffness_matrix(params, added) @ phi)
+    return float(np.sqrt(2.0 * energy / stiffness)), phi, float(omega[0])
+
+
+def _high_energy_at(params: ModelParameters, energy: float):
+    """Exact high-energy two-impact orbit at exactly ``energy`` (brentq on its turning point)."""
+    problem = TwoImpactProblem(params)
+    omega, shapes = linear_modes(params, "gap_zero")
+    phi = shapes[:, 0]
+    k = float(phi @ stiffness_matrix(params, params.alpha) @ phi)
+    guess = max(1.5, float(np.sqrt(2.0 * energy / k)) + 1.0)
+
+    def mismatch(x_max):
+        return np.log(problem.energy(high_energy_orbit(params, x_max)) / energy)
+
+    lo, hi = guess / 2.0 + 0.5, guess * 2.0
+    for _ in range(20):
+        if mismatch(lo) < 0:
+            break
+        lo = 1.0 + (lo - 1.0) / 2.0
+    for _ in range(20):
+        if mismatch(hi) > 0:
+            break
+        hi *= 2.0
+    x_max = scipy.optimize.brentq(mismatch, lo, hi, xtol=1e-14 * hi, rtol=1e-15)
+    return high_energy_orbit(params, x_max)
+
+
+def _hbm_from_exact(system, params: ModelParameters, y) -> np.ndarray:
+    """HBM seed from an exact orbit: Fourier coefficients of x, u, the piecewise force, z."""
+    samples = system.M
+    t = y[3] + np.arange(samples) / samples * 4.0 * y[3]  # origin at the turning point: a cosine series
+    h = time_history(y, params, t)
+    x, u, f = (system.to_coefficients(v) for v in (h.x, h.u, h.force))
+    g_t = system.to_time(f / params.alpha - x)
+    z = system.to_coefficients(g_t * g_t)
+    return system.pack(x, u, f, z, (2.0 * np.pi / (4.0 * y[3])) ** 2)
+
+
+def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
+    """Exact solver and HBM at one energy (see the module docstring); never raises for numerics.
+
+    ``family`` is the first exact two-impact family of these parameters (followed here if None).
+    """
+    stiff = study_settings(config)["stiff"]
+    eta = float(stiff["energy_eta"])
+    params = _params(config, alpha, config["model"]["beta"], config["model"]["delta"], eta)
+    problem = TwoImpactProblem(params)
+    out = {"kind": "none", "exact_energy": np.nan, "exact_frequency": np.nan, "exact_residual": np.nan,
+           "periodicity_error": np.nan, "integration_difference": np.nan, "exact_note": "",
+           "hbm_converged": False, "hbm_failure": "", "hbm_frequency_difference": np.nan,
+           "hbm_energy_mismatch": np.nan, "hbm_truncation": np.nan}
+    grazing = problem.energy(grazing_orbit(params))
+    y = None
+    if family is None:
+        family = follow_family(params, step=float(config["exact"]["step"]), max_points=int(config["exact"]["max_points"]))
+    if energy < grazing:
+        amplitude, phi, omega = _linear_amplitude(params, energy, "no_contact")
+        out.update(kind="linear", exact_energy=energy, exact_frequency=omega / (2 * np.pi), exact_residual=0.0,
+                   exact_note=f"below the grazing energy {grazing:.6g}: the linear mode (x amplitude {amplitude:.3g}), no impact")
+        y = np.array([amplitude * omega, amplitude * omega * phi[1], 0.5 * np.pi / omega, 0.5 * np.pi / omega])
+    elif family.energy.min() <= energy <= family.energy.max():
+        i = int(np.argmin(np.abs(np.log(family.energy / energy))))
+        y = family.unknowns[i]
+        out.update(kind="family", exact_note=f"first two-impact family, nearest orbit (energy {family.energy[i]:.9g})")
+    else:
+        try:
+            y = _high_energy_at(params, energy)
+            check = assess_orbit(y, params, problem)
+            if check.valid:
+                out.update(kind="high_energy", exact_note="high-energy two-impact segment, solved at exactly this energy")
+            else:
+                out["exact_note"] = f"the high-energy two-impact orbit at this energy violates {', '.join(check.violated)}"
+                y = None
+        except (ValueError, RuntimeError) as err:
+            out["exact_note"] = f"no high-energy two-impact orbit found: {err}"
+            y = None
+        if y is None:
+            out["exact_note"] += (
+                f"; outside the first two-impact family ({family.energy.min():.6g}..{family.energy.max():.6g}): no "
+                "two-impact orbit at this energy (multi-impact regime); the exact solver refuses"
+            )
+    if y is None:
+        out["hbm_failure"] = "no exact two-impact orbit to compare with"
+        return out
+    if out["kind"] != "linear":
+        out.update(exact_energy=problem.energy(y), exact_frequency=1.0 / (4.0 * y[3]),
+                   exact_residual=float(np.linalg.norm(problem.residual(y))))
+    out.update({k: v for k, v in periodicity_check(params, y).items() if k != "integration_seconds"})
+    # the regularized orbit at the same place
+    cfg = case_config(config, harmonics=int(stiff["energy_harmonics"]), alpha=params.alpha, eta=params.eta)
+    system = system_from_config(cfg)
+    try:
+        if out["kind"] == "linear":
+            amplitude, _, _ = _linear_amplitude(params, energy, "regularized")
+            if not amplitude < 1.0:
+                raise ContinuationError(f"the regularized linear mode at energy {energy:g} has x amplitude {amplitude:.3g} >= 1")
+            U, _ = start_point(system, 1, amplitude)
+        else:
+            direction = np.zeros(system.n_unknowns)
+            direction[system.slices["x"].start + 1] = 1.0
+            U, _ = newton_correct(system, _hbm_from_exact(system, params, y), direction, ContinuationStats(), tol=1e-12)
+        level = truncation_level(system, U)
+        out["hbm_truncation"] = level
+        limit = float(study_settings(config)["max_truncation"])
+        if level > limit:  # no number for an unresolved orbit: only the indicator and the reason
+            out["hbm_failure"] = f"H = {system.H} does not resolve the orbit (truncation indicator {level:.4g} > {limit:g})"
+        else:
+            diag = system.diagnostics(U)
+            out.update(hbm_converged=True,
+                       hbm_frequency_difference=(diag["frequency"] - out["exact_frequency"]) / out["exact_frequency"],
+                       hbm_energy_mismatch=(diag["energy"] - out["exact_energy"]) / out["exact_energy"])
+    except (ContinuationError, np.linalg.LinAlgError, ValueError) as err:
+        out["hbm_failure"] = f"HBM orbit not found: {err}"
+    return out
+
+
+def energy_sweep_dataset(config: dict, alpha: float) -> xr.Dataset:
+    """Every energy of ``study.stiff.energies`` for one ``alpha`` (dimension ``energy``)."""
+    stiff = study_settings(config)["stiff"]
+    energies = np.asarray(stiff["energies"], dtype=float)
+    params = _params(config, alpha, config["model"]["beta"], config["model"]["delta"], stiff["energy_eta"])
+    family = follow_family(params, step=float(config["exact"]["step"]), max_points=int(config["exact"]["max_points"]))
+    rows = [energy_case(config, float(alpha), float(e), family) for e in energies]
+    col = lambda key: [r[key] for r in rows]  # noqa: E731
+    e = ("energy",)
+    data = {
+        "kind": string_variable(e, col("kind"), f"exact orbit used: one of {', '.join(ENERGY_KINDS)} (none: no two-impact orbit)"),
+        "exact_note": string_variable(e, col("exact_note"), "how the exact orbit was found, or why there is none"),
+        "exact_energy": variable(e, col("exact_energy"), "energy of the exact orbit"),
+        "exact_frequency": variable(e, col("exact_frequency"), "frequency of the exact orbit", "Hz"),
+        "exact_residual": variable(e, col("exact_residual"), "norm of the quarter-period equations of the exact orbit"),
+        "periodicity_error": variable(e, col("periodicity_error"), "event-located integration over one period: max |z(T) - z(0)| / max |z|"),
+        "integration_difference": variable(e, col("integration_difference"), "largest difference between integration and closed form / max |z|"),
+        "hbm_converged": (e, np.array(col("hbm_converged"), dtype=bool), {"long_name": "an HBM orbit of the regularized model was found there and is resolved", "units": "1"}),
+        "hbm_failure": string_variable(e, col("hbm_failure"), "why there is no resolved HBM orbit ('' if there is)"),
+        "hbm_frequency_difference": variable(e, col("hbm_frequency_difference"), "(HBM frequency - exact frequency) / exact frequency"),
+        "hbm_energy_mismatch": variable(e, col("hbm_energy_mismatch"), "(HBM energy - exact energy) / exact energy (the HBM orbit keeps the x amplitude)"),
+        "hbm_truncation": variable(e, col("hbm_truncation"), "truncation indicator of the HBM orbit"),
+    }
+    ds = xr.Dataset(data, coords={"energy": ("energy", energies, {"long_name": "requested total energy", "units": "1"})})
+    ds.attrs = {"alpha": float(alpha), "beta": float(config["model"]["beta"]), "delta": float(config["model"]["delta"]),
+                "eta": float(stiff["energy_eta"]), "harmonics": int(stiff["energy_harmonics"])}
+    return ds
+
+
+def build_stiff_energy(config: dict, inputs: dict, output_path, alpha) -> Path:
+    """Pipeline task: the energy sweep of one ``alpha``."""
+    return write_dataset(
+        energy_sweep_dataset(config, float(alpha)), output_path,
+        title="Study (stiff cases): exact solver and HBM at energies from 1e-6 to 1e6",
+        summary="Exact orbits and their periodicity by integration, and HBM orbits, at extreme energies (study).",
+        keywords="study, stiff cases",
+    )
+
+
+# --------------------------------------------------------------------------- gather
+
+
+def _load(path) -> xr.Dataset:
+    with xr.open_dataset(path) as ds:
+        return ds.load()
+
+
+def gather_stiff_cases(config: dict, inputs: dict) -> xr.Dataset:
+    """Assemble the stiff-case files into ``stiff_cases`` (grids ``alpha x eta``, ``beta x delta``, ``energy``)."""
+    study = study_settings(config)
+    stiff = study["stiff"]
+    model = config["model"]
+    alphas = [float(a) for a in stiff["alpha"]]
+    etas = [float(e) for e in stiff["eta"]]
+    ratios = [float(r) for r in stiff["ratios"]]
+    energy_alphas = [float(a) for a in stiff["energy_alpha"]]
+    exact = {Path(p).name: _load(p) for p in inputs["exact"]}
+    branches = {Path(p).name: _load(p) for p in inputs["branches"]}
+    energy = [_load(p) for p in inputs["energy"]]
+    expected = stiff_paths(config)
+    for kind in ("exact", "branches", "energy"):
+        names = sorted(Path(p).name for p in inputs[kind])
+        if names != sorted(Path(p).name for p in expected[kind]):
+            raise ValueError(f"the stiff {kind} inputs {names} do not match the configuration")
+
+    def branch(a, b, d, e):
+        return branches[f"nnm1_{_tag(a, b, d)}_e{format_number(e)}.nc"]
+
+    def fam(a, b, d):
+        return exact[f"exact_{_tag(a, b, d)}.nc"]
+
+    b0, d0, a0, e0 = float(model["beta"]), float(model["delta"]), float(model["alpha"]), float(model["eta"])
+    branch_scalars = ("runtime", "total_runtime", "truncation", "frequency_error", "x_error", "u_error", "force_error", "relative_force_error", "compared_energy_min", "compared_energy_max")
+    branch_ints = ("harmonics", "steps", "factorizations")
+    exact_scalars = ("check_relative_residual", "check_periodicity_error", "check_integration_difference", "check_seconds_per_orbit", "check_step")
+    data = {}
+
+    def put_branch(prefix, dims, grid):
+        shape = tuple(len(v) for v in grid.values())
+        cases = np.empty(shape, dtype=object)
+        for idx in np.ndindex(shape):
+            cases[idx] = grid_case(grid, idx)
+        get = lambda key, cast: np.vectorize(lambda c: cast(c[key].values), otypes=[object])(cases)  # noqa: E731
+        data[f"{prefix}converged"] = (dims, get("converged", bool).astype(bool), {"long_name": "NNM1 stage 1 converged with every orbit resolved for one of the harmonics tried", "units": "1"})
+        data[f"{prefix}compared"] = (dims, get("compared", bool).astype(bool), {"long_name": "converged and compared with the exact family at every chosen energy", "units": "1"})
+        data[f"{prefix}failure"] = string_variable(dims, get("failure", str).astype(str), "why the case did not converge or was not compared ('' if it was)")
+        data[f"{prefix}attempts"] = string_variable(dims, get("attempts", str).astype(str), "every number of harmonics tried, with its outcome")
+        for key in branch_ints:
+            src = next(iter(branches.values()))[key]
+            data[f"{prefix}{key}"] = (dims, get(key, int).astype(np.int32), dict(src.attrs))
+        for key in branch_scalars:
+            src = next(iter(branches.values()))[key]
+            values = get(key, float).astype(float)
+            data[f"{prefix}{key}"] = variable(dims, values, src.attrs["long_name"], src.attrs["units"])
+
+    def grid_case(grid, idx):
+        values = {name: vals[i] for (name, vals), i in zip(grid.items(), idx)}
+        return branch(values.get("alpha", a0), values.get("beta", b0), values.get("delta", d0), values.get("eta", e0))
+
+    put_branch("", ("alpha", "eta"), {"alpha": alphas, "eta": etas})
+    put_branch("ratio_", ("beta", "delta"), {"beta": ratios, "delta": ratios})
+
+    def put_exact(prefix, dims, cases):
+        shape = cases.shape
+        for key in exact_scalars:
+            src = next(iter(exact.values()))[key]
+            values = np.array([float(c[key]) for c in cases.ravel()]).reshape(shape)
+            data[f"{prefix}{key.replace('check_', 'exact_')}"] = variable(dims, values, "exact solver: " + src.attrs["long_name"], src.attrs["units"])
+        data[f"{prefix}exact_max_residual"] = variable(dims, np.array([float(c.attrs["max_residual"]) for c in cases.ravel()]).reshape(shape), "exact solver: largest residual norm of the quarter-period equations")
+        data[f"{prefix}exact_orbits"] = (dims, np.array([c.sizes["point"] for c in cases.ravel()], dtype=np.int32).reshape(shape), {"long_name": "exact solver: orbits of the two-impact family", "units": "1"})
+        data[f"{prefix}exact_energy_min"] = variable(dims, np.array([float(c["energy"].min()) for c in cases.ravel()]).reshape(shape), "exact solver: lowest energy of the two-impact family")
+        data[f"{prefix}exact_energy_max"] = variable(dims, np.array([float(c["energy"].max()) for c in cases.ravel()]).reshape(shape), "exact solver: highest energy of the two-impact family")
+        data[f"{prefix}exact_end_reason"] = string_variable(dims, np.array([c.attrs["end_reason"] for c in cases.ravel()]).reshape(shape), "exact solver: why the two-impact family ends")
+        data[f"{prefix}exact_end_confirmed"] = (dims, np.array([bool(c["check_end_confirmed"]) for c in cases.ravel()]).reshape(shape), {"long_name": "exact solver: the family end was met again with a step 100 times smaller (else recomputed with a 10 times smaller step)", "units": "1"})
+        data[f"{prefix}exact_end_note"] = string_variable(dims, np.array([str(c["check_end_note"].values) for c in cases.ravel()]).reshape(shape), "exact solver: how the family end was checked")
+
+    alpha_cases = np.empty(len(alphas), dtype=object)
+    for i, a in enumerate(alphas):
+        alpha_cases[i] = fam(a, b0, d0)
+    put_exact("", ("alpha",), alpha_cases)
+    ratio_cases = np.empty((len(ratios), len(ratios)), dtype=object)
+    for i, b in enumerate(ratios):
+        for j, d in enumerate(ratios):
+            ratio_cases[i, j] = fam(a0, b, d)
+    put_exact("ratio_", ("beta", "delta"), ratio_cases)
+
+    # energy sweep: (energy, energy_alpha)
+    dims = ("energy", "energy_alpha")
+    for key in energy[0].data_vars:
+        values = np.stack([ds[key].values for ds in energy], axis=-1)
+        attrs = dict(energy[0][key].attrs)
+        if values.dtype.kind in "US" or values.dtype == object:
+            data[f"energy_{key}"] = string_variable(dims, values.astype(str), attrs["long_name"])
+        elif values.dtype == bool:
+            data[f"energy_{key}"] = (dims, values, attrs)
+        else:
+            attrs.pop("_FillValue", None)
+            data[f"energy_{key}"] = variable(dims, values, attrs.pop("long_name"), attrs.pop("units"))
+    coords = {
+        "alpha": ("alpha", np.asarray(alphas), {"long_name": "stop stiffness ratio alpha = K/k1", "units": "1"}),
+        "eta": ("eta", np.asarray(etas), {"long_name": "regularization parameter eta", "units": "1"}),
+        "beta": ("beta", np.asarray(ratios), {"long_name": "coupling stiffness ratio beta = k2/k1 (ratio sweep)", "units": "1"}),
+        "delta": ("delta", np.asarray(ratios), {"long_name": "mass ratio delta = m2/m1 (ratio sweep)", "units": "1"}),
+        "energy": ("energy", energy[0]["energy"].values, {"long_name": "requested total energy (energy sweep)", "units": "1"}),
+        "energy_alpha": ("energy_alpha", np.asarray(energy_alphas), {"long_name": "alpha of the energy sweep", "units": "1"}),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs = {
+        "beta_of_alpha_eta_grid": b0, "delta_of_alpha_eta_grid": d0,
+        "alpha_of_ratio_grid": a0, "eta_of_ratio_grid": e0,
+        "energy_sweep_eta": float(stiff["energy_eta"]), "energy_sweep_harmonics": int(stiff["energy_harmonics"]),
+        "harmonics_tried": ", ".join(str(h) for h in stiff["harmonics"]),
+        "max_truncation": float(study["max_truncation"]), "max_steps": int(stiff["max_steps"]),
+        "measurement": "run times are measurements of this machine; not reproducible byte for byte",
+    }
+    return ds
+
+
+def build_stiff_cases(config: dict, inputs: dict, output_path) -> Path:
+    """Pipeline task: gather the stiff cases into ``results/study/stiff_cases.nc``."""
+    return write_dataset(
+        gather_stiff_cases(config, inputs), output_path,
+        title="Stiff and extreme cases: exactness of the exact solver, convergence of the continuation, errors",
+        summary=(
+            "For stiff stops (alpha up to 1e4), sharp regularizations (eta down to 1e-3), extreme energies (1e-6 to 1e6) "
+            "and stiffness and mass ratios from 0.01 to 100: residuals and periodicity of the exact orbits, the "
+            "harmonics and steps the continuation needs (or why it cannot), and its distance to the exact orbits."
+        ),
+        keywords="study, stiff cases, robustness",
+    )

@@ -1,0 +1,342 @@
+"""The study (issue 5): sweep cases, the error split, gathering, figures, bad input and faults.
+
+Small settings only (H <= 40, H_ref = 60, two energies): the point is the machinery --
+what is measured, how failures are reported, how files are checked -- not the numbers of
+the full study (``snakemake --cores 2 study``).
+"""
+
+import copy
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+import yaml
+
+from nnmstop.config import ConfigError, load_config
+from nnmstop.continuation import ContinuationError
+from nnmstop.datasets import write_dataset
+from nnmstop.figures.study import build_error_vs_runtime_figure, pareto_front
+from nnmstop.hbm import HarmonicBalanceSystem
+from nnmstop.model import ModelParameters
+from nnmstop.study import error_runtime as er
+from nnmstop.study.runs import FILL_VALUE, case_config, format_number, truncation_level
+
+SNAKEMAKE = [sys.executable, "-m", "snakemake"]  # the environment's own Snakemake, never skipped
+
+
+@pytest.fixture(scope="module")
+def config(repo_root):
+    return load_config(repo_root / "config" / "config.yaml")
+
+
+@pytest.fixture(scope="module")
+def small(config):
+    """A small study: H in {10, 30}, eta in {0.1, 0.01}, H_ref = 60, ANM 2 x 1, energies 3 and 12."""
+    cfg = copy.deepcopy(config)
+    study = cfg["study"]
+    study["energies"] = [3.0, 12.0]
+    study["phase_samples"] = 512
+    study["error_runtime"].update(
+        harmonics=[10, 30], eta=[0.1, 0.01], reference_harmonics=60, reference_seed_harmonics=30,
+        anm_harmonics=30, anm_orders=[10, 20], anm_tolerances=[1e-6],
+    )
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def exact(config):
+    from nnmstop.exact import family_dataset, follow_family
+
+    params = ModelParameters.from_config(config["model"])
+    return family_dataset(follow_family(params, step=0.05, max_points=4000))
+
+
+@pytest.fixture(scope="module")
+def gathered(small, exact, tmp_path_factory):
+    """Every small sweep file written through the pipeline builders, then gathered."""
+    root = tmp_path_factory.mktemp("study")
+    exact_path = write_dataset(exact, root / "exact.nc", title="exact", summary="exact family")
+    inputs = {"exact": str(exact_path)}
+    paths = er.case_paths(small)
+    out = {kind: [str(root / p) for p in paths[kind]] for kind in ("cases", "anm_cases", "references")}
+    out["exact_cost"] = str(root / paths["exact_cost"])
+    sweep = small["study"]["error_runtime"]
+    for eta in sweep["eta"]:
+        for H in sweep["harmonics"]:
+            er.build_error_case(small, inputs, root / f"{er.CASE_DIR}/H{H}_eta{format_number(eta)}.nc", str(H), format_number(eta))
+        er.build_reference(small, inputs, root / f"{er.CASE_DIR}/reference_eta{format_number(eta)}.nc", format_number(eta))
+    for order in sweep["anm_orders"]:
+        for tol in sweep["anm_tolerances"]:
+            er.build_error_case(small, inputs, root / f"{er.CASE_DIR}/anm_N{order}_tol{format_number(tol)}.nc",
+                                sweep["anm_harmonics"], small["model"]["eta"], str(order), format_number(tol))
+    er.build_exact_cost(small, inputs, out["exact_cost"])
+    target = root / "results/study/error_vs_runtime.nc"
+    er.build_error_vs_runtime(small, out, target)
+    with xr.open_dataset(target) as ds:
+        return root, out, ds.load()
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def test_pareto_front():
+    assert pareto_front([1.0, 2.0, 3.0, 4.0], [5.0, 6.0, 1.0, 1.0]).tolist() == [0, 2]
+    assert pareto_front([3.0, np.nan, 1.0], [1.0, 0.0, 2.0]).tolist() == [2, 0]
+    with pytest.raises(ValueError, match="same shape"):
+        pareto_front([1.0], [1.0, 2.0])
+
+
+def test_format_number_for_wildcards():
+    assert [format_number(v) for v in (0.001, 1.0, 1e-8, 1e6, 300.0)] == ["0.001", "1", "1e-08", "1e06", "300"]
+    assert float(format_number(1e6)) == 1e6
+    with pytest.raises(ValueError, match="nan"):
+        format_number(float("nan"))
+
+
+def test_case_config_validates_overrides(config):
+    assert case_config(config, harmonics=20, eta=0.01)["hbm"]["harmonics"] == 20
+    assert config["hbm"]["harmonics"] == 100  # the original is left alone
+    with pytest.raises(ConfigError, match="'model.alpha'.*-1.0"):
+        case_config(config, alpha=-1.0)
+    with pytest.raises(ConfigError, match="'model.eta'"):
+        case_config(config, eta=50.0)
+    with pytest.raises(ValueError, match="unknown study override 'gamma'"):
+        case_config(config, gamma=1.0)
+
+
+def test_study_settings_refuse_inconsistent_values(config):
+    bad = copy.deepcopy(config)
+    bad["study"]["error_runtime"]["reference_harmonics"] = 400
+    with pytest.raises(ValueError, match="reference_harmonics = 400"):
+        er.study_settings(bad)
+    bad = copy.deepcopy(config)
+    bad["study"]["energies"] = [3.0, 1.0]
+    with pytest.raises(ValueError, match=r"study.energies.*\[3.0, 1.0\]"):
+        er.study_settings(bad)
+    with pytest.raises(ValueError, match="section 'study'"):
+        er.study_settings({k: v for k, v in config.items() if k != "study"})
+
+
+def test_truncation_level_sees_the_odd_top_harmonic():
+    """NNM1 orbits carry odd harmonics only: the engine's top tenth of H = 10 is harmonic 10, always 0."""
+    system = HarmonicBalanceSystem(ModelParameters(), harmonics=10)
+    U = system.linear_mode_guess(1, 0.5)
+    x, u, f, z, lam, _ = system.split(U)
+    f = f.copy()
+    f[9] = 0.1 * f[1]  # harmonic 9 (cosine basis: index k)
+    U = system.pack(x, u, f, z, lam)
+    assert system.truncation_indicator(f) == 0.0  # what the branch datasets record
+    assert truncation_level(system, U) == pytest.approx(0.01 / 1.01, rel=1e-12)
+
+
+# --------------------------------------------------------------------------- one case, failures
+
+
+def test_unresolved_case_is_reported_not_computed(small, exact):
+    ds = er.error_case_dataset(small, exact, 10, 0.01)
+    assert not bool(ds["converged"]) and not bool(ds["compared"])
+    failure = str(ds["failure"].values)
+    assert "truncation indicator" in failure and "H = 10" in failure and "eta = 0.01" in failure
+    assert np.all(ds["relative_frequency_difference"].values == FILL_VALUE)
+    assert int(ds["factorizations"]) == -1 and float(ds["runtime"]) > 0
+
+
+def test_setting_compared_on_part_of_the_energies_says_which(small, exact):
+    cfg = copy.deepcopy(small)
+    cfg["study"]["energies"] = [3.0, 80.0]  # the exact family ends at 55.9
+    ds = er.error_case_dataset(cfg, exact, 30, 0.1)
+    assert bool(ds["converged"]) and not bool(ds["compared"])
+    assert "energy 80" in str(ds["failure"].values)
+    assert np.isfinite(ds["max_x_difference"].values[0]) and ds["max_x_difference"].values[1] == FILL_VALUE
+
+
+# --------------------------------------------------------------------------- gathered dataset
+
+
+def test_gathered_dataset_layout(gathered, small):
+    _, _, ds = gathered
+    assert ds["frequency_error"].dims == ("harmonics", "eta")
+    assert ds["harmonics"].values.tolist() == [10, 30] and ds["eta"].values.tolist() == [0.1, 0.01]
+    assert ds["anm_runtime"].dims == ("order", "tolerance")
+    for name in ("runtime", "cpu_time", "factorizations", "x_error", "u_error", "force_error", "converged", "failure",
+                 "frequency_error_truncation", "frequency_error_regularization", "exact_seconds_per_orbit"):
+        assert name in ds, name
+    assert ds["runtime"].attrs["units"] == "s"
+    # H = 10 does not resolve the stop: reported, never a number
+    assert not ds["converged"].sel(harmonics=10).any()
+    assert np.isnan(ds["frequency_error"].sel(harmonics=10)).all()
+    assert all("truncation indicator" in s for s in ds["failure"].sel(harmonics=10).values)
+    # H = 30 converges, with an error and a cost
+    ok = ds.sel(harmonics=30)
+    assert ok["converged"].all() and ok["compared"].all()
+    assert (ok["frequency_error"] > 0).all() and (ok["factorizations"] > 0).all() and (ok["runtime"] > 0).all()
+    assert float(ds["exact_seconds_per_orbit"]) > 0 and float(ds["exact_family_seconds_per_orbit"]) > 0
+
+
+def test_error_split_is_consistent(gathered):
+    """Per energy: |total| <= regularization + truncation (triangle inequality, same phase alignment),
+    up to the refinement of each maximum (each is refined around its own grid maximum: ~0.5 % for the
+    force, whose exact law has a kink); the regularization part depends on eta only and shrinks with it."""
+    _, _, ds = gathered
+    ok = ds.sel(harmonics=30)
+    for key in ("max_x_difference", "max_u_difference", "max_force_difference"):
+        total = ok[f"{key}_at_energy"]
+        bound = ds[f"{key}_regularization_at_energy"] + ok[f"{key}_truncation_at_energy"]
+        assert (total <= bound * 1.01 + 1e-12).all(), key
+    freq = ok["relative_frequency_difference_at_energy"]
+    split = ds["relative_frequency_difference_regularization_at_energy"] + ok["relative_frequency_difference_truncation_at_energy"]
+    np.testing.assert_allclose(freq, split, rtol=1e-3, atol=1e-9)  # frequencies add up (up to f_ref / f_exact)
+    reg = ds["frequency_error_regularization"]
+    assert float(reg.sel(eta=0.01)) < float(reg.sel(eta=0.1))
+
+
+def test_gather_refuses_stale_case_files(gathered, small):
+    root, inputs, _ = gathered
+    other = copy.deepcopy(small)
+    other["study"]["energies"] = [3.0, 13.0]
+    with pytest.raises(ValueError, match="energies"):
+        er.gather_error_vs_runtime(other, inputs)
+    other = copy.deepcopy(small)
+    other["anm"]["order"] = 15
+    with pytest.raises(ValueError, match="order"):
+        er.gather_error_vs_runtime(other, inputs)
+
+
+def test_error_vs_runtime_figure(gathered, small, tmp_path):
+    root, _, _ = gathered
+    pdf, png = build_error_vs_runtime_figure(small, root / "results/study/error_vs_runtime.nc", tmp_path / "evr.pdf")
+    assert pdf.stat().st_size > 1000 and png.stat().st_size > 1000
+
+
+def test_stiff_gather_and_figure(small, tmp_path):
+    from nnmstop.figures.study import build_stiff_cases_figure
+    from nnmstop.study import stiff_cases as sc
+
+    cfg = copy.deepcopy(small)
+    cfg["study"]["stiff"].update(harmonics=[20, 40], alpha=[30.0, 300.0], eta=[0.1], ratios=[1.0],
+                                 energies=[1e-6, 1e3], energy_alpha=[30.0], max_steps=150, compare_count=2)
+    paths = sc.stiff_paths(cfg)
+    assert len(paths["exact"]) == 2 and len(paths["branches"]) == 2
+    for p in paths["exact"]:
+        a, b, d = (Path(p).stem.split("_")[i][1:] for i in (1, 2, 3))
+        sc.build_stiff_exact(cfg, {}, tmp_path / p, a, b, d)
+    for p in paths["branches"]:
+        a, b, d, e = (Path(p).stem.split("_")[i][1:] for i in (1, 2, 3, 4))
+        sc.build_stiff_branch(cfg, {"exact": tmp_path / f"{sc.STIFF_DIR}/exact_a{a}_b{b}_d{d}.nc"}, tmp_path / p, a, b, d, e)
+    sc.build_stiff_energy(cfg, {}, tmp_path / paths["energy"][0], "30")
+    inputs = {k: [tmp_path / p for p in v] for k, v in paths.items()}
+    target = sc.build_stiff_cases(cfg, inputs, tmp_path / "stiff_cases.nc")
+    with xr.open_dataset(target) as ds:
+        assert ds["converged"].dims == ("alpha", "eta") and ds["failure"].dtype.kind in "OU"
+        assert bool(ds["converged"].sel(alpha=30.0, eta=0.1)) and int(ds["harmonics"].sel(alpha=30.0, eta=0.1)) == 40
+        assert float(ds["exact_relative_residual"].max()) < 1e-13
+        assert float(ds["exact_periodicity_error"].max()) < 1e-10
+        assert ds["energy_kind"].values[:, 0].tolist() == ["linear", "high_energy"]
+        assert bool(ds["energy_hbm_converged"].values[0, 0])
+    pdf, png = build_stiff_cases_figure(cfg, target, tmp_path / "stiff.pdf")
+    assert pdf.stat().st_size > 1000 and png.stat().st_size > 1000
+
+
+# --------------------------------------------------------------------------- bad input and faults
+
+
+def _run_snakemake(args, cwd, timeout=300):
+    return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.mark.parametrize(
+    "override, expected",
+    [
+        ({"study": {"max_truncation": 2.0}}, "study.max_truncation"),
+        ({"study": {"error_runtime": {"harmonics": [0]}}}, "study.error_runtime.harmonics.0"),
+        ({"study": {"energies": [3.0, 1.0]}}, "study.energies"),
+    ],
+)
+def test_dry_run_refuses_a_bad_study_section(repo_root, tmp_path, override, expected):
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(override))
+    proc = _run_snakemake(["-n", "study", "--configfile", str(path)], repo_root, timeout=180)
+    output = proc.stdout + proc.stderr
+    assert proc.returncode != 0, output
+    assert expected in output, output
+
+
+def test_numerical_failure_mid_branch_names_step_and_energy_and_leaves_no_dataset(config, tmp_path, monkeypatch):
+    import nnmstop.anm as anm
+    from nnmstop.pipeline import run_task
+
+    real_step = anm.anm_step
+    calls = {"n": 0}
+
+    def failing_step(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise np.linalg.LinAlgError("bordered Jacobian is singular to working precision")
+        return real_step(*args, **kwargs)
+
+    monkeypatch.setattr(anm, "anm_step", failing_step)
+    cfg = case_config(config, harmonics=10)
+    output = tmp_path / "results/hbm/stages/nnm1_stage1.nc"
+    with pytest.raises(ContinuationError, match=r"nnm1 stage 1 .*: step 3 failed at energy [0-9.e+-]+ \(frequency"):
+        run_task("hbm_stage", cfg, {}, {"dataset": str(output)}, log=str(tmp_path / "log.txt"), branch="nnm1", stage="1")
+    assert not output.exists() and not output.with_name(output.name + ".tmp").exists()
+    assert "step 3 failed at energy" in (tmp_path / "log.txt").read_text()
+
+
+def _small_pipeline(tmp_path, repo_root, name):
+    """A copy of the workflow in ``tmp_path/name`` with a small configuration (H = 20)."""
+    work = tmp_path / name
+    work.mkdir()
+    shutil.copy(repo_root / "Snakefile", work / "Snakefile")
+    shutil.copytree(repo_root / "workflow", work / "workflow")
+    shutil.copytree(repo_root / "config", work / "config")
+    small = {"hbm": {"harmonics": 20, "time_samples": 0, "points_per_step": 2}, "exact": {"step": 0.05, "max_points": 4000}}
+    (work / "small.yaml").write_text(yaml.safe_dump(small))
+    return work
+
+
+TARGETS = ["results/exact/nnm1_two_impacts.nc", "results/hbm/stages/nnm1_stage1.nc", "results/hbm/stages/nnm1_stage2.nc"]
+
+
+def test_interrupted_run_restarts_to_the_outputs_of_a_clean_run(repo_root, tmp_path):
+    env = {**os.environ, "SOURCE_DATE_EPOCH": "0"}
+    clean = _small_pipeline(tmp_path, repo_root, "clean")
+    proc = subprocess.run([*SNAKEMAKE, "--cores", "1", *TARGETS, "--configfile", "small.yaml"], cwd=clean,
+                          capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+
+    broken = _small_pipeline(tmp_path, repo_root, "interrupted")
+    runner = subprocess.Popen([*SNAKEMAKE, "--cores", "1", *TARGETS, "--configfile", "small.yaml"], cwd=broken,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, start_new_session=True)
+    deadline = time.monotonic() + 300
+    first = broken / TARGETS[1]
+    while not first.exists() and runner.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert first.exists(), "the first continuation stage never finished"
+    os.killpg(runner.pid, signal.SIGKILL)  # kill snakemake and its running job mid-way
+    runner.wait(timeout=60)
+    interrupted = not (broken / TARGETS[2]).exists()
+    # what an interruption can leave behind: a temporary file of the atomic writer
+    stale = broken / (TARGETS[2] + ".tmp")
+    stale.parent.mkdir(parents=True, exist_ok=True)
+    stale.write_bytes(b"partial netcdf")
+    # a hard kill leaves the working directory locked: unlock (as after a lost cluster node), then rerun
+    proc = subprocess.run([*SNAKEMAKE, "--unlock", *TARGETS, "--configfile", "small.yaml"], cwd=broken,
+                          capture_output=True, text=True, timeout=300, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    proc = subprocess.run([*SNAKEMAKE, "--cores", "1", "--rerun-incomplete", *TARGETS, "--configfile", "small.yaml"],
+                          cwd=broken, capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    for target in TARGETS:
+        with xr.open_dataset(clean / target) as a, xr.open_dataset(broken / target) as b:
+            xr.testing.assert_identical(a.load(), b.load())
+        assert (clean / target).read_bytes() == (broken / target).read_bytes(), target
+    if interrupted:  # the rerun job replaced the leftover temporary file by the dataset
+        assert not stale.exists()

@@ -1,0 +1,268 @@
+# Study (issue 5): error against run time, and stiff / extreme cases (nnmstop.study).
+# Every sweep case is its own job (wildcards), so the sweep spreads over local cores
+# (--cores N) or over a cluster (--profile profiles/slurm); gather rules assemble them.
+# These outputs are measurements: they live under results/study/ and
+# paper_figures/{error_vs_runtime,stiff_cases}.*, and nothing behind Figs 2-11 reads them.
+#
+#   snakemake --cores 2 study                 # both studies (datasets and figures)
+#   snakemake --cores 2 study_error_vs_runtime_figure
+#   snakemake --profile profiles/slurm study
+
+
+from nnmstop.study.error_runtime import case_paths
+from nnmstop.study.stiff_cases import stiff_paths
+
+STUDY_CASES = case_paths(config) if "study" in config else {"cases": [], "anm_cases": [], "references": [], "exact_cost": []}
+STIFF_CASES = stiff_paths(config) if "study" in config else {"exact": [], "branches": [], "energy": []}
+STUDY_NUMBER = r"[0-9][0-9.e-]*"
+
+# Gathers and figures are light: on a cluster they run on the submitting node.
+localrules:
+    study,
+    study_error_vs_runtime,
+    study_error_vs_runtime_figure,
+    study_stiff_cases,
+    study_stiff_cases_figure,
+
+
+rule study:
+    """Both studies: datasets and figures."""
+    input:
+        "results/study/error_vs_runtime.nc",
+        "paper_figures/error_vs_runtime.pdf",
+        "paper_figures/error_vs_runtime.png",
+        "results/study/stiff_cases.nc",
+        "paper_figures/stiff_cases.pdf",
+        "paper_figures/stiff_cases.png",
+
+
+rule study_error_case:
+    """One (H, eta) setting: timed, guarded continuation of NNM1 stage 1, errors at matched energies."""
+    input:
+        exact="results/exact/nnm1_two_impacts.nc",
+    output:
+        dataset="results/study/cases/H{harmonics}_eta{eta}.nc",
+    wildcard_constraints:
+        harmonics=r"\d+",
+        eta=STUDY_NUMBER,
+    log:
+        "logs/study/H{harmonics}_eta{eta}.log",
+    benchmark:
+        "benchmarks/runs/study_H{harmonics}_eta{eta}.tsv"
+    params:
+        task="study_error_case",
+    resources:
+        runtime=30,
+        mem_mb=2000,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_anm_case:
+    """One ANM (order, tolerance) setting at study.error_runtime.anm_harmonics and model.eta."""
+    input:
+        exact="results/exact/nnm1_two_impacts.nc",
+    output:
+        dataset="results/study/cases/anm_N{order}_tol{tolerance}.nc",
+    wildcard_constraints:
+        order=r"\d+",
+        tolerance=STUDY_NUMBER,
+    log:
+        "logs/study/anm_N{order}_tol{tolerance}.log",
+    benchmark:
+        "benchmarks/runs/study_anm_N{order}_tol{tolerance}.tsv"
+    params:
+        task="study_anm_case",
+    resources:
+        runtime=30,
+        mem_mb=2000,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_reference:
+    """Reference orbits of one eta with study.error_runtime.reference_harmonics (truncation part)."""
+    input:
+        exact="results/exact/nnm1_two_impacts.nc",
+    output:
+        dataset="results/study/cases/reference_eta{eta}.nc",
+    wildcard_constraints:
+        eta=STUDY_NUMBER,
+    log:
+        "logs/study/reference_eta{eta}.log",
+    benchmark:
+        "benchmarks/runs/study_reference_eta{eta}.tsv"
+    params:
+        task="study_reference",
+    resources:
+        runtime=60,
+        mem_mb=4000,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_exact_cost:
+    """Cost per orbit of the exact (closed-form) solver."""
+    output:
+        dataset="results/study/cases/exact_cost.nc",
+    log:
+        "logs/study/exact_cost.log",
+    benchmark:
+        "benchmarks/runs/study_exact_cost.tsv"
+    params:
+        task="study_exact_cost",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_error_vs_runtime:
+    """Gather: results/study/error_vs_runtime.nc (coordinates harmonics, eta, energy, order, tolerance)."""
+    input:
+        cases=STUDY_CASES["cases"],
+        anm_cases=STUDY_CASES["anm_cases"],
+        references=STUDY_CASES["references"],
+        exact_cost=STUDY_CASES["exact_cost"],
+    output:
+        dataset="results/study/error_vs_runtime.nc",
+    log:
+        "logs/study/error_vs_runtime.log",
+    benchmark:
+        "benchmarks/runs/study_error_vs_runtime.tsv"
+    params:
+        task="study_error_vs_runtime",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_error_vs_runtime_figure:
+    """Error against run time, log-log, Pareto front marked, labelled points."""
+    input:
+        dataset="results/study/error_vs_runtime.nc",
+    output:
+        pdf="paper_figures/error_vs_runtime.pdf",
+        png="paper_figures/error_vs_runtime.png",
+    log:
+        "logs/study/error_vs_runtime_figure.log",
+    params:
+        task="study_error_vs_runtime_figure",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_stiff_exact:
+    """Exact family of one (alpha, beta, delta): residuals, confirmed end, periodicity by integration."""
+    output:
+        dataset="results/study/stiff/exact_a{alpha}_b{beta}_d{delta}.nc",
+    wildcard_constraints:
+        alpha=STUDY_NUMBER,
+        beta=STUDY_NUMBER,
+        delta=STUDY_NUMBER,
+    log:
+        "logs/study/stiff/exact_a{alpha}_b{beta}_d{delta}.log",
+    benchmark:
+        "benchmarks/runs/study_stiff_exact_a{alpha}_b{beta}_d{delta}.tsv"
+    params:
+        task="study_stiff_exact",
+    resources:
+        runtime=30,
+        mem_mb=2000,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_stiff_branch:
+    """Harmonics ladder of NNM1 stage 1 for one stiff case, errors against its exact family."""
+    input:
+        exact="results/study/stiff/exact_a{alpha}_b{beta}_d{delta}.nc",
+    output:
+        dataset="results/study/stiff/nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.nc",
+    wildcard_constraints:
+        alpha=STUDY_NUMBER,
+        beta=STUDY_NUMBER,
+        delta=STUDY_NUMBER,
+        eta=STUDY_NUMBER,
+    log:
+        "logs/study/stiff/nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.log",
+    benchmark:
+        "benchmarks/runs/study_stiff_nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.tsv"
+    params:
+        task="study_stiff_branch",
+    resources:
+        runtime=60,
+        mem_mb=2000,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_stiff_energy:
+    """Exact solver and HBM at energies from 1e-6 to 1e6, for one alpha."""
+    output:
+        dataset="results/study/stiff/energy_a{alpha}.nc",
+    wildcard_constraints:
+        alpha=STUDY_NUMBER,
+    log:
+        "logs/study/stiff/energy_a{alpha}.log",
+    benchmark:
+        "benchmarks/runs/study_stiff_energy_a{alpha}.tsv"
+    params:
+        task="study_stiff_energy",
+    resources:
+        runtime=30,
+        mem_mb=2000,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_stiff_cases:
+    """Gather: results/study/stiff_cases.nc (alpha x eta, beta x delta, energy x energy_alpha)."""
+    input:
+        exact=STIFF_CASES["exact"],
+        branches=STIFF_CASES["branches"],
+        energy=STIFF_CASES["energy"],
+    output:
+        dataset="results/study/stiff_cases.nc",
+    log:
+        "logs/study/stiff_cases.log",
+    benchmark:
+        "benchmarks/runs/study_stiff_cases.tsv"
+    params:
+        task="study_stiff_cases",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study_stiff_cases_figure:
+    """Stiff cases: harmonics needed, exactness of the exact solver, errors, extreme energies."""
+    input:
+        dataset="results/study/stiff_cases.nc",
+    output:
+        pdf="paper_figures/stiff_cases.pdf",
+        png="paper_figures/stiff_cases.png",
+    log:
+        "logs/study/stiff_cases_figure.log",
+    params:
+        task="study_stiff_cases_figure",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
