@@ -14,6 +14,7 @@ outputs; its log goes to the rule's ``log:`` file (or stderr).
 from __future__ import annotations
 
 import argparse
+import functools
 import logging
 import sys
 from pathlib import Path
@@ -91,71 +92,18 @@ def compare_nnm1(config, inputs, outputs):
     build_comparison_dataset(config, inputs, outputs["dataset"])
 
 
-def _exact_vs_regularized_figure(name, config, inputs, outputs):
-    """Draw paper figure ``name`` (Figs 2-4) from the exact family, NNM1 stage 1 and the comparison."""
-    from .figures.exact_vs_regularized import build_figure
+def paper_figure(name: str, config, inputs, outputs):
+    """Draw paper figure ``name`` (``fig02`` ... ``fig11``) from its rule's datasets.
 
+    Figs 2-4 read the exact family, NNM1 stage 1 and the comparison
+    (:mod:`nnmstop.figures.exact_vs_regularized`); Figs 5-11 read the branch datasets
+    (:mod:`nnmstop.figures.frequency_energy`). Outputs ``pdf`` and ``png``.
+    """
+    if name in ("fig02", "fig03", "fig04"):
+        from .figures.exact_vs_regularized import build_figure
+    else:
+        from .figures.frequency_energy import build_paper_figure as build_figure
     build_figure(name, config, inputs, outputs)
-
-
-def paper_fig02(config, inputs, outputs):
-    """Fig 2: FEP of NNM1, exact vs regularized, a) and b) (inputs ``exact``, ``nnm1``, ``comparison``)."""
-    _exact_vs_regularized_figure("fig02", config, inputs, outputs)
-
-
-def paper_fig03(config, inputs, outputs):
-    """Fig 3: orbits at a) and b), exact vs regularized (input ``comparison``)."""
-    _exact_vs_regularized_figure("fig03", config, inputs, outputs)
-
-
-def paper_fig04(config, inputs, outputs):
-    """Fig 4: contact force at a) and b), regularized vs piecewise-linear (input ``comparison``)."""
-    _exact_vs_regularized_figure("fig04", config, inputs, outputs)
-
-
-COMPARE_TASKS = (compare_nnm1, paper_fig02, paper_fig03, paper_fig04)
-
-
-def _paper_figure(name, config, inputs, outputs):
-    """Draw paper figure ``name`` from its rule's datasets (``pdf`` and ``png`` outputs)."""
-    from .figures.frequency_energy import build_paper_figure
-
-    build_paper_figure(name, config, inputs, outputs)
-
-
-def paper_fig05(config, inputs, outputs):
-    """Fig 5: FEP of NNM1 and NNM2 over the whole energy range (inputs ``nnm1``, ``nnm2``)."""
-    _paper_figure("fig05", config, inputs, outputs)
-
-
-def paper_fig06(config, inputs, outputs):
-    """Fig 6: FEP of NNM2 with modal lines a)-f) (input ``nnm2`` only)."""
-    _paper_figure("fig06", config, inputs, outputs)
-
-
-def paper_fig07(config, inputs, outputs):
-    """Fig 7: NNM1 at low energy, modal lines a)-c) (input ``nnm1_stages``)."""
-    _paper_figure("fig07", config, inputs, outputs)
-
-
-def paper_fig08(config, inputs, outputs):
-    """Fig 8: NNM1 and NNM2 at f2/3, 3:1 internal resonance, d)-i) (``nnm1_stages``, ``nnm2``)."""
-    _paper_figure("fig08", config, inputs, outputs)
-
-
-def paper_fig09(config, inputs, outputs):
-    """Fig 9: NNM1 and NNM2 at f2/5, 5:1 internal resonance, j)-m) (``nnm1_stages``, ``nnm2``)."""
-    _paper_figure("fig09", config, inputs, outputs)
-
-
-def paper_fig10(config, inputs, outputs):
-    """Fig 10: NNM1 and NNM2 at f2/5 after the 5:1 resonance, o)-q) (``nnm1_stages``, ``nnm2``)."""
-    _paper_figure("fig10", config, inputs, outputs)
-
-
-def paper_fig11(config, inputs, outputs):
-    """Fig 11: NNM1 at high energy towards the gap-0 first mode (input ``nnm1_stages``)."""
-    _paper_figure("fig11", config, inputs, outputs)
 
 
 def dataset_manifest(config, inputs, outputs):
@@ -171,7 +119,8 @@ def dataset_manifest(config, inputs, outputs):
     out.write_text("".join(lines))
 
 
-PAPER_FIGURE_TASKS = (paper_fig05, paper_fig06, paper_fig07, paper_fig08, paper_fig09, paper_fig10, paper_fig11)
+# one task per paper figure, named as the rules call them: paper_fig02 ... paper_fig11
+PAPER_FIGURE_TASKS = {f"paper_fig{n:02d}": functools.partial(paper_figure, f"fig{n:02d}") for n in range(2, 12)}
 
 
 # Study (issue 5): error against run time, stiff cases. Measurements, kept apart from Figs 2-11.
@@ -262,7 +211,10 @@ STUDY_TASKS = (
 )
 
 
-TASKS = {f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_branch, *COMPARE_TASKS, *PAPER_FIGURE_TASKS, dataset_manifest, *STUDY_TASKS)}
+TASKS = {
+    **{f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_branch, compare_nnm1, dataset_manifest, *STUDY_TASKS)},
+    **PAPER_FIGURE_TASKS,
+}
 
 
 def configure_logging(log_path: str | None) -> None:
