@@ -240,7 +240,7 @@ def test_exact_overlay_is_drawn_and_changes_the_figure(nnm1_stages, specs, tmp_p
     original = plt.Axes.plot
 
     def recording_plot(self, *args, **kwargs):
-        drawn.append(kwargs.get("ls"))
+        drawn.append((kwargs.get("color"), kwargs.get("ls")))
         return original(self, *args, **kwargs)
 
     plain = fe.figure_07([stage], specs["fig07"], tmp_path / "plain" / "fig07.pdf", PNG_DPI)
@@ -249,5 +249,5 @@ def test_exact_overlay_is_drawn_and_changes_the_figure(nnm1_stages, specs, tmp_p
         overlaid = fe.figure_07([stage], specs["fig07"], tmp_path / "overlay" / "fig07.pdf", PNG_DPI, exact=exact)
     finally:
         plt.Axes.plot = original
-    assert ":" in drawn
+    assert (fe.EXACT_OVERLAY_COLOR, ":") in drawn
     assert plain[1].read_bytes() != overlaid[1].read_bytes()

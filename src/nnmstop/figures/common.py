@@ -21,6 +21,7 @@ __all__ = [
     "EXACT_OVERLAY_COLOR",
     "frequency_energy_axes",
     "plot_branch",
+    "stability_legend_handles",
     "open_dataset",
     "orbit",
     "save_figure",
@@ -81,26 +82,41 @@ def orbit(ds: xr.Dataset, point: int, samples: int = 512) -> dict:
     return out
 
 
-def plot_branch(ax, ds: xr.Dataset, color, lw: float = 1.2, zorder: float = 3, frequency_divisor: float = 1.0):
-    """Frequency-energy curve of a branch: solid where stable, dashed where unstable.
+STABILITY_LINESTYLES = {"stable": "-", "unstable": "--", "unresolved": ":"}
 
-    Uses the ``stable`` flag of the dataset (Floquet multipliers by Hill's method);
-    without it the whole curve is solid. Consecutive runs share their end points so
-    the curve stays continuous. Returns True if an unstable part was drawn.
+
+def plot_branch(ax, ds: xr.Dataset, color, lw: float = 1.2, zorder: float = 3, frequency_divisor: float = 1.0):
+    """Frequency-energy curve of a branch, its line style telling the orbits' stability.
+
+    Solid where stable, dashed where unstable, dotted where the verdict is not resolved
+    at the dataset's number of harmonics (``stability_resolved = 0``), from the Floquet
+    variables of the dataset; without them the whole curve is solid. Consecutive runs
+    share their end points so the curve stays continuous. Returns the set of stability
+    classes drawn (for the legend).
     """
     energy = ds["energy"].values
     frequency = ds["frequency"].values / frequency_divisor
     if "stable" not in ds:
         ax.plot(energy, frequency, color=color, lw=lw, zorder=zorder)
-        return False
-    stable = ds["stable"].values.astype(bool)
-    breaks = np.flatnonzero(np.diff(stable.astype(int))) + 1
+        return set()
+    classes = np.where(ds["stable"].values.astype(bool), "stable", "unstable").astype(object)
+    if "stability_resolved" in ds:
+        classes[~ds["stability_resolved"].values.astype(bool)] = "unresolved"
+    breaks = np.flatnonzero(classes[1:] != classes[:-1]) + 1
     start = 0
-    for stop in list(breaks) + [len(stable)]:
-        run = slice(start, min(stop + 1, len(stable)))
-        ax.plot(energy[run], frequency[run], color=color, lw=lw, zorder=zorder, ls="-" if stable[start] else "--")
+    for stop in list(breaks) + [len(classes)]:
+        run = slice(start, min(stop + 1, len(classes)))
+        ax.plot(energy[run], frequency[run], color=color, lw=lw, zorder=zorder, ls=STABILITY_LINESTYLES[classes[start]])
         start = stop
-    return bool(np.any(~stable))
+    return set(classes)
+
+
+def stability_legend_handles(drawn: set, color="0.3", lw: float = 1.2) -> list:
+    """Legend entries for the non-solid stability classes that were drawn."""
+    from matplotlib.lines import Line2D
+
+    text = {"unstable": "unstable orbits (Floquet, Hill's method)", "unresolved": "stability not resolved at this H"}
+    return [Line2D([], [], color=color, lw=lw, ls=STABILITY_LINESTYLES[c], label=text[c]) for c in ("unstable", "unresolved") if c in drawn]
 
 
 def save_figure(fig, pdf_path, png_dpi: int = 150) -> tuple[Path, Path]:

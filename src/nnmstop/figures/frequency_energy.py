@@ -42,6 +42,7 @@ from matplotlib.ticker import LogFormatterSciNotation
 from ..model import ModelParameters, linear_modes
 from .common import (
     plot_branch,
+    stability_legend_handles,
     EXACT_OVERLAY_COLOR,
     NNM2_COLOR,
     REGULARIZED_COLOR,
@@ -294,10 +295,9 @@ def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None
     energy_range = _range(spec, "energy_range", where)
     frequency_range = _range(spec, "frequency_range", where)
     handles = []
-    unstable = plot_branch(ax, branch, color, lw=1.2, zorder=3)
+    drawn = plot_branch(ax, branch, color, lw=1.2, zorder=3)
     handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
-    if unstable:
-        handles.append(Line2D([], [], color=color, lw=1.2, ls="--", label="unstable orbits (Floquet, Hill's method)"))
+    handles.extend(stability_legend_handles(drawn, color=color))
     if exact is not None:
         ax.plot(exact["energy"].values, exact["frequency"].values, color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", zorder=2.5)
         handles.append(Line2D([], [], color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", label="non-smooth model, exact orbits"))
@@ -417,12 +417,11 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
     frequency_range = _range(spec, "frequency_range", where)
     fig, ax = plt.subplots(figsize=(7.5, 4.8), layout="constrained")
     handles = []
-    unstable = False
+    drawn = set()
     for ds, color, label in ((nnm1, NNM1_COLOR, "NNM1"), (nnm2, NNM2_COLOR, "NNM2")):
-        unstable |= plot_branch(ax, ds, color, lw=1.3, zorder=3)
+        drawn |= plot_branch(ax, ds, color, lw=1.3, zorder=3)
         handles.append(Line2D([], [], color=color, lw=1.3, label=label))
-    if unstable:
-        handles.append(Line2D([], [], color="0.3", lw=1.3, ls="--", label="unstable orbits (dashed)"))
+    handles.extend(stability_legend_handles(drawn, lw=1.3))
     gap_zero = gap_zero_frequencies(params)
     for mode in kind.gap_zero_modes:
         value = float(gap_zero[mode - 1])
