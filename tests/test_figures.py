@@ -251,3 +251,28 @@ def test_exact_overlay_is_drawn_and_changes_the_figure(nnm1_stages, specs, tmp_p
         plt.Axes.plot = original
     assert (fe.EXACT_OVERLAY_COLOR, ":") in drawn
     assert plain[1].read_bytes() != overlaid[1].read_bytes()
+
+
+def test_branch_line_styles_follow_stability_and_resolution():
+    """Solid where stable, dashed where unstable, dotted where unresolved; runs join."""
+    import matplotlib.pyplot as plt
+    import xarray as xr
+
+    from nnmstop.figures.common import plot_branch
+
+    ds = xr.Dataset(
+        {
+            "energy": ("point", np.arange(1.0, 7.0)),
+            "frequency": ("point", np.linspace(0.1, 0.2, 6)),
+            "stable": ("point", np.array([1, 1, 0, 0, 1, 1], dtype=np.int8)),
+            "stability_resolved": ("point", np.array([1, 1, 1, 0, 1, 1], dtype=np.int8)),
+        }
+    )
+    fig, ax = plt.subplots()
+    drawn = plot_branch(ax, ds, "tab:blue")
+    styles = [line.get_linestyle() for line in ax.get_lines()]
+    starts = [line.get_xdata()[0] for line in ax.get_lines()]
+    plt.close(fig)
+    assert drawn == {"stable", "unstable", "unresolved"}
+    assert styles == ["-", "--", ":", "-"]
+    assert starts == [1.0, 3.0, 4.0, 5.0]  # each run starts where the previous one ended
