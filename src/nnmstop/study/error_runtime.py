@@ -6,7 +6,10 @@ For each setting -- number of harmonics ``H`` and regularization ``eta`` (at the
 order and tolerance of the configuration), or ANM ``order`` and ``tolerance`` (at
 ``H = study.error_runtime.anm_harmonics`` and the configuration's ``eta``) -- one job
 continues stage 1 of the regularized NNM1 (linear mode up to the first orbit with more
-than one impact per stop) with :func:`nnmstop.study.runs.run_stage_one`, timing it
+than one impact per stop) with :func:`nnmstop.study.runs.run_stage_one`, storing
+``study.points_per_step`` points per ANM step (1: the step ends; the errors are taken
+on Newton-solved orbits at the matched energies, so drawing points add cost, not
+accuracy, and every stored point costs a Floquet analysis in the branch dataset), timing it
 (wall clock and CPU, seconds) and counting its steps and factorizations, then matches
 its orbits with the exact non-smooth ones (:mod:`nnmstop.compare`) at the energies
 ``study.energies`` and records
@@ -181,6 +184,7 @@ def _case_common_attrs(config: dict) -> dict:
         "order": int(config["anm"]["order"]),
         "tolerance": float(config["anm"]["tolerance"]),
         "newton_threshold": float(config["anm"]["newton_threshold"]),
+        "points_per_step": int(config["hbm"]["points_per_step"]),
         "blas_threads": os.environ.get("OPENBLAS_NUM_THREADS", os.environ.get("OMP_NUM_THREADS", "unset")),
         "measurement": "run times measured on this machine; not reproducible byte for byte",
     }
@@ -200,7 +204,8 @@ def error_case_dataset(config: dict, exact: xr.Dataset, harmonics: int, eta: flo
     """
     study = study_settings(config)
     energies = np.asarray(study["energies"], dtype=float)
-    cfg = case_config(config, harmonics=harmonics, eta=eta, order=order, tolerance=tolerance)
+    cfg = case_config(config, harmonics=harmonics, eta=eta, order=order, tolerance=tolerance,
+                      points_per_step=study["points_per_step"])
     load = _load_average()
     label = f"NNM1 stage 1 (H = {harmonics}, eta = {eta:g}" + (
         f", order {order}, tolerance {tolerance:g})" if order is not None else ")"
@@ -286,7 +291,7 @@ def reference_dataset(config: dict, exact: xr.Dataset, eta: float) -> xr.Dataset
     sweep = study["error_runtime"]
     energies = np.asarray(study["energies"], dtype=float)
     H_ref, H_seed = int(sweep["reference_harmonics"]), int(sweep["reference_seed_harmonics"])
-    cfg = case_config(config, harmonics=H_seed, eta=eta)
+    cfg = case_config(config, harmonics=H_seed, eta=eta, points_per_step=study["points_per_step"])
     n_unknowns = 4 * (H_ref + 1) + 1
     load = _load_average()
     start = time.perf_counter()

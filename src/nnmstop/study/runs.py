@@ -111,8 +111,8 @@ def case_config(config: dict, **overrides) -> dict:
     """Deep copy of ``config`` with study overrides, validated again.
 
     Keywords ``harmonics``, ``alpha``, ``beta``, ``delta``, ``eta``, ``order``,
-    ``tolerance``, ``max_steps`` and ``start_amplitude`` (NNM1) override the corresponding
-    keys; ``None`` leaves a key alone.
+    ``tolerance``, ``max_steps``, ``points_per_step`` and ``start_amplitude`` (NNM1)
+    override the corresponding keys; ``None`` leaves a key alone.
 
     Raises
     ------
@@ -130,6 +130,7 @@ def case_config(config: dict, **overrides) -> dict:
         "order": ("anm", "order"),
         "tolerance": ("anm", "tolerance"),
         "max_steps": ("anm", "max_steps"),
+        "points_per_step": ("hbm", "points_per_step"),
     }
     out = copy.deepcopy(config)
     for key, value in overrides.items():
@@ -139,7 +140,7 @@ def case_config(config: dict, **overrides) -> dict:
             out["branches"]["nnm1"]["start_amplitude"] = float(value)
         elif key in places:
             section, name = places[key]
-            cast = int if key in ("harmonics", "order", "max_steps") else float
+            cast = int if key in ("harmonics", "order", "max_steps", "points_per_step") else float
             out[section][name] = cast(value)
         else:
             raise ValueError(f"unknown study override {key!r} (allowed: {sorted(places) + ['start_amplitude']})")

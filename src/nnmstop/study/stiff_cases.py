@@ -270,7 +270,8 @@ def stiff_branch_dataset(config: dict, exact: xr.Dataset, alpha, beta, delta, et
     attempts, run = [], None
     total = 0.0
     for H in ladder:
-        cfg = case_config(config, harmonics=H, alpha=alpha, beta=beta, delta=delta, eta=eta, max_steps=stiff["max_steps"])
+        cfg = case_config(config, harmonics=H, alpha=alpha, beta=beta, delta=delta, eta=eta, max_steps=stiff["max_steps"],
+                          points_per_step=study["points_per_step"])
         run = run_stage_one(
             cfg, float(study["max_truncation"]), energy_limit=energy_limit,
             label=f"NNM1 stage 1 (alpha {alpha:g}, beta {beta:g}, delta {delta:g}, eta {eta:g}, H {H})",
