@@ -28,6 +28,7 @@ def small_config(repo_root):
     config = copy.deepcopy(load_config(repo_root / "config" / "config.yaml"))
     config["hbm"]["harmonics"] = 15
     config["hbm"]["points_per_step"] = 2
+    config["hbm"]["max_truncation"] = 5e-2  # coarse on purpose: these tests are about drawing
     config["branches"]["nnm1"]["stages"] = [{"name": "one_impact_per_stop", "until": {"impacts_above": 2}}]
     config["branches"]["nnm2"]["stages"] = [{"name": "moderate_energy", "until": {"energy_above": 50.0}}]
     return config

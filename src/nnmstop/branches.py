@@ -30,7 +30,14 @@ import numpy as np
 import xarray as xr
 
 from .anm import ANMSettings, continue_anm
-from .continuation import Branch, ContinuationError, ContinuationStats, newton_correct, relative_residual
+from .continuation import (
+    Branch,
+    ContinuationError,
+    ContinuationStats,
+    UnresolvedBranchError,
+    newton_correct,
+    relative_residual,
+)
 from .hbm import HarmonicBalanceSystem
 from .model import ModelParameters, linear_modes
 from .stability import branch_stability
@@ -99,6 +106,31 @@ def stage_criterion(until: dict, params: ModelParameters, mode: int):
     return near_gap_zero
 
 
+def resolved_or_error(stop, system, max_truncation: float, label: str):
+    """Wrap a stop criterion so that an orbit the harmonics do not resolve stops the run.
+
+    Raises :class:`~nnmstop.continuation.UnresolvedBranchError` naming the energy, the
+    truncation indicator and ``H`` when the indicator exceeds ``max_truncation``:
+    a continuation never returns a branch whose orbits its harmonics cannot represent.
+    """
+    points = 0
+
+    def guarded(U, diag):
+        nonlocal points
+        points += 1
+        if diag["truncation"] > max_truncation:
+            p = system.params
+            raise UnresolvedBranchError(
+                f"{label}: truncation indicator {diag['truncation']:.4g} > hbm.max_truncation = {max_truncation:g} "
+                f"at energy {diag['energy']:.6g} (frequency {diag['frequency']:.6g} Hz, point {points - 1}): "
+                f"H = {system.H} harmonics do not resolve the stop (alpha = {p.alpha:g}, eta = {p.eta:g}); "
+                "more harmonics or a larger eta are needed"
+            )
+        return stop(U, diag)
+
+    return guarded
+
+
 def _stage_settings(config: dict) -> ANMSettings:
     return ANMSettings.from_config(config["anm"], points_per_step=config["hbm"].get("points_per_step", 1))
 
@@ -127,8 +159,9 @@ def continue_stage(config: dict, branch_name: str, stage: int, previous: xr.Data
             raise ValueError(f"stage {stage} of {branch_name!r} needs the dataset of stage {stage - 1}")
         points = dataset_unknowns(previous, system)
         U0, direction = points[-1], points[-1] - points[-2]
-    stop = stage_criterion(stages[stage - 1]["until"], system.params, spec["mode"])
     label = f"{branch_name} stage {stage} ({stages[stage - 1]['name']})"
+    stop = resolved_or_error(stage_criterion(stages[stage - 1]["until"], system.params, spec["mode"]),
+                             system, config["hbm"]["max_truncation"], label)
     branch = continue_anm(system, U0, direction, stop, _stage_settings(config), label=label)
     return branch_dataset(system, branch, stage, config, branch_name)
 

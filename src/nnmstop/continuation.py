@@ -19,6 +19,7 @@ from scipy.linalg import lu_factor, lu_solve
 
 __all__ = [
     "ContinuationError",
+    "UnresolvedBranchError",
     "ContinuationStats",
     "Branch",
     "relative_residual",
@@ -34,6 +35,10 @@ logger = logging.getLogger("nnmstop.continuation")
 
 class ContinuationError(RuntimeError):
     """A continuation could not go on; the message names the step and the energy."""
+
+
+class UnresolvedBranchError(ContinuationError):
+    """The harmonics do not resolve the orbit: the truncation indicator exceeded its limit."""
 
 
 @dataclass

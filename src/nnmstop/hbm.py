@@ -357,7 +357,9 @@ class HarmonicBalanceSystem:
         H = self.H
         c = self.to_full(c)
         power = c[1 : H + 1] ** 2 + c[H + 1 :] ** 2
-        top = max(1, int(np.ceil(share * H)))
+        # at least two harmonics: orbits with the half-wave symmetry (NNM1, NNM2) have only
+        # odd harmonics, so a single top harmonic could be an even one, always zero
+        top = max(2, int(np.ceil(share * H)))
         total = power.sum()
         return float(power[-top:].sum() / total) if total > 0 else 0.0
 

@@ -56,7 +56,7 @@ from ..anm import ANMSettings, continue_anm
 from ..branches import branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
 from ..compare import EnergyMatcher, _regularized_on_phase, exact_increasing_arm, orbit_differences
 from ..config import validate_config
-from ..continuation import ContinuationError, ContinuationStats, newton_correct
+from ..continuation import ContinuationError, ContinuationStats, UnresolvedBranchError, newton_correct
 from ..hbm import HarmonicBalanceSystem
 
 __all__ = [
@@ -92,8 +92,6 @@ ERROR_KEYS = (
 )
 
 
-class UnresolvedBranchError(ContinuationError):
-    """The harmonics do not resolve the orbit: the truncation indicator exceeded its limit."""
 
 
 # --------------------------------------------------------------------------- configuration
