@@ -341,23 +341,10 @@ def high_energy_orbit(params: ModelParameters, x_max: float) -> np.ndarray:
 # --------------------------------------------------------------------------- validity
 
 
-@dataclass(frozen=True)
-class OrbitAssessment:
-    """Validity margins of a quarter-period orbit (see :data:`MARGIN_REASONS`).
-
-    Attributes
-    ----------
-    margins : dict
-        Margin name -> value; the assumption holds when the value is > 0 (``inf`` when the
-        corresponding extremum does not exist).
-    x_max, t_x_max, u_at_x_max : float
-        Maximum of x over the orbit, the time of the quarter period where it occurs, and u then.
-    """
+class MarginChecks:
+    """Verdicts on a ``margins`` dict (an assumption holds when its margin is > 0)."""
 
     margins: dict
-    x_max: float
-    t_x_max: float
-    u_at_x_max: float
 
     @property
     def valid(self) -> bool:
@@ -373,6 +360,25 @@ class OrbitAssessment:
     def min_margin(self) -> float:
         """Smallest finite margin (``inf`` when none is finite)."""
         return smallest_margin(self.margins)
+
+
+@dataclass(frozen=True)
+class OrbitAssessment(MarginChecks):
+    """Validity margins of a quarter-period orbit (see :data:`MARGIN_REASONS`).
+
+    Attributes
+    ----------
+    margins : dict
+        Margin name -> value; the assumption holds when the value is > 0 (``inf`` when the
+        corresponding extremum does not exist).
+    x_max, t_x_max, u_at_x_max : float
+        Maximum of x over the orbit, the time of the quarter period where it occurs, and u then.
+    """
+
+    margins: dict
+    x_max: float
+    t_x_max: float
+    u_at_x_max: float
 
 
 def margins_valid(margins: dict) -> bool:

@@ -121,7 +121,7 @@ import scipy.optimize
 import xarray as xr
 
 from .datasets import write_dataset
-from .exact import LinearPhase, OrbitTimeHistory, margins_valid, smallest_margin, violated_margins
+from .exact import LinearPhase, MarginChecks, OrbitTimeHistory
 from .model import ModelParameters, mass_matrix, piecewise_contact_force, stiffness_matrix, total_energy
 
 __all__ = [
@@ -332,7 +332,7 @@ class MultiImpactProblem:
 
 
 @dataclass(frozen=True)
-class OrbitAssessment:
+class OrbitAssessment(MarginChecks):
     """Validity margins of a quarter-period orbit (all > 0 for an orbit of Eqs. (3)-(4)).
 
     Attributes
@@ -359,20 +359,6 @@ class OrbitAssessment:
     u_at_x_max: float
     x_turning: float
 
-    @property
-    def valid(self) -> bool:
-        """All assumptions hold strictly."""
-        return margins_valid(self.margins)
-
-    @property
-    def violated(self) -> list:
-        """Keys of the violated margins, most violated first."""
-        return violated_margins(self.margins)
-
-    @property
-    def min_margin(self) -> float:
-        """Smallest finite margin (``inf`` when none is finite)."""
-        return smallest_margin(self.margins)
 
 
 def _interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 64):
