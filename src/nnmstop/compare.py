@@ -269,6 +269,17 @@ def _bracket(energies: np.ndarray, target: float) -> tuple[int, float]:
     return i, (target - energies[i]) / (energies[i + 1] - energies[i])
 
 
+
+def _check_between(solution, points, i: int, message: str) -> None:
+    """Raise ``ValueError(message)`` if ``solution`` strayed from the segment ``points[i:i+2]``.
+
+    Newton started between two neighbouring points of a family must stay within twice
+    their spacing of the first one; farther away it has jumped to another part of it.
+    """
+    step = np.abs(points[i + 1] - points[i]).max()
+    if np.abs(solution - points[i]).max() > 2.0 * step + 1e-12:
+        raise ValueError(message)
+
 class EnergyMatcher:
     """Exact and regularized NNM1 orbits at prescribed energies (see the module docstring).
 
@@ -381,9 +392,7 @@ class EnergyMatcher:
                 f"the exact orbit found at energy {energy!r} violates the two-impact assumptions "
                 f"{check.violated}"
             )
-        step = np.abs(self._exact_unknowns[i + 1] - self._exact_unknowns[i]).max()
-        if np.abs(y - self._exact_unknowns[i]).max() > 2.0 * step + 1e-12:
-            raise ValueError(f"Newton's method left the increasing arm of the exact family at energy {energy!r}")
+        _check_between(y, self._exact_unknowns, i, f"Newton's method left the increasing arm of the exact family at energy {energy!r}")
         return y, float(np.linalg.norm(prob.residual(y))), it
 
     def regularized_orbit(self, energy, tol: float = 1e-13) -> tuple[np.ndarray, float, int, np.ndarray]:
@@ -410,9 +419,7 @@ class EnergyMatcher:
                 f"Newton's method did not converge for the regularized orbit at energy {energy!r} "
                 f"(relative residual {relative_residual(s, U):.2e}); too close to an energy fold?"
             )
-        step = np.abs(self._hbm_unknowns[i + 1] - self._hbm_unknowns[i]).max()
-        if np.abs(U - self._hbm_unknowns[i]).max() > 2.0 * step + 1e-12:
-            raise ValueError(f"Newton's method left the regularized branch between its points at energy {energy!r}")
+        _check_between(U, self._hbm_unknowns, i, f"Newton's method left the regularized branch between its points at energy {energy!r}")
         return U, relative_residual(s, U), it, lin
 
     def match(self, energy) -> MatchedOrbits:

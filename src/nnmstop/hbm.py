@@ -349,8 +349,13 @@ class HarmonicBalanceSystem:
             "impacts_per_period": impacts_per_period(h["x"]),
             "x_max": float(h["x"].max()),
             "u_max": float(h["u"].max()),
-            "truncation": max(self.truncation_indicator(lam * self.second_derivative(x)), self.truncation_indicator(f)),
+            "truncation": self.truncation(U),
         }
+
+    def truncation(self, U) -> float:
+        """Truncation indicator of an orbit: :meth:`truncation_indicator` of ``x''`` and ``f``, the larger."""
+        x, _, f, _, lam, _ = self.split(np.asarray(U, dtype=float))
+        return max(self.truncation_indicator(lam * self.second_derivative(x)), self.truncation_indicator(f))
 
     def truncation_indicator(self, c, share: float = 0.1):
         """Fraction of the mean square of series ``c`` in the top ``share`` of the harmonics."""

@@ -149,19 +149,13 @@ def case_config(config: dict, **overrides) -> dict:
 
 
 def truncation_level(system: HarmonicBalanceSystem, U) -> float:
-    """Truncation indicator of an HBM orbit: top share of ``x''`` or ``f``, at least two harmonics.
+    """Truncation indicator of an HBM orbit, as the branch datasets record it.
 
-    Same measure as the ``truncation`` of the branch datasets (share of the mean square
-    carried by the top tenth of the harmonics, the larger for ``x''`` and ``f``), with the
-    top share widened to two harmonics when ``H < 20`` so that it always contains an odd
-    harmonic (see the module docstring).
+    :meth:`nnmstop.hbm.HarmonicBalanceSystem.truncation`: share of the mean square
+    carried by the top tenth of the harmonics (at least two, so that it always holds an
+    odd harmonic), the larger for ``x''`` and ``f``.
     """
-    x, _, f, _, lam, _ = system.split(np.asarray(U, dtype=float))
-    share = max(0.1, 2.0 / system.H)
-    return max(
-        system.truncation_indicator(lam * system.second_derivative(x), share),
-        system.truncation_indicator(f, share),
-    )
+    return system.truncation(U)
 
 
 @dataclass
