@@ -50,6 +50,7 @@ __all__ = [
     "branch_dataset",
     "dataset_unknowns",
     "combine_stages",
+    "bifurcated_branch",
 ]
 
 logger = logging.getLogger("nnmstop.branches")
@@ -288,3 +289,71 @@ def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
     out.attrs["anm_steps"] = int(sum(ds.attrs["anm_steps"] for ds in stages))
     out.attrs["factorizations"] = int(sum(ds.attrs["factorizations"] for ds in stages))
     return out
+
+
+def bifurcated_branch(config: dict, name: str, parent_stage: xr.Dataset) -> xr.Dataset:
+    """Dataset of the branch that bifurcates from a regularized branch (``bifurcations.<name>``).
+
+    The flagged steps of ``parent_stage`` (the dataset of stage ``bifurcations.<name>.stage``
+    of the parent branch) are searched for the branch point of the ``n:1`` internal
+    resonance (:func:`nnmstop.bifurcation.resonant_branch_point`); the other curve
+    through it is followed both ways by the ANM until its energy leaves
+    ``energy_range`` (:func:`nnmstop.bifurcation.continue_bifurcated_branch`).
+
+    The dataset has the layout of a branch dataset (module docstring), ordered along
+    the curve through the branch point (``branch_point`` flags it), plus
+    ``subharmonic_share`` (zero on orbits of period ``T/n``) and global attributes
+    describing the branch point: ``parent_branch``, ``resonance``,
+    ``branch_point_energy``, ``branch_point_frequency``, ``tangent_angle`` (degrees
+    between the two tangents), ``singular_ratio``.
+    """
+    from .bifurcation import continue_bifurcated_branch, resonant_branch_point, subharmonic_share
+
+    spec = config["bifurcations"][name]
+    parent, n = spec["parent"], spec["resonance"]
+    stages_in = np.unique(parent_stage["stage"].values) if "stage" in parent_stage else []
+    if parent_stage.attrs.get("branch") != parent or list(stages_in) != [spec["stage"]]:
+        raise ValueError(
+            f"bifurcations.{name}: expected the dataset of {parent} stage {spec['stage']}, got branch "
+            f"{parent_stage.attrs.get('branch')!r} stage(s) {list(stages_in)}"
+        )
+    system = system_from_config(config)
+    points = dataset_unknowns(parent_stage, system)
+    step = parent_stage["step"].values
+    flagged = np.flatnonzero(parent_stage["branch_point"].values)
+    # the sign change lies within the step that ends at a flagged point: from the last point of the step before
+    candidates = [(int(np.flatnonzero(step == step[i])[0]) - 1, int(i)) for i in flagged if step[i] > 0]
+    point = resonant_branch_point(system, points, candidates, n)
+    low, high = spec["energy_range"]
+    label = f"{name} (bifurcated from {parent} at the {n}:1 resonance)"
+
+    def out_of_range(U, d):
+        return f"energy left [{low:g}, {high:g}]" if not low <= d["energy"] <= high else ""
+
+    stop = resolved_or_error(out_of_range, system, config["hbm"]["max_truncation"], label)
+    branch = continue_bifurcated_branch(system, point, stop, _stage_settings(config), spec["switch_step"], label)
+    ds = branch_dataset(system, branch, spec["stage"], config, parent)
+    ds["subharmonic_share"] = (
+        "point",
+        np.array([subharmonic_share(system, U, n) for U in branch.points]),
+        {"long_name": f"share of the mean square of x and u in harmonics that are not multiples of {n} "
+                      f"(zero for an orbit of period T/{n})", "units": "1"},
+    )
+    ds["stage"].attrs["long_name"] = "stage of the parent branch from whose branch point the branch was switched"
+    ds["step"].attrs["long_name"] = "index of the ANM step that produced the point (negative on the side followed backwards)"
+    diag = system.diagnostics(point.U)
+    for key in ("mode", "stages"):
+        ds.attrs.pop(key, None)
+    ds.attrs.update(
+        {
+            "branch": name,
+            "parent_branch": parent,
+            "resonance": n,
+            "branch_point_energy": float(diag["energy"]),
+            "branch_point_frequency": float(diag["frequency"]),
+            "tangent_angle": point.angle,
+            "singular_ratio": point.singular_ratio,
+            "switch_step": spec["switch_step"],
+        }
+    )
+    return ds

@@ -56,6 +56,23 @@ def validate_config(config: dict) -> dict:
             f"config key 'model.eta': {model['eta']} must be smaller than model.alpha = {model['alpha']} "
             "(the regularized force has no admissible branch otherwise)"
         )
+    for name, spec in config.get("bifurcations", {}).items():
+        stages = len(config["branches"][spec["parent"]]["stages"])
+        if spec["stage"] > stages:
+            raise ConfigError(
+                f"config key 'bifurcations.{name}.stage': {spec['stage']} exceeds the {stages} stages of "
+                f"branch {spec['parent']!r}"
+            )
+        low, high = spec["energy_range"]
+        if not low < high:
+            raise ConfigError(f"config key 'bifurcations.{name}.energy_range': {spec['energy_range']} must be increasing")
+    for figure, spec in config.get("figures", {}).items():
+        unknown = [n for n in (spec.get("bifurcated", []) if isinstance(spec, dict) else []) if n not in config.get("bifurcations", {})]
+        if unknown:
+            raise ConfigError(
+                f"config key 'figures.{figure}.bifurcated': {unknown} not among the configured bifurcations "
+                f"{sorted(config.get('bifurcations', {}))}"
+            )
     return config
 
 

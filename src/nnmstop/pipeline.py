@@ -64,6 +64,27 @@ def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
     )
 
 
+def hbm_bifurcated(config, inputs, outputs, bifurcation: str):
+    """The branch switched at a branch point of a regularized branch (``bifurcations.<name>``)."""
+    from .branches import bifurcated_branch
+    from .datasets import write_dataset
+
+    with xr.open_dataset(inputs["parent"]) as parent:
+        ds = bifurcated_branch(config, bifurcation, parent.load())
+    n, parent_name = ds.attrs["resonance"], ds.attrs["parent_branch"].upper()
+    write_dataset(
+        ds,
+        outputs["dataset"],
+        title=f"Branch bifurcating from regularized {parent_name} at the {n}:1 internal resonance ({bifurcation})",
+        summary=(
+            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop on the curve "
+            f"that crosses {parent_name} at its {n}:1 branch point (orbits of period T/{n}), reached by branch "
+            f"switching and continued both ways by harmonic balance with {ds.attrs['harmonics']} harmonics "
+            f"and the asymptotic numerical method."
+        ),
+    )
+
+
 def hbm_branch(config, inputs, outputs, branch: str):
     """Concatenate the stages of a branch into one dataset."""
     from .branches import combine_stages
@@ -212,7 +233,7 @@ STUDY_TASKS = (
 
 
 TASKS = {
-    **{f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_branch, compare_nnm1, dataset_manifest, *STUDY_TASKS)},
+    **{f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_bifurcated, hbm_branch, compare_nnm1, dataset_manifest, *STUDY_TASKS)},
     **PAPER_FIGURE_TASKS,
 }
 
@@ -271,8 +292,9 @@ def main(argv=None) -> None:
     parser.add_argument("--log", default="-", help="log file, '-' for stderr")
     parser.add_argument("--branch")
     parser.add_argument("--stage")
+    parser.add_argument("--bifurcation", help="name under bifurcations (task hbm_bifurcated)")
     args = parser.parse_args(argv)
-    wildcards = {k: getattr(args, k) for k in ("branch", "stage") if getattr(args, k) is not None}
+    wildcards = {k: getattr(args, k) for k in ("branch", "stage", "bifurcation") if getattr(args, k) is not None}
     inputs = _pairs(args.input)
     if "stages" in inputs and isinstance(inputs["stages"], str):
         inputs["stages"] = [inputs["stages"]]

@@ -20,6 +20,17 @@ def stage_files(branch):
     return [f"results/hbm/stages/{branch}_stage{k}.nc" for k in range(1, n + 1)]
 
 
+def bifurcation_parent(wildcards):
+    """The stage dataset of the parent branch that holds the branch point."""
+    spec = config["bifurcations"][wildcards.bifurcation]
+    return {"parent": f"results/hbm/stages/{spec['parent']}_stage{spec['stage']}.nc"}
+
+
+def bifurcated_files(figure):
+    """Bifurcated-branch datasets drawn on a figure (``figures.<figure>.bifurcated``)."""
+    return [f"results/hbm/bifurcated/{name}.nc" for name in config["figures"][figure].get("bifurcated", [])]
+
+
 # Every dataset behind the paper's figures (the study's measurements are kept apart).
 PAPER_DATASETS = [
     "results/exact/nnm1_two_impacts.nc",
@@ -28,6 +39,7 @@ PAPER_DATASETS = [
     "results/compare/nnm1_exact_vs_regularized.nc",
     *stage_files("nnm1"),
     *stage_files("nnm2"),
+    *[f"results/hbm/bifurcated/{name}.nc" for name in config.get("bifurcations", {})],
 ]
 
 

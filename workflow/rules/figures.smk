@@ -75,6 +75,7 @@ rule paper_fig08:
         unpack(exact_overlay),
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig08"),
         nnm2="results/hbm/nnm2.nc",
+        bifurcated=lambda wildcards: bifurcated_files("fig08"),
     output:
         pdf="paper_figures/fig08.pdf",
         png=report("paper_figures/fig08.png", category="Paper figures"),
@@ -97,6 +98,7 @@ rule paper_fig09:
         unpack(exact_overlay),
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig09"),
         nnm2="results/hbm/nnm2.nc",
+        bifurcated=lambda wildcards: bifurcated_files("fig09"),
     output:
         pdf="paper_figures/fig09.pdf",
         png=report("paper_figures/fig09.png", category="Paper figures"),
@@ -119,6 +121,7 @@ rule paper_fig10:
         unpack(exact_overlay),
         nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig10"),
         nnm2="results/hbm/nnm2.nc",
+        bifurcated=lambda wildcards: bifurcated_files("fig10"),
     output:
         pdf="paper_figures/fig10.pdf",
         png=report("paper_figures/fig10.png", category="Paper figures"),

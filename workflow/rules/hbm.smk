@@ -25,6 +25,27 @@ rule hbm_stage:
         "../scripts/run_task.py"
 
 
+rule hbm_bifurcated:
+    """A branch switched at a branch point of a regularized branch (config: bifurcations.<name>)."""
+    input:
+        unpack(bifurcation_parent),
+    output:
+        dataset="results/hbm/bifurcated/{bifurcation}.nc",
+    wildcard_constraints:
+        bifurcation="[a-z0-9_]+",
+    log:
+        "logs/hbm/bifurcated_{bifurcation}.log",
+    benchmark:
+        "benchmarks/runs/hbm_bifurcated_{bifurcation}.tsv"
+    params:
+        task="hbm_bifurcated",
+        settings=lambda wildcards: repr([config[k] for k in ("model", "hbm", "anm")] + [config["bifurcations"][wildcards.bifurcation]]),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
 rule hbm_branch:
     """A whole regularized NNM branch: its stages concatenated."""
     input:

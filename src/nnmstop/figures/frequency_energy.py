@@ -10,7 +10,8 @@ energies are on a logarithmic axis.
 * Fig 5: NNM1 and NNM2 over the whole energy range (whole-branch datasets).
 * Fig 6: NNM2 with modal lines a)-f) (the NNM2 dataset only).
 * Fig 7: NNM1 at low energy, a)-c) (NNM1 stage 1).
-* Fig 8: NNM1 and NNM2 at ``f2/3`` (same energy), the 3:1 internal resonance, d)-i).
+* Fig 8: NNM1 and NNM2 at ``f2/3`` (same energy), the 3:1 internal resonance, d)-i); the
+  branch switched at its branch point (``figures.fig08.bifurcated``) drawn over the f2/3 curve.
 * Figs 9-10: NNM1 and NNM2 at ``f2/5``, the 5:1 internal resonance, j)-m) and o)-q).
 * Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode.
 
@@ -75,6 +76,7 @@ logger = logging.getLogger("nnmstop.figures")
 
 NNM1_COLOR = REGULARIZED_COLOR
 GAP_ZERO_STYLE = {"color": "0.25", "ls": (0, (5, 3)), "lw": 0.9}
+BIFURCATED_COLOR = "black"
 BRANCH_POINT_STYLE = {"marker": "x", "ms": 5, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5}
 PARAMETER_KEYS = ("alpha", "beta", "delta", "eta")
 
@@ -285,11 +287,14 @@ def _check_in_window(ds, point, spec: LabelSpec, energy_range, frequency_range, 
 
 
 def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None, params, spec, where, branch_label,
-              exact: xr.Dataset | None = None):
+              exact: xr.Dataset | None = None, bifurcated: list | None = None):
     """Frequency-energy plot of ``branch`` with its companions; returns the legend handles.
 
     ``exact``: optional exact NNM1 of the non-smooth system (results/exact/nnm1.nc),
     drawn dotted in black (red is taken by the f2/5 curve) under the regularized branch.
+    ``bifurcated``: branches switched at branch points of ``branch``
+    (results/hbm/bifurcated/*.nc), drawn thin in black over the curve they should
+    follow (for the n:1 resonances, the NNM2 curve at f2/n), with their branch point.
     """
     color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
     energy_range = _range(spec, "energy_range", where)
@@ -305,6 +310,12 @@ def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None
         n = kind.resonance
         ax.plot(nnm2["energy"].values, nnm2["frequency"].values / n, color=kind.resonance_color, lw=1.2, zorder=2)
         handles.append(Line2D([], [], color=kind.resonance_color, lw=1.2, label=f"NNM2 frequency / {n} (same energy)"))
+    for ds in bifurcated or []:
+        drawn_b = plot_branch(ax, ds, BIFURCATED_COLOR, lw=0.7, zorder=2.6)
+        handles.append(Line2D([], [], color=BIFURCATED_COLOR, lw=0.7,
+                              label=f"branch switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)"))
+        handles.extend(h for h in stability_legend_handles(drawn_b, color=BIFURCATED_COLOR, lw=0.7) if h.get_label() not in {x.get_label() for x in handles})
+        _branch_points(ax, ds)
     gap_zero = gap_zero_frequencies(params)
     levels = [float(gap_zero[mode - 1]) for mode in kind.gap_zero_modes]
     if frequency_range is None:
@@ -342,11 +353,12 @@ def _inset_grid(n: int) -> tuple[int, int]:
 
 
 def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path, nnm2=None, png_dpi: int = 150, branch_label=None,
-                            exact=None):
+                            exact=None, bifurcated=None):
     """Frequency-energy plot of ``branch`` on top, the modal lines of its labels below."""
     kind = PAPER_FIGURES[name]
     where = name
-    datasets = [branch] + [ds for ds in (nnm2, exact) if ds is not None]
+    bifurcated = list(bifurcated or [])
+    datasets = [branch] + [ds for ds in (nnm2, exact) if ds is not None] + bifurcated
     for ds in datasets:
         check_finite(ds, where)
     _check_branch(branch, kind.branch, where)
@@ -355,6 +367,9 @@ def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path
             raise ValueError(f"{where}: the NNM2 dataset is needed for the f2/{kind.resonance} curve")
         _check_branch(nnm2, "nnm2", where)
     params = model_parameters(*[ds for ds in datasets if ds is not exact], where=where)
+    for ds in bifurcated:
+        if ds.attrs.get("parent_branch") != kind.branch or "resonance" not in ds.attrs:
+            raise ValueError(f"{where}: {_dataset_name(ds)} is not a branch bifurcated from {kind.branch.upper()}")
     labels = label_specs(spec.get("labels"))
     if not labels:
         raise ValueError(f"{where}: no labelled points configured (figures.{name}.labels)")
@@ -373,7 +388,7 @@ def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path
         fig.get_layout_engine().set(h_pad=0.06, w_pad=0.06, hspace=0.04, wspace=0.06)
         grid = fig.add_gridspec(1 + rows, cols, height_ratios=[4.0] + [2.3] * rows)
         ax = fig.add_subplot(grid[0, :])
-        handles, energy_range, frequency_range = _draw_fep(ax, kind, branch, nnm2, params, spec, where, branch_label, exact)
+        handles, energy_range, frequency_range = _draw_fep(ax, kind, branch, nnm2, params, spec, where, branch_label, exact, bifurcated)
         for i, (s, p) in enumerate(zip(labels, points)):
             _check_in_window(branch, p, s, energy_range, frequency_range, where)
             mark_point(ax, branch, p, s)
@@ -455,12 +470,12 @@ def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
     return _figure_with_modal_lines("fig06", nnm2, spec, pdf_path, png_dpi=png_dpi)
 
 
-def _nnm1_figure(name, nnm1_stages, spec, pdf_path, nnm2=None, png_dpi=150, exact=None):
+def _nnm1_figure(name, nnm1_stages, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None):
     branch = combine_nnm1_stages(list(nnm1_stages), name, spec.get("nnm1_stages"))
     stages = np.unique(branch["stage"].values)
     text = f"stage {stages[0]}" if stages.size == 1 else f"stages {stages[0]}-{stages[-1]}"
     return _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi,
-                                    branch_label=f"NNM1 ({text} of the continuation)", exact=exact)
+                                    branch_label=f"NNM1 ({text} of the continuation)", exact=exact, bifurcated=bifurcated)
 
 
 def figure_07(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
@@ -469,22 +484,25 @@ def figure_07(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int 
     return _nnm1_figure("fig07", nnm1_stages, spec, pdf_path, png_dpi=png_dpi, exact=exact)
 
 
-def figure_08(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
+def figure_08(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+              bifurcated=None):
     """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; three then two impacts per stop and
     the 3:1 internal resonance, modal lines d)-i)."""
-    return _nnm1_figure("fig08", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact)
+    return _nnm1_figure("fig08", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_09(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
+def figure_09(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+              bifurcated=None):
     """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; four then five impacts per stop and
     the 5:1 internal resonance, modal lines j)-m)."""
-    return _nnm1_figure("fig09", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact)
+    return _nnm1_figure("fig09", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_10(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
+def figure_10(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+              bifurcated=None):
     """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance: impacts
     without oscillation between the stops, back to one impact per stop, o)-q)."""
-    return _nnm1_figure("fig10", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact)
+    return _nnm1_figure("fig10", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
 def figure_11(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
@@ -530,7 +548,8 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
     """Build paper figure ``name`` from the named inputs of its rule.
 
     Inputs: ``nnm1`` and ``nnm2`` (whole branches) for ``fig05``; ``nnm2`` for
-    ``fig06``; ``nnm1_stages`` (list of stage files) and, for Figs 8-10, ``nnm2``.
+    ``fig06``; ``nnm1_stages`` (list of stage files) and, for Figs 8-10, ``nnm2`` and
+    ``bifurcated`` (the files of ``figures.<name>.bifurcated``, possibly none).
     Outputs: ``pdf`` and ``png`` (same stem).
 
     Raises
@@ -563,4 +582,9 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
         builder = figure_07 if name == "fig07" else figure_11
         return builder(stages, spec, pdf, png_dpi, exact=exact)
     builder = {"fig08": figure_08, "fig09": figure_09, "fig10": figure_10}[name]
-    return builder(stages, open_dataset(need("nnm2")), spec, pdf, png_dpi, exact=exact)
+    # branches switched at branch points (figures.<name>.bifurcated), one input file each
+    wanted = spec.get("bifurcated", [])
+    bifurcated = [open_dataset(p) for p in _as_list(need("bifurcated"))] if wanted else []
+    if len(bifurcated) != len(wanted):
+        raise ValueError(f"{name}: figures.{name}.bifurcated lists {wanted}, the inputs hold {len(bifurcated)} datasets")
+    return builder(stages, open_dataset(need("nnm2")), spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated)

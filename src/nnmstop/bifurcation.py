@@ -1,0 +1,421 @@
+r"""Simple branch points of the HBM system and switching onto the bifurcated branch.
+
+A *simple branch point* ``U*`` of the balanced system ``S(U) = 0`` (``n`` equations,
+``n + 1`` unknowns, :mod:`nnmstop.hbm`) is where two solution curves cross: the
+Jacobian ``J(U*)`` has rank ``n - 1``, its null space is a plane that holds the tangents
+of both curves. Along a branch the determinant of the bordered matrix ``[J; t^T]``
+(``t`` the unit tangent, oriented along the travel) changes sign there, and not at
+folds; the ANM records the steps across which it does
+(:attr:`nnmstop.continuation.Branch.branch_points`, the ``branch_point`` flag of the
+datasets).
+
+On NNM1 such points sit where the fundamental harmonic of the orbit changes sign
+(internal resonances ``n:1``): the orbit there has period ``T/n``; it is an orbit of
+NNM2 read over ``n`` of its periods, and the curve that crosses NNM1 at ``U*`` is that
+NNM2 family read at ``n T`` (the "three time FEP of the second NNM" of Fig. 8).
+
+Branch switching, after Keller's algebraic bifurcation equation:
+
+1. :func:`locate_branch_point` brackets the sign change between two points of the
+   branch and bisects it, each trial point put back on the branch by Newton.
+2. :func:`bifurcation_tangents`: with ``phi_1, phi_2`` a basis of the null plane of
+   ``J(U*)`` and ``psi`` its left null vector, the tangents ``tau = a phi_1 + b phi_2``
+   of the curves through ``U*`` solve the quadratic
+   ``psi^T S''(U*)[tau, tau] = 0``. The system is exactly quadratic (the recast,
+   Eq. 12), so ``S''`` is the bilinear form ``2 Q`` and is obtained without truncation
+   error by polarization (:func:`quadratic_form`). One root is the incoming tangent;
+   the other is the tangent of the bifurcated curve, not in general orthogonal to it.
+3. :func:`switch_branch` steps along that tangent and corrects by Newton in the
+   hyperplane orthogonal to it; the ANM then follows the bifurcated curve both ways
+   (:func:`continue_bifurcated_branch`).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import lu_factor, lu_solve
+
+from .continuation import (
+    ContinuationError,
+    ContinuationStats,
+    determinant_sign,
+    newton_correct,
+    relative_residual,
+)
+
+__all__ = [
+    "BranchPoint",
+    "quadratic_form",
+    "bordered_sign",
+    "locate_branch_point",
+    "project_onto_branch",
+    "bifurcation_tangents",
+    "switch_branch",
+    "subharmonic_share",
+    "continue_bifurcated_branch",
+    "resonant_branch_point",
+    "summarize_bifurcated",
+]
+
+logger = logging.getLogger("nnmstop.bifurcation")
+
+
+@dataclass
+class BranchPoint:
+    """A located simple branch point.
+
+    Attributes
+    ----------
+    U : ndarray
+        The point (on the branch, residual at the Newton tolerance).
+    incoming : ndarray
+        Unit tangent of the branch that was followed, oriented along the travel.
+    bifurcated : ndarray
+        Unit tangent of the other curve through ``U`` (sign arbitrary).
+    singular_ratio : float
+        Smallest over second-smallest nonzero singular value of ``J(U)``: small at a
+        simple branch point (the null space is two-dimensional).
+    discriminant : float
+        ``|A| / R`` of the bifurcation equation (see :func:`bifurcation_tangents`):
+        below 1 for two real, distinct tangents; near 1 they nearly coincide.
+    angle : float
+        Angle between the two tangents, in degrees.
+    """
+
+    U: np.ndarray
+    incoming: np.ndarray
+    bifurcated: np.ndarray
+    singular_ratio: float
+    discriminant: float
+    angle: float
+
+
+def quadratic_form(system, U, a, b) -> np.ndarray:
+    """``Q(a, b)``, the symmetric bilinear part of ``S``, by polarization at ``U``.
+
+    For ``S`` quadratic, ``S(U + v) = S(U) + J v + Q(v, v)``, hence
+    ``8 Q(a, b) = S(U+a+b) - S(U+a-b) - S(U-a+b) + S(U-a-b)`` exactly: the linear
+    parts cancel and no step size enters. ``a`` and ``b`` are scaled to the size of
+    ``U`` before the evaluation to keep the round-off relative.
+    """
+    U = np.asarray(U, dtype=float)
+    scale = max(np.linalg.norm(U), 1.0)
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    if na == 0 or nb == 0:
+        return np.zeros(system.n_equations)
+    sa, sb = scale / na, scale / nb
+    A, B = sa * np.asarray(a, float), sb * np.asarray(b, float)
+    S = system.residual
+    q = S(U + A + B) - S(U + A - B) - S(U - A + B) + S(U - A - B)
+    return q / (8.0 * sa * sb)
+
+
+def bordered_sign(system, U, direction):
+    """Unit tangent at ``U`` oriented along ``direction``, and the sign of ``det [J; t^T]``."""
+    J = system.jacobian(U)
+    lu = lu_factor(np.vstack([J, direction[None, :] / np.linalg.norm(direction)]))
+    rhs = np.zeros(system.n_unknowns)
+    rhs[-1] = 1.0
+    t = lu_solve(lu, rhs)
+    t /= np.linalg.norm(t)
+    return t, determinant_sign(lu_factor(np.vstack([J, t[None, :]])))
+
+
+def locate_branch_point(system, U_a, U_b, tol: float = 1e-10, max_iter: int = 80, newton_tol: float = 1e-9):
+    """Bisection for the branch point between two points ``U_a``, ``U_b`` of a branch.
+
+    Trial points on the chord are put on the branch by Newton in the hyperplane
+    orthogonal to the chord; the sign of ``det [J; t^T]`` (``t`` oriented from ``U_a``
+    to ``U_b``) must differ at the two ends.
+
+    Returns
+    -------
+    U : ndarray
+        The branch point, to ``tol`` in relative chord length.
+    t : ndarray
+        The unit tangent of the branch there, oriented from ``U_a`` to ``U_b``.
+
+    Raises
+    ------
+    ValueError
+        If the determinant has the same sign at both ends (no branch point bracketed).
+    """
+    U_a, U_b = np.asarray(U_a, float), np.asarray(U_b, float)
+    chord = U_b - U_a
+    if not np.linalg.norm(chord) > 0:
+        raise ValueError("locate_branch_point needs two distinct points")
+    _, sign_a = bordered_sign(system, U_a, chord)
+    t_b, sign_b = bordered_sign(system, U_b, chord)
+    if sign_a == sign_b:
+        raise ValueError("no branch point between the two points: det [J; t^T] has the same sign at both")
+    lo, hi = 0.0, 1.0
+    U_mid, t_mid = U_b, t_b
+    for _ in range(max_iter):
+        mid = 0.5 * (lo + hi)
+        U_mid = project_onto_branch(system, U_a + mid * chord, tol=newton_tol)
+        t_mid, sign = bordered_sign(system, U_mid, chord)
+        if sign == sign_a:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < tol:
+            break
+    return U_mid, t_mid
+
+
+def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
+    """Nearest-point Newton (Moore-Penrose) iterations on ``S(U) = 0``.
+
+    Each update is the least-norm solution of ``J dU = -S`` with the singular values
+    below ``1e-12`` of the largest cut off, so the iteration stays well defined at and
+    near a branch point, where the bordered matrices of the continuation are singular.
+
+    Raises
+    ------
+    ContinuationError
+        If the relative residual does not reach ``tol``.
+    """
+    U = np.array(U, dtype=float)
+    for _ in range(max_iter):
+        r = system.residual(U)
+        if relative_residual(system, U) <= tol:
+            return U
+        dU = np.linalg.lstsq(system.jacobian(U), -r, rcond=1e-12)[0]
+        U += dU
+    if relative_residual(system, U) <= tol:
+        return U
+    raise ContinuationError(
+        f"projection onto the branch did not converge in {max_iter} iterations "
+        f"(relative residual {relative_residual(system, U):.2e} > {tol:.1e})"
+    )
+
+
+def _null_plane(system, U):
+    """Right null plane (2 x n+1), left null vector and singular ratio of ``J(U)``."""
+    u, sing, vt = np.linalg.svd(system.jacobian(U))
+    # J is n x (n+1): vt[-1] spans its generic null space; vt[-2] belongs to the smallest
+    # singular value sing[-1], which vanishes at a branch point.
+    return vt[-2:], u[:, -1], float(sing[-1] / sing[-2])
+
+
+def bifurcation_tangents(system, U_star, reference):
+    """Tangents of the two curves through the branch point ``U_star``.
+
+    Solves the algebraic bifurcation equation ``psi^T Q(tau, tau) = 0`` on the null
+    plane of ``J(U_star)`` (see the module docstring). With
+    ``tau = cos(theta) phi_1 + sin(theta) phi_2`` it reads
+    ``A + B cos(2 theta) + C sin(2 theta) = 0``, two real roots at a branch point.
+
+    Parameters
+    ----------
+    reference : ndarray
+        A direction of the followed branch near ``U_star`` (for example the chord of the
+        step across it): the root closer to it is the incoming tangent. The tangent
+        computed *at* ``U_star`` cannot serve, because ``[J; t^T]`` is singular there.
+
+    Returns
+    -------
+    BranchPoint
+
+    Raises
+    ------
+    ContinuationError
+        If the bifurcation equation has no two distinct real roots (not a simple
+        branch point).
+    """
+    plane, psi, ratio = _null_plane(system, U_star)
+    p1, p2 = plane
+    c11 = psi @ quadratic_form(system, U_star, p1, p1)
+    c12 = psi @ quadratic_form(system, U_star, p1, p2)
+    c22 = psi @ quadratic_form(system, U_star, p2, p2)
+    A, B, C = 0.5 * (c11 + c22), 0.5 * (c11 - c22), c12
+    R = np.hypot(B, C)
+    if not R > abs(A):
+        raise ContinuationError(
+            f"not a simple branch point: the bifurcation equation has no two real roots (|A|/R = {abs(A) / R:.3g})"
+        )
+    phase, spread = np.arctan2(C, B), np.arccos(-A / R)
+    tangents = [np.cos(th) * p1 + np.sin(th) * p2 for th in (0.5 * (phase + spread), 0.5 * (phase - spread))]
+    reference = np.asarray(reference, float) / np.linalg.norm(reference)
+    tangents.sort(key=lambda v: -abs(v @ reference))
+    incoming, bifurcated = tangents
+    if incoming @ reference < 0:
+        incoming = -incoming
+    return BranchPoint(
+        U=np.asarray(U_star, float),
+        incoming=incoming,
+        bifurcated=bifurcated,
+        singular_ratio=ratio,
+        discriminant=float(abs(A) / R),
+        angle=float(np.degrees(np.arccos(min(1.0, abs(incoming @ bifurcated))))),
+    )
+
+
+def switch_branch(system, point: BranchPoint, step: float, tol: float = 1e-11):
+    """First point of the bifurcated curve, ``step |U*|`` away from the branch point along it.
+
+    The guess ``U* + step * tau`` is corrected by Newton in the hyperplane orthogonal
+    to ``tau``. The sign of ``step`` selects the side.
+
+    Raises
+    ------
+    ContinuationError
+        If Newton fails or lands back on the incoming branch.
+    """
+    tau = point.bifurcated
+    step = step * max(np.linalg.norm(point.U), 1.0)
+    U1, _ = newton_correct(system, point.U + step * tau, tau, ContinuationStats(), tol=tol)
+    offset = U1 - point.U
+    # Newton keeps offset . tau = step: landing on the incoming curve instead makes the
+    # offset point along the incoming tangent rather than along tau
+    if abs(offset @ point.incoming) > abs(offset @ tau):
+        raise ContinuationError(
+            f"branch switching with step {step:g} fell back onto the incoming branch; try a smaller step"
+        )
+    return U1
+
+
+def subharmonic_share(system, U, n: int) -> float:
+    """Share of the mean square of ``x`` and ``u`` in harmonics that are not multiples of ``n``.
+
+    Zero for an orbit of period ``T / n`` (an orbit of frequency ``n`` times that of
+    the unknown ``lam``), which is what NNM1 crosses at an ``n:1`` internal resonance.
+    """
+    x, u = system.split(U)[:2]
+    k = np.arange(system.nc) % system.nfull  # index in the kept layout
+    harmonic = np.where(k <= system.H, k, k - system.H)
+    off = (harmonic % n) != 0
+    total = np.sum(x[1:] ** 2) + np.sum(u[1:] ** 2)
+    return float((np.sum(x[off] ** 2) + np.sum(u[off] ** 2)) / total) if total > 0 else 0.0
+
+
+def continue_bifurcated_branch(system, point: BranchPoint, stop, settings, switch_step: float, label: str = "bifurcated"):
+    """Follow the bifurcated curve through ``point`` both ways with the ANM.
+
+    Each side starts from :func:`switch_branch` (``+switch_step`` and ``-switch_step``
+    along ``point.bifurcated``) and runs until ``stop`` says so.
+
+    Returns
+    -------
+    Branch
+        The points of the ``-`` side in reverse order, the branch point, then the
+        points of the ``+`` side: one curve, in order, through the branch point
+        (whose index is ``branch.branch_points[0]``; the branch points passed on
+        either side follow). ``stats`` add up both sides.
+    """
+    from .anm import continue_anm
+    from .continuation import Branch
+
+    sides = {}
+    for sign in (-1.0, 1.0):
+        U1 = switch_branch(system, point, sign * switch_step)
+        sides[sign] = continue_anm(system, U1, sign * point.bifurcated, stop, settings,
+                                   label=f"{label} ({'+' if sign > 0 else '-'} side)")
+    minus, plus = sides[-1.0], sides[1.0]
+    merged = Branch()
+    n_minus = len(minus.points)
+    for U, step, diag in zip(minus.points[::-1], minus.step[::-1], minus.diagnostics[::-1]):
+        merged.add(U, -step, diag)
+    merged.add(point.U, 0, system.diagnostics(point.U))
+    for U, step, diag in zip(plus.points, plus.step, plus.diagnostics):
+        merged.add(U, step, diag)
+    # the flags keep marking the same orbits (where each side's continuation saw the sign change)
+    merged.branch_points = [n_minus] + [n_minus - 1 - i for i in minus.branch_points] + [
+        n_minus + 1 + i for i in plus.branch_points
+    ]
+    for key in ("steps", "factorizations", "newton_iterations", "corrected_steps", "geometric_tails", "wall_time"):
+        setattr(merged.stats, key, getattr(minus.stats, key) + getattr(plus.stats, key))
+    merged.end_reason = f"- side: {minus.end_reason}; + side: {plus.end_reason}"
+    return merged
+
+
+def resonant_branch_point(system, points, candidates, n: int, share_tol: float = 1e-6) -> BranchPoint:
+    """The branch point of an ``n:1`` internal resonance among flagged steps of a branch.
+
+    Parameters
+    ----------
+    points : ndarray, shape (m, n_unknowns)
+        Points of the branch, in order.
+    candidates : sequence of (int, int)
+        ``(start, end)`` indices of the steps flagged with a sign change of ``det [J; t^T]``.
+    n : int
+        The resonance: the branch point sought is the one whose orbit has period
+        ``T / n`` (:func:`subharmonic_share` below ``share_tol``).
+
+    Raises
+    ------
+    ValueError
+        If none of the candidates is such a branch point (the message lists what was
+        found at each).
+    """
+    found = []
+    for start, end in candidates:
+        U_star, _ = locate_branch_point(system, points[start], points[end])
+        share = subharmonic_share(system, U_star, n)
+        energy = system.diagnostics(U_star)["energy"]
+        if share < share_tol:
+            logger.info("branch point of the %d:1 resonance at energy %.6g, frequency %.6g Hz", n, energy,
+                        system.frequency_hz(U_star))
+            return bifurcation_tangents(system, U_star, points[end] - points[start])
+        found.append(f"energy {energy:.6g} (share of harmonics not multiple of {n}: {share:.2e})")
+    raise ValueError(
+        f"no branch point of the {n}:1 resonance (orbit of period T/{n}) among the flagged steps; found: "
+        + ("; ".join(found) if found else "no flagged step")
+    )
+
+
+def summarize_bifurcated(ds, nnm2=None) -> str:
+    """Plain-text summary of a bifurcated-branch dataset (``results/hbm/bifurcated/*.nc``).
+
+    With ``nnm2`` (a regularized NNM2 dataset), also the relative distance of
+    ``n f`` on the bifurcated branch from the NNM2 frequency at the same energy
+    (NNM2 interpolated linearly in ``ln E``; its energy must increase along the branch).
+    """
+    n = int(ds.attrs["resonance"])
+    e, f = ds["energy"].values, ds["frequency"].values
+    lines = [
+        f"branch {ds.attrs['branch']}: switched from {ds.attrs['parent_branch']} at its {n}:1 branch point",
+        f"  branch point: energy {ds.attrs['branch_point_energy']:.6g}, frequency {ds.attrs['branch_point_frequency']:.6g} Hz, "
+        f"angle between the tangents {ds.attrs['tangent_angle']:.2f} deg, singular ratio {ds.attrs['singular_ratio']:.2e}",
+        f"  {ds.sizes['point']} points, energy {e.min():.4g} .. {e.max():.4g}, frequency {f.min():.6g} .. {f.max():.6g} Hz, "
+        f"{int(ds.attrs['anm_steps'])} ANM steps",
+        f"  largest share of harmonics not multiple of {n}: {float(ds['subharmonic_share'].max()):.2e}",
+        f"  stable points: {int(ds['stable'].sum())} of {ds.sizes['point']}",
+    ]
+    if nnm2 is not None:
+        e2, f2 = nnm2["energy"].values, nnm2["frequency"].values
+        rising = np.all(np.diff(e2) > 0)
+        if not rising:
+            raise ValueError("the NNM2 dataset's energy is not increasing along the branch: cannot interpolate")
+        inside = (e >= e2.min()) & (e <= e2.max())
+        ref = np.interp(np.log(e[inside]), np.log(e2), f2)
+        dev = np.abs(n * f[inside] - ref) / ref
+        lines.append(
+            f"  |{n} f - f_NNM2(E)| / f_NNM2 over {int(inside.sum())} points: max {dev.max():.2e}, median {np.median(dev):.2e} "
+            f"(NNM2 interpolated in ln E between its stored points)"
+        )
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    """Command line: ``python -m nnmstop.bifurcation summary BIFURCATED.nc [NNM2.nc]``."""
+    import argparse
+
+    import xarray as xr
+
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.bifurcation", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    summary = sub.add_parser("summary", help="branch point and bifurcated branch, optionally against NNM2")
+    summary.add_argument("bifurcated", help="e.g. results/hbm/bifurcated/nnm1_3to1.nc")
+    summary.add_argument("nnm2", nargs="?", help="e.g. results/hbm/nnm2.nc")
+    args = parser.parse_args(argv)
+    with xr.open_dataset(args.bifurcated) as ds:
+        nnm2 = xr.open_dataset(args.nnm2).load() if args.nnm2 else None
+        print(summarize_bifurcated(ds.load(), nnm2))
+
+
+if __name__ == "__main__":
+    main()
