@@ -37,6 +37,14 @@ class Transcritical:
         x, y, lam = U
         return np.array([[lam - 2 * x, 0.0, x], [0.0, 1.0, 0.0]])
 
+    def series_products(self, series, p, cache):
+        """sum_r Q(U_r, U_{p-r}) for the ANM (Q of x lam - x^2, summed symmetrically)."""
+        out = np.zeros(2)
+        for r in range(1, p):
+            a, b = series[r], series[p - r]
+            out[0] += a[0] * b[2] - a[0] * b[0]
+        return out
+
 
 def test_quadratic_form_of_the_toy_system():
     toy = Transcritical()
@@ -96,6 +104,7 @@ def resonance_config(repo_root):
 def bifurcated(resonance_config):
     stage1 = continue_stage(resonance_config, "nnm1", 1)
     stage2 = continue_stage(resonance_config, "nnm1", 2, stage1)
+    stage2.attrs["previous_stage"] = stage1  # kept for the combination test (never written)
     return stage2, bifurcated_branch(resonance_config, "nnm1_3to1", stage2)
 
 
@@ -167,8 +176,45 @@ def test_config_checks_of_bifurcations(resonance_config):
 def test_summary_reports_the_branch_point(bifurcated):
     from nnmstop.bifurcation import summarize_bifurcated
 
-    _, ds = bifurcated
+    stage2, ds = bifurcated
     text = summarize_bifurcated(ds)
     assert "3:1 branch point" in text and f"{ds.attrs['branch_point_energy']:.6g}" in text
     with pytest.raises(ValueError, match="not increasing"):
-        summarize_bifurcated(ds, ds.isel(point=slice(None, None, -1)).assign_attrs(branch="reversed"))
+        summarize_bifurcated(ds, stage2)  # NNM1's energy turns back: no interpolation in E
+
+
+def test_stage_dataset_records_located_branch_points_and_folds(bifurcated):
+    """The 3:1 branch point of NNM1 is located where J is singular, classified as the
+    T/3 crossing, and coincides with the tip of the tongue (an energy fold)."""
+    stage2, ds = bifurcated
+    resonance = stage2["branch_point_resonance"].values
+    assert 3 in resonance
+    k = int(np.flatnonzero(resonance == 3)[0])
+    assert float(stage2["branch_point_singular_ratio"][k]) < 1e-5
+    assert float(stage2["branch_point_energy"][k]) == pytest.approx(ds.attrs["branch_point_energy"], rel=1e-9)
+    flagged = int(stage2["branch_point_flagged_point"][k])
+    assert stage2["branch_point"].values[flagged] == 1
+    # folds: refined extremum never above a stored maximum's neighbours' parabola... at least as extreme
+    e = stage2["energy"].values
+    for i, e_fold in zip(stage2["fold_point"].values, stage2["fold_energy"].values):
+        if e[i] < e[i - 1]:  # a minimum
+            assert e_fold <= e[i] + 1e-12
+        else:
+            assert e_fold >= e[i] - 1e-12
+    nearest = np.min(np.abs(stage2["fold_energy"].values - stage2["branch_point_energy"].values[k]))
+    assert nearest < 1e-3 * stage2["branch_point_energy"].values[k]
+
+
+def test_combined_stages_keep_the_located_points(bifurcated):
+    from nnmstop.branches import combine_stages
+
+    stage2, _ = bifurcated
+    stage1 = stage2.attrs["previous_stage"]
+    plain = stage2.copy()
+    plain.attrs = {k: v for k, v in stage2.attrs.items() if k != "previous_stage"}
+    both = combine_stages([stage1, plain])
+    assert both.sizes["located_branch_point"] == stage1.sizes["located_branch_point"] + stage2.sizes["located_branch_point"]
+    # indices shifted to the combined branch: they still point at flagged steps and energy extrema
+    assert np.all(both["branch_point"].values[both["branch_point_flagged_point"].values] == 1)
+    assert np.all(both["energy_fold"].values[both["fold_point"].values] == 1)
+    assert set(np.round(stage2["fold_energy"].values, 9)) <= set(np.round(both["fold_energy"].values, 9))

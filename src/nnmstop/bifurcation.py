@@ -16,8 +16,8 @@ NNM2 family read at ``n T`` (the "three time FEP of the second NNM" of Fig. 8).
 
 Branch switching, after Keller's algebraic bifurcation equation:
 
-1. :func:`locate_branch_point` brackets the sign change between two points of the
-   branch and bisects it, each trial point put back on the branch by Newton.
+1. :func:`locate_branch_point` recomputes the ANM step across the sign change and
+   bisects the sign along its power series.
 2. :func:`bifurcation_tangents`: with ``phi_1, phi_2`` a basis of the null plane of
    ``J(U*)`` and ``psi`` its left null vector, the tangents ``tau = a phi_1 + b phi_2``
    of the curves through ``U*`` solve the quadratic
@@ -57,6 +57,8 @@ __all__ = [
     "subharmonic_share",
     "continue_bifurcated_branch",
     "resonant_branch_point",
+    "classify_branch_point",
+    "locate_flagged_branch_points",
     "summarize_bifurcated",
 ]
 
@@ -124,46 +126,77 @@ def bordered_sign(system, U, direction):
     return t, determinant_sign(lu_factor(np.vstack([J, t[None, :]])))
 
 
-def locate_branch_point(system, U_a, U_b, tol: float = 1e-10, max_iter: int = 80, newton_tol: float = 1e-9):
-    """Bisection for the branch point between two points ``U_a``, ``U_b`` of a branch.
+def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, newton_tol: float = 1e-9):
+    """Branch point within the continuation step from ``U_a`` towards ``U_b``.
 
-    Trial points on the chord are put on the branch by Newton in the hyperplane
-    orthogonal to the chord; the sign of ``det [J; t^T]`` (``t`` oriented from ``U_a``
-    to ``U_b``) must differ at the two ends.
+    The ANM step from ``U_a`` (tangent oriented towards ``U_b``) is recomputed: its
+    power series ``U(a)`` is the branch to the series' accuracy all along the step,
+    geometric tail removed so that it runs through the branch point on the branch
+    being followed. The sign of ``det [J(U(a)); U'(a)^T]`` is bisected in ``a``, with
+    no Newton solve near the branch point, where any hyperplane meets both curves
+    and a corrector could land on the other one. The point found is put back on the
+    branch by least-norm Newton (:func:`project_onto_branch`).
+
+    Parameters
+    ----------
+    U_a, U_b : ndarray
+        Start of the step and a point past the branch point (for example the two
+        stored ends of the step flagged by the continuation).
+    settings : ANMSettings, optional
+        Series order and tolerance (defaults of :class:`nnmstop.anm.ANMSettings`).
+    tol : float
+        Bisection tolerance, relative to the step length.
 
     Returns
     -------
     U : ndarray
-        The branch point, to ``tol`` in relative chord length.
+        The branch point.
     t : ndarray
-        The unit tangent of the branch there, oriented from ``U_a`` to ``U_b``.
+        The unit tangent of the series there (oriented from ``U_a`` to ``U_b``).
 
     Raises
     ------
     ValueError
-        If the determinant has the same sign at both ends (no branch point bracketed).
+        If the determinant has the same sign at both ends of the step (no branch
+        point bracketed).
     """
+    from .anm import ANMSettings, anm_step, evaluate_series
+
+    settings = ANMSettings() if settings is None else settings
     U_a, U_b = np.asarray(U_a, float), np.asarray(U_b, float)
     chord = U_b - U_a
     if not np.linalg.norm(chord) > 0:
         raise ValueError("locate_branch_point needs two distinct points")
-    _, sign_a = bordered_sign(system, U_a, chord)
-    t_b, sign_b = bordered_sign(system, U_b, chord)
-    if sign_a == sign_b:
+    t_a, _ = bordered_sign(system, U_a, chord)
+    step = anm_step(system, U_a, t_a, settings, ContinuationStats())
+    series, a_max = step.series, step.a_max
+    # the path parameter of the series is the projection on its tangent: U_b sits at a_end
+    a_end = float(np.dot(chord, t_a))
+    if not 0 < a_end <= 1.001 * a_max:
+        raise ValueError(
+            f"U_b lies outside the validity range of the ANM step from U_a (path parameter {a_end:.4g}, "
+            f"step length {a_max:.4g}): pass the two ends of one continuation step"
+        )
+
+    def sign(a):
+        t = evaluate_series(series, a, derivative=True)
+        t /= np.linalg.norm(t)
+        return determinant_sign(lu_factor(np.vstack([system.jacobian(evaluate_series(series, a)), t[None, :]])))
+
+    lo, hi = 0.0, a_end
+    sign_lo = sign(lo)
+    if sign(hi) == sign_lo:
         raise ValueError("no branch point between the two points: det [J; t^T] has the same sign at both")
-    lo, hi = 0.0, 1.0
-    U_mid, t_mid = U_b, t_b
-    for _ in range(max_iter):
+    while hi - lo > tol * a_end:
         mid = 0.5 * (lo + hi)
-        U_mid = project_onto_branch(system, U_a + mid * chord, tol=newton_tol)
-        t_mid, sign = bordered_sign(system, U_mid, chord)
-        if sign == sign_a:
+        if sign(mid) == sign_lo:
             lo = mid
         else:
             hi = mid
-        if hi - lo < tol:
-            break
-    return U_mid, t_mid
+    a_star = 0.5 * (lo + hi)
+    t_star = evaluate_series(series, a_star, derivative=True)
+    t_star /= np.linalg.norm(t_star)
+    return project_onto_branch(system, evaluate_series(series, a_star), tol=newton_tol), t_star
 
 
 def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
@@ -332,35 +365,66 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, settings, switc
     return merged
 
 
-def resonant_branch_point(system, points, candidates, n: int, share_tol: float = 1e-6) -> BranchPoint:
-    """The branch point of an ``n:1`` internal resonance among flagged steps of a branch.
+def classify_branch_point(system, point: BranchPoint, max_resonance: int = 20, share_tol: float = 1e-6):
+    """What crosses the branch at ``point``: ``(n, symmetry_breaking)``.
+
+    ``n`` is the smallest ``n >= 2`` such that the orbit at the branch point has period
+    ``T/n`` (an ``n:1`` internal resonance: the crossing curve is the family of those
+    orbits), else 0. ``symmetry_breaking`` is True when the bifurcated tangent holds
+    even harmonics only: the crossing curve breaks the half-period symmetry
+    ``x(t + T/2) = -x(t)`` of the odd-harmonic orbits.
+    """
+    for n in range(2, max_resonance + 1):
+        if subharmonic_share(system, point.U, n) < share_tol:
+            return n, False
+    return 0, bool(subharmonic_share(system, point.bifurcated, 2) < share_tol)
+
+
+def locate_flagged_branch_points(system, points, steps, flagged, settings=None) -> list:
+    """Locate and classify the branch points of the steps flagged by a continuation.
 
     Parameters
     ----------
-    points : ndarray, shape (m, n_unknowns)
-        Points of the branch, in order.
-    candidates : sequence of (int, int)
-        ``(start, end)`` indices of the steps flagged with a sign change of ``det [J; t^T]``.
-    n : int
-        The resonance: the branch point sought is the one whose orbit has period
-        ``T / n`` (:func:`subharmonic_share` below ``share_tol``).
+    points, steps : sequences
+        Points of the branch and the index of the ANM step that produced each.
+    flagged : sequence of int
+        Indices of the points ending a step across which ``det [J; t^T]`` changed sign.
+
+    Returns
+    -------
+    list of (int, BranchPoint, int, bool)
+        ``(flagged index, point, n, symmetry_breaking)`` (see :func:`classify_branch_point`).
+    """
+    points, steps = np.asarray(points, float), np.asarray(steps)
+    out = []
+    for i in flagged:
+        start = int(np.flatnonzero(steps == steps[i])[0]) - 1
+        if start < 0:
+            continue  # the first point of a branch ends no step
+        U_star, _ = locate_branch_point(system, points[start], points[i], settings)
+        point = bifurcation_tangents(system, U_star, points[i] - points[start])
+        n, breaking = classify_branch_point(system, point)
+        logger.info("branch point at energy %.6g, frequency %.6g Hz: %s", system.diagnostics(U_star)["energy"],
+                    system.frequency_hz(U_star),
+                    f"{n}:1 resonance" if n else ("symmetry breaking" if breaking else "unclassified"))
+        out.append((int(i), point, n, breaking))
+    return out
+
+
+def resonant_branch_point(system, points, steps, flagged, n: int, settings=None) -> BranchPoint:
+    """The branch point of the ``n:1`` internal resonance among the flagged steps of a branch.
 
     Raises
     ------
     ValueError
-        If none of the candidates is such a branch point (the message lists what was
-        found at each).
+        If none of the flagged steps holds one (the message lists what was found).
     """
     found = []
-    for start, end in candidates:
-        U_star, _ = locate_branch_point(system, points[start], points[end])
-        share = subharmonic_share(system, U_star, n)
-        energy = system.diagnostics(U_star)["energy"]
-        if share < share_tol:
-            logger.info("branch point of the %d:1 resonance at energy %.6g, frequency %.6g Hz", n, energy,
-                        system.frequency_hz(U_star))
-            return bifurcation_tangents(system, U_star, points[end] - points[start])
-        found.append(f"energy {energy:.6g} (share of harmonics not multiple of {n}: {share:.2e})")
+    for _, point, m, breaking in locate_flagged_branch_points(system, points, steps, flagged, settings):
+        if m == n:
+            return point
+        kind = f"{m}:1 resonance" if m else ("symmetry breaking" if breaking else "unclassified")
+        found.append(f"energy {system.diagnostics(point.U)['energy']:.6g} ({kind})")
     raise ValueError(
         f"no branch point of the {n}:1 resonance (orbit of period T/{n}) among the flagged steps; found: "
         + ("; ".join(found) if found else "no flagged step")

@@ -167,8 +167,13 @@ def continue_stage(config: dict, branch_name: str, stage: int, previous: xr.Data
     return branch_dataset(system, branch, stage, config, branch_name)
 
 
-def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name: str) -> xr.Dataset:
-    """Labelled dataset of a continued branch (see the module docstring)."""
+def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name: str, located=None) -> xr.Dataset:
+    """Labelled dataset of a continued branch (see the module docstring).
+
+    ``located``: the located branch points, as returned by
+    :func:`nnmstop.bifurcation.locate_flagged_branch_points`; by default the flagged
+    steps of ``branch`` are located here.
+    """
     H = system.H
     U = np.array(branch.points)
     diags = [d if d is not None else system.diagnostics(u) for u, d in zip(U, branch.diagnostics)]
@@ -222,11 +227,17 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
             "energy_fold": ("point", fold.astype(np.int8), {"long_name": "1 where the energy has a local extremum along the branch (energy fold)", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular fold"}),
         }
     )
+    if located is None:
+        from .bifurcation import locate_flagged_branch_points
+
+        located = locate_flagged_branch_points(system, U, steps, branch.branch_points, _stage_settings(config))
+    data.update(located_branch_point_variables(system, located))
     # Floquet stability of every point (Hill's method on the HBM representation)
     stability = branch_stability(system, U)
     data.update(stability.data_vars())
     coords["multiplier"] = np.arange(stability.multipliers.shape[1])
     ds = xr.Dataset(data, coords=coords)
+    ds = ds.assign(located_fold_variables(_coefficient_vectors(ds), col("energy"), col("frequency")))
     ds["point"].attrs = {"long_name": "index of the point along the branch", "units": "1"}
     ds["multiplier"].attrs = {"long_name": "index of the Floquet multiplier: 0, 1 trivial pair; 2, 3 non-trivial pair", "units": "1"}
     ds["harmonic"].attrs = {"long_name": "harmonic number k (0 is the mean)", "units": "1"}
@@ -247,6 +258,51 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
         "factorizations": stats.factorizations,
     }
     return ds
+
+
+BRANCH_POINT_DIM = "located_branch_point"
+FOLD_DIM = "located_fold"
+
+
+def located_branch_point_variables(system, located) -> dict:
+    """Dataset variables (dimension ``located_branch_point``) of located branch points."""
+    dim = (BRANCH_POINT_DIM,)
+    diags = [system.diagnostics(point.U) for _, point, _, _ in located]
+    return {
+        "branch_point_energy": (dim, np.array([d["energy"] for d in diags], dtype=float), {"long_name": "energy of the located branch point", "units": "1"}),
+        "branch_point_frequency": (dim, np.array([d["frequency"] for d in diags], dtype=float), {"long_name": "frequency of the located branch point", "units": "Hz"}),
+        "branch_point_resonance": (dim, np.array([n for _, _, n, _ in located], dtype=np.int32), {"long_name": "n where the orbit at the branch point has period T/n (n:1 internal resonance), else 0", "units": "1"}),
+        "branch_point_symmetry_breaking": (dim, np.array([b for _, _, _, b in located], dtype=np.int8), {"long_name": "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "no yes"}),
+        "branch_point_tangent_angle": (dim, np.array([p.angle for _, p, _, _ in located], dtype=float), {"long_name": "angle between the tangents of the two curves at the branch point", "units": "degree"}),
+        "branch_point_singular_ratio": (dim, np.array([p.singular_ratio for _, p, _, _ in located], dtype=float), {"long_name": "smallest over second-smallest singular value of J at the located point (zero at an exact branch point)", "units": "1"}),
+        "branch_point_flagged_point": (dim, np.array([i for i, _, _, _ in located], dtype=np.int32), {"long_name": "index of the point that ends the ANM step holding the branch point", "units": "1"}),
+    }
+
+
+def located_fold_variables(U, energy, frequency) -> dict:
+    """Dataset variables (dimension ``located_fold``) of the energy folds of a branch.
+
+    Each local extremum of the energy along the branch is refined by the parabola
+    through it and its two neighbours in the arclength of the unknowns; the
+    frequency is read on the parabola through the same three points.
+    """
+    U, energy, frequency = np.asarray(U, float), np.asarray(energy, float), np.asarray(frequency, float)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(U, axis=0), axis=1))])
+    index, e_fold, f_fold = [], [], []
+    for i in np.flatnonzero(energy_folds(energy)):
+        ds_, e_, f_ = s[i - 1 : i + 2] - s[i], energy[i - 1 : i + 2], frequency[i - 1 : i + 2]
+        ce, cf = np.polyfit(ds_, e_, 2), np.polyfit(ds_, f_, 2)
+        vertex = -ce[1] / (2 * ce[0]) if ce[0] != 0 else 0.0
+        vertex = float(np.clip(vertex, ds_[0], ds_[2]))
+        index.append(i)
+        e_fold.append(float(np.polyval(ce, vertex)))
+        f_fold.append(float(np.polyval(cf, vertex)))
+    dim = (FOLD_DIM,)
+    return {
+        "fold_energy": (dim, np.array(e_fold, dtype=float), {"long_name": "energy at the fold (local extremum along the branch), parabola through the three nearest points", "units": "1"}),
+        "fold_frequency": (dim, np.array(f_fold, dtype=float), {"long_name": "frequency at the fold, same parabola", "units": "Hz"}),
+        "fold_point": (dim, np.array(index, dtype=np.int32), {"long_name": "index of the point of extremal energy", "units": "1"}),
+    }
 
 
 def energy_folds(energy) -> np.ndarray:
@@ -275,16 +331,39 @@ def dataset_unknowns(ds: xr.Dataset, system: HarmonicBalanceSystem) -> np.ndarra
     return np.concatenate(parts + tail, axis=1)
 
 
+def _coefficient_vectors(ds: xr.Dataset) -> np.ndarray:
+    """The unknowns of every point as stored (all coefficients and omega^2), for arclengths."""
+    parts = [ds[f"{s}_{kind}"].values for s in ("x", "u", "f", "z") for kind in ("cos", "sin")]
+    return np.concatenate(parts + [ds["omega_squared"].values[:, None]], axis=1)
+
+
 def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
     """Concatenate the stage datasets of a branch (the repeated start points dropped)."""
     if not stages:
         raise ValueError("combine_stages needs at least one stage dataset")
+    located = [v for v in stages[0].data_vars if BRANCH_POINT_DIM in stages[0][v].dims]
+    folds = [v for v in stages[0].data_vars if FOLD_DIM in stages[0][v].dims]
     parts = [stages[0]] + [ds.isel(point=slice(1, None)) for ds in stages[1:]]
+    parts = [ds.drop_vars(located + folds) for ds in parts]
     out = xr.concat(parts, dim="point", data_vars="all", coords="minimal", combine_attrs="override")
+    if located:
+        # point indices of each stage shift by the points of the stages before it (start points dropped)
+        offsets = np.cumsum([0] + [ds.sizes["point"] - 1 for ds in stages[:-1]])
+        pieces = []
+        for ds, offset in zip(stages, offsets):
+            piece = ds[located]
+            piece["branch_point_flagged_point"] = piece["branch_point_flagged_point"] + offset
+            pieces.append(piece)
+        table = xr.concat(pieces, dim=BRANCH_POINT_DIM, combine_attrs="override")
+        for v in located:
+            table[v].attrs = stages[0][v].attrs
+            out[v] = table[v]
     out = out.assign_coords(point=np.arange(out.sizes["point"]))
     out["point"].attrs = stages[0]["point"].attrs
     # folds at the junction of two stages are only visible on the combined branch
     out["energy_fold"].values[:] = energy_folds(out["energy"].values).astype(np.int8)
+    if folds:
+        out = out.assign(located_fold_variables(_coefficient_vectors(out), out["energy"].values, out["frequency"].values))
     out.attrs["end_reason"] = stages[-1].attrs["end_reason"]
     out.attrs["anm_steps"] = int(sum(ds.attrs["anm_steps"] for ds in stages))
     out.attrs["factorizations"] = int(sum(ds.attrs["factorizations"] for ds in stages))
@@ -319,11 +398,9 @@ def bifurcated_branch(config: dict, name: str, parent_stage: xr.Dataset) -> xr.D
         )
     system = system_from_config(config)
     points = dataset_unknowns(parent_stage, system)
-    step = parent_stage["step"].values
     flagged = np.flatnonzero(parent_stage["branch_point"].values)
-    # the sign change lies within the step that ends at a flagged point: from the last point of the step before
-    candidates = [(int(np.flatnonzero(step == step[i])[0]) - 1, int(i)) for i in flagged if step[i] > 0]
-    point = resonant_branch_point(system, points, candidates, n)
+    settings = _stage_settings(config)
+    point = resonant_branch_point(system, points, parent_stage["step"].values, flagged, n, settings)
     low, high = spec["energy_range"]
     label = f"{name} (bifurcated from {parent} at the {n}:1 resonance)"
 
@@ -331,8 +408,8 @@ def bifurcated_branch(config: dict, name: str, parent_stage: xr.Dataset) -> xr.D
         return f"energy left [{low:g}, {high:g}]" if not low <= d["energy"] <= high else ""
 
     stop = resolved_or_error(out_of_range, system, config["hbm"]["max_truncation"], label)
-    branch = continue_bifurcated_branch(system, point, stop, _stage_settings(config), spec["switch_step"], label)
-    ds = branch_dataset(system, branch, spec["stage"], config, parent)
+    branch = continue_bifurcated_branch(system, point, stop, settings, spec["switch_step"], label)
+    ds = branch_dataset(system, branch, spec["stage"], config, parent, located=[(branch.branch_points[0], point, n, False)])
     ds["subharmonic_share"] = (
         "point",
         np.array([subharmonic_share(system, U, n) for U in branch.points]),

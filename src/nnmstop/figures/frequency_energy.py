@@ -77,7 +77,12 @@ logger = logging.getLogger("nnmstop.figures")
 NNM1_COLOR = REGULARIZED_COLOR
 GAP_ZERO_STYLE = {"color": "0.25", "ls": (0, (5, 3)), "lw": 0.9}
 BIFURCATED_COLOR = "black"
-BRANCH_POINT_STYLE = {"marker": "x", "ms": 5, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5}
+BRANCH_POINT_STYLES = {
+    "resonance": {"marker": "x", "ms": 5, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5},
+    "branch point": {"marker": "x", "ms": 5, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5},
+    "breaking": {"marker": "+", "ms": 7, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5},
+    "fold": {"marker": "D", "ms": 3, "mew": 0.8, "mfc": "none", "color": "0.35", "ls": "none", "zorder": 4.5},
+}
 PARAMETER_KEYS = ("alpha", "beta", "delta", "eta")
 
 
@@ -249,15 +254,36 @@ def _range(spec: dict, key: str, where: str):
     return lo, hi
 
 
-def _branch_points(ax, ds: xr.Dataset) -> bool:
-    """Mark the flagged branch points of ``ds`` (if the dataset records them)."""
-    if "branch_point" not in ds:
-        return False
-    idx = np.flatnonzero(ds["branch_point"].values)
-    if idx.size == 0:
-        return False
-    ax.plot(ds["energy"].values[idx], ds["frequency"].values[idx], **BRANCH_POINT_STYLE)
-    return True
+def _bifurcation_markers(ax, ds: xr.Dataset) -> set:
+    """Mark the branch points and energy folds of ``ds``; return the kinds drawn.
+
+    Located values (``branch_point_*``, ``fold_*``) are used when the dataset has them,
+    the flagged points otherwise. Kinds: ``"resonance"`` (the orbit has period T/n),
+    ``"breaking"`` (symmetry-breaking crossing), ``"branch point"`` (flag only), ``"fold"``.
+    """
+    drawn = set()
+    if "branch_point_energy" in ds:
+        e, f = ds["branch_point_energy"].values, ds["branch_point_frequency"].values
+        resonance = ds["branch_point_resonance"].values > 0
+        for kind, mask in (("resonance", resonance), ("breaking", ~resonance)):
+            if mask.any():
+                ax.plot(e[mask], f[mask], **BRANCH_POINT_STYLES[kind])
+                drawn.add(kind)
+    elif "branch_point" in ds and ds["branch_point"].values.any():
+        idx = np.flatnonzero(ds["branch_point"].values)
+        ax.plot(ds["energy"].values[idx], ds["frequency"].values[idx], **BRANCH_POINT_STYLES["branch point"])
+        drawn.add("branch point")
+    if "fold_energy" in ds and ds.sizes.get("located_fold", 0):
+        ax.plot(ds["fold_energy"].values, ds["fold_frequency"].values, **BRANCH_POINT_STYLES["fold"])
+        drawn.add("fold")
+    return drawn
+
+
+def _bifurcation_legend(drawn: set) -> list:
+    text = {"resonance": "branch point, n:1 resonance (orbit of period T/n)",
+            "breaking": "branch point, symmetry breaking", "branch point": "branch point", "fold": "energy fold"}
+    return [Line2D([], [], label=text[k], **{a: v for a, v in BRANCH_POINT_STYLES[k].items() if a != "zorder"})
+            for k in ("resonance", "breaking", "branch point", "fold") if k in drawn]
 
 
 def _auto_limits(ds_list, energy_range, levels=()):
@@ -315,7 +341,6 @@ def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None
         handles.append(Line2D([], [], color=BIFURCATED_COLOR, lw=0.7,
                               label=f"branch switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)"))
         handles.extend(h for h in stability_legend_handles(drawn_b, color=BIFURCATED_COLOR, lw=0.7) if h.get_label() not in {x.get_label() for x in handles})
-        _branch_points(ax, ds)
     gap_zero = gap_zero_frequencies(params)
     levels = [float(gap_zero[mode - 1]) for mode in kind.gap_zero_modes]
     if frequency_range is None:
@@ -327,8 +352,7 @@ def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None
             if kind.inset_gap_zero_mode == mode:
                 text += ";\nits modal line dashed in the insets"
             handles.append(Line2D([], [], label=text, **GAP_ZERO_STYLE))
-    if _branch_points(ax, branch):
-        handles.append(Line2D([], [], label="branch point", **{k: v for k, v in BRANCH_POINT_STYLE.items() if k != "zorder"}))
+    handles.extend(_bifurcation_legend(_bifurcation_markers(ax, branch)))
     frequency_energy_axes(ax)
     _label_minor_decades(ax)
     if energy_range is not None:
@@ -442,9 +466,7 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
         value = float(gap_zero[mode - 1])
         ax.axhline(value, zorder=1, **GAP_ZERO_STYLE)
     handles.append(Line2D([], [], label="gap-0 linear modes", **GAP_ZERO_STYLE))
-    marked = [_branch_points(ax, ds) for ds in (nnm1, nnm2)]
-    if any(marked):
-        handles.append(Line2D([], [], label="branch point", **{k: v for k, v in BRANCH_POINT_STYLE.items() if k != "zorder"}))
+    handles.extend(_bifurcation_legend(_bifurcation_markers(ax, nnm1) | _bifurcation_markers(ax, nnm2)))
     frequency_energy_axes(ax)
     if energy_range is not None:
         ax.set_xlim(*energy_range)
