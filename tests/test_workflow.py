@@ -55,8 +55,9 @@ def outputs(workdir: Path) -> list[Path]:
 def test_every_declared_output_exists(built):
     figures = {p.name for p in (built / "paper_figures").iterdir()}
     assert figures == {f"fig{n:02d}.{ext}" for n in range(2, 12) for ext in ("pdf", "png")}
-    for name in ("exact/nnm1_two_impacts.nc", "hbm/nnm1.nc", "hbm/nnm2.nc",
-                 "compare/nnm1_exact_vs_regularized.nc", "MANIFEST.sha256"):
+    for name in ("exact/nnm1_two_impacts.nc", "exact/nnm1.nc", "hbm/nnm1.nc", "hbm/nnm2.nc",
+                 "compare/nnm1_exact_vs_regularized.nc", "compare/nnm1_regimes.nc", "compare/nnm1_regimes.csv",
+                 "MANIFEST.sha256"):
         assert (built / "results" / name).is_file(), name
     assert not [p for p in outputs(built) if p.name.endswith(".tmp") or ".tmp." in p.name]
 
@@ -105,12 +106,23 @@ def test_physics_sanity_of_the_outputs(built):
         # is clearly stiffer: the regularized NNM1 sits above the exact one there
         assert cmp["frequency_regularized"].values[0] > cmp["frequency_exact"].values[0] * 1.01
         assert float(np.abs(cmp["relative_frequency_difference"]).max()) < 0.05
+    with xr.open_dataset(built / "results/compare/nnm1_regimes.nc") as regimes:
+        # the small branches share one regime, one impact per stop; eta = 0.1 shifts the
+        # frequency by well under 1 % there (README table: 2.8e-3 at most at H = 100)
+        assert list(regimes["impacts_per_period"].values) == [2]
+        assert str(regimes["exact_sequence"].values[0]) == "FR"
+        assert int(regimes["n_matched"][0]) > 10
+        assert 0 < float(regimes["max_rel_frequency_error"][0]) < 0.01
+        assert regimes.attrs["harmonics"] == 16 and regimes.attrs["eta"] == 0.1
+    table = (built / "results/compare/nnm1_regimes.csv").read_text().splitlines()
+    assert table[0].startswith("regime,impacts_per_period,exact_sequence") and len(table) == 2
 
 
 def test_rerun_from_scratch_is_byte_identical(built, tmp_path):
     """A second fresh run of the same targets reproduces datasets and figures byte for byte."""
     targets = ["results/hbm/nnm2.nc", "paper_figures/fig06.pdf", "results/exact/nnm1_two_impacts.nc",
-               "results/compare/nnm1_exact_vs_regularized.nc", "paper_figures/fig02.pdf"]
+               "results/compare/nnm1_exact_vs_regularized.nc", "paper_figures/fig02.pdf",
+               "results/compare/nnm1_regimes.nc"]
     snakemake(tmp_path, "--cores", "2", *targets)
     produced = outputs(tmp_path)
     assert len(produced) >= 8

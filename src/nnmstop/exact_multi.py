@@ -1435,6 +1435,37 @@ def _monotone_pieces(energy) -> list:
     return [(a, b) for a, b in pieces if b > a]
 
 
+def _check_branch_variables(name: str, ds: xr.Dataset) -> None:
+    """Refuse a branch dataset that cannot be compared (missing variables, bad energies)."""
+    missing = [v for v in ("energy", "frequency", "impacts_per_period") if v not in ds]
+    if missing:
+        raise ValueError(f"the {name} dataset lacks {missing}")
+    for v in ("energy", "frequency"):
+        values = np.asarray(ds[v].values, dtype=float)
+        if not np.all(np.isfinite(values) & (values > 0)):
+            raise ValueError(f"the {name} dataset's {v!r} must be finite and > 0 everywhere (it is matched in ln E)")
+
+
+def _exact_frequency_at(ex, fx, er, fr) -> np.ndarray:
+    """Exact frequency at each regularized energy of a regime (NaN where none covers it).
+
+    Interpolated linearly in ``ln E`` on every piece of the exact regime that is monotone
+    in energy and covers ``E``; of several candidates (energy folds), the one nearest to
+    the regularized frequency is kept.
+    """
+    pieces = []
+    for a, b in _monotone_pieces(ex):
+        order = np.argsort(ex[a : b + 1])
+        energy = ex[a : b + 1][order]
+        pieces.append((energy[0], energy[-1], np.log(energy), fx[a : b + 1][order]))
+    out = np.full(er.size, np.nan)
+    for k, (e, f) in enumerate(zip(er, fr)):
+        cands = [np.interp(np.log(e), le, fp) for lo, hi, le, fp in pieces if lo <= e <= hi]
+        if cands:
+            out[k] = min(cands, key=lambda c: abs(c - f))
+    return out
+
+
 def compare_with_regularized(exact_ds: xr.Dataset, regularized_ds: xr.Dataset) -> list:
     """Frequency of the regularized NNM1 against the exact one at matched energy, per impact regime.
 
@@ -1445,7 +1476,17 @@ def compare_with_regularized(exact_ds: xr.Dataset, regularized_ds: xr.Dataset) -
     regularized point of a regime whose energy lies within the energy range of its exact
     partner, the exact frequency is interpolated (linearly in ``ln E``) on every piece of
     the exact regime that is monotone in energy and covers that energy; the piece of
-    nearest frequency is kept (the regimes are not monotone in energy).
+    nearest frequency is kept (the regimes are not monotone in energy). Regularized points
+    outside every such piece have no partner: they are counted (``unmatched``), not compared.
+
+    Parameters
+    ----------
+    exact_ds : xarray.Dataset
+        Exact branch (:func:`build_multi_impact_dataset`): ``energy``, ``frequency``,
+        ``impacts_per_period`` along ``point``, and ``phase_sequence`` if available.
+    regularized_ds : xarray.Dataset
+        Regularized branch (``results/hbm/nnm1.nc``): ``energy``, ``frequency``,
+        ``impacts_per_period``.
 
     Returns
     -------
@@ -1455,13 +1496,24 @@ def compare_with_regularized(exact_ds: xr.Dataset, regularized_ds: xr.Dataset) -
         compared), ``max_abs_error`` (Hz) and the regularized energy where it occurs
         (``energy_at_max``), ``median_abs_error``, ``mean_error`` (regularized minus exact,
         Hz), ``max_rel_error``; the exact and regularized energy and frequency ranges.
+        The metrics are NaN for a regime with no matched point. The per-point data behind
+        them: ``exact_points`` and ``regularized_points`` (index ranges ``(start, stop)``
+        of the regime in each dataset), ``unmatched`` (regularized points of the regime
+        not compared) and ``points``, a dict of arrays over the matched points:
+        ``index`` (point of the regularized dataset), ``energy``, ``frequency``,
+        ``exact_frequency``, ``error`` (regularized minus exact, Hz), ``rel_error``
+        (``error`` over the exact frequency).
+
+    Raises
+    ------
+    ValueError
+        If a dataset lacks one of the variables above, or holds an energy or frequency
+        that is not finite and positive.
     """
     import difflib
 
     for name, ds in (("exact", exact_ds), ("regularized", regularized_ds)):
-        missing = [v for v in ("energy", "frequency", "impacts_per_period") if v not in ds]
-        if missing:
-            raise ValueError(f"the {name} dataset lacks {missing}")
+        _check_branch_variables(name, ds)
     e_x, f_x = exact_ds["energy"].values, exact_ds["frequency"].values
     e_r, f_r = regularized_ds["energy"].values, regularized_ds["frequency"].values
     runs_x = [r for r in _runs(exact_ds["impacts_per_period"].values) if r[2] - r[1] > 1]
@@ -1475,20 +1527,12 @@ def compare_with_regularized(exact_ds: xr.Dataset, regularized_ds: xr.Dataset) -
             cr, ar, br = runs_r[block.b + i]
             ex, fx = e_x[ax:bx], f_x[ax:bx]
             er, fr = e_r[ar:br], f_r[ar:br]
-            pieces = _monotone_pieces(ex)
-            errors = []
-            for e, f in zip(er, fr):
-                cands = []
-                for a, b in pieces:
-                    lo, hi = sorted((ex[a], ex[b]))
-                    if lo <= e <= hi:
-                        order = np.argsort(ex[a : b + 1])
-                        cands.append(np.interp(np.log(e), np.log(ex[a : b + 1][order]), fx[a : b + 1][order]))
-                if cands:
-                    best = min(cands, key=lambda c: abs(c - f))
-                    errors.append((f - best, (f - best) / best, e))
-            err = np.array(errors).reshape(-1, 3)
-            worst = int(np.argmax(np.abs(err[:, 0]))) if len(err) else 0
+            f_exact = _exact_frequency_at(ex, fx, er, fr)
+            keep = np.isfinite(f_exact)
+            err = fr[keep] - f_exact[keep]
+            rel = err / f_exact[keep]
+            n = int(keep.sum())
+            worst = int(np.argmax(np.abs(err))) if n else 0
             rows.append(
                 {
                     "impacts": cx,
@@ -1497,12 +1541,23 @@ def compare_with_regularized(exact_ds: xr.Dataset, regularized_ds: xr.Dataset) -
                     "regularized_energy": (float(er.min()), float(er.max())),
                     "exact_frequency": (float(fx.min()), float(fx.max())),
                     "regularized_frequency": (float(fr.min()), float(fr.max())),
-                    "matched": int(len(err)),
-                    "max_abs_error": float(np.abs(err[:, 0]).max()) if len(err) else np.nan,
-                    "energy_at_max": float(err[worst, 2]) if len(err) else np.nan,
-                    "median_abs_error": float(np.median(np.abs(err[:, 0]))) if len(err) else np.nan,
-                    "mean_error": float(err[:, 0].mean()) if len(err) else np.nan,
-                    "max_rel_error": float(np.abs(err[:, 1]).max()) if len(err) else np.nan,
+                    "matched": n,
+                    "max_abs_error": float(np.abs(err).max()) if n else np.nan,
+                    "energy_at_max": float(er[keep][worst]) if n else np.nan,
+                    "median_abs_error": float(np.median(np.abs(err))) if n else np.nan,
+                    "mean_error": float(err.mean()) if n else np.nan,
+                    "max_rel_error": float(np.abs(rel).max()) if n else np.nan,
+                    "exact_points": (ax, bx),
+                    "regularized_points": (ar, br),
+                    "unmatched": int(er.size - n),
+                    "points": {
+                        "index": np.arange(ar, br)[keep],
+                        "energy": er[keep],
+                        "frequency": fr[keep],
+                        "exact_frequency": f_exact[keep],
+                        "error": err,
+                        "rel_error": rel,
+                    },
                 }
             )
     return rows

@@ -113,6 +113,20 @@ def compare_nnm1(config, inputs, outputs):
     build_comparison_dataset(config, inputs, outputs["dataset"])
 
 
+def compare_regimes(config, inputs, outputs):
+    """Frequency error of the regularized NNM1 per impact regime, whole branch (inputs ``exact``, ``nnm1``)."""
+    from .regime_errors import build_regime_error_dataset
+
+    build_regime_error_dataset(config, inputs, outputs)
+
+
+def regime_error_figure(config, inputs, outputs):
+    """paper_figures/extra_regime_error.pdf/.png from the regime error dataset (input ``dataset``)."""
+    from .figures.regime_errors import build_regime_error_figure
+
+    build_regime_error_figure(config, inputs["dataset"], outputs["pdf"])
+
+
 def paper_figure(name: str, config, inputs, outputs):
     """Draw paper figure ``name`` (``fig02`` ... ``fig11``) from its rule's datasets.
 
@@ -233,7 +247,8 @@ STUDY_TASKS = (
 
 
 TASKS = {
-    **{f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_bifurcated, hbm_branch, compare_nnm1, dataset_manifest, *STUDY_TASKS)},
+    **{f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_bifurcated, hbm_branch, compare_nnm1,
+                               compare_regimes, regime_error_figure, dataset_manifest, *STUDY_TASKS)},
     **PAPER_FIGURE_TASKS,
 }
 

@@ -41,6 +41,10 @@ PAPER_DATASETS = [
     *stage_files("nnm2"),
     *[f"results/hbm/bifurcated/{name}.nc" for name in config.get("bifurcations", {})],
 ]
+# The error per impact regime needs the exact multi-impact NNM1, whose settings section
+# (exact_multi) a configuration may leave out: then there is no such branch to compare.
+if "exact_multi" in config:
+    PAPER_DATASETS += ["results/exact/nnm1.nc", "results/compare/nnm1_regimes.nc"]
 
 
 def exact_overlay(wildcards):

@@ -91,3 +91,48 @@ rule paper_figs_02_04:
     """Figs 2-4 (PDF and PNG)."""
     input:
         expand("paper_figures/fig{number}.{ext}", number=["02", "03", "04"], ext=["pdf", "png"]),
+
+
+# Issue 6: the regularization error over the whole NNM1 branch, per impact regime
+# (nnmstop.regime_errors): the exact multi-impact NNM1 against the regularized NNM1.
+
+
+rule compare_regimes:
+    """Frequency error of the regularized NNM1 in each impact regime: dataset and CSV table."""
+    input:
+        exact="results/exact/nnm1.nc",
+        nnm1="results/hbm/nnm1.nc",
+    output:
+        dataset="results/compare/nnm1_regimes.nc",
+        table="results/compare/nnm1_regimes.csv",
+    log:
+        "logs/compare/nnm1_regimes.log",
+    benchmark:
+        "benchmarks/runs/compare_regimes.tsv"
+    params:
+        task="compare_regimes",
+        settings=lambda wildcards: repr(config["model"]),  # checked against the inputs
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule regime_error_figure:
+    """Extra figure: |df|/f against energy, one colour per impact regime (not in the default target)."""
+    input:
+        dataset="results/compare/nnm1_regimes.nc",
+    output:
+        pdf="paper_figures/extra_regime_error.pdf",
+        png="paper_figures/extra_regime_error.png",
+    log:
+        "logs/figures/extra_regime_error.log",
+    benchmark:
+        "benchmarks/runs/regime_error_figure.tsv"
+    params:
+        task="regime_error_figure",
+        settings=lambda wildcards: repr(config.get("figures", {}).get("png_dpi")),  # rerun when it changes
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
