@@ -49,7 +49,7 @@ import numpy as np
 
 from .model import ModelParameters, regularized_contact_force, total_energy
 
-__all__ = ["HarmonicBalanceSystem"]
+__all__ = ["HarmonicBalanceSystem", "SeriesCache"]
 
 
 class HarmonicBalanceSystem:
@@ -246,36 +246,57 @@ class HarmonicBalanceSystem:
             J[-1, s["x"].start + self.H + 1 : s["x"].stop] = self.k
         return J
 
-    def series_products(self, series, p: int, cache):
+    def series_cache(self, order: int) -> "SeriesCache":
+        """Empty :class:`SeriesCache` for the terms ``U_0 .. U_order`` of one ANM series."""
+        return SeriesCache(self, order)
+
+    def series_products(self, series, p: int, cache: "SeriesCache | None" = None):
         """``sum_{r=1}^{p-1} Q(U_r, U_{p-r})``: the right-hand side of ANM order ``p``.
 
-        ``series`` is the list ``[U_0, U_1, ..., U_{p-1}]``; ``cache`` holds the time
-        samples of ``f, z, g`` of each order (filled here as orders are added), so each
-        order is transformed once and the sum over orders is vectorized.
+        Parameters
+        ----------
+        series : ndarray or list
+            Terms ``U_0, U_1, ...`` (at least ``p``), as the rows of an array (no copy)
+            or a list of vectors.
+        p : int
+            Order of the right-hand side.
+        cache : SeriesCache, optional
+            Time samples of ``f, z, g`` of the terms already transformed. The ANM
+            passes the same cache for the orders ``2 .. N`` of one series, so that each
+            term is transformed once; without it every term is transformed here.
+
+        Returns
+        -------
+        ndarray
+            Length ``n_equations``.
         """
         pr = self.params
-        while len(cache) < p:
-            x_r, _, f_r, z_r, _, _ = self.split(series[len(cache)])
-            cache.append(self.to_time(np.stack([f_r, z_r, f_r / pr.alpha - x_r])))
         out = np.zeros(self.n_equations)
         if p < 2:
             return out
-        left = np.array(series[1:p])  # U_1 .. U_{p-1}
-        right = left[::-1]  # U_{p-1} .. U_1
-        _, _, _, _, laml, nul = self.split(left)
-        xr, ur, _, _, _, _ = self.split(right)
-        nc = self.nc
-        out[0:nc] = laml @ self.second_derivative(xr)
-        out[nc : 2 * nc] = pr.delta * (laml @ self.second_derivative(ur))
+        series = np.asarray(series, dtype=float)
+        if cache is None:
+            cache = SeriesCache(self, p - 1)
+        cache.fill(series, p)
+        left = series[1:p]  # U_1 .. U_{p-1}
+        right = series[p - 1 : 0 : -1]  # U_{p-1} .. U_1
+        lam = left[:, self.i_lam]
+        nc, s = self.nc, self.slices
+        # sum_r lam_r D^2 x_{p-r} = D^2 (sum_r lam_r x_{p-r}): one small product per field
+        out[0:nc] = self._d2 * (lam @ right[:, s["x"]])
+        out[nc : 2 * nc] = pr.delta * self._d2 * (lam @ right[:, s["u"]])
         if self.full:
-            out[0:nc] += nul @ self.derivative(xr)
-            out[nc : 2 * nc] += pr.delta * (nul @ self.derivative(ur))
-        t = np.array(cache[1:p])  # orders 1..p-1, each (3, M)
-        fz = np.sum(t[:, 0] * t[::-1, 1], axis=0)
-        gg = np.sum(t[:, 2] * t[::-1, 2], axis=0)
-        prod = self.to_coefficients(np.stack([fz, gg]))
-        out[2 * nc : 3 * nc] = -prod[0]
-        out[3 * nc : 4 * nc] = -prod[1]
+            nu = left[:, self.i_nu]
+            out[0:nc] += self.derivative(nu @ right[:, s["x"]])
+            out[nc : 2 * nc] += pr.delta * self.derivative(nu @ right[:, s["u"]])
+        f_t, z_t, g_t = cache.samples
+        prod = cache.products
+        # convolution over the orders at each time sample, without (p-1) x M temporaries
+        np.einsum("rm,rm->m", f_t[1:p], z_t[p - 1 : 0 : -1], out=prod[0])
+        np.einsum("rm,rm->m", g_t[1:p], g_t[p - 1 : 0 : -1], out=prod[1])
+        coefficients = self.to_coefficients(prod)
+        out[2 * nc : 3 * nc] = -coefficients[0]
+        out[3 * nc : 4 * nc] = -coefficients[1]
         return out
 
     # ------------------------------------------------------------------ starting point
@@ -381,3 +402,39 @@ def impacts_per_period(x_samples) -> int:
     enter_above = np.count_nonzero(above & ~np.roll(above, 1))
     enter_below = np.count_nonzero(below & ~np.roll(below, 1))
     return int(enter_above + enter_below)
+
+
+class SeriesCache:
+    """Time samples of ``f``, ``z`` and ``g = f/alpha - x`` of the terms of one ANM series.
+
+    Preallocated for the terms ``U_0 .. U_order`` and filled in order as
+    :meth:`HarmonicBalanceSystem.series_products` needs them, so that each term is
+    transformed to the time domain once per series and the sums over the orders read
+    slices of one array.
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+    order : int
+        Highest order ``N`` of the series.
+    """
+
+    def __init__(self, system: HarmonicBalanceSystem, order: int):
+        self.system = system
+        # samples[0, r], samples[1, r], samples[2, r]: f, z, g of term r on M phases
+        self.samples = np.empty((3, order + 1, system.M))
+        self.products = np.empty((2, system.M))
+        self.filled = 1  # U_0 never enters the products
+
+    def fill(self, series, p: int):
+        """Transform the terms ``filled .. p - 1`` of ``series`` (rows or list items)."""
+        if p > self.samples.shape[1]:
+            raise ValueError(f"cache holds orders up to {self.samples.shape[1] - 1}, order {p - 1} requested")
+        if self.filled >= p:
+            return
+        system = self.system
+        terms = np.asarray(series[self.filled : p], dtype=float)
+        x, _, f, z, _, _ = system.split(terms)
+        fields = np.stack([f, z, f / system.params.alpha - x])  # (3, terms, coefficients)
+        self.samples[:, self.filled : p] = system.to_time(fields)
+        self.filled = p
