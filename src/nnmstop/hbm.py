@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import ModelParameters, regularized_contact_force, total_energy
+from .model import ModelParameters, regularized_force_and_potential, total_energy
 
 __all__ = ["HarmonicBalanceSystem", "SeriesCache"]
 
@@ -352,9 +352,9 @@ class HarmonicBalanceSystem:
         m = samples or max(16 * self.H, 512)
         h = self.time_history(U, m)
         x, u, f, z, lam, _ = self.split(U)
-        energy_t = total_energy(h["x"], h["u"], h["xdot"], h["udot"], p, model="regularized")
+        f_true, potential = regularized_force_and_potential(h["x"], p)
+        energy_t = total_energy(h["x"], h["u"], h["xdot"], h["udot"], p, model="regularized", potential=potential)
         energy = float(np.mean(energy_t))
-        f_true = regularized_contact_force(h["x"], p)
         xdd = self.to_time(lam * self.second_derivative(x), m)
         restoring = np.abs(h["x"] + p.beta * (h["x"] - h["u"]) + f_true)
         eq_residual = xdd + h["x"] + p.beta * (h["x"] - h["u"]) + f_true
