@@ -115,6 +115,12 @@ class HarmonicBalanceSystem:
         blocks = [np.ones((self.M, 1)), np.cos(kt)] + ([np.sin(kt)] if self.full else [])
         self.synthesis = np.hstack(blocks)
         self._d2 = -np.concatenate([[0.0], self.k, self.k])[: self.nc] ** 2
+        # ANM products (SeriesCache): transforms as small matrix products, cheaper than
+        # the FFT calls at this size once their set-up is counted (same values to ~1e-15)
+        self._synthesis_t = np.ascontiguousarray(self.synthesis.T)
+        weights = np.full(self.nc, 2.0 / self.M)
+        weights[0] = 1.0 / self.M
+        self._projection = self.synthesis * weights
 
     # ------------------------------------------------------------------ Fourier helpers
 
@@ -270,7 +276,6 @@ class HarmonicBalanceSystem:
         ndarray
             Length ``n_equations``.
         """
-        pr = self.params
         out = np.zeros(self.n_equations)
         if p < 2:
             return out
@@ -278,25 +283,24 @@ class HarmonicBalanceSystem:
         if cache is None:
             cache = SeriesCache(self, p - 1)
         cache.fill(series, p)
-        left = series[1:p]  # U_1 .. U_{p-1}
+        nc, delta = self.nc, self.params.delta
+        lam = series[1:p, self.i_lam]  # lam_1 .. lam_{p-1}
         right = series[p - 1 : 0 : -1]  # U_{p-1} .. U_1
-        lam = left[:, self.i_lam]
-        nc, s = self.nc, self.slices
-        # sum_r lam_r D^2 x_{p-r} = D^2 (sum_r lam_r x_{p-r}): one small product per field
-        out[0:nc] = self._d2 * (lam @ right[:, s["x"]])
-        out[nc : 2 * nc] = pr.delta * self._d2 * (lam @ right[:, s["u"]])
+        # sum_r lam_r D^2 (x, delta u)_{p-r} = D^2 sum_r lam_r (x, delta u)_{p-r}: x and u
+        # are adjacent in U, so one product serves both
+        xu = lam @ right[:, : 2 * nc]
+        np.multiply(xu[:nc], self._d2, out=out[:nc])
+        np.multiply(xu[nc:], delta * self._d2, out=out[nc : 2 * nc])
         if self.full:
-            nu = left[:, self.i_nu]
-            out[0:nc] += self.derivative(nu @ right[:, s["x"]])
-            out[nc : 2 * nc] += pr.delta * self.derivative(nu @ right[:, s["u"]])
-        f_t, z_t, g_t = cache.samples
-        prod = cache.products
-        # convolution over the orders at each time sample, without (p-1) x M temporaries
-        np.einsum("rm,rm->m", f_t[1:p], z_t[p - 1 : 0 : -1], out=prod[0])
-        np.einsum("rm,rm->m", g_t[1:p], g_t[p - 1 : 0 : -1], out=prod[1])
-        coefficients = self.to_coefficients(prod)
-        out[2 * nc : 3 * nc] = -coefficients[0]
-        out[3 * nc : 4 * nc] = -coefficients[1]
+            nu = series[1:p, self.i_nu]
+            nxu = nu @ right[:, : 2 * nc]
+            out[:nc] += self.derivative(nxu[:nc])
+            out[nc : 2 * nc] += delta * self.derivative(nxu[nc:])
+        # channels (f, g | z, g): the two products f z and g g in one sum over the orders
+        t = cache.samples
+        np.einsum("rkm,rkm->km", t[1:p, :2], t[p - 1 : 0 : -1, 2:], out=cache.products)
+        np.matmul(cache.products, self._projection, out=cache.coefficients)
+        np.negative(cache.coefficients.ravel(), out=out[2 * nc : 4 * nc])
         return out
 
     # ------------------------------------------------------------------ starting point
@@ -421,20 +425,26 @@ class SeriesCache:
 
     def __init__(self, system: HarmonicBalanceSystem, order: int):
         self.system = system
-        # samples[0, r], samples[1, r], samples[2, r]: f, z, g of term r on M phases
-        self.samples = np.empty((3, order + 1, system.M))
+        # samples[r] holds f, g, z, g of term r on the M phases: channels 0:2 and 2:4 are
+        # the left and right factors of f z and g g
+        self.samples = np.empty((order + 1, 4, system.M))
         self.products = np.empty((2, system.M))
+        self.coefficients = np.empty((2, system.nc))
         self.filled = 1  # U_0 never enters the products
 
     def fill(self, series, p: int):
         """Transform the terms ``filled .. p - 1`` of ``series`` (rows or list items)."""
-        if p > self.samples.shape[1]:
-            raise ValueError(f"cache holds orders up to {self.samples.shape[1] - 1}, order {p - 1} requested")
+        if p > self.samples.shape[0]:
+            raise ValueError(f"cache holds orders up to {self.samples.shape[0] - 1}, order {p - 1} requested")
         if self.filled >= p:
             return
         system = self.system
+        s = system.slices
         terms = np.asarray(series[self.filled : p], dtype=float)
-        x, _, f, z, _, _ = system.split(terms)
-        fields = np.stack([f, z, f / system.params.alpha - x])  # (3, terms, coefficients)
-        self.samples[:, self.filled : p] = system.to_time(fields)
+        f = terms[:, s["f"]]
+        g = f / system.params.alpha - terms[:, s["x"]]
+        fields = np.stack([f, g, terms[:, s["z"]]], axis=1)  # (terms, 3, coefficients)
+        block = self.samples[self.filled : p]
+        np.matmul(fields, system._synthesis_t, out=block[:, :3])
+        block[:, 3] = block[:, 1]
         self.filled = p
