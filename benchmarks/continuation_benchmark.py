@@ -21,9 +21,9 @@ tolerance (its step ends then sit at 1e-10 to a few 1e-9, and its Newton thresho
 1e-7 bounds them by construction). The largest residual of each run is printed, so
 the claim can be checked. ANM order 20 ("about 20" in the paper) and tolerance 1e-8
 are kept as defaults. At H = 100, order 15 costs 27-31 % more factorizations; order
-30 costs 17-21 % fewer, with step ends still below 1e-8 (max 8e-9) but no gain in
-wall time (its longer series cost what the factorizations save): pass ``--order 30``
-to see it.
+30 costs 17-21 % fewer, with step ends still below 1e-8 (max 8e-9) and about the
+same wall time as order 20 (its longer series cost what the factorizations save):
+``--extra-order 30`` adds it as an extra row, never as the reference ANM run.
 
 Each run happens in its own subprocess, so that its peak resident memory
 (``ru_maxrss``, interpreter and libraries included; the resident size after the
