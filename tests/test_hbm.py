@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from nnmstop.anm import ANMSettings, continue_anm
+from nnmstop.anm import ANMSettings, anm_series, continue_anm
 from nnmstop.continuation import ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm import HarmonicBalanceSystem
 from nnmstop.model import ModelParameters, linear_modes, regularized_contact_force
@@ -94,7 +94,7 @@ def test_series_products_is_the_quadratic_part(basis):
     V[system.i_lam] = 0.4
     if system.full:
         V[system.i_nu] = -0.05
-    q = system.series_products([U, V], 2, [])
+    q = system.series_products([U, V], 2)
     assert np.max(np.abs(q)) > 1e-3  # a non-trivial check
     J = system.jacobian(U)
     for a in (0.3, -1.7):
@@ -111,11 +111,46 @@ def test_series_products_order_three_is_symmetric_sum(basis):
     U2 = generic_point(system, seed=6) - U0
 
     def q(v):
-        return system.series_products([U0, v], 2, [])
+        return system.series_products([U0, v], 2)
 
     expected = q(U1 + U2) - q(U1) - q(U2)
-    got = system.series_products([U0, U1, U2], 3, [])
+    got = system.series_products([U0, U1, U2], 3)
     assert np.max(np.abs(got - expected)) <= 1e-11 * scale_of(expected)
+
+
+@pytest.mark.parametrize("basis", BASES)
+def test_anm_series_solves_the_order_equations(basis):
+    # Reference series built without series_products or the preallocated cache: the
+    # quadratic part from residuals alone, Q(V, W) = (S(V + W) - S(V) - S(W) + S(0)) / 2
+    # (exact for a quadratic S; on unit vectors, scaled back, to keep round-off relative),
+    # and a dense solve of the bordered system at every order.
+    order = 12
+    system = HarmonicBalanceSystem(PARAMS, 12, basis=basis)
+    U0 = generic_point(system, seed=7)
+    n = system.n_unknowns
+    t = np.random.default_rng(8).standard_normal(n)
+    t /= np.linalg.norm(t)
+    S0 = system.residual(np.zeros(n))
+
+    def q(v, w):
+        nv, nw = np.linalg.norm(v), np.linalg.norm(w)
+        v, w = v / nv, w / nw
+        return nv * nw * 0.5 * (system.residual(v + w) - system.residual(v) - system.residual(w) + S0)
+
+    A = np.vstack([system.jacobian(U0), t])
+    reference = [U0, np.linalg.solve(A, np.eye(n)[-1])]
+    for p in range(2, order + 1):
+        rhs = -sum(q(reference[r], reference[p - r]) for r in range(1, p))
+        reference.append(np.linalg.solve(A, np.concatenate([rhs, [0.0]])))
+    series = anm_series(system, U0, t, order, ContinuationStats())
+    assert series.shape == (order + 1, n)
+    for p in range(order + 1):
+        assert np.linalg.norm(series[p] - reference[p]) <= 1e-10 * np.linalg.norm(reference[p]), p
+    # the cache only saves transforms: every order's right-hand side is the uncached one
+    cache = system.series_cache(order)
+    for p in range(2, order + 1):
+        cached = system.series_products(series, p, cache)
+        assert np.array_equal(cached, system.series_products(list(series[:p]), p)), p
 
 
 # --------------------------------------------------------------------------- products

@@ -14,6 +14,7 @@ from nnmstop.model import (
     regularized_contact_force,
     regularized_contact_potential,
     regularized_contact_stiffness,
+    regularized_force_and_potential,
     total_energy,
 )
 
@@ -111,6 +112,19 @@ def test_tiny_and_huge_arguments_are_finite_and_accurate(params):
     tiny = 1e-12
     assert regularized_contact_force(tiny, params) == pytest.approx(params.eta * tiny, rel=1e-10)
     assert regularized_contact_potential(tiny, params) == pytest.approx(0.5 * params.eta * tiny**2, rel=1e-10)
+
+
+def test_force_and_potential_in_one_solve_are_the_separate_functions(params):
+    # HBM diagnostics take both from one root solve: same values, bit for bit.
+    mags = np.logspace(-12, 12, 49)
+    x = np.concatenate([SAMPLE_X, -mags, mags, [0.0]])
+    f, pot = regularized_force_and_potential(x, params)
+    assert np.array_equal(f, regularized_contact_force(x, params))
+    assert np.array_equal(pot, regularized_contact_potential(x, params))
+    xdot, u = np.linspace(-2.0, 2.0, x.size), np.linspace(1.0, -1.0, x.size)
+    assert np.array_equal(
+        total_energy(x, u, xdot, -xdot, params, potential=pot), total_energy(x, u, xdot, -xdot, params)
+    )
 
 
 def test_piecewise_law_and_its_potential(paper_params):

@@ -130,35 +130,43 @@ def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max
     when it does not converge.
     """
     U = np.array(U, dtype=float)
+    # each residual serves both the convergence test of one iterate and the update from it
     if lu is not None:
         chord = U.copy()
+        r = system.residual(chord)
         for it in range(1, 3 * max_iter + 1):  # chord iterations are cheap: no factorization
-            r = system.residual(chord)
             if not np.all(np.isfinite(r)):
                 break  # diverged (lu_solve would raise ValueError): full Newton from U
             dU = lu_solve(lu, -np.concatenate([r, [0.0]]))
             chord += dU
             stats.newton_iterations += 1
-            if _converged(system, chord, dU, tol):
+            r = system.residual(chord)
+            if _converged(chord, r, dU, tol):
                 return chord, it
+    r = system.residual(U)
     for it in range(1, max_iter + 1):
-        r = system.residual(U)
         if not (np.all(np.isfinite(U)) and np.all(np.isfinite(r))):
             raise ContinuationError(f"Newton correction diverged (non-finite values after {it - 1} iterations)")
         lu = bordered_factor(system, U, tangent, stats)
         dU = lu_solve(lu, -np.concatenate([r, [0.0]]))
         U += dU
         stats.newton_iterations += 1
-        if _converged(system, U, dU, tol):
+        r = system.residual(U)
+        if _converged(U, r, dU, tol):
             return U, it
     raise ContinuationError(
         f"Newton correction did not converge in {max_iter} iterations (relative residual "
-        f"{relative_residual(system, U):.2e} > {tol:.1e})"
+        f"{_relative(U, r):.2e} > {tol:.1e})"
     )
 
 
-def _converged(system, U, dU, tol: float) -> bool:
-    residual = relative_residual(system, U)
+def _relative(U, r) -> float:
+    """:func:`relative_residual` from a residual ``r = S(U)`` already evaluated."""
+    return float(np.linalg.norm(r) / max(np.linalg.norm(U), 1.0))
+
+
+def _converged(U, r, dU, tol: float) -> bool:
+    residual = _relative(U, r)
     small_update = np.linalg.norm(dU) <= 1e3 * tol * max(np.linalg.norm(U), 1.0)
     # Near a singular Jacobian (branch points) the update may stall above round-off
     # while the residual is already at it: accept the residual then.

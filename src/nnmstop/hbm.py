@@ -47,9 +47,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import ModelParameters, regularized_contact_force, total_energy
+from .model import ModelParameters, regularized_force_and_potential, total_energy
 
-__all__ = ["HarmonicBalanceSystem"]
+__all__ = ["HarmonicBalanceSystem", "SeriesCache"]
 
 
 class HarmonicBalanceSystem:
@@ -115,6 +115,12 @@ class HarmonicBalanceSystem:
         blocks = [np.ones((self.M, 1)), np.cos(kt)] + ([np.sin(kt)] if self.full else [])
         self.synthesis = np.hstack(blocks)
         self._d2 = -np.concatenate([[0.0], self.k, self.k])[: self.nc] ** 2
+        # ANM products (SeriesCache): transforms as small matrix products, cheaper than
+        # the FFT calls at this size once their set-up is counted (same values to ~1e-15)
+        self._synthesis_t = np.ascontiguousarray(self.synthesis.T)
+        weights = np.full(self.nc, 2.0 / self.M)
+        weights[0] = 1.0 / self.M
+        self._projection = self.synthesis * weights
 
     # ------------------------------------------------------------------ Fourier helpers
 
@@ -246,36 +252,55 @@ class HarmonicBalanceSystem:
             J[-1, s["x"].start + self.H + 1 : s["x"].stop] = self.k
         return J
 
-    def series_products(self, series, p: int, cache):
+    def series_cache(self, order: int) -> "SeriesCache":
+        """Empty :class:`SeriesCache` for the terms ``U_0 .. U_order`` of one ANM series."""
+        return SeriesCache(self, order)
+
+    def series_products(self, series, p: int, cache: "SeriesCache | None" = None):
         """``sum_{r=1}^{p-1} Q(U_r, U_{p-r})``: the right-hand side of ANM order ``p``.
 
-        ``series`` is the list ``[U_0, U_1, ..., U_{p-1}]``; ``cache`` holds the time
-        samples of ``f, z, g`` of each order (filled here as orders are added), so each
-        order is transformed once and the sum over orders is vectorized.
+        Parameters
+        ----------
+        series : ndarray or list
+            Terms ``U_0, U_1, ...`` (at least ``p``), as the rows of an array (no copy)
+            or a list of vectors.
+        p : int
+            Order of the right-hand side.
+        cache : SeriesCache, optional
+            Time samples of ``f, z, g`` of the terms already transformed. The ANM
+            passes the same cache for the orders ``2 .. N`` of one series, so that each
+            term is transformed once; without it every term is transformed here.
+
+        Returns
+        -------
+        ndarray
+            Length ``n_equations``.
         """
-        pr = self.params
-        while len(cache) < p:
-            x_r, _, f_r, z_r, _, _ = self.split(series[len(cache)])
-            cache.append(self.to_time(np.stack([f_r, z_r, f_r / pr.alpha - x_r])))
         out = np.zeros(self.n_equations)
         if p < 2:
             return out
-        left = np.array(series[1:p])  # U_1 .. U_{p-1}
-        right = left[::-1]  # U_{p-1} .. U_1
-        _, _, _, _, laml, nul = self.split(left)
-        xr, ur, _, _, _, _ = self.split(right)
-        nc = self.nc
-        out[0:nc] = laml @ self.second_derivative(xr)
-        out[nc : 2 * nc] = pr.delta * (laml @ self.second_derivative(ur))
+        series = np.asarray(series, dtype=float)
+        if cache is None:
+            cache = SeriesCache(self, p - 1)
+        cache.fill(series, p)
+        nc, delta = self.nc, self.params.delta
+        lam = series[1:p, self.i_lam]  # lam_1 .. lam_{p-1}
+        right = series[p - 1 : 0 : -1]  # U_{p-1} .. U_1
+        # sum_r lam_r D^2 (x, delta u)_{p-r} = D^2 sum_r lam_r (x, delta u)_{p-r}: x and u
+        # are adjacent in U, so one product serves both
+        xu = lam @ right[:, : 2 * nc]
+        np.multiply(xu[:nc], self._d2, out=out[:nc])
+        np.multiply(xu[nc:], delta * self._d2, out=out[nc : 2 * nc])
         if self.full:
-            out[0:nc] += nul @ self.derivative(xr)
-            out[nc : 2 * nc] += pr.delta * (nul @ self.derivative(ur))
-        t = np.array(cache[1:p])  # orders 1..p-1, each (3, M)
-        fz = np.sum(t[:, 0] * t[::-1, 1], axis=0)
-        gg = np.sum(t[:, 2] * t[::-1, 2], axis=0)
-        prod = self.to_coefficients(np.stack([fz, gg]))
-        out[2 * nc : 3 * nc] = -prod[0]
-        out[3 * nc : 4 * nc] = -prod[1]
+            nu = series[1:p, self.i_nu]
+            nxu = nu @ right[:, : 2 * nc]
+            out[:nc] += self.derivative(nxu[:nc])
+            out[nc : 2 * nc] += delta * self.derivative(nxu[nc:])
+        # channels (f, g | z, g): the two products f z and g g in one sum over the orders
+        t = cache.samples
+        np.einsum("rkm,rkm->km", t[1:p, :2], t[p - 1 : 0 : -1, 2:], out=cache.products)
+        np.matmul(cache.products, self._projection, out=cache.coefficients)
+        np.negative(cache.coefficients.ravel(), out=out[2 * nc : 4 * nc])
         return out
 
     # ------------------------------------------------------------------ starting point
@@ -331,9 +356,9 @@ class HarmonicBalanceSystem:
         m = samples or max(16 * self.H, 512)
         h = self.time_history(U, m)
         x, u, f, z, lam, _ = self.split(U)
-        energy_t = total_energy(h["x"], h["u"], h["xdot"], h["udot"], p, model="regularized")
+        f_true, potential = regularized_force_and_potential(h["x"], p)
+        energy_t = total_energy(h["x"], h["u"], h["xdot"], h["udot"], p, model="regularized", potential=potential)
         energy = float(np.mean(energy_t))
-        f_true = regularized_contact_force(h["x"], p)
         xdd = self.to_time(lam * self.second_derivative(x), m)
         restoring = np.abs(h["x"] + p.beta * (h["x"] - h["u"]) + f_true)
         eq_residual = xdd + h["x"] + p.beta * (h["x"] - h["u"]) + f_true
@@ -381,3 +406,45 @@ def impacts_per_period(x_samples) -> int:
     enter_above = np.count_nonzero(above & ~np.roll(above, 1))
     enter_below = np.count_nonzero(below & ~np.roll(below, 1))
     return int(enter_above + enter_below)
+
+
+class SeriesCache:
+    """Time samples of ``f``, ``z`` and ``g = f/alpha - x`` of the terms of one ANM series.
+
+    Preallocated for the terms ``U_0 .. U_order`` and filled in order as
+    :meth:`HarmonicBalanceSystem.series_products` needs them, so that each term is
+    transformed to the time domain once per series and the sums over the orders read
+    slices of one array.
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+    order : int
+        Highest order ``N`` of the series.
+    """
+
+    def __init__(self, system: HarmonicBalanceSystem, order: int):
+        self.system = system
+        # samples[r] holds f, g, z, g of term r on the M phases: channels 0:2 and 2:4 are
+        # the left and right factors of f z and g g
+        self.samples = np.empty((order + 1, 4, system.M))
+        self.products = np.empty((2, system.M))
+        self.coefficients = np.empty((2, system.nc))
+        self.filled = 1  # U_0 never enters the products
+
+    def fill(self, series, p: int):
+        """Transform the terms ``filled .. p - 1`` of ``series`` (rows or list items)."""
+        if p > self.samples.shape[0]:
+            raise ValueError(f"cache holds orders up to {self.samples.shape[0] - 1}, order {p - 1} requested")
+        if self.filled >= p:
+            return
+        system = self.system
+        s = system.slices
+        terms = np.asarray(series[self.filled : p], dtype=float)
+        f = terms[:, s["f"]]
+        g = f / system.params.alpha - terms[:, s["x"]]
+        fields = np.stack([f, g, terms[:, s["z"]]], axis=1)  # (terms, 3, coefficients)
+        block = self.samples[self.filled : p]
+        np.matmul(fields, system._synthesis_t, out=block[:, :3])
+        block[:, 3] = block[:, 1]
+        self.filled = p

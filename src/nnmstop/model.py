@@ -57,6 +57,7 @@ __all__ = [
     "regularized_contact_force",
     "regularized_contact_stiffness",
     "regularized_contact_potential",
+    "regularized_force_and_potential",
     "total_energy",
     "mass_matrix",
     "stiffness_matrix",
@@ -210,9 +211,20 @@ def regularized_contact_force(x, params: ModelParameters):
     """
     x, sign, abs_x = _odd_extension(x)
     y, s = _branch_coordinate(abs_x, params)
+    return sign * _force_magnitude(abs_x, y, s, params)
+
+
+def _force_magnitude(abs_x, y, s, params: ModelParameters):
     near = params.eta * y / np.where(abs_x > 1.0, 1.0, s)
     far = params.alpha * (abs_x - y)
-    return sign * np.where(abs_x > 1.0, far, near)
+    return np.where(abs_x > 1.0, far, near)
+
+
+def _potential(abs_x, y, s, params: ModelParameters):
+    c = 1.0 - params.eps
+    f = np.where(abs_x > 1.0, params.alpha * (abs_x - y), params.eta * y / np.where(abs_x > 1.0, 1.0, s))
+    log_ratio = np.where(abs_x > 1.0, np.log(s / c), np.log1p(-(y * y) / c))
+    return f * f / (2.0 * params.alpha) - 0.5 * params.eta * log_ratio
 
 
 def regularized_contact_stiffness(x, params: ModelParameters):
@@ -230,24 +242,36 @@ def regularized_contact_potential(x, params: ModelParameters):
     """
     x, _, abs_x = _odd_extension(x)
     y, s = _branch_coordinate(abs_x, params)
-    c = 1.0 - params.eps
-    f = np.where(abs_x > 1.0, params.alpha * (abs_x - y), params.eta * y / np.where(abs_x > 1.0, 1.0, s))
-    log_ratio = np.where(abs_x > 1.0, np.log(s / c), np.log1p(-(y * y) / c))
-    return f * f / (2.0 * params.alpha) - 0.5 * params.eta * log_ratio
+    return _potential(abs_x, y, s, params)
+
+
+def regularized_force_and_potential(x, params: ModelParameters):
+    """``(f(x), P(x))`` of :func:`regularized_contact_force` and
+    :func:`regularized_contact_potential` from one solve of the branch coordinate.
+
+    Both come from the same root ``y(|x|)``, which costs far more than either closed
+    form; the values are those of the two functions, bit for bit.
+    """
+    x, sign, abs_x = _odd_extension(x)
+    y, s = _branch_coordinate(abs_x, params)
+    return sign * _force_magnitude(abs_x, y, s, params), _potential(abs_x, y, s, params)
 
 
 # --------------------------------------------------------------------------- energy, linear limits
 
 
-def total_energy(x, u, xdot, udot, params: ModelParameters, model: str = "regularized"):
+def total_energy(x, u, xdot, udot, params: ModelParameters, model: str = "regularized", potential=None):
     """Total (conserved) energy of either model.
 
     ``1/2 xdot**2 + 1/2 delta udot**2 + 1/2 x**2 + 1/2 beta (x - u)**2 + P(x)``, with
     ``P`` the potential of the piecewise-linear (``model="piecewise"``) or the
-    regularized (``model="regularized"``) contact force.
+    regularized (``model="regularized"``) contact force; ``potential`` may pass
+    ``P(x)`` when the caller has it (see :func:`regularized_force_and_potential`).
     """
     x, u, xdot, udot = (np.asarray(v, dtype=float) for v in (x, u, xdot, udot))
-    if model == "piecewise":
+    if potential is not None:
+        potential = np.asarray(potential, dtype=float)
+    elif model == "piecewise":
         potential = piecewise_contact_potential(x, params.alpha)
     elif model == "regularized":
         potential = regularized_contact_potential(x, params)
