@@ -37,7 +37,10 @@ class Transcritical:
         x, y, lam = U
         return np.array([[lam - 2 * x, 0.0, x], [0.0, 1.0, 0.0]])
 
-    def series_products(self, series, p, cache):
+    def series_cache(self, order):
+        return None
+
+    def series_products(self, series, p, cache=None):
         """sum_r Q(U_r, U_{p-r}) for the ANM (Q of x lam - x^2, summed symmetrically)."""
         out = np.zeros(2)
         for r in range(1, p):

@@ -90,6 +90,9 @@ def write_dataset(ds: xr.Dataset, path: str | Path, title: str, summary: str, ke
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     out = ds.copy()
+    # Zero-length dimensions read back from NetCDF-4 are marked unlimited in the encoding, as
+    # a set: written unlimited, their order in the file would follow string hashing.
+    out.encoding = {k: v for k, v in out.encoding.items() if k != "unlimited_dims"}
     out.attrs = {**global_attributes(title, summary, keywords), **ds.attrs}
     encoding = {name: {"zlib": False} for name in out.data_vars}
     tmp = path.with_name(path.name + ".tmp")
