@@ -440,6 +440,7 @@ def summarize_bifurcated(ds, nnm2=None) -> str:
     """
     n = int(ds.attrs["resonance"])
     e, f = ds["energy"].values, ds["frequency"].values
+    resolved = ds["stability_resolved"] == 1
     lines = [
         f"branch {ds.attrs['branch']}: switched from {ds.attrs['parent_branch']} at its {n}:1 branch point",
         f"  branch point: energy {ds.attrs['branch_point_energy']:.6g}, frequency {ds.attrs['branch_point_frequency']:.6g} Hz, "
@@ -447,7 +448,9 @@ def summarize_bifurcated(ds, nnm2=None) -> str:
         f"  {ds.sizes['point']} points, energy {e.min():.4g} .. {e.max():.4g}, frequency {f.min():.6g} .. {f.max():.6g} Hz, "
         f"{int(ds.attrs['anm_steps'])} ANM steps",
         f"  largest share of harmonics not multiple of {n}: {float(ds['subharmonic_share'].max()):.2e}",
-        f"  stable points: {int(ds['stable'].sum())} of {ds.sizes['point']}",
+        f"  stability (Hill): {int(((ds['stable'] == 1) & resolved).sum())} stable, "
+        f"{int(((ds['stable'] == 0) & resolved).sum())} unstable, {int((~resolved).sum())} unresolved "
+        f"of {ds.sizes['point']} points",
     ]
     if nnm2 is not None:
         e2, f2 = nnm2["energy"].values, nnm2["frequency"].values
