@@ -33,7 +33,9 @@ def small_config(repo_root):
     config["branches"]["nnm2"]["stages"] = [{"name": "moderate_energy", "until": {"energy_above": 50.0}}]
     # no branch switching here: its parent stage is cut away (tests/test_bifurcation.py covers it)
     config.pop("bifurcations", None)
-    config["figures"]["fig08"].pop("bifurcated", None)
+    for spec in config["figures"].values():
+        if isinstance(spec, dict):
+            spec.pop("bifurcated", None)
     return config
 
 
