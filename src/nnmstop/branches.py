@@ -25,6 +25,8 @@ Floquet stability by Hill's method (:mod:`nnmstop.stability`): ``stable`` (flag)
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import xarray as xr
@@ -50,6 +52,8 @@ __all__ = [
     "branch_dataset",
     "dataset_unknowns",
     "combine_stages",
+    "TruncationGuard",
+    "resolved_or_error",
     "bifurcated_branch",
 ]
 
@@ -107,29 +111,50 @@ def stage_criterion(until: dict, params: ModelParameters, mode: int):
     return near_gap_zero
 
 
-def resolved_or_error(stop, system, max_truncation: float, label: str):
-    """Wrap a stop criterion so that an orbit the harmonics do not resolve stops the run.
+@dataclass
+class TruncationGuard:
+    """Stop criterion wrapper that refuses orbits the harmonics do not resolve.
 
-    Raises :class:`~nnmstop.continuation.UnresolvedBranchError` naming the energy, the
-    truncation indicator and ``H`` when the indicator exceeds ``max_truncation``:
-    a continuation never returns a branch whose orbits its harmonics cannot represent.
+    Called like a stop criterion ``(U, diagnostics) -> reason``: raises
+    :class:`~nnmstop.continuation.UnresolvedBranchError`, naming the energy, the
+    truncation indicator (``diagnostics["truncation"]``, see
+    :meth:`nnmstop.hbm.HarmonicBalanceSystem.truncation`) and ``H``, when the indicator
+    exceeds ``limit``; otherwise defers to ``inner``. A continuation so guarded never
+    returns a branch whose orbits its harmonics cannot represent. ``largest`` keeps the
+    largest indicator seen; ``setting`` is the configuration key of ``limit``, for the
+    message.
     """
-    points = 0
 
-    def guarded(U, diag):
-        nonlocal points
-        points += 1
-        if diag["truncation"] > max_truncation:
-            p = system.params
+    system: HarmonicBalanceSystem
+    inner: Callable
+    limit: float
+    label: str = "NNM1"
+    setting: str = "hbm.max_truncation"
+    largest: float = 0.0
+    points: int = 0
+
+    def __post_init__(self):
+        if not (np.isfinite(self.limit) and 0.0 < self.limit < 1.0):
+            raise ValueError(f"{self.setting} must be a number in (0, 1), got {self.limit!r}")
+
+    def __call__(self, U, diag) -> str:
+        self.points += 1
+        level = float(diag["truncation"])
+        self.largest = max(self.largest, level)
+        if level > self.limit:
+            p = self.system.params
             raise UnresolvedBranchError(
-                f"{label}: truncation indicator {diag['truncation']:.4g} > hbm.max_truncation = {max_truncation:g} "
-                f"at energy {diag['energy']:.6g} (frequency {diag['frequency']:.6g} Hz, point {points - 1}): "
-                f"H = {system.H} harmonics do not resolve the stop (alpha = {p.alpha:g}, eta = {p.eta:g}); "
+                f"{self.label}: truncation indicator {level:.4g} > {self.setting} = {self.limit:g} at energy "
+                f"{diag['energy']:.6g} (frequency {diag['frequency']:.6g} Hz, point {self.points - 1}): H = "
+                f"{self.system.H} harmonics do not resolve the stop (alpha = {p.alpha:g}, eta = {p.eta:g}); "
                 "more harmonics or a larger eta are needed"
             )
-        return stop(U, diag)
+        return self.inner(U, diag)
 
-    return guarded
+
+def resolved_or_error(stop, system, max_truncation: float, label: str) -> TruncationGuard:
+    """``stop`` guarded by ``hbm.max_truncation`` (:class:`TruncationGuard`)."""
+    return TruncationGuard(system, stop, max_truncation, label)
 
 
 def _stage_settings(config: dict) -> ANMSettings:

@@ -53,7 +53,7 @@ import numpy as np
 import xarray as xr
 
 from ..anm import ANMSettings, continue_anm
-from ..branches import branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
+from ..branches import TruncationGuard, branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
 from ..compare import EnergyMatcher, _regularized_on_phase, exact_increasing_arm, orbit_differences
 from ..config import validate_config
 from ..continuation import ContinuationError, ContinuationStats, UnresolvedBranchError, newton_correct
@@ -158,41 +158,6 @@ def truncation_level(system: HarmonicBalanceSystem, U) -> float:
     return system.truncation(U)
 
 
-@dataclass
-class TruncationGuard:
-    """Stop criterion wrapper that refuses unresolved orbits.
-
-    Called like a stop criterion ``(U, diagnostics) -> reason``; raises
-    :class:`UnresolvedBranchError` when :func:`truncation_level` exceeds ``limit``, and
-    otherwise defers to ``inner``. ``largest`` keeps the largest level seen.
-    """
-
-    system: HarmonicBalanceSystem
-    inner: object
-    limit: float
-    label: str = "NNM1"
-    largest: float = 0.0
-    points: int = 0
-
-    def __post_init__(self):
-        if not (np.isfinite(self.limit) and 0.0 < self.limit < 1.0):
-            raise ValueError(f"max_truncation must be a number in (0, 1), got {self.limit!r}")
-
-    def __call__(self, U, diag) -> str:
-        self.points += 1
-        level = truncation_level(self.system, U)
-        self.largest = max(self.largest, level)
-        if level > self.limit:
-            p = self.system.params
-            raise UnresolvedBranchError(
-                f"{self.label}: truncation indicator {level:.4g} > max_truncation = {self.limit:g} at energy "
-                f"{diag['energy']:.6g} (frequency {diag['frequency']:.6g} Hz, point {self.points - 1}): H = "
-                f"{self.system.H} harmonics do not resolve the stop (alpha = {p.alpha:g}, eta = {p.eta:g}); "
-                "more harmonics or a larger eta are needed"
-            )
-        return self.inner(U, diag)
-
-
 # --------------------------------------------------------------------------- one guarded run
 
 
@@ -255,7 +220,7 @@ def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 
         def inner(U, diag):  # noqa: F811 - the stage criterion, or the energy limit first
             return stage_end(U, diag) or (f"energy above {limit:g} (past the compared range)" if diag["energy"] > limit else "")
 
-    guard = TruncationGuard(system, inner, max_truncation, label)
+    guard = TruncationGuard(system, inner, max_truncation, label, setting="study.max_truncation")
     wall, cpu = time.perf_counter(), time.process_time()
     dataset, failure, stats = None, "", None
     try:
