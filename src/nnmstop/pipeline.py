@@ -7,6 +7,9 @@ same task runs standalone for debugging::
         --input previous=results/hbm/stages/nnm1_stage1.nc \\
         --output dataset=/tmp/nnm1_stage2.nc
 
+Wildcards of other rules go through ``--wildcard KEY=VALUE`` (for example the study's
+``--wildcard harmonics=100 --wildcard eta=0.1``).
+
 A task reads the validated configuration, its named inputs and writes its named
 outputs; its log goes to the rule's ``log:`` file (or stderr).
 """
@@ -290,7 +293,7 @@ def _pairs(values):
     for item in values or []:
         key, sep, value = item.partition("=")
         if not sep:
-            raise argparse.ArgumentTypeError(f"expected key=path, got {item!r}")
+            raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {item!r}")
         out.setdefault(key, []).append(value)
     return {k: v[0] if len(v) == 1 else v for k, v in out.items()}
 
@@ -308,8 +311,14 @@ def main(argv=None) -> None:
     parser.add_argument("--branch")
     parser.add_argument("--stage")
     parser.add_argument("--bifurcation", help="name under bifurcations (task hbm_bifurcated)")
+    parser.add_argument("--wildcard", action="append", metavar="KEY=VALUE",
+                        help="any other wildcard of the task's rule, e.g. --wildcard harmonics=100 (repeatable)")
     args = parser.parse_args(argv)
     wildcards = {k: getattr(args, k) for k in ("branch", "stage", "bifurcation") if getattr(args, k) is not None}
+    for key, value in _pairs(args.wildcard).items():
+        if isinstance(value, list):
+            parser.error(f"wildcard {key!r} given more than once")
+        wildcards[key] = value
     inputs = _pairs(args.input)
     if "stages" in inputs and isinstance(inputs["stages"], str):
         inputs["stages"] = [inputs["stages"]]
