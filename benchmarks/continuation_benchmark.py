@@ -34,6 +34,10 @@ Wall times are measured inside the continuation (``ContinuationStats.wall_time``
 start point excluded); with ``--repeat N`` the smallest of N runs is kept (the counts
 are deterministic).
 
+``--pade-row`` adds the ANM on Padé approximants (``ANMSettings(pade=True)``, opt-in,
+see ``nnmstop.pade``) as an extra row: it steps on the approximant of its series
+wherever that reaches further at the same tolerance.
+
 The timed ANM run stores the end point of each step only (like the baseline, whose
 points are its step ends); an untimed second ANM run storing 8 points per series step
 draws the reference frequency-energy curve, and the "curve gap" column is the largest
@@ -57,6 +61,7 @@ ROOT = Path(__file__).resolve().parents[1]
 BRANCHES = ("NNM2", "NNM1")
 METHODS = ("ANM", "pseudo-arclength")
 BASELINE = "pseudo-arclength"
+PADE_ROW = "ANM Padé"  # the ANM on Padé approximants (ANMSettings(pade=True), opt-in)
 NNM1_END_ENERGY = 1.5e5
 NNM2_FREQUENCY_SHARE = 0.98
 TARGETS = {"NNM2": 10.0, "NNM1": 60.0}  # ANM wall time targets, seconds
@@ -108,7 +113,7 @@ def run_worker(spec: dict) -> dict:
     label = f"{spec['branch']} {spec['method']}"
     try:
         if spec["method"].startswith("ANM"):
-            settings = ANMSettings(order=spec["order"], tolerance=spec["tolerance"])
+            settings = ANMSettings(order=spec["order"], tolerance=spec["tolerance"], pade=spec.get("pade", False))
             branch = continue_anm(system, U0, e, stop, settings, label=label, progress_seconds=1e9)
         else:
             settings = PseudoArclengthSettings(tolerance=spec["baseline_tolerance"])
@@ -122,7 +127,8 @@ def run_worker(spec: dict) -> dict:
     if spec["method"].startswith("ANM"):
         # Untimed second run storing 8 points per series step (with their diagnostics),
         # only to draw the reference frequency-energy curve densely.
-        settings = ANMSettings(order=spec["order"], tolerance=spec["tolerance"], points_per_step=8)
+        settings = ANMSettings(order=spec["order"], tolerance=spec["tolerance"], points_per_step=8,
+                               pade=spec.get("pade", False))
         branch = continue_anm(system, U0, e, stop, settings, label=label, progress_seconds=1e9)
     curve = np.array([[np.log10(d["energy"]), d["frequency"]] for d in branch.diagnostics])
     np.save(spec["curve_file"], curve)
@@ -136,6 +142,7 @@ def run_worker(spec: dict) -> dict:
         "rejected_steps": getattr(stats, "rejected_steps", 0),
         "corrected_steps": stats.corrected_steps if spec["method"].startswith("ANM") else 0,
         "geometric_tails": stats.geometric_tails,
+        "pade_steps": stats.pade_steps,
         "peak_rss_mb": peak_rss,
         "rss_after_imports_mb": rss_after_imports,
         "rss_before_imports_mb": rss_imports_before,
@@ -155,10 +162,11 @@ def run_operations_worker(spec: dict) -> dict:
     import numpy as np
     from scipy.linalg import lu_factor
 
-    from nnmstop.anm import ANMSettings, anm_series, continue_anm
+    from nnmstop.anm import ANMSettings, anm_series, continue_anm, step_length
     from nnmstop.continuation import ContinuationStats, newton_correct
     from nnmstop.hbm import HarmonicBalanceSystem
     from nnmstop.model import ModelParameters
+    from nnmstop.pade import pade_pair, pade_step_length
 
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
     system = HarmonicBalanceSystem(params, spec["harmonics"])
@@ -171,6 +179,13 @@ def run_operations_worker(spec: dict) -> dict:
     U, t = branch.points[-1], branch.end_tangent
     A = np.vstack([system.jacobian(U), t[None, :]])
     stats = ContinuationStats()
+    series = anm_series(system, U, t, spec["order"], stats)
+    a_series = step_length(series, 1e-8)
+
+    def pade():
+        high, low = pade_pair(series, a_series)
+        return pade_step_length(high, low, 1e-8, a_series)
+
     operations = {
         "Jacobian assembly": lambda: system.jacobian(U),
         f"LU factorization ({A.shape[0]} x {A.shape[1]})": lambda: lu_factor(A),
@@ -179,6 +194,7 @@ def run_operations_worker(spec: dict) -> dict:
         f"ANM series of order {spec['order']} (one Jacobian and LU included)": lambda: anm_series(
             system, U, t, spec["order"], stats
         ),
+        "Padé approximants of orders N and N-1 and their step length (from the series)": pade,
     }
     return {name: 1e3 * min(timeit.repeat(f, number=10, repeat=5)) / 10 for name, f in operations.items()}
 
@@ -251,12 +267,14 @@ def run_keys(args) -> list[tuple[str, float]]:
         keys.append((BASELINE, args.extra_baseline_tolerance))
     if args.extra_order > 0:
         keys.append((f"ANM order {args.extra_order}", args.tolerance))
+    if args.pade_row:
+        keys.append((PADE_ROW, args.tolerance))
     return keys
 
 
 def run_order(args, method: str) -> int:
     """Series order of an ANM run: ``--order``, or ``--extra-order`` for the extra row."""
-    return args.extra_order if method != "ANM" and method.startswith("ANM") else args.order
+    return args.extra_order if method.startswith("ANM order") else args.order
 
 
 def run_label(args, method: str, tolerance: float) -> str:
@@ -273,10 +291,12 @@ def format_report(args, results, gaps, header, operations=None) -> str:
         f"Command: `python benchmarks/continuation_benchmark.py --harmonics {args.harmonics} "
         f"--repeat {args.repeat} --blas-threads {args.blas_threads}"
         + (f" --extra-order {args.extra_order}" if args.extra_order > 0 else "")
+        + (" --pade-row" if args.pade_row else "")
         + "`",
         "",
         *header,
-        f"- ANM: order {args.order}, series tolerance {args.tolerance:g}, Newton threshold 1e-7; "
+        f"- ANM: order {args.order}, series tolerance {args.tolerance:g}, Newton threshold 1e-7, plain power series "
+        "(the default, `ANMSettings.pade = False`); "
         f"baseline: full Newton, corrector tolerance {args.tolerance:g} on the relative residual, "
         "PseudoArclengthSettings defaults otherwise; both store one point per step, with its diagnostics "
         "(which the stop criterion needs)",
@@ -285,6 +305,12 @@ def format_report(args, results, gaps, header, operations=None) -> str:
         lines.append(
             f"- extra row: ANM order {args.extra_order} (not the default order {args.order}), same series "
             "tolerance and Newton threshold"
+        )
+    if args.pade_row:
+        lines.append(
+            f"- extra row: {PADE_ROW}: the ANM with `pade=True` (opt-in): steps on the Padé approximant of the "
+            "series where it reaches further (orders N and N-1 agree to the series tolerance relative to the step, "
+            "before the first real pole), same order, tolerance and Newton threshold"
         )
     if args.extra_baseline_tolerance > 0:
         lines.append(
@@ -403,6 +429,11 @@ def parse_args(argv=None):
         default=0,
         help="one more ANM run at this series order, reported as an extra row (default 0 = none)",
     )
+    parser.add_argument(
+        "--pade-row",
+        action="store_true",
+        help=f"one more ANM run on Padé approximants (pade=True), reported as an extra row ('{PADE_ROW}')",
+    )
     parser.add_argument("--repeat", type=int, default=1, help="runs per method, smallest wall time kept (default 1)")
     parser.add_argument("--blas-threads", type=int, default=1, help="BLAS threads per run, 0 = library default")
     parser.add_argument("--branches", nargs="+", choices=BRANCHES, default=list(BRANCHES))
@@ -450,6 +481,7 @@ def main(argv=None) -> int:
                         "tolerance": args.tolerance,
                         "baseline_tolerance": tolerance,
                         "curve_file": curve_file,
+                        "pade": method == PADE_ROW,
                     }
                     r = run_subprocess(spec, args.blas_threads)
                     if r["failed"]:

@@ -23,6 +23,18 @@ tail was removed (:func:`remove_geometric_tail`) where the singular point is not
 the path being followed (sharp folds of NNM1 near the 3:1 resonance): the cleaned
 series then ends at ``1e-5`` to ``5e-4`` and needs about a dozen chord iterations.
 Those steps are still longer than the plain series would allow.
+
+With ``ANMSettings.pade`` (opt-in, off by default) each step is taken on the Padé approximant of
+its series (:mod:`nnmstop.pade`: common denominator from a QR of the terms), when that
+reaches beyond ``a_max`` at the same tolerance: the step then ends where the
+approximants of orders ``N`` and ``N - 1`` stop agreeing to ``tolerance`` relative to
+the step, and strictly before the first positive real pole of their denominators.
+The end point, the tangent there and the interior points come from the approximant;
+the end-residual check and the Newton correction are the same. A geometric tail
+(simple bifurcation on the path) is removed from the series first, as without Padé,
+so that the step still passes branch points of the followed branch; measured on
+NNM1 at ``H = 100``, dropping the tail removal and relying on the approximant's pole
+alone lost a branch point and switched branch near the 3:1 resonance.
 """
 
 from __future__ import annotations
@@ -35,6 +47,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg.lapack import dgetrs as _getrs
 
+from .pade import pade_pair, pade_step_length
 from .continuation import (
     Branch,
     ContinuationError,
@@ -48,7 +61,7 @@ from .continuation import (
     unit_tangent,
 )
 
-__all__ = ["ANMSettings", "ANMStep", "anm_series", "evaluate_series", "anm_step", "continue_anm"]
+__all__ = ["ANMSettings", "ANMStep", "TaylorPath", "anm_series", "evaluate_series", "anm_step", "continue_anm"]
 
 logger = logging.getLogger("nnmstop.anm")
 
@@ -68,8 +81,17 @@ class ANMSettings:
     max_steps : int
         Largest number of steps before the continuation gives up.
     points_per_step : int
-        Points stored per step along the series (the end point included), for
-        smooth curves; >= 1.
+        Points stored per step (the end point included), for smooth curves; >= 1.
+        1 stores the step ends only. Above 1, the count is per length of the plain
+        series' step (Cochelin's estimate): a step on the Padé approximant that
+        reaches ``k`` times further stores ``ceil(k)`` times as many points, so that
+        the stored curves are as dense as with the plain series.
+    pade : bool
+        Represent each step by the Padé approximant of its series
+        (:mod:`nnmstop.pade`) wherever that reaches further than the series at the
+        same tolerance (the plain series' step is taken instead when the
+        approximant's end cannot be corrected by Newton); False (the default)
+        keeps the plain power series.
     """
 
     order: int = 20
@@ -77,6 +99,7 @@ class ANMSettings:
     newton_threshold: float = 1e-7
     max_steps: int = 3000
     points_per_step: int = 1
+    pade: bool = False
 
     def __post_init__(self):
         if not (isinstance(self.order, (int, np.integer)) and self.order >= 2):
@@ -89,11 +112,14 @@ class ANMSettings:
             raise ValueError(f"max_steps must be >= 1, got {self.max_steps!r}")
         if self.points_per_step < 1:
             raise ValueError(f"points_per_step must be >= 1, got {self.points_per_step!r}")
+        if not isinstance(self.pade, (bool, np.bool_)):
+            raise ValueError(f"pade must be true or false, got {self.pade!r}")
 
     @classmethod
     def from_config(cls, anm_config: dict, **overrides) -> "ANMSettings":
         keys = ("order", "tolerance", "newton_threshold", "max_steps")
-        return cls(**{k: anm_config[k] for k in keys}, **overrides)
+        optional = {"pade": anm_config["pade"]} if "pade" in anm_config else {}
+        return cls(**{k: anm_config[k] for k in keys}, **optional, **overrides)
 
 
 def anm_series(system, U0, tangent, order: int, stats: ContinuationStats, lu=None):
@@ -216,6 +242,16 @@ def remove_geometric_tail(series, a_max: float, alignment: float = 1e-6, reach: 
     return cleaned, float(a_b)
 
 
+class TaylorPath:
+    """The power series of a step as a path ``a -> U(a)`` (same call as :class:`nnmstop.pade.PadeApproximant`)."""
+
+    def __init__(self, series):
+        self.series = series
+
+    def __call__(self, a: float, derivative: bool = False):
+        return evaluate_series(self.series, a, derivative=derivative)
+
+
 class ANMStep(NamedTuple):
     """Result of one ANM step.
 
@@ -223,7 +259,10 @@ class ANMStep(NamedTuple):
     ``a_max``, the end point ``U_end`` (Newton-corrected if needed), the unit tangent
     ``t_end`` there, the sign ``det_sign`` of ``det [J(U0); tangent^T]`` (it changes
     across a simple branch point, not across a fold, when the tangent keeps its
-    orientation) and the LU factors ``lu`` of that matrix, reused by corrections.
+    orientation), the LU factors ``lu`` of that matrix, reused by corrections,
+    ``path``, the representation ``a -> U(a)`` (``path(a, derivative=True)`` for
+    ``dU/da``) the step was taken on: the series, or its Padé approximant, and
+    ``a_series``, the step length of the plain series (``a_max`` without Padé).
     """
 
     series: np.ndarray
@@ -232,6 +271,8 @@ class ANMStep(NamedTuple):
     t_end: np.ndarray
     det_sign: int
     lu: tuple
+    path: object
+    a_series: float
 
 
 def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStats) -> ANMStep:
@@ -242,14 +283,44 @@ def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStat
     if a_b is not None:
         stats.geometric_tails += 1
     a_max = step_length(series, settings.tolerance, last_terms=1 if a_b is None else 4)
-    U_end = evaluate_series(series, a_max)
-    t_end = evaluate_series(series, a_max, derivative=True)
+    taylor = path = TaylorPath(series)
+    a_series = a_max
+    if settings.pade:
+        path, a_max = _pade_path(series, a_max, settings.tolerance, path, stats)
+    try:
+        U_end, t_end = _step_end(system, path, a_max, lu, settings, stats)
+    except ContinuationError:
+        if path is taylor:
+            raise
+        # the approximant's end could not be corrected: take the plain series' step
+        stats.pade_steps -= 1
+        path, a_max = taylor, a_series
+        U_end, t_end = _step_end(system, path, a_max, lu, settings, stats)
+    return ANMStep(series, a_max, U_end, t_end, determinant_sign(lu), lu, path, a_series)
+
+
+def _step_end(system, path, a_max, lu, settings: ANMSettings, stats: ContinuationStats):
+    """End point of a step on ``path`` (Newton-corrected when needed) and the unit tangent there."""
+    U_end = path(a_max)
+    t_end = path(a_max, derivative=True)
     t_end /= np.linalg.norm(t_end)
     if relative_residual(system, U_end) > settings.newton_threshold:
         # chord iterations with the step's own factors first: usually no new factorization
         U_end, _ = newton_correct(system, U_end, t_end, stats, tol=0.01 * settings.newton_threshold, lu=lu)
         stats.corrected_steps += 1
-    return ANMStep(series, a_max, U_end, t_end, determinant_sign(lu), lu)
+    return U_end, t_end
+
+
+def _pade_path(series, a_max: float, tolerance: float, taylor, stats: ContinuationStats):
+    """The Padé approximant of ``series`` and its step length, when it reaches beyond ``a_max``."""
+    pair = pade_pair(series, a_max)
+    if pair is None:
+        return taylor, a_max
+    a_pade = pade_step_length(pair[0], pair[1], tolerance, a_max)
+    if a_pade <= a_max:
+        return taylor, a_max
+    stats.pade_steps += 1
+    return pair[0], a_pade
 
 
 def continue_anm(
@@ -278,8 +349,8 @@ def continue_anm(
     Returns
     -------
     Branch
-        The start point, then the end point of every step (and ``points_per_step - 1``
-        interior points per step).
+        The start point, then the end point of every step (and interior points,
+        see ``ANMSettings.points_per_step``).
 
     Raises
     ------
@@ -295,7 +366,6 @@ def continue_anm(
     diag = system.diagnostics(U)
     branch.add(U, 0, diag)
     progress = Progress(label, progress_seconds, logger)
-    n_sub = settings.points_per_step
     previous_sign = None
     for step in range(1, settings.max_steps + 1):
         try:
@@ -317,13 +387,16 @@ def continue_anm(
             logger.info("%s: simple branch point passed near energy %.6g, frequency %.6g Hz (step %d)",
                         label, diag["energy"], diag["frequency"], step - 1)
         previous_sign = det_sign
+        n_sub = settings.points_per_step
+        if n_sub > 1:  # as dense as the plain series would store them
+            n_sub *= max(1, int(np.ceil(a_max / result.a_series - 1e-9)))
         # Interior points along the series, then the (possibly corrected) end point; the
         # stop criterion is checked at each, so a stage ends at the first point meeting it.
         for j in range(1, n_sub + 1):
             if j < n_sub:
                 a = a_max * j / n_sub
-                U_j = evaluate_series(series, a)
-                t_j = evaluate_series(series, a, derivative=True)
+                U_j = result.path(a)
+                t_j = result.path(a, derivative=True)
                 t_j /= np.linalg.norm(t_j)
                 # interior points meet the same accuracy as step ends (chord corrections
                 # on the step's factors, no new factorization in general)

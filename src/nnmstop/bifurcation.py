@@ -130,7 +130,8 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
     """Branch point within the continuation step from ``U_a`` towards ``U_b``.
 
     The ANM step from ``U_a`` (tangent oriented towards ``U_b``) is recomputed: its
-    power series ``U(a)`` is the branch to the series' accuracy all along the step,
+    power series ``U(a)`` (or its Padé approximant, as the continuation used it) is
+    the branch to the series' accuracy all along the step,
     geometric tail removed so that it runs through the branch point on the branch
     being followed. The sign of ``det [J(U(a)); U'(a)^T]`` is bisected in ``a``, with
     no Newton solve near the branch point, where any hyperplane meets both curves
@@ -160,7 +161,7 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
         If the determinant has the same sign at both ends of the step (no branch
         point bracketed).
     """
-    from .anm import ANMSettings, anm_step, evaluate_series
+    from .anm import ANMSettings, anm_step
 
     settings = ANMSettings() if settings is None else settings
     U_a, U_b = np.asarray(U_a, float), np.asarray(U_b, float)
@@ -169,7 +170,7 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
         raise ValueError("locate_branch_point needs two distinct points")
     t_a, _ = bordered_sign(system, U_a, chord)
     step = anm_step(system, U_a, t_a, settings, ContinuationStats())
-    series, a_max = step.series, step.a_max
+    path, a_max = step.path, step.a_max  # the series, or its Padé approximant
     # the path parameter of the series is the projection on its tangent: U_b sits at a_end
     a_end = float(np.dot(chord, t_a))
     if not 0 < a_end <= 1.001 * a_max:
@@ -179,9 +180,9 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
         )
 
     def sign(a):
-        t = evaluate_series(series, a, derivative=True)
+        t = path(a, derivative=True)
         t /= np.linalg.norm(t)
-        return determinant_sign(lu_factor(np.vstack([system.jacobian(evaluate_series(series, a)), t[None, :]])))
+        return determinant_sign(lu_factor(np.vstack([system.jacobian(path(a)), t[None, :]])))
 
     lo, hi = 0.0, a_end
     sign_lo = sign(lo)
@@ -194,9 +195,9 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
         else:
             hi = mid
     a_star = 0.5 * (lo + hi)
-    t_star = evaluate_series(series, a_star, derivative=True)
+    t_star = path(a_star, derivative=True)
     t_star /= np.linalg.norm(t_star)
-    return project_onto_branch(system, evaluate_series(series, a_star), tol=newton_tol), t_star
+    return project_onto_branch(system, path(a_star), tol=newton_tol), t_star
 
 
 def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):

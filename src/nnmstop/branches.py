@@ -277,6 +277,8 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
         "order": anm["order"],
         "tolerance": anm["tolerance"],
         "newton_threshold": anm["newton_threshold"],
+        "pade": int(ANMSettings.from_config(anm).pade),
+        "pade_steps": stats.pade_steps,
         "stages": len(config["branches"][branch_name]["stages"]),
         "end_reason": end_reason,
         "anm_steps": stats.steps,
@@ -392,6 +394,7 @@ def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
     out.attrs["end_reason"] = stages[-1].attrs["end_reason"]
     out.attrs["anm_steps"] = int(sum(ds.attrs["anm_steps"] for ds in stages))
     out.attrs["factorizations"] = int(sum(ds.attrs["factorizations"] for ds in stages))
+    out.attrs["pade_steps"] = int(sum(ds.attrs.get("pade_steps", 0) for ds in stages))
     return out
 
 

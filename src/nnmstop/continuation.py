@@ -50,6 +50,7 @@ class ContinuationStats:
     newton_iterations: int = 0
     corrected_steps: int = 0
     geometric_tails: int = 0
+    pade_steps: int = 0
     wall_time: float = 0.0
 
 
