@@ -134,7 +134,7 @@ def test_degenerate_terms_give_no_approximant():
 
 
 def test_pade_setting_is_validated(repo_root):
-    assert ANMSettings().pade is False  # opt-in
+    assert ANMSettings().pade is True  # the default, as in config/config.yaml
     assert ANMSettings.from_config({"order": 20, "tolerance": 1e-8, "newton_threshold": 1e-7, "max_steps": 10,
                                     "pade": True}).pade is True
     with pytest.raises(ValueError, match="pade must be true or false"):

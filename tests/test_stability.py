@@ -179,18 +179,22 @@ def test_nnm1_three_impacts_per_stop_is_unstable_and_matches_monodromy(system, n
 
 def test_nnm1_stability_changes_at_the_energy_fold(system, nnm1):
     """Along the six-impact stretch the energy falls to a minimum and grows again; the
-    non-trivial pair goes through +1 there: unstable before, stable after."""
+    non-trivial pair goes through +1 there: unstable before, stable after (up to the
+    next energy fold, where it may change again)."""
     _, _, second, U = nnm1
     energy = second["energy"].values
     fold = int(np.argmin(energy))
-    assert 0 < fold < len(U) - 3
+    next_fold = fold + int(np.argmax(energy[fold:]))
+    assert 0 < fold < next_fold - 4
     b = branch_stability(system, U)
     before = np.arange(1, fold - 1)
-    after = np.arange(fold + 3, len(U))
+    after = np.arange(fold + 3, next_fold - 1)
     assert not b.stable[before].any()
     assert b.stable[after].all()
-    near = np.arange(fold - 1, fold + 3)
-    assert np.all(b.margin[near] < 0.1)  # the pair is close to +1 around the fold
+    # the pair is close to +1 near the fold (points within 50 % of its energy)
+    near = [i for i in range(fold - 2, fold + 3) if energy[i] < 1.5 * energy[fold]]
+    assert len(near) >= 2
+    assert np.all(b.margin[near] < 0.1)
     # The exact orbits agree on both sides.
     for i, unstable in ((before[-1], True), (after[0], False)):
         ref, _ = reference_multipliers(system, U[i])

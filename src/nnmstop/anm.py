@@ -24,7 +24,7 @@ the path being followed (sharp folds of NNM1 near the 3:1 resonance): the cleane
 series then ends at ``1e-5`` to ``5e-4`` and needs about a dozen chord iterations.
 Those steps are still longer than the plain series would allow.
 
-With ``ANMSettings.pade`` (opt-in, off by default) each step is taken on the Padé approximant of
+With ``ANMSettings.pade`` (the default) each step is taken on the Padé approximant of
 its series (:mod:`nnmstop.pade`: common denominator from a QR of the terms), when that
 reaches beyond ``a_max`` at the same tolerance: the step then ends where the
 approximants of orders ``N`` and ``N - 1`` stop agreeing to ``tolerance`` relative to
@@ -90,7 +90,7 @@ class ANMSettings:
         Represent each step by the Padé approximant of its series
         (:mod:`nnmstop.pade`) wherever that reaches further than the series at the
         same tolerance (the plain series' step is taken instead when the
-        approximant's end cannot be corrected by Newton); False (the default)
+        approximant's end cannot be corrected by Newton), the default; False
         keeps the plain power series.
     """
 
@@ -99,7 +99,7 @@ class ANMSettings:
     newton_threshold: float = 1e-7
     max_steps: int = 3000
     points_per_step: int = 1
-    pade: bool = False
+    pade: bool = True
 
     def __post_init__(self):
         if not (isinstance(self.order, (int, np.integer)) and self.order >= 2):

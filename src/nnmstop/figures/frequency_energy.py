@@ -473,12 +473,12 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
     if frequency_range is None:
         frequency_range = _auto_limits([nnm1, nnm2], energy_range, gap_zero)
     ax.set_ylim(*frequency_range)
-    # label the dashed lines at the left edge, just above them
-    left = ax.get_xlim()[0]
+    # label the dashed lines at the right edge, just above them (the branches reach them from below)
+    right = ax.get_xlim()[1]
     for mode in kind.gap_zero_modes:
         value = float(gap_zero[mode - 1])
-        ax.annotate(f"gap-0 linear mode {mode}: {value:.4f} Hz", xy=(left, value), xytext=(4, 3),
-                    textcoords="offset points", fontsize=7.5, color="0.2", va="bottom", ha="left")
+        ax.annotate(f"gap-0 linear mode {mode}: {value:.4f} Hz", xy=(right, value), xytext=(-4, 3),
+                    textcoords="offset points", fontsize=7.5, color="0.2", va="bottom", ha="right")
     ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=8, framealpha=0.9)
     fig.suptitle(f"{kind.title}\n{_parameter_line(params, nnm1)}", fontsize=9.5, linespacing=1.4)
     return save_figure(fig, pdf_path, png_dpi=png_dpi)
