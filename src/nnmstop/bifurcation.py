@@ -141,8 +141,8 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
     Parameters
     ----------
     U_a, U_b : ndarray
-        Start of the step and a point past the branch point (for example the two
-        stored ends of the step flagged by the continuation).
+        Start and end of the continuation step flagged with a sign change (the two
+        stored points of the step, the end possibly Newton-corrected).
     settings : ANMSettings, optional
         Series order and tolerance (defaults of :class:`nnmstop.anm.ANMSettings`).
     tol : float
@@ -171,12 +171,20 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
     t_a, _ = bordered_sign(system, U_a, chord)
     step = anm_step(system, U_a, t_a, settings, ContinuationStats())
     path, a_max = step.path, step.a_max  # the series, or its Padé approximant
-    # the path parameter of the series is the projection on its tangent: U_b sits at a_end
-    a_end = float(np.dot(chord, t_a))
-    if not 0 < a_end <= 1.001 * a_max:
+    # U_b's path parameter: the projection on t_a for the series, refined as the point of
+    # the path nearest to U_b (a Padé approximant's parameter is not that projection)
+    a_end = min(max(float(np.dot(chord, t_a)), 0.0), a_max)
+    for _ in range(30):
+        d = path(a_end, derivative=True)
+        update = -float(np.dot(path(a_end) - U_b, d) / np.dot(d, d))
+        a_end = min(max(a_end + update, 0.0), 1.001 * a_max)
+        if abs(update) <= 1e-14 * max(a_end, 1e-300):
+            break
+    gap = np.linalg.norm(path(a_end) - U_b)
+    if not (a_end > 0 and gap <= 1e-3 * np.linalg.norm(chord)):
         raise ValueError(
-            f"U_b lies outside the validity range of the ANM step from U_a (path parameter {a_end:.4g}, "
-            f"step length {a_max:.4g}): pass the two ends of one continuation step"
+            f"U_b is not on the ANM step from U_a (distance {gap:.3g} to it, chord {np.linalg.norm(chord):.3g}): "
+            "pass the two ends of one continuation step"
         )
 
     def sign(a):

@@ -237,7 +237,8 @@ def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 
         unresolved = False
     runtime, cpu_time = time.perf_counter() - wall, time.process_time() - cpu
     if not failure:
-        dataset = branch_dataset(system, branch, 1, config, "nnm1")
+        # the study compares orbits: branch points stay flagged, not located (costly, unused here)
+        dataset = branch_dataset(system, branch, 1, config, "nnm1", located=[])
     logger.info("%s, H = %d: %s in %.2f s", label, system.H, failure or "converged", runtime)
     return StageRun(dataset, failure, runtime, cpu_time, stats, guard.largest, system.H, {"unresolved": unresolved})
 
