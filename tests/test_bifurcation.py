@@ -117,7 +117,7 @@ def test_bifurcated_branch_is_nnm2_read_over_three_periods(resonance_config, bif
     stage2, ds = bifurcated
     assert ds.attrs["resonance"] == 3 and ds.attrs["parent_branch"] == "nnm1"
     assert float(ds["subharmonic_share"].max()) < 1e-12
-    energy, frequency = ds["energy"].values, ds["frequency"].values
+    energy = ds["energy"].values
     assert energy.min() < 3.5 and energy.max() > 28.0
     # the branch point is the tip of the 3:1 tongue of NNM1, where its energy turns back
     e_bp = ds.attrs["branch_point_energy"]

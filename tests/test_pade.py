@@ -9,7 +9,6 @@ branches.
 from __future__ import annotations
 
 import copy
-import math
 
 import numpy as np
 import pytest
@@ -23,13 +22,12 @@ from nnmstop.pade import pade_pair, pade_step_length
 from nnmstop.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
 
 from test_continuation import (
+    CASES,
     PARAMS,
     QUIET,
     TOLERANCE,
     distance_to_polyline,
     fep,
-    nnm2_asymptote_stop,
-    past_first_fold_stop,
     same_branch_gap,
     start_point,
 )
@@ -150,10 +148,7 @@ def test_pade_setting_is_validated(repo_root):
 
 # --------------------------------------------------------------------------- HBM branches
 
-CASES = {
-    "NNM2 to its asymptote, H=20": (20, 2, nnm2_asymptote_stop),
-    "NNM1 through the first fold, H=30": (30, 1, past_first_fold_stop),
-}
+# the branches of tests/test_continuation.py (CASES), run three ways
 
 
 @pytest.fixture(scope="module", params=list(CASES))
