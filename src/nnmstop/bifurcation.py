@@ -22,8 +22,8 @@ Branch switching, after Keller's algebraic bifurcation equation:
    ``J(U*)`` and ``psi`` its left null vector, the tangents ``tau = a phi_1 + b phi_2``
    of the curves through ``U*`` solve the quadratic
    ``psi^T S''(U*)[tau, tau] = 0``. The system is exactly quadratic (the recast,
-   Eq. 12), so ``S''`` is the bilinear form ``2 Q`` and is obtained without truncation
-   error by polarization (:func:`quadratic_form`). One root is the incoming tangent;
+   Eq. 12), so ``S''`` is the bilinear form ``2 Q`` that the ANM already evaluates
+   (:func:`quadratic_form`). One root is the incoming tangent;
    the other is the tangent of the bifurcated curve, not in general orthogonal to it.
 3. :func:`switch_branch` steps along that tangent and corrects by Newton in the
    hyperplane orthogonal to it; the ANM then follows the bifurcated curve both ways
@@ -32,6 +32,7 @@ Branch switching, after Keller's algebraic bifurcation equation:
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -56,7 +57,7 @@ __all__ = [
     "switch_branch",
     "subharmonic_share",
     "continue_bifurcated_branch",
-    "resonant_branch_point",
+    "branch_point_kind",
     "classify_branch_point",
     "locate_flagged_branch_points",
     "summarize_bifurcated",
@@ -95,24 +96,15 @@ class BranchPoint:
     angle: float
 
 
-def quadratic_form(system, U, a, b) -> np.ndarray:
-    """``Q(a, b)``, the symmetric bilinear part of ``S``, by polarization at ``U``.
+def quadratic_form(system, a, b) -> np.ndarray:
+    """``Q(a, b)``, the symmetric bilinear part of ``S = L + Q``.
 
-    For ``S`` quadratic, ``S(U + v) = S(U) + J v + Q(v, v)``, hence
-    ``8 Q(a, b) = S(U+a+b) - S(U+a-b) - S(U-a+b) + S(U-a-b)`` exactly: the linear
-    parts cancel and no step size enters. ``a`` and ``b`` are scaled to the size of
-    ``U`` before the evaluation to keep the round-off relative.
+    The ANM's right-hand side :meth:`~nnmstop.hbm.HarmonicBalanceSystem.series_products`
+    of order 3 for the terms ``(0, a, b)`` is ``Q(a, b) + Q(b, a) = 2 Q(a, b)``.
     """
-    U = np.asarray(U, dtype=float)
-    scale = max(np.linalg.norm(U), 1.0)
-    na, nb = np.linalg.norm(a), np.linalg.norm(b)
-    if na == 0 or nb == 0:
-        return np.zeros(system.n_equations)
-    sa, sb = scale / na, scale / nb
-    A, B = sa * np.asarray(a, float), sb * np.asarray(b, float)
-    S = system.residual
-    q = S(U + A + B) - S(U + A - B) - S(U - A + B) + S(U - A - B)
-    return q / (8.0 * sa * sb)
+    terms = np.zeros((3, system.n_unknowns))
+    terms[1], terms[2] = a, b
+    return 0.5 * system.series_products(terms, 3)
 
 
 def bordered_sign(system, U, direction):
@@ -270,9 +262,9 @@ def bifurcation_tangents(system, U_star, reference):
     """
     plane, psi, ratio = _null_plane(system, U_star)
     p1, p2 = plane
-    c11 = psi @ quadratic_form(system, U_star, p1, p1)
-    c12 = psi @ quadratic_form(system, U_star, p1, p2)
-    c22 = psi @ quadratic_form(system, U_star, p2, p2)
+    c11 = psi @ quadratic_form(system, p1, p1)
+    c12 = psi @ quadratic_form(system, p1, p2)
+    c22 = psi @ quadratic_form(system, p2, p2)
     A, B, C = 0.5 * (c11 + c22), 0.5 * (c11 - c22), c12
     R = np.hypot(B, C)
     if not R > abs(A):
@@ -368,8 +360,8 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, settings, switc
     merged.branch_points = [n_minus] + [n_minus - 1 - i for i in minus.branch_points] + [
         n_minus + 1 + i for i in plus.branch_points
     ]
-    for key in ("steps", "factorizations", "newton_iterations", "corrected_steps", "geometric_tails", "wall_time"):
-        setattr(merged.stats, key, getattr(minus.stats, key) + getattr(plus.stats, key))
+    for field in dataclasses.fields(merged.stats):
+        setattr(merged.stats, field.name, getattr(minus.stats, field.name) + getattr(plus.stats, field.name))
     merged.end_reason = f"- side: {minus.end_reason}; + side: {plus.end_reason}"
     return merged
 
@@ -414,30 +406,14 @@ def locate_flagged_branch_points(system, points, steps, flagged, settings=None) 
         point = bifurcation_tangents(system, U_star, points[i] - points[start])
         n, breaking = classify_branch_point(system, point)
         logger.info("branch point at energy %.6g, frequency %.6g Hz: %s", system.diagnostics(U_star)["energy"],
-                    system.frequency_hz(U_star),
-                    f"{n}:1 resonance" if n else ("symmetry breaking" if breaking else "unclassified"))
+                    system.frequency_hz(U_star), branch_point_kind(n, breaking))
         out.append((int(i), point, n, breaking))
     return out
 
 
-def resonant_branch_point(system, points, steps, flagged, n: int, settings=None) -> BranchPoint:
-    """The branch point of the ``n:1`` internal resonance among the flagged steps of a branch.
-
-    Raises
-    ------
-    ValueError
-        If none of the flagged steps holds one (the message lists what was found).
-    """
-    found = []
-    for _, point, m, breaking in locate_flagged_branch_points(system, points, steps, flagged, settings):
-        if m == n:
-            return point
-        kind = f"{m}:1 resonance" if m else ("symmetry breaking" if breaking else "unclassified")
-        found.append(f"energy {system.diagnostics(point.U)['energy']:.6g} ({kind})")
-    raise ValueError(
-        f"no branch point of the {n}:1 resonance (orbit of period T/{n}) among the flagged steps; found: "
-        + ("; ".join(found) if found else "no flagged step")
-    )
+def branch_point_kind(n: int, symmetry_breaking: bool) -> str:
+    """Words for the classification of :func:`classify_branch_point`."""
+    return f"{n}:1 resonance" if n else ("symmetry breaking" if symmetry_breaking else "unclassified")
 
 
 def summarize_bifurcated(ds, nnm2=None) -> str:

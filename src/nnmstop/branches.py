@@ -40,6 +40,7 @@ from .continuation import (
     newton_correct,
     relative_residual,
 )
+from .datasets import flag_variable
 from .hbm import HarmonicBalanceSystem
 from .model import ModelParameters, linear_modes
 from .stability import branch_stability
@@ -248,8 +249,8 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
     fold = energy_folds(col("energy"))
     data.update(
         {
-            "branch_point": ("point", branch_point.astype(np.int8), {"long_name": "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM step that ends at this point", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular branch_point"}),
-            "energy_fold": ("point", fold.astype(np.int8), {"long_name": "1 where the energy has a local extremum along the branch (energy fold)", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "regular fold"}),
+            "branch_point": flag_variable("point", branch_point, "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM step that ends at this point", "regular branch_point"),
+            "energy_fold": flag_variable("point", fold, "1 where the energy has a local extremum along the branch (energy fold)", "regular fold"),
         }
     )
     if located is None:
@@ -299,7 +300,7 @@ def located_branch_point_variables(system, located) -> dict:
         "branch_point_energy": (dim, np.array([d["energy"] for d in diags], dtype=float), {"long_name": "energy of the located branch point", "units": "1"}),
         "branch_point_frequency": (dim, np.array([d["frequency"] for d in diags], dtype=float), {"long_name": "frequency of the located branch point", "units": "Hz"}),
         "branch_point_resonance": (dim, np.array([n for _, _, n, _ in located], dtype=np.int32), {"long_name": "n where the orbit at the branch point has period T/n (n:1 internal resonance), else 0", "units": "1"}),
-        "branch_point_symmetry_breaking": (dim, np.array([b for _, _, _, b in located], dtype=np.int8), {"long_name": "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))", "units": "1", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "no yes"}),
+        "branch_point_symmetry_breaking": flag_variable(dim, [b for _, _, _, b in located], "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))", "no yes"),
         "branch_point_tangent_angle": (dim, np.array([p.angle for _, p, _, _ in located], dtype=float), {"long_name": "angle between the tangents of the two curves at the branch point", "units": "degree"}),
         "branch_point_singular_ratio": (dim, np.array([p.singular_ratio for _, p, _, _ in located], dtype=float), {"long_name": "smallest over second-smallest singular value of J at the located point (zero at an exact branch point)", "units": "1"}),
         "branch_point_flagged_point": (dim, np.array([i for i, _, _, _ in located], dtype=np.int32), {"long_name": "index of the point that ends the ANM step holding the branch point", "units": "1"}),
@@ -403,7 +404,7 @@ def bifurcated_branch(config: dict, name: str, parent_stage: xr.Dataset) -> xr.D
 
     The flagged steps of ``parent_stage`` (the dataset of stage ``bifurcations.<name>.stage``
     of the parent branch) are searched for the branch point of the ``n:1`` internal
-    resonance (:func:`nnmstop.bifurcation.resonant_branch_point`); the other curve
+    resonance, classified when the stage was built (``branch_point_resonance``); the other curve
     through it is followed both ways by the ANM until its energy leaves
     ``energy_range`` (:func:`nnmstop.bifurcation.continue_bifurcated_branch`).
 
@@ -414,7 +415,12 @@ def bifurcated_branch(config: dict, name: str, parent_stage: xr.Dataset) -> xr.D
     ``branch_point_energy``, ``branch_point_frequency``, ``tangent_angle`` (degrees
     between the two tangents), ``singular_ratio``.
     """
-    from .bifurcation import continue_bifurcated_branch, resonant_branch_point, subharmonic_share
+    from .bifurcation import (
+        branch_point_kind,
+        continue_bifurcated_branch,
+        locate_flagged_branch_points,
+        subharmonic_share,
+    )
 
     spec = config["bifurcations"][name]
     parent, n = spec["parent"], spec["resonance"]
@@ -424,11 +430,27 @@ def bifurcated_branch(config: dict, name: str, parent_stage: xr.Dataset) -> xr.D
             f"bifurcations.{name}: expected the dataset of {parent} stage {spec['stage']}, got branch "
             f"{parent_stage.attrs.get('branch')!r} stage(s) {list(stages_in)}"
         )
+    if "branch_point_resonance" not in parent_stage:
+        raise ValueError(f"bifurcations.{name}: the {parent} stage dataset has no located branch points; rebuild it")
+    # the stage located and classified its branch points: only the chosen one is located again, for U*
+    resonance = parent_stage["branch_point_resonance"].values
+    match = np.flatnonzero(resonance == n)
+    if match.size == 0:
+        found = [
+            f"energy {e:.6g} ({branch_point_kind(int(m), bool(b))})"
+            for e, m, b in zip(parent_stage["branch_point_energy"].values, resonance,
+                               parent_stage["branch_point_symmetry_breaking"].values)
+        ]
+        raise ValueError(
+            f"no branch point of the {n}:1 resonance (orbit of period T/{n}) among the flagged steps of "
+            f"{parent} stage {spec['stage']}; found: " + ("; ".join(found) if found else "none")
+        )
     system = system_from_config(config)
-    points = dataset_unknowns(parent_stage, system)
-    flagged = np.flatnonzero(parent_stage["branch_point"].values)
     settings = _stage_settings(config)
-    point = resonant_branch_point(system, points, parent_stage["step"].values, flagged, n, settings)
+    flagged = [int(parent_stage["branch_point_flagged_point"].values[match[0]])]
+    ((_, point, _, _),) = locate_flagged_branch_points(
+        system, dataset_unknowns(parent_stage, system), parent_stage["step"].values, flagged, settings
+    )
     low, high = spec["energy_range"]
     label = f"{name} (bifurcated from {parent} at the {n}:1 resonance)"
 

@@ -23,6 +23,8 @@ __all__ = [
     "ContinuationStats",
     "Branch",
     "relative_residual",
+    "relative_of_residual",
+    "newton_converged",
     "bordered_factor",
     "newton_correct",
     "unit_tangent",
@@ -87,7 +89,7 @@ StopCriterion = Callable[[np.ndarray, dict], str]
 
 def relative_residual(system, U) -> float:
     """``||S(U)|| / max(||U||, 1)``: the accuracy measure used by both methods."""
-    return float(np.linalg.norm(system.residual(U)) / max(np.linalg.norm(U), 1.0))
+    return relative_of_residual(U, system.residual(U))
 
 
 def bordered_factor(system, U, tangent, stats: ContinuationStats):
@@ -142,7 +144,7 @@ def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max
             chord += dU
             stats.newton_iterations += 1
             r = system.residual(chord)
-            if _converged(chord, r, dU, tol):
+            if newton_converged(chord, r, dU, tol):
                 return chord, it
     r = system.residual(U)
     for it in range(1, max_iter + 1):
@@ -153,21 +155,26 @@ def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max
         U += dU
         stats.newton_iterations += 1
         r = system.residual(U)
-        if _converged(U, r, dU, tol):
+        if newton_converged(U, r, dU, tol):
             return U, it
     raise ContinuationError(
         f"Newton correction did not converge in {max_iter} iterations (relative residual "
-        f"{_relative(U, r):.2e} > {tol:.1e})"
+        f"{relative_of_residual(U, r):.2e} > {tol:.1e})"
     )
 
 
-def _relative(U, r) -> float:
+def relative_of_residual(U, r) -> float:
     """:func:`relative_residual` from a residual ``r = S(U)`` already evaluated."""
     return float(np.linalg.norm(r) / max(np.linalg.norm(U), 1.0))
 
 
-def _converged(U, r, dU, tol: float) -> bool:
-    residual = _relative(U, r)
+def newton_converged(U, r, dU, tol: float) -> bool:
+    """Convergence test of a Newton corrector, shared by both continuation methods.
+
+    ``r = S(U)`` after the update ``dU``: the relative residual is below ``tol`` and the
+    update is small.
+    """
+    residual = relative_of_residual(U, r)
     small_update = np.linalg.norm(dU) <= 1e3 * tol * max(np.linalg.norm(U), 1.0)
     # Near a singular Jacobian (branch points) the update may stall above round-off
     # while the residual is already at it: accept the residual then.

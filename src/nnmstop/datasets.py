@@ -22,7 +22,7 @@ import xarray as xr
 
 from . import __version__
 
-__all__ = ["PAPER_REFERENCE", "provenance", "global_attributes", "check_labelled", "write_dataset"]
+__all__ = ["PAPER_REFERENCE", "provenance", "global_attributes", "flag_variable", "check_labelled", "write_dataset"]
 
 PAPER_REFERENCE = (
     "E. H. Moussi, S. Bellizzi, B. Cochelin, I. Nistor, Nonlinear normal modes of a two degree of "
@@ -69,6 +69,16 @@ def global_attributes(title: str, summary: str, keywords: str = "") -> dict:
         "creator_name": "nnmstop developers",
         "license": "MIT",
     }
+
+
+def flag_variable(dims, values, long_name: str, meanings: str, **extra) -> tuple:
+    """A 0/1 flag variable ``(dims, int8 values, attrs)`` with CF ``flag_values``/``flag_meanings``.
+
+    ``meanings`` names the two values in order, e.g. ``"unstable stable"``.
+    """
+    attrs = {"long_name": long_name, "units": "1", "flag_values": np.array([0, 1], dtype=np.int8),
+             "flag_meanings": meanings, **extra}
+    return dims, np.asarray(values).astype(np.int8), attrs
 
 
 def check_labelled(ds: xr.Dataset) -> None:

@@ -80,6 +80,8 @@ __all__ = [
     "assess_orbit",
     "follow_family",
     "time_history",
+    "symmetric_time_history",
+    "interior_extrema",
     "family_dataset",
     "build_two_impact_dataset",
     "MARGIN_REASONS",
@@ -398,16 +400,16 @@ def smallest_margin(margins: dict) -> float:
     return float(min(finite)) if finite else np.inf
 
 
-def _extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 64):
-    """Interior local extrema of x over ``(0, duration)`` of a phase: (times, values, is_max).
+def interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 64):
+    """Interior extrema of x over ``(0, duration)`` of a linear phase: times and states.
 
-    Sign changes of xdot on a grid that resolves the fastest mode, refined by Brent's
-    method on the closed-form xdot, classified by the sign of the acceleration. Two extrema
-    closer than one grid interval (a nearly degenerate inflection) would be missed; with 64
-    samples per period of the fastest mode their amplitude is negligible.
+    Sign changes of the closed-form xdot on a grid of ``samples_per_period`` samples per
+    period of the fastest mode, refined by Brent's method to round-off; times in
+    increasing order. Two extrema closer than one grid interval (a nearly degenerate
+    inflection) would be missed; with 64 samples per period their amplitude is negligible.
     """
-    if duration <= 0:
-        return np.empty(0), np.empty(0), np.empty(0, dtype=bool)
+    if not duration > 0:
+        return np.empty(0), np.empty((0, 4))
     n = samples_per_period * max(1, int(np.ceil(duration * phase.omega.max() / (2 * np.pi)))) + 1
     t = np.linspace(0.0, duration, n)
     xdot = phase.state(z0, t)[:, 2]
@@ -422,12 +424,19 @@ def _extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 
     times.extend(t[1:-1][xdot[1:-1] == 0.0])
     # discard the end points themselves (they are not interior extrema)
     tol = 1e-12 * max(duration, 1.0)
-    times = np.array([s for s in times if tol < s < duration - tol])
+    times = np.array(sorted(s for s in times if tol < s < duration - tol))
     if times.size == 0:
-        return np.empty(0), np.empty(0), np.empty(0, dtype=bool)
-    states = phase.state(z0, times)
-    acc = phase.field(states)[:, 2]
-    return times, states[:, 0], acc < 0
+        return times, np.empty((0, 4))
+    return times, phase.state(z0, times)
+
+
+def _extrema(phase: LinearPhase, z0, duration: float):
+    """Interior local extrema of x of a phase: (times, values, is_max), classified by the
+    sign of the acceleration."""
+    times, states = interior_extrema(phase, z0, duration)
+    if times.size == 0:
+        return times, np.empty(0), np.empty(0, dtype=bool)
+    return times, states[:, 0], phase.field(states)[:, 2] < 0
 
 
 def assess_orbit(y, params: ModelParameters, problem: TwoImpactProblem | None = None) -> OrbitAssessment:
@@ -732,20 +741,30 @@ def time_history(y, params: ModelParameters, t) -> OrbitTimeHistory:
     """
     problem = TwoImpactProblem(params)
     y = TwoImpactProblem._check(y)
+    return symmetric_time_history(lambda r: _quarter_state(problem, y, r), y[3], t, params.alpha)
+
+
+def symmetric_time_history(quarter_state, quarter: float, t, alpha: float) -> OrbitTimeHistory:
+    """Full-period time history at times ``t`` from the quarter period ``[0, quarter]``.
+
+    ``quarter_state(r)`` gives the states ``(x, u, xdot, udot)`` at times ``r`` of the
+    quarter period (last axis). The NNM symmetries unfold it: the mirror
+    ``q(T1 + s) = q(T1 - s)`` (velocities change sign) and the half-period shift
+    ``q(t + T/2) = -q(t)``; the contact force is the piecewise-linear law, Eq. (4).
+    """
     t = np.asarray(t, dtype=float)
-    quarter = y[3]
     period = 4.0 * quarter
     s = np.mod(t, period)
     second_half = s >= 0.5 * period
     s = np.where(second_half, s - 0.5 * period, s)
     mirrored = s > quarter
     r = np.where(mirrored, 2.0 * quarter - s, s)
-    z = _quarter_state(problem, y, np.clip(r, 0.0, quarter))
+    z = quarter_state(np.clip(r, 0.0, quarter))
     sign_q = np.where(second_half, -1.0, 1.0)
     sign_v = sign_q * np.where(mirrored, -1.0, 1.0)
     x, u = sign_q * z[..., 0], sign_q * z[..., 1]
     xdot, udot = sign_v * z[..., 2], sign_v * z[..., 3]
-    return OrbitTimeHistory(t, x, u, xdot, udot, piecewise_contact_force(x, params.alpha))
+    return OrbitTimeHistory(t, x, u, xdot, udot, piecewise_contact_force(x, alpha))
 
 
 # --------------------------------------------------------------------------- datasets

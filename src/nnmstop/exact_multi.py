@@ -121,8 +121,8 @@ import scipy.optimize
 import xarray as xr
 
 from .datasets import write_dataset
-from .exact import LinearPhase, MarginChecks, OrbitTimeHistory
-from .model import ModelParameters, mass_matrix, piecewise_contact_force, stiffness_matrix, total_energy
+from .exact import LinearPhase, MarginChecks, OrbitTimeHistory, interior_extrema, symmetric_time_history
+from .model import ModelParameters, mass_matrix, stiffness_matrix, total_energy
 
 __all__ = [
     "PHASE_NAMES",
@@ -361,33 +361,6 @@ class OrbitAssessment(MarginChecks):
 
 
 
-def _interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 64):
-    """Interior extrema of x in one phase: times (from the phase start) and states.
-
-    Sign changes of the closed-form xdot on a grid of ``samples_per_period`` samples per
-    period of the fastest mode, refined by Brent's method to round-off.
-    """
-    if not duration > 0:
-        return np.empty(0), np.empty((0, 4))
-    n = samples_per_period * max(1, int(np.ceil(duration * phase.omega.max() / (2 * np.pi)))) + 1
-    t = np.linspace(0.0, duration, n)
-    xdot = phase.state(z0, t)[:, 2]
-
-    def velocity(s):
-        return phase.state(z0, s)[2]
-
-    times = [
-        scipy.optimize.brentq(velocity, t[i], t[i + 1], xtol=1e-15, rtol=4 * np.finfo(float).eps)
-        for i in np.flatnonzero(np.sign(xdot[:-1]) * np.sign(xdot[1:]) < 0)
-    ]
-    times.extend(t[1:-1][xdot[1:-1] == 0.0])
-    tol = 1e-12 * max(duration, 1.0)
-    times = np.array(sorted(s for s in times if tol < s < duration - tol))
-    if times.size == 0:
-        return times, np.empty((0, 4))
-    return times, phase.state(z0, times)
-
-
 def assess_orbit(problem: MultiImpactProblem, y) -> OrbitAssessment:
     """Check the assumptions of the phase sequence for the orbit ``y``.
 
@@ -419,7 +392,7 @@ def assess_orbit(problem: MultiImpactProblem, y) -> OrbitAssessment:
             side = _SIDE[nxt] if nxt != "F" else _SIDE[kind]
             # entering a stop: x moves outwards (side * xdot > 0); leaving: inwards
             margins[("switch", k)] = side * z[k + 1, 2] * (1.0 if nxt != "F" else -1.0)
-        times, states = _interior_extrema(problem.phases[k], z[k], d)
+        times, states = interior_extrema(problem.phases[k], z[k], d)
         if kind == "F":
             dist = 1.0 - np.abs(states[:, 0])
         else:
@@ -1138,20 +1111,7 @@ def time_history(params: ModelParameters, sequence: str, y, t) -> OrbitTimeHisto
     """
     problem = MultiImpactProblem(params, sequence)
     y = problem.check(y)
-    t = np.asarray(t, dtype=float)
-    quarter = problem.quarter(y)
-    period = 4.0 * quarter
-    s = np.mod(t, period)
-    second_half = s >= 0.5 * period
-    s = np.where(second_half, s - 0.5 * period, s)
-    mirrored = s > quarter
-    r = np.where(mirrored, 2.0 * quarter - s, s)
-    z = problem.quarter_state(y, np.clip(r, 0.0, quarter))
-    sign_q = np.where(second_half, -1.0, 1.0)
-    sign_v = sign_q * np.where(mirrored, -1.0, 1.0)
-    x, u = sign_q * z[..., 0], sign_q * z[..., 1]
-    xdot, udot = sign_v * z[..., 2], sign_v * z[..., 3]
-    return OrbitTimeHistory(t, x, u, xdot, udot, piecewise_contact_force(x, params.alpha))
+    return symmetric_time_history(lambda r: problem.quarter_state(y, r), problem.quarter(y), t, params.alpha)
 
 
 # --------------------------------------------------------------------------- datasets

@@ -83,6 +83,8 @@ from .continuation import (
     StopCriterion,
     bordered_factor,
     determinant_sign,
+    newton_converged,
+    relative_of_residual,
     relative_residual,
     unit_tangent,
 )
@@ -229,7 +231,7 @@ def corrector(system, U_pred, tangent, stats: ContinuationStats, tol: float, max
 
     def evaluate(V):
         r = system.residual(V)
-        return r, float(np.linalg.norm(r) / max(np.linalg.norm(V), 1.0))
+        return r, relative_of_residual(V, r)
 
     r, rel = evaluate(U)
     previous = math.inf
@@ -251,9 +253,8 @@ def corrector(system, U_pred, tangent, stats: ContinuationStats, tol: float, max
         U += dU
         stats.newton_iterations += 1
         r, rel = evaluate(U)
-        update = float(np.linalg.norm(dU))
-        if rel <= tol and (update <= 1e3 * tol * max(np.linalg.norm(U), 1.0) or rel <= 1e-3 * tol):
-            return U, it, lu, update, ""
+        if newton_converged(U, r, dU, tol):
+            return U, it, lu, float(np.linalg.norm(dU)), ""
     reason = f"no convergence in {max_iterations} iterations (relative residual {rel:.2e})"
     return None, max_iterations, None, math.inf, reason
 

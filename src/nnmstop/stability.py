@@ -166,6 +166,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.linalg import eig
 
+from .datasets import flag_variable
 from .model import (
     ModelParameters,
     regularized_contact_force,
@@ -341,16 +342,12 @@ class BranchStability:
             f"perturbation), ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|"
         )
         return {
-            "stable": (
+            "stable": flag_variable(
                 "point",
-                self.stable.astype(np.int8),
-                {
-                    "long_name": f"orbit linearly stable (1) or unstable (0): largest |multiplier| of the non-trivial pair <= 1 + {self.tol:g}",
-                    "units": "1",
-                    "flag_values": np.array([0, 1], dtype=np.int8),
-                    "flag_meanings": "unstable stable",
-                    "comment": note,
-                },
+                self.stable,
+                f"orbit linearly stable (1) or unstable (0): largest |multiplier| of the non-trivial pair <= 1 + {self.tol:g}",
+                "unstable stable",
+                comment=note,
             ),
             "multiplier_real": (("point", "multiplier"), self.multipliers.real, {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note}),
             "multiplier_imag": (("point", "multiplier"), self.multipliers.imag, {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note}),
@@ -360,15 +357,11 @@ class BranchStability:
                 self.orbit_residual,
                 {"long_name": "relative residual of the orbit velocity in the linearized equations (accuracy of the orbit for the stability analysis)", "units": "1"},
             ),
-            "stability_resolved": (
+            "stability_resolved": flag_variable(
                 "point",
-                self.resolved.astype(np.int8),
-                {
-                    "long_name": f"stability verdict resolved (1): distance of mu_1 to the collision point(s) > {RESOLUTION_FACTOR:g} x stability_orbit_residual",
-                    "units": "1",
-                    "flag_values": np.array([0, 1], dtype=np.int8),
-                    "flag_meanings": "unresolved resolved",
-                },
+                self.resolved,
+                f"stability verdict resolved (1): distance of mu_1 to the collision point(s) > {RESOLUTION_FACTOR:g} x stability_orbit_residual",
+                "unresolved resolved",
             ),
         }
 

@@ -340,7 +340,8 @@ def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None
         drawn_b = plot_branch(ax, ds, BIFURCATED_COLOR, lw=0.7, zorder=2.6)
         handles.append(Line2D([], [], color=BIFURCATED_COLOR, lw=0.7,
                               label=f"branch switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)"))
-        handles.extend(h for h in stability_legend_handles(drawn_b, color=BIFURCATED_COLOR, lw=0.7) if h.get_label() not in {x.get_label() for x in handles})
+        shown = {h.get_label() for h in handles}
+        handles.extend(h for h in stability_legend_handles(drawn_b, color=BIFURCATED_COLOR, lw=0.7) if h.get_label() not in shown)
     gap_zero = gap_zero_frequencies(params)
     levels = [float(gap_zero[mode - 1]) for mode in kind.gap_zero_modes]
     if frequency_range is None:
