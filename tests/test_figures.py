@@ -174,15 +174,32 @@ def test_energy_crossings_follow_the_branch_and_its_turning_points():
     assert energy_crossings(energy, allowed, 3.0) == [2, 6]
 
 
-def test_select_point_honours_stage_impacts_and_occurrence(nnm1_stages):
-    branch = combine_stages(nnm1_stages)
-    target = float(branch["energy"].values[-3])
-    p = select_point(branch, LabelSpec("c", target, stage=4, impacts=2), "test")
-    assert p == branch.sizes["point"] - 3 and int(branch["stage"].values[p]) == 4
-    with pytest.raises(ValueError, match="no point of stage 4 with 0 impacts/period"):
-        select_point(branch, LabelSpec("c", target, stage=4, impacts=0), "test")
-    with pytest.raises(ValueError, match=r"met 1 time\(s\).*fewer than occurrence 2"):
-        select_point(branch, LabelSpec("c", target, occurrence=2), "test")
+def test_select_point_honours_stage_impacts_and_occurrence():
+    # A constructed branch, so that how often an energy is met does not hang on where a
+    # continuation happened to store its points: stage 1 rises to a fold at E = 16,
+    # stage 2 turns back down to E = 4 and rises again past it.
+    import xarray as xr
+
+    energy = np.array([1.0, 2.0, 4.0, 8.0, 16.0, 8.0, 4.0, 3.0, 6.0, 12.0, 24.0])
+    stage = np.array([1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2])
+    impacts = np.array([0, 0, 2, 2, 2, 2, 2, 4, 4, 4, 4])
+    branch = xr.Dataset(
+        {"energy": ("point", energy), "frequency": ("point", 0.1 + 0.01 * np.arange(energy.size)),
+         "stage": ("point", stage), "impacts_per_period": ("point", impacts)},
+        coords={"point": np.arange(energy.size)},
+    )
+    # E = 5 is met on the way up (nearest point E = 4), down (E = 4) and up again (E = 6)
+    assert select_point(branch, LabelSpec("c", 5.0), "test") == 2
+    assert select_point(branch, LabelSpec("c", 5.0, occurrence=2), "test") == 6
+    assert select_point(branch, LabelSpec("c", 5.0, occurrence=3), "test") == 8
+    assert select_point(branch, LabelSpec("c", 5.0, stage=2), "test") == 6
+    assert select_point(branch, LabelSpec("c", 5.0, stage=2, impacts=4), "test") == 8
+    with pytest.raises(ValueError, match="no point of stage 1 with 4 impacts/period"):
+        select_point(branch, LabelSpec("c", 5.0, stage=1, impacts=4), "test")
+    with pytest.raises(ValueError, match=r"met 1 time\(s\).*point 8 \(E = 6\).*fewer than occurrence 2"):
+        select_point(branch, LabelSpec("c", 5.0, stage=2, impacts=4, occurrence=2), "test")
+    with pytest.raises(ValueError, match=r"energy 30 is outside the energy range \[3, 24\] of stage 2 with 4 impacts"):
+        select_point(branch, LabelSpec("c", 30.0, stage=2, impacts=4), "test")
 
 
 def test_label_specs_refuse_duplicates_and_bad_values():
