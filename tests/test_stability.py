@@ -11,7 +11,9 @@ import copy
 import numpy as np
 import pytest
 
+from fixed_energy import orbit_at_energy
 from nnmstop.branches import continue_stage, dataset_unknowns, start_point, system_from_config
+from nnmstop.compare import regularized_monotone_part
 from nnmstop.config import load_config
 from nnmstop.hbm import HarmonicBalanceSystem
 from nnmstop.model import ModelParameters, linear_modes
@@ -145,34 +147,53 @@ def test_nnm2_with_impacts_matches_monodromy_and_is_stable(system, nnm2):
 
 def test_nnm1_one_impact_per_stop_matches_monodromy(system, nnm1):
     first, U, _, _ = nnm1
-    energy = first["energy"].values
-    impacts = first["impacts_per_period"].values
-    # Two impacts per period, energies 1 to 20: orbit error below 3e-2 at H = 40.
-    picks = [i for i in range(len(U)) if impacts[i] == 2 and 1.0 < energy[i] < 20.0]
-    assert len(picks) >= 3
-    for i in picks:
-        r = floquet(system, U[i])
-        ref, _ = reference_multipliers(system, U[i])
+    # Two impacts per period, energies 1 to 20: orbit error below 3e-2 at H = 40. The
+    # orbits are solved at fixed energies (the stored points only seed Newton).
+    part = regularized_monotone_part(first)
+    for energy in (1.5, 4.0, 12.0):
+        Ui = orbit_at_energy(system, U[part], first["energy"].values[part], energy)
+        assert system.diagnostics(Ui)["impacts_per_period"] == 2
+        r = floquet(system, Ui)
+        ref, _ = reference_multipliers(system, Ui)
         assert r.stable and r.resolved
-        assert pair_distance(r.multipliers[2:], ref) < 2e-3, (i, r.multipliers, ref)
+        assert pair_distance(r.multipliers[2:], ref) < 2e-3, (energy, r.multipliers, ref)
+
+
+def six_impact_arms(second, U):
+    """Stage 2 split at its located energy fold: the arm falling to it and the arm rising from it.
+
+    Returns the fold energy and, per arm, the stored points and energies (seeds for
+    :func:`orbit_at_energy`) up to the next change of direction of the energy.
+    """
+    assert second["fold_energy"].size == 1
+    fold_energy = float(second["fold_energy"].values[0])
+    k = int(second["fold_point"].values[0])  # the stored point nearest to the fold
+    energy = second["energy"].values
+    rising = k + 1
+    while rising < energy.size and energy[rising] > energy[rising - 1]:
+        rising += 1
+    return fold_energy, (U[: k + 1], energy[: k + 1]), (U[k:rising], energy[k:rising])
 
 
 def test_nnm1_three_impacts_per_stop_is_unstable_and_matches_monodromy(system, nnm1):
     _, _, second, U = nnm1
-    energy = second["energy"].values
-    # Unstable stretch right after the first orbits with six impacts (energy 20 to 45).
-    picks = [i for i in range(len(U)) if 20.0 < energy[i] < 45.5 and i < int(np.argmin(energy))]
-    assert len(picks) >= 3
-    for i in picks:
-        r = floquet(system, U[i])
-        ref, mono = reference_multipliers(system, U[i])
+    fold_energy, falling, _ = six_impact_arms(second, U)
+    # Unstable stretch right after the first orbits with six impacts (energy 20 to 40;
+    # the stage starts at the first stored orbit with more than two impacts, wherever a
+    # step of stage 1 landed past the onset: near E = 42 to 47).
+    assert fold_energy < 20.0
+    for energy in (22.0, 30.0, 38.0):
+        Ui = orbit_at_energy(system, *falling, energy)
+        assert system.diagnostics(Ui)["impacts_per_period"] == 6
+        r = floquet(system, Ui)
+        ref, mono = reference_multipliers(system, Ui)
         assert not r.stable and r.resolved
         assert r.multipliers[2].imag == 0.0 and r.multipliers[2].real > 1.0  # real pair (saddle type)
         assert r.max_multiplier == pytest.approx(abs(ref[0]), rel=0.05)
         assert abs(ref[0]) > 1.3 and mono.closure < 1e-8
         # Both solvers and both symmetries agree on the raw Hill problem.
-        rc = floquet(system, U[i], method="companion")
-        rf = floquet(system, U[i], symmetry=False)
+        rc = floquet(system, Ui, method="companion")
+        rf = floquet(system, Ui, symmetry=False)
         assert rc.max_multiplier == pytest.approx(r.max_multiplier, rel=0.05)
         assert rf.max_multiplier == pytest.approx(r.max_multiplier, rel=1e-3)
 
@@ -180,24 +201,26 @@ def test_nnm1_three_impacts_per_stop_is_unstable_and_matches_monodromy(system, n
 def test_nnm1_stability_changes_at_the_energy_fold(system, nnm1):
     """Along the six-impact stretch the energy falls to a minimum and grows again; the
     non-trivial pair goes through +1 there: unstable before, stable after (up to the
-    next energy fold, where it may change again)."""
+    next energy fold, where it may change again).
+
+    Orbits at fixed multiples of the located fold energy, so that nothing depends on
+    where the continuation stored its points. At H = 40 the HBM orbits turn stable a
+    little after the fold (near 1.4 times its energy; the exact orbits right after it),
+    so the stable side is checked from 1.6 times the fold energy.
+    """
     _, _, second, U = nnm1
-    energy = second["energy"].values
-    fold = int(np.argmin(energy))
-    next_fold = fold + int(np.argmax(energy[fold:]))
-    assert 0 < fold < next_fold - 4
-    b = branch_stability(system, U)
-    before = np.arange(1, fold - 1)
-    after = np.arange(fold + 3, next_fold - 1)
-    assert not b.stable[before].any()
-    assert b.stable[after].all()
-    # the pair is close to +1 near the fold (points within 50 % of its energy)
-    near = [i for i in range(fold - 2, fold + 3) if energy[i] < 1.5 * energy[fold]]
-    assert len(near) >= 2
-    assert np.all(b.margin[near] < 0.1)
+    fold_energy, falling, rising = six_impact_arms(second, U)
+    before = np.array([orbit_at_energy(system, *falling, f * fold_energy) for f in (1.2, 1.5, 2.0, 3.0, 5.0)])
+    after = np.array([orbit_at_energy(system, *rising, f * fold_energy) for f in (1.2, 1.6, 2.0)])
+    b, a = branch_stability(system, before), branch_stability(system, after)
+    assert not b.stable.any()
+    assert a.stable[1:].all()
+    # the pair is close to +1 near the fold (orbits at 1.2 times its energy)
+    assert b.margin[0] < 0.1 and a.margin[0] < 0.1
+    assert b.margin[0] < b.margin[-1] and a.margin[0] < a.margin[-1]
     # The exact orbits agree on both sides.
-    for i, unstable in ((before[-1], True), (after[0], False)):
-        ref, _ = reference_multipliers(system, U[i])
+    for Ui, unstable in ((before[1], True), (after[-1], False)):
+        ref, _ = reference_multipliers(system, Ui)
         assert (np.max(np.abs(ref)) > 1 + 1e-6) == unstable
 
 
