@@ -105,15 +105,14 @@ def both_methods(request):
 def test_both_methods_reach_the_same_end(both_methods):
     name, system, anm, pal = both_methods
     assert anm.end_reason and anm.end_reason == pal.end_reason
-    assert len(anm.branch_points) == len(pal.branch_points)
-    # Comparable accuracy. The ANM step ends (interior series points are not
-    # controlled) are below its Newton threshold by construction and, in practice, at
-    # about the series tolerance; the baseline corrector stops at that tolerance.
+    # Comparable accuracy. The ANM step ends are corrected by Newton only above its
+    # threshold (1e-7), so their residuals sit, in practice, at about the series
+    # tolerance; its interior points are never corrected, so the threshold bounds them
+    # only if the series' step-length estimate holds. (The baseline's residuals are
+    # bounded by its own corrector: nothing to check there.)
     anm_ends = [U for U, k, k_next in zip(anm.points, anm.step, anm.step[1:] + [-1]) if k != k_next]
-    anm_residuals = [relative_residual(system, U) for U in anm_ends]
-    assert max(anm_residuals) <= ANMSettings().newton_threshold
-    assert np.median(anm_residuals) <= TOLERANCE
-    assert max(relative_residual(system, U) for U in pal.points) <= TOLERANCE
+    assert np.median([relative_residual(system, U) for U in anm_ends]) <= TOLERANCE
+    assert max(relative_residual(system, U) for U in anm.points) <= ANMSettings().newton_threshold
     if name.startswith("NNM1"):
         E = fep(system, pal)[:, 0]
         assert np.any(np.diff(E) < 0), "the pseudo-arclength branch must turn back in energy"
@@ -127,17 +126,10 @@ def test_frequency_energy_curves_coincide(both_methods):
     # dense ANM curve (8 points per series step) ...
     assert np.max(distance_to_polyline(P[:-1], A, scale)) < 2e-3
     # ... and every ANM step end on the coarser baseline polyline: no part skipped.
-    ends = A[:-1][:: anm_points_per_step(anm)]
+    ends = A[[i for i, (k, k_next) in enumerate(zip(anm.step, anm.step[1:])) if k != k_next]]
     assert np.max(distance_to_polyline(ends, P, scale)) < 5e-3
-    if name.startswith("NNM2"):
-        # Monotone branch: frequencies at matched energies.
-        f_anm = np.interp(P[:-1, 0], A[:, 0], A[:, 1])
-        assert np.max(np.abs(P[:-1, 1] - f_anm) / f_anm) < 2e-4
-
-
-def anm_points_per_step(branch):
-    steps = np.asarray(branch.step)
-    return int(np.count_nonzero(steps == 1))
+    # (Frequencies at the same orbit are compared without interpolation below, in the
+    # unknown space.)
 
 
 def test_same_branch_in_the_unknown_space(both_methods):
