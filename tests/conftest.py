@@ -16,6 +16,24 @@ from nnmstop.model import ModelParameters  # noqa: E402
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
 
+def pytest_addoption(parser):
+    parser.addoption(
+        "--cpu-variants",
+        default="all",
+        help="rerun the tests marked 'numerics' under other BLAS kernels and SIMD levels "
+        "(tests/test_cpu_variants.py): 'all' (default), 'none', or a comma-separated list of "
+        "variant names (sandybridge, prescott-nosimd)",
+    )
+
+
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers",
+        "numerics: fast tests whose results hinge on round-off (continuations, located points); "
+        "rerun under other CPU kernels by tests/test_cpu_variants.py",
+    )
+
+
 @pytest.fixture(scope="session")
 def repo_root() -> Path:
     """Root of the repository (where the Snakefile lives)."""

@@ -97,6 +97,7 @@ def test_energies_really_match(comparison):
     np.testing.assert_allclose(comparison["regularized_energy"], comparison["energy"], rtol=1e-12)
 
 
+@pytest.mark.numerics
 def test_frequencies_agree_with_the_branches(comparison, stage1, matcher):
     """Matched frequencies are those of the orbits of each model at the matched energies.
 

@@ -102,6 +102,7 @@ def both_methods(request):
     return request.param, system, anm, pal
 
 
+@pytest.mark.numerics
 def test_both_methods_reach_the_same_end(both_methods):
     name, system, anm, pal = both_methods
     assert anm.end_reason and anm.end_reason == pal.end_reason
@@ -118,6 +119,7 @@ def test_both_methods_reach_the_same_end(both_methods):
         assert np.any(np.diff(E) < 0), "the pseudo-arclength branch must turn back in energy"
 
 
+@pytest.mark.numerics
 def test_frequency_energy_curves_coincide(both_methods):
     name, system, anm, pal = both_methods
     A, P = fep(system, anm), fep(system, pal)
@@ -132,6 +134,7 @@ def test_frequency_energy_curves_coincide(both_methods):
     # unknown space.)
 
 
+@pytest.mark.numerics
 def test_same_branch_in_the_unknown_space(both_methods):
     name, system, anm, pal = both_methods
     points = pal.points[1:-1:3]

@@ -370,6 +370,7 @@ def both_bases():
     return out
 
 
+@pytest.mark.numerics
 def test_unfolding_parameter_stays_at_round_off(both_bases):
     system, branch = both_bases["full"]
     P = np.array(branch.points)
@@ -384,6 +385,7 @@ def test_unfolding_parameter_stays_at_round_off(both_bases):
         assert np.max(np.abs(field[:, H + 1 :])) <= 1e-12 * np.max(np.abs(field))
 
 
+@pytest.mark.numerics
 def test_cosine_and_full_bases_give_the_same_orbit(both_bases):
     cos_system, cos_branch = both_bases["cosine"]
     full_system, full_branch = both_bases["full"]

@@ -166,6 +166,7 @@ def three_runs(request):
     return request.param, system, runs[True], runs[False], pal
 
 
+@pytest.mark.numerics
 def test_pade_and_series_anm_trace_the_same_branch(three_runs):
     name, system, pade, taylor, pal = three_runs
     assert pade.end_reason == taylor.end_reason == pal.end_reason
@@ -183,6 +184,7 @@ def test_pade_and_series_anm_trace_the_same_branch(three_runs):
         assert same_branch_gap(system, pade.points[i], reference, chord) < 1e-6
 
 
+@pytest.mark.numerics
 def test_pade_points_meet_the_newton_threshold(three_runs):
     name, system, pade, taylor, pal = three_runs
     residuals = [relative_residual(system, U) for U in pade.points]

@@ -165,18 +165,6 @@ def test_dataset_regimes_are_the_rows_of_the_command_line_table(synthetic, tmp_p
         assert float(cols[9]) == pytest.approx(float(r["max_rel_frequency_error"]), rel=5e-3)
 
 
-def test_real_exact_branch_against_itself_has_no_error(exact_branch):
-    regularized = exact_branch.copy()
-    regularized.attrs.update(eta=0.1, harmonics=100)
-    ds = regime_error_dataset(exact_branch, regularized)
-    assert list(ds["impacts_per_period"].values) == [2, 6, 4]
-    assert list(ds["exact_sequence"].values) == ["FR", "FLFR", "FLF"]
-    assert np.all(ds["frequency_error"].values == 0.0)
-    assert np.all(ds["max_abs_frequency_error"].values == 0.0)
-    # every orbit except the single grazing orbit at the start is compared
-    assert ds.attrs["matched_points"] == exact_branch.sizes["point"] - 1 and int(ds["n_unmatched"].sum()) == 0
-
-
 def test_real_exact_branch_against_its_subsample_shows_only_interpolation_error(exact_branch):
     """Every other orbit is interpolated from its neighbours: small errors, largest at the energy folds.
 

@@ -127,6 +127,7 @@ def test_hill_matrix_matches_linear_theory_at_rest():
 # --------------------------------------------------------------------------- against the monodromy matrix
 
 
+@pytest.mark.numerics
 def test_nnm2_with_impacts_matches_monodromy_and_is_stable(system, nnm2):
     ds, U = nnm2
     impacts = ds["impacts_per_period"].values
@@ -145,6 +146,7 @@ def test_nnm2_with_impacts_matches_monodromy_and_is_stable(system, nnm2):
     assert b.stable.all()
 
 
+@pytest.mark.numerics
 def test_nnm1_one_impact_per_stop_matches_monodromy(system, nnm1):
     first, U, _, _ = nnm1
     # Two impacts per period, energies 1 to 20: orbit error below 3e-2 at H = 40. The
@@ -175,6 +177,7 @@ def six_impact_arms(second, U):
     return fold_energy, (U[: k + 1], energy[: k + 1]), (U[k:rising], energy[k:rising])
 
 
+@pytest.mark.numerics
 def test_nnm1_three_impacts_per_stop_is_unstable_and_matches_monodromy(system, nnm1):
     _, _, second, U = nnm1
     fold_energy, falling, _ = six_impact_arms(second, U)
@@ -198,6 +201,7 @@ def test_nnm1_three_impacts_per_stop_is_unstable_and_matches_monodromy(system, n
         assert rf.max_multiplier == pytest.approx(r.max_multiplier, rel=1e-3)
 
 
+@pytest.mark.numerics
 def test_nnm1_stability_changes_at_the_energy_fold(system, nnm1):
     """Along the six-impact stretch the energy falls to a minimum and grows again; the
     non-trivial pair goes through +1 there: unstable before, stable after (up to the
