@@ -261,7 +261,7 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
         located = locate_flagged_branch_points(system, U, steps, branch.branch_points, _stage_settings(config))
     data.update(located_branch_point_variables(system, located))
     # Floquet stability of every point (config stability.method)
-    stability = orbit_stability(system, U, config)
+    stability = orbit_stability(system, U, config, time_residual=col("time_residual"))
     data.update(stability.data_vars())
     coords["multiplier"] = np.arange(stability.multipliers.shape[1])
     ds = xr.Dataset(data, coords=coords)
@@ -290,7 +290,7 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
     return ds
 
 
-def orbit_stability(system, U, config: dict):
+def orbit_stability(system, U, config: dict, time_residual=None):
     """Floquet stability of the orbits ``U`` by the method of ``config["stability"]``.
 
     ``method: monodromy`` (the default, also without a ``stability`` section):
@@ -298,12 +298,13 @@ def orbit_stability(system, U, config: dict):
     :func:`nnmstop.stability.branch_stability`. Both return an object whose
     ``data_vars()`` gives the dataset variables (``stable``, ``multiplier_*``,
     ``max_multiplier``, ``stability_orbit_residual``, ``stability_resolved``, and for
-    the monodromy also ``stability_reason`` and the error estimates).
+    the monodromy also ``stability_reason`` and the error estimates). ``time_residual``:
+    the orbits' residuals of Eq. (7), if already at hand.
     """
     spec = config.get("stability", {"method": "monodromy"})
     method = spec.get("method", "monodromy")
     if method == "monodromy":
-        return branch_monodromy(system, U, MonodromySettings.from_config(spec))
+        return branch_monodromy(system, U, MonodromySettings.from_config(spec), time_residual=time_residual)
     if method == "hill":
         return branch_stability(system, U, tol=spec.get("hill_tol", DEFAULT_TOL))
     raise ValueError(f"stability.method must be 'monodromy' or 'hill', got {method!r}")

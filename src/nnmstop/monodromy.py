@@ -59,7 +59,7 @@ class MonodromySettings:
     steps: int = 256
     max_steps: int = 4096
     trace_tol: float = 1e-9
-    resolution_factor: float = 5.0
+    resolution_factor: float = 2.0
 
     def __post_init__(self):
         for name in ("steps", "max_steps"):
@@ -302,6 +302,9 @@ class BranchMonodromy:
         ``|s(2N) - s(N)|`` between the last two step counts.
     trivial_deviation : ndarray
         ``|s_t - 2|`` of the trivial pair: the orbit's error seen by the linearization.
+    orbit_error : ndarray
+        Larger of the orbit's time residual of (7) and ``trivial_deviation``: the
+        estimate of how far the orbit's error moves ``s``.
     steps : ndarray of int
         Steps of the stored (finer) integration.
     reason : ndarray of int
@@ -317,6 +320,7 @@ class BranchMonodromy:
     margin: np.ndarray
     integration_error: np.ndarray
     trivial_deviation: np.ndarray
+    orbit_error: np.ndarray
     steps: np.ndarray
     reason: np.ndarray
     halfwave: np.ndarray
@@ -342,7 +346,7 @@ class BranchMonodromy:
         reason_attrs = {
             "long_name": "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within "
             f"{st.resolution_factor:g} x stability_integration_error at the largest step count; 2 stability_margin within "
-            f"{st.resolution_factor:g} x stability_orbit_residual (the HBM orbit's own error; see also time_residual)",
+            f"{st.resolution_factor:g} x stability_orbit_residual (the HBM orbit's own error)",
             "units": "1",
             "flag_values": np.arange(len(REASONS), dtype=np.int8),
             "flag_meanings": " ".join(REASONS),
@@ -356,7 +360,8 @@ class BranchMonodromy:
             "multiplier_real": (("point", "multiplier"), self.multipliers.real, {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note}),
             "multiplier_imag": (("point", "multiplier"), self.multipliers.imag, {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note}),
             "max_multiplier": ("point", self.max_multiplier, {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"}),
-            "stability_orbit_residual": ("point", self.trivial_deviation, {"long_name": "distance of the trivial pair's invariant mu + 1/mu to 2 in the computed monodromy (the orbit's error seen by the linearization)", "units": "1"}),
+            "stability_orbit_residual": ("point", self.orbit_error, {"long_name": "estimate of the change of floquet_invariant due to the orbit's error: larger of time_residual and stability_trivial_deviation", "units": "1"}),
+            "stability_trivial_deviation": ("point", self.trivial_deviation, {"long_name": "distance of the trivial pair's invariant mu + 1/mu to 2 in the computed monodromy (exactly 0 on an exact orbit)", "units": "1"}),
             "stability_resolved": flag_variable(
                 "point", self.resolved,
                 "stability verdict resolved (1): stability_margin larger than the error estimates (stability_reason)",
@@ -370,7 +375,7 @@ class BranchMonodromy:
         }
 
 
-def branch_monodromy(system, U_array, settings: MonodromySettings | None = None) -> BranchMonodromy:
+def branch_monodromy(system, U_array, settings: MonodromySettings | None = None, time_residual=None) -> BranchMonodromy:
     """Floquet stability of every point of a branch from the monodromy matrix.
 
     Parameters
@@ -378,6 +383,11 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None)
     system : HarmonicBalanceSystem
     U_array : array_like, shape (n, n_unknowns)
     settings : MonodromySettings, optional
+    time_residual : array_like, shape (n,), optional
+        Relative time-domain residual of Eq. (7) of each orbit (the ``time_residual``
+        of :meth:`HarmonicBalanceSystem.diagnostics`, computed when not given): the
+        orbit's own error, which moves ``s`` by about as much (calibration in
+        ``docs/methods/monodromy.md``).
 
     Returns
     -------
@@ -416,10 +426,16 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None)
                 if 2 * N >= settings.max_steps:
                     break
                 todo, coarse, N = todo[undecided], fine[undecided], 2 * N
+    if time_residual is None:
+        time_residual = [system.diagnostics(U)["time_residual"] for U in U_array]
+    time_residual = np.asarray(time_residual, dtype=float)
+    if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
+        raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
+    orbit_error = np.maximum(time_residual, dev)
     margin = _margin(s, halfwave)
     F = settings.resolution_factor
     reason = np.zeros(n, dtype=np.int8)
-    reason[margin <= F * dev] = 2
+    reason[margin <= F * orbit_error] = 2
     reason[margin <= F * err] = 1
     multipliers = _multipliers_from_invariant(s)
     return BranchMonodromy(
@@ -429,6 +445,7 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None)
         margin=margin,
         integration_error=err,
         trivial_deviation=dev,
+        orbit_error=orbit_error,
         steps=steps,
         reason=reason,
         halfwave=halfwave,
