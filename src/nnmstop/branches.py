@@ -26,6 +26,7 @@ Hill's method, :mod:`nnmstop.stability`): ``stable`` (flag),
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass
 from typing import Callable
 
@@ -261,7 +262,10 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
         located = locate_flagged_branch_points(system, U, steps, branch.branch_points, _stage_settings(config))
     data.update(located_branch_point_variables(system, located))
     # Floquet stability of every point (config stability.method)
+    started = time.perf_counter()
     stability = orbit_stability(system, U, config, time_residual=col("time_residual"))
+    # Wall time in the log only (datasets stay byte-reproducible); benchmarks/cold_build.py reads it.
+    logger.info("stability of %d points in %.2f s (%s)", len(U), time.perf_counter() - started, config.get("stability", {}).get("method", "monodromy"))
     data.update(stability.data_vars())
     coords["multiplier"] = np.arange(stability.multipliers.shape[1])
     ds = xr.Dataset(data, coords=coords)
