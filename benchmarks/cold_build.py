@@ -63,12 +63,13 @@ def cold_build(ref: str, cores: int, keep: bool):
         wall = time.perf_counter() - started
         if run.returncode != 0:
             raise RuntimeError(f"snakemake failed for {ref} (exit {run.returncode}) in {workdir}")
-        per_rule: dict[str, list] = defaultdict(lambda: [0, 0.0])
+        per_rule: dict[str, list] = defaultdict(lambda: [0, 0.0, 0.0])
         for tsv in sorted((workdir / "benchmarks" / "runs").glob("*.tsv")):
             table = pd.read_csv(tsv, sep="\t")
             entry = per_rule[rule_of(tsv)]
             entry[0] += 1
             entry[1] += float(table["s"].iloc[0])
+            entry[2] += float(table["cpu_time"].iloc[0])
         # Stability time of the hbm_stage jobs, from their logs (commits that log it).
         stability = 0.0
         for log in sorted((workdir / "logs" / "hbm").glob("nnm*_stage*.log")):
@@ -82,16 +83,16 @@ def cold_build(ref: str, cores: int, keep: bool):
 
 
 def rule_table(ref: str, cores: int, wall: float, per_rule: dict) -> list[str]:
-    total_jobs = sum(seconds for _, seconds in per_rule.values())
+    total_jobs = sum(entry[1] for entry in per_rule.values())
     lines = [
         f"Cold build of `{ref}` with `snakemake --cores {cores}`: **{wall:.1f} s** wall "
-        f"(sum of job wall times {total_jobs:.1f} s).",
+        f"(sum of job wall times {total_jobs:.1f} s, of job CPU times {sum(e[2] for e in per_rule.values()):.1f} s).",
         "",
-        "| rule | jobs | job wall time (s) | share of job time |",
-        "|---|---:|---:|---:|",
+        "| rule | jobs | job wall time (s) | share of job time | job CPU time (s) |",
+        "|---|---:|---:|---:|---:|",
     ]
-    for name, (jobs, seconds) in sorted(per_rule.items(), key=lambda kv: -kv[1][1]):
-        lines.append(f"| {name} | {jobs} | {seconds:.1f} | {100 * seconds / total_jobs:.0f} % |")
+    for name, (jobs, seconds, cpu) in sorted(per_rule.items(), key=lambda kv: -kv[1][1]):
+        lines.append(f"| {name} | {jobs} | {seconds:.1f} | {100 * seconds / total_jobs:.0f} % | {cpu:.1f} |")
     return lines
 
 
@@ -123,14 +124,15 @@ def main(argv=None) -> int:
         lines += [
             f"Cold builds side by side (`snakemake --cores {args.cores}`, best of {args.repeat}, alternating):",
             "",
-            "| ref | wall (s) | ratio to " + f"`{base}`" + " | hbm_stage jobs (s) | stability logged in hbm_stage (s) | stability share of hbm_stage |",
-            "|---|---:|---:|---:|---:|---:|",
+            "| ref | wall (s) | ratio to " + f"`{base}`" + " | job CPU time (s) | hbm_stage jobs (s) | stability logged in hbm_stage (s) | stability share of hbm_stage |",
+            "|---|---:|---:|---:|---:|---:|---:|",
         ]
         for ref in refs:
             wall, per_rule, stability = best[ref]
-            stage = per_rule.get("hbm_stage", (0, 0.0))[1]
+            stage = per_rule.get("hbm_stage", (0, 0.0, 0.0))[1]
+            cpu = sum(entry[2] for entry in per_rule.values())
             share = f"{100 * stability / stage:.0f} %" if stability and stage else "not logged"
-            lines.append(f"| `{ref}` | {wall:.1f} | {wall / best[base][0]:.2f} | {stage:.1f} | {stability:.1f} | {share} |")
+            lines.append(f"| `{ref}` | {wall:.1f} | {wall / best[base][0]:.2f} | {cpu:.1f} | {stage:.1f} | {stability:.1f} | {share} |")
         lines.append("")
     for ref in refs:
         lines += rule_table(ref, args.cores, *best[ref][:2]) + [""]
