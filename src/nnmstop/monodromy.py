@@ -349,7 +349,7 @@ class BranchMonodromy:
         reason_attrs = {
             "long_name": "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within "
             f"{st.resolution_factor:g} x stability_integration_error at the largest step count; 2 stability_margin within "
-            f"{st.resolution_factor:g} x stability_orbit_residual (the HBM orbit's own error)",
+            f"{st.resolution_factor:g} x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it)",
             "units": "1",
             "flag_values": np.arange(len(REASONS), dtype=np.int8),
             "flag_meanings": " ".join(REASONS),
@@ -406,6 +406,11 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
         raise ValueError("U_array must be finite")
     start = time.perf_counter()
     n = len(U_array)
+    if time_residual is None:
+        time_residual = [system.diagnostics(U)["time_residual"] for U in U_array]
+    time_residual = np.asarray(time_residual, dtype=float)
+    if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
+        raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
     s = np.zeros(n)
     dev = np.zeros(n)
     err = np.zeros(n)
@@ -425,21 +430,19 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
                 fine, fine_dev = _invariant_with_steps(system, x[todo], omega[todo], hw, 2 * N)
                 s[todo], dev[todo], steps[todo] = fine, fine_dev, 2 * N
                 err[todo] = np.abs(fine - coarse)
-                undecided = _margin(fine, hw) <= F * err[todo]
+                # More steps where the integration error could decide the verdict and exceeds
+                # the orbit's own error (beyond that they cannot make the verdict better).
+                margin = _margin(fine, hw)
+                undecided = (margin <= F * err[todo]) & (err[todo] > np.maximum(time_residual[todo], fine_dev))
                 if 2 * N >= settings.max_steps:
                     break
                 todo, coarse, N = todo[undecided], fine[undecided], 2 * N
-    if time_residual is None:
-        time_residual = [system.diagnostics(U)["time_residual"] for U in U_array]
-    time_residual = np.asarray(time_residual, dtype=float)
-    if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
-        raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
     orbit_error = np.maximum(time_residual, dev)
     margin = _margin(s, halfwave)
     F = settings.resolution_factor
     reason = np.zeros(n, dtype=np.int8)
-    reason[margin <= F * orbit_error] = 2
     reason[margin <= F * err] = 1
+    reason[margin <= F * orbit_error] = 2  # the orbit's error decides whatever the steps
     multipliers = _multipliers_from_invariant(s)
     return BranchMonodromy(
         stable=np.abs(s) <= 2.0 + settings.trace_tol,
