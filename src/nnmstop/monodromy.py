@@ -343,7 +343,7 @@ class BranchMonodromy:
         st = self.settings
         note = (
             "Floquet multipliers from the monodromy matrix of the variational equation of (7) along the HBM orbit "
-            f"(4th-order Magnus steps, {st.steps} to {st.max_steps} per integrated interval), non-trivial pair from the "
+            f"(4th-order Magnus steps, {2 * st.steps} to {st.max_steps} per integrated interval, checked against half as many), non-trivial pair from the "
             "invariant s = mu + 1/mu of the symplectic matrix, ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|"
         )
         reason_attrs = {
