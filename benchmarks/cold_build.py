@@ -1,13 +1,19 @@
-"""Time a cold build of the whole pipeline and each rule's share.
+"""Time a cold build of the whole pipeline and each rule's share, for one or two commits.
 
-Extracts the committed tree (HEAD) into a fresh temporary directory (no
+Extracts a committed tree (HEAD by default) into a fresh temporary directory (no
 ``results/``, no ``.snakemake/``), runs ``snakemake --cores N`` there (the default
-target: every figure, dataset and the manifest), and reads the per-job
-``benchmark:`` files to report each rule's wall time.
+target: every figure, dataset and the manifest) with ``PYTHONPATH`` set to that
+tree's ``src`` (the package of that commit, not the installed one), and reads the
+per-job ``benchmark:`` files to report each rule's wall time.
+
+``--compare A B`` builds both refs in the same run, alternately ``--repeat`` times
+(A, B, A, B, ...), and reports the best wall time of each side by side with the
+ratio B/A, then each ref's per-rule table of its best run.
 
 Usage::
 
     python benchmarks/cold_build.py [--cores 2] [--output benchmarks/cold_build.md] [--keep]
+    python benchmarks/cold_build.py --compare cf04ec5 HEAD [--repeat 2] [--cores 2]
 
 Run it on an otherwise idle machine: it measures wall time.
 """
@@ -15,6 +21,7 @@ Run it on an otherwise idle machine: it measures wall time.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import shutil
 import subprocess
@@ -29,9 +36,9 @@ import pandas as pd
 REPO = Path(__file__).resolve().parents[1]
 
 
-def tracked_copy(destination: Path) -> None:
-    """Extract the committed tree (HEAD) into ``destination``, as a fresh clone would have it."""
-    archive = subprocess.run(["git", "-C", str(REPO), "archive", "HEAD"], capture_output=True, check=True).stdout
+def tracked_copy(destination: Path, ref: str = "HEAD") -> None:
+    """Extract the committed tree of ``ref`` into ``destination``, as a fresh clone would have it."""
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", ref], capture_output=True, check=True).stdout
     subprocess.run(["tar", "-x", "-C", str(destination)], input=archive, check=True)
 
 
@@ -45,48 +52,94 @@ def rule_of(benchmark_file: Path) -> str:
     return stem
 
 
+def cold_build(ref: str, cores: int, keep: bool):
+    """Build ``ref`` cold; return its wall time and per-rule job times ``{rule: (jobs, seconds)}``."""
+    workdir = Path(tempfile.mkdtemp(prefix="nnmstop-cold-"))
+    try:
+        tracked_copy(workdir, ref)
+        env = {**os.environ, "PYTHONPATH": str(workdir / "src")}
+        started = time.perf_counter()
+        run = subprocess.run(["snakemake", "--cores", str(cores), "--quiet", "all"], cwd=workdir, env=env)
+        wall = time.perf_counter() - started
+        if run.returncode != 0:
+            raise RuntimeError(f"snakemake failed for {ref} (exit {run.returncode}) in {workdir}")
+        per_rule: dict[str, list] = defaultdict(lambda: [0, 0.0, 0.0])
+        for tsv in sorted((workdir / "benchmarks" / "runs").glob("*.tsv")):
+            table = pd.read_csv(tsv, sep="\t")
+            entry = per_rule[rule_of(tsv)]
+            entry[0] += 1
+            entry[1] += float(table["s"].iloc[0])
+            entry[2] += float(table["cpu_time"].iloc[0])
+        # Stability time of the hbm_stage jobs, from their logs (commits that log it).
+        stability = 0.0
+        for log in sorted((workdir / "logs" / "hbm").glob("nnm*_stage*.log")):
+            stability += sum(float(m) for m in re.findall(r"stability of \d+ points in ([0-9.]+) s", log.read_text()))
+        return wall, dict(per_rule), stability
+    finally:
+        if keep:
+            print(f"build of {ref} kept in {workdir}")
+        else:
+            shutil.rmtree(workdir, ignore_errors=True)
+
+
+def rule_table(ref: str, cores: int, wall: float, per_rule: dict) -> list[str]:
+    total_jobs = sum(entry[1] for entry in per_rule.values())
+    lines = [
+        f"Cold build of `{ref}` with `snakemake --cores {cores}`: **{wall:.1f} s** wall "
+        f"(sum of job wall times {total_jobs:.1f} s, of job CPU times {sum(e[2] for e in per_rule.values()):.1f} s).",
+        "",
+        "| rule | jobs | job wall time (s) | share of job time | job CPU time (s) |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for name, (jobs, seconds, cpu) in sorted(per_rule.items(), key=lambda kv: -kv[1][1]):
+        lines.append(f"| {name} | {jobs} | {seconds:.1f} | {100 * seconds / total_jobs:.0f} % | {cpu:.1f} |")
+    return lines
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cores", type=int, default=2)
+    parser.add_argument("--compare", nargs=2, metavar=("BASE", "NEW"), help="build both refs in the same run")
+    parser.add_argument("--repeat", type=int, default=1, help="builds of each ref (alternating); the best is kept")
     parser.add_argument("--output", type=Path, help="also write the Markdown table here")
-    parser.add_argument("--keep", action="store_true", help="keep the temporary build directory")
+    parser.add_argument("--keep", action="store_true", help="keep the temporary build directories")
     args = parser.parse_args(argv)
-
-    workdir = Path(tempfile.mkdtemp(prefix="nnmstop-cold-"))
+    if args.repeat < 1:
+        raise ValueError(f"--repeat must be >= 1, got {args.repeat}")
+    refs = args.compare or ["HEAD"]
+    best: dict[str, tuple] = {}
     try:
-        tracked_copy(workdir)
-        started = time.perf_counter()
-        run = subprocess.run(["snakemake", "--cores", str(args.cores), "--quiet", "all"], cwd=workdir)
-        wall = time.perf_counter() - started
-        if run.returncode != 0:
-            print(f"snakemake failed (exit {run.returncode}) in {workdir}", file=sys.stderr)
-            return run.returncode
-        per_rule: dict[str, float] = defaultdict(float)
-        jobs: dict[str, int] = defaultdict(int)
-        for tsv in sorted((workdir / "benchmarks" / "runs").glob("*.tsv")):
-            table = pd.read_csv(tsv, sep="\t")
-            name = rule_of(tsv)
-            per_rule[name] += float(table["s"].iloc[0])
-            jobs[name] += 1
-        total_jobs = sum(per_rule.values())
-        lines = [
-            f"Cold build with `snakemake --cores {args.cores}`: **{wall:.1f} s** wall "
-            f"(sum of job wall times {total_jobs:.1f} s).",
+        for _ in range(args.repeat):
+            for ref in refs:
+                wall, per_rule, stability = cold_build(ref, args.cores, args.keep)
+                print(f"{ref}: {wall:.1f} s", file=sys.stderr)
+                if ref not in best or wall < best[ref][0]:
+                    best[ref] = (wall, per_rule, stability)
+    except RuntimeError as error:
+        print(error, file=sys.stderr)
+        return 1
+    lines = []
+    if args.compare:
+        (base, new) = refs
+        lines += [
+            f"Cold builds side by side (`snakemake --cores {args.cores}`, best of {args.repeat}, alternating):",
             "",
-            "| rule | jobs | job wall time (s) | share of job time |",
-            "|---|---:|---:|---:|",
+            "| ref | wall (s) | ratio to " + f"`{base}`" + " | job CPU time (s) | hbm_stage jobs (s) | stability logged in hbm_stage (s) | stability share of hbm_stage |",
+            "|---|---:|---:|---:|---:|---:|---:|",
         ]
-        for name, seconds in sorted(per_rule.items(), key=lambda kv: -kv[1]):
-            lines.append(f"| {name} | {jobs[name]} | {seconds:.1f} | {100 * seconds / total_jobs:.0f} % |")
-        report = "\n".join(lines)
-        print(report)
-        if args.output:
-            args.output.write_text(report + "\n")
-    finally:
-        if args.keep:
-            print(f"build kept in {workdir}")
-        else:
-            shutil.rmtree(workdir, ignore_errors=True)
+        for ref in refs:
+            wall, per_rule, stability = best[ref]
+            stage = per_rule.get("hbm_stage", (0, 0.0, 0.0))[1]
+            cpu = sum(entry[2] for entry in per_rule.values())
+            share = f"{100 * stability / stage:.0f} %" if stability and stage else "not logged"
+            lines.append(f"| `{ref}` | {wall:.1f} | {wall / best[base][0]:.2f} | {cpu:.1f} | {stage:.1f} | {stability:.1f} | {share} |")
+        lines.append("")
+    for ref in refs:
+        lines += rule_table(ref, args.cores, *best[ref][:2]) + [""]
+    report = "\n".join(lines).rstrip()
+    print(report)
+    if args.output:
+        args.output.write_text(report + "\n")
     return 0
 
 

@@ -433,7 +433,7 @@ def summarize_bifurcated(ds, nnm2=None) -> str:
         f"  {ds.sizes['point']} points, energy {e.min():.4g} .. {e.max():.4g}, frequency {f.min():.6g} .. {f.max():.6g} Hz, "
         f"{int(ds.attrs['anm_steps'])} ANM steps",
         f"  largest share of harmonics not multiple of {n}: {float(ds['subharmonic_share'].max()):.2e}",
-        f"  stability (Hill): {int(((ds['stable'] == 1) & resolved).sum())} stable, "
+        f"  stability: {int(((ds['stable'] == 1) & resolved).sum())} stable, "
         f"{int(((ds['stable'] == 0) & resolved).sum())} unstable, {int((~resolved).sum())} unresolved "
         f"of {ds.sizes['point']} points",
     ]

@@ -17,7 +17,8 @@ are zero in the cosine basis); ``omega_squared`` and ``unfolding`` (the extra un
 ``energy``, ``frequency``, ``period``, ``x_max``, ``u_max``, ``impacts_per_period``,
 ``algebraic_residual``, ``time_residual``, ``force_error``, ``energy_spread``,
 ``truncation``, ``step``, ``stage``, ``branch_point`` and ``energy_fold`` (flags);
-Floquet stability by Hill's method (:mod:`nnmstop.stability`): ``stable`` (flag),
+Floquet stability (config ``stability.method``: the monodromy matrix, :mod:`nnmstop.monodromy`, or
+Hill's method, :mod:`nnmstop.stability`): ``stable`` (flag),
 ``multiplier_real``/``multiplier_imag(point, multiplier)``, ``max_multiplier``,
 ``stability_orbit_residual``, ``stability_resolved``.
 """
@@ -25,6 +26,7 @@ Floquet stability by Hill's method (:mod:`nnmstop.stability`): ``stable`` (flag)
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass
 from typing import Callable
 
@@ -43,7 +45,8 @@ from .continuation import (
 from .datasets import flag_variable
 from .hbm import HarmonicBalanceSystem
 from .model import ModelParameters, linear_modes
-from .stability import branch_stability
+from .monodromy import MonodromySettings, branch_monodromy
+from .stability import DEFAULT_TOL, branch_stability
 
 __all__ = [
     "system_from_config",
@@ -258,8 +261,11 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
 
         located = locate_flagged_branch_points(system, U, steps, branch.branch_points, _stage_settings(config))
     data.update(located_branch_point_variables(system, located))
-    # Floquet stability of every point (Hill's method on the HBM representation)
-    stability = branch_stability(system, U)
+    # Floquet stability of every point (config stability.method)
+    started = time.perf_counter()
+    stability = orbit_stability(system, U, config, time_residual=col("time_residual"))
+    # Wall time in the log only (datasets stay byte-reproducible); benchmarks/cold_build.py reads it.
+    logger.info("stability of %d points in %.2f s (%s)", len(U), time.perf_counter() - started, config.get("stability", {}).get("method", "monodromy"))
     data.update(stability.data_vars())
     coords["multiplier"] = np.arange(stability.multipliers.shape[1])
     ds = xr.Dataset(data, coords=coords)
@@ -286,6 +292,26 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
         "factorizations": stats.factorizations,
     }
     return ds
+
+
+def orbit_stability(system, U, config: dict, time_residual=None):
+    """Floquet stability of the orbits ``U`` by the method of ``config["stability"]``.
+
+    ``method: monodromy`` (the default, also without a ``stability`` section):
+    :func:`nnmstop.monodromy.branch_monodromy`; ``method: hill``:
+    :func:`nnmstop.stability.branch_stability`. Both return an object whose
+    ``data_vars()`` gives the dataset variables (``stable``, ``multiplier_*``,
+    ``max_multiplier``, ``stability_orbit_residual``, ``stability_resolved``, and for
+    the monodromy also ``stability_reason`` and the error estimates). ``time_residual``:
+    the orbits' residuals of Eq. (7), if already at hand.
+    """
+    spec = config.get("stability", {"method": "monodromy"})
+    method = spec.get("method", "monodromy")
+    if method == "monodromy":
+        return branch_monodromy(system, U, MonodromySettings.from_config(spec), time_residual=time_residual)
+    if method == "hill":
+        return branch_stability(system, U, tol=spec.get("hill_tol", DEFAULT_TOL))
+    raise ValueError(f"stability.method must be 'monodromy' or 'hill', got {method!r}")
 
 
 BRANCH_POINT_DIM = "located_branch_point"

@@ -66,6 +66,11 @@ def validate_config(config: dict) -> dict:
         low, high = spec["energy_range"]
         if not low < high:
             raise ConfigError(f"config key 'bifurcations.{name}.energy_range': {spec['energy_range']} must be increasing")
+    stability = config.get("stability", {})
+    if stability.get("max_steps", 0) and stability.get("steps", 0) and stability["max_steps"] < stability["steps"]:
+        raise ConfigError(
+            f"config key 'stability.max_steps': {stability['max_steps']} must be >= stability.steps = {stability['steps']}"
+        )
     for figure, spec in config.get("figures", {}).items():
         unknown = [n for n in (spec.get("bifurcated", []) if isinstance(spec, dict) else []) if n not in config.get("bifurcations", {})]
         if unknown:

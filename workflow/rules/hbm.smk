@@ -18,7 +18,7 @@ rule hbm_stage:
         "benchmarks/runs/hbm_{branch}_stage{stage}.tsv"
     params:
         task="hbm_stage",
-        settings=lambda wildcards: repr([config[k] for k in ("model", "hbm", "anm")] + [config["branches"][wildcards.branch]]),
+        settings=lambda wildcards: repr([config[k] for k in ("model", "hbm", "anm")] + [config["branches"][wildcards.branch], config.get("stability")]),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -39,7 +39,7 @@ rule hbm_bifurcated:
         "benchmarks/runs/hbm_bifurcated_{bifurcation}.tsv"
     params:
         task="hbm_bifurcated",
-        settings=lambda wildcards: repr([config[k] for k in ("model", "hbm", "anm")] + [config["bifurcations"][wildcards.bifurcation]]),
+        settings=lambda wildcards: repr([config[k] for k in ("model", "hbm", "anm")] + [config["bifurcations"][wildcards.bifurcation], config.get("stability")]),
     conda:
         "../envs/nnmstop.yaml"
     script:

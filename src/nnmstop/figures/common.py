@@ -115,7 +115,7 @@ def stability_legend_handles(drawn: set, color="0.3", lw: float = 1.2) -> list:
     """Legend entries for the non-solid stability classes that were drawn."""
     from matplotlib.lines import Line2D
 
-    text = {"unstable": "unstable orbits (Floquet, Hill's method)", "unresolved": "stability not resolved at this H"}
+    text = {"unstable": "unstable orbits (Floquet multipliers)", "unresolved": "stability not resolved at this H"}
     return [Line2D([], [], color=color, lw=lw, ls=STABILITY_LINESTYLES[c], label=text[c]) for c in ("unstable", "unresolved") if c in drawn]
 
 

@@ -1,0 +1,91 @@
+"""Cost per point of the two stability methods, side by side in one run.
+
+Reads the orbits of built branch datasets (default: ``results/hbm/nnm1.nc``,
+``results/hbm/nnm2.nc`` and the switched branches; build them first with
+``snakemake --cores 2 results/hbm/nnm1.nc ...``), takes every ``--stride``-th point,
+and times on the same points, alternately, Hill's method
+(:func:`nnmstop.stability.branch_stability`) and the monodromy
+(:func:`nnmstop.monodromy.branch_monodromy`, settings from ``config/config.yaml``).
+Also reports how many verdicts each resolves and whether they agree where both do.
+
+Usage::
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/stability_benchmark.py [--stride 4] [--repeat 3] [--output FILE] [DATASET ...]
+
+Wall times on a shared machine are noisy: compare the two columns of one run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from nnmstop.branches import dataset_unknowns, system_from_config
+from nnmstop.config import load_config
+from nnmstop.monodromy import MonodromySettings, branch_monodromy
+from nnmstop.stability import branch_stability
+
+DEFAULT_DATASETS = ["results/hbm/nnm1.nc", "results/hbm/nnm2.nc", "results/hbm/bifurcated/nnm1_3to1.nc", "results/hbm/bifurcated/nnm1_5to1.nc"]
+
+
+def best_time(function, repeat: int):
+    """Result and smallest wall time of ``repeat`` calls."""
+    best, result = np.inf, None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        result = function()
+        best = min(best, time.perf_counter() - start)
+    return result, best
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("datasets", nargs="*", default=DEFAULT_DATASETS)
+    parser.add_argument("--config", default="config/config.yaml")
+    parser.add_argument("--stride", type=int, default=4, help="every stride-th point of each dataset")
+    parser.add_argument("--repeat", type=int, default=3, help="best of this many runs per method")
+    parser.add_argument("--output", type=Path, help="also write the Markdown table here")
+    args = parser.parse_args(argv)
+    if args.stride < 1 or args.repeat < 1:
+        raise ValueError(f"--stride and --repeat must be >= 1, got {args.stride}, {args.repeat}")
+    config = load_config(args.config)
+    settings = MonodromySettings.from_config(config.get("stability", {}))
+    lines = [
+        f"Stability cost per point, Hill's method vs monodromy (steps {settings.steps}..{settings.max_steps}), "
+        f"every {args.stride}th point, best of {args.repeat}:",
+        "",
+        "| dataset | points | Hill (ms/point) | monodromy (ms/point) | speed-up | resolved Hill | resolved monodromy | verdicts differ where both resolved |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for name in args.datasets:
+        path = Path(name)
+        if not path.exists():
+            print(f"skipping {name}: not built", file=sys.stderr)
+            continue
+        with xr.open_dataset(path) as ds:
+            system = system_from_config(config, harmonics=int(ds.attrs["harmonics"]))
+            U = dataset_unknowns(ds.load(), system)[:: args.stride]
+            residual = ds["time_residual"].values[:: args.stride]
+        hill, t_hill = best_time(lambda: branch_stability(system, U), args.repeat)
+        mono, t_mono = best_time(lambda: branch_monodromy(system, U, settings, time_residual=residual), args.repeat)
+        both = hill.resolved & mono.resolved
+        differ = int(np.sum(hill.stable[both] != mono.stable[both]))
+        n = len(U)
+        lines.append(
+            f"| {path.name} | {n} | {1e3 * t_hill / n:.1f} | {1e3 * t_mono / n:.1f} | {t_hill / t_mono:.1f}x | "
+            f"{int(hill.resolved.sum())} | {int(mono.resolved.sum())} | {differ} |"
+        )
+    report = "\n".join(lines)
+    print(report)
+    if args.output:
+        args.output.write_text(report + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

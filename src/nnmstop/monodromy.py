@@ -1,0 +1,472 @@
+"""Floquet stability of HBM orbits from the monodromy matrix of the variational equation.
+
+The method (Magnus steps on a uniform grid, batched exponentials, pairwise product,
+multipliers from the invariants of the symplectic matrix, the tolerances and the
+reason codes) is described in ``docs/methods/monodromy.md``. :func:`branch_monodromy`
+is the entry point used when branch datasets are assembled
+(``stability.method: monodromy``); Hill's method stays in :mod:`nnmstop.stability`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .datasets import flag_variable
+from .model import ModelParameters, regularized_contact_stiffness
+from .stability import is_halfwave_symmetric
+
+__all__ = [
+    "MonodromySettings",
+    "BranchMonodromy",
+    "REASONS",
+    "variational_step_matrices",
+    "transition_matrix",
+    "trace_invariants",
+    "orbit_monodromy",
+    "branch_monodromy",
+]
+
+# Codes of `stability_reason`: why a verdict is resolved or not (dataset flag values).
+REASONS = ("resolved", "integration_error", "orbit_error")
+# Gauss-Legendre nodes of one step (fractions of the step).
+_GAUSS = (0.5 - np.sqrt(3.0) / 6.0, 0.5 + np.sqrt(3.0) / 6.0)
+# Matrices of the batched products per chunk: 4 MB an array, about the fastest here (memory traffic).
+_CHUNK_MATRICES = 2**15
+
+
+@dataclass(frozen=True)
+class MonodromySettings:
+    """Settings of the monodromy method (config section ``stability``).
+
+    Attributes
+    ----------
+    steps : int
+        Magnus steps over the integrated interval (half a period for half-wave
+        symmetric orbits, a period otherwise) on the first try; a power of two >= 64.
+    max_steps : int
+        Largest number of steps: a point whose verdict is decided by the
+        integration error is recomputed with twice the steps up to this.
+    trace_tol : float
+        ``stable`` when ``|mu + 1/mu| <= 2 + trace_tol`` for the non-trivial pair.
+    resolution_factor : float
+        A verdict is resolved when the distance of ``mu + 1/mu`` to the points where
+        the pair changes type exceeds this factor times the error estimates.
+    """
+
+    steps: int = 256
+    max_steps: int = 4096
+    trace_tol: float = 1e-9
+    resolution_factor: float = 2.0
+
+    def __post_init__(self):
+        for name in ("steps", "max_steps"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 64 or value & (value - 1):
+                raise ValueError(f"stability {name} must be a power of two >= 64, got {value!r}")
+        if self.max_steps < self.steps:
+            raise ValueError(f"stability max_steps ({self.max_steps}) must be >= steps ({self.steps})")
+        if not (np.isfinite(self.trace_tol) and self.trace_tol >= 0):
+            raise ValueError(f"stability trace_tol must be a finite number >= 0, got {self.trace_tol!r}")
+        if not (np.isfinite(self.resolution_factor) and self.resolution_factor >= 1):
+            raise ValueError(f"stability resolution_factor must be a finite number >= 1, got {self.resolution_factor!r}")
+
+    @classmethod
+    def from_config(cls, stability: dict) -> "MonodromySettings":
+        """Settings from the (validated) ``stability`` section of the config."""
+        keys = ("steps", "max_steps", "trace_tol", "resolution_factor")
+        return cls(**{k: stability[k] for k in keys if k in stability})
+
+
+# --------------------------------------------------------------------------- integrator
+
+
+def _system_matrices(params: ModelParameters):
+    """``A0`` and ``E`` of ``A(t) = A0 + k(t) E`` for the state ``(x, u, xdot, udot)``, and ``[E, A0]``."""
+    b, d = params.beta, params.delta
+    A0 = np.array(
+        [
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+            [-(1.0 + b), b, 0.0, 0.0],
+            [b / d, -b / d, 0.0, 0.0],
+        ]
+    )
+    E = np.zeros((4, 4))
+    E[2, 0] = -1.0
+    return A0, E, E @ A0 - A0 @ E
+
+
+def _expm_batch(omega):
+    """``exp`` of a stack of 4x4 matrices: Taylor polynomial of degree 15 after scaling.
+
+    One scaling for the whole stack (the steps have similar norms) brings the norms
+    to <= 1/2, where the truncation error ``(1/2)**16 / 16!`` is below round-off; the
+    polynomial is evaluated by Paterson-Stockmeyer (powers 2-4, then Horner in
+    ``X**4``: six batched products instead of fifteen), then squared back.
+    """
+    norm = float(np.max(np.abs(omega).sum(axis=-1))) if omega.size else 0.0
+    squarings = max(0, int(np.ceil(np.log2(norm / 0.5)))) if norm > 0 else 0
+    X = omega / 2.0**squarings
+    X2 = np.matmul(X, X)
+    powers = np.stack([X, X2, np.matmul(X2, X)])  # X, X**2, X**3
+    X4 = np.matmul(X2, X2)
+    inv_fact = 1.0 / np.cumprod(np.r_[1.0, np.arange(1.0, 16.0)])
+    # sum_j X**j / j! = B0 + X4 (B1 + X4 (B2 + X4 B3)), B_m = sum_{i<4} X**i / (4m+i)!:
+    # the four blocks in one matrix product of the coefficients with the stacked powers.
+    coefficients = inv_fact.reshape(4, 4)
+    blocks = np.tensordot(coefficients[:, 1:], powers, axes=(1, 0))
+    diagonal = np.arange(4)
+    blocks[..., diagonal, diagonal] += coefficients[:, 0].reshape((4,) + (1,) * (blocks.ndim - 2))
+    result = blocks[3]
+    for m in (2, 1, 0):
+        result = blocks[m] + np.matmul(X4, result)
+    for _ in range(squarings):
+        result = np.matmul(result, result)
+    return result
+
+
+def variational_step_matrices(stiffness_nodes, step, params: ModelParameters):
+    """Fourth-order Magnus step matrices of ``Phi' = (A0 + k(t) E) Phi``.
+
+    Parameters
+    ----------
+    stiffness_nodes : ndarray, shape (..., n, 2)
+        ``k = f'(x)`` at the two Gauss-Legendre nodes of each of ``n`` steps.
+    step : float or ndarray
+        Step length in time (broadcast against ``stiffness_nodes.shape[:-1]``, e.g.
+        one per orbit as shape ``(n_orbits, 1)``).
+    params : ModelParameters
+
+    Returns
+    -------
+    ndarray, shape (..., n, 4, 4)
+        ``exp(Omega_j)``, ``Omega_j = h A(k_mean) + sqrt(3)/12 h**2 (k_2 - k_1) [E, A0]``
+        (the commutator ``[A_2, A_1]`` of the two node matrices reduces to that term).
+    """
+    A0, E, C = _system_matrices(params)
+    k = np.asarray(stiffness_nodes, dtype=float)
+    k_mean = 0.5 * (k[..., 0] + k[..., 1])
+    k_diff = k[..., 1] - k[..., 0]
+    h = np.broadcast_to(np.asarray(step, dtype=float), k_mean.shape)[..., None, None]
+    omega = h * (A0 + k_mean[..., None, None] * E) + (np.sqrt(3.0) / 12.0) * h**2 * k_diff[..., None, None] * C
+    return _expm_batch(omega)
+
+
+def transition_matrix(step_matrices):
+    """Ordered product ``M_{n-1} ... M_1 M_0`` along axis -3, pairwise (a tree of batched products)."""
+    mats = np.asarray(step_matrices)
+    while mats.shape[-3] > 1:
+        if mats.shape[-3] % 2:
+            pad = np.broadcast_to(np.eye(4), mats.shape[:-3] + (1, 4, 4))
+            mats = np.concatenate([mats, pad], axis=-3)
+        mats = np.matmul(mats[..., 1::2, :, :], mats[..., 0::2, :, :])
+    return mats[..., 0, :, :]
+
+
+def _displacement_at_nodes(x_full, H: int, steps: int, halfwave: bool):
+    """``x`` at the two Gauss nodes of each step, from its Fourier coefficients.
+
+    The nodes of all steps form two uniform grids shifted by a fraction of a step:
+    each is one inverse FFT of the coefficients times a phase ramp (exact, no
+    interpolation). ``x_full``: (n_orbits, 2H+1) full-layout coefficients.
+    Returns (n_orbits, steps, 2).
+    """
+    per_period = 2 * steps if halfwave else steps
+    samples = max(per_period, 2 * H + 2)
+    samples = per_period * int(np.ceil(samples / per_period))
+    stride = samples // per_period
+    k = np.arange(1, H + 1)
+    spec = np.zeros((x_full.shape[0], samples // 2 + 1), dtype=complex)
+    out = np.empty((x_full.shape[0], steps, 2))
+    for i, c in enumerate(_GAUSS):
+        spec[:, 0] = x_full[:, 0] * samples
+        ramp = np.exp(1j * k * (2 * np.pi * c * stride / samples))
+        spec[:, 1 : H + 1] = 0.5 * samples * (x_full[:, 1 : H + 1] - 1j * x_full[:, H + 1 :]) * ramp
+        grid = np.fft.irfft(spec, n=samples, axis=-1)
+        out[:, :, i] = grid[:, ::stride][:, :steps]
+    return out
+
+
+def trace_invariants(matrices):
+    """Invariant ``s = mu + 1/mu`` of the non-trivial pair and the trivial pair's deviation.
+
+    For a 4x4 symplectic matrix with eigenvalues ``{mu_t, 1/mu_t, mu, 1/mu}`` the
+    characteristic polynomial is ``(l**2 - s_t l + 1)(l**2 - s l + 1)``, so ``s_t`` and
+    ``s`` are the roots of ``r**2 - a r + (b - 2)``, ``a = tr M``,
+    ``b = (a**2 - tr M**2) / 2``. The root nearer 2 is the trivial one
+    (``s_t = 2`` exactly for an exact orbit). A negative discriminant (round-off or
+    orbit error where the two are close) counts as zero.
+
+    Returns
+    -------
+    s : ndarray
+        Non-trivial invariant.
+    trivial_deviation : ndarray
+        ``|s_t - 2|``.
+    """
+    M = np.asarray(matrices)
+    a = np.trace(M, axis1=-2, axis2=-1)
+    b = 0.5 * (a * a - np.trace(np.matmul(M, M), axis1=-2, axis2=-1))
+    half = 0.5 * np.sqrt(np.maximum(a * a - 4.0 * (b - 2.0), 0.0))
+    r1, r2 = 0.5 * a + half, 0.5 * a - half
+    trivial_first = np.abs(r1 - 2.0) <= np.abs(r2 - 2.0)
+    s_t = np.where(trivial_first, r1, r2)
+    s = np.where(trivial_first, r2, r1)
+    return s, np.abs(s_t - 2.0)
+
+
+def _multipliers_from_invariant(s):
+    """``[1, 1, mu_1, mu_2]`` from ``s = mu + 1/mu`` (``|mu_1| >= |mu_2|``)."""
+    s = np.asarray(s, dtype=float)
+    out = np.ones(s.shape + (4,), dtype=complex)
+    elliptic = np.abs(s) <= 2.0
+    root = np.sqrt(np.abs(0.25 * s * s - 1.0))
+    # Hyperbolic: the larger root without cancellation, the other its inverse.
+    big = 0.5 * s + np.sign(s) * root
+    out[..., 2] = np.where(elliptic, 0.5 * s + 1j * root, big)
+    out[..., 3] = np.where(elliptic, 0.5 * s - 1j * root, 1.0 / np.where(elliptic, 1.0, big))
+    return out
+
+
+# --------------------------------------------------------------------------- orbits
+
+
+def _orbit_arrays(system, U_array):
+    """Full-layout ``x`` coefficients, ``omega`` and half-wave symmetry of each orbit."""
+    x = np.stack([system.to_full(system.split(U)[0]) for U in U_array])
+    omega = np.sqrt(np.array([system.split(U)[4] for U in U_array], dtype=float))
+    if not np.all(omega > 0):
+        raise ValueError("omega**2 must be > 0 on every orbit")
+    halfwave = np.array([is_halfwave_symmetric(system, U) for U in U_array], dtype=bool)
+    return x, omega, halfwave
+
+
+def _invariant_with_steps(system, x, omega, halfwave: bool, steps: int):
+    """Invariant of the full-period monodromy and trivial deviation, for orbits of one symmetry.
+
+    Half-wave symmetric orbits: ``A(t + T/2) = A(t)`` and the state is odd over a
+    half period, so ``M = P**2`` with ``P = Phi(T/2)``; ``N = -P`` has the trivial
+    pair at +1 and the non-trivial ``nu`` with ``mu = nu**2``, hence
+    ``s = s_N**2 - 2``. Only half a period is integrated and a multiplier near -1
+    (``s_N`` near 0) costs no accuracy.
+    """
+    params = system.params
+    span = np.pi if halfwave else 2 * np.pi
+    s_all = np.empty(len(x))
+    dev_all = np.empty(len(x))
+    per_chunk = max(1, _CHUNK_MATRICES // steps)
+    for start in range(0, len(x), per_chunk):
+        sl = slice(start, start + per_chunk)
+        nodes = _displacement_at_nodes(x[sl], system.H, steps, halfwave)
+        k = regularized_contact_stiffness(nodes, params)
+        h = (span / steps) / omega[sl]
+        mats = variational_step_matrices(k, h[:, None], params)
+        P = transition_matrix(mats)
+        if halfwave:
+            s_n, dev_n = trace_invariants(-P)
+            s_all[sl] = s_n * s_n - 2.0
+            # Deviation carried to the full-period invariant: ds = 2 |s_N| ds_N.
+            dev_all[sl] = 2.0 * np.abs(s_n) * dev_n
+        else:
+            s_all[sl], dev_all[sl] = trace_invariants(P)
+    return s_all, dev_all
+
+
+def _margin(s, halfwave):
+    """Distance of ``s`` to the points where the pair can change type.
+
+    Half-wave symmetric orbits change type only at ``mu = 1`` (``s = 2``; ``s >= -2``
+    always, see ``_invariant_with_steps``), others also at ``mu = -1`` (``s = -2``).
+    """
+    to_plus = np.abs(s - 2.0)
+    return np.where(halfwave, to_plus, np.minimum(to_plus, np.abs(s + 2.0)))
+
+
+@dataclass
+class BranchMonodromy:
+    """Stability of every point of a branch from the monodromy matrix (arrays along the points).
+
+    Attributes
+    ----------
+    stable : ndarray of bool
+        ``|s| <= 2 + trace_tol`` (elliptic non-trivial pair).
+    multipliers : ndarray of complex, shape (n, 4)
+        ``[1, 1, mu_1, mu_2]``, ``|mu_1| >= |mu_2|`` (trivial pair exactly 1, see
+        ``trivial_deviation`` for how far the computed one is).
+    invariant : ndarray
+        ``s = mu_1 + mu_2`` of the full-period monodromy (``2 cos theta`` for an
+        elliptic pair ``exp(+-i theta)``).
+    margin : ndarray
+        Distance of ``s`` to the type-change points.
+    integration_error : ndarray
+        ``|s(2N) - s(N)|`` between the last two step counts.
+    trivial_deviation : ndarray
+        ``|s_t - 2|`` of the trivial pair: the orbit's error seen by the linearization.
+    orbit_error : ndarray
+        Larger of the orbit's time residual of (7) and ``trivial_deviation``: the
+        estimate of how far the orbit's error moves ``s``.
+    steps : ndarray of int
+        Steps of the stored (finer) integration.
+    reason : ndarray of int
+        Index in :data:`REASONS`.
+    halfwave : ndarray of bool
+    settings : MonodromySettings
+    seconds_per_point : float
+    """
+
+    stable: np.ndarray
+    multipliers: np.ndarray
+    invariant: np.ndarray
+    margin: np.ndarray
+    integration_error: np.ndarray
+    trivial_deviation: np.ndarray
+    orbit_error: np.ndarray
+    steps: np.ndarray
+    reason: np.ndarray
+    halfwave: np.ndarray
+    settings: MonodromySettings
+    seconds_per_point: float = 0.0
+
+    @property
+    def resolved(self) -> np.ndarray:
+        return self.reason == 0
+
+    @property
+    def max_multiplier(self) -> np.ndarray:
+        return np.abs(self.multipliers[:, 2])
+
+    def data_vars(self) -> dict:
+        """Variables for a branch dataset (same names as Hill's for the shared ones)."""
+        st = self.settings
+        note = (
+            "Floquet multipliers from the monodromy matrix of the variational equation of (7) along the HBM orbit "
+            f"(4th-order Magnus steps, {2 * st.steps} to {st.max_steps} per integrated interval, checked against half as many), non-trivial pair from the "
+            "invariant s = mu + 1/mu of the symplectic matrix, ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|"
+        )
+        reason_attrs = {
+            "long_name": "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within "
+            f"{st.resolution_factor:g} x stability_integration_error at the largest step count; 2 stability_margin within "
+            f"{st.resolution_factor:g} x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it)",
+            "units": "1",
+            "flag_values": np.arange(len(REASONS), dtype=np.int8),
+            "flag_meanings": " ".join(REASONS),
+        }
+        return {
+            "stable": flag_variable(
+                "point", self.stable,
+                f"orbit linearly stable (1) or unstable (0): |mu + 1/mu| of the non-trivial pair <= 2 + {st.trace_tol:g}",
+                "unstable stable", comment=note,
+            ),
+            "multiplier_real": (("point", "multiplier"), self.multipliers.real, {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note}),
+            "multiplier_imag": (("point", "multiplier"), self.multipliers.imag, {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note}),
+            "max_multiplier": ("point", self.max_multiplier, {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"}),
+            "stability_orbit_residual": ("point", self.orbit_error, {"long_name": "estimate of the change of floquet_invariant due to the orbit's error: larger of time_residual and stability_trivial_deviation", "units": "1"}),
+            "stability_trivial_deviation": ("point", self.trivial_deviation, {"long_name": "distance of the trivial pair's invariant mu + 1/mu to 2 in the computed monodromy (exactly 0 on an exact orbit)", "units": "1"}),
+            "stability_resolved": flag_variable(
+                "point", self.resolved,
+                "stability verdict resolved (1): stability_margin larger than the error estimates (stability_reason)",
+                "unresolved resolved",
+            ),
+            "stability_reason": ("point", self.reason.astype(np.int8), reason_attrs),
+            "floquet_invariant": ("point", self.invariant, {"long_name": "invariant mu + 1/mu of the non-trivial Floquet pair (in [-2, 2] when elliptic)", "units": "1"}),
+            "stability_margin": ("point", self.margin, {"long_name": "distance of floquet_invariant to the values where the non-trivial pair changes type (2, and -2 unless half-wave symmetric)", "units": "1"}),
+            "stability_integration_error": ("point", self.integration_error, {"long_name": "change of floquet_invariant between the last two step counts of the monodromy integration", "units": "1"}),
+            "stability_steps": ("point", self.steps.astype(np.int32), {"long_name": "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric)", "units": "1"}),
+        }
+
+
+def branch_monodromy(system, U_array, settings: MonodromySettings | None = None, time_residual=None) -> BranchMonodromy:
+    """Floquet stability of every point of a branch from the monodromy matrix.
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+    U_array : array_like, shape (n, n_unknowns)
+    settings : MonodromySettings, optional
+    time_residual : array_like, shape (n,), optional
+        Relative time-domain residual of Eq. (7) of each orbit (the ``time_residual``
+        of :meth:`HarmonicBalanceSystem.diagnostics`, computed when not given): the
+        orbit's own error, which moves ``s`` by about as much (calibration in
+        ``docs/methods/monodromy.md``).
+
+    Returns
+    -------
+    BranchMonodromy
+    """
+    settings = MonodromySettings() if settings is None else settings
+    if not isinstance(settings, MonodromySettings):
+        raise ValueError(f"settings must be a MonodromySettings, got {type(settings).__name__}")
+    U_array = np.asarray(U_array, dtype=float)
+    if U_array.ndim != 2 or U_array.shape[1] != system.n_unknowns:
+        raise ValueError(f"U_array must have shape (n, {system.n_unknowns}), got {U_array.shape}")
+    if not np.all(np.isfinite(U_array)):
+        raise ValueError("U_array must be finite")
+    start = time.perf_counter()
+    n = len(U_array)
+    if time_residual is None:
+        time_residual = [system.diagnostics(U)["time_residual"] for U in U_array]
+    time_residual = np.asarray(time_residual, dtype=float)
+    if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
+        raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
+    s = np.zeros(n)
+    dev = np.zeros(n)
+    err = np.zeros(n)
+    steps = np.zeros(n, dtype=int)
+    halfwave = np.zeros(n, dtype=bool)
+    if n:
+        x, omega, halfwave = _orbit_arrays(system, U_array)
+        F = settings.resolution_factor
+        for hw in (True, False):
+            idx = np.flatnonzero(halfwave == hw)
+            if not len(idx):
+                continue
+            N = settings.steps
+            coarse, _ = _invariant_with_steps(system, x[idx], omega[idx], hw, N)
+            todo = idx
+            while len(todo):
+                fine, fine_dev = _invariant_with_steps(system, x[todo], omega[todo], hw, 2 * N)
+                s[todo], dev[todo], steps[todo] = fine, fine_dev, 2 * N
+                err[todo] = np.abs(fine - coarse)
+                # More steps where the integration error could decide the verdict and exceeds
+                # the orbit's own error (beyond that they cannot make the verdict better).
+                margin = _margin(fine, hw)
+                undecided = (margin <= F * err[todo]) & (err[todo] > np.maximum(time_residual[todo], fine_dev))
+                if 2 * N >= settings.max_steps:
+                    break
+                todo, coarse, N = todo[undecided], fine[undecided], 2 * N
+    orbit_error = np.maximum(time_residual, dev)
+    margin = _margin(s, halfwave)
+    F = settings.resolution_factor
+    reason = np.zeros(n, dtype=np.int8)
+    reason[margin <= F * err] = 1
+    reason[margin <= F * orbit_error] = 2  # the orbit's error decides whatever the steps
+    multipliers = _multipliers_from_invariant(s)
+    return BranchMonodromy(
+        stable=np.abs(s) <= 2.0 + settings.trace_tol,
+        multipliers=multipliers,
+        invariant=s,
+        margin=margin,
+        integration_error=err,
+        trivial_deviation=dev,
+        orbit_error=orbit_error,
+        steps=steps,
+        reason=reason,
+        halfwave=halfwave,
+        settings=settings,
+        seconds_per_point=(time.perf_counter() - start) / max(n, 1),
+    )
+
+
+def orbit_monodromy(system, U, steps: int = 1024):
+    """Full-period monodromy matrix of one HBM orbit (Magnus steps, no symmetry used).
+
+    For checks and diagnostics; :func:`branch_monodromy` works from the invariants.
+    """
+    x, omega, _ = _orbit_arrays(system, np.asarray(U, dtype=float)[None])
+    nodes = _displacement_at_nodes(x, system.H, steps, False)
+    k = regularized_contact_stiffness(nodes, system.params)
+    mats = variational_step_matrices(k, 2 * np.pi / steps / omega[0], system.params)
+    return transition_matrix(mats)[0]
