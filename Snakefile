@@ -1,5 +1,6 @@
 # Nonlinear normal modes of a 2-DOF oscillator with a bilateral elastic stop.
 # Data flow: model -> exact orbits -> HBM/ANM continuation -> datasets -> comparisons -> figures.
+import glob
 import os
 
 from snakemake.utils import min_version
@@ -40,3 +41,7 @@ rule all:
         PAPER_FIGURES,
         PAPER_DATASETS,
         "results/MANIFEST.sha256",
+
+
+# After PAPER_FIGURES: the bundle packs the figures.
+include: "workflow/rules/bundle.smk"

@@ -24,7 +24,8 @@ def test_zero_length_dimensions_are_written_in_a_fixed_order(tmp_path):
     """Two processes with different string hashing write the same bytes."""
     paths = []
     for seed in ("1", "3", "5"):
-        path = tmp_path / f"out{seed}.nc"
+        path = tmp_path / f"seed{seed}" / "out.nc"  # same file name: the dataset's id comes from it
+        path.parent.mkdir()
         env = {**os.environ, "PYTHONHASHSEED": seed, "SOURCE_DATE_EPOCH": "0"}
         subprocess.run([sys.executable, "-c", WRITE_TWICE_EMPTY, str(path)], check=True, env=env)
         paths.append(path)

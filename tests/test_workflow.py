@@ -8,14 +8,18 @@ dataset, the manifest) builds in well under a minute.
 from __future__ import annotations
 
 import hashlib
+import os
 import re
+import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
+import yaml
 
 from nnmstop.datasets import check_labelled
 from nnmstop.model import ModelParameters, linear_modes
@@ -158,3 +162,112 @@ def test_report_holds_the_figures(built):
 def test_workflow_lint_is_clean():
     result = subprocess.run([sys.executable, "-m", "snakemake", "--lint"], cwd=REPO, capture_output=True, text=True, timeout=120)
     assert "Congratulations" in result.stdout + result.stderr, (result.stdout + result.stderr)[-2000:]
+
+
+# Issue 15: metadata that passes the standard checkers, and the result bundle.
+
+
+def test_datasets_pass_the_cf_and_acdd_checkers(built):
+    """Every dataset passes cf:1.10 and acdd:1.3 but for the README's documented exclusions."""
+    from nnmstop.compliance import checker_findings
+
+    datasets = sorted((built / "results").rglob("*.nc"))
+    assert len(datasets) >= 10
+    findings = {str(p.relative_to(built)): checker_findings(p) for p in datasets}
+    assert not any(findings.values()), {name: found for name, found in findings.items() if found}
+    # what the exclusions hide is only the documented kinds of finding
+    raw = checker_findings(built / "results/hbm/nnm2.nc", exclude=False)
+    assert raw and all(re.search(r"standard_name$|geospatial_|time_coverage_", f) for f in raw), raw
+    with xr.open_dataset(built / "results/hbm/nnm2.nc") as ds:
+        assert all("coverage_content_type" in ds[name].attrs for name in ds.variables)
+        assert ds.attrs["id"] == "hbm/nnm2"
+
+
+def test_the_checker_reports_what_breaks_cf(built, tmp_path):
+    """A unit UDUNITS does not know and a missing ACDD attribute are reported, not excluded."""
+    from nnmstop.compliance import checker_findings
+
+    with xr.open_dataset(built / "results/exact/nnm1_two_impacts.nc") as ds:
+        broken = ds.load()
+    broken["frequency"].attrs["units"] = "cycles per nondimensional time"
+    del broken.attrs["institution"]
+    broken.to_netcdf(tmp_path / "broken.nc")
+    findings = checker_findings(tmp_path / "broken.nc")
+    assert any(f.startswith("cf:1.10") and "frequency" in f for f in findings), findings
+    assert any(f.startswith("acdd:1.3") and "institution" in f for f in findings), findings
+
+
+@pytest.fixture(scope="module")
+def bundle(built):
+    """dist/nnmstop-results.zip of the small build."""
+    snakemake(built, "--cores", "1", "bundle")
+    return built / "dist" / "nnmstop-results.zip"
+
+
+def test_bundle_describes_the_run_and_every_file(built, bundle, tmp_path):
+    from rocrate.rocrate import ROCrate
+
+    from nnmstop.bundle import verify_bundle
+
+    with zipfile.ZipFile(bundle) as archive:
+        names = archive.namelist()
+        archive.extractall(tmp_path)
+    assert names == sorted(names)
+    assert {"ro-crate-metadata.json", "CITATION.cff", "environment.lock", "config/config.yaml", "Snakefile",
+            "results/MANIFEST.sha256"} <= set(names)
+    crate = ROCrate(tmp_path)
+    workflow = crate.mainEntity
+    assert workflow.id == "Snakefile" and "ComputationalWorkflow" in workflow.type
+    (run,) = crate.get_by_type("CreateAction")
+    assert run["instrument"].id == "Snakefile"
+    assert [entity.id for entity in run["object"]] == ["config/config.yaml"]
+    produced = {str(p.relative_to(built)) for p in outputs(built) if p.suffix in (".nc", ".pdf", ".png")}
+    assert {entity.id for entity in run["result"]} == produced
+    files = [entity for entity in crate.data_entities if "File" in entity.type]
+    assert {entity.id for entity in files} == set(names) - {"ro-crate-metadata.json"}
+    for entity in files:
+        data = (tmp_path / entity.id).read_bytes()
+        assert entity["encodingFormat"] and int(entity["contentSize"]) == len(data)
+        assert entity["sha256"] == hashlib.sha256(data).hexdigest()
+        if entity.id in produced:  # the archived copy is the built file itself
+            assert data == (built / entity.id).read_bytes()
+    used = yaml.safe_load((tmp_path / "config/config.yaml").read_text())
+    assert used["hbm"]["harmonics"] == 16 and used["metadata"]["license"]
+    assert verify_bundle(bundle) == []
+
+
+def test_bundle_check_fails_on_missing_or_altered_file(bundle, tmp_path):
+    from nnmstop.bundle import verify_bundle
+
+    broken = tmp_path / "broken.zip"
+    with zipfile.ZipFile(bundle) as source, zipfile.ZipFile(broken, "w") as target:
+        for info in source.infolist():
+            data = source.read(info)
+            if info.filename == "results/hbm/nnm2.nc":
+                continue  # missing
+            if info.filename == "paper_figures/fig06.png":
+                data = data[:-1] + bytes([data[-1] ^ 1])  # one bit flipped, same size
+            target.writestr(info, data)
+    problems = verify_bundle(broken)
+    assert len(problems) == 2, problems
+    assert any(p.startswith("results/hbm/nnm2.nc") and "missing" in p for p in problems)
+    assert any(p.startswith("paper_figures/fig06.png") and "SHA-256" in p for p in problems)
+
+
+def test_bundle_is_byte_identical_when_rebuilt(built, bundle):
+    first = bundle.read_bytes()
+    bundle.unlink()
+    snakemake(built, "--cores", "1", "bundle")
+    assert bundle.read_bytes() == first
+
+
+def test_bundle_citation_is_valid_cff(bundle, tmp_path):
+    """CITATION.cff validates with cffconvert (kept out of environment.lock: it pins jsonschema < 4)."""
+    cffconvert = os.environ.get("CFFCONVERT") or shutil.which("cffconvert")
+    if not cffconvert:
+        pytest.skip("cffconvert not found (set CFFCONVERT or put it on PATH; README 'Sharing the results')")
+    with zipfile.ZipFile(bundle) as archive:
+        (tmp_path / "CITATION.cff").write_bytes(archive.read("CITATION.cff"))
+    result = subprocess.run([cffconvert, "--validate", "-i", str(tmp_path / "CITATION.cff")],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stdout + result.stderr

@@ -802,6 +802,7 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
     path = write_dataset(
         ds, output_path, title="NNM1: exact non-smooth vs regularized orbits at matched energies",
         summary=summary, keywords="exact solution, regularization, comparison",
+        metadata=config.get("metadata"),
     )
     for label in ("a", "b"):
         i = int(np.flatnonzero(ds["marked"].values == ("ab".index(label) + 1))[0])

@@ -5,7 +5,9 @@ Every dataset of the pipeline goes through :func:`write_dataset`, which
 * checks that every variable and coordinate carries ``long_name`` and ``units``,
 * refuses NaN or infinite values (a failed computation never leaves a dataset),
 * adds the CF-1.10 / ACDD-1.3 global attributes (``date_created`` comes from
-  ``SOURCE_DATE_EPOCH`` or the commit date of the git checkout, never the clock),
+  ``SOURCE_DATE_EPOCH`` or the commit date of the git checkout, never the clock; who made and
+  publishes the data comes from the configuration's ``metadata`` section),
+* gives every variable a ``coverage_content_type`` (ACDD),
 * writes to a temporary file and renames it, so an interrupted run leaves no
   partial file under the final name.
 """
@@ -22,13 +24,29 @@ import xarray as xr
 
 from . import __version__
 
-__all__ = ["PAPER_REFERENCE", "provenance", "global_attributes", "flag_variable", "check_labelled", "write_dataset"]
+__all__ = [
+    "PAPER_AUTHORS",
+    "PAPER_REFERENCE",
+    "PAPER_TITLE",
+    "METADATA_ATTRIBUTES",
+    "provenance",
+    "global_attributes",
+    "dataset_id",
+    "flag_variable",
+    "check_labelled",
+    "write_dataset",
+]
 
-PAPER_REFERENCE = (
-    "E. H. Moussi, S. Bellizzi, B. Cochelin, I. Nistor, Nonlinear normal modes of a two degree of "
-    "freedom oscillator with a bilateral elastic stop"
-)
+PAPER_TITLE = "Nonlinear normal modes of a two degree of freedom oscillator with a bilateral elastic stop"
+PAPER_AUTHORS = (("E. H.", "Moussi"), ("S.", "Bellizzi"), ("B.", "Cochelin"), ("I.", "Nistor"))  # (given, family)
+PAPER_REFERENCE = ", ".join(f"{given} {family}" for given, family in PAPER_AUTHORS) + ", " + PAPER_TITLE
 _REPO_ROOT = Path(__file__).resolve().parents[2]
+# Keys of the configuration's ``metadata`` section copied verbatim into every dataset's global attributes.
+METADATA_ATTRIBUTES = (
+    "institution", "project", "naming_authority", "processing_level", "comment", "acknowledgment", "license",
+    "creator_name", "creator_type", "creator_email", "creator_url", "creator_institution",
+    "publisher_name", "publisher_type", "publisher_email", "publisher_url", "publisher_institution",
+)
 
 
 def _git(*args: str) -> str | None:
@@ -53,10 +71,21 @@ def provenance() -> dict:
     return {"commit": commit, "date_created": date}
 
 
-def global_attributes(title: str, summary: str, keywords: str = "") -> dict:
-    """The CF/ACDD global attributes shared by every dataset of the pipeline."""
+def global_attributes(title: str, summary: str, keywords: str = "", metadata: dict | None = None) -> dict:
+    """The CF/ACDD global attributes shared by every dataset of the pipeline.
+
+    Parameters
+    ----------
+    title, summary, keywords
+        What the dataset holds (ACDD ``title``, ``summary``; ``keywords`` is appended to the
+        pipeline's own keywords).
+    metadata
+        The configuration's ``metadata`` section (institution, project, creator and publisher,
+        naming authority, ...); its keys listed in :data:`METADATA_ATTRIBUTES` are copied as they are.
+        Without it only the attributes that describe the computation are written.
+    """
     prov = provenance()
-    return {
+    attrs = {
         "Conventions": "CF-1.10, ACDD-1.3",
         "title": title,
         "summary": summary,
@@ -65,10 +94,39 @@ def global_attributes(title: str, summary: str, keywords: str = "") -> dict:
         ),
         "date_created": prov["date_created"],
         "source": f"nnmstop {__version__} (git commit {prov['commit']})",
+        # No date, host or path: a rebuild of the same commit must give the same bytes.
+        "history": f"computed and written by nnmstop {__version__} (git commit {prov['commit']}), nnmstop.datasets.write_dataset",
         "references": PAPER_REFERENCE,
-        "creator_name": "nnmstop developers",
-        "license": "MIT",
+        # No variable has a CF standard name (CF defines none for these quantities); the
+        # attribute names the table such names would come from, as ACDD asks: the version the
+        # pinned compliance-checker ships, so checking needs no download.
+        "standard_name_vocabulary": "CF Standard Name Table v93",
     }
+    attrs.update({key: (metadata or {})[key] for key in METADATA_ATTRIBUTES if key in (metadata or {})})
+    return attrs
+
+
+def dataset_id(path: str | Path) -> str:
+    """ACDD ``id`` of the dataset written to ``path``: its place under ``results/`` without suffix.
+
+    ``results/hbm/nnm2.nc`` gives ``hbm/nnm2``; a file outside a ``results`` folder gives its
+    stem. The id never holds the absolute path, so it is the same on every machine.
+    """
+    parts = Path(path).with_suffix("").parts
+    if "results" in parts:
+        last = len(parts) - 1 - parts[::-1].index("results")
+        return "/".join(parts[last + 1:])
+    return parts[-1]
+
+
+def _coverage_content_type(var: xr.DataArray, coordinate: bool) -> str:
+    # ACDD 1.3 vocabulary: coordinates are "coordinate", flags "qualityInformation" and every
+    # other variable holds computed results, "modelResult".
+    if coordinate:
+        return "coordinate"
+    if "flag_values" in var.attrs or "flag_meanings" in var.attrs:
+        return "qualityInformation"
+    return "modelResult"
 
 
 def flag_variable(dims, values, long_name: str, meanings: str, **extra) -> tuple:
@@ -91,10 +149,16 @@ def check_labelled(ds: xr.Dataset) -> None:
             raise ValueError(f"variable {name!r} holds NaN or infinite values; refusing to write the dataset")
 
 
-def write_dataset(ds: xr.Dataset, path: str | Path, title: str, summary: str, keywords: str = "") -> Path:
+def write_dataset(
+    ds: xr.Dataset, path: str | Path, title: str, summary: str, keywords: str = "", metadata: dict | None = None
+) -> Path:
     """Validate ``ds``, add the global attributes and write it atomically to ``path``.
 
-    Existing global attributes of ``ds`` (model parameters, settings) are kept.
+    Existing global attributes of ``ds`` (model parameters, settings) are kept, except those this
+    function writes (title, summary, id, history, ...: they may come from an input file), and so is a
+    ``coverage_content_type`` a variable already carries; the others get one (``coordinate``,
+    ``qualityInformation`` for flags, ``modelResult``). ``metadata`` is the configuration's
+    ``metadata`` section (see :func:`global_attributes`).
     """
     check_labelled(ds)
     path = Path(path)
@@ -103,7 +167,13 @@ def write_dataset(ds: xr.Dataset, path: str | Path, title: str, summary: str, ke
     # Zero-length dimensions read back from NetCDF-4 are marked unlimited in the encoding, as
     # a set: written unlimited, their order in the file would follow string hashing.
     out.encoding = {k: v for k, v in out.encoding.items() if k != "unlimited_dims"}
-    out.attrs = {**global_attributes(title, summary, keywords), **ds.attrs}
+    # The attributes written here describe this file; those of the same name that ``ds`` carries over
+    # from an input it was read from (a stage's title, id) are replaced. The rest (physics, settings) stay.
+    described = {**global_attributes(title, summary, keywords, metadata), "id": dataset_id(path)}
+    out.attrs = {**described, **{key: value for key, value in ds.attrs.items() if key not in described}}
+    for name in out.variables:
+        var = out[name]
+        var.attrs.setdefault("coverage_content_type", _coverage_content_type(var, name in out.coords))
     encoding = {name: {"zlib": False} for name in out.data_vars}
     tmp = path.with_name(path.name + ".tmp")
     out.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)

@@ -867,6 +867,7 @@ def build_two_impact_dataset(config: dict, output_path: str | Path) -> Path:
     path = write_dataset(
         ds, output_path, title="NNM1 of the non-smooth system: two impacts per period (exact)",
         summary=summary, keywords="exact solution, piecewise linear",
+        metadata=config.get("metadata"),
     )
     logger.info("wrote %s (%d orbits)", path, len(family))
     return path

@@ -1146,7 +1146,7 @@ _LONG_NAMES = {
         "total energy of the non-smooth (piecewise-linear) model: kinetic + spring potential + stop potential "
         "alpha/2 (|x|-1)^2, conserved along the orbit"
     ),
-    "frequency": "frequency 1/T of the periodic orbit",
+    "frequency": "frequency 1/T of the periodic orbit, in Hz of the nondimensional time",
     "period": "period T = 4 T1 (T1: quarter period, from the origin to the turning point)",
     "x_max": "maximum of x over the period (x_max - 1 is the penetration into the stop)",
     "u_at_x_max": "u at the time of the maximum of x",
@@ -1257,7 +1257,8 @@ def branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelParamet
             summaries.append(text)
     n = len(seq_col)
     data = {name: _var(cols[name], long_name) for name, long_name in _LONG_NAMES.items()}
-    data["frequency"][2]["units"] = "Hz (nondimensional time)"
+    # "Hz" of the nondimensional time (the long name says so): a unit UDUNITS knows, as CF asks.
+    data["frequency"][2]["units"] = "Hz"
     data["impacts_per_period"] = _var(
         impacts, "number of excursions of x beyond the stops (|x| > 1) per period", dtype=np.int32
     )
@@ -1366,6 +1367,7 @@ def build_multi_impact_dataset(config: dict, two_impact_path: str | Path, output
     path = write_dataset(
         ds, output_path, title="NNM1 of the non-smooth system: all impact regimes (exact)",
         summary=summary, keywords="exact solution, piecewise linear, grazing bifurcation",
+        metadata=config.get("metadata"),
     )
     logger.info("wrote %s (%d orbits, %d segments)", path, ds.sizes["point"], ds.attrs["segments"])
     return path

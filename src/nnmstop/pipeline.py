@@ -64,6 +64,7 @@ def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
             f"{branch.upper()}, stage {stage} ({name}), computed by harmonic balance with "
             f"{ds.attrs['harmonics']} harmonics and the asymptotic numerical method."
         ),
+        metadata=config.get("metadata"),
     )
 
 
@@ -85,6 +86,7 @@ def hbm_bifurcated(config, inputs, outputs, bifurcation: str):
             f"switching and continued both ways by harmonic balance with {ds.attrs['harmonics']} harmonics "
             f"and the asymptotic numerical method."
         ),
+        metadata=config.get("metadata"),
     )
 
 
@@ -106,6 +108,7 @@ def hbm_branch(config, inputs, outputs, branch: str):
             f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
             f"{branch.upper()}, from its linear mode to the end of the last continuation stage."
         ),
+        metadata=config.get("metadata"),
     )
 
 
@@ -155,6 +158,20 @@ def dataset_manifest(config, inputs, outputs):
     out = Path(outputs["manifest"])
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("".join(lines))
+
+
+def bundle(config, inputs, outputs):
+    """The result bundle (``nnmstop.bundle.build_bundle``): datasets, figures, manifest, lock, workflow."""
+    from .bundle import build_bundle
+
+    def as_list(value):
+        return [value] if isinstance(value, str) else list(value)
+
+    build_bundle(
+        config, datasets=as_list(inputs["datasets"]), figures=as_list(inputs["figures"]), manifest=inputs["manifest"],
+        environment_lock=inputs["environment_lock"], workflow_files=as_list(inputs["workflow_files"]),
+        output=outputs["bundle"],
+    )
 
 
 # one task per paper figure, named as the rules call them: paper_fig02 ... paper_fig11
@@ -251,7 +268,7 @@ STUDY_TASKS = (
 
 TASKS = {
     **{f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_bifurcated, hbm_branch, compare_nnm1,
-                               compare_regimes, regime_error_figure, dataset_manifest, *STUDY_TASKS)},
+                               compare_regimes, regime_error_figure, dataset_manifest, bundle, *STUDY_TASKS)},
     **PAPER_FIGURE_TASKS,
 }
 

@@ -313,6 +313,7 @@ def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Pat
             "with the compared orbits (dimension point)."
         ),
         keywords="regularization error, exact solution, impact regimes",
+        metadata=config.get("metadata"),
     )
     if "table" in outputs:
         _write_table(regime_table(ds), outputs["table"])

@@ -270,6 +270,7 @@ def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, or
         ds, output_path, title="Study case: regularized NNM1 stage 1 against the exact orbits, timed",
         summary="One setting of the error-against-run-time study (measurement; not part of the paper's figures).",
         keywords="study, run time",
+        metadata=config.get("metadata"),
     )
 
 
@@ -345,6 +346,7 @@ def build_reference(config: dict, inputs: dict, output_path, eta) -> Path:
         ds, output_path, title="Study reference: regularized NNM1 orbits with many harmonics at the study energies",
         summary="Large-H reference of the error-against-run-time study (measurement; not part of the paper's figures).",
         keywords="study, reference",
+        metadata=config.get("metadata"),
     )
 
 
@@ -392,6 +394,7 @@ def build_exact_cost(config: dict, inputs: dict, output_path) -> Path:
     return write_dataset(
         exact_cost_dataset(config), output_path, title="Study: cost of the exact two-impact solver",
         summary="Run time per orbit of the closed-form exact solver (measurement).", keywords="study, run time",
+        metadata=config.get("metadata"),
     )
 
 
@@ -613,4 +616,5 @@ def build_error_vs_runtime(config: dict, inputs: dict, output_path) -> Path:
             "byte-identical reruns; not used by the paper's figures."
         ),
         keywords="study, accuracy, run time, regularization, truncation",
+        metadata=config.get("metadata"),
     )

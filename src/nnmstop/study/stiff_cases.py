@@ -234,6 +234,7 @@ def build_stiff_exact(config: dict, inputs: dict, output_path, alpha, beta, delt
         ds, output_path, title="Study (stiff cases): exact two-impact NNM1 family with exactness checks",
         summary="Exact family, residuals, periodicity by event-located integration (measurement of the study).",
         keywords="study, stiff cases",
+        metadata=config.get("metadata"),
     )
 
 
@@ -336,6 +337,7 @@ def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, del
         out, output_path, title="Study (stiff cases): regularized NNM1 stage 1, harmonics needed and error",
         summary="Harmonics ladder of a guarded continuation against the exact family (measurement of the study).",
         keywords="study, stiff cases",
+        metadata=config.get("metadata"),
     )
 
 
@@ -500,6 +502,7 @@ def build_stiff_energy(config: dict, inputs: dict, output_path, alpha) -> Path:
         title="Study (stiff cases): exact solver and HBM at energies from 1e-6 to 1e6",
         summary="Exact orbits and their periodicity by integration, and HBM orbits, at extreme energies (study).",
         keywords="study, stiff cases",
+        metadata=config.get("metadata"),
     )
 
 
@@ -633,4 +636,5 @@ def build_stiff_cases(config: dict, inputs: dict, output_path) -> Path:
             "harmonics and steps the continuation needs (or why it cannot), and its distance to the exact orbits."
         ),
         keywords="study, stiff cases, robustness",
+        metadata=config.get("metadata"),
     )

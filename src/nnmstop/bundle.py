@@ -1,0 +1,254 @@
+"""A result bundle to share and cite: one deterministic zip archive with an RO-Crate.
+
+:func:`build_bundle` packs the datasets and figures of a run with what is needed to
+trust and reuse them (SHA-256 manifest, the configuration used, ``environment.lock``,
+the workflow, a ``CITATION.cff``) and describes them in ``ro-crate-metadata.json``
+(RO-Crate 1.1, Workflow Run Crate profile) written with the ``rocrate`` library.
+:func:`verify_bundle` opens an archive with ``rocrate`` and checks every listed file
+against its recorded size and SHA-256.
+
+The archive is byte-reproducible: entries sorted, fixed timestamps and permissions, and
+no wall-clock date anywhere (``datePublished`` and ``date-released`` are the commit date
+that :func:`nnmstop.datasets.provenance` gives the datasets).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import tempfile
+import zipfile
+from pathlib import Path
+
+import yaml
+
+from . import __version__
+from .datasets import PAPER_AUTHORS, PAPER_TITLE, provenance
+
+__all__ = ["ENCODING_FORMATS", "build_bundle", "citation", "verify_bundle"]
+
+# Media types of the bundled files, by suffix (IANA where one exists).
+ENCODING_FORMATS = {
+    ".nc": "application/x-netcdf",
+    ".pdf": "application/pdf",
+    ".png": "image/png",
+    ".sha256": "text/plain",
+    ".lock": "text/plain",
+    ".yaml": "application/yaml",
+    ".cff": "application/yaml",
+    ".smk": "text/x-python",
+    "": "text/x-python",  # Snakefile
+}
+_PROFILES = {
+    "https://w3id.org/ro/wfrun/process/0.5": "Process Run Crate",
+    "https://w3id.org/ro/wfrun/workflow/0.5": "Workflow Run Crate",
+    "https://w3id.org/workflowhub/workflow-ro-crate/1.0": "Workflow RO-Crate",
+}
+# Zip entries get this timestamp (the earliest a zip can hold) and these permissions.
+_ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+_ZIP_MODE = 0o644 << 16
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _file_properties(path: Path, name: str) -> dict:
+    suffix = path.suffix if path.name != "Snakefile" else ""
+    if suffix not in ENCODING_FORMATS:
+        raise ValueError(f"no encoding format known for {path.name!r}; known suffixes: {sorted(ENCODING_FORMATS)}")
+    return {
+        "name": name,
+        "encodingFormat": ENCODING_FORMATS[suffix],
+        "contentSize": str(path.stat().st_size),
+        "sha256": _sha256(path),
+    }
+
+
+def citation(metadata: dict, date_released: str) -> dict:
+    """The ``CITATION.cff`` (Citation File Format 1.2.0) of a bundle, as a dict.
+
+    Parameters
+    ----------
+    metadata
+        The configuration's ``metadata`` section (creator, license, project).
+    date_released
+        ``YYYY-MM-DD``; the commit date of the code, not the day the bundle was made.
+    """
+    author = {"name": metadata["creator_name"], "email": metadata["creator_email"], "website": metadata["creator_url"]}
+    return {
+        "cff-version": "1.2.0",
+        "message": "If you use these results, please cite them as below, and cite the paper they reproduce.",
+        "type": "dataset",
+        "title": f"{metadata['project']}: datasets and figures (nnmstop {__version__})",
+        "authors": [author],
+        "version": __version__,
+        "date-released": date_released,
+        "license": metadata["license"],
+        "url": metadata["creator_url"],
+        "keywords": ["nonlinear normal modes", "vibro-impact", "elastic stop", "harmonic balance", "RO-Crate"],
+        "references": [
+            {
+                "type": "article",
+                "title": PAPER_TITLE,
+                "authors": [{"family-names": family, "given-names": given} for given, family in PAPER_AUTHORS],
+            }
+        ],
+    }
+
+
+def build_bundle(
+    config: dict,
+    datasets: list,
+    figures: list,
+    manifest,
+    environment_lock,
+    workflow_files: list,
+    output,
+    root=".",
+) -> Path:
+    """Write the result bundle ``output`` (a zip archive) and return its path.
+
+    Parameters
+    ----------
+    config
+        The validated configuration of the run; written as ``config/config.yaml`` and used
+        for the crate's and the citation's metadata (section ``metadata``).
+    datasets, figures
+        Paths of the run's datasets (``*.nc``) and figures, relative to ``root``; each keeps
+        that relative path in the archive and is a ``result`` of the run's ``CreateAction``.
+    manifest
+        ``results/MANIFEST.sha256`` (relative to ``root``).
+    environment_lock
+        The ``environment.lock`` the run was made with (stored as ``environment.lock``).
+    workflow_files
+        The main ``Snakefile`` first (the crate's ``ComputationalWorkflow``), then the rule
+        files it includes (stored under ``workflow/rules/``).
+    output
+        The archive to write, e.g. ``dist/nnmstop-results.zip``.
+    root
+        Folder the relative paths of ``datasets``, ``figures`` and ``manifest`` start from.
+
+    Raises
+    ------
+    ValueError
+        If ``config`` has no ``metadata`` section, a listed file is missing, or a path
+        appears twice.
+    """
+    from rocrate.model.contextentity import ContextEntity
+    from rocrate.rocrate import ROCrate
+
+    if "metadata" not in config:
+        raise ValueError("the configuration has no 'metadata' section; the bundle's creator and license come from it")
+    metadata = config["metadata"]
+    root = Path(root)
+    relative = [Path(p) for p in (*datasets, *figures, manifest)]
+    for path in relative:
+        if path.is_absolute():
+            raise ValueError(f"{path} must be relative to root {root}: it keeps that path in the archive")
+        if not (root / path).is_file():
+            raise ValueError(f"bundle input {path} does not exist under {root}")
+    if len(set(relative)) != len(relative):
+        raise ValueError("a dataset or figure is listed twice")
+    date_created = provenance()["date_created"]
+    output = Path(output)
+    output.parent.mkdir(parents=True, exist_ok=True)
+
+    with tempfile.TemporaryDirectory(prefix="nnmstop-bundle-") as tmp:
+        generated = Path(tmp) / "generated"
+        generated.mkdir()
+        config_copy = generated / "config.yaml"
+        config_copy.write_text(yaml.safe_dump(config, sort_keys=False, allow_unicode=True))
+        citation_file = generated / "CITATION.cff"
+        citation_file.write_text(yaml.safe_dump(citation(metadata, date_created[:10]), sort_keys=False, allow_unicode=True))
+
+        crate = ROCrate(version="1.1")
+        crate.name = f"{metadata['project']}: result bundle"
+        crate.description = (
+            "Datasets (NetCDF, CF-1.10 / ACDD-1.3) and figures of one run of the nnmstop pipeline, with the "
+            "configuration, the locked environment and the Snakemake workflow that produced them."
+        )
+        crate.license = metadata["license"]
+        crate.root_dataset["datePublished"] = date_created
+        crate.root_dataset["version"] = __version__
+        crate.root_dataset["conformsTo"] = [
+            crate.add(ContextEntity(crate, url, properties={"@type": "CreativeWork", "name": name, "version": url.rsplit("/", 1)[1]}))
+            for url, name in _PROFILES.items()
+        ]
+        creator = crate.add(ContextEntity(crate, metadata["creator_url"], properties={
+            "@type": "Organization" if metadata["creator_type"] != "person" else "Person",
+            "name": metadata["creator_name"], "email": metadata["creator_email"]}))
+        crate.creator = creator
+        crate.publisher = crate.add(ContextEntity(crate, metadata["publisher_url"], properties={
+            "@type": "Organization" if metadata["publisher_type"] != "person" else "Person",
+            "name": metadata["publisher_name"], "email": metadata["publisher_email"]}))
+
+        main_workflow, *rule_files = (Path(p) for p in workflow_files)
+        workflow = crate.add_workflow(
+            main_workflow, "Snakefile", main=True, lang="snakemake",
+            properties=_file_properties(main_workflow, "Snakemake workflow of the nnmstop pipeline"),
+        )
+        for rule_file in sorted(rule_files):
+            crate.add_file(rule_file, f"workflow/rules/{rule_file.name}",
+                           properties=_file_properties(rule_file, f"Snakemake rules {rule_file.name}"))
+        configuration = crate.add_file(config_copy, "config/config.yaml",
+                                       properties=_file_properties(config_copy, "configuration of the run (validated)"))
+        results = [
+            crate.add_file(root / path, path.as_posix(), properties=_file_properties(root / path, path.name))
+            for path in sorted(Path(p) for p in (*datasets, *figures))
+        ]
+        crate.add_file(root / manifest, Path(manifest).as_posix(),
+                       properties=_file_properties(root / manifest, "SHA-256 manifest of the datasets"))
+        crate.add_file(Path(environment_lock), "environment.lock",
+                       properties=_file_properties(Path(environment_lock), "locked Python environment (pip-compile)"))
+        crate.add_file(citation_file, "CITATION.cff", properties=_file_properties(citation_file, "how to cite this bundle"))
+        crate.add_action(workflow, identifier="#run", object=[configuration], result=results, properties={
+            "name": f"Run of the nnmstop workflow (nnmstop {__version__}, git commit {provenance()['commit']})",
+            "actionStatus": "http://schema.org/CompletedActionStatus",
+        })
+
+        staged = Path(tmp) / "crate"
+        crate.write(staged)
+        members = sorted(p for p in staged.rglob("*") if p.is_file())
+        partial = output.with_name(output.name + ".tmp")
+        with zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=6) as archive:
+            for member in members:
+                info = zipfile.ZipInfo(member.relative_to(staged).as_posix(), date_time=_ZIP_DATE)
+                info.external_attr = _ZIP_MODE
+                info.compress_type = zipfile.ZIP_DEFLATED
+                archive.writestr(info, member.read_bytes(), compresslevel=6)
+        partial.replace(output)
+    return output
+
+
+def verify_bundle(path) -> list[str]:
+    """Open the bundle ``path`` with ``rocrate`` and check every listed file.
+
+    Returns
+    -------
+    list of str
+        One line per problem (a listed file missing from the archive, or whose size or
+        SHA-256 differs from the crate's record); empty when the bundle is intact.
+    """
+    from rocrate.rocrate import ROCrate
+
+    problems = []
+    with tempfile.TemporaryDirectory(prefix="nnmstop-verify-") as tmp:
+        with zipfile.ZipFile(path) as archive:
+            archive.extractall(tmp)
+        crate = ROCrate(tmp)
+        for entity in crate.data_entities:
+            if "File" not in entity.type:
+                continue
+            target = Path(tmp) / entity.id
+            if not target.is_file():
+                problems.append(f"{entity.id}: listed in the crate but missing from the archive")
+                continue
+            if str(target.stat().st_size) != str(entity.get("contentSize")):
+                problems.append(f"{entity.id}: {target.stat().st_size} bytes, the crate records {entity.get('contentSize')}")
+            if _sha256(target) != entity.get("sha256"):
+                problems.append(f"{entity.id}: SHA-256 differs from the crate's record")
+    return problems

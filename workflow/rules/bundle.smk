@@ -1,0 +1,31 @@
+# Result bundle to share and cite (nnmstop.bundle): one deterministic zip under dist/ with the
+# datasets, figures, manifest, configuration, environment.lock, CITATION.cff and an RO-Crate.
+#
+#   snakemake --cores 2 bundle
+
+
+localrules:
+    bundle,
+
+
+rule bundle:
+    """dist/nnmstop-results.zip, described by its ro-crate-metadata.json (Workflow Run Crate)."""
+    input:
+        datasets=PAPER_DATASETS,
+        figures=PAPER_FIGURES,
+        manifest="results/MANIFEST.sha256",
+        environment_lock=os.path.join(workflow.basedir, "environment.lock"),
+        workflow_files=[
+            os.path.join(workflow.basedir, "Snakefile"),
+            *sorted(glob.glob(os.path.join(workflow.basedir, "workflow", "rules", "*.smk"))),
+        ],
+    output:
+        bundle="dist/nnmstop-results.zip",
+    log:
+        "logs/bundle.log",
+    params:
+        task="bundle",
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
