@@ -23,6 +23,7 @@ __all__ = [
     "multipliers_from_monodromy",
     "exact_multipliers",
     "stability_variables",
+    "summarize",
 ]
 
 #: Safety factor on the round-off bound of the trace (see :func:`multipliers_from_monodromy`).
@@ -216,3 +217,42 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
             "unstable stable",
         ),
     }
+
+
+def summarize(ds) -> str:
+    """Plain-text summary of the Floquet variables of an exact branch dataset."""
+    from .stability_compare import stability_changes, verdicts
+
+    lines = [
+        f"{ds.sizes['point']} orbits, {int(ds['stable'].sum())} stable",
+        f"largest stability_tolerance {float(ds['stability_tolerance'].max()):.2e}, "
+        f"largest trivial_multiplier_distance {float(ds['trivial_multiplier_distance'].max()):.2e}, "
+        f"largest |multiplier| {float(ds['multiplier_modulus'].max()):.4g}",
+        f"smallest |stability_margin| {float(np.abs(ds['stability_margin']).min()):.2e}",
+    ]
+    seq = ds["phase_sequence"].values if "phase_sequence" in ds else np.array(["FR"] * ds.sizes["point"])
+    for c in stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds)):
+        a, b = c["before"], c["after"]
+        lines.append(
+            f"change between points {a} and {b} ({seq[a]}): energy {c['energy_before']:.6g} -> "
+            f"{c['energy_after']:.6g}, s {float(ds['trace_invariant'][a]):.6f} -> {float(ds['trace_invariant'][b]):.6f}, "
+            f"becomes {c['becomes']}"
+        )
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    """Command line: ``python -m nnmstop.exact_stability results/exact/nnm1.nc`` prints :func:`summarize`."""
+    import argparse
+
+    import xarray as xr
+
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.exact_stability", description=__doc__.splitlines()[0])
+    parser.add_argument("dataset", help="exact branch dataset, e.g. results/exact/nnm1.nc")
+    args = parser.parse_args(argv)
+    with xr.open_dataset(args.dataset) as ds:
+        print(summarize(ds.load()))
+
+
+if __name__ == "__main__":
+    main()

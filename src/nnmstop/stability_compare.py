@@ -36,6 +36,7 @@ __all__ = [
     "stability_comparison_dataset",
     "stability_table",
     "build_stability_comparison",
+    "main",
 ]
 
 logger = logging.getLogger(__name__)
@@ -312,3 +313,25 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
     logger.info("wrote %s: %d regimes, %d of %d compared orbits agree", path, ds.sizes["regime"],
                 ds.attrs["agreeing_orbits"], ds.attrs["compared_orbits"])
     return path
+
+
+def main(argv=None) -> None:
+    """Command line: ``python -m nnmstop.stability_compare EXACT.nc REGULARIZED.nc`` prints the table."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.stability_compare", description=__doc__.splitlines()[0])
+    parser.add_argument("exact", help="exact branch, e.g. results/exact/nnm1.nc")
+    parser.add_argument("regularized", help="regularized branch, e.g. results/hbm/nnm1.nc")
+    args = parser.parse_args(argv)
+    with xr.open_dataset(args.exact) as a, xr.open_dataset(args.regularized) as b:
+        ds = stability_comparison_dataset(a.load(), b.load())
+    with pd.option_context("display.width", 250, "display.max_columns", 40, "display.max_colwidth", 60):
+        table = stability_table(ds)
+        print(table.iloc[:, :12].to_string())
+        print(table.iloc[:, 12:].to_string())
+        print(ds[[v for v in ds.data_vars if v.startswith("change_")]].to_dataframe().to_string())
+    print(f"{ds.attrs['agreeing_orbits']} of {ds.attrs['compared_orbits']} compared orbits agree")
+
+
+if __name__ == "__main__":
+    main()
