@@ -152,3 +152,24 @@ def test_bad_inputs_are_rejected(paper_params):
         es.exact_multipliers(paper_params, "FX", [0.1, 0.2])
     with pytest.raises(ValueError, match="4 x 4"):
         es.multipliers_from_monodromy(np.eye(3))
+
+
+def test_two_impact_family_changes_stability_at_its_energy_extrema(paper_params):
+    """On the energy surface, a fold of the family in energy is a saddle-node of the Poincare map:
+    the non-trivial pair passes +1 there and nowhere else on this stretch of the family."""
+    family = exact.follow_family(paper_params, step=0.02, max_points=40)
+    ds = exact.family_dataset(family)
+    for name in ("stable", "multiplier_real", "multiplier_imag", "multiplier_modulus", "stability_margin",
+                 "stability_tolerance", "trivial_multiplier_distance", "trace_invariant"):
+        assert {"long_name", "units"} <= set(ds[name].attrs), name
+    energy, stable = ds["energy"].values, ds["stable"].values
+    extrema = np.flatnonzero(np.diff(np.sign(np.diff(energy)))) + 1
+    changes = np.flatnonzero(np.diff(stable)) + 1
+    assert extrema.size == 2 and changes.size == 2  # the maximum just after grazing, then the minimum
+    for k, c in zip(extrema, changes):
+        assert abs(k - c) <= 1
+    # the pair leaves the unit circle through +1 (s crosses 2), not through -1
+    s = ds["trace_invariant"].values
+    for c in changes:
+        assert s[c - 1] > 0 and s[c] > 0 and max(s[c - 1], s[c]) > 2.0
+    assert np.all(ds["stability_tolerance"].values < 1e-11)
