@@ -69,7 +69,7 @@ def _phases(params: ModelParameters) -> dict:
     return {"F": LinearPhase.free_flight(params), "R": contact, "L": contact}
 
 
-def quarter_transitions(params: ModelParameters, sequence: str, durations) -> list:
+def quarter_transitions(params: ModelParameters, sequence: str, durations, phases: dict | None = None) -> list:
     """Transition matrices ``E_k(d_k)`` of the phases of the quarter period, in time order.
 
     Parameters
@@ -79,6 +79,8 @@ def quarter_transitions(params: ModelParameters, sequence: str, durations) -> li
         Quarter-period phase sequence (``"FR"``, ``"FLFR"``...; see :mod:`nnmstop.exact_multi`).
     durations : array_like
         Duration of each phase (>= 0), same length as ``sequence``.
+    phases : dict, optional
+        The phases of ``params`` (``{"F", "R", "L"}`` -> LinearPhase) when the caller has them.
 
     Returns
     -------
@@ -91,11 +93,12 @@ def quarter_transitions(params: ModelParameters, sequence: str, durations) -> li
         raise ValueError(f"need one duration per phase of {sequence!r}, got shape {durations.shape}")
     if not np.all(np.isfinite(durations)) or np.any(durations < 0):
         raise ValueError(f"phase durations must be finite and >= 0, got {durations}")
-    phases = _phases(params)
+    phases = phases or _phases(params)
     return [phases[kind].transition(d) for kind, d in zip(sequence, durations)]
 
 
-def monodromy(params: ModelParameters, sequence: str, durations, start: str = "origin") -> np.ndarray:
+def monodromy(params: ModelParameters, sequence: str, durations, start: str = "origin",
+              phases: dict | None = None) -> np.ndarray:
     """Monodromy matrix of the symmetric orbit with this quarter-period phase sequence.
 
     With ``A = E_n ... E_1`` (quarter period, origin to turning point) and
@@ -110,7 +113,7 @@ def monodromy(params: ModelParameters, sequence: str, durations, start: str = "o
     """
     if start not in ("origin", "turning_point"):
         raise ValueError(f"start must be 'origin' or 'turning_point', got {start!r}")
-    mats = quarter_transitions(params, sequence, durations)
+    mats = quarter_transitions(params, sequence, durations, phases)
     order = mats + mats[::-1] if start == "origin" else mats[::-1] + mats
     half = np.eye(4)
     for e in order:
@@ -157,10 +160,12 @@ def multipliers_from_monodromy(m, m_similar=None) -> ExactMultipliers:
     return ExactMultipliers(lam, s, margin, tol, bool(margin >= -tol), float(trivial.max()), float(mismatch))
 
 
-def exact_multipliers(params: ModelParameters, sequence: str, durations) -> ExactMultipliers:
+def exact_multipliers(params: ModelParameters, sequence: str, durations, phases: dict | None = None) -> ExactMultipliers:
     """Monodromy (:func:`monodromy`) and multipliers (:func:`multipliers_from_monodromy`) of one orbit."""
+    phases = phases or _phases(params)
     return multipliers_from_monodromy(
-        monodromy(params, sequence, durations), monodromy(params, sequence, durations, start="turning_point")
+        monodromy(params, sequence, durations, phases=phases),
+        monodromy(params, sequence, durations, start="turning_point", phases=phases),
     )
 
 
@@ -182,7 +187,8 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
         ``stability_margin``, ``stability_tolerance``, ``trivial_multiplier_distance`` and
         the flag ``stable``, each with ``long_name`` and ``units``.
     """
-    rows = [exact_multipliers(params, seq, d) for seq, d in zip(sequences, durations)]
+    phases = _phases(params)
+    rows = [exact_multipliers(params, seq, d, phases) for seq, d in zip(sequences, durations)]
     if not rows:
         raise ValueError("no orbit to compute the multipliers of")
     lam = np.array([r.multiplier for r in rows])
