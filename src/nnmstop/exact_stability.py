@@ -113,7 +113,11 @@ def monodromy(params: ModelParameters, sequence: str, durations, start: str = "o
     """
     if start not in ("origin", "turning_point"):
         raise ValueError(f"start must be 'origin' or 'turning_point', got {start!r}")
-    mats = quarter_transitions(params, sequence, durations, phases)
+    return _monodromy_from(quarter_transitions(params, sequence, durations, phases), start)
+
+
+def _monodromy_from(mats: list, start: str) -> np.ndarray:
+    """``(B A)^2`` (``start="origin"``) or ``(A B)^2`` from the quarter-period transitions."""
     order = mats + mats[::-1] if start == "origin" else mats[::-1] + mats
     half = np.eye(4)
     for e in order:
@@ -162,11 +166,8 @@ def multipliers_from_monodromy(m, m_similar=None) -> ExactMultipliers:
 
 def exact_multipliers(params: ModelParameters, sequence: str, durations, phases: dict | None = None) -> ExactMultipliers:
     """Monodromy (:func:`monodromy`) and multipliers (:func:`multipliers_from_monodromy`) of one orbit."""
-    phases = phases or _phases(params)
-    return multipliers_from_monodromy(
-        monodromy(params, sequence, durations, phases=phases),
-        monodromy(params, sequence, durations, start="turning_point", phases=phases),
-    )
+    mats = quarter_transitions(params, sequence, durations, phases)
+    return multipliers_from_monodromy(_monodromy_from(mats, "origin"), _monodromy_from(mats, "turning_point"))
 
 
 def stability_variables(params: ModelParameters, sequences, durations) -> dict:
