@@ -130,3 +130,11 @@ def test_figure_marks_the_changes_and_refuses_nan():
     bad["energy"] = bad["energy"].where(bad["point"] != 2)
     with pytest.raises(ValueError, match="NaN"):
         stability_figure(exact, bad)
+
+
+def test_figure_zoom_windows_are_checked_and_optional():
+    exact, reg = _monotone_case(reg_threshold=7.0)
+    assert len(stability_figure(exact, reg, zoom_energy=[]).axes) == 1
+    assert len(stability_figure(exact, reg, zoom_energy=[[2.0, 5.0]]).axes) == 2
+    with pytest.raises(ValueError, match="low < high"):
+        stability_figure(exact, reg, zoom_energy=[[5.0, 2.0]])

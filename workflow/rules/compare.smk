@@ -179,7 +179,7 @@ rule stability_figure:
         "benchmarks/runs/stability_figure.tsv"
     params:
         task="stability_figure",
-        settings=lambda wildcards: repr(config.get("figures", {}).get("png_dpi")),  # rerun when it changes
+        settings=lambda wildcards: repr([config.get("figures", {}).get(k) for k in ("png_dpi", "extra_stability")]),
     conda:
         "../envs/nnmstop.yaml"
     script:

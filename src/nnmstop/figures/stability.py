@@ -23,8 +23,9 @@ from .common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_
 
 __all__ = ["stability_figure", "build_stability_figure"]
 
-#: Energy windows of the zoomed panels: the regimes around the 3:1 and the 5:1 internal
-#: resonances of NNM1 for the paper's values, where the stability changes crowd.
+#: Default energy windows of the zoomed panels (``figures.extra_stability.zoom_energy`` in the
+#: configuration): the regimes around the 3:1 and the 5:1 internal resonances of NNM1 for the
+#: paper's values, where the stability changes crowd.
 ZOOM_ENERGY = ((3.0, 70.0), (150.0, 6000.0))
 
 
@@ -37,7 +38,8 @@ def _check(name: str, ds: xr.Dataset) -> None:
             raise ValueError(f"the {name} dataset's {v!r} holds NaN or infinite values")
 
 
-def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.Dataset | None = None):
+def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.Dataset | None = None,
+                     zoom_energy=ZOOM_ENERGY):
     """The figure (not saved).
 
     Parameters
@@ -47,6 +49,8 @@ def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.
     comparison : xarray.Dataset, optional
         From :func:`nnmstop.stability_compare.stability_comparison_dataset`; its agreement
         counts go in the title.
+    zoom_energy : sequence of (low, high)
+        Energy windows of the zoomed panels, ``0 < low < high``.
 
     Returns
     -------
@@ -54,7 +58,11 @@ def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.
     """
     _check("exact", exact)
     _check("regularized", regularized)
-    fig, axes = plt.subplots(1, 1 + len(ZOOM_ENERGY), figsize=(14.0, 5.0))
+    for window in zoom_energy:
+        if len(window) != 2 or not 0 < window[0] < window[1]:
+            raise ValueError(f"a zoom window is [low, high] with 0 < low < high, got {window!r}")
+    fig, axes = plt.subplots(1, 1 + len(zoom_energy), figsize=(4.7 * (1 + len(zoom_energy)), 5.0), squeeze=False)
+    axes = axes[0]
     drawn = set()
     for ax in axes:
         frequency_energy_axes(ax)
@@ -66,7 +74,7 @@ def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.
                 ax.plot([c["energy"] for c in changes], [c["frequency"] for c in changes], marker, ms=6, mfc="none",
                         mec=color, mew=1.3, ls="none", zorder=5)
     axes[0].set_title("NNM1, whole branch", fontsize=9)
-    for ax, (lo, hi) in zip(axes[1:], ZOOM_ENERGY):
+    for ax, (lo, hi) in zip(axes[1:], zoom_energy):
         ax.set_xlim(lo, hi)
         window = np.concatenate([ds["frequency"].values[(ds["energy"].values >= lo) & (ds["energy"].values <= hi)]
                                  for ds in (exact, regularized)])
@@ -105,6 +113,9 @@ def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, 
     for key in ("exact", "nnm1", "dataset"):
         if key not in inputs:
             raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
-    dpi = int(config.get("figures", {}).get("png_dpi", 150))
-    fig = stability_figure(open_dataset(inputs["exact"]), open_dataset(inputs["nnm1"]), open_dataset(inputs["dataset"]))
+    figures = config.get("figures", {})
+    dpi = int(figures.get("png_dpi", 150))
+    zoom = figures.get("extra_stability", {}).get("zoom_energy", ZOOM_ENERGY)
+    fig = stability_figure(open_dataset(inputs["exact"]), open_dataset(inputs["nnm1"]), open_dataset(inputs["dataset"]),
+                           zoom_energy=zoom)
     return save_figure(fig, pdf_path, png_dpi=dpi)
