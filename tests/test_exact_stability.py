@@ -9,10 +9,11 @@ the growth of small perturbations integrated through the non-smooth equations.
 import numpy as np
 import pytest
 import scipy.linalg
+from scipy.integrate import solve_ivp
 
 from nnmstop import exact, exact_multi as em
 from nnmstop import exact_stability as es
-from nnmstop.model import linear_modes, mass_matrix
+from nnmstop.model import linear_modes, mass_matrix, stiffness_matrix
 from nnmstop.time_integration import integrate_nonsmooth
 
 from test_exact_multi import SEEDS, _refine
@@ -173,3 +174,32 @@ def test_two_impact_family_changes_stability_at_its_energy_extrema(paper_params)
     for c in changes:
         assert s[c - 1] > 0 and s[c] > 0 and max(s[c - 1], s[c]) > 2.0
     assert np.all(ds["stability_tolerance"].values < 1e-11)
+
+
+def _variational_monodromy(params, z0, period):
+    """Variational equation dPhi/dt = A(t) Phi integrated by DOP853 between the stop crossings that the
+    event-located integrator finds along the orbit; Phi is carried unchanged across each crossing."""
+    traj = integrate_nonsmooth(params, z0, [0.0, period], rtol=1e-13, atol=1e-14)
+    edges = np.concatenate([[0.0], traj.switch_times[traj.switch_times < period], [period]])
+    mids = 0.5 * (edges[1:] + edges[:-1])
+    x_mid = integrate_nonsmooth(params, z0, np.concatenate([[0.0], mids]), rtol=1e-13, atol=1e-14).states[1:, 0]
+    minv = np.linalg.inv(mass_matrix(params))
+    phi = np.eye(4)
+    for (a, b), x in zip(zip(edges[:-1], edges[1:]), x_mid):
+        k = stiffness_matrix(params, params.alpha if abs(x) > 1.0 else 0.0)
+        a_r = np.block([[np.zeros((2, 2)), np.eye(2)], [-minv @ k, np.zeros((2, 2))]])
+        sol = solve_ivp(lambda _t, y: (a_r @ y.reshape(4, 4)).ravel(), (a, b), phi.ravel(), method="DOP853",
+                        rtol=1e-13, atol=1e-14)
+        phi = sol.y[:, -1].reshape(4, 4)
+    return phi, traj.switch_times.size
+
+
+@pytest.mark.parametrize("seq", ["FLF", "FRFR"])
+def test_multipliers_match_the_variational_equation_through_the_event_located_integrator(paper_params, orbits, seq):
+    problem, y = orbits[seq]
+    z0 = problem.switch_states(y)[0]
+    period = 4.0 * problem.quarter(y)
+    m_var, crossings = _variational_monodromy(paper_params, z0, period)
+    assert crossings == 2 * problem.impacts_per_period  # every excursion beyond a stop enters and leaves once
+    r = es.exact_multipliers(paper_params, seq, y[2:])
+    assert abs(np.trace(m_var) - 2.0 - r.trace_invariant) < 1e-8 * max(1.0, np.linalg.norm(m_var))

@@ -237,6 +237,11 @@ def summarize(ds) -> str:
         f"largest |multiplier| {float(ds['multiplier_modulus'].max()):.4g}",
         f"smallest |stability_margin| {float(np.abs(ds['stability_margin']).min()):.2e}",
     ]
+    band = np.abs(ds["stability_margin"].values) <= ds["stability_tolerance"].values
+    if band.any():
+        e = ds["energy"].values[band]
+        lines.append(f"{int(band.sum())} orbits with |stability_margin| <= stability_tolerance (verdict by convention), "
+                     f"energy {e.min():.6g} to {e.max():.6g}")
     seq = ds["phase_sequence"].values if "phase_sequence" in ds else np.array(["FR"] * ds.sizes["point"])
     for c in stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds)):
         a, b = c["before"], c["after"]
