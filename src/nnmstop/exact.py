@@ -782,6 +782,9 @@ def family_dataset(family: TwoImpactFamily) -> xr.Dataset:
     x_max = [a.x_max for a in family.assessments]
     u_at = [a.u_at_x_max for a in family.assessments]
     margin = [a.min_margin for a in family.assessments]
+    from .exact_stability import stability_variables  # it builds on LinearPhase of this module
+
+    floquet = stability_variables(family.params, ["FR"] * n, np.column_stack([y[:, 2], y[:, 3] - y[:, 2]]))
     ds = xr.Dataset(
         {
             "energy": var(
@@ -812,6 +815,7 @@ def family_dataset(family: TwoImpactFamily) -> xr.Dataset:
                 "(> 0 inside the family, about 0 at its ends)",
                 one,
             ),
+            **floquet,
         },
         coords={
             "point": ("point", np.arange(n), {"long_name": "index of the orbit along the family", "units": one}),

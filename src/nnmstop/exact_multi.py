@@ -122,6 +122,7 @@ import xarray as xr
 
 from .datasets import write_dataset
 from .exact import LinearPhase, MarginChecks, OrbitTimeHistory, interior_extrema, symmetric_time_history
+from .exact_stability import stability_variables
 from .model import ModelParameters, mass_matrix, stiffness_matrix, total_energy
 
 __all__ = [
@@ -1188,6 +1189,7 @@ def branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelParamet
     contact = two_impacts["contact_time"].values
     cols = {name: list(two_impacts[name].values) for name in _LONG_NAMES}
     seq_col = ["FR"] * n0
+    durations = [y[2:] for y in y_two]
     segment_col = [0] * n0
     impacts = [2 if c > 0 else 0 for c in contact]
     grazing = [0] * n0
@@ -1239,6 +1241,7 @@ def branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelParamet
             cols["residual"].append(seg.residual[j])
             cols["validity_margin"].append(check.min_margin)
             seq_col.append(seg.sequence)
+            durations.append(y[2:])
             segment_col.append(index)
             impacts.append(problem.impacts_per_period)
             grazing.append(int(seg.grazing[j]))
@@ -1274,6 +1277,7 @@ def branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelParamet
             "units": "1",
         },
     )
+    data.update(stability_variables(params, seq_col, durations))
     data["n_phases"] = _var([len(s) for s in seq_col], "number of linear phases in the quarter period", dtype=np.int32)
     data["segment"] = _var(
         segment_col, "index of the phase-sequence segment (0: the two-impact family)", dtype=np.int32

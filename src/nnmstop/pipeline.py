@@ -133,6 +133,20 @@ def regime_error_figure(config, inputs, outputs):
     build_regime_error_figure(config, inputs["dataset"], outputs["pdf"])
 
 
+def compare_stability(config, inputs, outputs):
+    """Exact vs regularized Floquet verdicts of NNM1 per impact regime (inputs ``exact``, ``nnm1``)."""
+    from .stability_compare import build_stability_comparison
+
+    build_stability_comparison(config, inputs, outputs)
+
+
+def stability_figure(config, inputs, outputs):
+    """paper_figures/extra_stability.pdf/.png (inputs ``exact``, ``nnm1``, ``dataset``)."""
+    from .figures.stability import build_stability_figure
+
+    build_stability_figure(config, inputs, outputs["pdf"])
+
+
 def paper_figure(name: str, config, inputs, outputs):
     """Draw paper figure ``name`` (``fig02`` ... ``fig11``) from its rule's datasets.
 
@@ -268,7 +282,8 @@ STUDY_TASKS = (
 
 TASKS = {
     **{f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_bifurcated, hbm_branch, compare_nnm1,
-                               compare_regimes, regime_error_figure, dataset_manifest, bundle, *STUDY_TASKS)},
+                               compare_regimes, regime_error_figure, compare_stability, stability_figure,
+                               dataset_manifest, bundle, *STUDY_TASKS)},
     **PAPER_FIGURE_TASKS,
 }
 

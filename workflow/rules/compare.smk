@@ -136,3 +136,51 @@ rule regime_error_figure:
         "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
+
+
+# Issue 13, part 3: Floquet stability of the exact NNM1 against the regularized one, per
+# impact regime (nnmstop.stability_compare), and its figure (nnmstop.figures.stability).
+# The regularized verdict is the `stable` flag of results/hbm/nnm1.nc, whatever method set it.
+
+
+rule compare_stability:
+    """Agreement of the exact and regularized stability verdicts per impact regime: dataset and CSV table."""
+    input:
+        exact="results/exact/nnm1.nc",
+        nnm1="results/hbm/nnm1.nc",
+    output:
+        dataset="results/compare/nnm1_stability.nc",
+        table="results/compare/nnm1_stability.csv",
+    log:
+        "logs/compare/nnm1_stability.log",
+    benchmark:
+        "benchmarks/runs/compare_stability.tsv"
+    params:
+        task="compare_stability",
+        settings=lambda wildcards: repr(config["model"]),  # checked against the inputs
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule stability_figure:
+    """Extra figure: FEP of NNM1, exact (red) and regularized (blue), stable solid, unstable dashed, changes marked."""
+    input:
+        exact="results/exact/nnm1.nc",
+        nnm1="results/hbm/nnm1.nc",
+        dataset="results/compare/nnm1_stability.nc",
+    output:
+        pdf="paper_figures/extra_stability.pdf",
+        png="paper_figures/extra_stability.png",
+    log:
+        "logs/figures/extra_stability.log",
+    benchmark:
+        "benchmarks/runs/stability_figure.tsv"
+    params:
+        task="stability_figure",
+        settings=lambda wildcards: repr([config.get("figures", {}).get(k) for k in ("png_dpi", "extra_stability")]),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"

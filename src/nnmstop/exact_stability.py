@@ -1,0 +1,270 @@
+"""Floquet multipliers of the exact (non-smooth) NNM1 orbits, from their linear phases.
+
+The monodromy matrix of an exact orbit is the ordered product of the transition matrices
+of its linear phases (the stop force is continuous, so every saltation matrix is the
+identity); the non-trivial multiplier pair follows from its trace. The derivation, the
+verdict and its tolerance are in ``docs/methods/exact_stability.md``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .datasets import flag_variable
+from .exact import LinearPhase
+from .model import ModelParameters
+
+__all__ = [
+    "ExactMultipliers",
+    "quarter_transitions",
+    "monodromy",
+    "multipliers_from_monodromy",
+    "exact_multipliers",
+    "stability_variables",
+    "summarize",
+]
+
+#: Safety factor on the round-off bound of the trace (see :func:`multipliers_from_monodromy`).
+TRACE_SAFETY = 16.0
+
+
+class ExactMultipliers(NamedTuple):
+    """Floquet multipliers of one exact orbit.
+
+    Attributes
+    ----------
+    multiplier : complex
+        The non-trivial multiplier of largest modulus (on the unit circle, the one with
+        non-negative imaginary part); the other one is its reciprocal.
+    trace_invariant : float
+        ``s = lambda + 1/lambda = tr M - 2``.
+    stability_margin : float
+        ``2 - |s|``: > 0 for an elliptic pair (on the unit circle), < 0 for a real pair off it.
+    tolerance : float
+        Round-off bound on ``s``; ``stable`` is ``stability_margin >= -tolerance``.
+    stable : bool
+    trivial_distance : float
+        Largest distance to +1 of the two eigenvalues of ``M`` nearest to +1 (the trivial
+        Jordan pair; about ``sqrt(eps |M|)`` from round-off alone).
+    invariant_mismatch : float
+        ``|s - s2|`` with ``s2`` from the second characteristic-polynomial invariant: a
+        round-off check of the structure ``{1, 1, lambda, 1/lambda}``.
+    """
+
+    multiplier: complex
+    trace_invariant: float
+    stability_margin: float
+    tolerance: float
+    stable: bool
+    trivial_distance: float
+    invariant_mismatch: float
+
+
+def _phases(params: ModelParameters) -> dict:
+    # Left and right contacts differ only in their constant force, which the transition
+    # matrix (the linear part of the affine flow) does not see.
+    contact = LinearPhase.contact(params)
+    return {"F": LinearPhase.free_flight(params), "R": contact, "L": contact}
+
+
+def quarter_transitions(params: ModelParameters, sequence: str, durations, phases: dict | None = None) -> list:
+    """Transition matrices ``E_k(d_k)`` of the phases of the quarter period, in time order.
+
+    Parameters
+    ----------
+    params : ModelParameters
+    sequence : str
+        Quarter-period phase sequence (``"FR"``, ``"FLFR"``...; see :mod:`nnmstop.exact_multi`).
+    durations : array_like
+        Duration of each phase (>= 0), same length as ``sequence``.
+    phases : dict, optional
+        The phases of ``params`` (``{"F", "R", "L"}`` -> LinearPhase) when the caller has them.
+
+    Returns
+    -------
+    list of ndarray, shape (4, 4)
+    """
+    durations = np.asarray(durations, dtype=float)
+    if not isinstance(sequence, str) or not sequence or set(sequence) - set("FRL"):
+        raise ValueError(f"sequence must be a non-empty string of F, R, L; got {sequence!r}")
+    if durations.shape != (len(sequence),):
+        raise ValueError(f"need one duration per phase of {sequence!r}, got shape {durations.shape}")
+    if not np.all(np.isfinite(durations)) or np.any(durations < 0):
+        raise ValueError(f"phase durations must be finite and >= 0, got {durations}")
+    phases = phases or _phases(params)
+    return [phases[kind].transition(d) for kind, d in zip(sequence, durations)]
+
+
+def monodromy(params: ModelParameters, sequence: str, durations, start: str = "origin",
+              phases: dict | None = None) -> np.ndarray:
+    """Monodromy matrix of the symmetric orbit with this quarter-period phase sequence.
+
+    With ``A = E_n ... E_1`` (quarter period, origin to turning point) and
+    ``B = E_1 ... E_n`` (turning point back to the origin, phases in reverse order),
+    the half period is ``B A`` and the second half repeats the same linear parts with
+    the stops swapped, so ``M = (B A)^2`` from the origin crossing at ``t = 0``, and
+    ``(A B)^2`` (similar to it) from the turning point at ``t = T1`` (``start="turning_point"``).
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
+    """
+    if start not in ("origin", "turning_point"):
+        raise ValueError(f"start must be 'origin' or 'turning_point', got {start!r}")
+    return _monodromy_from(quarter_transitions(params, sequence, durations, phases), start)
+
+
+def _monodromy_from(mats: list, start: str) -> np.ndarray:
+    """``(B A)^2`` (``start="origin"``) or ``(A B)^2`` from the quarter-period transitions."""
+    order = mats + mats[::-1] if start == "origin" else mats[::-1] + mats
+    half = np.eye(4)
+    for e in order:
+        half = e @ half
+    return half @ half
+
+
+def multipliers_from_monodromy(m, m_similar=None) -> ExactMultipliers:
+    """Non-trivial multiplier pair of a 4 x 4 symplectic monodromy with a trivial pair at +1.
+
+    For multipliers ``{1, 1, lambda, 1/lambda}`` the characteristic polynomial is
+    ``(l - 1)^2 (l^2 - s l + 1)``, so ``tr M = 2 + s`` and the sum of the principal 2 x 2
+    minors is ``2 + 2 s``; ``s = tr M - 2`` is a well-conditioned function of ``M``
+    (the eigenvalues of the Jordan block are not). The pair is elliptic when ``|s| <= 2``.
+
+    The tolerance on ``s`` is ``TRACE_SAFETY`` times the round-off measured on ``s``:
+    the spread of ``s`` between ``M`` and ``m_similar`` (the same monodromy computed from
+    another point of the orbit, equal in exact arithmetic), plus the mismatch of the two
+    invariants, plus ``4 eps ||M||_2`` (the error of one trace). ``stable`` is
+    ``|s| <= 2 + tolerance``.
+
+    Parameters
+    ----------
+    m : array_like, shape (4, 4)
+    m_similar : array_like, shape (4, 4), optional
+        A matrix similar to ``m`` in exact arithmetic.
+    """
+    m = np.asarray(m, dtype=float)
+    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        raise ValueError(f"the monodromy must be a finite 4 x 4 matrix, got shape {m.shape}")
+    eps = np.finfo(float).eps
+    s = float(np.trace(m)) - 2.0
+    minors = 0.5 * (np.trace(m) ** 2 - np.trace(m @ m))
+    mismatch = abs(s - 0.5 * (minors - 2.0))
+    spread = 0.0 if m_similar is None else abs(float(np.trace(m_similar)) - 2.0 - s)
+    tol = TRACE_SAFETY * (spread + mismatch + 4.0 * eps * float(np.linalg.norm(m, 2)))
+    margin = 2.0 - abs(s)
+    if margin >= 0:
+        lam = complex(0.5 * s, np.sqrt(max(1.0 - 0.25 * s * s, 0.0)))
+    else:  # the root of larger modulus, without cancellation
+        lam = complex(0.5 * (s + np.copysign(np.sqrt(s * s - 4.0), s)), 0.0)
+    eig = np.linalg.eigvals(m)
+    trivial = np.sort(np.abs(eig - 1.0))[:2]
+    return ExactMultipliers(lam, s, margin, tol, bool(margin >= -tol), float(trivial.max()), float(mismatch))
+
+
+def exact_multipliers(params: ModelParameters, sequence: str, durations, phases: dict | None = None) -> ExactMultipliers:
+    """Monodromy (:func:`monodromy`) and multipliers (:func:`multipliers_from_monodromy`) of one orbit."""
+    mats = quarter_transitions(params, sequence, durations, phases)
+    return multipliers_from_monodromy(_monodromy_from(mats, "origin"), _monodromy_from(mats, "turning_point"))
+
+
+def stability_variables(params: ModelParameters, sequences, durations) -> dict:
+    """Floquet variables of exact orbits, as ``{name: (dims, values, attrs)}`` along ``point``.
+
+    Parameters
+    ----------
+    params : ModelParameters
+    sequences : sequence of str
+        Quarter-period phase sequence of each orbit.
+    durations : sequence of array_like
+        Phase durations of each orbit.
+
+    Returns
+    -------
+    dict
+        ``multiplier_real``, ``multiplier_imag``, ``multiplier_modulus``, ``trace_invariant``,
+        ``stability_margin``, ``stability_tolerance``, ``trivial_multiplier_distance`` and
+        the flag ``stable``, each with ``long_name`` and ``units``.
+    """
+    phases = _phases(params)
+    rows = [exact_multipliers(params, seq, d, phases) for seq, d in zip(sequences, durations)]
+    if not rows:
+        raise ValueError("no orbit to compute the multipliers of")
+    lam = np.array([r.multiplier for r in rows])
+
+    def var(values, long_name):
+        return ("point", np.asarray(values, dtype=float), {"long_name": long_name, "units": "1"})
+
+    nontrivial = "non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials)"
+    return {
+        "multiplier_real": var(lam.real, f"real part of the {nontrivial}; the other one is its reciprocal"),
+        "multiplier_imag": var(lam.imag, f"imaginary part of the {nontrivial} (>= 0 on the unit circle)"),
+        "multiplier_modulus": var(np.abs(lam), "modulus of the largest non-trivial Floquet multiplier (1 if stable)"),
+        "trace_invariant": var(
+            [r.trace_invariant for r in rows], "s = lambda + 1/lambda = trace of the monodromy matrix - 2"
+        ),
+        "stability_margin": var(
+            [r.stability_margin for r in rows],
+            "2 - |s|: > 0 elliptic multiplier pair (on the unit circle), < 0 real pair off it",
+        ),
+        "stability_tolerance": var(
+            [r.tolerance for r in rows],
+            "tolerance on s from its measured round-off; stable means stability_margin >= -stability_tolerance",
+        ),
+        "trivial_multiplier_distance": var(
+            [r.trivial_distance for r in rows],
+            "largest distance from +1 of the trivial multiplier pair (time shift and energy, a Jordan block; "
+            "about sqrt(eps |M|) from round-off)",
+        ),
+        "stable": flag_variable(
+            "point", [r.stable for r in rows],
+            "Floquet stability of the exact orbit: non-trivial multipliers on the unit circle",
+            "unstable stable",
+        ),
+    }
+
+
+def summarize(ds) -> str:
+    """Plain-text summary of the Floquet variables of an exact branch dataset."""
+    from .stability_compare import stability_changes, verdicts
+
+    lines = [
+        f"{ds.sizes['point']} orbits, {int(ds['stable'].sum())} stable",
+        f"largest stability_tolerance {float(ds['stability_tolerance'].max()):.2e}, "
+        f"largest trivial_multiplier_distance {float(ds['trivial_multiplier_distance'].max()):.2e}, "
+        f"largest |multiplier| {float(ds['multiplier_modulus'].max()):.4g}",
+        f"smallest |stability_margin| {float(np.abs(ds['stability_margin']).min()):.2e}",
+    ]
+    band = np.abs(ds["stability_margin"].values) <= ds["stability_tolerance"].values
+    if band.any():
+        e = ds["energy"].values[band]
+        lines.append(f"{int(band.sum())} orbits with |stability_margin| <= stability_tolerance (verdict by convention), "
+                     f"energy {e.min():.6g} to {e.max():.6g}")
+    seq = ds["phase_sequence"].values if "phase_sequence" in ds else np.array(["FR"] * ds.sizes["point"])
+    for c in stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds)):
+        a, b = c["before"], c["after"]
+        lines.append(
+            f"change between points {a} and {b} ({seq[a]}): energy {c['energy_before']:.6g} -> "
+            f"{c['energy_after']:.6g}, s {float(ds['trace_invariant'][a]):.6f} -> {float(ds['trace_invariant'][b]):.6f}, "
+            f"becomes {c['becomes']}"
+        )
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    """Command line: ``python -m nnmstop.exact_stability results/exact/nnm1.nc`` prints :func:`summarize`."""
+    import argparse
+
+    import xarray as xr
+
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.exact_stability", description=__doc__.splitlines()[0])
+    parser.add_argument("dataset", help="exact branch dataset, e.g. results/exact/nnm1.nc")
+    args = parser.parse_args(argv)
+    with xr.open_dataset(args.dataset) as ds:
+        print(summarize(ds.load()))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,121 @@
+"""Extra figure: Floquet stability along NNM1, exact (red) against regularized (blue).
+
+Frequency-energy plot of both branches, solid where stable, dashed where unstable (dotted
+where the regularized dataset has no verdict), with their stability changes marked (located
+between consecutive orbits by :func:`nnmstop.stability_compare.stability_changes`). Left
+panel: the whole branch; the others zoom on the multi-impact regimes, where the changes crowd.
+The title gives the agreement counts of the comparison dataset
+(``results/compare/nnm1_stability.nc``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
+from matplotlib.lines import Line2D
+from matplotlib.ticker import NullFormatter
+
+from ..stability_compare import stability_changes, verdicts
+from .common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, plot_branch, save_figure
+
+__all__ = ["stability_figure", "build_stability_figure"]
+
+#: Default energy windows of the zoomed panels (``figures.extra_stability.zoom_energy`` in the
+#: configuration): the regimes around the 3:1 and the 5:1 internal resonances of NNM1 for the
+#: paper's values, where the stability changes crowd.
+ZOOM_ENERGY = ((3.0, 70.0), (150.0, 6000.0))
+
+
+def _check(name: str, ds: xr.Dataset) -> None:
+    missing = [v for v in ("energy", "frequency", "stable") if v not in ds]
+    if missing:
+        raise ValueError(f"the {name} dataset lacks {missing}")
+    for v in ("energy", "frequency"):
+        if not np.all(np.isfinite(ds[v].values)):
+            raise ValueError(f"the {name} dataset's {v!r} holds NaN or infinite values")
+
+
+def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.Dataset | None = None,
+                     zoom_energy=ZOOM_ENERGY):
+    """The figure (not saved).
+
+    Parameters
+    ----------
+    exact, regularized : xarray.Dataset
+        NNM1 branches with ``energy``, ``frequency`` and ``stable``.
+    comparison : xarray.Dataset, optional
+        From :func:`nnmstop.stability_compare.stability_comparison_dataset`; its agreement
+        counts go in the title.
+    zoom_energy : sequence of (low, high)
+        Energy windows of the zoomed panels, ``0 < low < high``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _check("exact", exact)
+    _check("regularized", regularized)
+    for window in zoom_energy:
+        if len(window) != 2 or not 0 < window[0] < window[1]:
+            raise ValueError(f"a zoom window is [low, high] with 0 < low < high, got {window!r}")
+    fig, axes = plt.subplots(1, 1 + len(zoom_energy), figsize=(4.7 * (1 + len(zoom_energy)), 5.0), squeeze=False)
+    axes = axes[0]
+    drawn = set()
+    for ax in axes:
+        frequency_energy_axes(ax)
+        for ds, color, marker in ((regularized, REGULARIZED_COLOR, "s"), (exact, EXACT_COLOR, "o")):
+            drawn |= plot_branch(ax, ds, color, lw=0.9 if color == EXACT_COLOR else 2.4,
+                                 zorder=4 if color == EXACT_COLOR else 3)
+            changes = stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds))
+            if changes:
+                ax.plot([c["energy"] for c in changes], [c["frequency"] for c in changes], marker, ms=6, mfc="none",
+                        mec=color, mew=1.3, ls="none", zorder=5)
+    axes[0].set_title("NNM1, whole branch", fontsize=9)
+    for ax, (lo, hi) in zip(axes[1:], zoom_energy):
+        ax.set_xlim(lo, hi)
+        window = np.concatenate([ds["frequency"].values[(ds["energy"].values >= lo) & (ds["energy"].values <= hi)]
+                                 for ds in (exact, regularized)])
+        if window.size:
+            pad = 0.05 * (window.max() - window.min())
+            ax.set_ylim(window.min() - pad, window.max() + pad)
+        ax.set_title(f"zoom: energy {lo:g} to {hi:g}", fontsize=9)
+        ax.xaxis.set_minor_formatter(NullFormatter())  # the minor labels of a short log axis collide
+    handles = [
+        Line2D([], [], color=EXACT_COLOR, lw=0.9, label="exact (non-smooth model)"),
+        Line2D([], [], color=REGULARIZED_COLOR, lw=2.4, label=f"regularized (HBM, eta = {regularized.attrs.get('eta', '?')})"),
+        Line2D([], [], color="0.3", lw=1.2, label="stable"),
+        Line2D([], [], color="0.3", lw=1.2, ls="--", label="unstable"),
+    ]
+    if "unresolved" in drawn:
+        handles.append(Line2D([], [], color="0.3", lw=1.2, ls=":", label="regularized: no verdict"))
+    handles += [
+        Line2D([], [], marker="o", mfc="none", mec=EXACT_COLOR, ls="none", label="stability change, exact"),
+        Line2D([], [], marker="s", mfc="none", mec=REGULARIZED_COLOR, ls="none", label="stability change, regularized"),
+    ]
+    axes[0].legend(handles=handles, fontsize=7, loc="lower right")
+    title = "Floquet stability of NNM1: exact vs regularized"
+    if comparison is not None:
+        title += (f" (same verdict at {comparison.attrs['agreeing_orbits']} of {comparison.attrs['compared_orbits']} "
+                  "regularized orbits compared at equal energy)")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, Path]:
+    """Draw ``paper_figures/extra_stability.pdf`` and its PNG (task of rule ``stability_figure``).
+
+    ``inputs``: ``exact`` and ``nnm1`` (branch datasets), ``dataset`` (the stability comparison).
+    """
+    for key in ("exact", "nnm1", "dataset"):
+        if key not in inputs:
+            raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
+    figures = config.get("figures", {})
+    dpi = int(figures.get("png_dpi", 150))
+    zoom = figures.get("extra_stability", {}).get("zoom_energy", ZOOM_ENERGY)
+    fig = stability_figure(open_dataset(inputs["exact"]), open_dataset(inputs["nnm1"]), open_dataset(inputs["dataset"]),
+                           zoom_energy=zoom)
+    return save_figure(fig, pdf_path, png_dpi=dpi)
