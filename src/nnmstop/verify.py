@@ -27,7 +27,7 @@ import numpy as np
 import xarray as xr
 from scipy.spatial import cKDTree
 
-__all__ = ["Row", "update_reference", "verify", "main"]
+__all__ = ["Row", "data_digest", "update_reference", "verify", "file_verdicts", "format_table", "main"]
 
 REGIMES_CSV = "compare/nnm1_regimes.csv"
 COMPARE_NC = "compare/nnm1_exact_vs_regularized.nc"
@@ -36,7 +36,9 @@ EXACT_BASE_TOLERANCE = 1e-9
 # Newton-solved orbits of the comparison dataset (residual 1e-13, nnmstop.compare): relative
 # tolerance on their frequencies at the same energy, allowing for the conditioning of the solve.
 COMPARE_TOLERANCE = 1e-9
-DENSIFY = 8  # sub-points per segment of the interpolating cubic
+DENSIFY = 16  # sub-points per segment of the interpolating cubic (first guess of the nearest point)
+PROVENANCE_ATTRIBUTES = ("source", "date_created")
+SAME_POINT = 1e-12  # points closer than this in (ln E, ln f) are one point of a curve
 
 
 @dataclass
@@ -49,11 +51,32 @@ class Row:
     build: str
     difference: float
     tolerance: float
-    verdict: str  # "identical", "within tolerance" or "discrepant"
+    verdict: str  # "identical", "identical data" (all but provenance), "within tolerance" or "discrepant"
 
 
 def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def data_digest(path: Path) -> str:
+    """SHA-256 of a file's content without its provenance.
+
+    For a NetCDF file: every variable's name, type, dimensions, attributes and values,
+    and the global attributes except ``source`` and ``date_created`` (the git commit and
+    its date, which change with every commit even when no number does). Other files:
+    their bytes.
+    """
+    if path.suffix != ".nc":
+        return _sha256(path)
+    digest = hashlib.sha256()
+    with xr.open_dataset(path, decode_cf=False) as ds:
+        attrs = {k: v for k, v in ds.attrs.items() if k not in PROVENANCE_ATTRIBUTES}
+        digest.update(repr(sorted((k, str(v)) for k, v in attrs.items())).encode())
+        for name in sorted(ds.variables):
+            variable = ds.variables[name]
+            digest.update(repr((name, str(variable.dtype), variable.dims, sorted((k, str(v)) for k, v in variable.attrs.items()))).encode())
+            digest.update(np.ascontiguousarray(variable.values).tobytes())
+    return digest.hexdigest()
 
 
 def _results_dir(path) -> Path:
@@ -135,7 +158,8 @@ def _regime_sampling(regimes: xr.Dataset) -> list[list[float]]:
 def update_reference(results_dir, reference_dir="reference") -> Path:
     """Regenerate ``reference_dir`` from the build in ``results_dir``.
 
-    Writes ``MANIFEST.sha256`` (the build's manifest plus the regime table), one curve
+    Writes ``MANIFEST.sha256`` (the build's manifest plus the regime table), ``DATA.sha256``
+    (the same files' :func:`data_digest`), one curve
     CSV per branch (energy, frequency, stage and step of every stored point),
     ``located.csv`` (branch points and folds), ``tolerances.json`` (base tolerance of
     each branch), ``compare_nnm1.csv`` and the regime table with its sampling steps.
@@ -156,7 +180,10 @@ def update_reference(results_dir, reference_dir="reference") -> Path:
     lines = manifest.read_text().splitlines()
     if (results / REGIMES_CSV).is_file():
         lines.append(f"{_sha256(results / REGIMES_CSV)}  results/{REGIMES_CSV}")
-    (reference / "MANIFEST.sha256").write_text("\n".join(sorted(lines, key=lambda l: l.split("  ")[1])) + "\n")
+    lines = sorted(lines, key=lambda line: line.split("  ")[1])
+    (reference / "MANIFEST.sha256").write_text("\n".join(lines) + "\n")
+    data = [f"{data_digest(results / line.split('  ')[1].removeprefix('results/'))}  {line.split('  ')[1]}" for line in lines]
+    (reference / "DATA.sha256").write_text("\n".join(data) + "\n")
     located, tolerances = [], {}
     for path in sorted(results.rglob("*.nc")):
         relative = path.relative_to(results).as_posix()
@@ -199,8 +226,13 @@ class Curve:
 
     def __init__(self, energy, frequency, step=None):
         points = np.column_stack([np.log(energy), np.log(frequency)])
-        # repeated points (a stage starts at its predecessor's last point) carry no information
-        keep = np.concatenate([[True], np.linalg.norm(np.diff(points, axis=0), axis=1) > 0])
+        # repeated points (a stage starts at its predecessor's last point; the exact branch
+        # stores both sides of a grazing transition) are one point of the curve
+        keep = np.ones(len(points), dtype=bool)
+        last = points[0]
+        for i in range(1, len(points)):
+            keep[i] = np.linalg.norm(points[i] - last) > SAME_POINT
+            last = points[i] if keep[i] else last
         self.points = points[keep]
         self.step = None if step is None else np.asarray(step)[keep]
         self.s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self.points, axis=0), axis=1))])
@@ -215,8 +247,10 @@ class Curve:
         nodes = np.clip(np.arange(n - 1) - 1, 0, n - 4)[:, None] + np.arange(4)
         fractions = np.arange(DENSIFY) / DENSIFY
         a = (self.s[:-1, None] + fractions * np.diff(self.s)[:, None]).ravel()
+        self.nodes = nodes
         dense = self._lagrange(np.repeat(nodes, DENSIFY, axis=0), a)
         self.dense = np.vstack([dense, self.points[-1:]])
+        self.dense_s = np.concatenate([a, self.s[-1:]])
         self.owner = np.concatenate([np.repeat(np.arange(n - 1), DENSIFY), [n - 2]])
         self.tree = cKDTree(self.dense)
 
@@ -250,25 +284,40 @@ class Curve:
 
     def distance(self, queries: np.ndarray):
         """Distance of points (ln E, ln f) to the curve; the segment and whether the nearest
-        location is an end of the curve (then the point may lie beyond it)."""
+        location is an end of the curve (then the point may lie beyond it).
+
+        The nearest sub-segment of the densified curve gives a first parameter; the
+        distance to the cubic of that segment is then minimised by a shrinking search on
+        the parameter (the densified polyline alone would add its own chord error)."""
         _, nearest = self.tree.query(queries, k=min(4, len(self.dense)))
         nearest = np.atleast_2d(nearest)
         best = np.full(len(queries), np.inf)
         at_end = np.zeros(len(queries), dtype=bool)
-        segment = np.zeros(len(queries), dtype=int)
+        parameter = np.zeros(len(queries))
         last = len(self.dense) - 1
         for column in nearest.T:
             for lo in (column - 1, column):
-                lo = np.clip(lo, 0, last - 1) if last > 0 else lo * 0
-                a, b = self.dense[lo], self.dense[np.minimum(lo + 1, last)]
+                lo = np.clip(lo, 0, last - 1)
+                a, b = self.dense[lo], self.dense[lo + 1]
                 ab = b - a
                 length2 = np.maximum((ab * ab).sum(axis=1), 1e-300)
                 t = np.clip(((queries - a) * ab).sum(axis=1) / length2, 0.0, 1.0)
                 d = np.linalg.norm(a + t[:, None] * ab - queries, axis=1)
                 better = d < best
                 best[better] = d[better]
-                segment[better] = self.owner[lo[better]]
+                parameter[better] = (self.dense_s[lo] + t * (self.dense_s[lo + 1] - self.dense_s[lo]))[better]
                 at_end[better] = ((lo[better] == 0) & (t[better] == 0)) | ((lo[better] == last - 1) & (t[better] == 1))
+        segment = np.clip(np.searchsorted(self.s, parameter, side="right") - 1, 0, len(self.s) - 2)
+        nodes = self.nodes[segment]
+        width = np.diff(self.s)[segment] / DENSIFY
+        offsets = np.linspace(-1.0, 1.0, 5)
+        for _ in range(40):
+            trial = np.clip(parameter[:, None] + width[:, None] * offsets, self.s[0], self.s[-1])
+            values = self._lagrange(np.repeat(nodes, 5, axis=0), trial.ravel()).reshape(len(queries), 5, 2)
+            d = np.linalg.norm(values - queries[:, None, :], axis=2)
+            parameter = trial[np.arange(len(queries)), np.argmin(d, axis=1)]
+            best = np.minimum(best, d.min(axis=1))
+            width /= 2
         return best, segment, at_end
 
 
@@ -382,8 +431,9 @@ def _check_regimes(reference: dict, sampling: dict, build: dict, build_sampling:
 def verify(results_dir, reference_dir="reference") -> list[Row]:
     """Compare the build in ``results_dir`` with ``reference_dir``; one :class:`Row` per check.
 
-    Every file of the reference manifest is first compared byte for byte; a file that
-    differs is checked by what it holds (curve, located points, table); a file with no
+    Every file of the reference manifest is first compared byte for byte, then without
+    its provenance attributes (:func:`data_digest`); a file that still differs is
+    checked by what it holds (curve, located points, table); a file with no
     such check, or missing, is discrepant.
 
     Raises
@@ -397,6 +447,7 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
         raise ValueError(f"no reference manifest {reference / 'MANIFEST.sha256'}: regenerate it with "
                          f"`python -m nnmstop.verify --update-reference RESULTS_DIR --reference {reference}`")
     tolerances = json.loads((reference / "tolerances.json").read_text())
+    data_digests = {line.split("  ")[1]: line.split("  ")[0] for line in (reference / "DATA.sha256").read_text().splitlines()}
     located_ref = _read_csv(reference / "located.csv") if (reference / "located.csv").stat().st_size else {}
     rows = []
     for line in (reference / "MANIFEST.sha256").read_text().splitlines():
@@ -408,6 +459,10 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
             continue
         if _sha256(path) == digest:
             rows.append(Row(listed, "file (SHA-256)", digest[:12], digest[:12], 0.0, 0.0, "identical"))
+            continue
+        if data_digest(path) == data_digests.get(listed):
+            rows.append(Row(listed, "content without provenance (SHA-256)", data_digests[listed][:12],
+                            data_digests[listed][:12], 0.0, 0.0, "identical data"))
             continue
         if relative == REGIMES_CSV:
             with xr.open_dataset(results / REGIMES_CSV.replace(".csv", ".nc")) as regimes:
@@ -443,7 +498,7 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
 
 def file_verdicts(rows: list[Row]) -> dict[str, str]:
     """One verdict per file: the worst of its rows."""
-    order = ("identical", "within tolerance", "discrepant")
+    order = ("identical", "identical data", "within tolerance", "discrepant")
     verdicts: dict[str, str] = {}
     for row in rows:
         verdicts[row.file] = max(verdicts.get(row.file, "identical"), row.verdict, key=order.index)
@@ -459,8 +514,8 @@ def format_table(rows: list[Row]) -> str:
     for r in rows:
         lines.append(f"{r.file:45s} {r.quantity:70s} {r.reference:32s} {r.build:32s} {r.difference:11.3e} {r.tolerance:10.3e}  {r.verdict}")
     verdicts = list(file_verdicts(rows).values())
-    lines.append(f"files: {verdicts.count('identical')} identical, {verdicts.count('within tolerance')} within tolerance, "
-                 f"{verdicts.count('discrepant')} discrepant")
+    lines.append(f"files: {verdicts.count('identical')} identical, {verdicts.count('identical data')} identical data "
+                 f"(other git commit), {verdicts.count('within tolerance')} within tolerance, {verdicts.count('discrepant')} discrepant")
     return "\n".join(lines)
 
 
