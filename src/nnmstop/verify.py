@@ -385,10 +385,9 @@ def _check_located(name, reference: list, build: list, ref_curve: dict, build_cu
             continue
         for j, (p, q) in enumerate(zip(ref, got)):
             tolerance = base
-            if kind == "fold":
-                spacing = [c.s[np.minimum(c.distance(x[None])[1] + 1, len(c.s) - 1)] - c.s[c.distance(x[None])[1]]
-                           for c, x in zip(curves, (p, q))]
-                tolerance += float(max(np.max(spacing[0]), np.max(spacing[1])))
+            if kind == "fold":  # length of the segment of each curve where its fold lies
+                segments = [int(c.distance(x[None])[1][0]) for c, x in zip(curves, (p, q))]
+                tolerance += max(float(c.s[k + 1] - c.s[k]) for c, k in zip(curves, segments))
             gap = float(np.linalg.norm(p - q))
             rows.append(Row(name, f"{kind} {j + 1}", _fmt(*np.exp(p)), _fmt(*np.exp(q)), gap, tolerance,
                             "within tolerance" if gap <= tolerance else "discrepant"))
