@@ -6,6 +6,7 @@ import os
 from snakemake.utils import min_version
 
 from nnmstop.config import validate_config
+from nnmstop.numerics import numerics_env
 
 min_version("9.0")
 
@@ -15,10 +16,12 @@ configfile: "config/config.yaml"
 
 validate_config(config)
 
-# Jobs run side by side (--cores N): one BLAS thread each avoids oversubscribing the
-# cores, which slows dense factorizations by an order of magnitude on a busy machine.
-for _threads_variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_threads_variable, "1")
+# Pinned numerics for every job (nnmstop.numerics.numerics_env, docs/reproducibility.md):
+# one BLAS thread (jobs run side by side; threads oversubscribe the cores) and one
+# OpenBLAS kernel family and numpy SIMD level per CPU family, overriding the user's
+# shell, so that machines of one family build byte-identical datasets. Jobs are
+# subprocesses and inherit os.environ.
+os.environ.update(numerics_env(pin_kernels=config.get("numerics", {}).get("pin_kernels", True)))
 
 
 include: "workflow/rules/common.smk"
@@ -29,6 +32,7 @@ include: "workflow/rules/compare.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/manifest.smk"
 include: "workflow/rules/study.smk"
+include: "workflow/rules/verify.smk"
 
 
 PAPER_FIGURES = [f"paper_figures/fig{n:02d}.{ext}" for n in range(2, 12) for ext in ("pdf", "png")]
