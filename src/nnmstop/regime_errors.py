@@ -259,7 +259,7 @@ def regime_table(ds: xr.Dataset) -> pd.DataFrame:
     return ds[list(REGIME_VARIABLES)].to_dataframe()
 
 
-def _write_table(table: pd.DataFrame, path) -> Path:
+def write_table(table: pd.DataFrame, path) -> Path:
     """Write ``table`` as CSV under a temporary name, then rename (no partial file)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -267,6 +267,41 @@ def _write_table(table: pd.DataFrame, path) -> Path:
     table.to_csv(tmp, float_format="%.10g", lineterminator="\n")
     os.replace(tmp, path)
     return path
+
+
+def read_exact_and_regularized(config: dict, inputs: dict) -> tuple[xr.Dataset, xr.Dataset]:
+    """Load the exact and regularized NNM1 of a comparison task and check them against the configuration.
+
+    Parameters
+    ----------
+    config : dict
+        Validated configuration; its ``model`` must match both datasets (``eta`` the regularized one).
+    inputs : dict
+        ``exact`` (``results/exact/nnm1.nc``) and ``nnm1`` (``results/hbm/nnm1.nc``).
+
+    Returns
+    -------
+    exact, regularized : xarray.Dataset
+        Both loaded into memory.
+
+    Raises
+    ------
+    ValueError
+        For a missing input, or a model parameter of a dataset that differs from the configuration.
+    """
+    for key in ("exact", "nnm1"):
+        if key not in inputs:
+            raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
+    with xr.open_dataset(inputs["exact"]) as a, xr.open_dataset(inputs["nnm1"]) as b:
+        exact, regularized = a.load(), b.load()
+    for key in ("alpha", "beta", "delta", "eta"):
+        for ds in (exact, regularized) if key != "eta" else (regularized,):
+            if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-14, atol=0):
+                raise ValueError(
+                    f"{key} = {ds.attrs[key]} in the inputs differs from the configuration ({config['model'][key]}); "
+                    "rebuild them"
+                )
+    return exact, regularized
 
 
 def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Path:
@@ -286,20 +321,10 @@ def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Pat
     Path
         The dataset.
     """
-    for key in ("exact", "nnm1"):
-        if key not in inputs:
-            raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
     if "dataset" not in outputs:
         raise ValueError(f"missing output 'dataset'; outputs are {sorted(outputs)}")
-    with xr.open_dataset(inputs["exact"]) as a, xr.open_dataset(inputs["nnm1"]) as b:
-        exact, regularized = a.load(), b.load()
+    exact, regularized = read_exact_and_regularized(config, inputs)
     ds = regime_error_dataset(exact, regularized, points=True)
-    for key in ("alpha", "beta", "delta", "eta"):
-        if not np.isclose(ds.attrs[key], float(config["model"][key]), rtol=1e-14, atol=0):
-            raise ValueError(
-                f"{key} = {ds.attrs[key]} in the inputs differs from the configuration ({config['model'][key]}); "
-                "rebuild them"
-            )
     ds.attrs["exact_source"] = str(inputs["exact"])
     ds.attrs["regularized_source"] = str(inputs["nnm1"])
     path = write_dataset(
@@ -316,7 +341,7 @@ def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Pat
         metadata=config.get("metadata"),
     )
     if "table" in outputs:
-        _write_table(regime_table(ds), outputs["table"])
+        write_table(regime_table(ds), outputs["table"])
     logger.info(
         "wrote %s: %d regimes, %d of %d regularized orbits compared", path, ds.sizes["regime"],
         ds.attrs["matched_points"], ds.attrs["regularized_points"],

@@ -25,7 +25,7 @@ import xarray as xr
 
 from .datasets import flag_variable, write_dataset
 from .exact_multi import _monotone_pieces, compare_with_regularized
-from .regime_errors import _write_table
+from .regime_errors import read_exact_and_regularized, write_table
 
 __all__ = [
     "REGIME_COLUMNS",
@@ -284,19 +284,10 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
     outputs : dict
         ``dataset`` (NetCDF) and ``table`` (CSV).
     """
-    for key in ("exact", "nnm1"):
-        if key not in inputs:
-            raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
     for key in ("dataset", "table"):
         if key not in outputs:
             raise ValueError(f"missing output {key!r}; outputs are {sorted(outputs)}")
-    with xr.open_dataset(inputs["exact"]) as a, xr.open_dataset(inputs["nnm1"]) as b:
-        exact, regularized = a.load(), b.load()
-    for key in ("alpha", "beta", "delta"):
-        for name, ds in (("exact", exact), ("regularized", regularized)):
-            if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-14, atol=0):
-                raise ValueError(f"{key} = {ds.attrs[key]} in the {name} dataset differs from the configuration "
-                                 f"({config['model'][key]}); rebuild it")
+    exact, regularized = read_exact_and_regularized(config, inputs)
     ds = stability_comparison_dataset(exact, regularized)
     ds.attrs.update({key: float(config["model"][key]) for key in ("alpha", "beta", "delta", "eta")})
     path = write_dataset(
@@ -308,8 +299,9 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
             "changes of both branches with the energy shift of the paired ones."
         ),
         keywords="Floquet stability, exact solution, impact regimes",
+        metadata=config.get("metadata"),
     )
-    _write_table(stability_table(ds), outputs["table"])
+    write_table(stability_table(ds), outputs["table"])
     logger.info("wrote %s: %d regimes, %d of %d compared orbits agree", path, ds.sizes["regime"],
                 ds.attrs["agreeing_orbits"], ds.attrs["compared_orbits"])
     return path
