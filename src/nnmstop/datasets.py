@@ -59,6 +59,11 @@ def _git(*args: str) -> str | None:
     return out.stdout.strip() or None
 
 
+#: Global attributes that name the git commit and its date: they change with every commit even
+#: when no number does (``nnmstop.verify`` leaves them out of its "identical data" digest).
+PROVENANCE_ATTRIBUTES = ("source", "history", "date_created")
+
+
 def provenance() -> dict:
     """Git commit and a deterministic creation date (ISO 8601, UTC).
 

@@ -27,6 +27,8 @@ import numpy as np
 import xarray as xr
 from scipy.spatial import cKDTree
 
+from .datasets import PROVENANCE_ATTRIBUTES
+
 __all__ = ["Row", "data_digest", "update_reference", "verify", "file_verdicts", "format_table", "main"]
 
 REGIMES_CSV = "compare/nnm1_regimes.csv"
@@ -37,7 +39,6 @@ EXACT_BASE_TOLERANCE = 1e-9
 # tolerance on their frequencies at the same energy, allowing for the conditioning of the solve.
 COMPARE_TOLERANCE = 1e-9
 DENSE_SPACING = 2e-4  # largest distance between sub-points of the densified curve (first guess of the nearest point)
-PROVENANCE_ATTRIBUTES = ("source", "date_created")
 SAME_POINT = 1e-12  # points closer than this in (ln E, ln f) are one point of a curve
 
 
@@ -62,7 +63,7 @@ def data_digest(path: Path) -> str:
     """SHA-256 of a file's content without its provenance.
 
     For a NetCDF file: every variable's name, type, dimensions, attributes and values,
-    and the global attributes except ``source`` and ``date_created`` (the git commit and
+    and the global attributes except ``datasets.PROVENANCE_ATTRIBUTES`` (the git commit and
     its date, which change with every commit even when no number does). Other files:
     their bytes.
     """
