@@ -36,7 +36,7 @@ are deterministic).
 
 The ANM runs with the default settings, which step on the Padé approximant of the
 series wherever that reaches further at the same tolerance (``ANMSettings.pade``, see
-``nnmstop.pade``); ``--taylor-row`` adds the ANM on its plain Taylor series
+``nnmstop.continuation.pade``); ``--taylor-row`` adds the ANM on its plain Taylor series
 (``pade=False``) as an extra row.
 
 The timed ANM run stores the end point of each step only (like the baseline, whose
@@ -87,11 +87,11 @@ def run_worker(spec: dict) -> dict:
     rss_imports_before = _rss_mb()
     import numpy as np
 
-    from nnmstop.anm import ANMSettings, continue_anm
-    from nnmstop.continuation import ContinuationError, ContinuationStats, newton_correct, relative_residual
-    from nnmstop.hbm import HarmonicBalanceSystem
-    from nnmstop.model import ModelParameters, linear_modes
-    from nnmstop.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
+    from nnmstop.continuation.anm import ANMSettings, continue_anm
+    from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct, relative_residual
+    from nnmstop.hbm.system import HarmonicBalanceSystem
+    from nnmstop.models.two_dof import ModelParameters, linear_modes
+    from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
 
     rss_after_imports = _rss_mb()
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
@@ -163,11 +163,11 @@ def run_operations_worker(spec: dict) -> dict:
     import numpy as np
     from scipy.linalg import lu_factor
 
-    from nnmstop.anm import ANMSettings, anm_series, continue_anm, step_length
-    from nnmstop.continuation import ContinuationStats, newton_correct
-    from nnmstop.hbm import HarmonicBalanceSystem
-    from nnmstop.model import ModelParameters
-    from nnmstop.pade import pade_pair, pade_step_length
+    from nnmstop.continuation.anm import ANMSettings, anm_series, continue_anm, step_length
+    from nnmstop.continuation.core import ContinuationStats, newton_correct
+    from nnmstop.hbm.system import HarmonicBalanceSystem
+    from nnmstop.models.two_dof import ModelParameters
+    from nnmstop.continuation.pade import pade_pair, pade_step_length
 
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
     system = HarmonicBalanceSystem(params, spec["harmonics"])

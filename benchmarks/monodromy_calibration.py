@@ -1,9 +1,9 @@
 """Calibration of the orbit-error criterion of the monodromy verdict (docs/methods/monodromy.md).
 
 For every ``--stride``-th orbit of a built branch dataset: the invariant
-``s = mu + 1/mu`` of the HBM orbit's monodromy (:func:`nnmstop.monodromy.branch_monodromy`)
+``s = mu + 1/mu`` of the HBM orbit's monodromy (:func:`nnmstop.hbm.monodromy.branch_monodromy`)
 against that of the exact periodic orbit of (7) nearby (shooting,
-:func:`nnmstop.stability.refine_orbit`, DOP853 monodromy); prints the ratio of their
+:func:`nnmstop.hbm.hill.refine_orbit`, DOP853 monodromy); prints the ratio of their
 difference to the orbit's ``time_residual`` near the type changes (``|s -+ 2| < 0.05``) and
 elsewhere, and the margins (in units of ``time_residual``) of the points whose verdicts differ.
 
@@ -20,10 +20,10 @@ import sys
 import numpy as np
 import xarray as xr
 
-from nnmstop.branches import dataset_unknowns, system_from_config
+from nnmstop.hbm.branches import dataset_unknowns, system_from_config
 from nnmstop.config import load_config
-from nnmstop.monodromy import MonodromySettings, branch_monodromy, trace_invariants
-from nnmstop.stability import monodromy, orbit_initial_state, refine_orbit
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, trace_invariants
+from nnmstop.hbm.hill import monodromy, orbit_initial_state, refine_orbit
 
 
 def main(argv=None) -> int:

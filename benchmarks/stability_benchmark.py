@@ -4,8 +4,8 @@ Reads the orbits of built branch datasets (default: ``results/hbm/nnm1.nc``,
 ``results/hbm/nnm2.nc`` and the switched branches; build them first with
 ``snakemake --cores 2 results/hbm/nnm1.nc ...``), takes every ``--stride``-th point,
 and times on the same points, alternately, Hill's method
-(:func:`nnmstop.stability.branch_stability`) and the monodromy
-(:func:`nnmstop.monodromy.branch_monodromy`, settings from ``config/config.yaml``).
+(:func:`nnmstop.hbm.hill.branch_stability`) and the monodromy
+(:func:`nnmstop.hbm.monodromy.branch_monodromy`, settings from ``config/config.yaml``).
 Also reports how many verdicts each resolves and whether they agree where both do.
 
 Usage::
@@ -25,10 +25,10 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from nnmstop.branches import dataset_unknowns, system_from_config
+from nnmstop.hbm.branches import dataset_unknowns, system_from_config
 from nnmstop.config import load_config
-from nnmstop.monodromy import MonodromySettings, branch_monodromy
-from nnmstop.stability import branch_stability
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
+from nnmstop.hbm.hill import branch_stability
 
 DEFAULT_DATASETS = ["results/hbm/nnm1.nc", "results/hbm/nnm2.nc", "results/hbm/bifurcated/nnm1_3to1.nc", "results/hbm/bifurcated/nnm1_5to1.nc"]
 

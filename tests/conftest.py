@@ -11,7 +11,7 @@ from pathlib import Path  # noqa: E402
 
 import pytest  # noqa: E402
 
-from nnmstop.model import ModelParameters  # noqa: E402
+from nnmstop.models.two_dof import ModelParameters  # noqa: E402
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 

@@ -3,15 +3,15 @@
 Tests that pick orbits "at energy E" must not depend on where a continuation happened
 to store its points: the stored points only give a starting guess, and Newton's method
 on ``S(U) = 0, E(U) = E`` (bordered by the exact energy gradient of
-:mod:`nnmstop.compare`) finds the orbit itself, whatever the step sequence.
+:mod:`nnmstop.compare.matching`) finds the orbit itself, whatever the step sequence.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from nnmstop import compare
-from nnmstop.continuation import relative_residual
+from nnmstop.compare import matching as compare
+from nnmstop.continuation.core import relative_residual
 
 
 def orbit_at_energy(system, points, energies, target: float, tol: float = 1e-12, max_iter: int = 30):

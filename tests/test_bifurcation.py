@@ -1,4 +1,4 @@
-"""Branch points and branch switching (nnmstop.bifurcation, branches.bifurcated_branch)."""
+"""Branch points and branch switching (nnmstop.hbm.bifurcation, branches.bifurcated_branch)."""
 
 import copy
 
@@ -6,18 +6,18 @@ import numpy as np
 import pytest
 import yaml
 
-from nnmstop.anm import ANMSettings, continue_anm
-from nnmstop.bifurcation import (
+from nnmstop.continuation.anm import ANMSettings, continue_anm
+from nnmstop.hbm.bifurcation import (
     bifurcation_tangents,
     locate_branch_point,
     quadratic_form,
     subharmonic_share,
     switch_branch,
 )
-from nnmstop.branches import bifurcated_branch, continue_stage, dataset_unknowns, start_point, system_from_config
+from nnmstop.hbm.branches import bifurcated_branch, continue_stage, dataset_unknowns, start_point, system_from_config
 from nnmstop.config import ConfigError, validate_config
-from nnmstop.continuation import ContinuationStats, newton_correct, relative_residual
-from nnmstop.hbm import HarmonicBalanceSystem
+from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
+from nnmstop.hbm.system import HarmonicBalanceSystem
 
 
 class Transcritical:
@@ -179,7 +179,7 @@ def test_config_checks_of_bifurcations(resonance_config):
 
 
 def test_summary_reports_the_branch_point(bifurcated):
-    from nnmstop.bifurcation import summarize_bifurcated
+    from nnmstop.hbm.bifurcation import summarize_bifurcated
 
     stage2, ds = bifurcated
     text = summarize_bifurcated(ds)
@@ -211,7 +211,7 @@ def test_stage_dataset_records_located_branch_points_and_folds(bifurcated):
 
 
 def test_combined_stages_keep_the_located_points(bifurcated):
-    from nnmstop.branches import combine_stages
+    from nnmstop.hbm.branches import combine_stages
 
     stage2, _ = bifurcated
     stage1 = stage2.attrs["previous_stage"]

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nnmstop.branches import combine_stages, continue_stage, dataset_unknowns, system_from_config
+from nnmstop.hbm.branches import combine_stages, continue_stage, dataset_unknowns, system_from_config
 from nnmstop.config import load_config
-from nnmstop.continuation import ContinuationError, ContinuationStats, newton_correct
-from nnmstop.datasets import check_labelled
-from nnmstop.model import ModelParameters, linear_modes
-from nnmstop.pipeline import run_task
+from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
+from nnmstop.netcdf import check_labelled
+from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.tasks.run import run_task
 
 
 @pytest.fixture(scope="module")

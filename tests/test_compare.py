@@ -1,4 +1,4 @@
-"""Exact vs regularized NNM1 at matched energies (nnmstop.compare) and Figs 2-4.
+"""Exact vs regularized NNM1 at matched energies (nnmstop.compare.matching) and Figs 2-4.
 
 Real datasets at small cost: the exact two-impact family (closed form, coarse step) and
 NNM1 stage 1 of the regularized system at H = 30 (well under a second). Every check of
@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 
 from fixed_energy import orbit_at_energy
-from nnmstop import compare
-from nnmstop.branches import continue_stage, dataset_unknowns
+from nnmstop.compare import matching as compare
+from nnmstop.hbm.branches import continue_stage, dataset_unknowns
 from nnmstop.config import ConfigError, load_config, validate_config
-from nnmstop.exact import family_dataset, follow_family, time_history
+from nnmstop.exact.two_impact import family_dataset, follow_family, time_history
 from nnmstop.figures import exact_vs_regularized as fig
-from nnmstop.model import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
-from nnmstop.pipeline import run_task
-from nnmstop.time_integration import integrate_nonsmooth
+from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
+from nnmstop.tasks.run import run_task
+from nnmstop.checks.time_integration import integrate_nonsmooth
 
 H = 30
 PNG_DPI = 60

@@ -1,4 +1,4 @@
-"""NetCDF writing (nnmstop.datasets)."""
+"""NetCDF writing (nnmstop.netcdf)."""
 
 import os
 import subprocess
@@ -7,7 +7,7 @@ import sys
 WRITE_TWICE_EMPTY = """
 import sys
 import numpy as np, xarray as xr
-from nnmstop.datasets import write_dataset
+from nnmstop.netcdf import write_dataset
 ds = xr.Dataset(
     {"a": ("p", np.arange(3.0), {"long_name": "a", "units": "1"}),
      "b": ("first_empty", np.zeros(0), {"long_name": "b", "units": "1"}),

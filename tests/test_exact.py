@@ -2,7 +2,7 @@
 
 References: hand-derived linear modes, the matrix exponential of the first-order system,
 finite differences, and the event-driven time integration of Eqs. (3)-(4)
-(:mod:`nnmstop.time_integration`, DOP853 with located stop crossings).
+(:mod:`nnmstop.checks.time_integration`, DOP853 with located stop crossings).
 """
 
 import numpy as np
@@ -10,9 +10,9 @@ import pytest
 import scipy.linalg
 import xarray as xr
 
-from nnmstop import exact
-from nnmstop.model import ModelParameters, linear_modes, mass_matrix, stiffness_matrix, total_energy
-from nnmstop.time_integration import integrate_nonsmooth, integrate_regularized
+from nnmstop.exact import two_impact as exact
+from nnmstop.models.two_dof import ModelParameters, linear_modes, mass_matrix, stiffness_matrix, total_energy
+from nnmstop.checks.time_integration import integrate_nonsmooth, integrate_regularized
 
 OTHER_PARAMS = ModelParameters(alpha=5.0, beta=0.3, delta=2.5, eta=0.4)
 

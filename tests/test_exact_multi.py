@@ -1,7 +1,7 @@
 """The exact NNM1 with any number of impacts per period, against independent references.
 
-References: the two-impact construction of :mod:`nnmstop.exact`, finite differences, and
-the event-driven time integration of Eqs. (3)-(4) (:mod:`nnmstop.time_integration`,
+References: the two-impact construction of :mod:`nnmstop.exact.two_impact`, finite differences, and
+the event-driven time integration of Eqs. (3)-(4) (:mod:`nnmstop.checks.time_integration`,
 DOP853 restarted at every located stop crossing). Everything here is computed from
 scratch (no pipeline output is read) and runs in well under a minute.
 """
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nnmstop import exact, exact_multi as em
-from nnmstop.hbm import impacts_per_period as sampled_impacts
-from nnmstop.model import total_energy
-from nnmstop.time_integration import integrate_nonsmooth
+from nnmstop.exact import multi_impact as em, two_impact as exact
+from nnmstop.hbm.system import impacts_per_period as sampled_impacts
+from nnmstop.models.two_dof import total_energy
+from nnmstop.checks.time_integration import integrate_nonsmooth
 
 #: One orbit inside each phase-sequence segment of the paper's NNM1 (12 digits; refined below).
 SEEDS = {

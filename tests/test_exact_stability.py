@@ -1,8 +1,8 @@
-"""Floquet multipliers of the exact orbits (nnmstop.exact_stability) against independent references.
+"""Floquet multipliers of the exact orbits (nnmstop.exact.stability) against independent references.
 
 References: the closed-form multipliers of the linear grazing orbit, constructed symplectic
 matrices with a known spectrum, the monodromy of the flow of the event-located DOP853
-integrator (nnmstop.time_integration, finite differences of the flow over one period) and
+integrator (nnmstop.checks.time_integration, finite differences of the flow over one period) and
 the growth of small perturbations integrated through the non-smooth equations.
 """
 
@@ -11,10 +11,10 @@ import pytest
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from nnmstop import exact, exact_multi as em
-from nnmstop import exact_stability as es
-from nnmstop.model import linear_modes, mass_matrix, stiffness_matrix
-from nnmstop.time_integration import integrate_nonsmooth
+from nnmstop.exact import multi_impact as em, two_impact as exact
+from nnmstop.exact import stability as es
+from nnmstop.models.two_dof import linear_modes, mass_matrix, stiffness_matrix
+from nnmstop.checks.time_integration import integrate_nonsmooth
 
 from test_exact_multi import SEEDS, _refine
 

@@ -12,12 +12,12 @@ import copy
 import numpy as np
 import pytest
 
-from nnmstop.branches import combine_stages, continue_stage
+from nnmstop.hbm.branches import combine_stages, continue_stage
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.figures import frequency_energy as fe
 from nnmstop.figures.modal_lines import LabelSpec, energy_crossings, label_specs, select_point
-from nnmstop.model import ModelParameters, linear_modes
-from nnmstop.pipeline import run_task
+from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.tasks.run import run_task
 
 PNG_DPI = 60  # small PNGs keep the tests fast; the pipeline uses figures.png_dpi
 

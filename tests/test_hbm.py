@@ -1,9 +1,9 @@
 """Harmonic balance formulation: derivatives, products, linear limit and time-domain checks.
 
 The HBM system is checked against quantities computed independently of it: finite
-differences, trigonometric identities, the linear modes of :mod:`nnmstop.model`, and a
+differences, trigonometric identities, the linear modes of :mod:`nnmstop.models.two_dof`, and a
 time integration (and shooting) of the regularized equations (7) with the contact
-force of :func:`nnmstop.model.regularized_contact_force`.
+force of :func:`nnmstop.models.two_dof.regularized_contact_force`.
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from nnmstop.anm import ANMSettings, anm_series, continue_anm
-from nnmstop.continuation import ContinuationStats, newton_correct, relative_residual
-from nnmstop.hbm import HarmonicBalanceSystem
-from nnmstop.model import ModelParameters, linear_modes, regularized_contact_force
+from nnmstop.continuation.anm import ANMSettings, anm_series, continue_anm
+from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_contact_force
 
 PARAMS = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
 BASES = ("cosine", "full")

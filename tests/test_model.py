@@ -1,4 +1,4 @@
-"""Physics of nnmstop.model: regularized contact law, potentials, linear limits, parameters."""
+"""Physics of nnmstop.models.two_dof: regularized contact law, potentials, linear limits, parameters."""
 
 import warnings
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from nnmstop.model import (
+from nnmstop.models.two_dof import (
     ModelParameters,
     linear_modes,
     piecewise_contact_force,

@@ -1,8 +1,8 @@
-"""Stability from the monodromy matrix (nnmstop.monodromy) against independent computations.
+"""Stability from the monodromy matrix (nnmstop.hbm.monodromy) against independent computations.
 
 References: the closed-form Floquet multipliers of the linear limit, Hill's method
 (a different discretization of the same linearization), the monodromy of an exact
-periodic orbit of (7) integrated by DOP853 (shooting-refined, nnmstop.stability),
+periodic orbit of (7) integrated by DOP853 (shooting-refined, nnmstop.hbm.hill),
 and the symplecticity of the flow of a Hamiltonian linear system. Small H = 40
 branches keep the module cheap.
 """
@@ -12,12 +12,12 @@ import copy
 import numpy as np
 import pytest
 
-from nnmstop.branches import continue_stage, dataset_unknowns, orbit_stability, system_from_config
+from nnmstop.hbm.branches import continue_stage, dataset_unknowns, orbit_stability, system_from_config
 from nnmstop.config import ConfigError, load_config, validate_config
-from nnmstop.hbm import HarmonicBalanceSystem
-from nnmstop.model import ModelParameters
-from nnmstop.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
-from nnmstop.stability import branch_stability, monodromy, orbit_initial_state, refine_orbit
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import ModelParameters
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
+from nnmstop.hbm.hill import branch_stability, monodromy, orbit_initial_state, refine_orbit
 
 H_BRANCH = 40
 

@@ -1,4 +1,4 @@
-"""Padé approximants of the ANM series (nnmstop.pade) and the Padé-ANM continuation.
+"""Padé approximants of the ANM series (nnmstop.continuation.pade) and the Padé-ANM continuation.
 
 Checked against closed forms (a rational function is reproduced exactly, its poles
 found; a function with a pole stops the step before it) and, on the HBM system,
@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 import yaml
 
-from nnmstop.anm import ANMSettings, continue_anm, step_length
+from nnmstop.continuation.anm import ANMSettings, continue_anm, step_length
 from nnmstop.config import ConfigError, validate_config
-from nnmstop.continuation import relative_residual
-from nnmstop.hbm import HarmonicBalanceSystem
-from nnmstop.pade import pade_pair, pade_step_length
-from nnmstop.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
+from nnmstop.continuation.core import relative_residual
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.continuation.pade import pade_pair, pade_step_length
+from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
 
 from test_continuation import (
     CASES,

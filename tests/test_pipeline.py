@@ -1,8 +1,8 @@
-"""Command line of the workflow tasks (nnmstop.pipeline)."""
+"""Command line of the workflow tasks (nnmstop.tasks.run)."""
 
 import pytest
 
-from nnmstop import pipeline
+from nnmstop.tasks import run as pipeline
 
 
 def test_command_line_passes_named_files_and_wildcards(monkeypatch, repo_root, tmp_path):

@@ -1,4 +1,4 @@
-"""The regularization error per impact regime (nnmstop.regime_errors) and its extra figure.
+"""The regularization error per impact regime (nnmstop.compare.regimes) and its extra figure.
 
 Two kinds of input, both built here (no pipeline output is read):
 
@@ -14,10 +14,10 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from nnmstop import exact, exact_multi as em
-from nnmstop.datasets import check_labelled
+from nnmstop.exact import multi_impact as em, two_impact as exact
+from nnmstop.netcdf import check_labelled
 from nnmstop.figures.regime_errors import build_regime_error_figure, regime_error_figure
-from nnmstop.regime_errors import REGIME_VARIABLES, build_regime_error_dataset, regime_error_dataset, regime_table
+from nnmstop.compare.regimes import REGIME_VARIABLES, build_regime_error_dataset, regime_error_dataset, regime_table
 
 PARAMS = {"alpha": 30.0, "beta": 1.0, "delta": 1.0}
 REGULARIZED_ATTRS = {**PARAMS, "eta": 0.1, "harmonics": 16}

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from fixed_energy import orbit_at_energy
-from nnmstop.branches import continue_stage, dataset_unknowns, start_point, system_from_config
-from nnmstop.compare import regularized_monotone_part
+from nnmstop.hbm.branches import continue_stage, dataset_unknowns, start_point, system_from_config
+from nnmstop.compare.matching import regularized_monotone_part
 from nnmstop.config import load_config
-from nnmstop.hbm import HarmonicBalanceSystem
-from nnmstop.model import ModelParameters, linear_modes
-from nnmstop.stability import (
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.hbm.hill import (
     BranchStability,
     branch_stability,
     floquet,

@@ -1,4 +1,4 @@
-"""The exact-vs-regularized stability table (nnmstop.stability_compare) on constructed branches.
+"""The exact-vs-regularized stability table (nnmstop.compare.stability) on constructed branches.
 
 Every expected count and energy below follows by hand from the constructed verdicts.
 """
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nnmstop import stability_compare as sc
+from nnmstop.compare import stability as sc
 from nnmstop.figures.stability import stability_figure
 
 

@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nnmstop.compare import EnergyMatcher
+from nnmstop.compare.matching import EnergyMatcher
 from nnmstop.config import load_config
-from nnmstop.exact import TwoImpactProblem, assess_orbit, follow_family, time_history
-from nnmstop.model import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
-from nnmstop.stability import orbit_initial_state, refine_orbit
+from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, follow_family, time_history
+from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
+from nnmstop.hbm.hill import orbit_initial_state, refine_orbit
 from nnmstop.study.runs import case_config, match_energies, run_stage_one, two_impact_arm
 from nnmstop.study.stiff_cases import _confirm_end, exact_checks
-from nnmstop.time_integration import integrate_nonsmooth, integrate_regularized
+from nnmstop.checks.time_integration import integrate_nonsmooth, integrate_regularized
 
 EPS = np.finfo(float).eps
 
@@ -140,7 +140,7 @@ def config(repo_root):
 
 @pytest.fixture(scope="module")
 def exact_family_dataset(config):
-    from nnmstop.exact import family_dataset
+    from nnmstop.exact.two_impact import family_dataset
 
     params = ModelParameters.from_config(config["model"])
     return family_dataset(follow_family(params, step=config["exact"]["step"], max_points=config["exact"]["max_points"]))
@@ -149,9 +149,9 @@ def exact_family_dataset(config):
 def _shoot_at_energy(params, state, period, energy, rtol=1e-10):
     """Periodic orbit of the regularized equations (7) at ``energy``, by time integration only.
 
-    :func:`nnmstop.stability.refine_orbit` shoots at fixed ``x(0)`` (start at rest, velocities
+    :func:`nnmstop.hbm.hill.refine_orbit` shoots at fixed ``x(0)`` (start at rest, velocities
     zero at T/2); a secant iteration on ``x(0)`` then brings the energy of the start state
-    (at rest: potential energy only, :func:`nnmstop.model.total_energy`) to ``energy``.
+    (at rest: potential energy only, :func:`nnmstop.models.two_dof.total_energy`) to ``energy``.
     ``rtol`` (relative, on the energy) sits above the shooting's own accuracy (velocities to
     1e-11 of their scale, DOP853 at 1e-12), which limits how closely the energy can be hit; the
     frequency then carries a relative error of order ``rtol``, far below the parts asserted here.
@@ -259,7 +259,7 @@ def test_stiff_stop_with_the_paper_harmonics_is_refused_plainly(config):
 
 
 def test_stiff_case_dataset_reports_every_attempt(config, tmp_path):
-    from nnmstop.datasets import write_dataset
+    from nnmstop.netcdf import write_dataset
     from nnmstop.study.stiff_cases import stiff_branch_dataset
 
     cfg = case_config(config)

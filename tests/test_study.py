@@ -20,11 +20,11 @@ import xarray as xr
 import yaml
 
 from nnmstop.config import ConfigError, load_config
-from nnmstop.continuation import ContinuationError
-from nnmstop.datasets import write_dataset
+from nnmstop.continuation.core import ContinuationError
+from nnmstop.netcdf import write_dataset
 from nnmstop.figures.study import build_error_vs_runtime_figure, pareto_front
-from nnmstop.hbm import HarmonicBalanceSystem
-from nnmstop.model import ModelParameters
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import ModelParameters
 from nnmstop.study import error_runtime as er
 from nnmstop.study.runs import FILL_VALUE, case_config, format_number, truncation_level
 
@@ -52,7 +52,7 @@ def small(config):
 
 @pytest.fixture(scope="module")
 def exact(config):
-    from nnmstop.exact import family_dataset, follow_family
+    from nnmstop.exact.two_impact import family_dataset, follow_family
 
     params = ModelParameters.from_config(config["model"])
     return family_dataset(follow_family(params, step=0.05, max_points=4000))
@@ -269,8 +269,8 @@ def test_dry_run_refuses_a_bad_study_section(repo_root, tmp_path, override, expe
 
 
 def test_numerical_failure_mid_branch_names_step_and_energy_and_leaves_no_dataset(config, tmp_path, monkeypatch):
-    import nnmstop.anm as anm
-    from nnmstop.pipeline import run_task
+    import nnmstop.continuation.anm as anm
+    from nnmstop.tasks.run import run_task
 
     real_step = anm.anm_step
     calls = {"n": 0}

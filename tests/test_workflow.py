@@ -21,8 +21,8 @@ import pytest
 import xarray as xr
 import yaml
 
-from nnmstop.datasets import check_labelled
-from nnmstop.model import ModelParameters, linear_modes
+from nnmstop.netcdf import check_labelled
+from nnmstop.models.two_dof import ModelParameters, linear_modes
 
 REPO = Path(__file__).resolve().parents[1]
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"

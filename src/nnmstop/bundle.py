@@ -9,7 +9,7 @@ against its recorded size and SHA-256.
 
 The archive is byte-reproducible: entries sorted, fixed timestamps and permissions, and
 no wall-clock date anywhere (``datePublished`` and ``date-released`` are the commit date
-that :func:`nnmstop.datasets.provenance` gives the datasets).
+that :func:`nnmstop.netcdf.provenance` gives the datasets).
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from pathlib import Path
 
 import yaml
 
-from . import __version__
-from .datasets import PAPER_AUTHORS, PAPER_TITLE, provenance
+from nnmstop import __version__
+from nnmstop.netcdf import PAPER_AUTHORS, PAPER_TITLE, provenance
 
 __all__ = ["ENCODING_FORMATS", "build_bundle", "citation", "verify_bundle"]
 

@@ -27,7 +27,7 @@ import numpy as np
 import xarray as xr
 from scipy.spatial import cKDTree
 
-from .datasets import PROVENANCE_ATTRIBUTES
+from nnmstop.netcdf import PROVENANCE_ATTRIBUTES
 
 __all__ = ["Row", "data_digest", "update_reference", "verify", "file_verdicts", "format_table", "main"]
 
@@ -35,7 +35,7 @@ REGIMES_CSV = "compare/nnm1_regimes.csv"
 COMPARE_NC = "compare/nnm1_exact_vs_regularized.nc"
 # Exact (closed-form) orbits solve their equations to round-off; their curve is checked to this.
 EXACT_BASE_TOLERANCE = 1e-9
-# Newton-solved orbits of the comparison dataset (residual 1e-13, nnmstop.compare): relative
+# Newton-solved orbits of the comparison dataset (residual 1e-13, nnmstop.compare.matching): relative
 # tolerance on their frequencies at the same energy, allowing for the conditioning of the solve.
 COMPARE_TOLERANCE = 1e-9
 DENSE_SPACING = 2e-4  # largest distance between sub-points of the densified curve (first guess of the nearest point)

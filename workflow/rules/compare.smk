@@ -94,7 +94,7 @@ rule paper_figs_02_04:
 
 
 # Issue 6: the regularization error over the whole NNM1 branch, per impact regime
-# (nnmstop.regime_errors): the exact multi-impact NNM1 against the regularized NNM1.
+# (nnmstop.compare.regimes): the exact multi-impact NNM1 against the regularized NNM1.
 
 
 rule compare_regimes:
@@ -139,7 +139,7 @@ rule regime_error_figure:
 
 
 # Issue 13, part 3: Floquet stability of the exact NNM1 against the regularized one, per
-# impact regime (nnmstop.stability_compare), and its figure (nnmstop.figures.stability).
+# impact regime (nnmstop.compare.stability), and its figure (nnmstop.figures.stability).
 # The regularized verdict is the `stable` flag of results/hbm/nnm1.nc, whatever method set it.
 
 

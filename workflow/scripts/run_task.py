@@ -2,11 +2,11 @@
 
 Each rule sets ``params: task="<name>"``; the task receives the validated config, the
 rule's named inputs and outputs, its log file and its wildcards. To run a task
-standalone for debugging, use ``python -m nnmstop.pipeline TASK ...`` (see
-``python -m nnmstop.pipeline --help``).
+standalone for debugging, use ``python -m nnmstop.tasks.run TASK ...`` (see
+``python -m nnmstop.tasks.run --help``).
 """
 
-from nnmstop.pipeline import run_task
+from nnmstop.tasks.run import run_task
 
 smk = globals()["snakemake"]
 run_task(smk.params.task, smk.config, smk.input, smk.output, smk.log[0] if smk.log else None, **dict(smk.wildcards.items()))

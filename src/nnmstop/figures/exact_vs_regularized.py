@@ -14,10 +14,10 @@
   maximum of x), and the ``(x, f)`` curve of the regularized orbit (blue) against the
   piecewise-linear law, Eq. (4) (red).
 
-Inputs are datasets only: the exact family (:mod:`nnmstop.exact`), NNM1 stage 1
-(:mod:`nnmstop.branches`) and the comparison at matched energies
-(:mod:`nnmstop.compare`), which holds both orbits at a) and b) at exactly the same
-energy. Orbits are reconstructed in closed form (exact: :func:`nnmstop.exact.time_history`
+Inputs are datasets only: the exact family (:mod:`nnmstop.exact.two_impact`), NNM1 stage 1
+(:mod:`nnmstop.hbm.branches`) and the comparison at matched energies
+(:mod:`nnmstop.compare.matching`), which holds both orbits at a) and b) at exactly the same
+energy. Orbits are reconstructed in closed form (exact: :func:`nnmstop.exact.two_impact.time_history`
 from the stored unknowns; regularized: the stored Fourier series); nothing is solved.
 Frequencies are in Hz of the nondimensional time, energies on a logarithmic axis.
 """
@@ -31,10 +31,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from ..compare import MAX_IMPACTS
-from ..exact import time_history
-from ..model import ModelParameters, linear_modes, piecewise_contact_force
-from .common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, save_figure
+from nnmstop.compare.matching import MAX_IMPACTS
+from nnmstop.exact.two_impact import time_history
+from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
+from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, save_figure
 
 __all__ = [
     "FIGURES",
@@ -114,7 +114,7 @@ def marked_points(comparison: xr.Dataset, where: str = "figure") -> dict:
 def aligned_orbits(comparison: xr.Dataset, point: int, phase) -> tuple[dict, dict]:
     """Exact and regularized orbits of a compared point on the phase ``t/T``.
 
-    Origin on the symmetry axis where x is maximum (as in :mod:`nnmstop.compare`): the
+    Origin on the symmetry axis where x is maximum (as in :mod:`nnmstop.compare.matching`): the
     turning point ``T1`` of the exact orbit, ``t = 0`` of the cosine series shifted by
     ``regularized_origin_shift`` periods.
 

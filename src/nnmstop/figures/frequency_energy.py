@@ -1,6 +1,6 @@
 """Figs 5-11 of the paper: frequency-energy plots of the regularized NNMs with modal lines.
 
-Every figure is built from branch datasets only (layout of :mod:`nnmstop.branches`):
+Every figure is built from branch datasets only (layout of :mod:`nnmstop.hbm.branches`):
 it reads the energies, frequencies and impact counts of the points and reconstructs
 the modal lines of the labelled points from their Fourier coefficients; it never
 continues a branch. NNM1 is blue, NNM2 green, the NNM2 curve divided by 5 red (as in
@@ -40,8 +40,8 @@ import xarray as xr
 from matplotlib.lines import Line2D
 from matplotlib.ticker import LogFormatterSciNotation
 
-from ..model import ModelParameters, linear_modes
-from .common import (
+from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.figures.common import (
     plot_branch,
     stability_legend_handles,
     EXACT_OVERLAY_COLOR,
@@ -52,7 +52,7 @@ from .common import (
     open_dataset,
     save_figure,
 )
-from .modal_lines import LabelSpec, draw_modal_line, label_specs, mark_point, select_point
+from nnmstop.figures.modal_lines import LabelSpec, draw_modal_line, label_specs, mark_point, select_point
 
 __all__ = [
     "PAPER_FIGURES",
@@ -185,7 +185,7 @@ def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int
         On NaN, a dataset of another branch, non-consecutive stages or stages
         other than ``expected``.
     """
-    from ..branches import combine_stages
+    from nnmstop.hbm.branches import combine_stages
 
     if not stages:
         raise ValueError(f"{where}: no NNM1 stage dataset given")

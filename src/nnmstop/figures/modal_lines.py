@@ -24,7 +24,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.ticker import MaxNLocator
 
-from .common import orbit
+from nnmstop.figures.common import orbit
 
 __all__ = [
     "LabelSpec",
@@ -149,7 +149,7 @@ def select_point(ds: xr.Dataset, spec: LabelSpec, where: str) -> int:
     Parameters
     ----------
     ds : xarray.Dataset
-        Branch dataset (layout of :mod:`nnmstop.branches`), one or several stages.
+        Branch dataset (layout of :mod:`nnmstop.hbm.branches`), one or several stages.
     spec : LabelSpec
         The requested point.
     where : str

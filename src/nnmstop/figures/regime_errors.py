@@ -1,6 +1,6 @@
 """Extra figure: relative frequency error of the regularized NNM1 per impact regime.
 
-Drawn from ``results/compare/nnm1_regimes.nc`` only (:mod:`nnmstop.regime_errors`):
+Drawn from ``results/compare/nnm1_regimes.nc`` only (:mod:`nnmstop.compare.regimes`):
 ``|f_reg - f_exact| / f_exact`` against energy, both axes logarithmic, one colour per
 impact regime (legend: impacts per period and exact phase sequence). Orbits whose error
 is exactly zero cannot sit on a log axis; they are counted in the title, never dropped
@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from .common import open_dataset, save_figure
+from nnmstop.figures.common import open_dataset, save_figure
 
 __all__ = ["regime_error_figure", "build_regime_error_figure"]
 
@@ -28,7 +28,7 @@ def regime_error_figure(ds: xr.Dataset):
     Parameters
     ----------
     ds : xarray.Dataset
-        From :func:`nnmstop.regime_errors.regime_error_dataset` with ``points=True``.
+        From :func:`nnmstop.compare.regimes.regime_error_dataset` with ``points=True``.
 
     Returns
     -------

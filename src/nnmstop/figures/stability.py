@@ -2,7 +2,7 @@
 
 Frequency-energy plot of both branches, solid where stable, dashed where unstable (dotted
 where the regularized dataset has no verdict), with their stability changes marked (located
-between consecutive orbits by :func:`nnmstop.stability_compare.stability_changes`). Left
+between consecutive orbits by :func:`nnmstop.compare.stability.stability_changes`). Left
 panel: the whole branch; the others zoom on the multi-impact regimes, where the changes crowd.
 The title gives the agreement counts of the comparison dataset
 (``results/compare/nnm1_stability.nc``).
@@ -18,8 +18,8 @@ import xarray as xr
 from matplotlib.lines import Line2D
 from matplotlib.ticker import NullFormatter
 
-from ..stability_compare import stability_changes, verdicts
-from .common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, plot_branch, save_figure
+from nnmstop.compare.stability import stability_changes, verdicts
+from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, plot_branch, save_figure
 
 __all__ = ["stability_figure", "build_stability_figure"]
 
@@ -47,7 +47,7 @@ def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.
     exact, regularized : xarray.Dataset
         NNM1 branches with ``energy``, ``frequency`` and ``stable``.
     comparison : xarray.Dataset, optional
-        From :func:`nnmstop.stability_compare.stability_comparison_dataset`; its agreement
+        From :func:`nnmstop.compare.stability.stability_comparison_dataset`; its agreement
         counts go in the title.
     zoom_energy : sequence of (low, high)
         Energy windows of the zoomed panels, ``0 < low < high``.

@@ -30,7 +30,7 @@ import numpy as np
 import xarray as xr
 from matplotlib import transforms
 
-from .common import open_dataset, save_figure
+from nnmstop.figures.common import open_dataset, save_figure
 
 __all__ = [
     "pareto_front",

@@ -11,7 +11,7 @@ than one impact per stop) with :func:`nnmstop.study.runs.run_stage_one`, storing
 on Newton-solved orbits at the matched energies, so drawing points add cost, not
 accuracy, and every stored point costs a Floquet analysis in the branch dataset), timing it
 (wall clock and CPU, seconds) and counting its steps and factorizations, then matches
-its orbits with the exact non-smooth ones (:mod:`nnmstop.compare`) at the energies
+its orbits with the exact non-smooth ones (:mod:`nnmstop.compare.matching`) at the energies
 ``study.energies`` and records
 
 * the relative frequency error at each matched energy, ``(f_reg - f_exact) / f_exact``;
@@ -25,7 +25,7 @@ For each ``eta`` a reference job computes the same matched orbits with many more
 harmonics, ``H_ref = study.error_runtime.reference_harmonics``: a guarded continuation
 at ``reference_seed_harmonics`` gives seeds, padded with zeros to ``H_ref`` and solved
 again at each energy by Newton's method on the ``H_ref`` system
-(:class:`~nnmstop.compare.EnergyMatcher`). Then, at each energy,
+(:class:`~nnmstop.compare.matching.EnergyMatcher`). Then, at each energy,
 
 * **regularization part** = reference orbit against the exact orbit (depends on ``eta``
   only);
@@ -63,12 +63,12 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..datasets import write_dataset
-from ..exact import follow_family, time_history
-from ..branches import system_from_config
-from ..hbm import HarmonicBalanceSystem
-from ..model import ModelParameters
-from .runs import (
+from nnmstop.netcdf import write_dataset
+from nnmstop.exact.two_impact import follow_family, time_history
+from nnmstop.hbm.branches import system_from_config
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import ModelParameters
+from nnmstop.study.runs import (
     ERROR_KEYS,
     case_config,
     format_number,
@@ -243,7 +243,7 @@ def error_case_dataset(config: dict, exact: xr.Dataset, harmonics: int, eta: flo
         "path_frequency_error": variable((), path_frequency, "relative frequency shift of the worst branch point (largest residual) from the HBM solution at the same amplitude"),
         "exact_seconds_per_orbit": variable((), t_exact, "mean time to solve one exact orbit at a prescribed energy (Newton on the closed form, validity checks)", "s"),
         "regularized_seconds_per_orbit": variable((), t_reg, "mean time to solve one HBM orbit at a prescribed energy (Newton from the branch)", "s"),
-        "orbit": variable(("energy", "unknown"), orbits, "HBM unknown vector of the matched regularized orbit (layout of nnmstop.hbm, cosine basis)"),
+        "orbit": variable(("energy", "unknown"), orbits, "HBM unknown vector of the matched regularized orbit (layout of nnmstop.hbm.system, cosine basis)"),
     }
     for key, (long_name, units) in _PER_ENERGY.items():
         data[key] = variable(e, values[key], long_name, units)

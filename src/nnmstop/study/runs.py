@@ -4,8 +4,8 @@ Guarded continuation
 --------------------
 :func:`run_stage_one` continues stage 1 of the regularized NNM1 (from the linear mode to
 the first orbit with more than one impact per stop, as ``continue_stage`` does) with the
-engine's public pieces (:func:`nnmstop.branches.start_point`,
-:func:`nnmstop.branches.stage_criterion`, :func:`nnmstop.anm.continue_anm`), measures its
+engine's public pieces (:func:`nnmstop.hbm.branches.start_point`,
+:func:`nnmstop.hbm.branches.stage_criterion`, :func:`nnmstop.continuation.anm.continue_anm`), measures its
 wall-clock and CPU time and its cost counters, and adds one check the engine does not
 make yet: a :class:`TruncationGuard` that stops the continuation with an
 :class:`UnresolvedBranchError` (naming the energy, the frequency, the truncation
@@ -14,7 +14,7 @@ the signal. Without it, too few harmonics for the sharpness of the stop give a b
 that "converges" (every algebraic residual at round-off) but is not an orbit of Eq. (7):
 for example ``H = 10`` with ``eta = 1e-3``, or ``H = 100`` with ``alpha = 1e4``.
 
-The truncation indicator is :meth:`nnmstop.hbm.HarmonicBalanceSystem.truncation_indicator`
+The truncation indicator is :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.truncation_indicator`
 (share of the mean square of a series carried by its top harmonics) of ``x''`` and of
 ``f``, the larger of the two, as in the branch datasets, **except** that the top share
 always holds at least two harmonics (:func:`truncation_level`): NNM1 orbits are
@@ -25,12 +25,12 @@ truth.
 
 Matched energies
 ----------------
-Errors against the exact non-smooth orbits reuse :mod:`nnmstop.compare`
-(:class:`~nnmstop.compare.EnergyMatcher`, :func:`~nnmstop.compare.orbit_differences`):
+Errors against the exact non-smooth orbits reuse :mod:`nnmstop.compare.matching`
+(:class:`~nnmstop.compare.matching.EnergyMatcher`, :func:`~nnmstop.compare.matching.orbit_differences`):
 both orbits are solved at exactly the requested energy, and their differences are
 maxima over the phase ``t/T`` aligned at the maximum of ``x``. For small ``eta`` the
 regularized branch has an energy fold just after grazing (as the exact family has), and
-:func:`nnmstop.compare.regularized_monotone_part` would stop there;
+:func:`nnmstop.compare.matching.regularized_monotone_part` would stop there;
 :func:`two_impact_arm` hands the matcher the branch from the start of the
 increasing-energy run that best covers the exact family's increasing arm, so that the
 increasing arms of both models are compared.
@@ -52,12 +52,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import xarray as xr
 
-from ..anm import ANMSettings, continue_anm
-from ..branches import TruncationGuard, branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
-from ..compare import EnergyMatcher, _regularized_on_phase, exact_increasing_arm, orbit_differences
-from ..config import validate_config
-from ..continuation import ContinuationError, ContinuationStats, UnresolvedBranchError, newton_correct
-from ..hbm import HarmonicBalanceSystem
+from nnmstop.continuation.anm import ANMSettings, continue_anm
+from nnmstop.hbm.branches import TruncationGuard, branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
+from nnmstop.compare.matching import EnergyMatcher, _regularized_on_phase, exact_increasing_arm, orbit_differences
+from nnmstop.config import validate_config
+from nnmstop.continuation.core import ContinuationError, ContinuationStats, UnresolvedBranchError, newton_correct
+from nnmstop.hbm.system import HarmonicBalanceSystem
 
 __all__ = [
     "FILL_VALUE",
@@ -151,7 +151,7 @@ def case_config(config: dict, **overrides) -> dict:
 def truncation_level(system: HarmonicBalanceSystem, U) -> float:
     """Truncation indicator of an HBM orbit, as the branch datasets record it.
 
-    :meth:`nnmstop.hbm.HarmonicBalanceSystem.truncation`: share of the mean square
+    :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.truncation`: share of the mean square
     carried by the top tenth of the harmonics (at least two, so that it always holds an
     odd harmonic), the larger for ``x''`` and ``f``.
     """
@@ -168,7 +168,7 @@ class StageRun:
     Attributes
     ----------
     dataset : xarray.Dataset or None
-        Branch dataset (layout of :mod:`nnmstop.branches`); None when the run failed.
+        Branch dataset (layout of :mod:`nnmstop.hbm.branches`); None when the run failed.
     failure : str
         Why the run failed ('' when it converged).
     runtime, cpu_time : float
@@ -204,7 +204,7 @@ def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 
     ``energy_limit`` (optional) also ends the stage at the first orbit above that energy
     (past the range that will be compared), whichever comes first.
 
-    Never raises for a numerical failure: a :class:`~nnmstop.continuation.ContinuationError`
+    Never raises for a numerical failure: a :class:`~nnmstop.continuation.core.ContinuationError`
     (a failed step, ``max_steps`` exhausted, an unresolved orbit), a
     :class:`numpy.linalg.LinAlgError`, or a ``ValueError``/``FloatingPointError`` escaping
     the engine (e.g. NaN reaching a linear solve) becomes ``StageRun.failure``;
@@ -248,7 +248,7 @@ def path_error(system: HarmonicBalanceSystem, branch: xr.Dataset) -> tuple[float
 
     The point with the largest algebraic residual (interior points of ANM steps are not
     Newton-corrected by the engine) is corrected by Newton's method at fixed amplitude
-    ``x_c^1`` (as :func:`nnmstop.branches.start_point` does). Returns the largest relative
+    ``x_c^1`` (as :func:`nnmstop.hbm.branches.start_point` does). Returns the largest relative
     algebraic residual and the relative frequency shift of that point.
     """
     residual = np.asarray(branch["algebraic_residual"].values, dtype=float)
@@ -272,11 +272,11 @@ def two_impact_arm(branch: xr.Dataset, exact: xr.Dataset | None = None) -> xr.Da
 
     Among the leading points with at most two impacts per period, the maximal runs of
     strictly increasing energy are found; the one whose energy range overlaps the
-    increasing arm of the ``exact`` family (:func:`nnmstop.compare.exact_increasing_arm`)
+    increasing arm of the ``exact`` family (:func:`nnmstop.compare.matching.exact_increasing_arm`)
     the most, in ratio of energies, is kept (without ``exact``: the run reaching the
     highest energy). That is the run from the linear mode for a large ``eta``, and from
     the energy minimum after the grazing fold for a small one. The returned dataset
-    starts there, so that :func:`nnmstop.compare.regularized_monotone_part` (which takes
+    starts there, so that :func:`nnmstop.compare.matching.regularized_monotone_part` (which takes
     the leading increasing points) selects exactly that run.
 
     Raises
@@ -344,12 +344,12 @@ def match_energies(
     phase_samples: int = 2048,
     end_margin: float = 0.01,
 ) -> MatchedErrors:
-    """Match exact and regularized NNM1 orbits at ``energies`` with :mod:`nnmstop.compare`.
+    """Match exact and regularized NNM1 orbits at ``energies`` with :mod:`nnmstop.compare.matching`.
 
     ``branch`` is a regularized NNM1 dataset (its :func:`two_impact_arm` is used). Energies
     that cannot be matched (outside the common range, Newton failure, an exact orbit whose
     maximum of ``x`` is not on a symmetry axis so that the phase alignment of
-    :func:`nnmstop.compare.orbit_differences` does not apply) get NaN and the first such
+    :func:`nnmstop.compare.matching.orbit_differences` does not apply) get NaN and the first such
     reason is recorded; nothing is raised for them.
     """
     energies = np.asarray(energies, dtype=float)
@@ -391,7 +391,7 @@ def hbm_orbit_differences(
 ) -> dict:
     """Differences between two HBM orbits (e.g. ``H`` and a much larger ``H``) at one energy.
 
-    Same phase alignment and same maximum as :func:`nnmstop.compare.orbit_differences`
+    Same phase alignment and same maximum as :func:`nnmstop.compare.matching.orbit_differences`
     (``t/T`` of each orbit, origin at the maximum of ``x``; the largest difference on
     ``phase_samples`` phases, refined on a grid 256 times finer around it). Returns the
     frequency difference relative to the reference frequency and the largest differences

@@ -18,10 +18,10 @@ Three sweeps (issue 5, part 2), each case its own Snakemake job:
 ``energy x energy_alpha``
     The exact solver at energies from ``1e-6`` to ``1e6`` (:func:`energy_case`): the
     linear mode below grazing, the first two-impact family, or the high-energy
-    two-impact segment (:func:`nnmstop.exact.high_energy_orbit`, exactly at the energy);
+    two-impact segment (:func:`nnmstop.exact.two_impact.high_energy_orbit`, exactly at the energy);
     where no two-impact orbit exists the solver must refuse (validity margins), and it
     is recorded so. Each exact orbit is checked for periodicity by the event-locating
-    integrator (:func:`nnmstop.time_integration.integrate_nonsmooth`), and an HBM orbit
+    integrator (:func:`nnmstop.checks.time_integration.integrate_nonsmooth`), and an HBM orbit
     of the regularized model is computed at the same place (``H`` and ``eta`` of
     ``study.stiff.energy_harmonics`` / ``energy_eta``) and compared.
 
@@ -48,11 +48,11 @@ import numpy as np
 import scipy.optimize
 import xarray as xr
 
-from ..branches import start_point, system_from_config
-from ..compare import exact_increasing_arm
-from ..continuation import ContinuationError, ContinuationStats, newton_correct
-from ..datasets import write_dataset
-from ..exact import (
+from nnmstop.hbm.branches import start_point, system_from_config
+from nnmstop.compare.matching import exact_increasing_arm
+from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
+from nnmstop.netcdf import write_dataset
+from nnmstop.exact.two_impact import (
     TwoImpactProblem,
     assess_orbit,
     family_dataset,
@@ -61,10 +61,10 @@ from ..exact import (
     high_energy_orbit,
     time_history,
 )
-from ..model import ModelParameters, linear_modes, stiffness_matrix
-from ..time_integration import integrate_nonsmooth
-from .error_runtime import study_settings
-from .runs import (
+from nnmstop.models.two_dof import ModelParameters, linear_modes, stiffness_matrix
+from nnmstop.checks.time_integration import integrate_nonsmooth
+from nnmstop.study.error_runtime import study_settings
+from nnmstop.study.runs import (
     case_config,
     format_number,
     match_energies,

@@ -1,11 +1,11 @@
 """Regularization error of NNM1 in each impact regime, along the whole branch (issue 6).
 
 The exact NNM1 of the non-smooth system (``results/exact/nnm1.nc``,
-:mod:`nnmstop.exact_multi`) and the regularized NNM1 (``results/hbm/nnm1.nc``, HBM + ANM)
+:mod:`nnmstop.exact.multi_impact`) and the regularized NNM1 (``results/hbm/nnm1.nc``, HBM + ANM)
 cross the same sequence of impact regimes: runs of orbits with 2, 6, 4, 2, 6, 8, 10, 6, 2
 impacts per period for the paper's values. :func:`regime_error_dataset` turns the
-comparison of :func:`nnmstop.exact_multi.compare_with_regularized` (the one implementation
-of the metric, also behind ``python -m nnmstop.exact_multi compare``) into a labelled
+comparison of :func:`nnmstop.exact.multi_impact.compare_with_regularized` (the one implementation
+of the metric, also behind ``python -m nnmstop.exact.multi_impact compare``) into a labelled
 dataset:
 
 * dimension ``regime``: one entry per pair of regimes with at least one compared point,
@@ -38,8 +38,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from .datasets import write_dataset
-from .exact_multi import _runs, compare_with_regularized
+from nnmstop.netcdf import write_dataset
+from nnmstop.exact.multi_impact import _runs, compare_with_regularized
 
 __all__ = ["REGIME_VARIABLES", "regime_error_dataset", "regime_table", "build_regime_error_dataset"]
 
@@ -56,7 +56,7 @@ REGIME_VARIABLES = {
     "exact_sequence": (
         "exact_sequence",
         "phase sequence(s) of the exact orbits of the regime (F free flight, R/L contact with the stop "
-        "x = 1 / x = -1, over the quarter period; see nnmstop.exact_multi)",
+        "x = 1 / x = -1, over the quarter period; see nnmstop.exact.multi_impact)",
         "1",
     ),
     "exact_energy_min": (("exact_energy", 0), "lowest energy of the exact regime (non-smooth model)", "1"),
@@ -235,7 +235,7 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
             "paired in branch order (longest common subsequence of the impact counts). At each regularized "
             "orbit of a paired regime, the exact frequency is interpolated linearly in ln E on the pieces of the "
             "exact regime monotone in energy that cover its energy, keeping the one of nearest frequency "
-            "(nnmstop.exact_multi.compare_with_regularized, also: python -m nnmstop.exact_multi compare)."
+            "(nnmstop.exact.multi_impact.compare_with_regularized, also: python -m nnmstop.exact.multi_impact compare)."
         ),
     }
     return ds

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import ModelParameters, regularized_force_and_potential, total_energy
+from nnmstop.models.two_dof import ModelParameters, regularized_force_and_potential, total_energy
 
 __all__ = ["HarmonicBalanceSystem", "SeriesCache"]
 
@@ -66,7 +66,7 @@ class HarmonicBalanceSystem:
 
     Examples
     --------
-    >>> from nnmstop.model import ModelParameters
+    >>> from nnmstop.models.two_dof import ModelParameters
     >>> system = HarmonicBalanceSystem(ModelParameters(), harmonics=5, basis="full")
     >>> system.n_unknowns, system.n_equations
     (46, 45)
@@ -312,7 +312,7 @@ class HarmonicBalanceSystem:
         ``z = (f/alpha - x)**2`` balanced exactly; a Newton correction makes it a
         point of the branch.
         """
-        from .model import linear_modes
+        from nnmstop.models.two_dof import linear_modes
 
         if mode not in (1, 2):
             raise ValueError(f"mode must be 1 or 2, got {mode!r}")

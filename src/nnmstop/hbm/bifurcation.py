@@ -1,12 +1,12 @@
 r"""Simple branch points of the HBM system and switching onto the bifurcated branch.
 
 A *simple branch point* ``U*`` of the balanced system ``S(U) = 0`` (``n`` equations,
-``n + 1`` unknowns, :mod:`nnmstop.hbm`) is where two solution curves cross: the
+``n + 1`` unknowns, :mod:`nnmstop.hbm.system`) is where two solution curves cross: the
 Jacobian ``J(U*)`` has rank ``n - 1``, its null space is a plane that holds the tangents
 of both curves. Along a branch the determinant of the bordered matrix ``[J; t^T]``
 (``t`` the unit tangent, oriented along the travel) changes sign there, and not at
 folds; the ANM records the steps across which it does
-(:attr:`nnmstop.continuation.Branch.branch_points`, the ``branch_point`` flag of the
+(:attr:`nnmstop.continuation.core.Branch.branch_points`, the ``branch_point`` flag of the
 datasets).
 
 On NNM1 such points sit where the fundamental harmonic of the orbit changes sign
@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
-from .continuation import (
+from nnmstop.continuation.core import (
     ContinuationError,
     ContinuationStats,
     determinant_sign,
@@ -63,7 +63,7 @@ __all__ = [
     "summarize_bifurcated",
 ]
 
-logger = logging.getLogger("nnmstop.bifurcation")
+logger = logging.getLogger("nnmstop.hbm.bifurcation")
 
 
 @dataclass
@@ -99,7 +99,7 @@ class BranchPoint:
 def quadratic_form(system, a, b) -> np.ndarray:
     """``Q(a, b)``, the symmetric bilinear part of ``S = L + Q``.
 
-    The ANM's right-hand side :meth:`~nnmstop.hbm.HarmonicBalanceSystem.series_products`
+    The ANM's right-hand side :meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.series_products`
     of order 3 for the terms ``(0, a, b)`` is ``Q(a, b) + Q(b, a) = 2 Q(a, b)``.
     """
     terms = np.zeros((3, system.n_unknowns))
@@ -136,7 +136,7 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
         Start and end of the continuation step flagged with a sign change (the two
         stored points of the step, the end possibly Newton-corrected).
     settings : ANMSettings, optional
-        Series order and tolerance (defaults of :class:`nnmstop.anm.ANMSettings`).
+        Series order and tolerance (defaults of :class:`nnmstop.continuation.anm.ANMSettings`).
     tol : float
         Bisection tolerance, relative to the step length.
 
@@ -153,7 +153,7 @@ def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, new
         If the determinant has the same sign at both ends of the step (no branch
         point bracketed).
     """
-    from .anm import ANMSettings, anm_step
+    from nnmstop.continuation.anm import ANMSettings, anm_step
 
     settings = ANMSettings() if settings is None else settings
     U_a, U_b = np.asarray(U_a, float), np.asarray(U_b, float)
@@ -340,8 +340,8 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, settings, switc
         (whose index is ``branch.branch_points[0]``; the branch points passed on
         either side follow). ``stats`` add up both sides.
     """
-    from .anm import continue_anm
-    from .continuation import Branch
+    from nnmstop.continuation.anm import continue_anm
+    from nnmstop.continuation.core import Branch
 
     sides = {}
     for sign in (-1.0, 1.0):
@@ -453,12 +453,12 @@ def summarize_bifurcated(ds, nnm2=None) -> str:
 
 
 def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.bifurcation summary BIFURCATED.nc [NNM2.nc]``."""
+    """Command line: ``python -m nnmstop.hbm.bifurcation summary BIFURCATED.nc [NNM2.nc]``."""
     import argparse
 
     import xarray as xr
 
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.bifurcation", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.hbm.bifurcation", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     summary = sub.add_parser("summary", help="branch point and bifurcated branch, optionally against NNM2")
     summary.add_argument("bifurcated", help="e.g. results/hbm/bifurcated/nnm1_3to1.nc")

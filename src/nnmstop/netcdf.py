@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from . import __version__
+from nnmstop import __version__
 
 __all__ = [
     "PAPER_AUTHORS",
@@ -100,7 +100,7 @@ def global_attributes(title: str, summary: str, keywords: str = "", metadata: di
         "date_created": prov["date_created"],
         "source": f"nnmstop {__version__} (git commit {prov['commit']})",
         # No date, host or path: a rebuild of the same commit must give the same bytes.
-        "history": f"computed and written by nnmstop {__version__} (git commit {prov['commit']}), nnmstop.datasets.write_dataset",
+        "history": f"computed and written by nnmstop {__version__} (git commit {prov['commit']}), nnmstop.netcdf.write_dataset",
         "references": PAPER_REFERENCE,
         # No variable has a CF standard name (CF defines none for these quantities); the
         # attribute names the table such names would come from, as ACDD asks: the version the

@@ -17,8 +17,8 @@ are zero in the cosine basis); ``omega_squared`` and ``unfolding`` (the extra un
 ``energy``, ``frequency``, ``period``, ``x_max``, ``u_max``, ``impacts_per_period``,
 ``algebraic_residual``, ``time_residual``, ``force_error``, ``energy_spread``,
 ``truncation``, ``step``, ``stage``, ``branch_point`` and ``energy_fold`` (flags);
-Floquet stability (config ``stability.method``: the monodromy matrix, :mod:`nnmstop.monodromy`, or
-Hill's method, :mod:`nnmstop.stability`): ``stable`` (flag),
+Floquet stability (config ``stability.method``: the monodromy matrix, :mod:`nnmstop.hbm.monodromy`, or
+Hill's method, :mod:`nnmstop.hbm.hill`): ``stable`` (flag),
 ``multiplier_real``/``multiplier_imag(point, multiplier)``, ``max_multiplier``,
 ``stability_orbit_residual``, ``stability_resolved``.
 """
@@ -33,8 +33,8 @@ from typing import Callable
 import numpy as np
 import xarray as xr
 
-from .anm import ANMSettings, continue_anm
-from .continuation import (
+from nnmstop.continuation.anm import ANMSettings, continue_anm
+from nnmstop.continuation.core import (
     Branch,
     ContinuationError,
     ContinuationStats,
@@ -42,11 +42,11 @@ from .continuation import (
     newton_correct,
     relative_residual,
 )
-from .datasets import flag_variable
-from .hbm import HarmonicBalanceSystem
-from .model import ModelParameters, linear_modes
-from .monodromy import MonodromySettings, branch_monodromy
-from .stability import DEFAULT_TOL, branch_stability
+from nnmstop.netcdf import flag_variable
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
+from nnmstop.hbm.hill import DEFAULT_TOL, branch_stability
 
 __all__ = [
     "system_from_config",
@@ -61,7 +61,7 @@ __all__ = [
     "bifurcated_branch",
 ]
 
-logger = logging.getLogger("nnmstop.branches")
+logger = logging.getLogger("nnmstop.hbm.branches")
 
 CRITERIA = ("energy_above", "impacts_above", "impacts_at_most", "frequency_within_gap_zero")
 
@@ -120,9 +120,9 @@ class TruncationGuard:
     """Stop criterion wrapper that refuses orbits the harmonics do not resolve.
 
     Called like a stop criterion ``(U, diagnostics) -> reason``: raises
-    :class:`~nnmstop.continuation.UnresolvedBranchError`, naming the energy, the
+    :class:`~nnmstop.continuation.core.UnresolvedBranchError`, naming the energy, the
     truncation indicator (``diagnostics["truncation"]``, see
-    :meth:`nnmstop.hbm.HarmonicBalanceSystem.truncation`) and ``H``, when the indicator
+    :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.truncation`) and ``H``, when the indicator
     exceeds ``limit``; otherwise defers to ``inner``. A continuation so guarded never
     returns a branch whose orbits its harmonics cannot represent. ``largest`` keeps the
     largest indicator seen; ``setting`` is the configuration key of ``limit``, for the
@@ -200,7 +200,7 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
     """Labelled dataset of a continued branch (see the module docstring).
 
     ``located``: the located branch points, as returned by
-    :func:`nnmstop.bifurcation.locate_flagged_branch_points`; by default the flagged
+    :func:`nnmstop.hbm.bifurcation.locate_flagged_branch_points`; by default the flagged
     steps of ``branch`` are located here.
     """
     H = system.H
@@ -257,7 +257,7 @@ def branch_dataset(system, branch: Branch, stage: int, config: dict, branch_name
         }
     )
     if located is None:
-        from .bifurcation import locate_flagged_branch_points
+        from nnmstop.hbm.bifurcation import locate_flagged_branch_points
 
         located = locate_flagged_branch_points(system, U, steps, branch.branch_points, _stage_settings(config))
     data.update(located_branch_point_variables(system, located))
@@ -298,8 +298,8 @@ def orbit_stability(system, U, config: dict, time_residual=None):
     """Floquet stability of the orbits ``U`` by the method of ``config["stability"]``.
 
     ``method: monodromy`` (the default, also without a ``stability`` section):
-    :func:`nnmstop.monodromy.branch_monodromy`; ``method: hill``:
-    :func:`nnmstop.stability.branch_stability`. Both return an object whose
+    :func:`nnmstop.hbm.monodromy.branch_monodromy`; ``method: hill``:
+    :func:`nnmstop.hbm.hill.branch_stability`. Both return an object whose
     ``data_vars()`` gives the dataset variables (``stable``, ``multiplier_*``,
     ``max_multiplier``, ``stability_orbit_residual``, ``stability_resolved``, and for
     the monodromy also ``stability_reason`` and the error estimates). ``time_residual``:
@@ -432,7 +432,7 @@ def bifurcated_branch(config: dict, name: str, parent_stage: xr.Dataset) -> xr.D
     of the parent branch) are searched for the branch point of the ``n:1`` internal
     resonance, classified when the stage was built (``branch_point_resonance``); the other curve
     through it is followed both ways by the ANM until its energy leaves
-    ``energy_range`` (:func:`nnmstop.bifurcation.continue_bifurcated_branch`).
+    ``energy_range`` (:func:`nnmstop.hbm.bifurcation.continue_bifurcated_branch`).
 
     The dataset has the layout of a branch dataset (module docstring), ordered along
     the curve through the branch point (``branch_point`` flags it), plus
@@ -441,7 +441,7 @@ def bifurcated_branch(config: dict, name: str, parent_stage: xr.Dataset) -> xr.D
     ``branch_point_energy``, ``branch_point_frequency``, ``tangent_angle`` (degrees
     between the two tangents), ``singular_ratio``.
     """
-    from .bifurcation import (
+    from nnmstop.hbm.bifurcation import (
         branch_point_kind,
         continue_bifurcated_branch,
         locate_flagged_branch_points,

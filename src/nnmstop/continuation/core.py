@@ -32,7 +32,7 @@ __all__ = [
     "StopCriterion",
 ]
 
-logger = logging.getLogger("nnmstop.continuation")
+logger = logging.getLogger("nnmstop.continuation.core")
 
 
 class ContinuationError(RuntimeError):

@@ -1,7 +1,7 @@
 r"""Newton predictor-corrector pseudo-arclength continuation (the baseline method).
 
-The same branches as :func:`nnmstop.anm.continue_anm`, on the same
-:class:`~nnmstop.hbm.HarmonicBalanceSystem` (``n`` equations ``S(U) = 0``, ``n + 1``
+The same branches as :func:`nnmstop.continuation.anm.continue_anm`, on the same
+:class:`~nnmstop.hbm.system.HarmonicBalanceSystem` (``n`` equations ``S(U) = 0``, ``n + 1``
 unknowns), by the classical order-one method:
 
 predictor
@@ -15,7 +15,7 @@ corrector
     i.e. on ``S(U) = 0`` in the hyperplane ``<U - U_k, t_k> = ds`` (the
     pseudo-arclength condition, satisfied exactly by the predictor and kept by every
     update). Every iteration evaluates and factorizes the bordered Jacobian anew
-    (:func:`nnmstop.continuation.bordered_factor`), so a step costs as many
+    (:func:`nnmstop.continuation.core.bordered_factor`), so a step costs as many
     factorizations as Newton iterations;
 tangent
     the new tangent solves ``[J; t_k^T] t = e_{n+1}`` with the LU factors of the
@@ -35,18 +35,18 @@ step control
     ``max_angle / (2 * angle)`` (the smaller of the two, within ``[1/2, growth]``,
     capped by ``max_step``); after a rejected step it is halved and the step retried
     from the same point. Below ``min_step`` the continuation gives up with a
-    :class:`~nnmstop.continuation.ContinuationError` naming the step and the energy.
+    :class:`~nnmstop.continuation.core.ContinuationError` naming the step and the energy.
 
 Accuracy, and what "the same accuracy as the ANM" means here. Both methods return
 points whose accuracy is measured by the same number,
-:func:`nnmstop.continuation.relative_residual` ``||S(U)|| / max(||U||, 1)``. The ANM
+:func:`nnmstop.continuation.core.relative_residual` ``||S(U)|| / max(||U||, 1)``. The ANM
 controls it through its series tolerance (Cochelin's step length keeps the last
 series term below ``tolerance``) and bounds it by construction through its Newton
 threshold (a step end above ``newton_threshold = 1e-7`` is corrected). With
 ``ANMSettings(tolerance=1e-8)`` its step ends on NNM1 and NNM2 at ``H = 100`` have
 relative residuals from ``1e-10`` to ``3.5e-9`` (up to ``1.2e-8`` at ``H = 20``). The
 corrector here stops as soon as the relative residual is at most ``tolerance``, with
-the convergence rule of :func:`~nnmstop.continuation.newton_correct`; "same accuracy"
+the convergence rule of :func:`~nnmstop.continuation.core.newton_correct`; "same accuracy"
 means this ``tolerance`` equals the ANM series tolerance (default ``1e-8`` for both),
 so that the largest residuals of the two methods are of the same order (checked by the
 tests and printed by ``benchmarks/continuation_benchmark.py``). The baseline is
@@ -75,7 +75,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import lu_solve
 
-from .continuation import (
+from nnmstop.continuation.core import (
     Branch,
     ContinuationError,
     ContinuationStats,
@@ -91,7 +91,7 @@ from .continuation import (
 
 __all__ = ["PseudoArclengthSettings", "PseudoArclengthStats", "corrector", "continue_pseudo_arclength"]
 
-logger = logging.getLogger("nnmstop.pseudo_arclength")
+logger = logging.getLogger("nnmstop.continuation.pseudo_arclength")
 
 
 @dataclass(frozen=True)
@@ -180,7 +180,7 @@ def _is_int(value) -> bool:
 
 @dataclass
 class PseudoArclengthStats(ContinuationStats):
-    """:class:`~nnmstop.continuation.ContinuationStats` plus the rejected (retried) steps.
+    """:class:`~nnmstop.continuation.core.ContinuationStats` plus the rejected (retried) steps.
 
     ``factorizations`` and ``newton_iterations`` include the work spent on rejected
     steps; ``corrected_steps`` equals ``steps`` (every point is a Newton correction).
@@ -205,7 +205,7 @@ def corrector(system, U_pred, tangent, stats: ContinuationStats, tol: float, max
     tol : float
         Convergence when ``relative_residual <= tol`` and either the last update is
         below ``1e3 * tol * max(||U||, 1)`` or the residual is below ``1e-3 * tol`` (the
-        rule of :func:`~nnmstop.continuation.newton_correct`: near a singular Jacobian
+        rule of :func:`~nnmstop.continuation.core.newton_correct`: near a singular Jacobian
         the update can stall above round-off while the residual is already there).
     max_iterations : int
         Iterations allowed.
@@ -275,7 +275,7 @@ def continue_pseudo_arclength(
 ) -> Branch:
     """Follow the branch through ``U_start`` along ``direction`` until ``stop`` says so.
 
-    Same interface and same returned object as :func:`nnmstop.anm.continue_anm`.
+    Same interface and same returned object as :func:`nnmstop.continuation.anm.continue_anm`.
 
     Parameters
     ----------

@@ -25,7 +25,7 @@ series then ends at ``1e-5`` to ``5e-4`` and needs about a dozen chord iteration
 Those steps are still longer than the plain series would allow.
 
 With ``ANMSettings.pade`` (the default) each step is taken on the Padé approximant of
-its series (:mod:`nnmstop.pade`: common denominator from a QR of the terms), when that
+its series (:mod:`nnmstop.continuation.pade`: common denominator from a QR of the terms), when that
 reaches beyond ``a_max`` at the same tolerance: the step then ends where the
 approximants of orders ``N`` and ``N - 1`` stop agreeing to ``tolerance`` relative to
 the step, and strictly before the first positive real pole of their denominators.
@@ -47,8 +47,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg.lapack import dgetrs as _getrs
 
-from .pade import pade_pair, pade_step_length
-from .continuation import (
+from nnmstop.continuation.pade import pade_pair, pade_step_length
+from nnmstop.continuation.core import (
     Branch,
     ContinuationError,
     ContinuationStats,
@@ -63,7 +63,7 @@ from .continuation import (
 
 __all__ = ["ANMSettings", "ANMStep", "TaylorPath", "anm_series", "evaluate_series", "anm_step", "continue_anm"]
 
-logger = logging.getLogger("nnmstop.anm")
+logger = logging.getLogger("nnmstop.continuation.anm")
 
 
 @dataclass(frozen=True)
@@ -88,7 +88,7 @@ class ANMSettings:
         the stored curves are as dense as with the plain series.
     pade : bool
         Represent each step by the Padé approximant of its series
-        (:mod:`nnmstop.pade`) wherever that reaches further than the series at the
+        (:mod:`nnmstop.continuation.pade`) wherever that reaches further than the series at the
         same tolerance (the plain series' step is taken instead when the
         approximant's end cannot be corrected by Newton), the default; False
         keeps the plain power series.
@@ -243,7 +243,7 @@ def remove_geometric_tail(series, a_max: float, alignment: float = 1e-6, reach: 
 
 
 class TaylorPath:
-    """The power series of a step as a path ``a -> U(a)`` (same call as :class:`nnmstop.pade.PadeApproximant`)."""
+    """The power series of a step as a path ``a -> U(a)`` (same call as :class:`nnmstop.continuation.pade.PadeApproximant`)."""
 
     def __init__(self, series):
         self.series = series

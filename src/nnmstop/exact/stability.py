@@ -12,9 +12,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .datasets import flag_variable
-from .exact import LinearPhase
-from .model import ModelParameters
+from nnmstop.netcdf import flag_variable
+from nnmstop.exact.two_impact import LinearPhase
+from nnmstop.models.two_dof import ModelParameters
 
 __all__ = [
     "ExactMultipliers",
@@ -76,7 +76,7 @@ def quarter_transitions(params: ModelParameters, sequence: str, durations, phase
     ----------
     params : ModelParameters
     sequence : str
-        Quarter-period phase sequence (``"FR"``, ``"FLFR"``...; see :mod:`nnmstop.exact_multi`).
+        Quarter-period phase sequence (``"FR"``, ``"FLFR"``...; see :mod:`nnmstop.exact.multi_impact`).
     durations : array_like
         Duration of each phase (>= 0), same length as ``sequence``.
     phases : dict, optional
@@ -228,7 +228,7 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
 
 def summarize(ds) -> str:
     """Plain-text summary of the Floquet variables of an exact branch dataset."""
-    from .stability_compare import stability_changes, verdicts
+    from nnmstop.compare.stability import stability_changes, verdicts
 
     lines = [
         f"{ds.sizes['point']} orbits, {int(ds['stable'].sum())} stable",
@@ -254,12 +254,12 @@ def summarize(ds) -> str:
 
 
 def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.exact_stability results/exact/nnm1.nc`` prints :func:`summarize`."""
+    """Command line: ``python -m nnmstop.exact.stability results/exact/nnm1.nc`` prints :func:`summarize`."""
     import argparse
 
     import xarray as xr
 
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.exact_stability", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.exact.stability", description=__doc__.splitlines()[0])
     parser.add_argument("dataset", help="exact branch dataset, e.g. results/exact/nnm1.nc")
     args = parser.parse_args(argv)
     with xr.open_dataset(args.dataset) as ds:

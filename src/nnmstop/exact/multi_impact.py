@@ -1,8 +1,8 @@
 """Exact NNM1 of the non-smooth system with any number of impacts per period.
 
-Generalization of the quarter-period construction of Section 3.1 (:mod:`nnmstop.exact`)
+Generalization of the quarter-period construction of Section 3.1 (:mod:`nnmstop.exact.two_impact`)
 to orbits made of any sequence of linear phases, each solved in closed form by
-:class:`nnmstop.exact.LinearPhase`:
+:class:`nnmstop.exact.two_impact.LinearPhase`:
 
 * ``F``, free flight, ``|x| <= 1`` (Eq. 8);
 * ``R``, contact with the right stop, ``x >= 1`` (Eq. 9);
@@ -31,7 +31,7 @@ and ``n + 1`` equations (:class:`MultiImpactProblem`)::
 
 so the solutions form one-parameter families, followed by pseudo-arclength continuation
 with the analytic Jacobian (transition matrices of the phases, exact). For ``"FR"`` this
-is exactly :class:`nnmstop.exact.TwoImpactProblem`.
+is exactly :class:`nnmstop.exact.two_impact.TwoImpactProblem`.
 
 Impact count
 ------------
@@ -100,7 +100,7 @@ between), and why it ends::
     6        FRFR      2658 -> 322.2 -> 383.2                         the free flight between the two R contacts
                                                                       vanishes -> FR
     2        FR        383.2 -> energy_max (1.5e5)                    still valid: the high-energy orbits of
-                                                                      :func:`nnmstop.exact.high_energy_orbit`
+                                                                      :func:`nnmstop.exact.two_impact.high_energy_orbit`
 
 (``3:1``, ``5:1``: a branch point at the least energy of the segment, the internal
 resonances with NNM2 of the paper.) Every segment ends exactly at a grazing orbit, so
@@ -120,10 +120,10 @@ import scipy.linalg
 import scipy.optimize
 import xarray as xr
 
-from .datasets import write_dataset
-from .exact import LinearPhase, MarginChecks, OrbitTimeHistory, interior_extrema, symmetric_time_history
-from .exact_stability import stability_variables
-from .model import ModelParameters, mass_matrix, stiffness_matrix, total_energy
+from nnmstop.netcdf import write_dataset
+from nnmstop.exact.two_impact import LinearPhase, MarginChecks, OrbitTimeHistory, interior_extrema, symmetric_time_history
+from nnmstop.exact.stability import stability_variables
+from nnmstop.models.two_dof import ModelParameters, mass_matrix, stiffness_matrix, total_energy
 
 __all__ = [
     "PHASE_NAMES",
@@ -1108,7 +1108,7 @@ def time_history(params: ModelParameters, sequence: str, y, t) -> OrbitTimeHisto
 
     Returns
     -------
-    nnmstop.exact.OrbitTimeHistory
+    nnmstop.exact.two_impact.OrbitTimeHistory
     """
     problem = MultiImpactProblem(params, sequence)
     y = problem.check(y)
@@ -1119,7 +1119,7 @@ def time_history(params: ModelParameters, sequence: str, y, t) -> OrbitTimeHisto
 
 
 def from_two_impact_unknowns(y) -> np.ndarray:
-    """Unknowns of ``"FR"`` from those of :class:`nnmstop.exact.TwoImpactProblem`.
+    """Unknowns of ``"FR"`` from those of :class:`nnmstop.exact.two_impact.TwoImpactProblem`.
 
     ``(xdot0, udot0, tau1, T1)`` -> ``(xdot0, udot0, tau1, T1 - tau1)``; works on the last axis.
     """
@@ -1170,7 +1170,7 @@ def branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelParamet
     Parameters
     ----------
     two_impacts : xarray.Dataset
-        The two-impact family (:func:`nnmstop.exact.family_dataset`); its values are copied
+        The two-impact family (:func:`nnmstop.exact.two_impact.family_dataset`); its values are copied
         unchanged as the first points.
     segments : list of Segment
         The continuation from its last orbit (:func:`follow_branch`). Orbits of a first
@@ -1548,8 +1548,8 @@ def format_comparison(rows: list) -> str:
 
 
 def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.exact_multi compare EXACT.nc REGULARIZED.nc``."""
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.exact_multi", description=__doc__.splitlines()[0])
+    """Command line: ``python -m nnmstop.exact.multi_impact compare EXACT.nc REGULARIZED.nc``."""
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.exact.multi_impact", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     cmp_ = sub.add_parser("compare", help="regularization error of the frequency per impact regime")
     cmp_.add_argument("exact", help="exact branch, e.g. results/exact/nnm1.nc")

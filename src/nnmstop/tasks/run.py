@@ -3,7 +3,7 @@
 Every rule of ``workflow/rules/*.smk`` is a one-line call of :func:`run_task`; the
 same task runs standalone for debugging::
 
-    python -m nnmstop.pipeline hbm_stage --branch nnm1 --stage 2 \\
+    python -m nnmstop.tasks.run hbm_stage --branch nnm1 --stage 2 \\
         --input previous=results/hbm/stages/nnm1_stage1.nc \\
         --output dataset=/tmp/nnm1_stage2.nc
 
@@ -26,27 +26,27 @@ import xarray as xr
 
 __all__ = ["TASKS", "run_task", "main"]
 
-logger = logging.getLogger("nnmstop.pipeline")
+logger = logging.getLogger("nnmstop.tasks.run")
 
 
 def exact_two_impacts(config, inputs, outputs):
     """Exact two-impact NNM1 family of the non-smooth system (Section 3.1)."""
-    from .exact import build_two_impact_dataset
+    from nnmstop.exact.two_impact import build_two_impact_dataset
 
     build_two_impact_dataset(config, outputs["dataset"])
 
 
 def exact_nnm1(config, inputs, outputs):
     """Exact NNM1 with any number of impacts per period, continued from the two-impact family."""
-    from .exact_multi import build_multi_impact_dataset
+    from nnmstop.exact.multi_impact import build_multi_impact_dataset
 
     build_multi_impact_dataset(config, inputs["two_impacts"], outputs["dataset"])
 
 
 def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
     """One stage of a regularized NNM branch (HBM + ANM)."""
-    from .branches import continue_stage
-    from .datasets import write_dataset
+    from nnmstop.hbm.branches import continue_stage
+    from nnmstop.netcdf import write_dataset
 
     stage = int(stage)
     previous = None
@@ -70,8 +70,8 @@ def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
 
 def hbm_bifurcated(config, inputs, outputs, bifurcation: str):
     """The branch switched at a branch point of a regularized branch (``bifurcations.<name>``)."""
-    from .branches import bifurcated_branch
-    from .datasets import write_dataset
+    from nnmstop.hbm.branches import bifurcated_branch
+    from nnmstop.netcdf import write_dataset
 
     with xr.open_dataset(inputs["parent"]) as parent:
         ds = bifurcated_branch(config, bifurcation, parent.load())
@@ -92,8 +92,8 @@ def hbm_bifurcated(config, inputs, outputs, bifurcation: str):
 
 def hbm_branch(config, inputs, outputs, branch: str):
     """Concatenate the stages of a branch into one dataset."""
-    from .branches import combine_stages
-    from .datasets import write_dataset
+    from nnmstop.hbm.branches import combine_stages
+    from nnmstop.netcdf import write_dataset
 
     stages = []
     for path in inputs["stages"]:
@@ -114,35 +114,35 @@ def hbm_branch(config, inputs, outputs, branch: str):
 
 def compare_nnm1(config, inputs, outputs):
     """Exact vs regularized NNM1 at matched energies (inputs ``exact``, ``nnm1`` = stage 1)."""
-    from .compare import build_comparison_dataset
+    from nnmstop.compare.matching import build_comparison_dataset
 
     build_comparison_dataset(config, inputs, outputs["dataset"])
 
 
 def compare_regimes(config, inputs, outputs):
     """Frequency error of the regularized NNM1 per impact regime, whole branch (inputs ``exact``, ``nnm1``)."""
-    from .regime_errors import build_regime_error_dataset
+    from nnmstop.compare.regimes import build_regime_error_dataset
 
     build_regime_error_dataset(config, inputs, outputs)
 
 
 def regime_error_figure(config, inputs, outputs):
     """paper_figures/extra_regime_error.pdf/.png from the regime error dataset (input ``dataset``)."""
-    from .figures.regime_errors import build_regime_error_figure
+    from nnmstop.figures.regime_errors import build_regime_error_figure
 
     build_regime_error_figure(config, inputs["dataset"], outputs["pdf"])
 
 
 def compare_stability(config, inputs, outputs):
     """Exact vs regularized Floquet verdicts of NNM1 per impact regime (inputs ``exact``, ``nnm1``)."""
-    from .stability_compare import build_stability_comparison
+    from nnmstop.compare.stability import build_stability_comparison
 
     build_stability_comparison(config, inputs, outputs)
 
 
 def stability_figure(config, inputs, outputs):
     """paper_figures/extra_stability.pdf/.png (inputs ``exact``, ``nnm1``, ``dataset``)."""
-    from .figures.stability import build_stability_figure
+    from nnmstop.figures.stability import build_stability_figure
 
     build_stability_figure(config, inputs, outputs["pdf"])
 
@@ -155,9 +155,9 @@ def paper_figure(name: str, config, inputs, outputs):
     (:mod:`nnmstop.figures.frequency_energy`). Outputs ``pdf`` and ``png``.
     """
     if name in ("fig02", "fig03", "fig04"):
-        from .figures.exact_vs_regularized import build_figure
+        from nnmstop.figures.exact_vs_regularized import build_figure
     else:
-        from .figures.frequency_energy import build_paper_figure as build_figure
+        from nnmstop.figures.frequency_energy import build_paper_figure as build_figure
     build_figure(name, config, inputs, outputs)
 
 
@@ -176,7 +176,7 @@ def dataset_manifest(config, inputs, outputs):
 
 def bundle(config, inputs, outputs):
     """The result bundle (``nnmstop.bundle.build_bundle``): datasets, figures, manifest, lock, workflow."""
-    from .bundle import build_bundle
+    from nnmstop.bundle import build_bundle
 
     def as_list(value):
         return [value] if isinstance(value, str) else list(value)
@@ -197,14 +197,14 @@ PAPER_FIGURE_TASKS = {f"paper_fig{n:02d}": functools.partial(paper_figure, f"fig
 
 def study_error_case(config, inputs, outputs, harmonics, eta):
     """One (H, eta) setting of the error-against-run-time study (input ``exact``)."""
-    from .study.error_runtime import build_error_case
+    from nnmstop.study.error_runtime import build_error_case
 
     build_error_case(config, inputs, outputs["dataset"], harmonics, eta)
 
 
 def study_anm_case(config, inputs, outputs, order, tolerance):
     """One ANM (order, tolerance) setting at ``study.error_runtime.anm_harmonics`` and ``model.eta``."""
-    from .study.error_runtime import build_error_case
+    from nnmstop.study.error_runtime import build_error_case
 
     H = config["study"]["error_runtime"]["anm_harmonics"]
     build_error_case(config, inputs, outputs["dataset"], H, config["model"]["eta"], order, tolerance)
@@ -212,63 +212,63 @@ def study_anm_case(config, inputs, outputs, order, tolerance):
 
 def study_reference(config, inputs, outputs, eta):
     """Large-H reference orbits of one eta (truncation/regularization split)."""
-    from .study.error_runtime import build_reference
+    from nnmstop.study.error_runtime import build_reference
 
     build_reference(config, inputs, outputs["dataset"], eta)
 
 
 def study_exact_cost(config, inputs, outputs):
     """Cost per orbit of the exact solver."""
-    from .study.error_runtime import build_exact_cost
+    from nnmstop.study.error_runtime import build_exact_cost
 
     build_exact_cost(config, inputs, outputs["dataset"])
 
 
 def study_error_vs_runtime(config, inputs, outputs):
     """Gather the sweep into results/study/error_vs_runtime.nc."""
-    from .study.error_runtime import build_error_vs_runtime
+    from nnmstop.study.error_runtime import build_error_vs_runtime
 
     build_error_vs_runtime(config, inputs, outputs["dataset"])
 
 
 def study_error_vs_runtime_figure(config, inputs, outputs):
     """paper_figures/error_vs_runtime.pdf/.png (input ``dataset``)."""
-    from .figures.study import build_error_vs_runtime_figure
+    from nnmstop.figures.study import build_error_vs_runtime_figure
 
     build_error_vs_runtime_figure(config, inputs["dataset"], outputs["pdf"])
 
 
 def study_stiff_exact(config, inputs, outputs, alpha, beta, delta):
     """Exact family and its exactness checks for one (alpha, beta, delta)."""
-    from .study.stiff_cases import build_stiff_exact
+    from nnmstop.study.stiff_cases import build_stiff_exact
 
     build_stiff_exact(config, inputs, outputs["dataset"], alpha, beta, delta)
 
 
 def study_stiff_branch(config, inputs, outputs, alpha, beta, delta, eta):
     """Harmonics ladder of NNM1 stage 1 for one stiff case (input ``exact``)."""
-    from .study.stiff_cases import build_stiff_branch
+    from nnmstop.study.stiff_cases import build_stiff_branch
 
     build_stiff_branch(config, inputs, outputs["dataset"], alpha, beta, delta, eta)
 
 
 def study_stiff_energy(config, inputs, outputs, alpha):
     """Exact solver and HBM at energies 1e-6..1e6 for one alpha."""
-    from .study.stiff_cases import build_stiff_energy
+    from nnmstop.study.stiff_cases import build_stiff_energy
 
     build_stiff_energy(config, inputs, outputs["dataset"], alpha)
 
 
 def study_stiff_cases(config, inputs, outputs):
     """Gather the stiff cases into results/study/stiff_cases.nc."""
-    from .study.stiff_cases import build_stiff_cases
+    from nnmstop.study.stiff_cases import build_stiff_cases
 
     build_stiff_cases(config, inputs, outputs["dataset"])
 
 
 def study_stiff_cases_figure(config, inputs, outputs):
     """paper_figures/stiff_cases.pdf/.png (input ``dataset``)."""
-    from .figures.study import build_stiff_cases_figure
+    from nnmstop.figures.study import build_stiff_cases_figure
 
     build_stiff_cases_figure(config, inputs["dataset"], outputs["pdf"])
 
@@ -331,10 +331,10 @@ def _pairs(values):
 
 
 def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.pipeline TASK [options]``."""
-    from .config import load_config
+    """Command line: ``python -m nnmstop.tasks.run TASK [options]``."""
+    from nnmstop.config import load_config
 
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.pipeline", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.tasks.run", description=__doc__.splitlines()[0])
     parser.add_argument("task", choices=sorted(TASKS))
     parser.add_argument("--config", default="config/config.yaml")
     parser.add_argument("--input", action="append", metavar="KEY=PATH", help="named input (repeatable)")

@@ -3,9 +3,9 @@
 What is compared
 ----------------
 On one side the exact two-impact NNM1 family of the non-smooth system, Eqs. (3)-(4)
-(:mod:`nnmstop.exact`, closed form); on the other the regularized NNM1 of Eq. (7)
+(:mod:`nnmstop.exact.two_impact`, closed form); on the other the regularized NNM1 of Eq. (7)
 computed by harmonic balance with ``H`` harmonics and the ANM (stage 1 of the branch,
-:mod:`nnmstop.branches`: from the linear mode up to the first orbit with more than
+:mod:`nnmstop.hbm.branches`: from the linear mode up to the first orbit with more than
 one impact per stop). At each compared energy ``E`` the module finds one orbit of each
 model **at exactly that energy** and records
 
@@ -54,7 +54,7 @@ At a matched energy ``E``:
   ``E(y) = E`` (four equations, four unknowns, analytic Jacobian), seeded by linear
   interpolation of the family's unknowns between the two neighbouring orbits of the
   increasing arm; the residual and the energy are at round-off after convergence and the
-  orbit is checked with :func:`nnmstop.exact.assess_orbit`;
+  orbit is checked with :func:`nnmstop.exact.two_impact.assess_orbit`;
 * **regularized orbit**: Newton's method on the HBM equations ``S(U) = 0`` bordered with
   ``E(U) = E`` (mean energy over the period, analytic gradient), seeded by linear
   interpolation of the unknowns between the two neighbouring branch points. So the
@@ -89,12 +89,12 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .branches import dataset_unknowns
-from .continuation import relative_residual
-from .datasets import write_dataset
-from .exact import TwoImpactProblem, assess_orbit, time_history
-from .hbm import HarmonicBalanceSystem
-from .model import ModelParameters, regularized_contact_force, total_energy
+from nnmstop.hbm.branches import dataset_unknowns
+from nnmstop.continuation.core import relative_residual
+from nnmstop.netcdf import write_dataset
+from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, time_history
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
 
 __all__ = [
     "MAX_IMPACTS",
@@ -110,7 +110,7 @@ __all__ = [
     "build_comparison_dataset",
 ]
 
-logger = logging.getLogger("nnmstop.compare")
+logger = logging.getLogger("nnmstop.compare.matching")
 
 #: One impact per stop per period: at most two excursions beyond the stops.
 MAX_IMPACTS = 2
@@ -286,9 +286,9 @@ class EnergyMatcher:
     Parameters
     ----------
     exact : xarray.Dataset
-        Exact two-impact family (:func:`nnmstop.exact.family_dataset`).
+        Exact two-impact family (:func:`nnmstop.exact.two_impact.family_dataset`).
     branch : xarray.Dataset
-        Regularized NNM1 branch or stage dataset (layout of :mod:`nnmstop.branches`).
+        Regularized NNM1 branch or stage dataset (layout of :mod:`nnmstop.hbm.branches`).
     end_margin : float
         Relative margin kept from both ends of the common energy range, in ``[0, 0.5)``.
 

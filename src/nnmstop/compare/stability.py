@@ -1,9 +1,9 @@
 """Stability of the exact NNM1 against the regularized NNM1, per impact regime (issue 13, part 3).
 
 Both branches carry a Floquet verdict ``stable`` per orbit: the exact one from
-:mod:`nnmstop.exact_stability`, the regularized one from the HBM datasets (whatever
+:mod:`nnmstop.exact.stability`, the regularized one from the HBM datasets (whatever
 method produced it; an optional ``stability_resolved = 0`` marks an orbit without a
-verdict). The regimes are paired as in :func:`nnmstop.exact_multi.compare_with_regularized`
+verdict). The regimes are paired as in :func:`nnmstop.exact.multi_impact.compare_with_regularized`
 (the one implementation of the pairing). For every compared regularized orbit of a regime,
 the exact verdict at the same energy is read on the exact regime (same monotone piece and
 nearest frequency as the frequency comparison); an orbit whose energy falls between two
@@ -23,9 +23,9 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from .datasets import flag_variable, write_dataset
-from .exact_multi import _monotone_pieces, compare_with_regularized
-from .regime_errors import read_exact_and_regularized, write_table
+from nnmstop.netcdf import flag_variable, write_dataset
+from nnmstop.exact.multi_impact import _monotone_pieces, compare_with_regularized
+from nnmstop.compare.regimes import read_exact_and_regularized, write_table
 
 __all__ = [
     "REGIME_COLUMNS",
@@ -47,7 +47,7 @@ UNSTABLE, STABLE, NO_VERDICT = 0, 1, -1
 #: Columns of the regime table: name -> (long_name, units).
 REGIME_COLUMNS = {
     "impacts_per_period": ("number of excursions of x beyond the stops (|x| > 1) per period", "1"),
-    "exact_sequence": ("phase sequence(s) of the exact orbits of the regime (see nnmstop.exact_multi)", "1"),
+    "exact_sequence": ("phase sequence(s) of the exact orbits of the regime (see nnmstop.exact.multi_impact)", "1"),
     "n_compared": ("regularized orbits of the regime with a verdict on both sides at the same energy", "1"),
     "n_agree": ("compared orbits where the exact and regularized verdicts agree", "1"),
     "n_both_stable": ("compared orbits stable in both models", "1"),
@@ -255,10 +255,10 @@ def stability_comparison_dataset(exact_ds: xr.Dataset, regularized_ds: xr.Datase
         "agreeing_orbits": total["n_agree"],
         "regularized_stability_method": str(regularized_ds["stable"].attrs.get("comment", "as in the regularized dataset")),
         "method": (
-            "Regimes paired as in nnmstop.exact_multi.compare_with_regularized; the exact verdict at each compared "
+            "Regimes paired as in nnmstop.exact.multi_impact.compare_with_regularized; the exact verdict at each compared "
             "regularized energy from the two bracketing exact orbits of the same monotone piece (nearest frequency); "
             "changes located between consecutive orbits; changes paired in branch order when both branches have "
-            "the same number of changes going the same way in the regime (nnmstop.stability_compare)."
+            "the same number of changes going the same way in the regime (nnmstop.compare.stability)."
         ),
     }
     return ds
@@ -308,10 +308,10 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
 
 
 def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.stability_compare EXACT.nc REGULARIZED.nc`` prints the table."""
+    """Command line: ``python -m nnmstop.compare.stability EXACT.nc REGULARIZED.nc`` prints the table."""
     import argparse
 
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.stability_compare", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.compare.stability", description=__doc__.splitlines()[0])
     parser.add_argument("exact", help="exact branch, e.g. results/exact/nnm1.nc")
     parser.add_argument("regularized", help="regularized branch, e.g. results/hbm/nnm1.nc")
     args = parser.parse_args(argv)

@@ -8,7 +8,7 @@ perturbation ``y = (y_x, y_u)`` obeys::
     M y'' + K y + [k(t) y_x, 0] = 0,      M = diag(1, delta),   K = stiffness_matrix(params),
 
 with ``k(t) = f'(x(t))`` the slope of the contact force along the orbit. By default
-(``linearization="model"``) ``k`` is :func:`nnmstop.model.regularized_contact_stiffness`
+(``linearization="model"``) ``k`` is :func:`nnmstop.models.two_dof.regularized_contact_stiffness`
 evaluated on the HBM ``x(t)``. Why this choice rather than the Jacobian of the
 quadratic recast:
 
@@ -166,8 +166,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.linalg import eig
 
-from .datasets import flag_variable
-from .model import (
+from nnmstop.netcdf import flag_variable
+from nnmstop.models.two_dof import (
     ModelParameters,
     regularized_contact_force,
     regularized_contact_stiffness,
@@ -418,7 +418,7 @@ def contact_stiffness_series(system, U, linearization: str = "model", samples: i
     U : array_like
         Unknown vector of an orbit (cosine or full basis).
     linearization : {"model", "recast"}
-        ``"model"``: :func:`nnmstop.model.regularized_contact_stiffness` of the HBM
+        ``"model"``: :func:`nnmstop.models.two_dof.regularized_contact_stiffness` of the HBM
         ``x(t)``; ``"recast"``: ``(eta - 2 f g) / (1 - z - 2 f g / alpha)`` on the HBM
         fields (see the module docstring).
     samples : int, optional
@@ -827,8 +827,8 @@ def floquet(
 
     Examples
     --------
-    >>> from nnmstop.hbm import HarmonicBalanceSystem
-    >>> from nnmstop.model import ModelParameters
+    >>> from nnmstop.hbm.system import HarmonicBalanceSystem
+    >>> from nnmstop.models.two_dof import ModelParameters
     >>> system = HarmonicBalanceSystem(ModelParameters(), harmonics=8)
     >>> r = floquet(system, system.linear_mode_guess(1, 0.1))
     >>> r.stable, float(r.max_multiplier)
@@ -896,14 +896,14 @@ def _variational_flow(params: ModelParameters, z0, t_end, rtol, atol):
 
     The regularized force is the admissible root of the cubic; instead of solving the
     cubic at every evaluation, the integrated displacement of the first mass is the
-    branch coordinate ``y = x - f/alpha`` (``= -g`` of :mod:`nnmstop.model`), from
+    branch coordinate ``y = x - f/alpha`` (``= -g`` of :mod:`nnmstop.models.two_dof`), from
     which the exact rational parametrization gives, with ``s = c - y**2``,
     ``c = 1 - eps``::
 
         x = y + eps y / s,   f = eta y / s,   f'(x) = eta (c + y**2) / (s**2 + eps (c + y**2)),
         dy/dt = xdot / (dx/dy),   dx/dy = 1 + eps (c + y**2) / s**2.
 
-    This is the same force as :func:`nnmstop.model.regularized_contact_force` (the
+    This is the same force as :func:`nnmstop.models.two_dof.regularized_contact_force` (the
     start ``y`` is taken from it), evaluated in closed form: it makes the integration
     an order of magnitude faster. The variational equations are those of the
     original coordinates ``(x, u, xdot, udot)``.
@@ -956,7 +956,7 @@ def monodromy(params: ModelParameters, state0, period, rtol: float = 1e-12, atol
 
     Integrates ``z = (x, u, xdot, udot)`` and the variational equations
     ``Phi' = J(z) Phi``, ``Phi(0) = I``, over one period with DOP853; the contact
-    force and its slope are those of :mod:`nnmstop.model` (true root of the cubic,
+    force and its slope are those of :mod:`nnmstop.models.two_dof` (true root of the cubic,
     evaluated through its exact rational parametrization, see
     :func:`_variational_flow`).
 
@@ -1060,7 +1060,7 @@ def branch_stability(
     system : HarmonicBalanceSystem
     U_array : array_like, shape (n, n_unknowns)
         Unknown vectors of the points (e.g. from
-        :func:`nnmstop.branches.dataset_unknowns`).
+        :func:`nnmstop.hbm.branches.dataset_unknowns`).
     harmonics, tol, linearization, method, symmetry
         As in :func:`floquet`.
     progress : callable, optional

@@ -4,7 +4,7 @@ The method (Magnus steps on a uniform grid, batched exponentials, pairwise produ
 multipliers from the invariants of the symplectic matrix, the tolerances and the
 reason codes) is described in ``docs/methods/monodromy.md``. :func:`branch_monodromy`
 is the entry point used when branch datasets are assembled
-(``stability.method: monodromy``); Hill's method stays in :mod:`nnmstop.stability`.
+(``stability.method: monodromy``); Hill's method stays in :mod:`nnmstop.hbm.hill`.
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .datasets import flag_variable
-from .model import ModelParameters, regularized_contact_stiffness
-from .stability import is_halfwave_symmetric
+from nnmstop.netcdf import flag_variable
+from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
+from nnmstop.hbm.hill import is_halfwave_symmetric
 
 __all__ = [
     "MonodromySettings",

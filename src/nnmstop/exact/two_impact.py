@@ -8,12 +8,12 @@ Between impacts, Eqs. (3)-(4) are linear with constant coefficients:
   shifted to ``K_c^{-1} (alpha, 0)``;
 
 with ``q = (x, u)``, ``M = diag(1, delta)`` and ``K = [[1 + beta, -beta], [-beta, beta]]``
-(:func:`nnmstop.model.mass_matrix`, :func:`nnmstop.model.stiffness_matrix`). Each phase
+(:func:`nnmstop.models.two_dof.mass_matrix`, :func:`nnmstop.models.two_dof.stiffness_matrix`). Each phase
 is solved in closed form by its modes (generalized eigenproblem ``K phi = omega**2 M phi``,
 mass-normalized), so the state at any time, its derivative with respect to time (the
 vector field) and with respect to the initial state (the transition matrix) are exact
 to round-off. No time-stepping ODE solver is used in this module; the independent
-cross-checks live in :mod:`nnmstop.time_integration`.
+cross-checks live in :mod:`nnmstop.checks.time_integration`.
 
 Quarter-period construction
 ---------------------------
@@ -59,8 +59,8 @@ import scipy.linalg
 import scipy.optimize
 import xarray as xr
 
-from .datasets import write_dataset
-from .model import (
+from nnmstop.netcdf import write_dataset
+from nnmstop.models.two_dof import (
     ModelParameters,
     linear_modes,
     mass_matrix,
@@ -782,7 +782,7 @@ def family_dataset(family: TwoImpactFamily) -> xr.Dataset:
     x_max = [a.x_max for a in family.assessments]
     u_at = [a.u_at_x_max for a in family.assessments]
     margin = [a.min_margin for a in family.assessments]
-    from .exact_stability import stability_variables  # it builds on LinearPhase of this module
+    from nnmstop.exact.stability import stability_variables  # it builds on LinearPhase of this module
 
     floquet = stability_variables(family.params, ["FR"] * n, np.column_stack([y[:, 2], y[:, 3] - y[:, 2]]))
     ds = xr.Dataset(
@@ -848,7 +848,7 @@ def build_two_impact_dataset(config: dict, output_path: str | Path) -> Path:
         With the ``model`` (alpha, beta, delta, eta) and ``exact`` (step, max_points)
         sections of ``config/config.yaml``.
     output_path : str or Path
-        NetCDF file to write (atomically, through :func:`nnmstop.datasets.write_dataset`).
+        NetCDF file to write (atomically, through :func:`nnmstop.netcdf.write_dataset`).
 
     Returns
     -------

@@ -1,6 +1,6 @@
 """Independent time-domain integrators, used as cross-checks of the closed-form orbits.
 
-Nothing in :mod:`nnmstop.exact` uses this module: the point is to check the closed-form
+Nothing in :mod:`nnmstop.exact.two_impact` uses this module: the point is to check the closed-form
 construction against a different method.
 
 * :func:`integrate_nonsmooth`: Eqs. (3)-(4) with :func:`scipy.integrate.solve_ivp`
@@ -8,7 +8,7 @@ construction against a different method.
   the integration in the new linear phase at each of them, so that the integrator never
   steps across the kink of the contact law.
 * :func:`integrate_regularized`: Eq. (7) with the smooth regularized contact force
-  :func:`nnmstop.model.regularized_contact_force`.
+  :func:`nnmstop.models.two_dof.regularized_contact_force`.
 
 Both take the state ``z = (x, u, xdot, udot)`` at ``t_eval[0]`` and return it at every
 requested time.
@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .model import ModelParameters, linear_modes, regularized_contact_force
+from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_contact_force
 
 __all__ = ["Trajectory", "integrate_nonsmooth", "integrate_regularized"]
 

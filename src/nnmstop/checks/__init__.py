@@ -1,0 +1,1 @@
+"""Independent checks in the time domain."""

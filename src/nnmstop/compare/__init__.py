@@ -1,0 +1,1 @@
+"""Exact against regularized: matching at energies, per-regime errors and stability verdicts."""

@@ -1,0 +1,1 @@
+"""Continuation of solution curves: the ANM (with Pade) and Newton pseudo-arclength."""

@@ -1,0 +1,1 @@
+"""Exact periodic orbits of the non-smooth (piecewise-linear) system, in closed form."""

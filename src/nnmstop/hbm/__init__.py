@@ -1,0 +1,1 @@
+"""Regularized NNMs by harmonic balance: the balanced system, branches, stability, branch points."""
