@@ -182,7 +182,7 @@ def never(U, d):
 
 def test_pseudo_arclength_max_steps_error_names_step_and_energy(small_system):
     system, U0, e = small_system
-    with pytest.raises(ContinuationError, match=r"max_steps = 2 steps \(step 2, last energy [0-9.e+-]+"):
+    with pytest.raises(ContinuationError, match=r"max_steps = 2 steps \(last energy [0-9.e+-]+"):
         continue_pseudo_arclength(system, U0, e, never, PseudoArclengthSettings(max_steps=2), progress_seconds=QUIET)
 
 

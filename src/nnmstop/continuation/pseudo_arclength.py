@@ -69,27 +69,32 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lu_solve
 
 from nnmstop.continuation.core import (
     Branch,
     ContinuationError,
     ContinuationStats,
-    Progress,
+    OrthogonalUpdate,
     StopCriterion,
-    bordered_factor,
-    determinant_sign,
     newton_converged,
     relative_of_residual,
     relative_residual,
-    unit_tangent,
 )
+from nnmstop.continuation.driver import StepResult, Stepper, continue_branch
+from nnmstop.continuation.linear import factorize_bordered
+from nnmstop.continuation.newton import newton_solve
 
-__all__ = ["PseudoArclengthSettings", "PseudoArclengthStats", "corrector", "continue_pseudo_arclength"]
+__all__ = [
+    "PseudoArclengthSettings",
+    "PseudoArclengthStats",
+    "PseudoArclengthStepper",
+    "CorrectedPath",
+    "corrector",
+    "continue_pseudo_arclength",
+]
 
 logger = logging.getLogger("nnmstop.continuation.pseudo_arclength")
 
@@ -169,6 +174,10 @@ class PseudoArclengthSettings:
         if not _is_real(self.max_angle) or not 0 < self.max_angle < np.pi:
             raise ValueError(f"max_angle must be in (0, pi) radians, got {self.max_angle!r}")
 
+    def stepper(self) -> "PseudoArclengthStepper":
+        """The pseudo-arclength step with these settings, for :func:`nnmstop.continuation.driver.continue_branch`."""
+        return PseudoArclengthStepper(self)
+
 
 def _is_real(value) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
@@ -205,10 +214,11 @@ def corrector(system, U_pred, tangent, stats: ContinuationStats, tol: float, max
     tol : float
         Convergence when ``relative_residual <= tol`` and either the last update is
         below ``1e3 * tol * max(||U||, 1)`` or the residual is below ``1e-3 * tol`` (the
-        rule of :func:`~nnmstop.continuation.core.newton_correct`: near a singular Jacobian
+        rule of :func:`~nnmstop.continuation.core.newton_converged`: near a singular Jacobian
         the update can stall above round-off while the residual is already there).
     max_iterations : int
-        Iterations allowed.
+        Iterations allowed; the iteration also stops when the residual grows after the
+        second update (Newton diverging).
 
     Returns
     -------
@@ -217,51 +227,169 @@ def corrector(system, U_pred, tangent, stats: ContinuationStats, tol: float, max
         residual, singular or non-finite matrix).
     iterations : int
         Iterations spent.
-    lu : tuple or None
-        LU factors of the last iteration, i.e. of the bordered Jacobian at the
+    factors : object or None
+        Factors of the bordered Jacobian of the last iteration, i.e. at the
         last-but-one iterate.
     last_update : float
         Norm of the last Newton update: the distance between ``U`` and the point
-        where ``lu`` was evaluated.
+        where ``factors`` was evaluated.
     reason : str
         Why it failed ("" on success).
     """
-    U = np.array(U_pred, dtype=float)
-    rhs = np.zeros(system.n_unknowns)
+    factorizations = [0]
 
-    def evaluate(V):
-        r = system.residual(V)
-        return r, relative_of_residual(V, r)
+    def jacobian(V):
+        factorizations[0] += 1
+        return OrthogonalUpdate(factorize_bordered(system, V, tangent, stats))
 
-    r, rel = evaluate(U)
-    previous = math.inf
-    for it in range(1, max_iterations + 1):
-        if not np.isfinite(rel):
-            return None, it - 1, None, math.inf, "non-finite residual"
-        # Newton is diverging when the residual grows after the first update: stop now
-        # rather than spend the remaining factorizations.
-        if it > 2 and rel > previous:
-            return None, it - 1, None, math.inf, f"residual growing ({previous:.2e} -> {rel:.2e})"
-        previous = rel
-        try:
-            lu = bordered_factor(system, U, tangent, stats)
-        except (np.linalg.LinAlgError, ValueError) as err:
-            return None, it - 1, None, math.inf, f"bordered Jacobian: {err}"
-        rhs[:-1] = -r
-        rhs[-1] = 0.0
-        dU = lu_solve(lu, rhs)
-        U += dU
-        stats.newton_iterations += 1
-        r, rel = evaluate(U)
-        if newton_converged(U, r, dU, tol):
-            return U, it, lu, float(np.linalg.norm(dU)), ""
-    reason = f"no convergence in {max_iterations} iterations (relative residual {rel:.2e})"
-    return None, max_iterations, None, math.inf, reason
+    def converged(V, r, dU):
+        return dU is not None and newton_converged(V, r, dU, tol)
+
+    try:
+        result = newton_solve(system.residual, jacobian, U_pred, tol=tol, max_iter=max_iterations, criterion=converged,
+                              norm=relative_of_residual, stop_on_growth=True)
+    except (np.linalg.LinAlgError, ValueError) as err:
+        done = factorizations[0] - 1  # the updates made before the failing one
+        stats.newton_iterations += done
+        return None, done, None, math.inf, f"bordered Jacobian: {err}"
+    stats.newton_iterations += result.iterations
+    if not result.converged:
+        return None, result.iterations, None, math.inf, result.reason
+    return result.y, result.iterations, result.jacobian.factors, float(np.linalg.norm(result.step)), ""
 
 
 def _angle(a, b) -> float:
     """Angle between two unit vectors, accurate for small angles."""
     return float(2.0 * np.arctan2(np.linalg.norm(a - b), np.linalg.norm(a + b)))
+
+
+class PseudoArclengthStepper(Stepper):
+    """The predictor-corrector step with step-length control (module docstring).
+
+    Holds the step length from one step to the next (reset by :meth:`start`).
+    """
+
+    def __init__(self, settings: PseudoArclengthSettings = PseudoArclengthSettings()):
+        self.settings = settings
+        self.max_steps = settings.max_steps
+        self.ds = settings.initial_step
+
+    def new_stats(self) -> PseudoArclengthStats:
+        return PseudoArclengthStats()
+
+    def start(self, system, U) -> None:
+        start_residual = relative_residual(system, U)
+        if start_residual > self.settings.tolerance:
+            raise ValueError(
+                f"U_start is not on the branch: relative residual {start_residual:.2e} > tolerance "
+                f"{self.settings.tolerance:.1e} (correct it with newton_correct first)"
+            )
+        self.ds = self.settings.initial_step
+
+    def step(self, system, U, tangent, stats: PseudoArclengthStats) -> StepResult:
+        settings, ds = self.settings, self.ds
+        rhs_tangent = np.zeros(len(U))
+        rhs_tangent[-1] = 1.0
+        while True:
+            U_new, iterations, factors, last_update, reason = corrector(
+                system, U + ds * tangent, tangent, stats, settings.tolerance, settings.max_iterations
+            )
+            if U_new is not None and last_update > np.sqrt(settings.tolerance) * max(np.linalg.norm(U_new), 1.0):
+                # The last factorization is too far from U_new for an accurate tangent
+                # (typically after a single iteration): refactorize at U_new.
+                try:
+                    factors = factorize_bordered(system, U_new, tangent, stats)
+                except (np.linalg.LinAlgError, ValueError) as err:
+                    U_new, reason = None, f"bordered Jacobian at the new point: {err}"
+            if U_new is not None:
+                t_new = factors.solve(rhs_tangent)
+                t_new /= np.linalg.norm(t_new)
+                angle = _angle(tangent, t_new)
+                if angle <= settings.max_angle:
+                    break
+                reason = f"tangent turned by {angle:.3g} rad > max_angle {settings.max_angle:.3g}"
+            stats.rejected_steps += 1
+            logger.debug("step %d rejected at ds = %.3g: %s", stats.steps + 1, ds, reason)
+            ds *= 0.5
+            if ds < settings.min_step:
+                raise ContinuationError(f"step length {ds:.3g} fell below min_step {settings.min_step:.3g} ({reason})")
+        logger.debug("step %d accepted: ds = %.3g, %d iterations, tangent angle %.3g", stats.steps + 1, ds, iterations,
+                      angle)
+        stats.corrected_steps += 1
+        factor = settings.target_iterations / max(iterations, 1)
+        if angle > 0:
+            factor = min(factor, settings.max_angle / (2.0 * angle))
+        self.ds = min(ds * min(max(factor, 0.5), settings.growth), settings.max_step)
+        return StepResult(
+            U_end=U_new,
+            t_end=t_new,
+            length=ds,
+            path=CorrectedPath(system, U, tangent, U_new),
+            points=[(U_new, t_new)],
+            # [J(U_new); tangent^T]: tangent has a positive component along t_new
+            end_sign=factors.determinant_sign(),
+        )
+
+    def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats):
+        """The corrected path from ``U_a`` through ``U_b`` (:class:`CorrectedPath`)."""
+        path = CorrectedPath(system, U_a, tangent_a, U_b)
+        return path, path.length
+
+
+class CorrectedPath:
+    """The branch from ``U0`` to ``U1`` as a path ``a -> U(a)``, ``a = <U - U0, t0>``.
+
+    The parameter is that of the ANM series from ``U0`` with tangent ``t0``. ``U(a)`` is the
+    point of the branch in the hyperplane ``<U - U0, t0> = a``, by Newton from the linear
+    interpolation between the nearest points of the path already computed on either side
+    (the ends first). As a bisection closes in on a branch point, where the hyperplane
+    meets both curves close to each other, those neighbours close in with it, so the
+    guess stays nearer the followed curve than the other one. ``dU/da`` solves
+    ``[J(U); t0^T] dU/da = e_{n+1}``.
+
+    Raises ContinuationError (from a call) when Newton does not reach ``tol``.
+    """
+
+    def __init__(self, system, U0, t0, U1, tol: float = 1e-11, max_iter: int = 30):
+        self.system, self.U0, self.t0 = system, np.asarray(U0, float), np.asarray(t0, float)
+        self.length = float(np.dot(np.asarray(U1, float) - self.U0, self.t0))
+        if not self.length > 0:
+            raise ValueError(f"the end point is not ahead of the start along t0 (parameter {self.length:.3g})")
+        self.tol, self.max_iter = tol, max_iter
+        self._a = [0.0, self.length]
+        self._U = [self.U0, np.asarray(U1, float)]
+
+    def _point(self, a: float) -> np.ndarray:
+        k = int(np.searchsorted(self._a, a))
+        if k < len(self._a) and self._a[k] == a:
+            return self._U[k]
+        lo, hi = min(max(k - 1, 0), len(self._a) - 2), min(max(k, 1), len(self._a) - 1)
+        w = (a - self._a[lo]) / (self._a[hi] - self._a[lo])
+        guess = (1.0 - w) * self._U[lo] + w * self._U[hi]
+        system, U0, t0, tol = self.system, self.U0, self.t0, self.tol
+
+        def residual(V):
+            return np.append(system.residual(V), np.dot(t0, V - U0) - a)
+
+        def converged(V, r, dU):
+            return dU is not None and newton_converged(V, r[:-1], dU, tol)
+
+        result = newton_solve(residual, lambda V: factorize_bordered(system, V, t0, singular_tol=None), guess,
+                              tol=tol, max_iter=self.max_iter, criterion=converged)
+        if not result.converged:
+            raise ContinuationError(f"path point at a = {a:.6g} of [0, {self.length:.6g}]: {result.reason}")
+        k = int(np.searchsorted(self._a, a))
+        self._a.insert(k, float(a))
+        self._U.insert(k, result.y)
+        return result.y
+
+    def __call__(self, a: float, derivative: bool = False) -> np.ndarray:
+        U = self._point(float(a))
+        if not derivative:
+            return U
+        rhs = np.zeros(len(U))
+        rhs[-1] = 1.0
+        return factorize_bordered(self.system, U, self.t0, singular_tol=None).solve(rhs)
 
 
 def continue_pseudo_arclength(
@@ -273,139 +401,12 @@ def continue_pseudo_arclength(
     label: str = "pseudo-arclength",
     progress_seconds: float = 2.0,
 ) -> Branch:
-    """Follow the branch through ``U_start`` along ``direction`` until ``stop`` says so.
+    """Follow the branch through ``U_start`` along ``direction`` by pseudo-arclength until ``stop`` says so.
 
-    Same interface and same returned object as :func:`nnmstop.continuation.anm.continue_anm`.
-
-    Parameters
-    ----------
-    system : HarmonicBalanceSystem
-        Provides ``residual``, ``jacobian`` and ``diagnostics``.
-    U_start : ndarray
-        A point of the branch (relative residual at most ``settings.tolerance``).
-    direction : ndarray
-        Rough direction of travel; the tangent is oriented along it.
-    stop : callable
-        ``stop(U, diagnostics) -> str``; a non-empty string ends the continuation and
-        is recorded as the end reason.
-    settings : PseudoArclengthSettings
-    label : str
-        Name used in log and error messages.
-    progress_seconds : float
-        Interval between progress log messages.
-
-    Returns
-    -------
-    Branch
-        The start point, then one point per accepted step, each with its diagnostics;
-        ``stats`` is a :class:`PseudoArclengthStats`; ``branch_points`` lists the
-        indices ``i`` such that the sign of ``det [J; t^T]`` changes between points
-        ``i`` and ``i + 1`` (a simple branch point lies between them; the sign does not
-        change across a fold, where the tangent keeps its orientation).
-
-    Raises
-    ------
-    ContinuationError
-        When the step length falls below ``min_step`` or ``max_steps`` is exhausted;
-        the message names the step and the energy.
-    ValueError
-        When ``U_start`` or ``direction`` has the wrong length or is not finite, or
-        ``U_start`` is not a point of the branch.
+    :func:`nnmstop.continuation.driver.continue_branch` with a :class:`PseudoArclengthStepper`:
+    the start point, then one point per accepted step; ``stats`` is a
+    :class:`PseudoArclengthStats`. ``U_start`` must be on the branch (relative residual at
+    most ``settings.tolerance``, else ValueError).
     """
-    U = np.array(U_start, dtype=float)
-    direction = np.array(direction, dtype=float)
-    n = system.n_unknowns
-    for name, vec in (("U_start", U), ("direction", direction)):
-        if vec.shape != (n,):
-            raise ValueError(f"{name} must have shape ({n},), got {vec.shape}")
-        if not np.all(np.isfinite(vec)):
-            raise ValueError(f"{name} must be finite")
-    if not np.linalg.norm(direction) > 0:
-        raise ValueError("direction must be a non-zero vector")
-    start_residual = relative_residual(system, U)
-    if start_residual > settings.tolerance:
-        raise ValueError(
-            f"U_start is not on the branch: relative residual {start_residual:.2e} > tolerance "
-            f"{settings.tolerance:.1e} (correct it with newton_correct first)"
-        )
-
-    stats = PseudoArclengthStats()
-    started = time.perf_counter()
-    branch = Branch(stats=stats)
-    lu = bordered_factor(system, U, direction / np.linalg.norm(direction), stats)
-    tangent = unit_tangent(system, U, direction, stats, lu=lu)
-    # det [J; b^T] is linear in b and vanishes for b orthogonal to the tangent, so its
-    # sign is the same for every bordering row b with <b, t> > 0: the direction here,
-    # the previous tangent at the end of each step.
-    sign = determinant_sign(lu)
-    diag = system.diagnostics(U)
-    branch.add(U, 0, diag)
-    progress = Progress(label, progress_seconds, logger)
-    ds = settings.initial_step
-    rhs_tangent = np.zeros(n)
-    rhs_tangent[-1] = 1.0
-    for step in range(1, settings.max_steps + 1):
-        while True:
-            U_new, iterations, lu, last_update, reason = corrector(
-                system, U + ds * tangent, tangent, stats, settings.tolerance, settings.max_iterations
-            )
-            if U_new is not None and last_update > np.sqrt(settings.tolerance) * max(np.linalg.norm(U_new), 1.0):
-                # The last factorization is too far from U_new for an accurate tangent
-                # (typically after a single iteration): refactorize at U_new.
-                try:
-                    lu = bordered_factor(system, U_new, tangent, stats)
-                except (np.linalg.LinAlgError, ValueError) as err:
-                    U_new, reason = None, f"bordered Jacobian at the new point: {err}"
-            if U_new is not None:
-                t_new = lu_solve(lu, rhs_tangent)
-                t_new /= np.linalg.norm(t_new)
-                angle = _angle(tangent, t_new)
-                if angle <= settings.max_angle:
-                    break
-                reason = f"tangent turned by {angle:.3g} rad > max_angle {settings.max_angle:.3g}"
-            stats.rejected_steps += 1
-            logger.debug("%s step %d rejected at ds = %.3g: %s", label, step, ds, reason)
-            ds *= 0.5
-            if ds < settings.min_step:
-                stats.wall_time = time.perf_counter() - started
-                raise ContinuationError(
-                    f"{label}: step {step} failed at energy {diag['energy']:.6g} "
-                    f"(frequency {diag['frequency']:.6g} Hz): step length {ds:.3g} fell below "
-                    f"min_step {settings.min_step:.3g} ({reason})"
-                )
-        logger.debug(
-            "%s step %d accepted: ds = %.3g, %d iterations, tangent angle %.3g", label, step, ds, iterations, angle
-        )
-        U, tangent = U_new, t_new
-        stats.steps = step
-        stats.corrected_steps = step
-        new_sign = determinant_sign(lu)
-        if new_sign != sign:
-            branch.branch_points.append(len(branch.points) - 1)
-            logger.info(
-                "%s: simple branch point passed near energy %.6g, frequency %.6g Hz (step %d)",
-                label,
-                diag["energy"],
-                diag["frequency"],
-                step,
-            )
-        sign = new_sign
-        diag = system.diagnostics(U)
-        branch.add(U, step, diag)
-        progress(step, diag, ds)
-        reason = stop(U, diag)
-        if reason:
-            branch.end_reason = reason
-            branch.end_tangent = tangent
-            stats.wall_time = time.perf_counter() - started
-            progress(step, diag, ds, force=True)
-            return branch
-        factor = settings.target_iterations / max(iterations, 1)
-        if angle > 0:
-            factor = min(factor, settings.max_angle / (2.0 * angle))
-        ds = min(ds * min(max(factor, 0.5), settings.growth), settings.max_step)
-    stats.wall_time = time.perf_counter() - started
-    raise ContinuationError(
-        f"{label}: no stop criterion met after max_steps = {settings.max_steps} steps "
-        f"(step {settings.max_steps}, last energy {diag['energy']:.6g}, frequency {diag['frequency']:.6g} Hz)"
-    )
+    return continue_branch(system, U_start, direction, PseudoArclengthStepper(settings), stop, label,
+                           progress_seconds, logger)
