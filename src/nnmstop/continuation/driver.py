@@ -33,7 +33,7 @@ from nnmstop.continuation.core import (
     unit_tangent,
 )
 
-__all__ = ["Path", "StepResult", "Stepper", "as_stepper", "continue_branch"]
+__all__ = ["Path", "path_border", "StepResult", "Stepper", "as_stepper", "continue_branch"]
 
 logger = logging.getLogger("nnmstop.continuation.driver")
 
@@ -41,10 +41,26 @@ logger = logging.getLogger("nnmstop.continuation.driver")
 class Path(Protocol):
     """A piece of the branch: ``path(a)`` is a point, ``path(a, derivative=True)`` is ``dU/da``.
 
-    ``a`` runs from 0 (the start of the step) to the step's ``length``.
+    ``a`` runs from 0 (the start of the step) to the step's ``length``. A path may define
+    ``border(a)``, the bordering row for the sign of ``det [J(U(a)); b^T]`` (see :func:`path_border`).
     """
 
     def __call__(self, a: float, derivative: bool = False) -> np.ndarray: ...
+
+
+def path_border(path: Path, a: float) -> np.ndarray:
+    """A bordering row ``b`` at ``U(a)`` with a positive component along the branch's tangent.
+
+    The sign of ``det [J(U(a)); b^T]`` is then that of the branch (it changes at simple branch
+    points, not at folds). The path's own ``border(a)`` when it has one (where its derivative
+    is ill-conditioned near a branch point), else its unit derivative.
+    """
+    border = getattr(path, "border", None)
+    if border is not None:
+        return border(a)
+    t = path(a, derivative=True)
+    t /= np.linalg.norm(t)
+    return t
 
 
 @dataclass

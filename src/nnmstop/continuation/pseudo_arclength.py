@@ -83,6 +83,7 @@ from nnmstop.continuation.core import (
     relative_of_residual,
     relative_residual,
 )
+from nnmstop.continuation.corrected_path import CorrectedPath
 from nnmstop.continuation.driver import StepResult, Stepper, continue_branch
 from nnmstop.continuation.linear import factorize_bordered
 from nnmstop.continuation.newton import newton_solve
@@ -91,7 +92,6 @@ __all__ = [
     "PseudoArclengthSettings",
     "PseudoArclengthStats",
     "PseudoArclengthStepper",
-    "CorrectedPath",
     "corrector",
     "continue_pseudo_arclength",
 ]
@@ -334,62 +334,6 @@ class PseudoArclengthStepper(Stepper):
         """The corrected path from ``U_a`` through ``U_b`` (:class:`CorrectedPath`)."""
         path = CorrectedPath(system, U_a, tangent_a, U_b)
         return path, path.length
-
-
-class CorrectedPath:
-    """The branch from ``U0`` to ``U1`` as a path ``a -> U(a)``, ``a = <U - U0, t0>``.
-
-    The parameter is that of the ANM series from ``U0`` with tangent ``t0``. ``U(a)`` is the
-    point of the branch in the hyperplane ``<U - U0, t0> = a``, by Newton from the linear
-    interpolation between the nearest points of the path already computed on either side
-    (the ends first). As a bisection closes in on a branch point, where the hyperplane
-    meets both curves close to each other, those neighbours close in with it, so the
-    guess stays nearer the followed curve than the other one. ``dU/da`` solves
-    ``[J(U); t0^T] dU/da = e_{n+1}``.
-
-    Raises ContinuationError (from a call) when Newton does not reach ``tol``.
-    """
-
-    def __init__(self, system, U0, t0, U1, tol: float = 1e-11, max_iter: int = 30):
-        self.system, self.U0, self.t0 = system, np.asarray(U0, float), np.asarray(t0, float)
-        self.length = float(np.dot(np.asarray(U1, float) - self.U0, self.t0))
-        if not self.length > 0:
-            raise ValueError(f"the end point is not ahead of the start along t0 (parameter {self.length:.3g})")
-        self.tol, self.max_iter = tol, max_iter
-        self._a = [0.0, self.length]
-        self._U = [self.U0, np.asarray(U1, float)]
-
-    def _point(self, a: float) -> np.ndarray:
-        k = int(np.searchsorted(self._a, a))
-        if k < len(self._a) and self._a[k] == a:
-            return self._U[k]
-        lo, hi = min(max(k - 1, 0), len(self._a) - 2), min(max(k, 1), len(self._a) - 1)
-        w = (a - self._a[lo]) / (self._a[hi] - self._a[lo])
-        guess = (1.0 - w) * self._U[lo] + w * self._U[hi]
-        system, U0, t0, tol = self.system, self.U0, self.t0, self.tol
-
-        def residual(V):
-            return np.append(system.residual(V), np.dot(t0, V - U0) - a)
-
-        def converged(V, r, dU):
-            return dU is not None and newton_converged(V, r[:-1], dU, tol)
-
-        result = newton_solve(residual, lambda V: factorize_bordered(system, V, t0, singular_tol=None), guess,
-                              tol=tol, max_iter=self.max_iter, criterion=converged)
-        if not result.converged:
-            raise ContinuationError(f"path point at a = {a:.6g} of [0, {self.length:.6g}]: {result.reason}")
-        k = int(np.searchsorted(self._a, a))
-        self._a.insert(k, float(a))
-        self._U.insert(k, result.y)
-        return result.y
-
-    def __call__(self, a: float, derivative: bool = False) -> np.ndarray:
-        U = self._point(float(a))
-        if not derivative:
-            return U
-        rhs = np.zeros(len(U))
-        rhs[-1] = 1.0
-        return factorize_bordered(self.system, U, self.t0, singular_tol=None).solve(rhs)
 
 
 def continue_pseudo_arclength(

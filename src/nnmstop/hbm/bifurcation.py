@@ -47,7 +47,7 @@ from nnmstop.continuation.core import (
     relative_residual,
     unit_tangent,
 )
-from nnmstop.continuation.driver import as_stepper, continue_branch
+from nnmstop.continuation.driver import as_stepper, continue_branch, path_border
 from nnmstop.continuation.linear import factorize_bordered
 from nnmstop.continuation.newton import bisect_sign_change
 
@@ -139,7 +139,7 @@ def locate_branch_point(system, U_a, U_b, method=None, tol: float = 1e-12, newto
     U : ndarray
         The branch point.
     t : ndarray
-        The unit tangent of the path there (oriented from ``U_a`` to ``U_b``).
+        The path's unit border there (for the ANM its unit tangent, oriented from ``U_a`` to ``U_b``).
 
     Raises
     ------
@@ -156,18 +156,14 @@ def locate_branch_point(system, U_a, U_b, method=None, tol: float = 1e-12, newto
     path, a_end = stepper.path_through(system, U_a, t_a, U_b, ContinuationStats())
 
     def sign(a):
-        t = path(a, derivative=True)
-        t /= np.linalg.norm(t)
-        return factorize_bordered(system, path(a), t, singular_tol=None).determinant_sign()
+        return factorize_bordered(system, path(a), path_border(path, a), singular_tol=None).determinant_sign()
 
     try:
         bracket = bisect_sign_change(sign, 0.0, a_end, tol=tol * a_end)
     except ValueError as err:
         raise ValueError("no branch point between the two points: det [J; t^T] has the same sign at both") from err
     a_star = bracket.midpoint
-    t_star = path(a_star, derivative=True)
-    t_star /= np.linalg.norm(t_star)
-    return project_onto_branch(system, path(a_star), tol=newton_tol), t_star
+    return project_onto_branch(system, path(a_star), tol=newton_tol), path_border(path, a_star)
 
 
 def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
