@@ -1,40 +1,17 @@
 r"""Asymptotic Numerical Method (ANM): continuation by high-order power series.
 
-For a quadratic system ``S(U) = L(U) + Q(U, U) = 0`` the branch through a regular
-point ``U_0`` is expanded as ``U(a) = sum_{p=0..N} a^p U_p`` in the path parameter
-``a = <U - U_0, t>``, with ``t`` the unit tangent at ``U_0``. Identifying powers of
-``a`` gives, with ``J = dS/dU(U_0)`` (the same matrix at every order)::
+For a quadratic system ``S(U) = L(U) + Q(U, U) = 0`` the branch through ``U_0`` is the
+series ``U(a) = sum_p a^p U_p`` in ``a = <U - U_0, t>``; every order solves with the same
+bordered matrix ``[J(U_0); t^T]``, factorized once per step (:func:`anm_series`). Cochelin's
+estimate of the validity range gives the step length; a geometric tail (a simple
+bifurcation on the path) is removed first (:func:`remove_geometric_tail`) so that steps
+pass branch points on the followed branch; with ``ANMSettings.pade`` the step goes on
+along the Padé approximant of the series (:mod:`nnmstop.continuation.pade`). Step ends
+above the Newton threshold are corrected, by chord iterations on the step's factors first.
 
-    order 1:  J U_1 = 0,                                   <U_1, t> = 1
-    order p:  J U_p = - sum_{r=1}^{p-1} Q(U_r, U_{p-r}),   <U_p, t> = 0
-
-so one LU factorization of the bordered matrix ``[J; t^T]`` serves all orders.
-The series is trusted up to the step length (Cochelin's estimate)::
-
-    a_max = (tolerance * ||U_1|| / ||U_N||) ** (1 / (N - 1))
-
-which keeps the last term below ``tolerance``. The end point ``U(a_max)`` becomes
-the next start point; the tangent there, ``dU/da(a_max)``, orients the next step.
-If the residual at the end of a step exceeds ``newton_threshold`` the end point is
-corrected by Newton iterations: chord iterations on the step's own factors first (no
-factorization), full Newton only if they fail. With the plain series this does not
-happen (step ends sit at ``1e-10`` to a few ``1e-9``); it happens after a geometric
-tail was removed (:func:`remove_geometric_tail`) where the singular point is not on
-the path being followed (sharp folds of NNM1 near the 3:1 resonance): the cleaned
-series then ends at ``1e-5`` to ``5e-4`` and needs about a dozen chord iterations.
-Those steps are still longer than the plain series would allow.
-
-With ``ANMSettings.pade`` (the default) each step is taken on the Padé approximant of
-its series (:mod:`nnmstop.continuation.pade`: common denominator from a QR of the terms), when that
-reaches beyond ``a_max`` at the same tolerance: the step then ends where the
-approximants of orders ``N`` and ``N - 1`` stop agreeing to ``tolerance`` relative to
-the step, and strictly before the first positive real pole of their denominators.
-The end point, the tangent there and the interior points come from the approximant;
-the end-residual check and the Newton correction are the same. A geometric tail
-(simple bifurcation on the path) is removed from the series first, as without Padé,
-so that the step still passes branch points of the followed branch; measured on
-NNM1 at ``H = 100``, dropping the tail removal and relying on the approximant's pole
-alone lost a branch point and switched branch near the 3:1 resonance.
+:class:`ANMStepper` puts one step (:func:`anm_step`) behind the interface of the
+continuation driver (:mod:`nnmstop.continuation.driver`); :func:`continue_anm` runs the
+driver with it. Method notes: ``docs/methods/continuation.md``.
 """
 
 from __future__ import annotations

@@ -1,10 +1,13 @@
-"""Pieces shared by the two continuation methods (ANM and Newton pseudo-arclength).
+"""Pieces shared by the continuation methods: the branch, the counters, the corrector.
 
-A continuation follows the solution curve of ``S(U) = 0`` (``n`` equations,
-``n + 1`` unknowns) from a start point in a given direction. Both methods use the
-bordered matrix ``[J(U); t^T]``, with ``t`` the unit tangent at the start of the
-step, so that one LU factorization of it serves a whole step (ANM) or a Newton
-iteration (pseudo-arclength).
+A continuation follows the solution curve of ``S(U) = 0`` (``n`` equations, ``n + 1``
+unknowns) from a start point in a given direction. :class:`Branch` holds its points, with
+the steps that produced them and the flagged branch points; :class:`ContinuationStats`
+its cost counters. :func:`newton_correct` is the Newton corrector in the hyperplane
+orthogonal to a tangent (chord iterations on given factors first), with the convergence
+rule :func:`newton_converged` that every continuation corrector uses; :func:`unit_tangent`
+the tangent and the sign of ``det [J; t^T]`` at a point. Accuracy is measured by
+:func:`relative_residual`. Method notes: ``docs/methods/continuation.md``.
 """
 
 from __future__ import annotations
@@ -74,8 +77,8 @@ class Branch:
     stats: ContinuationStats = field(default_factory=ContinuationStats)
     end_reason: str = ""
     end_tangent: np.ndarray | None = None
-    # Indices i of points such that the sign of det [J; t^T] changes between the
-    # continuation steps ending at points i and i+1: a simple branch point lies there.
+    # Indices of the points that end a continuation step across which the sign of
+    # det [J; t^T] changed: a simple branch point lies within that step.
     branch_points: list = field(default_factory=list)
 
     def add(self, U, step, diagnostics=None):

@@ -1,68 +1,18 @@
 r"""Newton predictor-corrector pseudo-arclength continuation (the baseline method).
 
-The same branches as :func:`nnmstop.continuation.anm.continue_anm`, on the same
-:class:`~nnmstop.hbm.system.HarmonicBalanceSystem` (``n`` equations ``S(U) = 0``, ``n + 1``
-unknowns), by the classical order-one method:
+The same branches as the ANM, on the same system, by the classical order-one method: a
+tangent predictor ``U_k + ds t_k``, a full-Newton corrector in the hyperplane
+``<U - U_k, t_k> = ds`` (one factorization of ``[J; t_k^T]`` per iteration, :func:`corrector`),
+the new tangent from the last factors, and a step length controlled by the Newton
+iteration count and the turn of the tangent (rejected steps are halved and retried).
+Accuracy is the relative residual ``||S(U)|| / max(||U||, 1)``, as for the ANM: the
+corrector tolerance plays the role of the ANM series tolerance.
 
-predictor
-    ``U_pred = U_k + ds * t_k`` along the unit tangent ``t_k`` at the last point;
-corrector
-    full Newton iterations on the bordered system::
-
-        [ J(U)  ] dU = - [ S(U) ]
-        [ t_k^T ]        [  0   ]
-
-    i.e. on ``S(U) = 0`` in the hyperplane ``<U - U_k, t_k> = ds`` (the
-    pseudo-arclength condition, satisfied exactly by the predictor and kept by every
-    update). Every iteration evaluates and factorizes the bordered Jacobian anew
-    (:func:`nnmstop.continuation.core.bordered_factor`), so a step costs as many
-    factorizations as Newton iterations;
-tangent
-    the new tangent solves ``[J; t_k^T] t = e_{n+1}`` with the LU factors of the
-    last corrector iteration, i.e. the Jacobian at the last-but-one iterate: no extra
-    factorization when the last Newton update was short (at most
-    ``sqrt(tolerance) * max(||U||, 1)``), a fresh factorization at the converged point
-    otherwise (typically after a single iteration, when the last-but-one iterate is
-    the predictor). The last row makes ``<t, t_k> > 0``, so the orientation carries
-    over from step to step, and the sign of ``det [J; t_k^T]`` flags simple branch
-    points as in the ANM;
-step control
-    a step is accepted when the corrector converges within ``max_iterations`` and
-    the tangent turns by less than ``max_angle`` (the angle test keeps the
-    continuation on its branch at sharp turns and near bifurcation points, where a
-    long step could converge onto a crossing branch). After an accepted step the
-    length is scaled by ``target_iterations / iterations`` and by
-    ``max_angle / (2 * angle)`` (the smaller of the two, within ``[1/2, growth]``,
-    capped by ``max_step``); after a rejected step it is halved and the step retried
-    from the same point. Below ``min_step`` the continuation gives up with a
-    :class:`~nnmstop.continuation.core.ContinuationError` naming the step and the energy.
-
-Accuracy, and what "the same accuracy as the ANM" means here. Both methods return
-points whose accuracy is measured by the same number,
-:func:`nnmstop.continuation.core.relative_residual` ``||S(U)|| / max(||U||, 1)``. The ANM
-controls it through its series tolerance (Cochelin's step length keeps the last
-series term below ``tolerance``) and bounds it by construction through its Newton
-threshold (a step end above ``newton_threshold = 1e-7`` is corrected). With
-``ANMSettings(tolerance=1e-8)`` its step ends on NNM1 and NNM2 at ``H = 100`` have
-relative residuals from ``1e-10`` to ``3.5e-9`` (up to ``1.2e-8`` at ``H = 20``). The
-corrector here stops as soon as the relative residual is at most ``tolerance``, with
-the convergence rule of :func:`~nnmstop.continuation.core.newton_correct`; "same accuracy"
-means this ``tolerance`` equals the ANM series tolerance (default ``1e-8`` for both),
-so that the largest residuals of the two methods are of the same order (checked by the
-tests and printed by ``benchmarks/continuation_benchmark.py``). The baseline is
-sensitive to it: at ``1e-7`` (the ANM's guaranteed bound, looser than what the ANM
-achieves) it needs about 25-35 % fewer factorizations, and at ``3e-9`` about 25-35 %
-more. The HBM truncation error (``diagnostics()['time_residual']``, 1e-3 to 1e-2 at
-high energy with ``H = 100``) is identical for both methods and far larger.
-
-Robustness. With the defaults the baseline follows NNM1 at ``H = 100`` through all
-its folds to energy 1.5e5, on the same branch as the ANM, and flags the same three
-simple branch points (energies near 7.4, 245 and 3.4e3). It is not robust to loose
-settings: near energy 4.7e3 the bordered Jacobian of NNM1 is nearly singular (the
-tangent computed at one point turns by 0.56 rad with the bordering row), so at
-``tolerance=1e-6`` the angle test cannot be met and the continuation stops with a
-``ContinuationError``; with ``target_iterations=4`` the longer steps leave the branch
-for a neighbouring one between energies 3e2 and 2e3.
+:class:`PseudoArclengthStepper` is the step behind the driver's interface
+(:mod:`nnmstop.continuation.driver`); its path over a step, for branch-point location, is
+a :class:`~nnmstop.continuation.corrected_path.CorrectedPath`.
+:func:`continue_pseudo_arclength` runs the driver with it.
+Method notes: ``docs/methods/continuation.md``.
 """
 
 from __future__ import annotations
@@ -109,8 +59,8 @@ class PseudoArclengthSettings:
     Parameters
     ----------
     tolerance : float
-        Corrector tolerance on the relative residual (> 0); see the module docstring
-        for how it matches the ANM accuracy.
+        Corrector tolerance on the relative residual (> 0); equal to the ANM series
+        tolerance for the same accuracy (``docs/methods/continuation.md``).
     initial_step : float
         First step length (> 0).
     min_step : float
@@ -264,7 +214,7 @@ def _angle(a, b) -> float:
 
 
 class PseudoArclengthStepper(Stepper):
-    """The predictor-corrector step with step-length control (module docstring).
+    """The predictor-corrector step with step-length control (``docs/methods/continuation.md``).
 
     Holds the step length from one step to the next (reset by :meth:`start`).
     """

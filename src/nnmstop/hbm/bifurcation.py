@@ -5,9 +5,9 @@ A *simple branch point* ``U*`` of the balanced system ``S(U) = 0`` (``n`` equati
 Jacobian ``J(U*)`` has rank ``n - 1``, its null space is a plane that holds the tangents
 of both curves. Along a branch the determinant of the bordered matrix ``[J; t^T]``
 (``t`` the unit tangent, oriented along the travel) changes sign there, and not at
-folds; the ANM records the steps across which it does
+folds; the continuation records the steps across which it does
 (:attr:`nnmstop.continuation.core.Branch.branch_points`, the ``branch_point`` flag of the
-datasets).
+datasets; ``docs/methods/continuation.md``).
 
 On NNM1 such points sit where the fundamental harmonic of the orbit changes sign
 (internal resonances ``n:1``): the orbit there has period ``T/n``; it is an orbit of
@@ -16,8 +16,8 @@ NNM2 family read at ``n T`` (the "three time FEP of the second NNM" of Fig. 8).
 
 Branch switching, after Keller's algebraic bifurcation equation:
 
-1. :func:`locate_branch_point` recomputes the ANM step across the sign change and
-   bisects the sign along its power series.
+1. :func:`locate_branch_point` recomputes the path of the step across the sign change
+   with the continuation method that took it and bisects the sign along that path.
 2. :func:`bifurcation_tangents`: with ``phi_1, phi_2`` a basis of the null plane of
    ``J(U*)`` and ``psi`` its left null vector, the tangents ``tau = a phi_1 + b phi_2``
    of the curves through ``U*`` solve the quadratic
@@ -26,8 +26,8 @@ Branch switching, after Keller's algebraic bifurcation equation:
    (:func:`quadratic_form`). One root is the incoming tangent;
    the other is the tangent of the bifurcated curve, not in general orthogonal to it.
 3. :func:`switch_branch` steps along that tangent and corrects by Newton in the
-   hyperplane orthogonal to it; the ANM then follows the bifurcated curve both ways
-   (:func:`continue_bifurcated_branch`).
+   hyperplane orthogonal to it; the continuation driver then follows the bifurcated
+   curve both ways (:func:`continue_bifurcated_branch`).
 """
 
 from __future__ import annotations
@@ -44,12 +44,12 @@ from nnmstop.continuation.core import (
     ContinuationError,
     ContinuationStats,
     newton_correct,
-    relative_residual,
+    relative_of_residual,
     unit_tangent,
 )
 from nnmstop.continuation.driver import as_stepper, continue_branch, path_border
 from nnmstop.continuation.linear import factorize_bordered
-from nnmstop.continuation.newton import bisect_sign_change
+from nnmstop.continuation.newton import bisect_sign_change, newton_solve
 
 __all__ = [
     "BranchPoint",
@@ -178,19 +178,24 @@ def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
     ContinuationError
         If the relative residual does not reach ``tol``.
     """
-    U = np.array(U, dtype=float)
-    for _ in range(max_iter):
-        r = system.residual(U)
-        if relative_residual(system, U) <= tol:
-            return U
-        dU = np.linalg.lstsq(system.jacobian(U), -r, rcond=1e-12)[0]
-        U += dU
-    if relative_residual(system, U) <= tol:
-        return U
+    result = newton_solve(system.residual, lambda V: _LeastNorm(system.jacobian(V)), U, tol=tol, max_iter=max_iter,
+                          criterion="residual", norm=relative_of_residual)
+    if result.converged:
+        return result.y
     raise ContinuationError(
         f"projection onto the branch did not converge in {max_iter} iterations "
-        f"(relative residual {relative_residual(system, U):.2e} > {tol:.1e})"
+        f"(relative residual {result.residual_norm:.2e} > {tol:.1e})"
     )
+
+
+class _LeastNorm:
+    """Least-norm solutions of ``J x = rhs`` (singular values below ``1e-12`` of the largest cut off)."""
+
+    def __init__(self, J):
+        self.J = J
+
+    def solve(self, rhs):
+        return np.linalg.lstsq(self.J, rhs, rcond=1e-12)[0]
 
 
 def _null_plane(system, U):
