@@ -217,7 +217,7 @@ def remove_geometric_tail(series, a_max: float, alignment: float = 1e-6, reach: 
 
 
 class TaylorPath:
-    """The power series of a step as a path ``a -> U(a)`` (same call as :class:`nnmstop.continuation.pade.PadeApproximant`)."""
+    """The power series of a step as a path ``a -> U(a)`` (called like a Padé approximant)."""
 
     def __init__(self, series):
         self.series = series
