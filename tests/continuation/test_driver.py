@@ -14,6 +14,7 @@ from nnmstop.continuation.anm import ANMSettings, ANMStepper, continue_anm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.continuation.corrected_path import CorrectedPath
 from nnmstop.continuation.driver import continue_branch
+from nnmstop.continuation.linear import BorderedFactorization
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
 from nnmstop.hbm.bifurcation import locate_branch_point, locate_flagged_branch_points
 from nnmstop.hbm.system import HarmonicBalanceSystem
@@ -78,6 +79,28 @@ def test_both_steppers_follow_the_circle(name):
     assert np.all(np.diff(angle) > 0) and angle[-1] > np.pi  # counter-clockwise through the top, no turn back
     assert branch.branch_points == []  # folds are not branch points
     np.testing.assert_allclose(branch.end_tangent, [-U[-1, 1], U[-1, 0]], atol=1e-7)  # unit, along the travel
+
+
+class OwnFactorization(QuadraticToy):
+    """The circle with its own bordered factorization (as a large structured system would have)."""
+
+    def __init__(self):
+        base = circle()
+        super().__init__(base.c, base.A, base.Q)
+        self.calls = 0
+
+    def factorize_bordered(self, U, tangent):
+        self.calls += 1
+        return BorderedFactorization.of_matrix(np.vstack([self.jacobian(U), tangent]))
+
+
+@pytest.mark.parametrize("name", list(METHODS))
+def test_every_factorization_goes_through_the_systems_own(name):
+    own, dense = OwnFactorization(), circle()
+    runs = [continue_branch(system, [1.0, 0.0], [0.0, 1.0], METHODS[name].stepper(), half_turn,
+                            progress_seconds=QUIET) for system in (own, dense)]
+    assert own.calls == runs[0].stats.factorizations > 0
+    np.testing.assert_array_equal(np.array(runs[0].points), np.array(runs[1].points))
 
 
 def test_paths_of_both_steppers_stay_on_the_circle():
