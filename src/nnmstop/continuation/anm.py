@@ -1,67 +1,50 @@
 r"""Asymptotic Numerical Method (ANM): continuation by high-order power series.
 
-For a quadratic system ``S(U) = L(U) + Q(U, U) = 0`` the branch through a regular
-point ``U_0`` is expanded as ``U(a) = sum_{p=0..N} a^p U_p`` in the path parameter
-``a = <U - U_0, t>``, with ``t`` the unit tangent at ``U_0``. Identifying powers of
-``a`` gives, with ``J = dS/dU(U_0)`` (the same matrix at every order)::
+For a quadratic system ``S(U) = L(U) + Q(U, U) = 0`` the branch through ``U_0`` is the
+series ``U(a) = sum_p a^p U_p`` in ``a = <U - U_0, t>``; every order solves with the same
+bordered matrix ``[J(U_0); t^T]``, factorized once per step (:func:`anm_series`). Cochelin's
+estimate of the validity range gives the step length; a geometric tail (a simple
+bifurcation on the path) is removed first (:func:`remove_geometric_tail`) so that steps
+pass branch points on the followed branch; with ``ANMSettings.pade`` the step goes on
+along the Padé approximant of the series (:mod:`nnmstop.continuation.pade`). Step ends
+above the Newton threshold are corrected, by chord iterations on the step's factors first.
 
-    order 1:  J U_1 = 0,                                   <U_1, t> = 1
-    order p:  J U_p = - sum_{r=1}^{p-1} Q(U_r, U_{p-r}),   <U_p, t> = 0
-
-so one LU factorization of the bordered matrix ``[J; t^T]`` serves all orders.
-The series is trusted up to the step length (Cochelin's estimate)::
-
-    a_max = (tolerance * ||U_1|| / ||U_N||) ** (1 / (N - 1))
-
-which keeps the last term below ``tolerance``. The end point ``U(a_max)`` becomes
-the next start point; the tangent there, ``dU/da(a_max)``, orients the next step.
-If the residual at the end of a step exceeds ``newton_threshold`` the end point is
-corrected by Newton iterations: chord iterations on the step's own factors first (no
-factorization), full Newton only if they fail. With the plain series this does not
-happen (step ends sit at ``1e-10`` to a few ``1e-9``); it happens after a geometric
-tail was removed (:func:`remove_geometric_tail`) where the singular point is not on
-the path being followed (sharp folds of NNM1 near the 3:1 resonance): the cleaned
-series then ends at ``1e-5`` to ``5e-4`` and needs about a dozen chord iterations.
-Those steps are still longer than the plain series would allow.
-
-With ``ANMSettings.pade`` (the default) each step is taken on the Padé approximant of
-its series (:mod:`nnmstop.continuation.pade`: common denominator from a QR of the terms), when that
-reaches beyond ``a_max`` at the same tolerance: the step then ends where the
-approximants of orders ``N`` and ``N - 1`` stop agreeing to ``tolerance`` relative to
-the step, and strictly before the first positive real pole of their denominators.
-The end point, the tangent there and the interior points come from the approximant;
-the end-residual check and the Newton correction are the same. A geometric tail
-(simple bifurcation on the path) is removed from the series first, as without Padé,
-so that the step still passes branch points of the followed branch; measured on
-NNM1 at ``H = 100``, dropping the tail removal and relying on the approximant's pole
-alone lost a branch point and switched branch near the 3:1 resonance.
+:class:`ANMStepper` puts one step (:func:`anm_step`) behind the interface of the
+continuation driver (:mod:`nnmstop.continuation.driver`); :func:`continue_anm` runs the
+driver with it. Method notes: ``docs/methods/continuation.md``.
 """
 
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from scipy.linalg.lapack import dgetrs as _getrs
 
-from nnmstop.continuation.pade import pade_pair, pade_step_length
 from nnmstop.continuation.core import (
     Branch,
     ContinuationError,
     ContinuationStats,
-    Progress,
     StopCriterion,
-    bordered_factor,
-    determinant_sign,
     newton_correct,
     relative_residual,
-    unit_tangent,
 )
+from nnmstop.continuation.driver import StepResult, Stepper, continue_branch
+from nnmstop.continuation.linear import factorize_bordered
+from nnmstop.continuation.pade import pade_pair, pade_step_length
 
-__all__ = ["ANMSettings", "ANMStep", "TaylorPath", "anm_series", "evaluate_series", "anm_step", "continue_anm"]
+__all__ = [
+    "ANMSettings",
+    "ANMStep",
+    "ANMStepper",
+    "TaylorPath",
+    "anm_series",
+    "evaluate_series",
+    "step_length",
+    "anm_step",
+    "continue_anm",
+]
 
 logger = logging.getLogger("nnmstop.continuation.anm")
 
@@ -115,6 +98,10 @@ class ANMSettings:
         if not isinstance(self.pade, (bool, np.bool_)):
             raise ValueError(f"pade must be true or false, got {self.pade!r}")
 
+    def stepper(self) -> "ANMStepper":
+        """The ANM step with these settings, for :func:`nnmstop.continuation.driver.continue_branch`."""
+        return ANMStepper(self)
+
     @classmethod
     def from_config(cls, anm_config: dict, **overrides) -> "ANMSettings":
         keys = ("order", "tolerance", "newton_threshold", "max_steps")
@@ -122,7 +109,7 @@ class ANMSettings:
         return cls(**{k: anm_config[k] for k in keys}, **optional, **overrides)
 
 
-def anm_series(system, U0, tangent, order: int, stats: ContinuationStats, lu=None):
+def anm_series(system, U0, tangent, order: int, stats: ContinuationStats, factors=None):
     """Taylor coefficients ``U_0, ..., U_N`` of the branch at ``U0`` (one factorization).
 
     Parameters
@@ -137,42 +124,29 @@ def anm_series(system, U0, tangent, order: int, stats: ContinuationStats, lu=Non
         Series order ``N``.
     stats : ContinuationStats
         The factorization is counted there when this function makes it.
-    lu : tuple, optional
-        ``scipy.linalg.lu_factor`` factors of ``[J(U0); tangent^T]`` when the caller
-        has them.
+    factors : optional
+        Factors of ``[J(U0); tangent^T]``
+        (:func:`~nnmstop.continuation.linear.factorize_bordered`) when the caller has them.
 
     Returns
     -------
     ndarray
         Shape ``(N + 1, n_unknowns)``: row ``p`` is ``U_p``.
     """
-    if lu is None:
-        lu = bordered_factor(system, U0, tangent, stats)
+    if factors is None:
+        factors = factorize_bordered(system, U0, tangent, stats)
     n = system.n_unknowns
     series = np.empty((order + 1, n))
     series[0] = U0
     rhs = np.zeros(n)
     rhs[-1] = 1.0
-    series[1] = _solve(lu, rhs)
+    series[1] = factors.solve(rhs)
     cache = system.series_cache(order)
     rhs[-1] = 0.0
     for p in range(2, order + 1):
         np.negative(system.series_products(series, p, cache), out=rhs[:-1])
-        series[p] = _solve(lu, rhs)
+        series[p] = factors.solve(rhs)
     return series
-
-
-def _solve(lu, rhs):
-    """Solution of ``A x = rhs`` from the ``lu_factor`` factors of ``A``, by LAPACK ``getrs``.
-
-    ``scipy.linalg.lu_solve`` checks both operands for non-finite values at every call;
-    the factors were checked once when they were made, and a non-finite right-hand side
-    is caught here on the (short) solution instead.
-    """
-    x, info = _getrs(lu[0], lu[1], rhs)
-    if info != 0 or not np.all(np.isfinite(x)):
-        raise np.linalg.LinAlgError(f"bordered solve failed (getrs info {info}, or non-finite values)")
-    return x
 
 
 def evaluate_series(series, a, derivative: bool = False):
@@ -243,7 +217,7 @@ def remove_geometric_tail(series, a_max: float, alignment: float = 1e-6, reach: 
 
 
 class TaylorPath:
-    """The power series of a step as a path ``a -> U(a)`` (same call as :class:`nnmstop.continuation.pade.PadeApproximant`)."""
+    """The power series of a step as a path ``a -> U(a)`` (called like a Padé approximant)."""
 
     def __init__(self, series):
         self.series = series
@@ -259,7 +233,7 @@ class ANMStep(NamedTuple):
     ``a_max``, the end point ``U_end`` (Newton-corrected if needed), the unit tangent
     ``t_end`` there, the sign ``det_sign`` of ``det [J(U0); tangent^T]`` (it changes
     across a simple branch point, not across a fold, when the tangent keeps its
-    orientation), the LU factors ``lu`` of that matrix, reused by corrections,
+    orientation), the ``factors`` of that matrix, reused by corrections,
     ``path``, the representation ``a -> U(a)`` (``path(a, derivative=True)`` for
     ``dU/da``) the step was taken on: the series, or its Padé approximant, and
     ``a_series``, the step length of the plain series (``a_max`` without Padé).
@@ -270,15 +244,15 @@ class ANMStep(NamedTuple):
     U_end: np.ndarray
     t_end: np.ndarray
     det_sign: int
-    lu: tuple
+    factors: object
     path: object
     a_series: float
 
 
 def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStats) -> ANMStep:
     """One ANM step from ``U0`` (see :class:`ANMStep`)."""
-    lu = bordered_factor(system, U0, tangent, stats)
-    series = anm_series(system, U0, tangent, settings.order, stats, lu=lu)
+    factors = factorize_bordered(system, U0, tangent, stats)
+    series = anm_series(system, U0, tangent, settings.order, stats, factors=factors)
     series, a_b = remove_geometric_tail(series, step_length(series, settings.tolerance))
     if a_b is not None:
         stats.geometric_tails += 1
@@ -288,26 +262,32 @@ def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStat
     if settings.pade:
         path, a_max = _pade_path(series, a_max, settings.tolerance, path, stats)
     try:
-        U_end, t_end = _step_end(system, path, a_max, lu, settings, stats)
+        U_end, t_end = _step_end(system, path, a_max, factors, settings, stats)
     except ContinuationError:
         if path is taylor:
             raise
         # the approximant's end could not be corrected: take the plain series' step
         stats.pade_steps -= 1
         path, a_max = taylor, a_series
-        U_end, t_end = _step_end(system, path, a_max, lu, settings, stats)
-    return ANMStep(series, a_max, U_end, t_end, determinant_sign(lu), lu, path, a_series)
+        U_end, t_end = _step_end(system, path, a_max, factors, settings, stats)
+    return ANMStep(series, a_max, U_end, t_end, factors.determinant_sign(), factors, path, a_series)
 
 
-def _step_end(system, path, a_max, lu, settings: ANMSettings, stats: ContinuationStats):
+def _on_threshold(system, U, t, factors, settings: ANMSettings, stats: ContinuationStats):
+    """``U`` corrected by Newton when its residual exceeds the threshold (chord iterations on ``factors`` first)."""
+    if relative_residual(system, U) <= settings.newton_threshold:
+        return U, False
+    U, _ = newton_correct(system, U, t, stats, tol=0.01 * settings.newton_threshold, factors=factors)
+    return U, True
+
+
+def _step_end(system, path, a_max, factors, settings: ANMSettings, stats: ContinuationStats):
     """End point of a step on ``path`` (Newton-corrected when needed) and the unit tangent there."""
     U_end = path(a_max)
     t_end = path(a_max, derivative=True)
     t_end /= np.linalg.norm(t_end)
-    if relative_residual(system, U_end) > settings.newton_threshold:
-        # chord iterations with the step's own factors first: usually no new factorization
-        U_end, _ = newton_correct(system, U_end, t_end, stats, tol=0.01 * settings.newton_threshold, lu=lu)
-        stats.corrected_steps += 1
+    U_end, corrected = _on_threshold(system, U_end, t_end, factors, settings, stats)
+    stats.corrected_steps += corrected
     return U_end, t_end
 
 
@@ -323,6 +303,74 @@ def _pade_path(series, a_max: float, tolerance: float, taylor, stats: Continuati
     return pair[0], a_pade
 
 
+class ANMStepper(Stepper):
+    """The ANM step (:func:`anm_step`) behind the continuation driver's interface."""
+
+    def __init__(self, settings: ANMSettings = ANMSettings()):
+        self.settings = settings
+        self.max_steps = settings.max_steps
+
+    def step(self, system, U, tangent, stats: ContinuationStats) -> StepResult:
+        result = anm_step(system, U, tangent, self.settings, stats)
+        return StepResult(
+            U_end=result.U_end,
+            t_end=result.t_end,
+            length=result.a_max,
+            path=result.path,
+            points=self._points(system, result, stats),
+            start_sign=result.det_sign,
+        )
+
+    def _points(self, system, result: ANMStep, stats: ContinuationStats):
+        """Interior points along the step's path, then its (possibly corrected) end point.
+
+        With ``points_per_step > 1``, as many per length of the plain series' step (so that
+        the curves are as dense as with the plain series); interior points meet the same
+        accuracy as step ends (chord corrections on the step's factors).
+        """
+        n_sub = self.settings.points_per_step
+        if n_sub > 1:
+            n_sub *= max(1, int(np.ceil(result.a_max / result.a_series - 1e-9)))
+        for j in range(1, n_sub):
+            a = result.a_max * j / n_sub
+            U_j = result.path(a)
+            t_j = result.path(a, derivative=True)
+            t_j /= np.linalg.norm(t_j)
+            try:
+                U_j, _ = _on_threshold(system, U_j, t_j, result.factors, self.settings, stats)
+            except ContinuationError as err:
+                raise ContinuationError(f"interior point {j}: {err}") from err
+            yield U_j, t_j
+        yield result.U_end, result.t_end
+
+    def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats):
+        """The ANM step from ``U_a`` recomputed; ``U_b``'s parameter is that of the nearest point of its path.
+
+        The path is the series (or its Padé approximant, as the continuation used it), the branch
+        to the series' accuracy all along the step, geometric tail removed so that it runs through
+        a branch point on the branch being followed.
+        """
+        step = anm_step(system, U_a, tangent_a, self.settings, stats)
+        path, a_max = step.path, step.a_max
+        chord = U_b - U_a
+        # a Padé approximant's parameter is not the projection on tangent_a: refine it as the
+        # parameter of the point of the path nearest to U_b
+        a_end = min(max(float(np.dot(chord, tangent_a)), 0.0), a_max)
+        for _ in range(30):
+            d = path(a_end, derivative=True)
+            update = -float(np.dot(path(a_end) - U_b, d) / np.dot(d, d))
+            a_end = min(max(a_end + update, 0.0), 1.001 * a_max)
+            if abs(update) <= 1e-14 * max(a_end, 1e-300):
+                break
+        gap = np.linalg.norm(path(a_end) - U_b)
+        if not (a_end > 0 and gap <= 1e-3 * np.linalg.norm(chord)):
+            raise ValueError(
+                f"U_b is not on the ANM step from U_a (distance {gap:.3g} to it, chord {np.linalg.norm(chord):.3g}): "
+                "pass the two ends of one continuation step"
+            )
+        return path, a_end
+
+
 def continue_anm(
     system,
     U_start,
@@ -332,95 +380,10 @@ def continue_anm(
     label: str = "ANM",
     progress_seconds: float = 2.0,
 ) -> Branch:
-    """Follow the branch through ``U_start`` along ``direction`` until ``stop`` says so.
+    """Follow the branch through ``U_start`` along ``direction`` by the ANM until ``stop`` says so.
 
-    Parameters
-    ----------
-    system : HarmonicBalanceSystem
-        Provides ``residual``, ``jacobian``, ``series_products`` and ``diagnostics``.
-    U_start : ndarray
-        A point of the branch (residual at round-off).
-    direction : ndarray
-        Rough direction of travel; the tangent is oriented along it.
-    stop : callable
-        ``stop(U, diagnostics) -> str``; a non-empty string ends the continuation and
-        is recorded as the end reason.
-
-    Returns
-    -------
-    Branch
-        The start point, then the end point of every step (and interior points,
-        see ``ANMSettings.points_per_step``).
-
-    Raises
-    ------
-    ContinuationError
-        When a step fails or ``max_steps`` is exhausted; the message names the step
-        and the energy.
+    :func:`nnmstop.continuation.driver.continue_branch` with an :class:`ANMStepper`: the
+    start point, then the end point of every step (and interior points, see
+    ``ANMSettings.points_per_step``). ``system`` also provides ``series_products``.
     """
-    stats = ContinuationStats()
-    started = time.perf_counter()
-    branch = Branch(stats=stats)
-    U = np.array(U_start, dtype=float)
-    tangent = unit_tangent(system, U, np.asarray(direction, dtype=float), stats)
-    diag = system.diagnostics(U)
-    branch.add(U, 0, diag)
-    progress = Progress(label, progress_seconds, logger)
-    previous_sign = None
-    for step in range(1, settings.max_steps + 1):
-        try:
-            result = anm_step(system, U, tangent, settings, stats)
-            series, a_max, U_end, t_end, det_sign = result[:5]
-        except (ContinuationError, np.linalg.LinAlgError) as err:
-            raise ContinuationError(
-                f"{label}: step {step} failed at energy {diag['energy']:.6g} "
-                f"(frequency {diag['frequency']:.6g} Hz): {err}"
-            ) from err
-        if not (np.all(np.isfinite(U_end)) and a_max > 0):
-            raise ContinuationError(
-                f"{label}: step {step} produced non-finite values at energy {diag['energy']:.6g}"
-            )
-        stats.steps = step
-        if previous_sign is not None and det_sign != previous_sign:
-            # The branch point lies within the previous step: between its start and U.
-            branch.branch_points.append(len(branch.points) - 1)
-            logger.info("%s: simple branch point passed near energy %.6g, frequency %.6g Hz (step %d)",
-                        label, diag["energy"], diag["frequency"], step - 1)
-        previous_sign = det_sign
-        n_sub = settings.points_per_step
-        if n_sub > 1:  # as dense as the plain series would store them
-            n_sub *= max(1, int(np.ceil(a_max / result.a_series - 1e-9)))
-        # Interior points along the series, then the (possibly corrected) end point; the
-        # stop criterion is checked at each, so a stage ends at the first point meeting it.
-        for j in range(1, n_sub + 1):
-            if j < n_sub:
-                a = a_max * j / n_sub
-                U_j = result.path(a)
-                t_j = result.path(a, derivative=True)
-                t_j /= np.linalg.norm(t_j)
-                # interior points meet the same accuracy as step ends (chord corrections
-                # on the step's factors, no new factorization in general)
-                if relative_residual(system, U_j) > settings.newton_threshold:
-                    try:
-                        U_j, _ = newton_correct(system, U_j, t_j, stats, tol=0.01 * settings.newton_threshold, lu=result.lu)
-                    except ContinuationError as err:
-                        raise ContinuationError(
-                            f"{label}: step {step}, interior point {j}, failed at energy {diag['energy']:.6g}: {err}"
-                        ) from err
-            else:
-                U_j, t_j = U_end, t_end
-            diag = system.diagnostics(U_j)
-            branch.add(U_j, step, diag)
-            reason = stop(U_j, diag)
-            if reason:
-                branch.end_reason = reason
-                branch.end_tangent = t_j
-                stats.wall_time = time.perf_counter() - started
-                progress(step, diag, a_max, force=True)
-                return branch
-        U, tangent = U_end, t_end
-        progress(step, diag, a_max)
-    raise ContinuationError(
-        f"{label}: no stop criterion met after max_steps = {settings.max_steps} steps "
-        f"(last energy {diag['energy']:.6g}, frequency {diag['frequency']:.6g} Hz)"
-    )
+    return continue_branch(system, U_start, direction, ANMStepper(settings), stop, label, progress_seconds, logger)

@@ -1,10 +1,13 @@
-"""Pieces shared by the two continuation methods (ANM and Newton pseudo-arclength).
+"""Pieces shared by the continuation methods: the branch, the counters, the corrector.
 
-A continuation follows the solution curve of ``S(U) = 0`` (``n`` equations,
-``n + 1`` unknowns) from a start point in a given direction. Both methods use the
-bordered matrix ``[J(U); t^T]``, with ``t`` the unit tangent at the start of the
-step, so that one LU factorization of it serves a whole step (ANM) or a Newton
-iteration (pseudo-arclength).
+A continuation follows the solution curve of ``S(U) = 0`` (``n`` equations, ``n + 1``
+unknowns) from a start point in a given direction. :class:`Branch` holds its points, with
+the steps that produced them and the flagged branch points; :class:`ContinuationStats`
+its cost counters. :func:`newton_correct` is the Newton corrector in the hyperplane
+orthogonal to a tangent (chord iterations on given factors first), with the convergence
+rule :func:`newton_converged` that every continuation corrector uses; :func:`unit_tangent`
+the tangent and the sign of ``det [J; t^T]`` at a point. Accuracy is measured by
+:func:`relative_residual`. Method notes: ``docs/methods/continuation.md``.
 """
 
 from __future__ import annotations
@@ -15,7 +18,9 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
+
+from nnmstop.continuation.linear import factorize_bordered
+from nnmstop.continuation.newton import newton_solve
 
 __all__ = [
     "ContinuationError",
@@ -25,11 +30,11 @@ __all__ = [
     "relative_residual",
     "relative_of_residual",
     "newton_converged",
-    "bordered_factor",
     "newton_correct",
+    "OrthogonalUpdate",
     "unit_tangent",
-    "determinant_sign",
     "StopCriterion",
+    "Progress",
 ]
 
 logger = logging.getLogger("nnmstop.continuation.core")
@@ -72,8 +77,8 @@ class Branch:
     stats: ContinuationStats = field(default_factory=ContinuationStats)
     end_reason: str = ""
     end_tangent: np.ndarray | None = None
-    # Indices i of points such that the sign of det [J; t^T] changes between the
-    # continuation steps ending at points i and i+1: a simple branch point lies there.
+    # Indices of the points that end a continuation step across which the sign of
+    # det [J; t^T] changed: a simple branch point lies within that step.
     branch_points: list = field(default_factory=list)
 
     def add(self, U, step, diagnostics=None):
@@ -92,74 +97,77 @@ def relative_residual(system, U) -> float:
     return relative_of_residual(U, system.residual(U))
 
 
-def bordered_factor(system, U, tangent, stats: ContinuationStats):
-    """LU factors of ``[J(U); tangent^T]`` (counted in ``stats``)."""
-    A = np.vstack([system.jacobian(U), tangent[None, :]])
-    stats.factorizations += 1
-    lu = lu_factor(A, check_finite=True)
-    pivots = np.abs(np.diag(lu[0]))
-    if pivots.min() <= 1e-14 * pivots.max():
-        raise np.linalg.LinAlgError("bordered Jacobian is singular to working precision")
-    return lu
+def unit_tangent(system, U, direction, stats: ContinuationStats | None = None, *, singular_tol: float | None = 1e-14):
+    """Unit tangent of the curve at ``U`` oriented along ``direction``, and the sign of ``det [J; t^T]`` there.
 
-
-def determinant_sign(lu) -> int:
-    """Sign of the determinant of a matrix from its ``scipy.linalg.lu_factor`` factors."""
-    factors, pivots = lu
-    swaps = np.count_nonzero(pivots != np.arange(len(pivots)))
-    negative = np.count_nonzero(np.diag(factors) < 0)
-    return -1 if (swaps + negative) % 2 else 1
-
-
-def unit_tangent(system, U, direction, stats: ContinuationStats, lu=None):
-    """Unit tangent of the curve at ``U``, oriented along ``direction``."""
-    if lu is None:
-        lu = bordered_factor(system, U, direction / np.linalg.norm(direction), stats)
-    rhs = np.zeros(system.n_unknowns)
+    The tangent solves ``[J(U); d^T] t = e_{n+1}`` with ``d`` the unit ``direction``; the sign
+    is that of ``det [J(U); d^T]``, the same as with ``t`` as bordering row (``<d, t> > 0``).
+    ``singular_tol`` as in :func:`~nnmstop.continuation.linear.factorize_bordered`.
+    """
+    direction = np.asarray(direction, dtype=float)
+    factors = factorize_bordered(system, U, direction / np.linalg.norm(direction), stats, singular_tol=singular_tol)
+    rhs = np.zeros(len(direction))
     rhs[-1] = 1.0
-    t = lu_solve(lu, rhs)
-    return t / np.linalg.norm(t)
+    t = factors.solve(rhs)
+    return t / np.linalg.norm(t), factors.determinant_sign()
 
 
-def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max_iter: int = 12, lu=None):
+class OrthogonalUpdate:
+    """Newton updates ``J dU = rhs`` with ``<t, dU> = 0``, from the factors of ``[J; t^T]``.
+
+    The Jacobian a corrector in the hyperplane orthogonal to ``t`` hands to
+    :func:`~nnmstop.continuation.newton.newton_solve`.
+    """
+
+    def __init__(self, factors):
+        self.factors = factors
+
+    def solve(self, rhs):
+        return self.factors.solve(np.append(rhs, 0.0))
+
+
+def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max_iter: int = 12, factors=None):
     """Newton iterations on ``S(U) = 0`` in the hyperplane orthogonal to ``tangent``.
 
-    Full Newton refactorizes at every iteration. With ``lu``, the factors of a nearby
+    Full Newton refactorizes at every iteration. With ``factors``, those of a nearby
     bordered matrix ``[J(U_0); t^T]`` (for example those of the ANM step that produced
     ``U``), chord iterations reuse them first (corrections then stay orthogonal to
     that ``t``) and full Newton takes over only if they do not converge. Converged
-    when the relative residual is below ``tol`` and the last update is small. Returns
-    the corrected point and the number of iterations; raises ``ContinuationError``
-    when it does not converge.
+    when the relative residual is below ``tol`` and the last update is small
+    (:func:`newton_converged`). Returns the corrected point and the number of
+    iterations; raises ``ContinuationError`` when it does not converge.
     """
     U = np.array(U, dtype=float)
-    # each residual serves both the convergence test of one iterate and the update from it
-    if lu is not None:
-        chord = U.copy()
-        r = system.residual(chord)
-        for it in range(1, 3 * max_iter + 1):  # chord iterations are cheap: no factorization
-            if not np.all(np.isfinite(r)):
-                break  # diverged (lu_solve would raise ValueError): full Newton from U
-            dU = lu_solve(lu, -np.concatenate([r, [0.0]]))
-            chord += dU
-            stats.newton_iterations += 1
-            r = system.residual(chord)
-            if newton_converged(chord, r, dU, tol):
-                return chord, it
-    r = system.residual(U)
-    for it in range(1, max_iter + 1):
-        if not (np.all(np.isfinite(U)) and np.all(np.isfinite(r))):
-            raise ContinuationError(f"Newton correction diverged (non-finite values after {it - 1} iterations)")
-        lu = bordered_factor(system, U, tangent, stats)
-        dU = lu_solve(lu, -np.concatenate([r, [0.0]]))
-        U += dU
-        stats.newton_iterations += 1
-        r = system.residual(U)
-        if newton_converged(U, r, dU, tol):
-            return U, it
+
+    def converged(V, r, dU):
+        return dU is not None and newton_converged(V, r, dU, tol)
+
+    options = dict(tol=tol, criterion=converged, norm=relative_of_residual)
+    if factors is not None:
+        chord = OrthogonalUpdate(factors)  # chord iterations are cheap: no factorization
+        try:
+            result = newton_solve(system.residual, lambda V: chord, U, max_iter=3 * max_iter, **options)
+        except np.linalg.LinAlgError:  # diverged: full Newton from U
+            result = None
+        if result is not None:
+            stats.newton_iterations += result.iterations
+            if result.converged:
+                return result.y, result.iterations
+    result = newton_solve(
+        system.residual,
+        lambda V: OrthogonalUpdate(factorize_bordered(system, V, tangent, stats)),
+        U,
+        max_iter=max_iter,
+        **options,
+    )
+    stats.newton_iterations += result.iterations
+    if result.converged:
+        return result.y, result.iterations
+    if "non-finite" in result.reason:
+        raise ContinuationError(f"Newton correction diverged ({result.reason})")
     raise ContinuationError(
         f"Newton correction did not converge in {max_iter} iterations (relative residual "
-        f"{relative_of_residual(U, r):.2e} > {tol:.1e})"
+        f"{result.residual_norm:.2e} > {tol:.1e})"
     )
 
 

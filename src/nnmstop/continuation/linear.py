@@ -10,7 +10,8 @@ a simple branch point, not across a fold (``docs/methods/continuation.md``).
 (LAPACK ``getrf``/``getrs`` through SciPy) by default, or the system's own
 ``factorize_bordered(U, tangent)`` when it has one (a sparse or structured solver for
 large models), as long as that returns an object with ``solve(rhs)`` and
-``determinant_sign()``.
+``determinant_sign()`` (and, optionally, ``is_singular(tol)``, which lets the
+pseudo-arclength path recognize a nearly double root near a branch point).
 """
 
 from __future__ import annotations

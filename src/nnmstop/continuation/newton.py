@@ -140,7 +140,7 @@ def newton_solve(
     y = np.array(y0, dtype=float)
     r, J = evaluate(y)
     dy, J_used = None, None
-    measure = norm(y, r)
+    measure = norm(y, r) if np.all(np.isfinite(r)) else np.inf
 
     def result(converged, iterations, reason=""):
         return NewtonResult(y, converged, iterations, float(measure), reason, dy, J_used)
@@ -154,9 +154,10 @@ def newton_solve(
         dy = _linear_solve(J_used, -r)
         y = y + dy
         r, J = evaluate(y)
-        previous, measure = measure, norm(y, r)
         if not (np.all(np.isfinite(y)) and np.all(np.isfinite(r))):
+            measure = np.inf
             return result(False, it, f"non-finite values after {it} iterations")
+        previous, measure = measure, norm(y, r)
         if test(y, r, dy):
             if polish:
                 J_used = jacobian(y) if jacobian is not None else J

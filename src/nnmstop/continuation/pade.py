@@ -1,40 +1,15 @@
 r"""Padé approximants of an ANM power series, with a common denominator.
 
-The ANM series ``U(a) = U_0 + sum_{i=1}^{N} a^i U_i`` converges only within the
-distance from ``a = 0`` to the nearest singularity (of the branch, complex or real),
-and Cochelin's estimate keeps the step well inside it. The rational representation
-of Cochelin, Damil & Potier-Ferry (1994), reviewed by Najah et al. (1998) and used
-as a step predictor by Elhage-Hussein, Potier-Ferry & Damil (2000), reaches further
-with the same vectors ``U_i``:
-
-1. Gram-Schmidt orthogonalisation of ``U_1 .. U_N`` (here a QR factorization, which
-   is the stable form of it): ``U_i = sum_{j <= i} alpha_{ij} u*_j``, with
-   ``alpha_{ij} = R[j, i]``.
-2. A denominator ``D_{m-1}(a) = 1 + d_1 a + ... + d_{m-1} a^{m-1}`` whose
-   coefficients make ``U_m + d_1 U_{m-1} + ... + d_{m-1} U_1`` orthogonal to
-   ``u*_1 .. u*_{m-1}`` (a triangular system)::
-
-       d_j = -(alpha_{m,m-j} + sum_{l<j} d_l alpha_{m-l,m-j}) / alpha_{m-j,m-j}
-
-3. With ``D_k`` the truncations of ``D_{m-1}`` to degree ``k`` (``D_0 = 1``)::
-
-       P_m(a) = U_0 + sum_{i=1}^{m-1} a^i D_{m-1-i}(a) / D_{m-1}(a) U_i
-
-   ``P_m`` has the Taylor expansion of ``U`` up to order ``m - 1``; at order ``m`` it
-   differs from ``U`` only along ``u*_m``. A rational function ``U_0 + A(a) / q(a)``
-   with ``deg A, deg q <= m - 1`` is reproduced exactly, and a simple pole of the
-   branch's continuation shows up as a real root of ``D_{m-1}``.
-
-The step length of the Padé representation is the largest ``a`` (beyond the series'
-own estimate, before the first positive real root of the denominators) at which the
-approximants of orders ``N`` and ``N - 1``, built from the same QR, agree to the
-series tolerance relative to the step: ``||P_N(a) - P_{N-1}(a)|| <= tol ||P_N(a) - U_0||``
-(the criterion of Elhage-Hussein et al.; for the plain series, Cochelin's estimate is
-the same statement for the Taylor polynomials of orders ``N`` and ``N - 1``).
-
-The computation runs in the scaled parameter ``s = a / a_s`` (``a_s`` the series'
-own step length), where the terms ``a_s^i U_i`` are of comparable size; the
-approximants do not depend on this scaling.
+The series ``U(a) = U_0 + sum_{i=1..N} a^i U_i`` converges only up to the nearest
+singularity of the branch; its rational representation (Cochelin, Damil & Potier-Ferry
+1994) reaches further with the same vectors. The terms are orthogonalized by a QR
+factorization, one denominator ``D_{m-1}`` makes ``U_m + d_1 U_{m-1} + ...`` orthogonal to
+the earlier directions, and ``P_m(a) = U_0 + sum_i a^i D_{m-1-i}(a) / D_{m-1}(a) U_i``
+(:class:`PadeApproximant`, built by :func:`pade_pair` for orders ``N`` and ``N - 1``).
+:func:`pade_step_length` takes the step as far as the two approximants agree to the
+tolerance relative to the step, before the first positive real pole of their
+denominators. Everything runs in the parameter scaled by the series' own step length.
+Method notes: ``docs/methods/continuation.md``.
 """
 
 from __future__ import annotations

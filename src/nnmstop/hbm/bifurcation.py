@@ -5,9 +5,9 @@ A *simple branch point* ``U*`` of the balanced system ``S(U) = 0`` (``n`` equati
 Jacobian ``J(U*)`` has rank ``n - 1``, its null space is a plane that holds the tangents
 of both curves. Along a branch the determinant of the bordered matrix ``[J; t^T]``
 (``t`` the unit tangent, oriented along the travel) changes sign there, and not at
-folds; the ANM records the steps across which it does
+folds; the continuation records the steps across which it does
 (:attr:`nnmstop.continuation.core.Branch.branch_points`, the ``branch_point`` flag of the
-datasets).
+datasets; ``docs/methods/continuation.md``).
 
 On NNM1 such points sit where the fundamental harmonic of the orbit changes sign
 (internal resonances ``n:1``): the orbit there has period ``T/n``; it is an orbit of
@@ -16,8 +16,8 @@ NNM2 family read at ``n T`` (the "three time FEP of the second NNM" of Fig. 8).
 
 Branch switching, after Keller's algebraic bifurcation equation:
 
-1. :func:`locate_branch_point` recomputes the ANM step across the sign change and
-   bisects the sign along its power series.
+1. :func:`locate_branch_point` recomputes the path of the step across the sign change
+   with the continuation method that took it and bisects the sign along that path.
 2. :func:`bifurcation_tangents`: with ``phi_1, phi_2`` a basis of the null plane of
    ``J(U*)`` and ``psi`` its left null vector, the tangents ``tau = a phi_1 + b phi_2``
    of the curves through ``U*`` solve the quadratic
@@ -26,8 +26,8 @@ Branch switching, after Keller's algebraic bifurcation equation:
    (:func:`quadratic_form`). One root is the incoming tangent;
    the other is the tangent of the bifurcated curve, not in general orthogonal to it.
 3. :func:`switch_branch` steps along that tangent and corrects by Newton in the
-   hyperplane orthogonal to it; the ANM then follows the bifurcated curve both ways
-   (:func:`continue_bifurcated_branch`).
+   hyperplane orthogonal to it; the continuation driver then follows the bifurcated
+   curve both ways (:func:`continue_bifurcated_branch`).
 """
 
 from __future__ import annotations
@@ -37,20 +37,23 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
 
+from nnmstop.continuation.anm import ANMSettings
 from nnmstop.continuation.core import (
+    Branch,
     ContinuationError,
     ContinuationStats,
-    determinant_sign,
     newton_correct,
-    relative_residual,
+    relative_of_residual,
+    unit_tangent,
 )
+from nnmstop.continuation.driver import as_stepper, continue_branch, path_border
+from nnmstop.continuation.linear import factorize_bordered
+from nnmstop.continuation.newton import bisect_sign_change, newton_solve
 
 __all__ = [
     "BranchPoint",
     "quadratic_form",
-    "bordered_sign",
     "locate_branch_point",
     "project_onto_branch",
     "bifurcation_tangents",
@@ -107,97 +110,60 @@ def quadratic_form(system, a, b) -> np.ndarray:
     return 0.5 * system.series_products(terms, 3)
 
 
-def bordered_sign(system, U, direction):
-    """Unit tangent at ``U`` oriented along ``direction``, and the sign of ``det [J; t^T]``."""
-    J = system.jacobian(U)
-    lu = lu_factor(np.vstack([J, direction[None, :] / np.linalg.norm(direction)]))
-    rhs = np.zeros(system.n_unknowns)
-    rhs[-1] = 1.0
-    t = lu_solve(lu, rhs)
-    t /= np.linalg.norm(t)
-    return t, determinant_sign(lu_factor(np.vstack([J, t[None, :]])))
+def locate_branch_point(system, U_a, U_b, method=None, tol: float = 1e-12, newton_tol: float = 1e-9):
+    """Branch point within the continuation step from ``U_a`` to ``U_b``.
 
-
-def locate_branch_point(system, U_a, U_b, settings=None, tol: float = 1e-12, newton_tol: float = 1e-9):
-    """Branch point within the continuation step from ``U_a`` towards ``U_b``.
-
-    The ANM step from ``U_a`` (tangent oriented towards ``U_b``) is recomputed: its
-    power series ``U(a)`` (or its Padé approximant, as the continuation used it) is
-    the branch to the series' accuracy all along the step,
-    geometric tail removed so that it runs through the branch point on the branch
-    being followed. The sign of ``det [J(U(a)); U'(a)^T]`` is bisected in ``a``, with
-    no Newton solve near the branch point, where any hyperplane meets both curves
-    and a corrector could land on the other one. The point found is put back on the
-    branch by least-norm Newton (:func:`project_onto_branch`).
+    The path of the step is recomputed by the continuation method that took it
+    (:meth:`nnmstop.continuation.driver.Stepper.path_through`: the ANM's series or Padé
+    approximant, the pseudo-arclength corrected path); it is the followed branch all along
+    the step. The sign of ``det [J(U(a)); U'(a)^T]`` is bisected in the path parameter
+    ``a``: no Newton solve that could land on the other curve near the branch point,
+    where any hyperplane meets both. The point found is put back on the branch by
+    least-norm Newton (:func:`project_onto_branch`).
 
     Parameters
     ----------
     U_a, U_b : ndarray
         Start and end of the continuation step flagged with a sign change (the two
         stored points of the step, the end possibly Newton-corrected).
-    settings : ANMSettings, optional
-        Series order and tolerance (defaults of :class:`nnmstop.continuation.anm.ANMSettings`).
+    method : Stepper or settings, optional
+        The continuation method of the step (``ANMSettings``, ``PseudoArclengthSettings``
+        or a stepper); the ANM with default settings when None.
     tol : float
-        Bisection tolerance, relative to the step length.
+        Bisection tolerance, relative to the step's path length.
+    newton_tol : float
+        Relative residual of the projection onto the branch.
 
     Returns
     -------
     U : ndarray
         The branch point.
     t : ndarray
-        The unit tangent of the series there (oriented from ``U_a`` to ``U_b``).
+        The path's unit border there (for the ANM its unit tangent, oriented from ``U_a`` to ``U_b``).
 
     Raises
     ------
     ValueError
         If the determinant has the same sign at both ends of the step (no branch
-        point bracketed).
+        point bracketed), or ``U_b`` is not on the step's path.
     """
-    from nnmstop.continuation.anm import ANMSettings, anm_step
-
-    settings = ANMSettings() if settings is None else settings
+    stepper = as_stepper(ANMSettings() if method is None else method)
     U_a, U_b = np.asarray(U_a, float), np.asarray(U_b, float)
     chord = U_b - U_a
     if not np.linalg.norm(chord) > 0:
         raise ValueError("locate_branch_point needs two distinct points")
-    t_a, _ = bordered_sign(system, U_a, chord)
-    step = anm_step(system, U_a, t_a, settings, ContinuationStats())
-    path, a_max = step.path, step.a_max  # the series, or its Padé approximant
-    # U_b's path parameter: the projection on t_a for the series, refined as the point of
-    # the path nearest to U_b (a Padé approximant's parameter is not that projection)
-    a_end = min(max(float(np.dot(chord, t_a)), 0.0), a_max)
-    for _ in range(30):
-        d = path(a_end, derivative=True)
-        update = -float(np.dot(path(a_end) - U_b, d) / np.dot(d, d))
-        a_end = min(max(a_end + update, 0.0), 1.001 * a_max)
-        if abs(update) <= 1e-14 * max(a_end, 1e-300):
-            break
-    gap = np.linalg.norm(path(a_end) - U_b)
-    if not (a_end > 0 and gap <= 1e-3 * np.linalg.norm(chord)):
-        raise ValueError(
-            f"U_b is not on the ANM step from U_a (distance {gap:.3g} to it, chord {np.linalg.norm(chord):.3g}): "
-            "pass the two ends of one continuation step"
-        )
+    t_a, _ = unit_tangent(system, U_a, chord, singular_tol=None)
+    path, a_end = stepper.path_through(system, U_a, t_a, U_b, ContinuationStats())
 
     def sign(a):
-        t = path(a, derivative=True)
-        t /= np.linalg.norm(t)
-        return determinant_sign(lu_factor(np.vstack([system.jacobian(path(a)), t[None, :]])))
+        return factorize_bordered(system, path(a), path_border(path, a), singular_tol=None).determinant_sign()
 
-    lo, hi = 0.0, a_end
-    sign_lo = sign(lo)
-    if sign(hi) == sign_lo:
-        raise ValueError("no branch point between the two points: det [J; t^T] has the same sign at both")
-    while hi - lo > tol * a_end:
-        mid = 0.5 * (lo + hi)
-        if sign(mid) == sign_lo:
-            lo = mid
-        else:
-            hi = mid
-    a_star = 0.5 * (lo + hi)
-    t_star = path(a_star, derivative=True)
-    t_star /= np.linalg.norm(t_star)
-    return project_onto_branch(system, path(a_star), tol=newton_tol), t_star
+    try:
+        bracket = bisect_sign_change(sign, 0.0, a_end, tol=tol * a_end)
+    except ValueError as err:
+        raise ValueError("no branch point between the two points: det [J; t^T] has the same sign at both") from err
+    a_star = bracket.midpoint
+    return project_onto_branch(system, path(a_star), tol=newton_tol), path_border(path, a_star)
 
 
 def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
@@ -212,19 +178,24 @@ def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
     ContinuationError
         If the relative residual does not reach ``tol``.
     """
-    U = np.array(U, dtype=float)
-    for _ in range(max_iter):
-        r = system.residual(U)
-        if relative_residual(system, U) <= tol:
-            return U
-        dU = np.linalg.lstsq(system.jacobian(U), -r, rcond=1e-12)[0]
-        U += dU
-    if relative_residual(system, U) <= tol:
-        return U
+    result = newton_solve(system.residual, lambda V: _LeastNorm(system.jacobian(V)), U, tol=tol, max_iter=max_iter,
+                          criterion="residual", norm=relative_of_residual)
+    if result.converged:
+        return result.y
     raise ContinuationError(
         f"projection onto the branch did not converge in {max_iter} iterations "
-        f"(relative residual {relative_residual(system, U):.2e} > {tol:.1e})"
+        f"(relative residual {result.residual_norm:.2e} > {tol:.1e})"
     )
+
+
+class _LeastNorm:
+    """Least-norm solutions of ``J x = rhs`` (singular values below ``1e-12`` of the largest cut off)."""
+
+    def __init__(self, J):
+        self.J = J
+
+    def solve(self, rhs):
+        return np.linalg.lstsq(self.J, rhs, rcond=1e-12)[0]
 
 
 def _null_plane(system, U):
@@ -326,8 +297,10 @@ def subharmonic_share(system, U, n: int) -> float:
     return float((np.sum(x[off] ** 2) + np.sum(u[off] ** 2)) / total) if total > 0 else 0.0
 
 
-def continue_bifurcated_branch(system, point: BranchPoint, stop, settings, switch_step: float, label: str = "bifurcated"):
-    """Follow the bifurcated curve through ``point`` both ways with the ANM.
+def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_step: float, label: str = "bifurcated"):
+    """Follow the bifurcated curve through ``point`` both ways.
+
+    ``method`` is the continuation method (a stepper or its settings, e.g. ``ANMSettings``).
 
     Each side starts from :func:`switch_branch` (``+switch_step`` and ``-switch_step``
     along ``point.bifurcated``) and runs until ``stop`` says so.
@@ -340,14 +313,11 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, settings, switc
         (whose index is ``branch.branch_points[0]``; the branch points passed on
         either side follow). ``stats`` add up both sides.
     """
-    from nnmstop.continuation.anm import continue_anm
-    from nnmstop.continuation.core import Branch
-
     sides = {}
     for sign in (-1.0, 1.0):
         U1 = switch_branch(system, point, sign * switch_step)
-        sides[sign] = continue_anm(system, U1, sign * point.bifurcated, stop, settings,
-                                   label=f"{label} ({'+' if sign > 0 else '-'} side)")
+        sides[sign] = continue_branch(system, U1, sign * point.bifurcated, as_stepper(method), stop,
+                                      label=f"{label} ({'+' if sign > 0 else '-'} side)")
     minus, plus = sides[-1.0], sides[1.0]
     merged = Branch()
     n_minus = len(minus.points)
@@ -381,7 +351,7 @@ def classify_branch_point(system, point: BranchPoint, max_resonance: int = 20, s
     return 0, bool(subharmonic_share(system, point.bifurcated, 2) < share_tol)
 
 
-def locate_flagged_branch_points(system, points, steps, flagged, settings=None) -> list:
+def locate_flagged_branch_points(system, points, steps, flagged, method=None) -> list:
     """Locate and classify the branch points of the steps flagged by a continuation.
 
     Parameters
@@ -390,6 +360,8 @@ def locate_flagged_branch_points(system, points, steps, flagged, settings=None) 
         Points of the branch and the index of the ANM step that produced each.
     flagged : sequence of int
         Indices of the points ending a step across which ``det [J; t^T]`` changed sign.
+    method : Stepper or settings, optional
+        The continuation method that took the steps (see :func:`locate_branch_point`).
 
     Returns
     -------
@@ -402,7 +374,7 @@ def locate_flagged_branch_points(system, points, steps, flagged, settings=None) 
         start = int(np.flatnonzero(steps == steps[i])[0]) - 1
         if start < 0:
             continue  # the first point of a branch ends no step
-        U_star, _ = locate_branch_point(system, points[start], points[i], settings)
+        U_star, _ = locate_branch_point(system, points[start], points[i], method)
         point = bifurcation_tangents(system, U_star, points[i] - points[start])
         n, breaking = classify_branch_point(system, point)
         logger.info("branch point at energy %.6g, frequency %.6g Hz: %s", system.diagnostics(U_star)["energy"],

@@ -1,0 +1,209 @@
+"""One continuation driver, two steppers (nnmstop.continuation.driver, anm, pseudo_arclength).
+
+Both steppers must trace the same curve (a closed-form circle, and NNM1 of the 2-DOF
+model), flag a simple branch point in the step that holds it, and give a path over their
+steps on which the branch point is located to the accuracy of that path.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nnmstop.continuation.anm import ANMSettings, ANMStepper, continue_anm
+from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct, relative_residual
+from nnmstop.continuation.corrected_path import CorrectedPath
+from nnmstop.continuation.driver import continue_branch
+from nnmstop.continuation.linear import BorderedFactorization
+from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
+from nnmstop.hbm.bifurcation import locate_branch_point, locate_flagged_branch_points
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import ModelParameters
+
+QUIET = 1e9  # progress_seconds: no progress messages
+METHODS = {"ANM": ANMSettings(), "pseudo-arclength": PseudoArclengthSettings()}
+
+
+class QuadraticToy:
+    """A quadratic system ``S(U) = c + A U + Q(U, U)`` with the interface the steppers use."""
+
+    def __init__(self, c, A, Q):
+        self.c, self.A, self.Q = np.asarray(c, float), np.asarray(A, float), np.asarray(Q, float)
+        self.n_unknowns = self.A.shape[1]
+
+    def residual(self, U):
+        return self.c + self.A @ U + np.einsum("ijk,j,k->i", self.Q, U, U)
+
+    def jacobian(self, U):
+        return self.A + np.einsum("ijk,k->ij", self.Q, U) + np.einsum("ikj,k->ij", self.Q, U)
+
+    def series_cache(self, order):
+        return None
+
+    def series_products(self, series, p, cache=None):
+        return sum(np.einsum("ijk,j,k->i", self.Q, series[r], series[p - r]) for r in range(1, p))
+
+    def diagnostics(self, U):
+        return {"energy": float(U[-1]), "frequency": float(U[0]), "impacts_per_period": 0}
+
+
+def circle():
+    """``x^2 + y^2 = 1``: the curve is known everywhere, with folds in ``y`` at ``x = +-1``."""
+    Q = np.zeros((1, 2, 2))
+    Q[0, 0, 0] = Q[0, 1, 1] = 1.0
+    return QuadraticToy([-1.0], np.zeros((1, 2)), Q)
+
+
+def crossing_on_a_circle():
+    """``x (lam - x) = 0``, ``y^2 + lam^2 = 1`` in ``(x, y, lam)``: two curves on the cylinder,
+    ``x = 0`` and ``x = lam``, cross at ``(0, 1, 0)`` (a simple branch point; the followed one is curved)."""
+    Q = np.zeros((2, 3, 3))
+    Q[0, 0, 2], Q[0, 0, 0] = 1.0, -1.0
+    Q[1, 1, 1] = Q[1, 2, 2] = 1.0
+    return QuadraticToy([0.0, -1.0], np.zeros((2, 3)), Q)
+
+
+def half_turn(U, d):
+    """Stop once the circle is followed past its leftmost point (two folds in y passed)."""
+    return "half turn" if U[0] < -0.5 and U[1] < 0 else ""
+
+
+@pytest.mark.parametrize("name", list(METHODS))
+def test_both_steppers_follow_the_circle(name):
+    system = circle()
+    branch = continue_branch(system, [1.0, 0.0], [0.0, 1.0], METHODS[name].stepper(), half_turn, progress_seconds=QUIET)
+    U = np.array(branch.points)
+    assert branch.end_reason == "half turn"
+    np.testing.assert_allclose(np.hypot(U[:, 0], U[:, 1]), 1.0, atol=1e-8)  # on the curve, to the tolerances
+    angle = np.unwrap(np.arctan2(U[:, 1], U[:, 0]))
+    assert np.all(np.diff(angle) > 0) and angle[-1] > np.pi  # counter-clockwise through the top, no turn back
+    assert branch.branch_points == []  # folds are not branch points
+    np.testing.assert_allclose(branch.end_tangent, [-U[-1, 1], U[-1, 0]], atol=1e-7)  # unit, along the travel
+
+
+class OwnFactorization(QuadraticToy):
+    """The circle with its own bordered factorization (as a large structured system would have)."""
+
+    def __init__(self):
+        base = circle()
+        super().__init__(base.c, base.A, base.Q)
+        self.calls = 0
+
+    def factorize_bordered(self, U, tangent):
+        self.calls += 1
+        return BorderedFactorization.of_matrix(np.vstack([self.jacobian(U), tangent]))
+
+
+@pytest.mark.parametrize("name", list(METHODS))
+def test_every_factorization_goes_through_the_systems_own(name):
+    own, dense = OwnFactorization(), circle()
+    runs = [continue_branch(system, [1.0, 0.0], [0.0, 1.0], METHODS[name].stepper(), half_turn,
+                            progress_seconds=QUIET) for system in (own, dense)]
+    assert own.calls == runs[0].stats.factorizations > 0
+    np.testing.assert_array_equal(np.array(runs[0].points), np.array(runs[1].points))
+
+
+def test_paths_of_both_steppers_stay_on_the_circle():
+    system = circle()
+    U_a, U_b = np.array([1.0, 0.0]), np.array([np.cos(0.9), np.sin(0.9)])
+    t_a = np.array([0.0, 1.0])
+    anm_path, a_end = ANMStepper().path_through(system, U_a, t_a, np.array([np.cos(0.3), np.sin(0.3)]),
+                                                ContinuationStats())
+    corrected = CorrectedPath(system, U_a, t_a, U_b)
+    assert corrected.length == pytest.approx(np.sin(0.9), rel=1e-14)  # a = <U - U_a, t_a> = y
+    for a in np.linspace(0.0, corrected.length, 7):
+        U = corrected(a)
+        assert U[1] == pytest.approx(a, abs=1e-15) and np.hypot(*U) == pytest.approx(1.0, abs=1e-14)
+        # dU/da along the circle with <dU/da, t_a> = 1: (-y/x, 1)
+        np.testing.assert_allclose(corrected(a, derivative=True), [-U[1] / U[0], 1.0], rtol=1e-12)
+    assert a_end == pytest.approx(np.sin(0.3), rel=1e-8)
+    for a in np.linspace(0.0, a_end, 5):
+        assert np.hypot(*anm_path(a)) == pytest.approx(1.0, abs=1e-8)
+
+
+@pytest.mark.parametrize("name", list(METHODS))
+def test_branch_point_flag_ends_the_step_that_holds_it(name):
+    # Along x = 0 from lam = -0.6 upwards the branch point is crossed once.
+    system = crossing_on_a_circle()
+    stop = lambda U, d: "past" if U[2] > 0.5 else ""  # noqa: E731
+    settings = METHODS[name]
+    branch = continue_branch(system, [0.0, 0.8, -0.6], [0.0, 0.6, 0.8], settings.stepper(), stop,
+                             progress_seconds=QUIET)
+    assert len(branch.branch_points) == 1
+    i = branch.branch_points[0]
+    start = branch.step.index(branch.step[i]) - 1  # the point that starts the step ending at i
+    assert branch.points[start][2] < 0.0 < branch.points[i][2]
+    U_star, _ = locate_branch_point(system, branch.points[start], branch.points[i], settings)
+    # to the accuracy of the path (the ANM's tolerance relative to its step) and of the
+    # projection onto the branch (relative residual 1e-9)
+    chord = np.linalg.norm(branch.points[i] - branch.points[start])
+    np.testing.assert_allclose(U_star, [0.0, 1.0, 0.0], rtol=0, atol=2.0 * (ANMSettings().tolerance * chord + 1e-9))
+
+
+def test_errors_name_the_step_and_energy_and_bad_starts_are_refused():
+    system = circle()
+    with pytest.raises(ContinuationError, match=r"max_steps = 3 steps \(last energy"):
+        continue_branch(system, [1.0, 0.0], [0.0, 1.0], PseudoArclengthSettings(max_steps=3).stepper(),
+                        lambda U, d: "", progress_seconds=QUIET)
+    with pytest.raises(ValueError, match=r"U_start must have shape \(2,\)"):
+        continue_anm(system, [1.0, 0.0, 0.0], [0.0, 1.0], half_turn)
+    with pytest.raises(ValueError, match="direction must be a non-zero vector"):
+        continue_anm(system, [1.0, 0.0], [0.0, 0.0], half_turn)
+    with pytest.raises(ValueError, match="expected a continuation stepper or its settings"):
+        locate_branch_point(system, [1.0, 0.0], [0.0, 1.0], method="ANM")
+
+
+# --------------------------------------------------------------------------- the 3:1 branch point of NNM1
+
+
+@pytest.fixture(scope="module")
+def nnm1_through_3to1():
+    """NNM1 at H = 21 up its first energy fold, back down through the 3:1 branch point and up again."""
+    system = HarmonicBalanceSystem(ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1), 21)
+    direction = np.zeros(system.n_unknowns)
+    direction[system.slices["x"].start + 1] = 1.0
+    U0, _ = newton_correct(system, system.linear_mode_guess(1, 0.05), direction, ContinuationStats(), 1e-12)
+
+    def stop_factory():
+        state = {"peak": 0.0, "descended": False}
+
+        def stop(U, d):
+            state["peak"] = max(state["peak"], d["energy"])
+            state["descended"] |= state["peak"] > 30.0 and d["energy"] < 6.0
+            return "rising again after the tongue" if state["descended"] and d["energy"] > 9.0 else ""
+
+        return stop
+
+    runs = {
+        "ANM": continue_anm(system, U0, direction, stop_factory(), METHODS["ANM"], progress_seconds=QUIET),
+        "pseudo-arclength": continue_pseudo_arclength(system, U0, direction, stop_factory(),
+                                                      METHODS["pseudo-arclength"], progress_seconds=QUIET),
+    }
+    return system, runs
+
+
+def test_both_steppers_locate_the_same_3to1_branch_point(nnm1_through_3to1):
+    system, runs = nnm1_through_3to1
+    located, chords = {}, {}
+    for name, branch in runs.items():
+        assert branch.end_reason
+        found = locate_flagged_branch_points(system, branch.points, branch.step, branch.branch_points, METHODS[name])
+        resonant = [point for _, point, n, _ in found if n == 3]
+        assert len(resonant) == 1, f"{name}: {[(n, s) for _, _, n, s in found]}"
+        located[name] = resonant[0].U
+        # a simple branch point: one singular value of J vanishes, to the location's accuracy
+        assert resonant[0].singular_ratio < 1e-6
+        i = next(i for i, _, n, _ in found if n == 3)
+        start = branch.step.index(branch.step[i]) - 1
+        chords[name] = np.linalg.norm(branch.points[i] - branch.points[start])
+    # The ANM locates on its series (or Padé approximant), the branch to its tolerance relative to
+    # the step; the corrected path of pseudo-arclength is the branch to round-off; both are then
+    # projected onto the branch to a relative residual of 1e-9 (locate_branch_point's newton_tol).
+    U_anm, U_pal = located["ANM"], located["pseudo-arclength"]
+    scale = np.linalg.norm(U_anm)
+    bound = 2.0 * (ANMSettings().tolerance * chords["ANM"] + 1e-9 * scale)
+    assert np.linalg.norm(U_anm - U_pal) <= bound
+    # the energy is quadratic in the amplitudes: relative change at most about twice that of U
+    E_anm, E_pal = (system.diagnostics(U)["energy"] for U in (U_anm, U_pal))
+    assert abs(E_anm - E_pal) <= 2.0 * bound / scale * E_anm
+    assert relative_residual(system, U_pal) <= 1e-9 and relative_residual(system, U_anm) <= 1e-9
