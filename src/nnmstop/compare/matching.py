@@ -84,7 +84,6 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
@@ -92,7 +91,6 @@ import xarray as xr
 from nnmstop import fourier
 from nnmstop.hbm.branches import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
-from nnmstop.netcdf import write_dataset
 from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, time_history
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
@@ -108,7 +106,6 @@ __all__ = [
     "orbit_differences",
     "comparison_energies",
     "comparison_dataset",
-    "build_comparison_dataset",
 ]
 
 logger = logging.getLogger("nnmstop.compare.matching")
@@ -730,73 +727,3 @@ def comparison_dataset(
         **{f"point_{label}_energy": float(energies[i]) for label, i in marks.items()},
     }
     return ds
-
-
-def _load(path) -> xr.Dataset:
-    with xr.open_dataset(path) as ds:
-        return ds.load()
-
-
-def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
-    """Pipeline task: compare the exact family and regularized NNM1 stage 1; write NetCDF.
-
-    Parameters
-    ----------
-    config : dict
-        Validated configuration with the ``model`` and ``compare`` sections.
-    inputs : dict
-        ``exact`` (the exact family) and ``nnm1`` (regularized NNM1 stage 1) paths.
-    output_path : str or Path
-
-    Raises
-    ------
-    ValueError
-        If a section or input is missing, or the datasets do not match the configuration.
-    """
-    for key in ("model", "compare"):
-        if key not in config:
-            raise ValueError(f"config lacks the section {key!r}")
-    for key in ("exact", "nnm1"):
-        if key not in inputs:
-            raise ValueError(f"the comparison needs the input {key!r}, got {sorted(inputs)}")
-    spec = config["compare"]
-    exact, branch = _load(inputs["exact"]), _load(inputs["nnm1"])
-    for key in PARAMETER_KEYS:
-        ds = branch if key == "eta" else exact
-        if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-12, atol=0):
-            raise ValueError(
-                f"model.{key} = {config['model'][key]!r} in the configuration but {ds.attrs[key]!r} in "
-                f"{inputs['nnm1'] if ds is branch else inputs['exact']} (stale dataset?)"
-            )
-    if int(branch.attrs["harmonics"]) != int(config["hbm"]["harmonics"]):
-        raise ValueError(
-            f"hbm.harmonics = {config['hbm']['harmonics']!r} in the configuration but {branch.attrs['harmonics']!r} in "
-            f"{inputs['nnm1']} (stale dataset?)"
-        )
-    marked = {label: spec["points"][label] for label in ("a", "b")}
-    ds = comparison_dataset(
-        exact, branch, count=spec["energy_count"], marked=marked, phase_samples=spec["phase_samples"],
-        end_margin=spec["end_margin"],
-    )
-    p = ds.attrs
-    summary = (
-        "Exact (non-smooth) versus regularized (HBM, "
-        f"H = {p['harmonics']}, eta = {p['eta']:g}) NNM1 at matched energies over the range with one impact per "
-        "stop per period: frequencies and their difference, largest differences of x, u, velocities and contact "
-        "force over the period on the phase t/T aligned at the maximum of x, and both orbits."
-    )
-    path = write_dataset(
-        ds, output_path, title="NNM1: exact non-smooth vs regularized orbits at matched energies",
-        summary=summary, keywords="exact solution, regularization, comparison",
-        metadata=config.get("metadata"),
-    )
-    for label in ("a", "b"):
-        i = int(np.flatnonzero(ds["marked"].values == ("ab".index(label) + 1))[0])
-        logger.info(
-            "point %s) E = %.6g: frequency %.8f (exact) vs %.8f Hz (regularized), relative difference %+.3e; "
-            "max |dx| = %.3e, |du| = %.3e, |df| = %.3e", label, float(ds["energy"][i]),
-            float(ds["frequency_exact"][i]), float(ds["frequency_regularized"][i]),
-            float(ds["relative_frequency_difference"][i]), float(ds["max_x_difference"][i]),
-            float(ds["max_u_difference"][i]), float(ds["max_force_difference"][i]),
-        )
-    return path

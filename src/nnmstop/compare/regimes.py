@@ -30,20 +30,13 @@ and counted, never filled with NaN.
 
 from __future__ import annotations
 
-import logging
-import os
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 import xarray as xr
 
-from nnmstop.netcdf import write_dataset
 from nnmstop.exact.multi_impact import _runs, compare_with_regularized
 
-__all__ = ["REGIME_VARIABLES", "regime_error_dataset", "regime_table", "build_regime_error_dataset"]
-
-logger = logging.getLogger(__name__)
+__all__ = ["REGIME_VARIABLES", "POINT_VARIABLES", "regime_error_dataset", "regime_table"]
 
 _EXACT_ATTRS = ("alpha", "beta", "delta")
 _REGULARIZED_ATTRS = ("alpha", "beta", "delta", "eta", "harmonics")
@@ -257,93 +250,3 @@ def regime_table(ds: xr.Dataset) -> pd.DataFrame:
     if missing:
         raise ValueError(f"the dataset lacks {missing}: not a regime error dataset")
     return ds[list(REGIME_VARIABLES)].to_dataframe()
-
-
-def write_table(table: pd.DataFrame, path) -> Path:
-    """Write ``table`` as CSV under a temporary name, then rename (no partial file)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    table.to_csv(tmp, float_format="%.10g", lineterminator="\n")
-    os.replace(tmp, path)
-    return path
-
-
-def read_exact_and_regularized(config: dict, inputs: dict) -> tuple[xr.Dataset, xr.Dataset]:
-    """Load the exact and regularized NNM1 of a comparison task and check them against the configuration.
-
-    Parameters
-    ----------
-    config : dict
-        Validated configuration; its ``model`` must match both datasets (``eta`` the regularized one).
-    inputs : dict
-        ``exact`` (``results/exact/nnm1.nc``) and ``nnm1`` (``results/hbm/nnm1.nc``).
-
-    Returns
-    -------
-    exact, regularized : xarray.Dataset
-        Both loaded into memory.
-
-    Raises
-    ------
-    ValueError
-        For a missing input, or a model parameter of a dataset that differs from the configuration.
-    """
-    for key in ("exact", "nnm1"):
-        if key not in inputs:
-            raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
-    with xr.open_dataset(inputs["exact"]) as a, xr.open_dataset(inputs["nnm1"]) as b:
-        exact, regularized = a.load(), b.load()
-    for key in ("alpha", "beta", "delta", "eta"):
-        for ds in (exact, regularized) if key != "eta" else (regularized,):
-            if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-14, atol=0):
-                raise ValueError(
-                    f"{key} = {ds.attrs[key]} in the inputs differs from the configuration ({config['model'][key]}); "
-                    "rebuild them"
-                )
-    return exact, regularized
-
-
-def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Path:
-    """Write the regime error dataset (and its CSV table); the task of rule ``compare_regimes``.
-
-    Parameters
-    ----------
-    config : dict
-        Validated configuration; its ``model`` must match both inputs.
-    inputs : dict
-        ``exact`` (``results/exact/nnm1.nc``) and ``nnm1`` (``results/hbm/nnm1.nc``).
-    outputs : dict
-        ``dataset`` (NetCDF) and optionally ``table`` (CSV of the ``regime`` variables).
-
-    Returns
-    -------
-    Path
-        The dataset.
-    """
-    if "dataset" not in outputs:
-        raise ValueError(f"missing output 'dataset'; outputs are {sorted(outputs)}")
-    exact, regularized = read_exact_and_regularized(config, inputs)
-    ds = regime_error_dataset(exact, regularized, points=True)
-    ds.attrs["exact_source"] = str(inputs["exact"])
-    ds.attrs["regularized_source"] = str(inputs["nnm1"])
-    path = write_dataset(
-        ds,
-        outputs["dataset"],
-        title="Regularized vs exact NNM1: frequency error per impact regime, whole branch",
-        summary=(
-            "Frequency of the regularized NNM1 (HBM with "
-            f"{ds.attrs['harmonics']} harmonics, eta = {ds.attrs['eta']:g}) against the exact NNM1 of the "
-            "non-smooth system at the same energy, in each impact regime of the branch (dimension regime), "
-            "with the compared orbits (dimension point)."
-        ),
-        keywords="regularization error, exact solution, impact regimes",
-        metadata=config.get("metadata"),
-    )
-    if "table" in outputs:
-        write_table(regime_table(ds), outputs["table"])
-    logger.info(
-        "wrote %s: %d regimes, %d of %d regularized orbits compared", path, ds.sizes["regime"],
-        ds.attrs["matched_points"], ds.attrs["regularized_points"],
-    )
-    return path

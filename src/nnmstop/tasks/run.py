@@ -114,14 +114,14 @@ def hbm_branch(config, inputs, outputs, branch: str):
 
 def compare_nnm1(config, inputs, outputs):
     """Exact vs regularized NNM1 at matched energies (inputs ``exact``, ``nnm1`` = stage 1)."""
-    from nnmstop.compare.matching import build_comparison_dataset
+    from nnmstop.tasks.compare import build_comparison_dataset
 
     build_comparison_dataset(config, inputs, outputs["dataset"])
 
 
 def compare_regimes(config, inputs, outputs):
     """Frequency error of the regularized NNM1 per impact regime, whole branch (inputs ``exact``, ``nnm1``)."""
-    from nnmstop.compare.regimes import build_regime_error_dataset
+    from nnmstop.tasks.compare import build_regime_error_dataset
 
     build_regime_error_dataset(config, inputs, outputs)
 
@@ -135,7 +135,7 @@ def regime_error_figure(config, inputs, outputs):
 
 def compare_stability(config, inputs, outputs):
     """Exact vs regularized Floquet verdicts of NNM1 per impact regime (inputs ``exact``, ``nnm1``)."""
-    from nnmstop.compare.stability import build_stability_comparison
+    from nnmstop.tasks.compare import build_stability_comparison
 
     build_stability_comparison(config, inputs, outputs)
 
