@@ -26,7 +26,7 @@ from nnmstop.figures.study import build_error_vs_runtime_figure, pareto_front
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.study import error_runtime as er
-from nnmstop.study.runs import FILL_VALUE, case_config, format_number, truncation_level
+from nnmstop.study.runs import FILL_VALUE, case_config, format_number
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]  # the environment's own Snakemake, never skipped
 
@@ -124,7 +124,7 @@ def test_study_settings_refuse_inconsistent_values(config):
         er.study_settings({k: v for k, v in config.items() if k != "study"})
 
 
-def test_truncation_level_sees_the_odd_top_harmonic():
+def test_truncation_indicator_sees_the_odd_top_harmonic():
     """NNM1 orbits carry odd harmonics only: the top share must hold an odd harmonic even at H = 10."""
     system = HarmonicBalanceSystem(ModelParameters(), harmonics=10)
     U = system.linear_mode_guess(1, 0.5)
@@ -133,7 +133,7 @@ def test_truncation_level_sees_the_odd_top_harmonic():
     f[9] = 0.1 * f[1]  # harmonic 9 (cosine basis: index k)
     U = system.pack(x, u, f, z, lam)
     assert system.truncation_indicator(f) == pytest.approx(0.01 / 1.01, rel=1e-12)  # what the datasets record
-    assert truncation_level(system, U) == pytest.approx(0.01 / 1.01, rel=1e-12)
+    assert system.truncation(U) == pytest.approx(0.01 / 1.01, rel=1e-12)  # what the study's guard reads
 
 
 # --------------------------------------------------------------------------- one case, failures

@@ -103,6 +103,8 @@ __all__ = [
     "regularized_monotone_part",
     "system_from_dataset",
     "hbm_energy",
+    "regularized_orbit_on_phase",
+    "largest_differences",
     "orbit_differences",
     "comparison_energies",
     "comparison_dataset",
@@ -444,8 +446,8 @@ class EnergyMatcher:
 # --------------------------------------------------------------------------- orbit differences
 
 
-def _regularized_on_phase(system: HarmonicBalanceSystem, U, phase: np.ndarray, shift: float | None = None):
-    """HBM orbit on ``phase = t/T``, origin on the symmetry axis where x is maximum.
+def regularized_orbit_on_phase(system: HarmonicBalanceSystem, U, phase, shift: float | None = None):
+    """HBM orbit ``U`` on ``phase = t/T``, origin on the symmetry axis where x is maximum.
 
     Returns the fields (``x, u, xdot, udot, f``) and the applied shift (0 or 0.5 period;
     found here unless given).
@@ -458,6 +460,26 @@ def _regularized_on_phase(system: HarmonicBalanceSystem, U, phase: np.ndarray, s
         ends = fourier.PhaseSynthesis(np.array([0.0, np.pi]), system.H).values(*series["x"])
         shift = 0.5 if ends[1] > ends[0] else 0.0
     return fourier.fields_at_phases(2.0 * np.pi * (np.asarray(phase) + shift), omega, series), shift
+
+
+def largest_differences(first: dict, second: dict, first_on, second_on, keys) -> dict:
+    """Largest ``|first[key] - second[key]|`` over one period, refined where it peaks.
+
+    ``first`` and ``second`` hold the fields of two orbits on ``n`` equally spaced phases
+    ``t/T = j/n``; ``first_on(phase)`` and ``second_on(phase)`` evaluate them on any phases.
+    The maximum on the grid is refined on a grid 256 times finer around it: the force
+    difference peaks sharply where the exact orbit enters the stop.
+    """
+    n = next(iter(first.values())).size
+    phase = np.arange(n) / n
+    out = {}
+    for key in keys:
+        diff = np.abs(first[key] - second[key])
+        j = int(np.argmax(diff))
+        local = phase[j] + np.linspace(-1.0, 1.0, 513) / n
+        fine = np.abs(first_on(local)[key] - second_on(local)[key])
+        out[key] = float(max(diff[j], fine.max()))
+    return out
 
 
 def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, phase_samples: int = 4096) -> dict:
@@ -489,8 +511,13 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
 
     phase = np.arange(n) / n
     ex = exact_on(phase)
-    reg, shift = _regularized_on_phase(system, matched.regularized, phase)
-    reg["force"] = reg.pop("f")
+
+    def regularized_on(phase, shift=None):
+        fields, shift = regularized_orbit_on_phase(system, matched.regularized, phase, shift)
+        fields["force"] = fields.pop("f")
+        return fields, shift
+
+    reg, shift = regularized_on(phase)
     frequency_exact = 1.0 / period_exact
     frequency_reg = float(system.frequency_hz(matched.regularized))
     # the origin must be the global maximum of x on both orbits
@@ -511,15 +538,10 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
         "u_max_exact": float(np.abs(ex["u"]).max()),
         "force_max_exact": float(np.abs(ex["force"]).max()),
     }
-    # largest difference on the grid, refined on a grid 256 times finer around the grid's maximum
-    # (the force difference peaks sharply where the exact orbit enters the stop)
-    for key in ("x", "u", "xdot", "udot", "force"):
-        diff = np.abs(reg[key] - ex[key])
-        j = int(np.argmax(diff))
-        local = phase[j] + np.linspace(-1.0, 1.0, 513) / n
-        reg_local = _regularized_on_phase(system, matched.regularized, local, shift)[0]
-        fine = np.abs(reg_local["f" if key == "force" else key] - exact_on(local)[key])
-        out[f"max_{key}_difference"] = float(max(diff[j], fine.max()))
+    largest = largest_differences(
+        reg, ex, lambda local: regularized_on(local, shift)[0], exact_on, ("x", "u", "xdot", "udot", "force")
+    )
+    out.update({f"max_{key}_difference": value for key, value in largest.items()})
     return out
 
 

@@ -77,7 +77,6 @@ from nnmstop.study.runs import (
     path_error,
     run_stage_one,
     string_variable,
-    truncation_level,
     variable,
 )
 
@@ -309,7 +308,7 @@ def reference_dataset(config: dict, exact: xr.Dataset, eta: float) -> xr.Dataset
         orbits = _orbit_matrix(matched.orbits, n_unknowns)
         failure = matched.failure
         if matched.system is not None:
-            levels = np.array([np.nan if U is None else truncation_level(matched.system, U) for U in matched.orbits])
+            levels = np.array([np.nan if U is None else matched.system.truncation(U) for U in matched.orbits])
             worst = np.nanmax(levels) if np.isfinite(levels).any() else np.nan
             if not failure and worst > float(study["max_truncation"]):
                 failure = (

@@ -70,7 +70,6 @@ from nnmstop.study.runs import (
     match_energies,
     run_stage_one,
     string_variable,
-    truncation_level,
     variable,
 )
 
@@ -451,7 +450,7 @@ def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
             direction = np.zeros(system.n_unknowns)
             direction[system.slices["x"].start + 1] = 1.0
             U, _ = newton_correct(system, _hbm_from_exact(system, params, y), direction, ContinuationStats(), tol=1e-12)
-        level = truncation_level(system, U)
+        level = system.truncation(U)
         out["hbm_truncation"] = level
         limit = float(study_settings(config)["max_truncation"])
         if level > limit:  # no number for an unresolved orbit: only the indicator and the reason
