@@ -22,7 +22,8 @@ import yaml
 from nnmstop.config import ConfigError, load_config
 from nnmstop.continuation.core import ContinuationError
 from nnmstop.netcdf import write_dataset
-from nnmstop.figures.study import build_error_vs_runtime_figure, pareto_front
+from nnmstop.figures.study import pareto_front
+from nnmstop.tasks.figures import build_error_vs_runtime_figure
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.study import error_runtime as er
@@ -216,7 +217,7 @@ def test_error_vs_runtime_figure(gathered, small, tmp_path):
 
 
 def test_stiff_gather_and_figure(small, tmp_path):
-    from nnmstop.figures.study import build_stiff_cases_figure
+    from nnmstop.tasks.figures import build_stiff_cases_figure
     from nnmstop.study import stiff_cases as sc
 
     cfg = copy.deepcopy(small)

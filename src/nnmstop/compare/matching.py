@@ -1,88 +1,22 @@
-"""Exact (non-smooth) versus regularized NNM1 at matched energies: Section 4.1, Figs 2-4.
+"""Exact (non-smooth) and regularized NNM1 orbits at the same energy (Section 4.1).
 
-What is compared
-----------------
-On one side the exact two-impact NNM1 family of the non-smooth system, Eqs. (3)-(4)
-(:mod:`nnmstop.exact.two_impact`, closed form); on the other the regularized NNM1 of Eq. (7)
-computed by harmonic balance with ``H`` harmonics and the ANM (stage 1 of the branch,
-:mod:`nnmstop.hbm.branches`: from the linear mode up to the first orbit with more than
-one impact per stop). At each compared energy ``E`` the module finds one orbit of each
-model **at exactly that energy** and records
+:class:`EnergyMatcher` takes the exact two-impact family (:mod:`nnmstop.exact.two_impact`) and a
+regularized NNM1 branch dataset (:mod:`nnmstop.hbm.branches`) and finds, at a requested energy,
+one orbit of each model at exactly that energy: Newton's method on the closed-form
+quarter-period equations plus the energy, and on the HBM equations bordered with the mean
+energy over the period, each seeded between the two neighbouring points of the monotone part
+of its curve (:func:`exact_increasing_arm`, :func:`regularized_monotone_part`).
+:func:`orbit_differences` compares a matched pair on the phase ``t/T`` aligned at the maximum of
+``x``: frequencies and the largest differences of ``x``, ``u``, velocities and contact force
+(:func:`largest_differences`, refined where they peak).
 
-* the frequencies ``1/T`` (Hz of the nondimensional time) and their difference,
-  absolute (regularized minus exact) and relative to the exact frequency;
-* the largest differences over one period of ``x``, ``u``, ``xdot``, ``udot`` and of the
-  contact force: the HBM force ``f`` (the Fourier series of the unknown ``f`` of the
-  quadratic recast, Eq. 13) against the piecewise-linear law, Eq. (4), evaluated on the
-  exact orbit, ``alpha (x - sgn x)`` beyond the stops;
-* the orbits themselves (exact unknowns ``(xdot0, udot0, tau1, T1)`` and the HBM
-  Fourier coefficients), so that Figs 2-4 redraw them without solving anything.
-
-Energies
---------
-The energy is the conserved total energy of each model (kinetic + spring potentials +
-contact potential; the piecewise potential ``alpha/2 (|x|-1)^2`` for the exact orbit, the
-potential of the regularized force for the HBM orbit). An HBM orbit conserves its
-energy only up to the truncation of the series: its energy is the mean over the period,
-exactly as in the branch datasets (``energy`` there), and its relative variation over
-the period is stored (``regularized_energy_spread``) as the residual ambiguity of
-"same energy" on the regularized side.
-
-How energies are matched (non-monotone parts)
----------------------------------------------
-The energy is not monotone along either curve near its ends:
-
-* the exact family leaves the grazing orbit (``E_g``, about 0.691 for the paper values)
-  with *decreasing* energy down to a fold (about 0.675) and only then gains energy; for
-  ``E`` in between there are two exact orbits. The comparison uses the increasing arm,
-  from the energy minimum to the end of the family (the orbits with a real contact
-  phase, which continue into the rest of the family); the short grazing arm is drawn in
-  Fig 2 but not compared;
-* the regularized branch is used from its start up to the last point before the first
-  energy decrease or the first orbit with more than two impacts per period (stage 1 ends
-  with an energy fold just before the secondary oscillation of ``x`` reaches the other
-  stop).
-
-On these monotone parts an energy determines one orbit on each side. The common range
-is the overlap of their energy ranges, shrunk by the relative ``end_margin`` at both
-ends (both ends are energy folds, where fixing the energy is ill-conditioned). A
-requested energy outside it raises :class:`ValueError`.
-
-At a matched energy ``E``:
-
-* **exact orbit**: Newton's method on the closed-form quarter-period equations plus
-  ``E(y) = E`` (four equations, four unknowns, analytic Jacobian), seeded by linear
-  interpolation of the family's unknowns between the two neighbouring orbits of the
-  increasing arm; the residual and the energy are at round-off after convergence and the
-  orbit is checked with :func:`nnmstop.exact.two_impact.assess_orbit`;
-* **regularized orbit**: Newton's method on the HBM equations ``S(U) = 0`` bordered with
-  ``E(U) = E`` (mean energy over the period, analytic gradient), seeded by linear
-  interpolation of the unknowns between the two neighbouring branch points. So the
-  comparison adds *no* interpolation error: the HBM orbit solves the same balanced
-  equations as the branch points (relative residual at round-off) at the requested
-  energy. For the record, ``interpolation_frequency_shift`` and
-  ``interpolation_coefficient_shift`` store how far the plain linear interpolation
-  between neighbouring branch points is from that solution, i.e. the error a comparison
-  based on interpolated branch points would have carried.
-
-Orbit differences
------------------
-The orbits are compared on the phase ``t/T`` (each orbit on its own period), with the
-time origin on the symmetry axis where both velocities vanish and ``x`` is at its
-maximum: the turning point ``t = T1`` of the exact quarter-period construction, and
-``t = 0`` or ``t = T/2`` of the cosine series (``x'(0) = 0`` in that basis; ``t = 0``
-is either the maximum or the minimum of ``x``, the shift of half a period is applied
-in the second case and recorded in ``regularized_origin_shift``). That the origin
-really is the global maximum of ``x`` is checked on both orbits. The differences are
-maxima over ``phase_samples`` equally spaced phases, each refined on a grid 256 times
-finer around the sampled maximum: the force difference peaks sharply where the exact
-orbit enters the stop (the kink of the piecewise law), and a plain grid of 4096 phases
-would miss a few per cent of it.
+Method notes (the monotone parts, why the matching adds no interpolation error, the
+alignment): ``docs/methods/compare.md``. The comparison dataset of Figs 2-4 is assembled by
+:mod:`nnmstop.compare.dataset`.
 """
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,11 +40,7 @@ __all__ = [
     "regularized_orbit_on_phase",
     "largest_differences",
     "orbit_differences",
-    "comparison_energies",
-    "comparison_dataset",
 ]
-
-logger = logging.getLogger("nnmstop.compare.matching")
 
 #: One impact per stop per period: at most two excursions beyond the stops.
 MAX_IMPACTS = 2
@@ -543,209 +473,3 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
     )
     out.update({f"max_{key}_difference": value for key, value in largest.items()})
     return out
-
-
-# --------------------------------------------------------------------------- dataset
-
-
-def comparison_energies(matcher: EnergyMatcher, count: int, marked: dict | None = None) -> tuple[np.ndarray, dict]:
-    """Log-spaced energies over the common range, with the ``marked`` energies added.
-
-    Parameters
-    ----------
-    matcher : EnergyMatcher
-    count : int
-        Number of log-spaced energies spanning :attr:`EnergyMatcher.energy_range` (>= 2).
-    marked : dict, optional
-        Label -> energy (for example ``{"a": 0.72, "b": 20.0}``), each inside the range.
-
-    Returns
-    -------
-    energies : ndarray
-        Sorted, unique.
-    marks : dict
-        Label -> index into ``energies``.
-    """
-    if int(count) != count or count < 2:
-        raise ValueError(f"the number of compared energies must be an integer >= 2, got {count!r}")
-    marked = dict(marked or {})
-    values = {label: matcher.check_energy(e) for label, e in marked.items()}
-    grid = np.geomspace(*matcher.energy_range, int(count))
-    energies = np.unique(np.concatenate([grid, list(values.values())]))
-    marks = {label: int(np.flatnonzero(energies == e)[0]) for label, e in values.items()}
-    return energies, marks
-
-
-def comparison_dataset(
-    exact: xr.Dataset,
-    branch: xr.Dataset,
-    count: int = 48,
-    marked: dict | None = None,
-    phase_samples: int = 4096,
-    end_margin: float = 0.01,
-) -> xr.Dataset:
-    """Compare the exact and regularized NNM1 at matched energies; labelled dataset.
-
-    Parameters
-    ----------
-    exact : xarray.Dataset
-        Exact two-impact family.
-    branch : xarray.Dataset
-        Regularized NNM1 (stage 1 or more) dataset.
-    count : int
-        Number of log-spaced energies over the common range.
-    marked : dict, optional
-        Labelled energies (``{"a": E_a, "b": E_b}``), added to the grid and flagged in the
-        variable ``marked`` (1 for the first label, 2 for the second, ...).
-    phase_samples : int
-        Phases per period on which the orbit differences are maximized.
-    end_margin : float
-        Relative margin from the ends of the common energy range.
-
-    Returns
-    -------
-    xarray.Dataset
-        Dimensions ``point`` (compared energies, increasing) and ``harmonic``.
-    """
-    matcher = EnergyMatcher(exact, branch, end_margin)
-    energies, marks = comparison_energies(matcher, count, marked)
-    system = matcher.system
-    rows, orbits = [], []
-    for energy in energies:
-        pair = matcher.match(energy)
-        diff = orbit_differences(pair, system, phase_samples)
-        rows.append((pair, diff))
-        orbits.append(pair.regularized)
-        logger.info(
-            "E = %.6g: frequency exact %.8f Hz, regularized %.8f Hz (relative difference %+.3e); max |dx| %.3e, "
-            "|du| %.3e, |df| %.3e", energy, diff["frequency_exact"], diff["frequency_regularized"],
-            diff["relative_frequency_difference"], diff["max_x_difference"], diff["max_u_difference"],
-            diff["max_force_difference"],
-        )
-    n = len(energies)
-    one = "1"
-    hz = "Hz"
-
-    def col(values, long_name, units=one, dtype=float, **extra):
-        return ("point", np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units, **extra})
-
-    def pairs(attr):
-        return [getattr(p, attr) for p, _ in rows]
-
-    def diffs(key):
-        return [d[key] for _, d in rows]
-
-    y = np.array(pairs("exact"))
-    aligned = "over the period, on the phase t/T aligned at the maximum of x"
-    not_used = "(error that interpolation alone would add; not present in this comparison)"
-    from_diffs = (
-        ("frequency_exact", "frequency 1/T of the exact (non-smooth) orbit", hz),
-        ("frequency_regularized", "frequency omega/(2 pi) of the regularized HBM orbit", hz),
-        ("frequency_difference", "frequency of the regularized orbit minus frequency of the exact orbit", hz),
-        ("relative_frequency_difference", "frequency difference (regularized minus exact) over the exact one", one),
-        ("max_x_difference", f"largest |x_regularized - x_exact| {aligned}", one),
-        ("max_u_difference", f"largest |u_regularized - u_exact| {aligned}", one),
-        ("max_xdot_difference", f"largest |xdot_regularized - xdot_exact| {aligned}", one),
-        ("max_udot_difference", f"largest |udot_regularized - udot_exact| {aligned}", one),
-        (
-            "max_force_difference",
-            "largest |f_HBM - f_piecewise(x_exact)|: regularized contact force from its Fourier coefficients vs the "
-            f"piecewise-linear law (Eq. 4) evaluated on the exact orbit, {aligned}",
-            one,
-        ),
-        ("x_max_exact", "maximum of x over the exact orbit", one),
-        ("u_max_exact", "maximum of |u| over the exact orbit", one),
-        ("force_max_exact", "maximum of the piecewise-linear contact force over the exact orbit", one),
-        (
-            "regularized_origin_shift",
-            "shift of the time origin of the HBM cosine series, in periods, that puts the maximum of x at t = 0 "
-            "(0: x is maximum at t = 0; 0.5: x is minimum at t = 0)",
-            one,
-        ),
-    )
-    from_pairs = (
-        ("exact_energy", "total energy of the exact orbit (piecewise model), computed from its unknowns", one),
-        ("regularized_energy", "total energy of the regularized HBM orbit (regularized model), period mean", one),
-        ("exact_residual", "norm of the quarter-period equations of the exact orbit", one),
-        ("regularized_residual", "norm of the HBM residual relative to the norm of the unknowns", one),
-        (
-            "interpolation_coefficient_shift",
-            "largest difference between the matched HBM unknowns and their linear interpolation in energy between "
-            f"the neighbouring branch points {not_used}",
-            one,
-        ),
-        (
-            "interpolation_frequency_shift",
-            "frequency of the linear interpolation between neighbouring branch points minus frequency of the matched "
-            f"HBM orbit {not_used}",
-            hz,
-        ),
-    )
-    data = {name: col(diffs(name), long_name, units) for name, long_name, units in from_diffs}
-    data.update({name: col(pairs(name), long_name, units) for name, long_name, units in from_pairs})
-    data["regularized_energy_spread"] = col(
-        [system.diagnostics(p.regularized)["energy_spread"] for p, _ in rows],
-        "relative variation over the period of the energy of the regularized HBM orbit (HBM truncation)",
-    )
-    exact_names = (
-        ("exact_xdot0", "exact orbit: velocity of x at x = u = 0"),
-        ("exact_udot0", "exact orbit: velocity of u at x = u = 0"),
-        ("exact_tau1", "exact orbit: free-flight duration tau1 of the quarter period"),
-        ("exact_T1", "exact orbit: quarter period T1 (the turning point, t = 0 of the aligned phase)"),
-    )
-    data.update({name: col(y[:, j], long_name) for j, (name, long_name) in enumerate(exact_names)})
-    flags = np.zeros(n, dtype=np.int8)
-    labels = list(marks)
-    for j, label in enumerate(labels, start=1):
-        flags[marks[label]] = j
-    data["marked"] = (
-        "point",
-        flags,
-        {
-            "long_name": "labelled point of the paper's Figs 2-4 (0: not labelled)",
-            "units": one,
-            "flag_values": np.arange(len(labels) + 1, dtype=np.int8),
-            "flag_meanings": " ".join(["none"] + [f"point_{label}" for label in labels]),
-        },
-    )
-    # the regularized orbits, in the layout of the branch datasets (for nnmstop.figures.common.orbit)
-    H = system.H
-    U = np.array(orbits)
-    x, u, f, z, lam, _ = system.split(U)
-    fields = ((x, "x", "x"), (u, "u", "u"), (f, "regularized contact force f", "f"), (z, "internal variable z", "z"))
-    for c, name, symbol in fields:
-        parts = dict(zip(("cos", "sin"), fourier.to_cos_sin(c, H)))
-        for kind, values in parts.items():
-            word = {"cos": "cosine", "sin": "sine"}[kind]
-            attrs = {"long_name": f"regularized orbit: {word} Fourier coefficients of {name}", "units": one}
-            data[f"{symbol}_{kind}"] = (("point", "harmonic"), values, attrs)
-    data["omega_squared"] = col(lam, "regularized orbit: squared angular frequency")
-    coords = {
-        "point": ("point", np.arange(n), {"long_name": "index of the compared energy", "units": one}),
-        "harmonic": ("harmonic", np.arange(H + 1), {"long_name": "harmonic number k (0 is the mean)", "units": one}),
-        "energy": col(energies, "matched total energy of the exact and regularized orbits"),
-    }
-    ds = xr.Dataset(data, coords=coords)
-    ds.attrs = {
-        **system.params.as_attrs(),
-        "harmonics": H,
-        "time_samples": system.M,
-        "basis": system.basis,
-        "phase_samples": int(phase_samples),
-        "end_margin": float(end_margin),
-        "energy_range_min": matcher.energy_range[0],
-        "energy_range_max": matcher.energy_range[1],
-        "exact_arm_first_point": int(matcher.exact_arm.start),
-        "regularized_last_point": int(matcher.regularized_part.stop - 1),
-        "matching": (
-            "Newton's method at fixed energy on both sides: exact closed-form quarter-period equations plus energy; "
-            "HBM equations plus mean energy over the period. Exact family: increasing arm from its energy minimum; "
-            "regularized branch: leading points with increasing energy and at most two impacts per period."
-        ),
-        "alignment": (
-            "phase t/T of each orbit, origin on the symmetry axis where both velocities vanish and x is maximum "
-            "(exact: t = T1; HBM cosine series: t = 0 or T/2)"
-        ),
-        **{f"point_{label}_energy": float(energies[i]) for label, i in marks.items()},
-    }
-    return ds

@@ -1,31 +1,20 @@
 """Regularization error of NNM1 in each impact regime, along the whole branch (issue 6).
 
-The exact NNM1 of the non-smooth system (``results/exact/nnm1.nc``,
-:mod:`nnmstop.exact.multi_impact`) and the regularized NNM1 (``results/hbm/nnm1.nc``, HBM + ANM)
-cross the same sequence of impact regimes: runs of orbits with 2, 6, 4, 2, 6, 8, 10, 6, 2
-impacts per period for the paper's values. :func:`regime_error_dataset` turns the
-comparison of :func:`nnmstop.exact.multi_impact.compare_with_regularized` (the one implementation
-of the metric, also behind ``python -m nnmstop.exact.multi_impact compare``) into a labelled
-dataset:
+The exact NNM1 of the non-smooth system (:mod:`nnmstop.exact.multi_impact`) and the
+regularized NNM1 (HBM + ANM) cross the same sequence of impact regimes.
+:func:`regime_error_dataset` turns the comparison of
+:func:`nnmstop.exact.multi_impact.compare_with_regularized` (the one implementation of the
+metric) into a labelled dataset:
 
-* dimension ``regime``: one entry per pair of regimes with at least one compared point,
-  in branch order: impact count, exact phase sequence(s), energy and frequency ranges of
-  both sides, number of compared and left-out regularized points, and the frequency
-  error (regularized minus exact, at the regularized energy): largest absolute value and
-  the energy where it occurs, median of the absolute value, mean, largest relative value;
-* dimension ``point`` (optional): every compared regularized orbit, with its energy, its
-  frequency, the exact frequency at that energy, the error and the index of its regime.
+* dimension ``regime``: one entry per pair of regimes with at least one compared point, in
+  branch order: impact count, exact phase sequence(s), energy and frequency ranges of both
+  sides, compared and left-out orbits, and the frequency error (regularized minus exact, at
+  the regularized energy): largest absolute value and its energy, median, mean, largest
+  relative value (:data:`REGIME_VARIABLES`);
+* dimension ``point`` (optional): every compared regularized orbit (:data:`POINT_VARIABLES`).
 
-The exact frequency at a regularized energy is interpolated linearly in ``ln E`` on the
-exact branch, which is dense (thousands of closed-form orbits): for the pipeline's
-branches, interpolating from every other exact orbit instead changes it by at most 6e-6 Hz
-at the compared energies, far below the regularization error. The largest error of a
-regime tends to sit at one of its ends, next to an energy fold or a grazing transition
-that the two models pass at different energies (compared at equal energy, the difference
-grows steeply there): read ``energy_at_max_error`` with it, and take the median as the
-typical error. Regularized orbits without an exact partner (the linear regime, regimes
-the exact branch does not have, energies outside the exact regime's range) are left out
-and counted, never filled with NaN.
+Orbits without an exact partner are counted, never filled with NaN. Method notes (pairing,
+interpolation in ``ln E``, where the largest error sits): ``docs/methods/compare.md``.
 """
 
 from __future__ import annotations

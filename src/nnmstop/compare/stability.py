@@ -12,6 +12,7 @@ either way. Stability changes along each branch are located between consecutive 
 (no interpolation: the reported energies bracket the change) and the changes of the two
 branches in a regime are paired in branch order when they are equally many and go the
 same way, to give the shift of each change with the regularization.
+Method notes: ``docs/methods/compare.md``.
 """
 
 from __future__ import annotations

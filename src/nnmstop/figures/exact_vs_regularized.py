@@ -25,7 +25,6 @@ Frequencies are in Hz of the nondimensional time, energies on a logarithmic axis
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -35,7 +34,7 @@ from nnmstop.compare.matching import MAX_IMPACTS
 from nnmstop.exact.two_impact import time_history
 from nnmstop.fourier import fields_at_phases
 from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
-from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, save_figure
+from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, save_figure
 
 __all__ = [
     "FIGURES",
@@ -44,7 +43,6 @@ __all__ = [
     "figure_02",
     "figure_03",
     "figure_04",
-    "build_figure",
 ]
 
 logger = logging.getLogger("nnmstop.figures")
@@ -344,38 +342,3 @@ def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
     axes[0, 0].legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.9)
     fig.suptitle(f"NNM1 contact force at the same energy ({_parameter_text(params, comparison)})", fontsize=8.5)
     return save_figure(fig, pdf_path, png_dpi)
-
-
-# --------------------------------------------------------------------------- pipeline entry
-
-
-def build_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
-    """Build paper figure ``name`` (``fig02``, ``fig03`` or ``fig04``) from its rule's inputs.
-
-    Inputs: ``comparison`` (all three), plus ``exact`` and ``nnm1`` (stage 1) for
-    ``fig02``. Outputs: ``pdf`` and ``png`` side by side. The PNG resolution is
-    ``compare.png_dpi`` of the configuration.
-
-    Raises
-    ------
-    ValueError
-        On an unknown figure, a missing input, or outputs that are not NAME.pdf/NAME.png.
-    """
-    if name not in FIGURES:
-        raise ValueError(f"unknown figure {name!r}; this module draws {FIGURES}")
-    if "compare" not in config:
-        raise ValueError("config lacks the section 'compare'")
-    png_dpi = int(config["compare"]["png_dpi"])
-    pdf, png = Path(outputs["pdf"]), Path(outputs["png"])
-    if pdf.suffix != ".pdf" or png != pdf.with_suffix(".png"):
-        raise ValueError(f"{name}: outputs must be NAME.pdf and NAME.png side by side, got {pdf} and {png}")
-
-    needed = ("exact", "nnm1", "comparison") if name == "fig02" else ("comparison",)
-    for key in needed:
-        if key not in inputs or not inputs[key]:
-            raise ValueError(f"{name}: missing input {key!r}, got {sorted(inputs)}")
-    data = {key: open_dataset(inputs[key]) for key in needed}
-    if name == "fig02":
-        return figure_02(data["exact"], data["nnm1"], data["comparison"], pdf, png_dpi)
-    builder = figure_03 if name == "fig03" else figure_04
-    return builder(data["comparison"], pdf, png_dpi)

@@ -23,7 +23,7 @@ gap-0 system (stop always engaged), computed from the model parameters stored in
 datasets.
 
 Which stages of NNM1 a figure reads, the plotted window and the labelled points are
-set in the ``figures:`` section of the configuration (see :func:`figure_config`).
+set in the ``figures:`` section of the configuration (the ``spec`` of each figure).
 Anything a figure cannot honour (a NaN in a dataset, a label energy outside the
 data, a label outside the plotted window) raises a :class:`ValueError` naming it.
 """
@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -49,14 +48,12 @@ from nnmstop.figures.common import (
     REGULARIZED_COLOR,
     RESONANCE_COLOR,
     frequency_energy_axes,
-    open_dataset,
     save_figure,
 )
 from nnmstop.figures.modal_lines import LabelSpec, draw_modal_line, label_specs, mark_point, select_point
 
 __all__ = [
     "PAPER_FIGURES",
-    "figure_config",
     "check_finite",
     "combine_nnm1_stages",
     "model_parameters",
@@ -68,8 +65,6 @@ __all__ = [
     "figure_09",
     "figure_10",
     "figure_11",
-    "nnm1_stage_files",
-    "build_paper_figure",
 ]
 
 logger = logging.getLogger("nnmstop.figures")
@@ -110,22 +105,6 @@ PAPER_FIGURES = {
 
 
 # --------------------------------------------------------------------------- configuration, checks
-
-
-def figure_config(config: dict, name: str) -> dict:
-    """The ``figures.<name>`` section of a validated configuration.
-
-    Raises
-    ------
-    ValueError
-        If the configuration has no ``figures`` section or no entry ``name``.
-    """
-    figures = config.get("figures")
-    if not isinstance(figures, dict):
-        raise ValueError("the configuration has no 'figures' section (config/config.yaml, key 'figures')")
-    if name not in figures:
-        raise ValueError(f"the configuration has no entry 'figures.{name}'")
-    return figures[name]
 
 
 def _dataset_name(ds: xr.Dataset) -> str:
@@ -531,83 +510,3 @@ def figure_10(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_p
 def figure_11(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dashed)."""
     return _nnm1_figure("fig11", nnm1_stages, spec, pdf_path, png_dpi=png_dpi, exact=exact)
-
-
-# --------------------------------------------------------------------------- pipeline entry
-
-STAGE_PATH = "results/hbm/stages/nnm1_stage{stage}.nc"
-
-
-def nnm1_stage_files(config: dict, figure: str) -> list[str]:
-    """Paths of the NNM1 stage datasets read by paper figure ``figure`` (its rule's inputs).
-
-    Taken from ``figures.<figure>.nnm1_stages``.
-
-    Raises
-    ------
-    ValueError
-        If the figure is not configured or names a stage that ``branches.nnm1`` lacks.
-    """
-    stages = figure_config(config, figure).get("nnm1_stages")
-    if not stages:
-        raise ValueError(f"the configuration has no 'figures.{figure}.nnm1_stages'")
-    available = len(config["branches"]["nnm1"]["stages"])
-    unknown = [k for k in stages if not 1 <= k <= available]
-    if unknown:
-        raise ValueError(f"figures.{figure}.nnm1_stages: stage(s) {unknown} do not exist (branches.nnm1 has {available} stages)")
-    return [STAGE_PATH.format(stage=k) for k in stages]
-
-
-
-def _as_list(value) -> list:
-    if value is None:
-        return []
-    if isinstance(value, (str, Path)):
-        return [value]
-    return list(value)
-
-
-def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
-    """Build paper figure ``name`` from the named inputs of its rule.
-
-    Inputs: ``nnm1`` and ``nnm2`` (whole branches) for ``fig05``; ``nnm2`` for
-    ``fig06``; ``nnm1_stages`` (list of stage files) and, for Figs 8-10, ``nnm2`` and
-    ``bifurcated`` (the files of ``figures.<name>.bifurcated``, possibly none).
-    Outputs: ``pdf`` and ``png`` (same stem).
-
-    Raises
-    ------
-    ValueError
-        If the outputs do not share a stem, an input is missing, or the figure
-        cannot honour its configuration.
-    """
-    if name not in PAPER_FIGURES:
-        raise ValueError(f"unknown paper figure {name!r}; figures are {sorted(PAPER_FIGURES)}")
-    spec = figure_config(config, name)
-    png_dpi = int(config["figures"].get("png_dpi", 150))
-    pdf, png = Path(outputs["pdf"]), Path(outputs["png"])
-    if pdf.suffix != ".pdf" or png != pdf.with_suffix(".png"):
-        raise ValueError(f"{name}: outputs must be NAME.pdf and NAME.png side by side, got {pdf} and {png}")
-
-    def need(key):
-        if key not in inputs or not inputs[key]:
-            raise ValueError(f"{name}: missing input {key!r}")
-        return inputs[key]
-
-    if name == "fig05":
-        return figure_05(open_dataset(need("nnm1")), open_dataset(need("nnm2")), spec, pdf, png_dpi)
-    if name == "fig06":
-        return figure_06(open_dataset(need("nnm2")), spec, pdf, png_dpi)
-    stages = [open_dataset(p) for p in _as_list(need("nnm1_stages"))]
-    # optional overlay of the exact multi-impact NNM1 (figures.overlay_exact)
-    exact = open_dataset(inputs["exact"]) if inputs.get("exact") else None
-    if name in ("fig07", "fig11"):
-        builder = figure_07 if name == "fig07" else figure_11
-        return builder(stages, spec, pdf, png_dpi, exact=exact)
-    builder = {"fig08": figure_08, "fig09": figure_09, "fig10": figure_10}[name]
-    # branches switched at branch points (figures.<name>.bifurcated), one input file each
-    wanted = spec.get("bifurcated", [])
-    bifurcated = [open_dataset(p) for p in _as_list(need("bifurcated"))] if wanted else []
-    if len(bifurcated) != len(wanted):
-        raise ValueError(f"{name}: figures.{name}.bifurcated lists {wanted}, the inputs hold {len(bifurcated)} datasets")
-    return builder(stages, open_dataset(need("nnm2")), spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated)

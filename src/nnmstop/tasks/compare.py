@@ -17,7 +17,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from nnmstop.compare.matching import PARAMETER_KEYS, comparison_dataset
+from nnmstop.compare.dataset import comparison_dataset
+from nnmstop.compare.matching import PARAMETER_KEYS
 from nnmstop.compare.regimes import regime_error_dataset, regime_table
 from nnmstop.compare.stability import stability_comparison_dataset, stability_table
 from nnmstop.netcdf import write_dataset

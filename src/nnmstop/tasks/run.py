@@ -128,7 +128,7 @@ def compare_regimes(config, inputs, outputs):
 
 def regime_error_figure(config, inputs, outputs):
     """paper_figures/extra_regime_error.pdf/.png from the regime error dataset (input ``dataset``)."""
-    from nnmstop.figures.regime_errors import build_regime_error_figure
+    from nnmstop.tasks.figures import build_regime_error_figure
 
     build_regime_error_figure(config, inputs["dataset"], outputs["pdf"])
 
@@ -142,7 +142,7 @@ def compare_stability(config, inputs, outputs):
 
 def stability_figure(config, inputs, outputs):
     """paper_figures/extra_stability.pdf/.png (inputs ``exact``, ``nnm1``, ``dataset``)."""
-    from nnmstop.figures.stability import build_stability_figure
+    from nnmstop.tasks.figures import build_stability_figure
 
     build_stability_figure(config, inputs, outputs["pdf"])
 
@@ -155,9 +155,9 @@ def paper_figure(name: str, config, inputs, outputs):
     (:mod:`nnmstop.figures.frequency_energy`). Outputs ``pdf`` and ``png``.
     """
     if name in ("fig02", "fig03", "fig04"):
-        from nnmstop.figures.exact_vs_regularized import build_figure
+        from nnmstop.tasks.figures import build_exact_vs_regularized_figure as build_figure
     else:
-        from nnmstop.figures.frequency_energy import build_paper_figure as build_figure
+        from nnmstop.tasks.figures import build_paper_figure as build_figure
     build_figure(name, config, inputs, outputs)
 
 
@@ -233,7 +233,7 @@ def study_error_vs_runtime(config, inputs, outputs):
 
 def study_error_vs_runtime_figure(config, inputs, outputs):
     """paper_figures/error_vs_runtime.pdf/.png (input ``dataset``)."""
-    from nnmstop.figures.study import build_error_vs_runtime_figure
+    from nnmstop.tasks.figures import build_error_vs_runtime_figure
 
     build_error_vs_runtime_figure(config, inputs["dataset"], outputs["pdf"])
 
@@ -268,7 +268,7 @@ def study_stiff_cases(config, inputs, outputs):
 
 def study_stiff_cases_figure(config, inputs, outputs):
     """paper_figures/stiff_cases.pdf/.png (input ``dataset``)."""
-    from nnmstop.figures.study import build_stiff_cases_figure
+    from nnmstop.tasks.figures import build_stiff_cases_figure
 
     build_stiff_cases_figure(config, inputs["dataset"], outputs["pdf"])
 
