@@ -197,14 +197,14 @@ PAPER_FIGURE_TASKS = {f"paper_fig{n:02d}": functools.partial(paper_figure, f"fig
 
 def study_error_case(config, inputs, outputs, harmonics, eta):
     """One (H, eta) setting of the error-against-run-time study (input ``exact``)."""
-    from nnmstop.study.error_runtime import build_error_case
+    from nnmstop.tasks.study import build_error_case
 
     build_error_case(config, inputs, outputs["dataset"], harmonics, eta)
 
 
 def study_anm_case(config, inputs, outputs, order, tolerance):
     """One ANM (order, tolerance) setting at ``study.error_runtime.anm_harmonics`` and ``model.eta``."""
-    from nnmstop.study.error_runtime import build_error_case
+    from nnmstop.tasks.study import build_error_case
 
     H = config["study"]["error_runtime"]["anm_harmonics"]
     build_error_case(config, inputs, outputs["dataset"], H, config["model"]["eta"], order, tolerance)
@@ -212,21 +212,21 @@ def study_anm_case(config, inputs, outputs, order, tolerance):
 
 def study_reference(config, inputs, outputs, eta):
     """Large-H reference orbits of one eta (truncation/regularization split)."""
-    from nnmstop.study.error_runtime import build_reference
+    from nnmstop.tasks.study import build_reference
 
     build_reference(config, inputs, outputs["dataset"], eta)
 
 
 def study_exact_cost(config, inputs, outputs):
     """Cost per orbit of the exact solver."""
-    from nnmstop.study.error_runtime import build_exact_cost
+    from nnmstop.tasks.study import build_exact_cost
 
     build_exact_cost(config, inputs, outputs["dataset"])
 
 
 def study_error_vs_runtime(config, inputs, outputs):
     """Gather the sweep into results/study/error_vs_runtime.nc."""
-    from nnmstop.study.error_runtime import build_error_vs_runtime
+    from nnmstop.tasks.study import build_error_vs_runtime
 
     build_error_vs_runtime(config, inputs, outputs["dataset"])
 
@@ -240,28 +240,28 @@ def study_error_vs_runtime_figure(config, inputs, outputs):
 
 def study_stiff_exact(config, inputs, outputs, alpha, beta, delta):
     """Exact family and its exactness checks for one (alpha, beta, delta)."""
-    from nnmstop.study.stiff_cases import build_stiff_exact
+    from nnmstop.tasks.study import build_stiff_exact
 
     build_stiff_exact(config, inputs, outputs["dataset"], alpha, beta, delta)
 
 
 def study_stiff_branch(config, inputs, outputs, alpha, beta, delta, eta):
     """Harmonics ladder of NNM1 stage 1 for one stiff case (input ``exact``)."""
-    from nnmstop.study.stiff_cases import build_stiff_branch
+    from nnmstop.tasks.study import build_stiff_branch
 
     build_stiff_branch(config, inputs, outputs["dataset"], alpha, beta, delta, eta)
 
 
 def study_stiff_energy(config, inputs, outputs, alpha):
     """Exact solver and HBM at energies 1e-6..1e6 for one alpha."""
-    from nnmstop.study.stiff_cases import build_stiff_energy
+    from nnmstop.tasks.study import build_stiff_energy
 
     build_stiff_energy(config, inputs, outputs["dataset"], alpha)
 
 
 def study_stiff_cases(config, inputs, outputs):
     """Gather the stiff cases into results/study/stiff_cases.nc."""
-    from nnmstop.study.stiff_cases import build_stiff_cases
+    from nnmstop.tasks.study import build_stiff_cases
 
     build_stiff_cases(config, inputs, outputs["dataset"])
 
