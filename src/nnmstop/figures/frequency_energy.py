@@ -54,8 +54,8 @@ from nnmstop.figures.modal_lines import LabelSpec, draw_modal_line, label_specs,
 
 __all__ = [
     "PAPER_FIGURES",
+    "dataset_name",
     "check_finite",
-    "combine_nnm1_stages",
     "model_parameters",
     "gap_zero_frequencies",
     "figure_05",
@@ -107,7 +107,8 @@ PAPER_FIGURES = {
 # --------------------------------------------------------------------------- configuration, checks
 
 
-def _dataset_name(ds: xr.Dataset) -> str:
+def dataset_name(ds: xr.Dataset) -> str:
+    """How messages name a branch dataset: branch, stage(s) and file when known."""
     branch = str(ds.attrs.get("branch", "dataset")).upper()
     if "stage" in ds:
         stages = np.unique(ds["stage"].values)
@@ -135,7 +136,7 @@ def check_finite(ds: xr.Dataset, where: str) -> None:
                 rows = np.flatnonzero(bad.any(axis=tuple(a for a in range(bad.ndim) if a != axis)))
                 first = f" (first at point {int(rows[0])})"
             raise ValueError(
-                f"{where}: dataset {_dataset_name(ds)}: variable {name!r} holds {int(bad.sum())} NaN or "
+                f"{where}: dataset {dataset_name(ds)}: variable {name!r} holds {int(bad.sum())} NaN or "
                 f"infinite value(s){first}; refusing to draw it"
             )
 
@@ -143,48 +144,7 @@ def check_finite(ds: xr.Dataset, where: str) -> None:
 def _check_branch(ds: xr.Dataset, branch: str, where: str) -> None:
     found = ds.attrs.get("branch")
     if found != branch:
-        raise ValueError(f"{where}: expected a dataset of branch {branch!r}, got branch {found!r} ({_dataset_name(ds)})")
-
-
-def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int] | None = None) -> xr.Dataset:
-    """Check and concatenate consecutive stage datasets of NNM1.
-
-    Parameters
-    ----------
-    stages : list of xarray.Dataset
-        Stage datasets in order (each holds a single ``stage`` value).
-    where : str
-        Figure name, for messages.
-    expected : list of int, optional
-        Stage numbers the datasets must hold, in order (from the configuration).
-
-    Raises
-    ------
-    ValueError
-        On NaN, a dataset of another branch, non-consecutive stages or stages
-        other than ``expected``.
-    """
-    from nnmstop.hbm.branches import combine_stages
-
-    if not stages:
-        raise ValueError(f"{where}: no NNM1 stage dataset given")
-    numbers = []
-    for ds in stages:
-        check_finite(ds, where)
-        _check_branch(ds, "nnm1", where)
-        held = np.unique(ds["stage"].values)
-        if held.size != 1:
-            raise ValueError(f"{where}: {_dataset_name(ds)} is not a single-stage dataset")
-        numbers.append(int(held[0]))
-    if expected is not None and numbers != list(expected):
-        raise ValueError(f"{where}: the NNM1 datasets hold stages {numbers}, the configuration asks for {list(expected)}")
-    if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
-        raise ValueError(f"{where}: NNM1 stages must be consecutive to be joined, got {numbers}")
-    if len(stages) == 1:
-        return stages[0]
-    combined = combine_stages(stages)
-    combined.encoding = {}  # the first stage's file name would misname the combined branch
-    return combined
+        raise ValueError(f"{where}: expected a dataset of branch {branch!r}, got branch {found!r} ({dataset_name(ds)})")
 
 
 def model_parameters(*datasets: xr.Dataset, where: str = "figure") -> ModelParameters:
@@ -199,12 +159,12 @@ def model_parameters(*datasets: xr.Dataset, where: str = "figure") -> ModelParam
     for ds in datasets:
         missing = [k for k in PARAMETER_KEYS if k not in ds.attrs]
         if missing:
-            raise ValueError(f"{where}: dataset {_dataset_name(ds)} lacks the model attribute(s) {missing}")
+            raise ValueError(f"{where}: dataset {dataset_name(ds)} lacks the model attribute(s) {missing}")
         these = {k: float(ds.attrs[k]) for k in PARAMETER_KEYS}
         if values is None:
             values = these
         elif these != values:
-            raise ValueError(f"{where}: datasets of different models: {values} and {these} ({_dataset_name(ds)})")
+            raise ValueError(f"{where}: datasets of different models: {values} and {these} ({dataset_name(ds)})")
     return ModelParameters(**values)
 
 
@@ -373,11 +333,11 @@ def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path
     params = model_parameters(*[ds for ds in datasets if ds is not exact], where=where)
     for ds in bifurcated:
         if ds.attrs.get("parent_branch") != kind.branch or "resonance" not in ds.attrs:
-            raise ValueError(f"{where}: {_dataset_name(ds)} is not a branch bifurcated from {kind.branch.upper()}")
+            raise ValueError(f"{where}: {dataset_name(ds)} is not a branch bifurcated from {kind.branch.upper()}")
     labels = label_specs(spec.get("labels"))
     if not labels:
         raise ValueError(f"{where}: no labelled points configured (figures.{name}.labels)")
-    points = [select_point(branch, s, f"{where}, {_dataset_name(branch)}") for s in labels]
+    points = [select_point(branch, s, f"{where}, {dataset_name(branch)}") for s in labels]
 
     slope = None
     if kind.inset_gap_zero_mode is not None:
@@ -472,41 +432,41 @@ def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
     return _figure_with_modal_lines("fig06", nnm2, spec, pdf_path, png_dpi=png_dpi)
 
 
-def _nnm1_figure(name, nnm1_stages, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None):
-    branch = combine_nnm1_stages(list(nnm1_stages), name, spec.get("nnm1_stages"))
+def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None):
     stages = np.unique(branch["stage"].values)
     text = f"stage {stages[0]}" if stages.size == 1 else f"stages {stages[0]}-{stages[-1]}"
     return _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi,
                                     branch_label=f"NNM1 ({text} of the continuation)", exact=exact, bifurcated=bifurcated)
 
 
-def figure_07(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
+def figure_07(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 7: NNM1 at low energy, modal lines a)-c) (no impact, one impact per stop,
-    secondary oscillation between impacts). ``nnm1_stages``: the stage datasets read."""
-    return _nnm1_figure("fig07", nnm1_stages, spec, pdf_path, png_dpi=png_dpi, exact=exact)
+    secondary oscillation between impacts). ``nnm1``: the NNM1 stages read, joined
+    (``nnmstop.tasks.figures.combine_nnm1_stages``)."""
+    return _nnm1_figure("fig07", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact)
 
 
-def figure_08(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+def figure_08(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
               bifurcated=None):
     """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; three then two impacts per stop and
     the 3:1 internal resonance, modal lines d)-i)."""
-    return _nnm1_figure("fig08", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+    return _nnm1_figure("fig08", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_09(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+def figure_09(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
               bifurcated=None):
     """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; four then five impacts per stop and
     the 5:1 internal resonance, modal lines j)-m)."""
-    return _nnm1_figure("fig09", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+    return _nnm1_figure("fig09", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_10(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+def figure_10(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
               bifurcated=None):
     """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance: impacts
     without oscillation between the stops, back to one impact per stop, o)-q)."""
-    return _nnm1_figure("fig10", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+    return _nnm1_figure("fig10", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_11(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
+def figure_11(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dashed)."""
-    return _nnm1_figure("fig11", nnm1_stages, spec, pdf_path, png_dpi=png_dpi, exact=exact)
+    return _nnm1_figure("fig11", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import xarray as xr
 
 from nnmstop.figures import exact_vs_regularized as comparison_figures
@@ -19,10 +20,12 @@ from nnmstop.figures.common import save_figure
 from nnmstop.figures.regime_errors import regime_error_figure
 from nnmstop.figures.stability import ZOOM_ENERGY, stability_figure
 from nnmstop.figures.study import error_vs_runtime_figure, stiff_cases_figure
+from nnmstop.hbm.branches import combine_stages
 
 __all__ = [
     "figure_config",
     "figure_nnm1_stages",
+    "combine_nnm1_stages",
     "build_exact_vs_regularized_figure",
     "build_paper_figure",
     "build_regime_error_figure",
@@ -96,6 +99,47 @@ def figure_nnm1_stages(config: dict, figure: str) -> list[int]:
     return [int(k) for k in stages]
 
 
+def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int] | None = None) -> xr.Dataset:
+    """Check and concatenate consecutive stage datasets of NNM1.
+
+    Parameters
+    ----------
+    stages : list of xarray.Dataset
+        Stage datasets in order (each holds a single ``stage`` value).
+    where : str
+        Figure name, for messages.
+    expected : list of int, optional
+        Stage numbers the datasets must hold, in order (from the configuration).
+
+    Raises
+    ------
+    ValueError
+        On NaN, a dataset of another branch, non-consecutive stages or stages
+        other than ``expected``.
+    """
+    if not stages:
+        raise ValueError(f"{where}: no NNM1 stage dataset given")
+    numbers = []
+    for ds in stages:
+        fep.check_finite(ds, where)
+        if ds.attrs.get("branch") != "nnm1":
+            found = ds.attrs.get("branch")
+            raise ValueError(f"{where}: expected a dataset of branch 'nnm1', got branch {found!r} ({fep.dataset_name(ds)})")
+        held = np.unique(ds["stage"].values)
+        if held.size != 1:
+            raise ValueError(f"{where}: {fep.dataset_name(ds)} is not a single-stage dataset")
+        numbers.append(int(held[0]))
+    if expected is not None and numbers != list(expected):
+        raise ValueError(f"{where}: the NNM1 datasets hold stages {numbers}, the configuration asks for {list(expected)}")
+    if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
+        raise ValueError(f"{where}: NNM1 stages must be consecutive to be joined, got {numbers}")
+    if len(stages) == 1:
+        return stages[0]
+    combined = combine_stages(stages)
+    combined.encoding = {}  # the first stage's file name would misname the combined branch
+    return combined
+
+
 def build_exact_vs_regularized_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
     """Paper figure ``name`` (``fig02``, ``fig03`` or ``fig04``) from its rule's inputs.
 
@@ -146,11 +190,12 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
     if name == "fig06":
         return fep.figure_06(_read(_need(name, inputs, "nnm2")), spec, pdf, png_dpi)
     stages = [_read(p) for p in _as_list(_need(name, inputs, "nnm1_stages"))]
+    nnm1 = combine_nnm1_stages(stages, name, spec.get("nnm1_stages"))
     # optional overlay of the exact multi-impact NNM1 (figures.overlay_exact)
     exact = _read(inputs["exact"]) if inputs.get("exact") else None
     if name in ("fig07", "fig11"):
         builder = fep.figure_07 if name == "fig07" else fep.figure_11
-        return builder(stages, spec, pdf, png_dpi, exact=exact)
+        return builder(nnm1, spec, pdf, png_dpi, exact=exact)
     builder = {"fig08": fep.figure_08, "fig09": fep.figure_09, "fig10": fep.figure_10}[name]
     # branches switched at branch points (figures.<name>.bifurcated), one input file each
     wanted = spec.get("bifurcated", [])
@@ -160,7 +205,7 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
             f"{name}: figures.{name}.bifurcated lists {wanted}, the inputs hold {len(bifurcated)} datasets"
         )
     nnm2 = _read(_need(name, inputs, "nnm2"))
-    return builder(stages, nnm2, spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated)
+    return builder(nnm1, nnm2, spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated)
 
 
 def build_regime_error_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
