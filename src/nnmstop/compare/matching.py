@@ -25,6 +25,7 @@ import xarray as xr
 from nnmstop import fourier
 from nnmstop.hbm.branches import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
+from nnmstop.continuation.newton import newton_solve
 from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, time_history
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
@@ -301,21 +302,16 @@ class EnergyMatcher:
         y = self._exact_unknowns[i] + w * (self._exact_unknowns[i + 1] - self._exact_unknowns[i])
         prob, delta = self.problem, self.params.delta
 
-        def system(v):
+        def system(v):  # quarter-period equations and energy, with their Jacobian
             return np.append(prob.residual(v), prob.energy(v) - energy), np.vstack(
                 [prob.jacobian(v), [v[0], delta * v[1], 0.0, 0.0]]
             )
 
-        converged = False
-        for it in range(1, _NEWTON_MAX_ITER + 1):
-            r, J = system(y)
-            dy = np.linalg.solve(J, -r)
-            y = y + dy
-            if converged:  # one more iteration after convergence: residual at round-off
-                break
-            converged = np.linalg.norm(dy) <= 1e-14 * (1.0 + np.linalg.norm(y))
-        if not converged:
+        # one more update after convergence (polish): the residual then sits at round-off
+        solved = newton_solve(system, None, y, tol=1e-14, max_iter=_NEWTON_MAX_ITER, polish=True)
+        if not solved.converged:
             raise ValueError(f"Newton's method did not converge for the exact orbit at energy {energy!r}")
+        y, it = solved.y, solved.iterations
         check = assess_orbit(y, self.params, prob)
         if not check.valid:
             raise ValueError(
@@ -331,20 +327,23 @@ class EnergyMatcher:
         s = self.system
         i, w = _bracket(self._hbm_energy, energy)
         lin = self._hbm_unknowns[i] + w * (self._hbm_unknowns[i + 1] - self._hbm_unknowns[i])
-        U = lin.copy()
         scale = max(abs(energy), 1.0)
-        for it in range(1, _NEWTON_MAX_ITER + 1):
+
+        def bordered(U):  # HBM equations and mean energy, with their Jacobian
             e, grad = self._energy_op(U, gradient=True)
-            r = np.append(s.residual(U), (e - energy))
-            dU = np.linalg.solve(np.vstack([s.jacobian(U), grad]), -r)
-            U = U + dU
-            if (
-                np.linalg.norm(dU) <= 1e2 * tol * max(np.linalg.norm(U), 1.0)
+            return np.append(s.residual(U), (e - energy)), np.vstack([s.jacobian(U), grad])
+
+        def converged(U, r, dU):  # small update, HBM residual and energy both at the tolerance
+            return (
+                dU is not None
+                and np.linalg.norm(dU) <= 1e2 * tol * max(np.linalg.norm(U), 1.0)
                 and relative_residual(s, U) <= tol
-                and abs(self._energy_op(U) - energy) <= tol * scale
-            ):
-                break
-        else:
+                and abs(r[-1]) <= tol * scale
+            )
+
+        solved = newton_solve(bordered, None, lin, tol=tol, max_iter=_NEWTON_MAX_ITER, criterion=converged)
+        U, it = solved.y, solved.iterations
+        if not solved.converged:
             raise ValueError(
                 f"Newton's method did not converge for the regularized orbit at energy {energy!r} "
                 f"(relative residual {relative_residual(s, U):.2e}); too close to an energy fold?"
