@@ -318,7 +318,10 @@ class EnergyMatcher:
                 f"the exact orbit found at energy {energy!r} violates the two-impact assumptions "
                 f"{check.violated}"
             )
-        _check_between(y, self._exact_unknowns, i, f"Newton's method left the increasing arm of the exact family at energy {energy!r}")
+        _check_between(
+            y, self._exact_unknowns, i,
+            f"Newton's method left the increasing arm of the exact family at energy {energy!r}",
+        )
         return y, float(np.linalg.norm(prob.residual(y))), it
 
     def regularized_orbit(self, energy, tol: float = 1e-13) -> tuple[np.ndarray, float, int, np.ndarray]:
@@ -348,7 +351,10 @@ class EnergyMatcher:
                 f"Newton's method did not converge for the regularized orbit at energy {energy!r} "
                 f"(relative residual {relative_residual(s, U):.2e}); too close to an energy fold?"
             )
-        _check_between(U, self._hbm_unknowns, i, f"Newton's method left the regularized branch between its points at energy {energy!r}")
+        _check_between(
+            U, self._hbm_unknowns, i,
+            f"Newton's method left the regularized branch between its points at energy {energy!r}",
+        )
         return U, relative_residual(s, U), it, lin
 
     def match(self, energy) -> MatchedOrbits:

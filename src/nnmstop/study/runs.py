@@ -26,7 +26,14 @@ import numpy as np
 import xarray as xr
 
 from nnmstop.continuation.anm import ANMSettings, continue_anm
-from nnmstop.hbm.branches import TruncationGuard, branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
+from nnmstop.hbm.branches import (
+    TruncationGuard,
+    branch_dataset,
+    dataset_unknowns,
+    start_point,
+    stage_criterion,
+    system_from_config,
+)
 from nnmstop.compare.matching import (
     EnergyMatcher,
     exact_increasing_arm,
@@ -141,7 +148,8 @@ class StageRun:
     stats : ContinuationStats or None
         Cost counters (None when the run failed: the engine does not return them then).
     truncation : float
-        Largest truncation indicator (:meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.truncation`) met along the run (up to the failure if any).
+        Largest truncation indicator (:meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.truncation`) met
+        along the run (up to the failure if any).
     harmonics : int
     """
 
@@ -163,7 +171,9 @@ def _settings(config: dict) -> ANMSettings:
     return ANMSettings.from_config(config["anm"], points_per_step=config["hbm"].get("points_per_step", 1))
 
 
-def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 1", energy_limit: float | None = None) -> StageRun:
+def run_stage_one(
+    config: dict, max_truncation: float, label: str = "NNM1 stage 1", energy_limit: float | None = None
+) -> StageRun:
     """Continue NNM1 stage 1 of ``config`` with a :class:`TruncationGuard`; time it.
 
     ``energy_limit`` (optional) also ends the stage at the first orbit above that energy
@@ -183,7 +193,8 @@ def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 
         stage_end, limit = inner, float(energy_limit)
 
         def inner(U, diag):  # noqa: F811 - the stage criterion, or the energy limit first
-            return stage_end(U, diag) or (f"energy above {limit:g} (past the compared range)" if diag["energy"] > limit else "")
+            past = diag["energy"] > limit
+            return stage_end(U, diag) or (f"energy above {limit:g} (past the compared range)" if past else "")
 
     guard = TruncationGuard(system, inner, max_truncation, label, setting="study.max_truncation")
     wall, cpu = time.perf_counter(), time.process_time()
@@ -254,7 +265,9 @@ def two_impact_arm(branch: xr.Dataset, exact: xr.Dataset | None = None) -> xr.Da
     over = np.flatnonzero(impacts > 2)
     end = int(over[0]) if over.size else energy.size
     if end < 2:
-        raise ValueError(f"the regularized branch has fewer than two leading orbits with at most two impacts (impacts {impacts[:3]})")
+        raise ValueError(
+            f"the regularized branch has fewer than two leading orbits with at most two impacts (impacts {impacts[:3]})"
+        )
     if exact is not None:
         arm = np.asarray(exact["energy"].values[exact_increasing_arm(exact)], dtype=float)
         lo, hi = float(arm[0]), float(arm[-1])
@@ -267,13 +280,17 @@ def two_impact_arm(branch: xr.Dataset, exact: xr.Dataset | None = None) -> xr.Da
                 runs.append((run_start, i - 1))
             run_start = i
     if not runs:
-        raise ValueError("the regularized branch has no two consecutive orbits of increasing energy with at most two impacts")
+        raise ValueError(
+            "the regularized branch has no two consecutive orbits of increasing energy with at most two impacts"
+        )
 
     def score(run):
         first, last = run
         if exact is None:
             return energy[last]
-        return np.log(min(energy[last], hi) / max(energy[first], lo)) if energy[last] > lo and energy[first] < hi else -np.inf
+        if energy[last] <= lo or energy[first] >= hi:
+            return -np.inf
+        return np.log(min(energy[last], hi) / max(energy[first], lo))
 
     best = max(runs, key=score)[0]
     return branch.isel(point=slice(best, None))

@@ -197,14 +197,8 @@ def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Pat
 def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Path:
     """Write the stability comparison dataset and its CSV table; the task of rule ``compare_stability``.
 
-    Parameters
-    ----------
-    config : dict
-        Validated configuration; its ``model`` must match both inputs.
-    inputs : dict
-        ``exact`` (``results/exact/nnm1.nc``) and ``nnm1`` (``results/hbm/nnm1.nc``).
-    outputs : dict
-        ``dataset`` (NetCDF) and ``table`` (CSV).
+    ``config`` and ``inputs`` as for :func:`build_regime_error_dataset`; ``outputs``: ``dataset``
+    (NetCDF) and ``table`` (CSV).
     """
     for key in ("dataset", "table"):
         if key not in outputs:

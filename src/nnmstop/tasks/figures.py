@@ -124,13 +124,17 @@ def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int
         fep.check_finite(ds, where)
         if ds.attrs.get("branch") != "nnm1":
             found = ds.attrs.get("branch")
-            raise ValueError(f"{where}: expected a dataset of branch 'nnm1', got branch {found!r} ({fep.dataset_name(ds)})")
+            raise ValueError(
+                f"{where}: expected a dataset of branch 'nnm1', got branch {found!r} ({fep.dataset_name(ds)})"
+            )
         held = np.unique(ds["stage"].values)
         if held.size != 1:
             raise ValueError(f"{where}: {fep.dataset_name(ds)} is not a single-stage dataset")
         numbers.append(int(held[0]))
     if expected is not None and numbers != list(expected):
-        raise ValueError(f"{where}: the NNM1 datasets hold stages {numbers}, the configuration asks for {list(expected)}")
+        raise ValueError(
+            f"{where}: the NNM1 datasets hold stages {numbers}, the configuration asks for {list(expected)}"
+        )
     if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
         raise ValueError(f"{where}: NNM1 stages must be consecutive to be joined, got {numbers}")
     if len(stages) == 1:
