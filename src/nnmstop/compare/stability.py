@@ -32,7 +32,6 @@ __all__ = [
     "compare_stability",
     "stability_comparison_dataset",
     "stability_table",
-    "main",
 ]
 
 #: Verdict codes along a branch.
@@ -264,25 +263,3 @@ def stability_table(ds: xr.Dataset) -> pd.DataFrame:
     if missing:
         raise ValueError(f"the dataset lacks {missing}: not a stability comparison dataset")
     return ds[list(REGIME_COLUMNS)].to_dataframe()
-
-
-def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.compare.stability EXACT.nc REGULARIZED.nc`` prints the table."""
-    import argparse
-
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.compare.stability", description=__doc__.splitlines()[0])
-    parser.add_argument("exact", help="exact branch, e.g. results/exact/nnm1.nc")
-    parser.add_argument("regularized", help="regularized branch, e.g. results/hbm/nnm1.nc")
-    args = parser.parse_args(argv)
-    with xr.open_dataset(args.exact) as a, xr.open_dataset(args.regularized) as b:
-        ds = stability_comparison_dataset(a.load(), b.load())
-    with pd.option_context("display.width", 250, "display.max_columns", 40, "display.max_colwidth", 60):
-        table = stability_table(ds)
-        print(table.iloc[:, :12].to_string())
-        print(table.iloc[:, 12:].to_string())
-        print(ds[[v for v in ds.data_vars if v.startswith("change_")]].to_dataframe().to_string())
-    print(f"{ds.attrs['agreeing_orbits']} of {ds.attrs['compared_orbits']} compared orbits agree")
-
-
-if __name__ == "__main__":
-    main()

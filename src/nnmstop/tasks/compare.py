@@ -29,6 +29,7 @@ __all__ = [
     "build_stability_comparison",
     "read_exact_and_regularized",
     "write_table",
+    "main",
 ]
 
 logger = logging.getLogger(__name__)
@@ -221,3 +222,27 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
     logger.info("wrote %s: %d regimes, %d of %d compared orbits agree", path, ds.sizes["regime"],
                 ds.attrs["agreeing_orbits"], ds.attrs["compared_orbits"])
     return path
+
+
+def main(argv=None) -> None:
+    """Command line: ``python -m nnmstop.tasks.compare EXACT.nc REGULARIZED.nc`` prints the stability table."""
+    import argparse
+
+    parser = argparse.ArgumentParser(
+        prog="python -m nnmstop.tasks.compare",
+        description="Exact vs regularized NNM1: Floquet verdicts per impact regime (nnmstop.compare.stability)",
+    )
+    parser.add_argument("exact", help="exact branch, e.g. results/exact/nnm1.nc")
+    parser.add_argument("regularized", help="regularized branch, e.g. results/hbm/nnm1.nc")
+    args = parser.parse_args(argv)
+    ds = stability_comparison_dataset(_read(args.exact), _read(args.regularized))
+    with pd.option_context("display.width", 250, "display.max_columns", 40, "display.max_colwidth", 60):
+        table = stability_table(ds)
+        print(table.iloc[:, :12].to_string())
+        print(table.iloc[:, 12:].to_string())
+        print(ds[[v for v in ds.data_vars if v.startswith("change_")]].to_dataframe().to_string())
+    print(f"{ds.attrs['agreeing_orbits']} of {ds.attrs['compared_orbits']} compared orbits agree")
+
+
+if __name__ == "__main__":
+    main()
