@@ -14,12 +14,10 @@
   maximum of x), and the ``(x, f)`` curve of the regularized orbit (blue) against the
   piecewise-linear law, Eq. (4) (red).
 
-Inputs are datasets only: the exact family (:mod:`nnmstop.exact.two_impact`), NNM1 stage 1
-(:mod:`nnmstop.hbm.branches`) and the comparison at matched energies
-(:mod:`nnmstop.compare.matching`), which holds both orbits at a) and b) at exactly the same
-energy. Orbits are reconstructed in closed form (exact: :func:`nnmstop.exact.two_impact.time_history`
-from the stored unknowns; regularized: the stored Fourier series); nothing is solved.
-Frequencies are in Hz of the nondimensional time, energies on a logarithmic axis.
+Inputs are datasets only: the exact family, NNM1 stage 1 and the comparison at matched
+energies (:mod:`nnmstop.compare.dataset`), which holds both orbits at a) and b). Orbits are
+evaluated in closed form (exact: :func:`nnmstop.exact.two_impact.time_history` of the stored
+unknowns; regularized: the stored Fourier series, :mod:`nnmstop.fourier`); nothing is solved.
 """
 
 from __future__ import annotations

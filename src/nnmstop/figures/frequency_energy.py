@@ -1,31 +1,21 @@
 """Figs 5-11 of the paper: frequency-energy plots of the regularized NNMs with modal lines.
 
-Every figure is built from branch datasets only (layout of :mod:`nnmstop.hbm.branches`):
-it reads the energies, frequencies and impact counts of the points and reconstructs
-the modal lines of the labelled points from their Fourier coefficients; it never
-continues a branch. NNM1 is blue, NNM2 green, the NNM2 curve divided by 5 red (as in
-the paper). Frequencies are ``omega / (2 pi)`` in Hz of the nondimensional time,
-energies are on a logarithmic axis.
+Every figure is drawn from branch datasets (layout of :mod:`nnmstop.hbm.branches`) and its
+``figures.<name>`` settings: energies, frequencies and impact counts of the points, and the
+modal lines of the labelled points from their Fourier coefficients; nothing is solved. NNM1 is
+blue, NNM2 green, the NNM2 curve divided by 5 red (as in the paper); frequencies in Hz of the
+nondimensional time, energies on a logarithmic axis.
 
-* Fig 5: NNM1 and NNM2 over the whole energy range (whole-branch datasets).
-* Fig 6: NNM2 with modal lines a)-f) (the NNM2 dataset only).
-* Fig 7: NNM1 at low energy, a)-c) (NNM1 stage 1).
-* Fig 8: NNM1 and NNM2 at ``f2/3`` (same energy), the 3:1 internal resonance, d)-i); the
-  branch switched at its branch point (``figures.fig08.bifurcated``) drawn over the f2/3 curve.
-* Figs 9-10: NNM1 and NNM2 at ``f2/5``, the 5:1 internal resonance, j)-m) and o)-q).
-* Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode.
+* Fig 5: NNM1 and NNM2 over the whole energy range; Fig 6: NNM2 with modal lines a)-f).
+* Fig 7: NNM1 at low energy, a)-c); Fig 11: NNM1 at high energy, tending to the gap-0 mode.
+* Figs 8-10: NNM1 with the NNM2 curve at ``f2/3`` (``f2/5``), the 3:1 (5:1) internal resonance
+  and the branch switched there (an NNM2 orbit read over ``3T`` (``5T``) has the fundamental
+  frequency ``f2/3`` (``f2/5``) at the same energy, see the project NOTES).
 
-An NNM2 orbit of frequency ``f2`` read as an orbit of period ``3T`` (``5T``) has the
-fundamental frequency ``f2/3`` (``f2/5``) at the same energy (the paper's "three time /
-five time FEP", see the project NOTES); where that curve meets NNM1 the 3:1 (5:1)
-internal resonance occurs. The dashed horizontal lines are the linear modes of the
-gap-0 system (stop always engaged), computed from the model parameters stored in the
-datasets.
-
-Which stages of NNM1 a figure reads, the plotted window and the labelled points are
-set in the ``figures:`` section of the configuration (the ``spec`` of each figure).
-Anything a figure cannot honour (a NaN in a dataset, a label energy outside the
-data, a label outside the plotted window) raises a :class:`ValueError` naming it.
+The dashed lines are the linear modes of the gap-0 system, from the model parameters stored in
+the datasets. Anything a figure cannot honour (a NaN, a label energy outside the data or the
+plotted window) raises a :class:`ValueError` naming it. Reading the files, joining the NNM1
+stages and the settings: :mod:`nnmstop.tasks.figures`.
 """
 
 from __future__ import annotations
