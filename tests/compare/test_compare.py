@@ -129,7 +129,7 @@ def test_frequencies_agree_with_the_branches(comparison, stage1, matcher):
 def test_energy_gradient_matches_finite_differences(matcher):
     system = matcher.system
     U, *_ = matcher.regularized_orbit(3.0)
-    op = compare._EnergyOperator(system)
+    op = compare.EnergyOperator(system)
     _, grad = op(U, gradient=True)
     rng = np.random.default_rng(1)
     for _ in range(3):

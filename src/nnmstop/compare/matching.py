@@ -37,6 +37,7 @@ __all__ = [
     "exact_increasing_arm",
     "regularized_monotone_part",
     "system_from_dataset",
+    "EnergyOperator",
     "hbm_energy",
     "regularized_orbit_on_phase",
     "largest_differences",
@@ -118,7 +119,7 @@ def _energy_samples(system: HarmonicBalanceSystem) -> int:
     return max(16 * system.H, 512)
 
 
-class _EnergyOperator:
+class EnergyOperator:
     """Mean energy over the period of an HBM orbit and its exact gradient.
 
     Same samples and same formula as :meth:`HarmonicBalanceSystem.diagnostics`, so the
@@ -151,7 +152,7 @@ class _EnergyOperator:
 
 def hbm_energy(system: HarmonicBalanceSystem, U) -> float:
     """Mean total energy over the period of the HBM orbit ``U`` (as in the branch datasets)."""
-    return _EnergyOperator(system)(U)
+    return EnergyOperator(system)(U)
 
 
 # --------------------------------------------------------------------------- matching
@@ -244,7 +245,7 @@ class EnergyMatcher:
         self.system = system_from_dataset(branch)
         self.params = self.system.params
         self.problem = TwoImpactProblem(self.params)
-        self._energy_op = _EnergyOperator(self.system)
+        self._energy_op = EnergyOperator(self.system)
         self.end_margin = float(end_margin)
 
         arm = exact_increasing_arm(exact)
