@@ -12,6 +12,7 @@ import numpy as np
 
 from nnmstop.compare import matching as compare
 from nnmstop.continuation.core import relative_residual
+from nnmstop.continuation.newton import newton_solve
 
 
 def orbit_at_energy(system, points, energies, target: float, tol: float = 1e-12, max_iter: int = 30):
@@ -43,16 +44,21 @@ def orbit_at_energy(system, points, energies, target: float, tol: float = 1e-12,
     i = int(np.clip(np.searchsorted(e_sorted, target) - 1, 0, e_sorted.size - 2))
     w = (np.log(target) - np.log(e_sorted[i])) / (np.log(e_sorted[i + 1]) - np.log(e_sorted[i]))
     U = p_sorted[i] + w * (p_sorted[i + 1] - p_sorted[i])
-    energy_of = compare._EnergyOperator(system)
-    for _ in range(max_iter):
+    energy_of = compare.EnergyOperator(system)
+
+    def bordered(U):  # HBM equations and relative energy error, with their Jacobian
         e, grad = energy_of(U, gradient=True)
-        r = np.append(system.residual(U), (e - target) / target)
-        dU = np.linalg.solve(np.vstack([system.jacobian(U), grad / target]), -r)
-        U = U + dU
-        if relative_residual(system, U) <= tol and abs(energy_of(U) - target) <= tol * target:
-            break
-    else:
-        raise AssertionError(f"Newton did not converge at energy {target} (relative residual {relative_residual(system, U):.1e})")
+        return np.append(system.residual(U), (e - target) / target), np.vstack([system.jacobian(U), grad / target])
+
+    def converged(U, r, dU):
+        return dU is not None and relative_residual(system, U) <= tol and abs(r[-1]) <= tol
+
+    solved = newton_solve(bordered, None, U, tol=tol, max_iter=max_iter, criterion=converged)
+    U = solved.y
+    if not solved.converged:
+        raise AssertionError(
+            f"Newton did not converge at energy {target} (relative residual {relative_residual(system, U):.1e})"
+        )
     # the solution must lie on this arm, between the two stored points around it
     lo, hi = p_sorted[i], p_sorted[i + 1]
     if np.abs(U - lo).max() > 2.0 * np.abs(hi - lo).max():

@@ -1,12 +1,17 @@
 # Input functions shared by the rules.
 
 
+def stage_file(branch, stage):
+    """The dataset of stage ``stage`` (1-based) of ``branch``."""
+    return f"results/hbm/stages/{branch}_stage{stage}.nc"
+
+
 def previous_stage(wildcards):
     """Stage k > 1 of a branch starts from the dataset of stage k - 1."""
     stage = int(wildcards.stage)
     if stage == 1:
         return {}
-    return {"previous": f"results/hbm/stages/{wildcards.branch}_stage{stage - 1}.nc"}
+    return {"previous": stage_file(wildcards.branch, stage - 1)}
 
 
 def branch_stages(wildcards):
@@ -17,7 +22,7 @@ def branch_stages(wildcards):
 def stage_files(branch):
     """Stage datasets of a branch, in order."""
     n = len(config["branches"][branch]["stages"])
-    return [f"results/hbm/stages/{branch}_stage{k}.nc" for k in range(1, n + 1)]
+    return [stage_file(branch, k) for k in range(1, n + 1)]
 
 
 def bifurcation_parent(wildcards):

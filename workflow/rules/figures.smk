@@ -4,7 +4,12 @@
 # stages listed under `figures.figNN.nnm1_stages` in config/config.yaml.
 
 
-from nnmstop.figures.frequency_energy import nnm1_stage_files
+from nnmstop.tasks.figures import figure_nnm1_stages
+
+
+def nnm1_stage_files(figure):
+    """The NNM1 stage datasets paper figure ``figure`` reads (``figures.<figure>.nnm1_stages``)."""
+    return [stage_file("nnm1", k) for k in figure_nnm1_stages(config, figure)]
 
 
 rule paper_fig05:
@@ -52,7 +57,7 @@ rule paper_fig07:
     """Fig 7: NNM1 at low energy, modal lines a)-c)."""
     input:
         unpack(exact_overlay),
-        nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig07"),
+        nnm1_stages=lambda wildcards: nnm1_stage_files("fig07"),
     output:
         pdf="paper_figures/fig07.pdf",
         png=report("paper_figures/fig07.png", category="Paper figures"),
@@ -73,7 +78,7 @@ rule paper_fig08:
     """Fig 8: NNM1 with the NNM2 curve at f2/3, the 3:1 internal resonance, d)-i)."""
     input:
         unpack(exact_overlay),
-        nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig08"),
+        nnm1_stages=lambda wildcards: nnm1_stage_files("fig08"),
         nnm2="results/hbm/nnm2.nc",
         bifurcated=lambda wildcards: bifurcated_files("fig08"),
     output:
@@ -96,7 +101,7 @@ rule paper_fig09:
     """Fig 9: NNM1 with the NNM2 curve at f2/5, the 5:1 internal resonance, j)-m)."""
     input:
         unpack(exact_overlay),
-        nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig09"),
+        nnm1_stages=lambda wildcards: nnm1_stage_files("fig09"),
         nnm2="results/hbm/nnm2.nc",
         bifurcated=lambda wildcards: bifurcated_files("fig09"),
     output:
@@ -119,7 +124,7 @@ rule paper_fig10:
     """Fig 10: NNM1 with the NNM2 curve at f2/5 after the 5:1 resonance, o)-q)."""
     input:
         unpack(exact_overlay),
-        nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig10"),
+        nnm1_stages=lambda wildcards: nnm1_stage_files("fig10"),
         nnm2="results/hbm/nnm2.nc",
         bifurcated=lambda wildcards: bifurcated_files("fig10"),
     output:
@@ -142,7 +147,7 @@ rule paper_fig11:
     """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode."""
     input:
         unpack(exact_overlay),
-        nnm1_stages=lambda wildcards: nnm1_stage_files(config, "fig11"),
+        nnm1_stages=lambda wildcards: nnm1_stage_files("fig11"),
     output:
         pdf="paper_figures/fig11.pdf",
         png=report("paper_figures/fig11.png", category="Paper figures"),

@@ -9,11 +9,44 @@
 #   snakemake --profile profiles/slurm study
 
 
-from nnmstop.study.error_runtime import case_paths
-from nnmstop.study.stiff_cases import stiff_paths
+from nnmstop.study.error_runtime import sweep_cases
+from nnmstop.study.runs import format_number
+from nnmstop.study.stiff_cases import stiff_case_parameters
 
-STUDY_CASES = case_paths(config) if "study" in config else {"cases": [], "anm_cases": [], "references": [], "exact_cost": []}
-STIFF_CASES = stiff_paths(config) if "study" in config else {"exact": [], "branches": [], "energy": []}
+# The files of the sweep jobs: one pattern each, used by the job rules and by the gathers
+# (which receive the files in the order of sweep_cases / stiff_case_parameters).
+STUDY_CASE = "results/study/cases/H{harmonics}_eta{eta}.nc"
+STUDY_ANM_CASE = "results/study/cases/anm_N{order}_tol{tolerance}.nc"
+STUDY_REFERENCE = "results/study/cases/reference_eta{eta}.nc"
+STUDY_EXACT_COST = "results/study/cases/exact_cost.nc"
+STIFF_EXACT = "results/study/stiff/exact_a{alpha}_b{beta}_d{delta}.nc"
+STIFF_BRANCH = "results/study/stiff/nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.nc"
+STIFF_ENERGY = "results/study/stiff/energy_a{alpha}.nc"
+
+
+def study_case_files(config):
+    """Files of the error-against-run-time jobs, by kind, in the order the gather expects."""
+    cases, n = sweep_cases(config), format_number
+    return {
+        "cases": [STUDY_CASE.format(harmonics=H, eta=n(eta)) for H, eta in cases["cases"]],
+        "anm_cases": [STUDY_ANM_CASE.format(order=order, tolerance=n(tol)) for order, tol in cases["anm_cases"]],
+        "references": [STUDY_REFERENCE.format(eta=n(eta)) for eta in cases["references"]],
+        "exact_cost": STUDY_EXACT_COST,
+    }
+
+
+def stiff_case_files(config):
+    """Files of the stiff-case jobs, by kind, in the order the gather expects."""
+    cases, n = stiff_case_parameters(config), format_number
+    return {
+        "exact": [STIFF_EXACT.format(alpha=n(a), beta=n(b), delta=n(d)) for a, b, d in cases["exact"]],
+        "branches": [STIFF_BRANCH.format(alpha=n(a), beta=n(b), delta=n(d), eta=n(e)) for a, b, d, e in cases["branches"]],
+        "energy": [STIFF_ENERGY.format(alpha=n(a)) for a in cases["energy"]],
+    }
+
+
+STUDY_CASES = study_case_files(config) if "study" in config else {"cases": [], "anm_cases": [], "references": [], "exact_cost": []}
+STIFF_CASES = stiff_case_files(config) if "study" in config else {"exact": [], "branches": [], "energy": []}
 STUDY_NUMBER = r"[0-9][0-9.e-]*"
 
 # Gathers and figures are light: on a cluster they run on the submitting node.
@@ -41,7 +74,7 @@ rule study_error_case:
     input:
         exact="results/exact/nnm1_two_impacts.nc",
     output:
-        dataset="results/study/cases/H{harmonics}_eta{eta}.nc",
+        dataset=STUDY_CASE,
     wildcard_constraints:
         harmonics=r"\d+",
         eta=STUDY_NUMBER,
@@ -65,7 +98,7 @@ rule study_anm_case:
     input:
         exact="results/exact/nnm1_two_impacts.nc",
     output:
-        dataset="results/study/cases/anm_N{order}_tol{tolerance}.nc",
+        dataset=STUDY_ANM_CASE,
     wildcard_constraints:
         order=r"\d+",
         tolerance=STUDY_NUMBER,
@@ -89,7 +122,7 @@ rule study_reference:
     input:
         exact="results/exact/nnm1_two_impacts.nc",
     output:
-        dataset="results/study/cases/reference_eta{eta}.nc",
+        dataset=STUDY_REFERENCE,
     wildcard_constraints:
         eta=STUDY_NUMBER,
     log:
@@ -110,7 +143,7 @@ rule study_reference:
 rule study_exact_cost:
     """Cost per orbit of the exact (closed-form) solver."""
     output:
-        dataset="results/study/cases/exact_cost.nc",
+        dataset=STUDY_EXACT_COST,
     log:
         "logs/study/exact_cost.log",
     benchmark:
@@ -164,7 +197,7 @@ rule study_error_vs_runtime_figure:
 rule study_stiff_exact:
     """Exact family of one (alpha, beta, delta): residuals, confirmed end, periodicity by integration."""
     output:
-        dataset="results/study/stiff/exact_a{alpha}_b{beta}_d{delta}.nc",
+        dataset=STIFF_EXACT,
     wildcard_constraints:
         alpha=STUDY_NUMBER,
         beta=STUDY_NUMBER,
@@ -187,9 +220,9 @@ rule study_stiff_exact:
 rule study_stiff_branch:
     """Harmonics ladder of NNM1 stage 1 for one stiff case, errors against its exact family."""
     input:
-        exact="results/study/stiff/exact_a{alpha}_b{beta}_d{delta}.nc",
+        exact=STIFF_EXACT,
     output:
-        dataset="results/study/stiff/nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.nc",
+        dataset=STIFF_BRANCH,
     wildcard_constraints:
         alpha=STUDY_NUMBER,
         beta=STUDY_NUMBER,
@@ -213,7 +246,7 @@ rule study_stiff_branch:
 rule study_stiff_energy:
     """Exact solver and HBM at energies from 1e-6 to 1e6, for one alpha."""
     output:
-        dataset="results/study/stiff/energy_a{alpha}.nc",
+        dataset=STIFF_ENERGY,
     wildcard_constraints:
         alpha=STUDY_NUMBER,
     log:

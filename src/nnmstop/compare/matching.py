@@ -1,90 +1,23 @@
-"""Exact (non-smooth) versus regularized NNM1 at matched energies: Section 4.1, Figs 2-4.
+"""Exact (non-smooth) and regularized NNM1 orbits at the same energy (Section 4.1).
 
-What is compared
-----------------
-On one side the exact two-impact NNM1 family of the non-smooth system, Eqs. (3)-(4)
-(:mod:`nnmstop.exact.two_impact`, closed form); on the other the regularized NNM1 of Eq. (7)
-computed by harmonic balance with ``H`` harmonics and the ANM (stage 1 of the branch,
-:mod:`nnmstop.hbm.branches`: from the linear mode up to the first orbit with more than
-one impact per stop). At each compared energy ``E`` the module finds one orbit of each
-model **at exactly that energy** and records
+:class:`EnergyMatcher` takes the exact two-impact family (:mod:`nnmstop.exact.two_impact`) and a
+regularized NNM1 branch dataset (:mod:`nnmstop.hbm.branches`) and finds, at a requested energy,
+one orbit of each model at exactly that energy: Newton's method on the closed-form
+quarter-period equations plus the energy, and on the HBM equations bordered with the mean
+energy over the period, each seeded between the two neighbouring points of the monotone part
+of its curve (:func:`exact_increasing_arm`, :func:`regularized_monotone_part`).
+:func:`orbit_differences` compares a matched pair on the phase ``t/T`` aligned at the maximum of
+``x``: frequencies and the largest differences of ``x``, ``u``, velocities and contact force
+(:func:`largest_differences`, refined where they peak).
 
-* the frequencies ``1/T`` (Hz of the nondimensional time) and their difference,
-  absolute (regularized minus exact) and relative to the exact frequency;
-* the largest differences over one period of ``x``, ``u``, ``xdot``, ``udot`` and of the
-  contact force: the HBM force ``f`` (the Fourier series of the unknown ``f`` of the
-  quadratic recast, Eq. 13) against the piecewise-linear law, Eq. (4), evaluated on the
-  exact orbit, ``alpha (x - sgn x)`` beyond the stops;
-* the orbits themselves (exact unknowns ``(xdot0, udot0, tau1, T1)`` and the HBM
-  Fourier coefficients), so that Figs 2-4 redraw them without solving anything.
-
-Energies
---------
-The energy is the conserved total energy of each model (kinetic + spring potentials +
-contact potential; the piecewise potential ``alpha/2 (|x|-1)^2`` for the exact orbit, the
-potential of the regularized force for the HBM orbit). An HBM orbit conserves its
-energy only up to the truncation of the series: its energy is the mean over the period,
-exactly as in the branch datasets (``energy`` there), and its relative variation over
-the period is stored (``regularized_energy_spread``) as the residual ambiguity of
-"same energy" on the regularized side.
-
-How energies are matched (non-monotone parts)
----------------------------------------------
-The energy is not monotone along either curve near its ends:
-
-* the exact family leaves the grazing orbit (``E_g``, about 0.691 for the paper values)
-  with *decreasing* energy down to a fold (about 0.675) and only then gains energy; for
-  ``E`` in between there are two exact orbits. The comparison uses the increasing arm,
-  from the energy minimum to the end of the family (the orbits with a real contact
-  phase, which continue into the rest of the family); the short grazing arm is drawn in
-  Fig 2 but not compared;
-* the regularized branch is used from its start up to the last point before the first
-  energy decrease or the first orbit with more than two impacts per period (stage 1 ends
-  with an energy fold just before the secondary oscillation of ``x`` reaches the other
-  stop).
-
-On these monotone parts an energy determines one orbit on each side. The common range
-is the overlap of their energy ranges, shrunk by the relative ``end_margin`` at both
-ends (both ends are energy folds, where fixing the energy is ill-conditioned). A
-requested energy outside it raises :class:`ValueError`.
-
-At a matched energy ``E``:
-
-* **exact orbit**: Newton's method on the closed-form quarter-period equations plus
-  ``E(y) = E`` (four equations, four unknowns, analytic Jacobian), seeded by linear
-  interpolation of the family's unknowns between the two neighbouring orbits of the
-  increasing arm; the residual and the energy are at round-off after convergence and the
-  orbit is checked with :func:`nnmstop.exact.two_impact.assess_orbit`;
-* **regularized orbit**: Newton's method on the HBM equations ``S(U) = 0`` bordered with
-  ``E(U) = E`` (mean energy over the period, analytic gradient), seeded by linear
-  interpolation of the unknowns between the two neighbouring branch points. So the
-  comparison adds *no* interpolation error: the HBM orbit solves the same balanced
-  equations as the branch points (relative residual at round-off) at the requested
-  energy. For the record, ``interpolation_frequency_shift`` and
-  ``interpolation_coefficient_shift`` store how far the plain linear interpolation
-  between neighbouring branch points is from that solution, i.e. the error a comparison
-  based on interpolated branch points would have carried.
-
-Orbit differences
------------------
-The orbits are compared on the phase ``t/T`` (each orbit on its own period), with the
-time origin on the symmetry axis where both velocities vanish and ``x`` is at its
-maximum: the turning point ``t = T1`` of the exact quarter-period construction, and
-``t = 0`` or ``t = T/2`` of the cosine series (``x'(0) = 0`` in that basis; ``t = 0``
-is either the maximum or the minimum of ``x``, the shift of half a period is applied
-in the second case and recorded in ``regularized_origin_shift``). That the origin
-really is the global maximum of ``x`` is checked on both orbits. The differences are
-maxima over ``phase_samples`` equally spaced phases, each refined on a grid 256 times
-finer around the sampled maximum: the force difference peaks sharply where the exact
-orbit enters the stop (the kink of the piecewise law), and a plain grid of 4096 phases
-would miss a few per cent of it.
+Method notes (the monotone parts, why the matching adds no interpolation error, the
+alignment): ``docs/methods/compare.md``. The comparison dataset of Figs 2-4 is assembled by
+:mod:`nnmstop.compare.dataset`.
 """
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
@@ -92,7 +25,7 @@ import xarray as xr
 from nnmstop import fourier
 from nnmstop.hbm.branches import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
-from nnmstop.netcdf import write_dataset
+from nnmstop.continuation.newton import newton_solve
 from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, time_history
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
@@ -104,14 +37,12 @@ __all__ = [
     "exact_increasing_arm",
     "regularized_monotone_part",
     "system_from_dataset",
+    "EnergyOperator",
     "hbm_energy",
+    "regularized_orbit_on_phase",
+    "largest_differences",
     "orbit_differences",
-    "comparison_energies",
-    "comparison_dataset",
-    "build_comparison_dataset",
 ]
-
-logger = logging.getLogger("nnmstop.compare.matching")
 
 #: One impact per stop per period: at most two excursions beyond the stops.
 MAX_IMPACTS = 2
@@ -188,7 +119,7 @@ def _energy_samples(system: HarmonicBalanceSystem) -> int:
     return max(16 * system.H, 512)
 
 
-class _EnergyOperator:
+class EnergyOperator:
     """Mean energy over the period of an HBM orbit and its exact gradient.
 
     Same samples and same formula as :meth:`HarmonicBalanceSystem.diagnostics`, so the
@@ -221,7 +152,7 @@ class _EnergyOperator:
 
 def hbm_energy(system: HarmonicBalanceSystem, U) -> float:
     """Mean total energy over the period of the HBM orbit ``U`` (as in the branch datasets)."""
-    return _EnergyOperator(system)(U)
+    return EnergyOperator(system)(U)
 
 
 # --------------------------------------------------------------------------- matching
@@ -314,7 +245,7 @@ class EnergyMatcher:
         self.system = system_from_dataset(branch)
         self.params = self.system.params
         self.problem = TwoImpactProblem(self.params)
-        self._energy_op = _EnergyOperator(self.system)
+        self._energy_op = EnergyOperator(self.system)
         self.end_margin = float(end_margin)
 
         arm = exact_increasing_arm(exact)
@@ -372,28 +303,26 @@ class EnergyMatcher:
         y = self._exact_unknowns[i] + w * (self._exact_unknowns[i + 1] - self._exact_unknowns[i])
         prob, delta = self.problem, self.params.delta
 
-        def system(v):
+        def system(v):  # quarter-period equations and energy, with their Jacobian
             return np.append(prob.residual(v), prob.energy(v) - energy), np.vstack(
                 [prob.jacobian(v), [v[0], delta * v[1], 0.0, 0.0]]
             )
 
-        converged = False
-        for it in range(1, _NEWTON_MAX_ITER + 1):
-            r, J = system(y)
-            dy = np.linalg.solve(J, -r)
-            y = y + dy
-            if converged:  # one more iteration after convergence: residual at round-off
-                break
-            converged = np.linalg.norm(dy) <= 1e-14 * (1.0 + np.linalg.norm(y))
-        if not converged:
+        # one more update after convergence (polish): the residual then sits at round-off
+        solved = newton_solve(system, None, y, tol=1e-14, max_iter=_NEWTON_MAX_ITER, polish=True)
+        if not solved.converged:
             raise ValueError(f"Newton's method did not converge for the exact orbit at energy {energy!r}")
+        y, it = solved.y, solved.iterations
         check = assess_orbit(y, self.params, prob)
         if not check.valid:
             raise ValueError(
                 f"the exact orbit found at energy {energy!r} violates the two-impact assumptions "
                 f"{check.violated}"
             )
-        _check_between(y, self._exact_unknowns, i, f"Newton's method left the increasing arm of the exact family at energy {energy!r}")
+        _check_between(
+            y, self._exact_unknowns, i,
+            f"Newton's method left the increasing arm of the exact family at energy {energy!r}",
+        )
         return y, float(np.linalg.norm(prob.residual(y))), it
 
     def regularized_orbit(self, energy, tol: float = 1e-13) -> tuple[np.ndarray, float, int, np.ndarray]:
@@ -402,25 +331,31 @@ class EnergyMatcher:
         s = self.system
         i, w = _bracket(self._hbm_energy, energy)
         lin = self._hbm_unknowns[i] + w * (self._hbm_unknowns[i + 1] - self._hbm_unknowns[i])
-        U = lin.copy()
         scale = max(abs(energy), 1.0)
-        for it in range(1, _NEWTON_MAX_ITER + 1):
+
+        def bordered(U):  # HBM equations and mean energy, with their Jacobian
             e, grad = self._energy_op(U, gradient=True)
-            r = np.append(s.residual(U), (e - energy))
-            dU = np.linalg.solve(np.vstack([s.jacobian(U), grad]), -r)
-            U = U + dU
-            if (
-                np.linalg.norm(dU) <= 1e2 * tol * max(np.linalg.norm(U), 1.0)
+            return np.append(s.residual(U), (e - energy)), np.vstack([s.jacobian(U), grad])
+
+        def converged(U, r, dU):  # small update, HBM residual and energy both at the tolerance
+            return (
+                dU is not None
+                and np.linalg.norm(dU) <= 1e2 * tol * max(np.linalg.norm(U), 1.0)
                 and relative_residual(s, U) <= tol
-                and abs(self._energy_op(U) - energy) <= tol * scale
-            ):
-                break
-        else:
+                and abs(r[-1]) <= tol * scale
+            )
+
+        solved = newton_solve(bordered, None, lin, tol=tol, max_iter=_NEWTON_MAX_ITER, criterion=converged)
+        U, it = solved.y, solved.iterations
+        if not solved.converged:
             raise ValueError(
                 f"Newton's method did not converge for the regularized orbit at energy {energy!r} "
                 f"(relative residual {relative_residual(s, U):.2e}); too close to an energy fold?"
             )
-        _check_between(U, self._hbm_unknowns, i, f"Newton's method left the regularized branch between its points at energy {energy!r}")
+        _check_between(
+            U, self._hbm_unknowns, i,
+            f"Newton's method left the regularized branch between its points at energy {energy!r}",
+        )
         return U, relative_residual(s, U), it, lin
 
     def match(self, energy) -> MatchedOrbits:
@@ -447,8 +382,8 @@ class EnergyMatcher:
 # --------------------------------------------------------------------------- orbit differences
 
 
-def _regularized_on_phase(system: HarmonicBalanceSystem, U, phase: np.ndarray, shift: float | None = None):
-    """HBM orbit on ``phase = t/T``, origin on the symmetry axis where x is maximum.
+def regularized_orbit_on_phase(system: HarmonicBalanceSystem, U, phase, shift: float | None = None):
+    """HBM orbit ``U`` on ``phase = t/T``, origin on the symmetry axis where x is maximum.
 
     Returns the fields (``x, u, xdot, udot, f``) and the applied shift (0 or 0.5 period;
     found here unless given).
@@ -461,6 +396,26 @@ def _regularized_on_phase(system: HarmonicBalanceSystem, U, phase: np.ndarray, s
         ends = fourier.PhaseSynthesis(np.array([0.0, np.pi]), system.H).values(*series["x"])
         shift = 0.5 if ends[1] > ends[0] else 0.0
     return fourier.fields_at_phases(2.0 * np.pi * (np.asarray(phase) + shift), omega, series), shift
+
+
+def largest_differences(first: dict, second: dict, first_on, second_on, keys) -> dict:
+    """Largest ``|first[key] - second[key]|`` over one period, refined where it peaks.
+
+    ``first`` and ``second`` hold the fields of two orbits on ``n`` equally spaced phases
+    ``t/T = j/n``; ``first_on(phase)`` and ``second_on(phase)`` evaluate them on any phases.
+    The maximum on the grid is refined on a grid 256 times finer around it: the force
+    difference peaks sharply where the exact orbit enters the stop.
+    """
+    n = next(iter(first.values())).size
+    phase = np.arange(n) / n
+    out = {}
+    for key in keys:
+        diff = np.abs(first[key] - second[key])
+        j = int(np.argmax(diff))
+        local = phase[j] + np.linspace(-1.0, 1.0, 513) / n
+        fine = np.abs(first_on(local)[key] - second_on(local)[key])
+        out[key] = float(max(diff[j], fine.max()))
+    return out
 
 
 def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, phase_samples: int = 4096) -> dict:
@@ -492,8 +447,13 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
 
     phase = np.arange(n) / n
     ex = exact_on(phase)
-    reg, shift = _regularized_on_phase(system, matched.regularized, phase)
-    reg["force"] = reg.pop("f")
+
+    def regularized_on(phase, shift=None):
+        fields, shift = regularized_orbit_on_phase(system, matched.regularized, phase, shift)
+        fields["force"] = fields.pop("f")
+        return fields, shift
+
+    reg, shift = regularized_on(phase)
     frequency_exact = 1.0 / period_exact
     frequency_reg = float(system.frequency_hz(matched.regularized))
     # the origin must be the global maximum of x on both orbits
@@ -514,289 +474,8 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
         "u_max_exact": float(np.abs(ex["u"]).max()),
         "force_max_exact": float(np.abs(ex["force"]).max()),
     }
-    # largest difference on the grid, refined on a grid 256 times finer around the grid's maximum
-    # (the force difference peaks sharply where the exact orbit enters the stop)
-    for key in ("x", "u", "xdot", "udot", "force"):
-        diff = np.abs(reg[key] - ex[key])
-        j = int(np.argmax(diff))
-        local = phase[j] + np.linspace(-1.0, 1.0, 513) / n
-        reg_local = _regularized_on_phase(system, matched.regularized, local, shift)[0]
-        fine = np.abs(reg_local["f" if key == "force" else key] - exact_on(local)[key])
-        out[f"max_{key}_difference"] = float(max(diff[j], fine.max()))
+    largest = largest_differences(
+        reg, ex, lambda local: regularized_on(local, shift)[0], exact_on, ("x", "u", "xdot", "udot", "force")
+    )
+    out.update({f"max_{key}_difference": value for key, value in largest.items()})
     return out
-
-
-# --------------------------------------------------------------------------- dataset
-
-
-def comparison_energies(matcher: EnergyMatcher, count: int, marked: dict | None = None) -> tuple[np.ndarray, dict]:
-    """Log-spaced energies over the common range, with the ``marked`` energies added.
-
-    Parameters
-    ----------
-    matcher : EnergyMatcher
-    count : int
-        Number of log-spaced energies spanning :attr:`EnergyMatcher.energy_range` (>= 2).
-    marked : dict, optional
-        Label -> energy (for example ``{"a": 0.72, "b": 20.0}``), each inside the range.
-
-    Returns
-    -------
-    energies : ndarray
-        Sorted, unique.
-    marks : dict
-        Label -> index into ``energies``.
-    """
-    if int(count) != count or count < 2:
-        raise ValueError(f"the number of compared energies must be an integer >= 2, got {count!r}")
-    marked = dict(marked or {})
-    values = {label: matcher.check_energy(e) for label, e in marked.items()}
-    grid = np.geomspace(*matcher.energy_range, int(count))
-    energies = np.unique(np.concatenate([grid, list(values.values())]))
-    marks = {label: int(np.flatnonzero(energies == e)[0]) for label, e in values.items()}
-    return energies, marks
-
-
-def comparison_dataset(
-    exact: xr.Dataset,
-    branch: xr.Dataset,
-    count: int = 48,
-    marked: dict | None = None,
-    phase_samples: int = 4096,
-    end_margin: float = 0.01,
-) -> xr.Dataset:
-    """Compare the exact and regularized NNM1 at matched energies; labelled dataset.
-
-    Parameters
-    ----------
-    exact : xarray.Dataset
-        Exact two-impact family.
-    branch : xarray.Dataset
-        Regularized NNM1 (stage 1 or more) dataset.
-    count : int
-        Number of log-spaced energies over the common range.
-    marked : dict, optional
-        Labelled energies (``{"a": E_a, "b": E_b}``), added to the grid and flagged in the
-        variable ``marked`` (1 for the first label, 2 for the second, ...).
-    phase_samples : int
-        Phases per period on which the orbit differences are maximized.
-    end_margin : float
-        Relative margin from the ends of the common energy range.
-
-    Returns
-    -------
-    xarray.Dataset
-        Dimensions ``point`` (compared energies, increasing) and ``harmonic``.
-    """
-    matcher = EnergyMatcher(exact, branch, end_margin)
-    energies, marks = comparison_energies(matcher, count, marked)
-    system = matcher.system
-    rows, orbits = [], []
-    for energy in energies:
-        pair = matcher.match(energy)
-        diff = orbit_differences(pair, system, phase_samples)
-        rows.append((pair, diff))
-        orbits.append(pair.regularized)
-        logger.info(
-            "E = %.6g: frequency exact %.8f Hz, regularized %.8f Hz (relative difference %+.3e); max |dx| %.3e, "
-            "|du| %.3e, |df| %.3e", energy, diff["frequency_exact"], diff["frequency_regularized"],
-            diff["relative_frequency_difference"], diff["max_x_difference"], diff["max_u_difference"],
-            diff["max_force_difference"],
-        )
-    n = len(energies)
-    one = "1"
-    hz = "Hz"
-
-    def col(values, long_name, units=one, dtype=float, **extra):
-        return ("point", np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units, **extra})
-
-    def pairs(attr):
-        return [getattr(p, attr) for p, _ in rows]
-
-    def diffs(key):
-        return [d[key] for _, d in rows]
-
-    y = np.array(pairs("exact"))
-    aligned = "over the period, on the phase t/T aligned at the maximum of x"
-    not_used = "(error that interpolation alone would add; not present in this comparison)"
-    from_diffs = (
-        ("frequency_exact", "frequency 1/T of the exact (non-smooth) orbit", hz),
-        ("frequency_regularized", "frequency omega/(2 pi) of the regularized HBM orbit", hz),
-        ("frequency_difference", "frequency of the regularized orbit minus frequency of the exact orbit", hz),
-        ("relative_frequency_difference", "frequency difference (regularized minus exact) over the exact one", one),
-        ("max_x_difference", f"largest |x_regularized - x_exact| {aligned}", one),
-        ("max_u_difference", f"largest |u_regularized - u_exact| {aligned}", one),
-        ("max_xdot_difference", f"largest |xdot_regularized - xdot_exact| {aligned}", one),
-        ("max_udot_difference", f"largest |udot_regularized - udot_exact| {aligned}", one),
-        (
-            "max_force_difference",
-            "largest |f_HBM - f_piecewise(x_exact)|: regularized contact force from its Fourier coefficients vs the "
-            f"piecewise-linear law (Eq. 4) evaluated on the exact orbit, {aligned}",
-            one,
-        ),
-        ("x_max_exact", "maximum of x over the exact orbit", one),
-        ("u_max_exact", "maximum of |u| over the exact orbit", one),
-        ("force_max_exact", "maximum of the piecewise-linear contact force over the exact orbit", one),
-        (
-            "regularized_origin_shift",
-            "shift of the time origin of the HBM cosine series, in periods, that puts the maximum of x at t = 0 "
-            "(0: x is maximum at t = 0; 0.5: x is minimum at t = 0)",
-            one,
-        ),
-    )
-    from_pairs = (
-        ("exact_energy", "total energy of the exact orbit (piecewise model), computed from its unknowns", one),
-        ("regularized_energy", "total energy of the regularized HBM orbit (regularized model), period mean", one),
-        ("exact_residual", "norm of the quarter-period equations of the exact orbit", one),
-        ("regularized_residual", "norm of the HBM residual relative to the norm of the unknowns", one),
-        (
-            "interpolation_coefficient_shift",
-            "largest difference between the matched HBM unknowns and their linear interpolation in energy between "
-            f"the neighbouring branch points {not_used}",
-            one,
-        ),
-        (
-            "interpolation_frequency_shift",
-            "frequency of the linear interpolation between neighbouring branch points minus frequency of the matched "
-            f"HBM orbit {not_used}",
-            hz,
-        ),
-    )
-    data = {name: col(diffs(name), long_name, units) for name, long_name, units in from_diffs}
-    data.update({name: col(pairs(name), long_name, units) for name, long_name, units in from_pairs})
-    data["regularized_energy_spread"] = col(
-        [system.diagnostics(p.regularized)["energy_spread"] for p, _ in rows],
-        "relative variation over the period of the energy of the regularized HBM orbit (HBM truncation)",
-    )
-    exact_names = (
-        ("exact_xdot0", "exact orbit: velocity of x at x = u = 0"),
-        ("exact_udot0", "exact orbit: velocity of u at x = u = 0"),
-        ("exact_tau1", "exact orbit: free-flight duration tau1 of the quarter period"),
-        ("exact_T1", "exact orbit: quarter period T1 (the turning point, t = 0 of the aligned phase)"),
-    )
-    data.update({name: col(y[:, j], long_name) for j, (name, long_name) in enumerate(exact_names)})
-    flags = np.zeros(n, dtype=np.int8)
-    labels = list(marks)
-    for j, label in enumerate(labels, start=1):
-        flags[marks[label]] = j
-    data["marked"] = (
-        "point",
-        flags,
-        {
-            "long_name": "labelled point of the paper's Figs 2-4 (0: not labelled)",
-            "units": one,
-            "flag_values": np.arange(len(labels) + 1, dtype=np.int8),
-            "flag_meanings": " ".join(["none"] + [f"point_{label}" for label in labels]),
-        },
-    )
-    # the regularized orbits, in the layout of the branch datasets (for nnmstop.figures.common.orbit)
-    H = system.H
-    U = np.array(orbits)
-    x, u, f, z, lam, _ = system.split(U)
-    fields = ((x, "x", "x"), (u, "u", "u"), (f, "regularized contact force f", "f"), (z, "internal variable z", "z"))
-    for c, name, symbol in fields:
-        parts = dict(zip(("cos", "sin"), fourier.to_cos_sin(c, H)))
-        for kind, values in parts.items():
-            word = {"cos": "cosine", "sin": "sine"}[kind]
-            attrs = {"long_name": f"regularized orbit: {word} Fourier coefficients of {name}", "units": one}
-            data[f"{symbol}_{kind}"] = (("point", "harmonic"), values, attrs)
-    data["omega_squared"] = col(lam, "regularized orbit: squared angular frequency")
-    coords = {
-        "point": ("point", np.arange(n), {"long_name": "index of the compared energy", "units": one}),
-        "harmonic": ("harmonic", np.arange(H + 1), {"long_name": "harmonic number k (0 is the mean)", "units": one}),
-        "energy": col(energies, "matched total energy of the exact and regularized orbits"),
-    }
-    ds = xr.Dataset(data, coords=coords)
-    ds.attrs = {
-        **system.params.as_attrs(),
-        "harmonics": H,
-        "time_samples": system.M,
-        "basis": system.basis,
-        "phase_samples": int(phase_samples),
-        "end_margin": float(end_margin),
-        "energy_range_min": matcher.energy_range[0],
-        "energy_range_max": matcher.energy_range[1],
-        "exact_arm_first_point": int(matcher.exact_arm.start),
-        "regularized_last_point": int(matcher.regularized_part.stop - 1),
-        "matching": (
-            "Newton's method at fixed energy on both sides: exact closed-form quarter-period equations plus energy; "
-            "HBM equations plus mean energy over the period. Exact family: increasing arm from its energy minimum; "
-            "regularized branch: leading points with increasing energy and at most two impacts per period."
-        ),
-        "alignment": (
-            "phase t/T of each orbit, origin on the symmetry axis where both velocities vanish and x is maximum "
-            "(exact: t = T1; HBM cosine series: t = 0 or T/2)"
-        ),
-        **{f"point_{label}_energy": float(energies[i]) for label, i in marks.items()},
-    }
-    return ds
-
-
-def _load(path) -> xr.Dataset:
-    with xr.open_dataset(path) as ds:
-        return ds.load()
-
-
-def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
-    """Pipeline task: compare the exact family and regularized NNM1 stage 1; write NetCDF.
-
-    Parameters
-    ----------
-    config : dict
-        Validated configuration with the ``model`` and ``compare`` sections.
-    inputs : dict
-        ``exact`` (the exact family) and ``nnm1`` (regularized NNM1 stage 1) paths.
-    output_path : str or Path
-
-    Raises
-    ------
-    ValueError
-        If a section or input is missing, or the datasets do not match the configuration.
-    """
-    for key in ("model", "compare"):
-        if key not in config:
-            raise ValueError(f"config lacks the section {key!r}")
-    for key in ("exact", "nnm1"):
-        if key not in inputs:
-            raise ValueError(f"the comparison needs the input {key!r}, got {sorted(inputs)}")
-    spec = config["compare"]
-    exact, branch = _load(inputs["exact"]), _load(inputs["nnm1"])
-    for key in PARAMETER_KEYS:
-        ds = branch if key == "eta" else exact
-        if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-12, atol=0):
-            raise ValueError(
-                f"model.{key} = {config['model'][key]!r} in the configuration but {ds.attrs[key]!r} in "
-                f"{inputs['nnm1'] if ds is branch else inputs['exact']} (stale dataset?)"
-            )
-    if int(branch.attrs["harmonics"]) != int(config["hbm"]["harmonics"]):
-        raise ValueError(
-            f"hbm.harmonics = {config['hbm']['harmonics']!r} in the configuration but {branch.attrs['harmonics']!r} in "
-            f"{inputs['nnm1']} (stale dataset?)"
-        )
-    marked = {label: spec["points"][label] for label in ("a", "b")}
-    ds = comparison_dataset(
-        exact, branch, count=spec["energy_count"], marked=marked, phase_samples=spec["phase_samples"],
-        end_margin=spec["end_margin"],
-    )
-    p = ds.attrs
-    summary = (
-        "Exact (non-smooth) versus regularized (HBM, "
-        f"H = {p['harmonics']}, eta = {p['eta']:g}) NNM1 at matched energies over the range with one impact per "
-        "stop per period: frequencies and their difference, largest differences of x, u, velocities and contact "
-        "force over the period on the phase t/T aligned at the maximum of x, and both orbits."
-    )
-    path = write_dataset(
-        ds, output_path, title="NNM1: exact non-smooth vs regularized orbits at matched energies",
-        summary=summary, keywords="exact solution, regularization, comparison",
-        metadata=config.get("metadata"),
-    )
-    for label in ("a", "b"):
-        i = int(np.flatnonzero(ds["marked"].values == ("ab".index(label) + 1))[0])
-        logger.info(
-            "point %s) E = %.6g: frequency %.8f (exact) vs %.8f Hz (regularized), relative difference %+.3e; "
-            "max |dx| = %.3e, |du| = %.3e, |df| = %.3e", label, float(ds["energy"][i]),
-            float(ds["frequency_exact"][i]), float(ds["frequency_regularized"][i]),
-            float(ds["relative_frequency_difference"][i]), float(ds["max_x_difference"][i]),
-            float(ds["max_u_difference"][i]), float(ds["max_force_difference"][i]),
-        )
-    return path

@@ -1,49 +1,31 @@
 """Regularization error of NNM1 in each impact regime, along the whole branch (issue 6).
 
-The exact NNM1 of the non-smooth system (``results/exact/nnm1.nc``,
-:mod:`nnmstop.exact.multi_impact`) and the regularized NNM1 (``results/hbm/nnm1.nc``, HBM + ANM)
-cross the same sequence of impact regimes: runs of orbits with 2, 6, 4, 2, 6, 8, 10, 6, 2
-impacts per period for the paper's values. :func:`regime_error_dataset` turns the
-comparison of :func:`nnmstop.exact.multi_impact.compare_with_regularized` (the one implementation
-of the metric, also behind ``python -m nnmstop.exact.multi_impact compare``) into a labelled
-dataset:
+The exact NNM1 of the non-smooth system (:mod:`nnmstop.exact.multi_impact`) and the
+regularized NNM1 (HBM + ANM) cross the same sequence of impact regimes.
+:func:`regime_error_dataset` turns the comparison of
+:func:`nnmstop.exact.multi_impact.compare_with_regularized` (the one implementation of the
+metric) into a labelled dataset:
 
-* dimension ``regime``: one entry per pair of regimes with at least one compared point,
-  in branch order: impact count, exact phase sequence(s), energy and frequency ranges of
-  both sides, number of compared and left-out regularized points, and the frequency
-  error (regularized minus exact, at the regularized energy): largest absolute value and
-  the energy where it occurs, median of the absolute value, mean, largest relative value;
-* dimension ``point`` (optional): every compared regularized orbit, with its energy, its
-  frequency, the exact frequency at that energy, the error and the index of its regime.
+* dimension ``regime``: one entry per pair of regimes with at least one compared point, in
+  branch order: impact count, exact phase sequence(s), energy and frequency ranges of both
+  sides, compared and left-out orbits, and the frequency error (regularized minus exact, at
+  the regularized energy): largest absolute value and its energy, median, mean, largest
+  relative value (:data:`REGIME_VARIABLES`);
+* dimension ``point`` (optional): every compared regularized orbit (:data:`POINT_VARIABLES`).
 
-The exact frequency at a regularized energy is interpolated linearly in ``ln E`` on the
-exact branch, which is dense (thousands of closed-form orbits): for the pipeline's
-branches, interpolating from every other exact orbit instead changes it by at most 6e-6 Hz
-at the compared energies, far below the regularization error. The largest error of a
-regime tends to sit at one of its ends, next to an energy fold or a grazing transition
-that the two models pass at different energies (compared at equal energy, the difference
-grows steeply there): read ``energy_at_max_error`` with it, and take the median as the
-typical error. Regularized orbits without an exact partner (the linear regime, regimes
-the exact branch does not have, energies outside the exact regime's range) are left out
-and counted, never filled with NaN.
+Orbits without an exact partner are counted, never filled with NaN. Method notes (pairing,
+interpolation in ``ln E``, where the largest error sits): ``docs/methods/compare.md``.
 """
 
 from __future__ import annotations
-
-import logging
-import os
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
-from nnmstop.netcdf import write_dataset
 from nnmstop.exact.multi_impact import _runs, compare_with_regularized
 
-__all__ = ["REGIME_VARIABLES", "regime_error_dataset", "regime_table", "build_regime_error_dataset"]
-
-logger = logging.getLogger(__name__)
+__all__ = ["REGIME_VARIABLES", "POINT_VARIABLES", "regime_error_dataset", "regime_table"]
 
 _EXACT_ATTRS = ("alpha", "beta", "delta")
 _REGULARIZED_ATTRS = ("alpha", "beta", "delta", "eta", "harmonics")
@@ -257,93 +239,3 @@ def regime_table(ds: xr.Dataset) -> pd.DataFrame:
     if missing:
         raise ValueError(f"the dataset lacks {missing}: not a regime error dataset")
     return ds[list(REGIME_VARIABLES)].to_dataframe()
-
-
-def write_table(table: pd.DataFrame, path) -> Path:
-    """Write ``table`` as CSV under a temporary name, then rename (no partial file)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    table.to_csv(tmp, float_format="%.10g", lineterminator="\n")
-    os.replace(tmp, path)
-    return path
-
-
-def read_exact_and_regularized(config: dict, inputs: dict) -> tuple[xr.Dataset, xr.Dataset]:
-    """Load the exact and regularized NNM1 of a comparison task and check them against the configuration.
-
-    Parameters
-    ----------
-    config : dict
-        Validated configuration; its ``model`` must match both datasets (``eta`` the regularized one).
-    inputs : dict
-        ``exact`` (``results/exact/nnm1.nc``) and ``nnm1`` (``results/hbm/nnm1.nc``).
-
-    Returns
-    -------
-    exact, regularized : xarray.Dataset
-        Both loaded into memory.
-
-    Raises
-    ------
-    ValueError
-        For a missing input, or a model parameter of a dataset that differs from the configuration.
-    """
-    for key in ("exact", "nnm1"):
-        if key not in inputs:
-            raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
-    with xr.open_dataset(inputs["exact"]) as a, xr.open_dataset(inputs["nnm1"]) as b:
-        exact, regularized = a.load(), b.load()
-    for key in ("alpha", "beta", "delta", "eta"):
-        for ds in (exact, regularized) if key != "eta" else (regularized,):
-            if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-14, atol=0):
-                raise ValueError(
-                    f"{key} = {ds.attrs[key]} in the inputs differs from the configuration ({config['model'][key]}); "
-                    "rebuild them"
-                )
-    return exact, regularized
-
-
-def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Path:
-    """Write the regime error dataset (and its CSV table); the task of rule ``compare_regimes``.
-
-    Parameters
-    ----------
-    config : dict
-        Validated configuration; its ``model`` must match both inputs.
-    inputs : dict
-        ``exact`` (``results/exact/nnm1.nc``) and ``nnm1`` (``results/hbm/nnm1.nc``).
-    outputs : dict
-        ``dataset`` (NetCDF) and optionally ``table`` (CSV of the ``regime`` variables).
-
-    Returns
-    -------
-    Path
-        The dataset.
-    """
-    if "dataset" not in outputs:
-        raise ValueError(f"missing output 'dataset'; outputs are {sorted(outputs)}")
-    exact, regularized = read_exact_and_regularized(config, inputs)
-    ds = regime_error_dataset(exact, regularized, points=True)
-    ds.attrs["exact_source"] = str(inputs["exact"])
-    ds.attrs["regularized_source"] = str(inputs["nnm1"])
-    path = write_dataset(
-        ds,
-        outputs["dataset"],
-        title="Regularized vs exact NNM1: frequency error per impact regime, whole branch",
-        summary=(
-            "Frequency of the regularized NNM1 (HBM with "
-            f"{ds.attrs['harmonics']} harmonics, eta = {ds.attrs['eta']:g}) against the exact NNM1 of the "
-            "non-smooth system at the same energy, in each impact regime of the branch (dimension regime), "
-            "with the compared orbits (dimension point)."
-        ),
-        keywords="regularization error, exact solution, impact regimes",
-        metadata=config.get("metadata"),
-    )
-    if "table" in outputs:
-        write_table(regime_table(ds), outputs["table"])
-    logger.info(
-        "wrote %s: %d regimes, %d of %d regularized orbits compared", path, ds.sizes["regime"],
-        ds.attrs["matched_points"], ds.attrs["regularized_points"],
-    )
-    return path

@@ -12,20 +12,17 @@ either way. Stability changes along each branch are located between consecutive 
 (no interpolation: the reported energies bracket the change) and the changes of the two
 branches in a regime are paired in branch order when they are equally many and go the
 same way, to give the shift of each change with the regularization.
+Method notes: ``docs/methods/compare.md``.
 """
 
 from __future__ import annotations
-
-import logging
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
-from nnmstop.netcdf import flag_variable, write_dataset
+from nnmstop.netcdf import flag_variable
 from nnmstop.exact.multi_impact import _monotone_pieces, compare_with_regularized
-from nnmstop.compare.regimes import read_exact_and_regularized, write_table
 
 __all__ = [
     "REGIME_COLUMNS",
@@ -35,11 +32,7 @@ __all__ = [
     "compare_stability",
     "stability_comparison_dataset",
     "stability_table",
-    "build_stability_comparison",
-    "main",
 ]
-
-logger = logging.getLogger(__name__)
 
 #: Verdict codes along a branch.
 UNSTABLE, STABLE, NO_VERDICT = 0, 1, -1
@@ -270,60 +263,3 @@ def stability_table(ds: xr.Dataset) -> pd.DataFrame:
     if missing:
         raise ValueError(f"the dataset lacks {missing}: not a stability comparison dataset")
     return ds[list(REGIME_COLUMNS)].to_dataframe()
-
-
-def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Path:
-    """Write the stability comparison dataset and its CSV table; the task of rule ``compare_stability``.
-
-    Parameters
-    ----------
-    config : dict
-        Validated configuration; its ``model`` must match both inputs.
-    inputs : dict
-        ``exact`` (``results/exact/nnm1.nc``) and ``nnm1`` (``results/hbm/nnm1.nc``).
-    outputs : dict
-        ``dataset`` (NetCDF) and ``table`` (CSV).
-    """
-    for key in ("dataset", "table"):
-        if key not in outputs:
-            raise ValueError(f"missing output {key!r}; outputs are {sorted(outputs)}")
-    exact, regularized = read_exact_and_regularized(config, inputs)
-    ds = stability_comparison_dataset(exact, regularized)
-    ds.attrs.update({key: float(config["model"][key]) for key in ("alpha", "beta", "delta", "eta")})
-    path = write_dataset(
-        ds, outputs["dataset"],
-        title="Exact vs regularized NNM1: Floquet stability per impact regime",
-        summary=(
-            "Agreement of the stability verdicts of the exact NNM1 (non-smooth model, monodromy from the linear "
-            "phases) and the regularized NNM1 (HBM) at the same energy in each impact regime, and the stability "
-            "changes of both branches with the energy shift of the paired ones."
-        ),
-        keywords="Floquet stability, exact solution, impact regimes",
-        metadata=config.get("metadata"),
-    )
-    write_table(stability_table(ds), outputs["table"])
-    logger.info("wrote %s: %d regimes, %d of %d compared orbits agree", path, ds.sizes["regime"],
-                ds.attrs["agreeing_orbits"], ds.attrs["compared_orbits"])
-    return path
-
-
-def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.compare.stability EXACT.nc REGULARIZED.nc`` prints the table."""
-    import argparse
-
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.compare.stability", description=__doc__.splitlines()[0])
-    parser.add_argument("exact", help="exact branch, e.g. results/exact/nnm1.nc")
-    parser.add_argument("regularized", help="regularized branch, e.g. results/hbm/nnm1.nc")
-    args = parser.parse_args(argv)
-    with xr.open_dataset(args.exact) as a, xr.open_dataset(args.regularized) as b:
-        ds = stability_comparison_dataset(a.load(), b.load())
-    with pd.option_context("display.width", 250, "display.max_columns", 40, "display.max_colwidth", 60):
-        table = stability_table(ds)
-        print(table.iloc[:, :12].to_string())
-        print(table.iloc[:, 12:].to_string())
-        print(ds[[v for v in ds.data_vars if v.startswith("change_")]].to_dataframe().to_string())
-    print(f"{ds.attrs['agreeing_orbits']} of {ds.attrs['compared_orbits']} compared orbits agree")
-
-
-if __name__ == "__main__":
-    main()

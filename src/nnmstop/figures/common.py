@@ -1,5 +1,5 @@
 """Shared pieces of the figures: colours, axes of a frequency-energy plot, orbit
-reconstruction from a branch dataset, and deterministic saving."""
+reconstruction from a branch dataset (:mod:`nnmstop.fourier`), and deterministic saving."""
 
 from __future__ import annotations
 
@@ -24,7 +24,6 @@ __all__ = [
     "frequency_energy_axes",
     "plot_branch",
     "stability_legend_handles",
-    "open_dataset",
     "orbit",
     "save_figure",
 ]
@@ -45,12 +44,6 @@ plt.rcParams.update(
         "svg.hashsalt": "nnmstop",
     }
 )
-
-
-def open_dataset(path) -> xr.Dataset:
-    """Load a NetCDF dataset fully into memory and close the file."""
-    with xr.open_dataset(path) as ds:
-        return ds.load()
 
 
 def frequency_energy_axes(ax, title: str | None = None):

@@ -14,18 +14,15 @@
   maximum of x), and the ``(x, f)`` curve of the regularized orbit (blue) against the
   piecewise-linear law, Eq. (4) (red).
 
-Inputs are datasets only: the exact family (:mod:`nnmstop.exact.two_impact`), NNM1 stage 1
-(:mod:`nnmstop.hbm.branches`) and the comparison at matched energies
-(:mod:`nnmstop.compare.matching`), which holds both orbits at a) and b) at exactly the same
-energy. Orbits are reconstructed in closed form (exact: :func:`nnmstop.exact.two_impact.time_history`
-from the stored unknowns; regularized: the stored Fourier series); nothing is solved.
-Frequencies are in Hz of the nondimensional time, energies on a logarithmic axis.
+Inputs are datasets only: the exact family, NNM1 stage 1 and the comparison at matched
+energies (:mod:`nnmstop.compare.dataset`), which holds both orbits at a) and b). Orbits are
+evaluated in closed form (exact: :func:`nnmstop.exact.two_impact.time_history` of the stored
+unknowns; regularized: the stored Fourier series, :mod:`nnmstop.fourier`); nothing is solved.
 """
 
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -35,7 +32,7 @@ from nnmstop.compare.matching import MAX_IMPACTS
 from nnmstop.exact.two_impact import time_history
 from nnmstop.fourier import fields_at_phases
 from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
-from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, save_figure
+from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, save_figure
 
 __all__ = [
     "FIGURES",
@@ -44,7 +41,6 @@ __all__ = [
     "figure_02",
     "figure_03",
     "figure_04",
-    "build_figure",
 ]
 
 logger = logging.getLogger("nnmstop.figures")
@@ -344,38 +340,3 @@ def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
     axes[0, 0].legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.9)
     fig.suptitle(f"NNM1 contact force at the same energy ({_parameter_text(params, comparison)})", fontsize=8.5)
     return save_figure(fig, pdf_path, png_dpi)
-
-
-# --------------------------------------------------------------------------- pipeline entry
-
-
-def build_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
-    """Build paper figure ``name`` (``fig02``, ``fig03`` or ``fig04``) from its rule's inputs.
-
-    Inputs: ``comparison`` (all three), plus ``exact`` and ``nnm1`` (stage 1) for
-    ``fig02``. Outputs: ``pdf`` and ``png`` side by side. The PNG resolution is
-    ``compare.png_dpi`` of the configuration.
-
-    Raises
-    ------
-    ValueError
-        On an unknown figure, a missing input, or outputs that are not NAME.pdf/NAME.png.
-    """
-    if name not in FIGURES:
-        raise ValueError(f"unknown figure {name!r}; this module draws {FIGURES}")
-    if "compare" not in config:
-        raise ValueError("config lacks the section 'compare'")
-    png_dpi = int(config["compare"]["png_dpi"])
-    pdf, png = Path(outputs["pdf"]), Path(outputs["png"])
-    if pdf.suffix != ".pdf" or png != pdf.with_suffix(".png"):
-        raise ValueError(f"{name}: outputs must be NAME.pdf and NAME.png side by side, got {pdf} and {png}")
-
-    needed = ("exact", "nnm1", "comparison") if name == "fig02" else ("comparison",)
-    for key in needed:
-        if key not in inputs or not inputs[key]:
-            raise ValueError(f"{name}: missing input {key!r}, got {sorted(inputs)}")
-    data = {key: open_dataset(inputs[key]) for key in needed}
-    if name == "fig02":
-        return figure_02(data["exact"], data["nnm1"], data["comparison"], pdf, png_dpi)
-    builder = figure_03 if name == "fig03" else figure_04
-    return builder(data["comparison"], pdf, png_dpi)

@@ -1,38 +1,27 @@
 """Figs 5-11 of the paper: frequency-energy plots of the regularized NNMs with modal lines.
 
-Every figure is built from branch datasets only (layout of :mod:`nnmstop.hbm.branches`):
-it reads the energies, frequencies and impact counts of the points and reconstructs
-the modal lines of the labelled points from their Fourier coefficients; it never
-continues a branch. NNM1 is blue, NNM2 green, the NNM2 curve divided by 5 red (as in
-the paper). Frequencies are ``omega / (2 pi)`` in Hz of the nondimensional time,
-energies are on a logarithmic axis.
+Every figure is drawn from branch datasets (layout of :mod:`nnmstop.hbm.branches`) and its
+``figures.<name>`` settings: energies, frequencies and impact counts of the points, and the
+modal lines of the labelled points from their Fourier coefficients; nothing is solved. NNM1 is
+blue, NNM2 green, the NNM2 curve divided by 5 red (as in the paper); frequencies in Hz of the
+nondimensional time, energies on a logarithmic axis.
 
-* Fig 5: NNM1 and NNM2 over the whole energy range (whole-branch datasets).
-* Fig 6: NNM2 with modal lines a)-f) (the NNM2 dataset only).
-* Fig 7: NNM1 at low energy, a)-c) (NNM1 stage 1).
-* Fig 8: NNM1 and NNM2 at ``f2/3`` (same energy), the 3:1 internal resonance, d)-i); the
-  branch switched at its branch point (``figures.fig08.bifurcated``) drawn over the f2/3 curve.
-* Figs 9-10: NNM1 and NNM2 at ``f2/5``, the 5:1 internal resonance, j)-m) and o)-q).
-* Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode.
+* Fig 5: NNM1 and NNM2 over the whole energy range; Fig 6: NNM2 with modal lines a)-f).
+* Fig 7: NNM1 at low energy, a)-c); Fig 11: NNM1 at high energy, tending to the gap-0 mode.
+* Figs 8-10: NNM1 with the NNM2 curve at ``f2/3`` (``f2/5``), the 3:1 (5:1) internal resonance
+  and the branch switched there (an NNM2 orbit read over ``3T`` (``5T``) has the fundamental
+  frequency ``f2/3`` (``f2/5``) at the same energy, see the project NOTES).
 
-An NNM2 orbit of frequency ``f2`` read as an orbit of period ``3T`` (``5T``) has the
-fundamental frequency ``f2/3`` (``f2/5``) at the same energy (the paper's "three time /
-five time FEP", see the project NOTES); where that curve meets NNM1 the 3:1 (5:1)
-internal resonance occurs. The dashed horizontal lines are the linear modes of the
-gap-0 system (stop always engaged), computed from the model parameters stored in the
-datasets.
-
-Which stages of NNM1 a figure reads, the plotted window and the labelled points are
-set in the ``figures:`` section of the configuration (see :func:`figure_config`).
-Anything a figure cannot honour (a NaN in a dataset, a label energy outside the
-data, a label outside the plotted window) raises a :class:`ValueError` naming it.
+The dashed lines are the linear modes of the gap-0 system, from the model parameters stored in
+the datasets. Anything a figure cannot honour (a NaN, a label energy outside the data or the
+plotted window) raises a :class:`ValueError` naming it. Reading the files, joining the NNM1
+stages and the settings: :mod:`nnmstop.tasks.figures`.
 """
 
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -49,16 +38,14 @@ from nnmstop.figures.common import (
     REGULARIZED_COLOR,
     RESONANCE_COLOR,
     frequency_energy_axes,
-    open_dataset,
     save_figure,
 )
 from nnmstop.figures.modal_lines import LabelSpec, draw_modal_line, label_specs, mark_point, select_point
 
 __all__ = [
     "PAPER_FIGURES",
-    "figure_config",
+    "dataset_name",
     "check_finite",
-    "combine_nnm1_stages",
     "model_parameters",
     "gap_zero_frequencies",
     "figure_05",
@@ -68,8 +55,6 @@ __all__ = [
     "figure_09",
     "figure_10",
     "figure_11",
-    "nnm1_stage_files",
-    "build_paper_figure",
 ]
 
 logger = logging.getLogger("nnmstop.figures")
@@ -112,23 +97,8 @@ PAPER_FIGURES = {
 # --------------------------------------------------------------------------- configuration, checks
 
 
-def figure_config(config: dict, name: str) -> dict:
-    """The ``figures.<name>`` section of a validated configuration.
-
-    Raises
-    ------
-    ValueError
-        If the configuration has no ``figures`` section or no entry ``name``.
-    """
-    figures = config.get("figures")
-    if not isinstance(figures, dict):
-        raise ValueError("the configuration has no 'figures' section (config/config.yaml, key 'figures')")
-    if name not in figures:
-        raise ValueError(f"the configuration has no entry 'figures.{name}'")
-    return figures[name]
-
-
-def _dataset_name(ds: xr.Dataset) -> str:
+def dataset_name(ds: xr.Dataset) -> str:
+    """How messages name a branch dataset: branch, stage(s) and file when known."""
     branch = str(ds.attrs.get("branch", "dataset")).upper()
     if "stage" in ds:
         stages = np.unique(ds["stage"].values)
@@ -156,7 +126,7 @@ def check_finite(ds: xr.Dataset, where: str) -> None:
                 rows = np.flatnonzero(bad.any(axis=tuple(a for a in range(bad.ndim) if a != axis)))
                 first = f" (first at point {int(rows[0])})"
             raise ValueError(
-                f"{where}: dataset {_dataset_name(ds)}: variable {name!r} holds {int(bad.sum())} NaN or "
+                f"{where}: dataset {dataset_name(ds)}: variable {name!r} holds {int(bad.sum())} NaN or "
                 f"infinite value(s){first}; refusing to draw it"
             )
 
@@ -164,48 +134,7 @@ def check_finite(ds: xr.Dataset, where: str) -> None:
 def _check_branch(ds: xr.Dataset, branch: str, where: str) -> None:
     found = ds.attrs.get("branch")
     if found != branch:
-        raise ValueError(f"{where}: expected a dataset of branch {branch!r}, got branch {found!r} ({_dataset_name(ds)})")
-
-
-def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int] | None = None) -> xr.Dataset:
-    """Check and concatenate consecutive stage datasets of NNM1.
-
-    Parameters
-    ----------
-    stages : list of xarray.Dataset
-        Stage datasets in order (each holds a single ``stage`` value).
-    where : str
-        Figure name, for messages.
-    expected : list of int, optional
-        Stage numbers the datasets must hold, in order (from the configuration).
-
-    Raises
-    ------
-    ValueError
-        On NaN, a dataset of another branch, non-consecutive stages or stages
-        other than ``expected``.
-    """
-    from nnmstop.hbm.branches import combine_stages
-
-    if not stages:
-        raise ValueError(f"{where}: no NNM1 stage dataset given")
-    numbers = []
-    for ds in stages:
-        check_finite(ds, where)
-        _check_branch(ds, "nnm1", where)
-        held = np.unique(ds["stage"].values)
-        if held.size != 1:
-            raise ValueError(f"{where}: {_dataset_name(ds)} is not a single-stage dataset")
-        numbers.append(int(held[0]))
-    if expected is not None and numbers != list(expected):
-        raise ValueError(f"{where}: the NNM1 datasets hold stages {numbers}, the configuration asks for {list(expected)}")
-    if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
-        raise ValueError(f"{where}: NNM1 stages must be consecutive to be joined, got {numbers}")
-    if len(stages) == 1:
-        return stages[0]
-    combined = combine_stages(stages)
-    combined.encoding = {}  # the first stage's file name would misname the combined branch
-    return combined
+        raise ValueError(f"{where}: expected a dataset of branch {branch!r}, got branch {found!r} ({dataset_name(ds)})")
 
 
 def model_parameters(*datasets: xr.Dataset, where: str = "figure") -> ModelParameters:
@@ -220,12 +149,12 @@ def model_parameters(*datasets: xr.Dataset, where: str = "figure") -> ModelParam
     for ds in datasets:
         missing = [k for k in PARAMETER_KEYS if k not in ds.attrs]
         if missing:
-            raise ValueError(f"{where}: dataset {_dataset_name(ds)} lacks the model attribute(s) {missing}")
+            raise ValueError(f"{where}: dataset {dataset_name(ds)} lacks the model attribute(s) {missing}")
         these = {k: float(ds.attrs[k]) for k in PARAMETER_KEYS}
         if values is None:
             values = these
         elif these != values:
-            raise ValueError(f"{where}: datasets of different models: {values} and {these} ({_dataset_name(ds)})")
+            raise ValueError(f"{where}: datasets of different models: {values} and {these} ({dataset_name(ds)})")
     return ModelParameters(**values)
 
 
@@ -394,11 +323,11 @@ def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path
     params = model_parameters(*[ds for ds in datasets if ds is not exact], where=where)
     for ds in bifurcated:
         if ds.attrs.get("parent_branch") != kind.branch or "resonance" not in ds.attrs:
-            raise ValueError(f"{where}: {_dataset_name(ds)} is not a branch bifurcated from {kind.branch.upper()}")
+            raise ValueError(f"{where}: {dataset_name(ds)} is not a branch bifurcated from {kind.branch.upper()}")
     labels = label_specs(spec.get("labels"))
     if not labels:
         raise ValueError(f"{where}: no labelled points configured (figures.{name}.labels)")
-    points = [select_point(branch, s, f"{where}, {_dataset_name(branch)}") for s in labels]
+    points = [select_point(branch, s, f"{where}, {dataset_name(branch)}") for s in labels]
 
     slope = None
     if kind.inset_gap_zero_mode is not None:
@@ -493,121 +422,41 @@ def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
     return _figure_with_modal_lines("fig06", nnm2, spec, pdf_path, png_dpi=png_dpi)
 
 
-def _nnm1_figure(name, nnm1_stages, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None):
-    branch = combine_nnm1_stages(list(nnm1_stages), name, spec.get("nnm1_stages"))
+def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None):
     stages = np.unique(branch["stage"].values)
     text = f"stage {stages[0]}" if stages.size == 1 else f"stages {stages[0]}-{stages[-1]}"
     return _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi,
                                     branch_label=f"NNM1 ({text} of the continuation)", exact=exact, bifurcated=bifurcated)
 
 
-def figure_07(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
+def figure_07(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 7: NNM1 at low energy, modal lines a)-c) (no impact, one impact per stop,
-    secondary oscillation between impacts). ``nnm1_stages``: the stage datasets read."""
-    return _nnm1_figure("fig07", nnm1_stages, spec, pdf_path, png_dpi=png_dpi, exact=exact)
+    secondary oscillation between impacts). ``nnm1``: the NNM1 stages read, joined
+    (``nnmstop.tasks.figures.combine_nnm1_stages``)."""
+    return _nnm1_figure("fig07", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact)
 
 
-def figure_08(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+def figure_08(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
               bifurcated=None):
     """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; three then two impacts per stop and
     the 3:1 internal resonance, modal lines d)-i)."""
-    return _nnm1_figure("fig08", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+    return _nnm1_figure("fig08", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_09(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+def figure_09(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
               bifurcated=None):
     """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; four then five impacts per stop and
     the 5:1 internal resonance, modal lines j)-m)."""
-    return _nnm1_figure("fig09", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+    return _nnm1_figure("fig09", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_10(nnm1_stages: list[xr.Dataset], nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
+def figure_10(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
               bifurcated=None):
     """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance: impacts
     without oscillation between the stops, back to one impact per stop, o)-q)."""
-    return _nnm1_figure("fig10", nnm1_stages, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+    return _nnm1_figure("fig10", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_11(nnm1_stages: list[xr.Dataset], spec: dict, pdf_path, png_dpi: int = 150, exact=None):
+def figure_11(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
     """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dashed)."""
-    return _nnm1_figure("fig11", nnm1_stages, spec, pdf_path, png_dpi=png_dpi, exact=exact)
-
-
-# --------------------------------------------------------------------------- pipeline entry
-
-STAGE_PATH = "results/hbm/stages/nnm1_stage{stage}.nc"
-
-
-def nnm1_stage_files(config: dict, figure: str) -> list[str]:
-    """Paths of the NNM1 stage datasets read by paper figure ``figure`` (its rule's inputs).
-
-    Taken from ``figures.<figure>.nnm1_stages``.
-
-    Raises
-    ------
-    ValueError
-        If the figure is not configured or names a stage that ``branches.nnm1`` lacks.
-    """
-    stages = figure_config(config, figure).get("nnm1_stages")
-    if not stages:
-        raise ValueError(f"the configuration has no 'figures.{figure}.nnm1_stages'")
-    available = len(config["branches"]["nnm1"]["stages"])
-    unknown = [k for k in stages if not 1 <= k <= available]
-    if unknown:
-        raise ValueError(f"figures.{figure}.nnm1_stages: stage(s) {unknown} do not exist (branches.nnm1 has {available} stages)")
-    return [STAGE_PATH.format(stage=k) for k in stages]
-
-
-
-def _as_list(value) -> list:
-    if value is None:
-        return []
-    if isinstance(value, (str, Path)):
-        return [value]
-    return list(value)
-
-
-def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
-    """Build paper figure ``name`` from the named inputs of its rule.
-
-    Inputs: ``nnm1`` and ``nnm2`` (whole branches) for ``fig05``; ``nnm2`` for
-    ``fig06``; ``nnm1_stages`` (list of stage files) and, for Figs 8-10, ``nnm2`` and
-    ``bifurcated`` (the files of ``figures.<name>.bifurcated``, possibly none).
-    Outputs: ``pdf`` and ``png`` (same stem).
-
-    Raises
-    ------
-    ValueError
-        If the outputs do not share a stem, an input is missing, or the figure
-        cannot honour its configuration.
-    """
-    if name not in PAPER_FIGURES:
-        raise ValueError(f"unknown paper figure {name!r}; figures are {sorted(PAPER_FIGURES)}")
-    spec = figure_config(config, name)
-    png_dpi = int(config["figures"].get("png_dpi", 150))
-    pdf, png = Path(outputs["pdf"]), Path(outputs["png"])
-    if pdf.suffix != ".pdf" or png != pdf.with_suffix(".png"):
-        raise ValueError(f"{name}: outputs must be NAME.pdf and NAME.png side by side, got {pdf} and {png}")
-
-    def need(key):
-        if key not in inputs or not inputs[key]:
-            raise ValueError(f"{name}: missing input {key!r}")
-        return inputs[key]
-
-    if name == "fig05":
-        return figure_05(open_dataset(need("nnm1")), open_dataset(need("nnm2")), spec, pdf, png_dpi)
-    if name == "fig06":
-        return figure_06(open_dataset(need("nnm2")), spec, pdf, png_dpi)
-    stages = [open_dataset(p) for p in _as_list(need("nnm1_stages"))]
-    # optional overlay of the exact multi-impact NNM1 (figures.overlay_exact)
-    exact = open_dataset(inputs["exact"]) if inputs.get("exact") else None
-    if name in ("fig07", "fig11"):
-        builder = figure_07 if name == "fig07" else figure_11
-        return builder(stages, spec, pdf, png_dpi, exact=exact)
-    builder = {"fig08": figure_08, "fig09": figure_09, "fig10": figure_10}[name]
-    # branches switched at branch points (figures.<name>.bifurcated), one input file each
-    wanted = spec.get("bifurcated", [])
-    bifurcated = [open_dataset(p) for p in _as_list(need("bifurcated"))] if wanted else []
-    if len(bifurcated) != len(wanted):
-        raise ValueError(f"{name}: figures.{name}.bifurcated lists {wanted}, the inputs hold {len(bifurcated)} datasets")
-    return builder(stages, open_dataset(need("nnm2")), spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated)
+    return _nnm1_figure("fig11", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact)

@@ -9,15 +9,13 @@ silently.
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from nnmstop.figures.common import open_dataset, save_figure
 
-__all__ = ["regime_error_figure", "build_regime_error_figure"]
+__all__ = ["regime_error_figure"]
 
 _REQUIRED = ("energy", "relative_frequency_error", "point_regime", "impacts_per_period", "exact_sequence")
 
@@ -63,9 +61,3 @@ def regime_error_figure(ds: xr.Dataset):
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), title="regime", title_fontsize=7)
     fig.tight_layout()
     return fig
-
-
-def build_regime_error_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
-    """Draw and save ``pdf_path`` and its PNG (resolution ``figures.png_dpi``)."""
-    dpi = int(config.get("figures", {}).get("png_dpi", 150))
-    return save_figure(regime_error_figure(open_dataset(dataset_path)), pdf_path, png_dpi=dpi)

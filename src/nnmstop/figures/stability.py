@@ -10,7 +10,6 @@ The title gives the agreement counts of the comparison dataset
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -19,9 +18,9 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import NullFormatter
 
 from nnmstop.compare.stability import stability_changes, verdicts
-from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, plot_branch, save_figure
+from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, plot_branch
 
-__all__ = ["stability_figure", "build_stability_figure"]
+__all__ = ["ZOOM_ENERGY", "stability_figure"]
 
 #: Default energy windows of the zoomed panels (``figures.extra_stability.zoom_energy`` in the
 #: configuration): the regimes around the 3:1 and the 5:1 internal resonances of NNM1 for the
@@ -103,19 +102,3 @@ def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig
-
-
-def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, Path]:
-    """Draw ``paper_figures/extra_stability.pdf`` and its PNG (task of rule ``stability_figure``).
-
-    ``inputs``: ``exact`` and ``nnm1`` (branch datasets), ``dataset`` (the stability comparison).
-    """
-    for key in ("exact", "nnm1", "dataset"):
-        if key not in inputs:
-            raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
-    figures = config.get("figures", {})
-    dpi = int(figures.get("png_dpi", 150))
-    zoom = figures.get("extra_stability", {}).get("zoom_energy", ZOOM_ENERGY)
-    fig = stability_figure(open_dataset(inputs["exact"]), open_dataset(inputs["nnm1"]), open_dataset(inputs["dataset"]),
-                           zoom_energy=zoom)
-    return save_figure(fig, pdf_path, png_dpi=dpi)

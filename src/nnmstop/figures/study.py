@@ -23,21 +23,17 @@ from __future__ import annotations
 
 import logging
 import warnings
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 from matplotlib import transforms
 
-from nnmstop.figures.common import open_dataset, save_figure
 
 __all__ = [
     "pareto_front",
     "error_vs_runtime_figure",
     "stiff_cases_figure",
-    "build_error_vs_runtime_figure",
-    "build_stiff_cases_figure",
 ]
 
 logger = logging.getLogger("nnmstop.figures.study")
@@ -235,15 +231,3 @@ def stiff_cases_figure(ds: xr.Dataset):
     ax.set_title(f"(d) extreme energies (eta = {ds.attrs.get('energy_sweep_eta', '?')}; x: no two-impact orbit)", fontsize=8)
     ax.legend(fontsize=6)
     return fig
-
-
-def build_error_vs_runtime_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
-    """Pipeline task: ``paper_figures/error_vs_runtime.pdf`` and ``.png``."""
-    fig = error_vs_runtime_figure(open_dataset(dataset_path))
-    return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]))
-
-
-def build_stiff_cases_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
-    """Pipeline task: ``paper_figures/stiff_cases.pdf`` and ``.png``."""
-    fig = stiff_cases_figure(open_dataset(dataset_path))
-    return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]))

@@ -1,69 +1,28 @@
 """Error against run time of the regularized NNM1 on its two-impact range (issue 5, part 1).
 
-What is measured
-----------------
-For each setting -- number of harmonics ``H`` and regularization ``eta`` (at the ANM
-order and tolerance of the configuration), or ANM ``order`` and ``tolerance`` (at
-``H = study.error_runtime.anm_harmonics`` and the configuration's ``eta``) -- one job
-continues stage 1 of the regularized NNM1 (linear mode up to the first orbit with more
-than one impact per stop) with :func:`nnmstop.study.runs.run_stage_one`, storing
-``study.points_per_step`` points per ANM step (1: the step ends; the errors are taken
-on Newton-solved orbits at the matched energies, so drawing points add cost, not
-accuracy, and every stored point costs a Floquet analysis in the branch dataset), timing it
-(wall clock and CPU, seconds) and counting its steps and factorizations, then matches
-its orbits with the exact non-smooth ones (:mod:`nnmstop.compare.matching`) at the energies
-``study.energies`` and records
+Each sweep setting -- harmonics ``H`` and regularization ``eta``, or ANM ``order`` and
+``tolerance`` (:func:`sweep_cases`) -- continues NNM1 stage 1 with
+:func:`nnmstop.study.runs.run_stage_one` (timed, guarded), matches its orbits with the exact
+non-smooth ones at ``study.energies`` and records the frequency error, the largest
+differences of ``x``, ``u`` and the contact force, and the matched orbits
+(:func:`error_case_dataset`). A large-``H`` reference per ``eta`` (:func:`reference_dataset`)
+splits the error into a regularization part (reference against exact) and a truncation part
+(``H`` against reference); :func:`gather_error_vs_runtime` assembles the sweep, with the cost
+of the exact solver (:func:`exact_cost_dataset`).
 
-* the relative frequency error at each matched energy, ``(f_reg - f_exact) / f_exact``;
-* the largest differences of ``x``, ``u`` and of the contact force over the period (HBM
-  force series against the piecewise-linear law on the exact orbit);
-* the matched HBM orbits themselves, so that the gather can split the error.
-
-The split
----------
-For each ``eta`` a reference job computes the same matched orbits with many more
-harmonics, ``H_ref = study.error_runtime.reference_harmonics``: a guarded continuation
-at ``reference_seed_harmonics`` gives seeds, padded with zeros to ``H_ref`` and solved
-again at each energy by Newton's method on the ``H_ref`` system
-(:class:`~nnmstop.compare.matching.EnergyMatcher`). Then, at each energy,
-
-* **regularization part** = reference orbit against the exact orbit (depends on ``eta``
-  only);
-* **truncation part** = orbit with ``H`` against the reference orbit (same ``eta``),
-  computed by :func:`nnmstop.study.runs.hbm_orbit_differences`.
-
-The truncation part of a setting with ``H`` close to ``H_ref`` is underestimated by the
-truncation error of ``H_ref`` itself (for ``eta = 1e-3`` the ``x`` error decays like
-``H**-3``: 12 % for ``H = H_ref / 2``); the ratio ``H_ref / H`` is stored.
-
-What counts as a failure
-------------------------
-A setting is ``converged`` when its continuation reached the end of stage 1 with every
-orbit resolved (truncation indicator at most ``study.max_truncation``, see
-:class:`~nnmstop.study.runs.TruncationGuard`); otherwise ``failure`` says why (the
-engine's error naming the step and energy, or the guard's naming the energy, the
-indicator and ``H``) and every error of that setting is missing. A converged setting is
-``compared`` when all the study energies lie on its two-impact range; the summary
-errors (maxima over the energies) exist only then, and ``failure`` names the first
-energy that could not be matched (for ``eta = 1`` the regularized NNM1 has one impact per
-stop on a narrower energy range than the exact family).
-
-Run times are measurements of this machine at that moment (the 1-minute load average
-when each job started is stored): the outputs of this study are exempt from
-byte-identical reruns and are never read by the paper's figures.
+Run times are measurements of this machine (the load average is stored): exempt from
+byte-identical reruns, never read by the paper's figures. Method notes (the split, what
+counts as a failure): ``docs/methods/study.md``; tasks: :mod:`nnmstop.tasks.study`.
 """
 
 from __future__ import annotations
 
-import logging
 import os
 import time
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-from nnmstop.netcdf import write_dataset
 from nnmstop.exact.two_impact import follow_family, time_history
 from nnmstop.hbm.branches import system_from_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
@@ -71,33 +30,23 @@ from nnmstop.models.two_dof import ModelParameters
 from nnmstop.study.runs import (
     ERROR_KEYS,
     case_config,
-    format_number,
     hbm_orbit_differences,
     match_energies,
     path_error,
     run_stage_one,
     string_variable,
-    truncation_level,
     variable,
 )
 
 __all__ = [
     "study_settings",
-    "case_paths",
+    "sweep_cases",
     "error_case_dataset",
     "reference_dataset",
     "exact_cost_dataset",
     "gather_error_vs_runtime",
-    "build_error_case",
-    "build_reference",
-    "build_exact_cost",
-    "build_error_vs_runtime",
 ]
 
-logger = logging.getLogger("nnmstop.study.error_runtime")
-
-CASE_DIR = "results/study/cases"
-OUTPUT = "results/study/error_vs_runtime.nc"
 _PER_ENERGY = {
     "relative_frequency_difference": ("relative frequency difference (regularized minus exact) / exact", "1"),
     "max_x_difference": ("largest |x_regularized - x_exact| over the period", "1"),
@@ -139,26 +88,18 @@ def study_settings(config: dict) -> dict:
     return study
 
 
-def case_paths(config: dict) -> dict:
-    """Files of the sweep jobs, by kind: ``cases``, ``anm_cases``, ``references``, ``exact_cost``."""
+def sweep_cases(config: dict) -> dict:
+    """The settings of the sweep jobs, in the order the gather expects their datasets.
+
+    ``cases``: ``(H, eta)`` pairs (``eta`` outer); ``anm_cases``: ``(order, tolerance)``
+    pairs (``order`` outer); ``references``: one ``eta`` each.
+    """
     sweep = study_settings(config)["error_runtime"]
     return {
-        "cases": [
-            f"{CASE_DIR}/H{H}_eta{format_number(eta)}.nc" for eta in sweep["eta"] for H in sweep["harmonics"]
-        ],
-        "anm_cases": [
-            f"{CASE_DIR}/anm_N{order}_tol{format_number(tol)}.nc"
-            for order in sweep["anm_orders"]
-            for tol in sweep["anm_tolerances"]
-        ],
-        "references": [f"{CASE_DIR}/reference_eta{format_number(eta)}.nc" for eta in sweep["eta"]],
-        "exact_cost": f"{CASE_DIR}/exact_cost.nc",
+        "cases": [(int(H), float(eta)) for eta in sweep["eta"] for H in sweep["harmonics"]],
+        "anm_cases": [(int(order), float(tol)) for order in sweep["anm_orders"] for tol in sweep["anm_tolerances"]],
+        "references": [float(eta) for eta in sweep["eta"]],
     }
-
-
-def _load(path) -> xr.Dataset:
-    with xr.open_dataset(path) as ds:
-        return ds.load()
 
 
 def _load_average() -> float:
@@ -258,22 +199,6 @@ def error_case_dataset(config: dict, exact: xr.Dataset, harmonics: int, eta: flo
     return ds
 
 
-def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, order=None, tolerance=None) -> Path:
-    """Pipeline task: one sweep setting, written to ``output_path``."""
-    exact = _load(inputs["exact"])
-    order = None if order is None else int(order)
-    tolerance = None if tolerance is None else float(tolerance)
-    ds = error_case_dataset(config, exact, int(harmonics), float(eta), order, tolerance)
-    logger.info("converged %s, compared %s, runtime %.3f s; %s", bool(ds["converged"]), bool(ds["compared"]),
-                float(ds["runtime"]), str(ds["failure"].values) or "no failure")
-    return write_dataset(
-        ds, output_path, title="Study case: regularized NNM1 stage 1 against the exact orbits, timed",
-        summary="One setting of the error-against-run-time study (measurement; not part of the paper's figures).",
-        keywords="study, run time",
-        metadata=config.get("metadata"),
-    )
-
-
 # --------------------------------------------------------------------------- reference
 
 
@@ -309,7 +234,7 @@ def reference_dataset(config: dict, exact: xr.Dataset, eta: float) -> xr.Dataset
         orbits = _orbit_matrix(matched.orbits, n_unknowns)
         failure = matched.failure
         if matched.system is not None:
-            levels = np.array([np.nan if U is None else truncation_level(matched.system, U) for U in matched.orbits])
+            levels = np.array([np.nan if U is None else matched.system.truncation(U) for U in matched.orbits])
             worst = np.nanmax(levels) if np.isfinite(levels).any() else np.nan
             if not failure and worst > float(study["max_truncation"]):
                 failure = (
@@ -337,17 +262,6 @@ def reference_dataset(config: dict, exact: xr.Dataset, eta: float) -> xr.Dataset
     )
     ds.attrs = {**_case_common_attrs(case_config(cfg, harmonics=H_ref)), "seed_harmonics": H_seed}
     return ds
-
-
-def build_reference(config: dict, inputs: dict, output_path, eta) -> Path:
-    """Pipeline task: the large-H reference orbits of one ``eta``."""
-    ds = reference_dataset(config, _load(inputs["exact"]), float(eta))
-    return write_dataset(
-        ds, output_path, title="Study reference: regularized NNM1 orbits with many harmonics at the study energies",
-        summary="Large-H reference of the error-against-run-time study (measurement; not part of the paper's figures).",
-        keywords="study, reference",
-        metadata=config.get("metadata"),
-    )
 
 
 # --------------------------------------------------------------------------- exact cost
@@ -389,27 +303,18 @@ def exact_cost_dataset(config: dict, repeats: int = 3) -> xr.Dataset:
     return ds
 
 
-def build_exact_cost(config: dict, inputs: dict, output_path) -> Path:
-    """Pipeline task: the exact solver's cost per orbit."""
-    return write_dataset(
-        exact_cost_dataset(config), output_path, title="Study: cost of the exact two-impact solver",
-        summary="Run time per orbit of the closed-form exact solver (measurement).", keywords="study, run time",
-        metadata=config.get("metadata"),
-    )
-
-
 # --------------------------------------------------------------------------- gather
 
 
-def _check_case(ds: xr.Dataset, path, config: dict, expect: dict) -> None:
-    """Refuse a case file computed with other settings (a stale file)."""
+def _check_case(ds: xr.Dataset, label: str, config: dict, expect: dict) -> None:
+    """Refuse a case dataset computed with other settings (a stale file)."""
     for key, value in expect.items():
         stored = ds.attrs.get(key)
         if stored is None or not np.isclose(float(stored), float(value), rtol=1e-12, atol=0):
-            raise ValueError(f"{path}: {key} = {stored!r} in the file but {value!r} expected (stale study file?)")
+            raise ValueError(f"{label}: {key} = {stored!r} in the dataset but {value!r} expected (stale study file?)")
     energies = np.asarray(config["study"]["energies"], dtype=float)
     if ds.sizes.get("energy") != energies.size or not np.allclose(ds["energy"].values, energies, rtol=1e-12, atol=0):
-        raise ValueError(f"{path}: computed at the energies {ds['energy'].values.tolist()}, the configuration asks for {energies.tolist()}")
+        raise ValueError(f"{label}: computed at the energies {ds['energy'].values.tolist()}, the configuration asks for {energies.tolist()}")
 
 
 def _system(config: dict, harmonics: int, eta: float) -> HarmonicBalanceSystem:
@@ -424,11 +329,14 @@ def _max_abs(values, axis=-1):
     return out
 
 
-def gather_error_vs_runtime(config: dict, inputs: dict) -> xr.Dataset:
-    """Assemble the sweep files into ``error_vs_runtime`` (see the module docstring).
+def gather_error_vs_runtime(
+    config: dict, cases: list, anm_cases: list, references: list, exact_cost: xr.Dataset
+) -> xr.Dataset:
+    """Assemble the sweep datasets into ``error_vs_runtime`` (see the module docstring).
 
-    ``inputs`` holds the lists ``cases``, ``anm_cases``, ``references`` (paths in the order
-    of :func:`case_paths`) and the path ``exact_cost``.
+    ``cases``, ``anm_cases`` and ``references`` are the datasets of the sweep jobs in the
+    order of :func:`sweep_cases`; ``exact_cost`` the dataset of :func:`exact_cost_dataset`.
+    Each is checked against the setting it stands for (a stale file is refused).
     """
     study = study_settings(config)
     sweep = study["error_runtime"]
@@ -439,19 +347,20 @@ def gather_error_vs_runtime(config: dict, inputs: dict) -> xr.Dataset:
     energies = np.asarray(study["energies"], dtype=float)
     nE, nH, nEta = energies.size, len(Hs), len(etas)
     H_ref = int(sweep["reference_harmonics"])
-    expected = case_paths(config)
-    for kind in ("cases", "anm_cases", "references"):
-        got = [str(p) for p in inputs[kind]] if not isinstance(inputs[kind], str) else [inputs[kind]]
-        if [Path(p).name for p in got] != [Path(p).name for p in expected[kind]]:
-            raise ValueError(f"the {kind} inputs {got} do not match the configuration's {expected[kind]}")
+    expected = sweep_cases(config)
+    given = {"cases": list(cases), "anm_cases": list(anm_cases), "references": list(references)}
+    for kind, datasets in given.items():
+        if len(datasets) != len(expected[kind]):
+            raise ValueError(
+                f"{len(datasets)} {kind} datasets given, the configuration's sweep has {len(expected[kind])}"
+            )
     model = config["model"]
     base = {k: model[k] for k in ("alpha", "beta", "delta")}
 
     # references (regularization part)
     refs = []
-    for eta, path in zip(etas, inputs["references"]):
-        ds = _load(path)
-        _check_case(ds, path, config, {**base, "eta": eta, "harmonics": H_ref})
+    for eta, ds in zip(etas, given["references"]):
+        _check_case(ds, f"reference of eta = {eta:g}", config, {**base, "eta": eta, "harmonics": H_ref})
         refs.append(ds)
     reg_part = {key: np.array([r[key].values for r in refs]) for key in ERROR_KEYS}
 
@@ -464,13 +373,12 @@ def gather_error_vs_runtime(config: dict, inputs: dict) -> xr.Dataset:
     failure = np.full(shape, "", dtype=object)
     per_energy = {key: np.full(shape + (nE,), np.nan) for key in ERROR_KEYS}
     trunc_part = {key: np.full(shape + (nE,), np.nan) for key in ERROR_KEYS if key != "force_max_exact"}
-    paths = iter(inputs["cases"])
+    case_datasets = iter(given["cases"])
     for j, eta in enumerate(etas):
         ref_system = _system(config, H_ref, eta)
         for i, H in enumerate(Hs):
-            path = next(paths)
-            ds = _load(path)
-            _check_case(ds, path, config, {**base, "eta": eta, "harmonics": H, "order": config["anm"]["order"], "tolerance": config["anm"]["tolerance"]})
+            ds = next(case_datasets)
+            _check_case(ds, f"case H = {H}, eta = {eta:g}", config, {**base, "eta": eta, "harmonics": H, "order": config["anm"]["order"], "tolerance": config["anm"]["tolerance"]})
             converged[i, j], compared[i, j] = bool(ds["converged"]), bool(ds["compared"])
             failure[i, j] = str(ds["failure"].values)
             for key in scalars:
@@ -494,12 +402,11 @@ def gather_error_vs_runtime(config: dict, inputs: dict) -> xr.Dataset:
     anm_err = {key: np.full(ashape, np.nan) for key in ("relative_frequency_difference", "max_x_difference")}
     anm_conv = np.zeros(ashape, dtype=bool)
     anm_failure = np.full(ashape, "", dtype=object)
-    paths = iter(inputs["anm_cases"])
+    anm_datasets = iter(given["anm_cases"])
     for i, order in enumerate(orders):
         for j, tol in enumerate(tols):
-            path = next(paths)
-            ds = _load(path)
-            _check_case(ds, path, config, {**base, "eta": model["eta"], "harmonics": sweep["anm_harmonics"], "order": order, "tolerance": tol})
+            ds = next(anm_datasets)
+            _check_case(ds, f"ANM case order {order}, tolerance {tol:g}", config, {**base, "eta": model["eta"], "harmonics": sweep["anm_harmonics"], "order": order, "tolerance": tol})
             anm_conv[i, j] = bool(ds["converged"])
             anm_failure[i, j] = str(ds["failure"].values)
             for key in anm:
@@ -510,7 +417,7 @@ def gather_error_vs_runtime(config: dict, inputs: dict) -> xr.Dataset:
                 for key in anm_err:
                     anm_err[key][i, j] = _max_abs(ds[key].values)
 
-    cost = _load(inputs["exact_cost"])
+    cost = exact_cost
 
     # summaries: maxima over the energies, only where every energy was compared
     def summary(values):
@@ -604,17 +511,3 @@ def gather_error_vs_runtime(config: dict, inputs: dict) -> xr.Dataset:
     return ds
 
 
-def build_error_vs_runtime(config: dict, inputs: dict, output_path) -> Path:
-    """Pipeline task: gather the sweep into ``results/study/error_vs_runtime.nc``."""
-    ds = gather_error_vs_runtime(config, inputs)
-    return write_dataset(
-        ds, output_path, title="Error against run time of the regularized NNM1 (HBM + ANM) on its two-impact range",
-        summary=(
-            "Errors of the regularized NNM1 against the exact non-smooth orbits at matched energies, split into "
-            "regularization and truncation parts, with measured run times and factorization counts, over the number "
-            "of harmonics, the regularization parameter and the ANM order and tolerance. Measurements: exempt from "
-            "byte-identical reruns; not used by the paper's figures."
-        ),
-        keywords="study, accuracy, run time, regularization, truncation",
-        metadata=config.get("metadata"),
-    )

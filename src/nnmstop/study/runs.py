@@ -1,45 +1,18 @@
 """Shared pieces of the study: a guarded, timed continuation of NNM1 and matched-energy errors.
 
-Guarded continuation
---------------------
-:func:`run_stage_one` continues stage 1 of the regularized NNM1 (from the linear mode to
-the first orbit with more than one impact per stop, as ``continue_stage`` does) with the
-engine's public pieces (:func:`nnmstop.hbm.branches.start_point`,
-:func:`nnmstop.hbm.branches.stage_criterion`, :func:`nnmstop.continuation.anm.continue_anm`), measures its
-wall-clock and CPU time and its cost counters, and adds one check the engine does not
-make yet: a :class:`TruncationGuard` that stops the continuation with an
-:class:`UnresolvedBranchError` (naming the energy, the frequency, the truncation
-indicator and ``H``) as soon as the top harmonics carry more than ``max_truncation`` of
-the signal. Without it, too few harmonics for the sharpness of the stop give a branch
-that "converges" (every algebraic residual at round-off) but is not an orbit of Eq. (7):
-for example ``H = 10`` with ``eta = 1e-3``, or ``H = 100`` with ``alpha = 1e4``.
+* :func:`run_stage_one` continues stage 1 of the regularized NNM1 with the engine's
+  :class:`~nnmstop.hbm.branches.TruncationGuard` (the study's own ``max_truncation``), an
+  optional energy limit and no branch-point location, and measures its wall-clock and CPU
+  time and its cost counters; a numerical failure becomes ``StageRun.failure``, never an
+  exception.
+* :func:`match_energies` compares a regularized branch with the exact orbits at given
+  energies through :mod:`nnmstop.compare.matching`, on the increasing-energy run chosen by
+  :func:`two_impact_arm`; :func:`hbm_orbit_differences` compares two HBM orbits (``H``
+  against a reference ``H``) the same way.
+* :func:`variable` stores a missing value as ``FILL_VALUE`` with ``_FillValue``, so that
+  readers get NaN, never a number that looks valid.
 
-The truncation indicator is :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.truncation_indicator`
-(share of the mean square of a series carried by its top harmonics) of ``x''`` and of
-``f``, the larger of the two, as in the branch datasets, **except** that the top share
-always holds at least two harmonics (:func:`truncation_level`): NNM1 orbits are
-symmetric (``q(t + T/2) = -q(t)``), so ``x``, ``u`` and ``f`` carry odd harmonics only,
-and with the engine's "top tenth" the top share of ``H = 10`` is the single (even,
-identically zero) harmonic 10, which reports a perfectly resolved orbit whatever the
-truth.
-
-Matched energies
-----------------
-Errors against the exact non-smooth orbits reuse :mod:`nnmstop.compare.matching`
-(:class:`~nnmstop.compare.matching.EnergyMatcher`, :func:`~nnmstop.compare.matching.orbit_differences`):
-both orbits are solved at exactly the requested energy, and their differences are
-maxima over the phase ``t/T`` aligned at the maximum of ``x``. For small ``eta`` the
-regularized branch has an energy fold just after grazing (as the exact family has), and
-:func:`nnmstop.compare.matching.regularized_monotone_part` would stop there;
-:func:`two_impact_arm` hands the matcher the branch from the start of the
-increasing-energy run that best covers the exact family's increasing arm, so that the
-increasing arms of both models are compared.
-
-Missing values
---------------
-A quantity that does not exist for a case (the error of a branch that did not converge)
-is stored as ``FILL_VALUE`` with the CF attribute ``_FillValue``: readers
-(:func:`xarray.open_dataset`) get NaN, never a number that looks valid.
+Method notes (why the guard, why the increasing run): ``docs/methods/study.md``.
 """
 
 from __future__ import annotations
@@ -53,8 +26,21 @@ import numpy as np
 import xarray as xr
 
 from nnmstop.continuation.anm import ANMSettings, continue_anm
-from nnmstop.hbm.branches import TruncationGuard, branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
-from nnmstop.compare.matching import EnergyMatcher, _regularized_on_phase, exact_increasing_arm, orbit_differences
+from nnmstop.hbm.branches import (
+    TruncationGuard,
+    branch_dataset,
+    dataset_unknowns,
+    start_point,
+    stage_criterion,
+    system_from_config,
+)
+from nnmstop.compare.matching import (
+    EnergyMatcher,
+    exact_increasing_arm,
+    largest_differences,
+    orbit_differences,
+    regularized_orbit_on_phase,
+)
 from nnmstop.config import validate_config
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, UnresolvedBranchError, newton_correct
 from nnmstop.hbm.system import HarmonicBalanceSystem
@@ -67,7 +53,6 @@ __all__ = [
     "MatchedErrors",
     "case_config",
     "format_number",
-    "truncation_level",
     "run_stage_one",
     "two_impact_arm",
     "match_energies",
@@ -145,19 +130,6 @@ def case_config(config: dict, **overrides) -> dict:
     return validate_config(out)
 
 
-# --------------------------------------------------------------------------- truncation
-
-
-def truncation_level(system: HarmonicBalanceSystem, U) -> float:
-    """Truncation indicator of an HBM orbit, as the branch datasets record it.
-
-    :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.truncation`: share of the mean square
-    carried by the top tenth of the harmonics (at least two, so that it always holds an
-    odd harmonic), the larger for ``x''`` and ``f``.
-    """
-    return system.truncation(U)
-
-
 # --------------------------------------------------------------------------- one guarded run
 
 
@@ -176,7 +148,8 @@ class StageRun:
     stats : ContinuationStats or None
         Cost counters (None when the run failed: the engine does not return them then).
     truncation : float
-        Largest :func:`truncation_level` met along the run (up to the failure if any).
+        Largest truncation indicator (:meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.truncation`) met
+        along the run (up to the failure if any).
     harmonics : int
     """
 
@@ -198,7 +171,9 @@ def _settings(config: dict) -> ANMSettings:
     return ANMSettings.from_config(config["anm"], points_per_step=config["hbm"].get("points_per_step", 1))
 
 
-def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 1", energy_limit: float | None = None) -> StageRun:
+def run_stage_one(
+    config: dict, max_truncation: float, label: str = "NNM1 stage 1", energy_limit: float | None = None
+) -> StageRun:
     """Continue NNM1 stage 1 of ``config`` with a :class:`TruncationGuard`; time it.
 
     ``energy_limit`` (optional) also ends the stage at the first orbit above that energy
@@ -218,7 +193,8 @@ def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 
         stage_end, limit = inner, float(energy_limit)
 
         def inner(U, diag):  # noqa: F811 - the stage criterion, or the energy limit first
-            return stage_end(U, diag) or (f"energy above {limit:g} (past the compared range)" if diag["energy"] > limit else "")
+            past = diag["energy"] > limit
+            return stage_end(U, diag) or (f"energy above {limit:g} (past the compared range)" if past else "")
 
     guard = TruncationGuard(system, inner, max_truncation, label, setting="study.max_truncation")
     wall, cpu = time.perf_counter(), time.process_time()
@@ -289,7 +265,9 @@ def two_impact_arm(branch: xr.Dataset, exact: xr.Dataset | None = None) -> xr.Da
     over = np.flatnonzero(impacts > 2)
     end = int(over[0]) if over.size else energy.size
     if end < 2:
-        raise ValueError(f"the regularized branch has fewer than two leading orbits with at most two impacts (impacts {impacts[:3]})")
+        raise ValueError(
+            f"the regularized branch has fewer than two leading orbits with at most two impacts (impacts {impacts[:3]})"
+        )
     if exact is not None:
         arm = np.asarray(exact["energy"].values[exact_increasing_arm(exact)], dtype=float)
         lo, hi = float(arm[0]), float(arm[-1])
@@ -302,13 +280,17 @@ def two_impact_arm(branch: xr.Dataset, exact: xr.Dataset | None = None) -> xr.Da
                 runs.append((run_start, i - 1))
             run_start = i
     if not runs:
-        raise ValueError("the regularized branch has no two consecutive orbits of increasing energy with at most two impacts")
+        raise ValueError(
+            "the regularized branch has no two consecutive orbits of increasing energy with at most two impacts"
+        )
 
     def score(run):
         first, last = run
         if exact is None:
             return energy[last]
-        return np.log(min(energy[last], hi) / max(energy[first], lo)) if energy[last] > lo and energy[first] < hi else -np.inf
+        if energy[last] <= lo or energy[first] >= hi:
+            return -np.inf
+        return np.log(min(energy[last], hi) / max(energy[first], lo))
 
     best = max(runs, key=score)[0]
     return branch.isel(point=slice(best, None))
@@ -399,20 +381,19 @@ def hbm_orbit_differences(
     """
     n = int(phase_samples)
     phase = np.arange(n) / n
-    a, shift_a = _regularized_on_phase(system, U, phase)
-    b, shift_b = _regularized_on_phase(reference_system, U_reference, phase)
+    a, shift_a = regularized_orbit_on_phase(system, U, phase)
+    b, shift_b = regularized_orbit_on_phase(reference_system, U_reference, phase)
     fa, fb = float(system.frequency_hz(U)), float(reference_system.frequency_hz(U_reference))
-    out = {"relative_frequency_difference": (fa - fb) / fb}
-    for key, name in (("x", "max_x_difference"), ("u", "max_u_difference"), ("f", "max_force_difference")):
-        diff = np.abs(a[key] - b[key])
-        j = int(np.argmax(diff))
-        local = phase[j] + np.linspace(-1.0, 1.0, 513) / n
-        fine = np.abs(
-            _regularized_on_phase(system, U, local, shift_a)[0][key]
-            - _regularized_on_phase(reference_system, U_reference, local, shift_b)[0][key]
-        )
-        out[name] = float(max(diff[j], fine.max()))
-    return out
+    largest = largest_differences(
+        a, b, lambda local: regularized_orbit_on_phase(system, U, local, shift_a)[0],
+        lambda local: regularized_orbit_on_phase(reference_system, U_reference, local, shift_b)[0], ("x", "u", "f"),
+    )
+    return {
+        "relative_frequency_difference": (fa - fb) / fb,
+        "max_x_difference": largest["x"],
+        "max_u_difference": largest["u"],
+        "max_force_difference": largest["f"],
+    }
 
 
 # --------------------------------------------------------------------------- dataset variables

@@ -1,48 +1,23 @@
 """Stiff and extreme cases: does each solver stay exact, converge, or say plainly that it cannot.
 
-Three sweeps (issue 5, part 2), each case its own Snakemake job:
+Three sweeps (issue 5, part 2), each case its own Snakemake job (:func:`stiff_case_parameters`):
 
-``alpha x eta`` (``beta``, ``delta`` of the configuration)
-    Exact family (:func:`exact_checks`) and a guarded continuation of NNM1 stage 1
-    (:func:`nnmstop.study.runs.run_stage_one`) tried with the harmonics of
-    ``study.stiff.harmonics`` in increasing order until one resolves the branch
-    (truncation indicator at most ``study.max_truncation`` at every orbit). The first
-    that does is kept with its steps, factorizations and run time, and its orbits are
-    compared with the exact ones at ``study.stiff.compare_count`` energies inside the
-    exact family's increasing arm (:func:`exact_energies`: the same for every ``eta``).
-    When none does, the case is ``converged = False`` with every attempt's reason; a
-    failure that more harmonics do not address (a failed step, ``max_steps``) ends the
-    ladder at once.
-``beta x delta`` (``alpha``, ``eta`` of the configuration)
-    The same for the stiffness and mass ratios.
-``energy x energy_alpha``
-    The exact solver at energies from ``1e-6`` to ``1e6`` (:func:`energy_case`): the
-    linear mode below grazing, the first two-impact family, or the high-energy
-    two-impact segment (:func:`nnmstop.exact.two_impact.high_energy_orbit`, exactly at the energy);
-    where no two-impact orbit exists the solver must refuse (validity margins), and it
-    is recorded so. Each exact orbit is checked for periodicity by the event-locating
-    integrator (:func:`nnmstop.checks.time_integration.integrate_nonsmooth`), and an HBM orbit
-    of the regularized model is computed at the same place (``H`` and ``eta`` of
-    ``study.stiff.energy_harmonics`` / ``energy_eta``) and compared.
+* ``alpha x eta`` and ``beta x delta``: the exact two-impact family with its exactness checks
+  (:func:`exact_checks`: residuals, periodicity by event-located integration, a confirmed end)
+  and a guarded continuation of NNM1 stage 1 tried with increasing harmonics until one
+  resolves the branch, compared with the exact orbits at energies of the family's increasing
+  arm (:func:`stiff_branch_dataset`, :func:`exact_energies`);
+* ``energy x energy_alpha``: the exact solver and an HBM orbit at energies from ``1e-6`` to
+  ``1e6`` (:func:`energy_case`), or the solver's plain refusal where no two-impact orbit exists.
 
-Exactness of the exact solver
------------------------------
-For every family: the largest residual of the quarter-period equations, and one orbit
-(the middle one) integrated over a period with event location at the stops: the
-largest ``|z(T) - z(0)|`` and the largest difference from the closed form at 16 times,
-both relative to the largest state component. The end of the family is *confirmed* by
-restarting the continuation just before it with a step 100 times smaller: a
-continuation step much longer than the contact duration (``~ pi / sqrt(alpha)``) can
-otherwise stop the family at a point that is not its end (with ``alpha = 1e6`` and the
-default step the family "ends" two orbits after grazing). An unconfirmed end is
-recorded and the family is recomputed with a step ten times smaller.
+:func:`gather_stiff_cases` assembles the job datasets. Method notes (how the end of a family is
+confirmed, the harmonics ladder): ``docs/methods/study.md``; tasks: :mod:`nnmstop.tasks.study`.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from pathlib import Path
 
 import numpy as np
 import scipy.optimize
@@ -51,7 +26,6 @@ import xarray as xr
 from nnmstop.hbm.branches import start_point, system_from_config
 from nnmstop.compare.matching import exact_increasing_arm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
-from nnmstop.netcdf import write_dataset
 from nnmstop.exact.two_impact import (
     TwoImpactProblem,
     assess_orbit,
@@ -66,16 +40,14 @@ from nnmstop.checks.time_integration import integrate_nonsmooth
 from nnmstop.study.error_runtime import study_settings
 from nnmstop.study.runs import (
     case_config,
-    format_number,
     match_energies,
     run_stage_one,
     string_variable,
-    truncation_level,
     variable,
 )
 
 __all__ = [
-    "stiff_paths",
+    "stiff_case_parameters",
     "exact_checks",
     "periodicity_check",
     "stiff_exact_dataset",
@@ -84,36 +56,30 @@ __all__ = [
     "energy_case",
     "energy_sweep_dataset",
     "gather_stiff_cases",
-    "build_stiff_exact",
-    "build_stiff_branch",
-    "build_stiff_energy",
-    "build_stiff_cases",
 ]
 
 logger = logging.getLogger("nnmstop.study.stiff")
 
-STIFF_DIR = "results/study/stiff"
 ENERGY_KINDS = ("linear", "family", "high_energy", "none")
 
 
-# --------------------------------------------------------------------------- file names
+# --------------------------------------------------------------------------- the cases
 
 
-def _tag(alpha, beta, delta) -> str:
-    return f"a{format_number(alpha)}_b{format_number(beta)}_d{format_number(delta)}"
+def stiff_case_parameters(config: dict) -> dict:
+    """The settings of the stiff-case jobs, in the order the gather expects their datasets.
 
-
-def stiff_paths(config: dict) -> dict:
-    """Files of the stiff-case jobs: ``exact`` and ``branches`` (unique, sorted) and ``energy``."""
+    ``branches``: ``(alpha, beta, delta, eta)`` of the ``alpha x eta`` and ``beta x delta``
+    grids (unique, sorted); ``exact``: their ``(alpha, beta, delta)`` (unique, sorted);
+    ``energy``: the ``alpha`` of each energy sweep.
+    """
     stiff = study_settings(config)["stiff"]
     model = config["model"]
     combos = {(float(a), float(model["beta"]), float(model["delta"]), float(e)) for a in stiff["alpha"] for e in stiff["eta"]}
     combos |= {(float(model["alpha"]), float(b), float(d), float(model["eta"])) for b in stiff["ratios"] for d in stiff["ratios"]}
-    combos = sorted(combos)
-    exact = sorted({f"{STIFF_DIR}/exact_{_tag(a, b, d)}.nc" for a, b, d, _ in combos})
-    branches = [f"{STIFF_DIR}/nnm1_{_tag(a, b, d)}_e{format_number(e)}.nc" for a, b, d, e in combos]
-    energy = [f"{STIFF_DIR}/energy_a{format_number(a)}.nc" for a in stiff["energy_alpha"]]
-    return {"exact": exact, "branches": branches, "energy": energy}
+    branches = sorted(combos)
+    exact = sorted({(a, b, d) for a, b, d, _ in branches})
+    return {"exact": exact, "branches": branches, "energy": [float(a) for a in stiff["energy_alpha"]]}
 
 
 def _params(config: dict, alpha, beta, delta, eta=None) -> ModelParameters:
@@ -227,17 +193,6 @@ def stiff_exact_dataset(config: dict, alpha, beta, delta) -> xr.Dataset:
     return ds
 
 
-def build_stiff_exact(config: dict, inputs: dict, output_path, alpha, beta, delta) -> Path:
-    """Pipeline task: exact family and checks of one ``(alpha, beta, delta)``."""
-    ds = stiff_exact_dataset(config, float(alpha), float(beta), float(delta))
-    return write_dataset(
-        ds, output_path, title="Study (stiff cases): exact two-impact NNM1 family with exactness checks",
-        summary="Exact family, residuals, periodicity by event-located integration (measurement of the study).",
-        keywords="study, stiff cases",
-        metadata=config.get("metadata"),
-    )
-
-
 # --------------------------------------------------------------------------- regularized branch
 
 
@@ -325,20 +280,6 @@ def stiff_branch_dataset(config: dict, exact: xr.Dataset, alpha, beta, delta, et
     ds.attrs = {"alpha": float(alpha), "beta": float(beta), "delta": float(delta), "eta": float(eta),
                 "harmonics_tried": ", ".join(str(h) for h in ladder), "max_truncation": float(study["max_truncation"])}
     return ds
-
-
-def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, delta, eta) -> Path:
-    """Pipeline task: harmonics ladder of one stiff case against its exact family."""
-    with xr.open_dataset(inputs["exact"]) as ds:
-        exact = ds.load()
-    out = stiff_branch_dataset(config, exact, float(alpha), float(beta), float(delta), float(eta))
-    logger.info("converged %s with H = %d; %s", bool(out["converged"]), int(out["harmonics"]), str(out["failure"].values) or "compared")
-    return write_dataset(
-        out, output_path, title="Study (stiff cases): regularized NNM1 stage 1, harmonics needed and error",
-        summary="Harmonics ladder of a guarded continuation against the exact family (measurement of the study).",
-        keywords="study, stiff cases",
-        metadata=config.get("metadata"),
-    )
 
 
 # --------------------------------------------------------------------------- energy sweep
@@ -451,7 +392,7 @@ def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
             direction = np.zeros(system.n_unknowns)
             direction[system.slices["x"].start + 1] = 1.0
             U, _ = newton_correct(system, _hbm_from_exact(system, params, y), direction, ContinuationStats(), tol=1e-12)
-        level = truncation_level(system, U)
+        level = system.truncation(U)
         out["hbm_truncation"] = level
         limit = float(study_settings(config)["max_truncation"])
         if level > limit:  # no number for an unresolved orbit: only the indicator and the reason
@@ -495,27 +436,15 @@ def energy_sweep_dataset(config: dict, alpha: float) -> xr.Dataset:
     return ds
 
 
-def build_stiff_energy(config: dict, inputs: dict, output_path, alpha) -> Path:
-    """Pipeline task: the energy sweep of one ``alpha``."""
-    return write_dataset(
-        energy_sweep_dataset(config, float(alpha)), output_path,
-        title="Study (stiff cases): exact solver and HBM at energies from 1e-6 to 1e6",
-        summary="Exact orbits and their periodicity by integration, and HBM orbits, at extreme energies (study).",
-        keywords="study, stiff cases",
-        metadata=config.get("metadata"),
-    )
-
-
 # --------------------------------------------------------------------------- gather
 
 
-def _load(path) -> xr.Dataset:
-    with xr.open_dataset(path) as ds:
-        return ds.load()
+def gather_stiff_cases(config: dict, exact: list, branches: list, energy: list) -> xr.Dataset:
+    """Assemble the stiff-case datasets into ``stiff_cases`` (grids ``alpha x eta``, ``beta x delta``, ``energy``).
 
-
-def gather_stiff_cases(config: dict, inputs: dict) -> xr.Dataset:
-    """Assemble the stiff-case files into ``stiff_cases`` (grids ``alpha x eta``, ``beta x delta``, ``energy``)."""
+    ``exact``, ``branches`` and ``energy`` are the datasets of the jobs in the order of
+    :func:`stiff_case_parameters`.
+    """
     study = study_settings(config)
     stiff = study["stiff"]
     model = config["model"]
@@ -523,20 +452,18 @@ def gather_stiff_cases(config: dict, inputs: dict) -> xr.Dataset:
     etas = [float(e) for e in stiff["eta"]]
     ratios = [float(r) for r in stiff["ratios"]]
     energy_alphas = [float(a) for a in stiff["energy_alpha"]]
-    exact = {Path(p).name: _load(p) for p in inputs["exact"]}
-    branches = {Path(p).name: _load(p) for p in inputs["branches"]}
-    energy = [_load(p) for p in inputs["energy"]]
-    expected = stiff_paths(config)
-    for kind in ("exact", "branches", "energy"):
-        names = sorted(Path(p).name for p in inputs[kind])
-        if names != sorted(Path(p).name for p in expected[kind]):
-            raise ValueError(f"the stiff {kind} inputs {names} do not match the configuration")
+    expected = stiff_case_parameters(config)
+    for kind, datasets in (("exact", exact), ("branches", branches), ("energy", energy)):
+        if len(datasets) != len(expected[kind]):
+            raise ValueError(f"{len(datasets)} stiff {kind} datasets given, the configuration has {len(expected[kind])} cases")
+    exact = dict(zip(expected["exact"], exact))
+    branches = dict(zip(expected["branches"], branches))
 
     def branch(a, b, d, e):
-        return branches[f"nnm1_{_tag(a, b, d)}_e{format_number(e)}.nc"]
+        return branches[(float(a), float(b), float(d), float(e))]
 
     def fam(a, b, d):
-        return exact[f"exact_{_tag(a, b, d)}.nc"]
+        return exact[(float(a), float(b), float(d))]
 
     b0, d0, a0, e0 = float(model["beta"]), float(model["delta"]), float(model["alpha"]), float(model["eta"])
     branch_scalars = ("runtime", "total_runtime", "truncation", "frequency_error", "x_error", "u_error", "force_error", "relative_force_error", "compared_energy_min", "compared_energy_max")
@@ -625,16 +552,3 @@ def gather_stiff_cases(config: dict, inputs: dict) -> xr.Dataset:
     return ds
 
 
-def build_stiff_cases(config: dict, inputs: dict, output_path) -> Path:
-    """Pipeline task: gather the stiff cases into ``results/study/stiff_cases.nc``."""
-    return write_dataset(
-        gather_stiff_cases(config, inputs), output_path,
-        title="Stiff and extreme cases: exactness of the exact solver, convergence of the continuation, errors",
-        summary=(
-            "For stiff stops (alpha up to 1e4), sharp regularizations (eta down to 1e-3), extreme energies (1e-6 to 1e6) "
-            "and stiffness and mass ratios from 0.01 to 100: residuals and periodicity of the exact orbits, the "
-            "harmonics and steps the continuation needs (or why it cannot), and its distance to the exact orbits."
-        ),
-        keywords="study, stiff cases, robustness",
-        metadata=config.get("metadata"),
-    )

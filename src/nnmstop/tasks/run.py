@@ -114,35 +114,35 @@ def hbm_branch(config, inputs, outputs, branch: str):
 
 def compare_nnm1(config, inputs, outputs):
     """Exact vs regularized NNM1 at matched energies (inputs ``exact``, ``nnm1`` = stage 1)."""
-    from nnmstop.compare.matching import build_comparison_dataset
+    from nnmstop.tasks.compare import build_comparison_dataset
 
     build_comparison_dataset(config, inputs, outputs["dataset"])
 
 
 def compare_regimes(config, inputs, outputs):
     """Frequency error of the regularized NNM1 per impact regime, whole branch (inputs ``exact``, ``nnm1``)."""
-    from nnmstop.compare.regimes import build_regime_error_dataset
+    from nnmstop.tasks.compare import build_regime_error_dataset
 
     build_regime_error_dataset(config, inputs, outputs)
 
 
 def regime_error_figure(config, inputs, outputs):
     """paper_figures/extra_regime_error.pdf/.png from the regime error dataset (input ``dataset``)."""
-    from nnmstop.figures.regime_errors import build_regime_error_figure
+    from nnmstop.tasks.figures import build_regime_error_figure
 
     build_regime_error_figure(config, inputs["dataset"], outputs["pdf"])
 
 
 def compare_stability(config, inputs, outputs):
     """Exact vs regularized Floquet verdicts of NNM1 per impact regime (inputs ``exact``, ``nnm1``)."""
-    from nnmstop.compare.stability import build_stability_comparison
+    from nnmstop.tasks.compare import build_stability_comparison
 
     build_stability_comparison(config, inputs, outputs)
 
 
 def stability_figure(config, inputs, outputs):
     """paper_figures/extra_stability.pdf/.png (inputs ``exact``, ``nnm1``, ``dataset``)."""
-    from nnmstop.figures.stability import build_stability_figure
+    from nnmstop.tasks.figures import build_stability_figure
 
     build_stability_figure(config, inputs, outputs["pdf"])
 
@@ -155,9 +155,9 @@ def paper_figure(name: str, config, inputs, outputs):
     (:mod:`nnmstop.figures.frequency_energy`). Outputs ``pdf`` and ``png``.
     """
     if name in ("fig02", "fig03", "fig04"):
-        from nnmstop.figures.exact_vs_regularized import build_figure
+        from nnmstop.tasks.figures import build_exact_vs_regularized_figure as build_figure
     else:
-        from nnmstop.figures.frequency_energy import build_paper_figure as build_figure
+        from nnmstop.tasks.figures import build_paper_figure as build_figure
     build_figure(name, config, inputs, outputs)
 
 
@@ -197,14 +197,14 @@ PAPER_FIGURE_TASKS = {f"paper_fig{n:02d}": functools.partial(paper_figure, f"fig
 
 def study_error_case(config, inputs, outputs, harmonics, eta):
     """One (H, eta) setting of the error-against-run-time study (input ``exact``)."""
-    from nnmstop.study.error_runtime import build_error_case
+    from nnmstop.tasks.study import build_error_case
 
     build_error_case(config, inputs, outputs["dataset"], harmonics, eta)
 
 
 def study_anm_case(config, inputs, outputs, order, tolerance):
     """One ANM (order, tolerance) setting at ``study.error_runtime.anm_harmonics`` and ``model.eta``."""
-    from nnmstop.study.error_runtime import build_error_case
+    from nnmstop.tasks.study import build_error_case
 
     H = config["study"]["error_runtime"]["anm_harmonics"]
     build_error_case(config, inputs, outputs["dataset"], H, config["model"]["eta"], order, tolerance)
@@ -212,63 +212,63 @@ def study_anm_case(config, inputs, outputs, order, tolerance):
 
 def study_reference(config, inputs, outputs, eta):
     """Large-H reference orbits of one eta (truncation/regularization split)."""
-    from nnmstop.study.error_runtime import build_reference
+    from nnmstop.tasks.study import build_reference
 
     build_reference(config, inputs, outputs["dataset"], eta)
 
 
 def study_exact_cost(config, inputs, outputs):
     """Cost per orbit of the exact solver."""
-    from nnmstop.study.error_runtime import build_exact_cost
+    from nnmstop.tasks.study import build_exact_cost
 
     build_exact_cost(config, inputs, outputs["dataset"])
 
 
 def study_error_vs_runtime(config, inputs, outputs):
     """Gather the sweep into results/study/error_vs_runtime.nc."""
-    from nnmstop.study.error_runtime import build_error_vs_runtime
+    from nnmstop.tasks.study import build_error_vs_runtime
 
     build_error_vs_runtime(config, inputs, outputs["dataset"])
 
 
 def study_error_vs_runtime_figure(config, inputs, outputs):
     """paper_figures/error_vs_runtime.pdf/.png (input ``dataset``)."""
-    from nnmstop.figures.study import build_error_vs_runtime_figure
+    from nnmstop.tasks.figures import build_error_vs_runtime_figure
 
     build_error_vs_runtime_figure(config, inputs["dataset"], outputs["pdf"])
 
 
 def study_stiff_exact(config, inputs, outputs, alpha, beta, delta):
     """Exact family and its exactness checks for one (alpha, beta, delta)."""
-    from nnmstop.study.stiff_cases import build_stiff_exact
+    from nnmstop.tasks.study import build_stiff_exact
 
     build_stiff_exact(config, inputs, outputs["dataset"], alpha, beta, delta)
 
 
 def study_stiff_branch(config, inputs, outputs, alpha, beta, delta, eta):
     """Harmonics ladder of NNM1 stage 1 for one stiff case (input ``exact``)."""
-    from nnmstop.study.stiff_cases import build_stiff_branch
+    from nnmstop.tasks.study import build_stiff_branch
 
     build_stiff_branch(config, inputs, outputs["dataset"], alpha, beta, delta, eta)
 
 
 def study_stiff_energy(config, inputs, outputs, alpha):
     """Exact solver and HBM at energies 1e-6..1e6 for one alpha."""
-    from nnmstop.study.stiff_cases import build_stiff_energy
+    from nnmstop.tasks.study import build_stiff_energy
 
     build_stiff_energy(config, inputs, outputs["dataset"], alpha)
 
 
 def study_stiff_cases(config, inputs, outputs):
     """Gather the stiff cases into results/study/stiff_cases.nc."""
-    from nnmstop.study.stiff_cases import build_stiff_cases
+    from nnmstop.tasks.study import build_stiff_cases
 
     build_stiff_cases(config, inputs, outputs["dataset"])
 
 
 def study_stiff_cases_figure(config, inputs, outputs):
     """paper_figures/stiff_cases.pdf/.png (input ``dataset``)."""
-    from nnmstop.figures.study import build_stiff_cases_figure
+    from nnmstop.tasks.figures import build_stiff_cases_figure
 
     build_stiff_cases_figure(config, inputs["dataset"], outputs["pdf"])
 

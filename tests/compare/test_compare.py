@@ -16,10 +16,12 @@ import pytest
 
 from fixed_energy import orbit_at_energy
 from nnmstop.compare import matching as compare
+from nnmstop.compare.dataset import comparison_dataset, comparison_energies
 from nnmstop.hbm.branches import continue_stage, dataset_unknowns
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.exact.two_impact import family_dataset, follow_family, time_history
 from nnmstop.figures import exact_vs_regularized as fig
+from nnmstop.tasks.figures import build_exact_vs_regularized_figure
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
 from nnmstop.tasks.run import run_task
 from nnmstop.checks.time_integration import integrate_nonsmooth
@@ -56,7 +58,7 @@ def matcher(exact_family, stage1):
 
 @pytest.fixture(scope="module")
 def comparison(exact_family, stage1):
-    return compare.comparison_dataset(exact_family, stage1, count=6, marked=MARKED, phase_samples=2048)
+    return comparison_dataset(exact_family, stage1, count=6, marked=MARKED, phase_samples=2048)
 
 
 def _hbm_unknowns(ds, point, system):
@@ -127,7 +129,7 @@ def test_frequencies_agree_with_the_branches(comparison, stage1, matcher):
 def test_energy_gradient_matches_finite_differences(matcher):
     system = matcher.system
     U, *_ = matcher.regularized_orbit(3.0)
-    op = compare._EnergyOperator(system)
+    op = compare.EnergyOperator(system)
     _, grad = op(U, gradient=True)
     rng = np.random.default_rng(1)
     for _ in range(3):
@@ -214,7 +216,7 @@ def test_energy_outside_the_common_range_raises(matcher, energy):
 
 def test_marked_energy_outside_the_range_raises(exact_family, stage1):
     with pytest.raises(ValueError, match="energy 60.0 is outside"):
-        compare.comparison_dataset(exact_family, stage1, count=3, marked={"a": 0.72, "b": 60.0})
+        comparison_dataset(exact_family, stage1, count=3, marked={"a": 0.72, "b": 60.0})
 
 
 def test_bad_arguments_raise(exact_family, stage1, matcher):
@@ -227,7 +229,7 @@ def test_bad_arguments_raise(exact_family, stage1, matcher):
     with pytest.raises(ValueError, match="phase_samples"):
         compare.orbit_differences(matcher.match(2.0), matcher.system, 10)
     with pytest.raises(ValueError, match="number of compared energies"):
-        compare.comparison_energies(matcher, 1)
+        comparison_energies(matcher, 1)
 
 
 def test_config_section_is_validated():
@@ -288,7 +290,7 @@ def test_figures_refuse_bad_datasets(tmp_path, exact_family, stage1, comparison)
     with pytest.raises(ValueError, match=r"point a\)"):
         fig.figure_03(unmarked, tmp_path / "f.pdf", PNG_DPI)
     with pytest.raises(ValueError, match="missing input 'exact'"):
-        fig.build_figure("fig02", small_config(), {"comparison": "x.nc"}, {"pdf": "a.pdf", "png": "a.png"})
+        build_exact_vs_regularized_figure("fig02", small_config(), {"comparison": "x.nc"}, {"pdf": "a.pdf", "png": "a.png"})
 
 
 def test_fig02_needs_no_nnm2_and_no_later_nnm1_stage(repo_root):

@@ -15,6 +15,7 @@ import pytest
 from nnmstop.hbm.branches import combine_stages, continue_stage
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.figures import frequency_energy as fe
+from nnmstop.tasks.figures import combine_nnm1_stages
 from nnmstop.figures.modal_lines import LabelSpec, energy_crossings, label_specs, select_point
 from nnmstop.models.two_dof import ModelParameters, linear_modes
 from nnmstop.tasks.run import run_task
@@ -92,10 +93,10 @@ def _draw(name, nnm1_stages, nnm2, spec, pdf):
         return fe.figure_05(combine_stages(nnm1_stages), nnm2, spec, pdf, PNG_DPI)
     if name == "fig06":
         return fe.figure_06(nnm2, spec, pdf, PNG_DPI)
-    stages = [nnm1_stages[k - 1] for k in spec["nnm1_stages"]]
+    nnm1 = combine_nnm1_stages([nnm1_stages[k - 1] for k in spec["nnm1_stages"]], name, spec["nnm1_stages"])
     if name in ("fig07", "fig11"):
-        return getattr(fe, f"figure_{name[3:]}")(stages, spec, pdf, PNG_DPI)
-    return getattr(fe, f"figure_{name[3:]}")(stages, nnm2, spec, pdf, PNG_DPI)
+        return getattr(fe, f"figure_{name[3:]}")(nnm1, spec, pdf, PNG_DPI)
+    return getattr(fe, f"figure_{name[3:]}")(nnm1, nnm2, spec, pdf, PNG_DPI)
 
 
 @pytest.mark.parametrize("name", sorted(fe.PAPER_FIGURES))
@@ -117,7 +118,9 @@ def test_nan_in_a_dataset_is_refused_with_its_name(nnm1_stages, nnm2, specs, tmp
     stage = nnm1_stages[0].copy(deep=True)
     stage["x_cos"].values[2, 3] = np.inf
     with pytest.raises(ValueError, match=r"fig07.*NNM1 stage 1.*'x_cos'"):
-        fe.figure_07([stage], specs["fig07"], tmp_path / "fig07.pdf", PNG_DPI)
+        fe.figure_07(stage, specs["fig07"], tmp_path / "fig07.pdf", PNG_DPI)
+    with pytest.raises(ValueError, match=r"fig07.*NNM1 stage 1.*'x_cos'"):
+        combine_nnm1_stages([stage], "fig07", [1])
     assert not (tmp_path / "fig06.pdf").exists() and not (tmp_path / "fig07.pdf").exists()
 
 
@@ -129,7 +132,7 @@ def test_label_energy_outside_the_data_is_refused(nnm1_stages, nnm2, specs, tmp_
     spec = copy.deepcopy(specs["fig08"])
     spec["labels"][0]["energy"] = float(nnm1_stages[0]["energy"].values[1])  # a stage-1 energy asked of stage 2
     with pytest.raises(ValueError, match=r"label d\).*outside the energy range .* of stage 2"):
-        fe.figure_08(nnm1_stages[:2], nnm2, spec, tmp_path / "fig08.pdf", PNG_DPI)
+        fe.figure_08(combine_stages(nnm1_stages[:2]), nnm2, spec, tmp_path / "fig08.pdf", PNG_DPI)
     assert not list(tmp_path.iterdir())
 
 
@@ -137,15 +140,15 @@ def test_label_of_a_stage_not_read_is_refused(nnm1_stages, nnm2, specs, tmp_path
     spec = copy.deepcopy(specs["fig11"])
     spec["labels"][0]["stage"] = 2
     with pytest.raises(ValueError, match=r"no stage 2 \(stages held: 4\)"):
-        fe.figure_11([nnm1_stages[3]], spec, tmp_path / "fig11.pdf", PNG_DPI)
+        fe.figure_11(nnm1_stages[3], spec, tmp_path / "fig11.pdf", PNG_DPI)
 
 
 def test_stages_other_than_configured_or_not_consecutive_are_refused(nnm1_stages, nnm2, specs, tmp_path):
     with pytest.raises(ValueError, match=r"hold stages \[1\], the configuration asks for \[4\]"):
-        fe.figure_11([nnm1_stages[0]], specs["fig11"], tmp_path / "fig11.pdf", PNG_DPI)
+        combine_nnm1_stages([nnm1_stages[0]], "fig11", specs["fig11"]["nnm1_stages"])
     spec = dict(specs["fig08"], nnm1_stages=[1, 3])
     with pytest.raises(ValueError, match="consecutive"):
-        fe.figure_08([nnm1_stages[0], nnm1_stages[2]], nnm2, spec, tmp_path / "fig08.pdf", PNG_DPI)
+        combine_nnm1_stages([nnm1_stages[0], nnm1_stages[2]], "fig08", spec["nnm1_stages"])
 
 
 def test_swapped_branches_and_mixed_models_are_refused(nnm1_stages, nnm2, specs, tmp_path):
@@ -154,7 +157,7 @@ def test_swapped_branches_and_mixed_models_are_refused(nnm1_stages, nnm2, specs,
     other = nnm2.copy()
     other.attrs = {**nnm2.attrs, "alpha": 50.0}
     with pytest.raises(ValueError, match="different models"):
-        fe.figure_08(nnm1_stages[:2], other, specs["fig08"], tmp_path / "fig08.pdf", PNG_DPI)
+        fe.figure_08(combine_stages(nnm1_stages[:2]), other, specs["fig08"], tmp_path / "fig08.pdf", PNG_DPI)
 
 
 def test_label_outside_the_plotted_window_is_refused(nnm2, specs, tmp_path):
@@ -266,10 +269,10 @@ def test_exact_overlay_is_drawn_and_changes_the_figure(nnm1_stages, specs, tmp_p
         drawn.append((kwargs.get("color"), kwargs.get("ls")))
         return original(self, *args, **kwargs)
 
-    plain = fe.figure_07([stage], specs["fig07"], tmp_path / "plain" / "fig07.pdf", PNG_DPI)
+    plain = fe.figure_07(stage, specs["fig07"], tmp_path / "plain" / "fig07.pdf", PNG_DPI)
     plt.Axes.plot = recording_plot
     try:
-        overlaid = fe.figure_07([stage], specs["fig07"], tmp_path / "overlay" / "fig07.pdf", PNG_DPI, exact=exact)
+        overlaid = fe.figure_07(stage, specs["fig07"], tmp_path / "overlay" / "fig07.pdf", PNG_DPI, exact=exact)
     finally:
         plt.Axes.plot = original
     assert (fe.EXACT_OVERLAY_COLOR, ":") in drawn

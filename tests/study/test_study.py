@@ -12,7 +12,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,11 +21,13 @@ import yaml
 from nnmstop.config import ConfigError, load_config
 from nnmstop.continuation.core import ContinuationError
 from nnmstop.netcdf import write_dataset
-from nnmstop.figures.study import build_error_vs_runtime_figure, pareto_front
+from nnmstop.figures.study import pareto_front
+from nnmstop.tasks.figures import build_error_vs_runtime_figure
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.study import error_runtime as er
-from nnmstop.study.runs import FILL_VALUE, case_config, format_number, truncation_level
+from nnmstop.tasks import study as ts
+from nnmstop.study.runs import FILL_VALUE, case_config, format_number
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]  # the environment's own Snakemake, never skipped
 
@@ -64,21 +65,21 @@ def gathered(small, exact, tmp_path_factory):
     root = tmp_path_factory.mktemp("study")
     exact_path = write_dataset(exact, root / "exact.nc", title="exact", summary="exact family")
     inputs = {"exact": str(exact_path)}
-    paths = er.case_paths(small)
-    out = {kind: [str(root / p) for p in paths[kind]] for kind in ("cases", "anm_cases", "references")}
-    out["exact_cost"] = str(root / paths["exact_cost"])
-    sweep = small["study"]["error_runtime"]
-    for eta in sweep["eta"]:
-        for H in sweep["harmonics"]:
-            er.build_error_case(small, inputs, root / f"{er.CASE_DIR}/H{H}_eta{format_number(eta)}.nc", str(H), format_number(eta))
-        er.build_reference(small, inputs, root / f"{er.CASE_DIR}/reference_eta{format_number(eta)}.nc", format_number(eta))
-    for order in sweep["anm_orders"]:
-        for tol in sweep["anm_tolerances"]:
-            er.build_error_case(small, inputs, root / f"{er.CASE_DIR}/anm_N{order}_tol{format_number(tol)}.nc",
-                                sweep["anm_harmonics"], small["model"]["eta"], str(order), format_number(tol))
-    er.build_exact_cost(small, inputs, out["exact_cost"])
+    cases = er.sweep_cases(small)
+    out = {kind: [] for kind in ("cases", "anm_cases", "references")}
+    for H, eta in cases["cases"]:
+        path = ts.build_error_case(small, inputs, root / f"H{H}_eta{eta:g}.nc", str(H), format_number(eta))
+        out["cases"].append(str(path))
+    for eta in cases["references"]:
+        path = ts.build_reference(small, inputs, root / f"reference_eta{eta:g}.nc", format_number(eta))
+        out["references"].append(str(path))
+    for order, tol in cases["anm_cases"]:
+        path = root / f"anm_N{order}_tol{tol:g}.nc"
+        H_anm, eta_anm = small["study"]["error_runtime"]["anm_harmonics"], small["model"]["eta"]
+        out["anm_cases"].append(str(ts.build_error_case(small, inputs, path, H_anm, eta_anm, str(order), format_number(tol))))
+    out["exact_cost"] = str(ts.build_exact_cost(small, inputs, root / "exact_cost.nc"))
     target = root / "results/study/error_vs_runtime.nc"
-    er.build_error_vs_runtime(small, out, target)
+    ts.build_error_vs_runtime(small, out, target)
     with xr.open_dataset(target) as ds:
         return root, out, ds.load()
 
@@ -124,7 +125,7 @@ def test_study_settings_refuse_inconsistent_values(config):
         er.study_settings({k: v for k, v in config.items() if k != "study"})
 
 
-def test_truncation_level_sees_the_odd_top_harmonic():
+def test_truncation_indicator_sees_the_odd_top_harmonic():
     """NNM1 orbits carry odd harmonics only: the top share must hold an odd harmonic even at H = 10."""
     system = HarmonicBalanceSystem(ModelParameters(), harmonics=10)
     U = system.linear_mode_guess(1, 0.5)
@@ -133,7 +134,7 @@ def test_truncation_level_sees_the_odd_top_harmonic():
     f[9] = 0.1 * f[1]  # harmonic 9 (cosine basis: index k)
     U = system.pack(x, u, f, z, lam)
     assert system.truncation_indicator(f) == pytest.approx(0.01 / 1.01, rel=1e-12)  # what the datasets record
-    assert truncation_level(system, U) == pytest.approx(0.01 / 1.01, rel=1e-12)
+    assert system.truncation(U) == pytest.approx(0.01 / 1.01, rel=1e-12)  # what the study's guard reads
 
 
 # --------------------------------------------------------------------------- one case, failures
@@ -202,11 +203,16 @@ def test_gather_refuses_stale_case_files(gathered, small):
     other = copy.deepcopy(small)
     other["study"]["energies"] = [3.0, 13.0]
     with pytest.raises(ValueError, match="energies"):
-        er.gather_error_vs_runtime(other, inputs)
+        ts.build_error_vs_runtime(other, inputs, root / "stale.nc")
     other = copy.deepcopy(small)
     other["anm"]["order"] = 15
     with pytest.raises(ValueError, match="order"):
-        er.gather_error_vs_runtime(other, inputs)
+        ts.build_error_vs_runtime(other, inputs, root / "stale.nc")
+    assert not (root / "stale.nc").exists()
+    other = copy.deepcopy(small)
+    other["study"]["error_runtime"]["harmonics"] = [10, 20, 30]
+    with pytest.raises(ValueError, match="4 cases datasets given, the configuration's sweep has 6"):
+        ts.build_error_vs_runtime(other, inputs, root / "stale.nc")
 
 
 def test_error_vs_runtime_figure(gathered, small, tmp_path):
@@ -216,23 +222,23 @@ def test_error_vs_runtime_figure(gathered, small, tmp_path):
 
 
 def test_stiff_gather_and_figure(small, tmp_path):
-    from nnmstop.figures.study import build_stiff_cases_figure
+    from nnmstop.tasks.figures import build_stiff_cases_figure
     from nnmstop.study import stiff_cases as sc
 
     cfg = copy.deepcopy(small)
     cfg["study"]["stiff"].update(harmonics=[20, 40], alpha=[30.0, 300.0], eta=[0.1], ratios=[1.0],
                                  energies=[1e-6, 1e3], energy_alpha=[30.0], max_steps=150, compare_count=2)
-    paths = sc.stiff_paths(cfg)
-    assert len(paths["exact"]) == 2 and len(paths["branches"]) == 2
-    for p in paths["exact"]:
-        a, b, d = (Path(p).stem.split("_")[i][1:] for i in (1, 2, 3))
-        sc.build_stiff_exact(cfg, {}, tmp_path / p, a, b, d)
-    for p in paths["branches"]:
-        a, b, d, e = (Path(p).stem.split("_")[i][1:] for i in (1, 2, 3, 4))
-        sc.build_stiff_branch(cfg, {"exact": tmp_path / f"{sc.STIFF_DIR}/exact_a{a}_b{b}_d{d}.nc"}, tmp_path / p, a, b, d, e)
-    sc.build_stiff_energy(cfg, {}, tmp_path / paths["energy"][0], "30")
-    inputs = {k: [tmp_path / p for p in v] for k, v in paths.items()}
-    target = sc.build_stiff_cases(cfg, inputs, tmp_path / "stiff_cases.nc")
+    cases = sc.stiff_case_parameters(cfg)
+    assert len(cases["exact"]) == 2 and len(cases["branches"]) == 2
+    inputs = {"exact": [], "branches": [], "energy": []}
+    for a, b, d in cases["exact"]:
+        inputs["exact"].append(ts.build_stiff_exact(cfg, {}, tmp_path / f"exact_{a:g}_{b:g}_{d:g}.nc", a, b, d))
+    for a, b, d, e in cases["branches"]:
+        exact_path = tmp_path / f"exact_{a:g}_{b:g}_{d:g}.nc"
+        path = tmp_path / f"nnm1_{a:g}_{b:g}_{d:g}_{e:g}.nc"
+        inputs["branches"].append(ts.build_stiff_branch(cfg, {"exact": exact_path}, path, a, b, d, e))
+    inputs["energy"].append(ts.build_stiff_energy(cfg, {}, tmp_path / "energy_30.nc", "30"))
+    target = ts.build_stiff_cases(cfg, inputs, tmp_path / "stiff_cases.nc")
     with xr.open_dataset(target) as ds:
         assert ds["converged"].dims == ("alpha", "eta") and ds["failure"].dtype.kind in "OU"
         assert bool(ds["converged"].sel(alpha=30.0, eta=0.1)) and int(ds["harmonics"].sel(alpha=30.0, eta=0.1)) == 40

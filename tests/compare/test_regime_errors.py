@@ -16,8 +16,10 @@ import xarray as xr
 
 from nnmstop.exact import multi_impact as em, two_impact as exact
 from nnmstop.netcdf import check_labelled
-from nnmstop.figures.regime_errors import build_regime_error_figure, regime_error_figure
-from nnmstop.compare.regimes import REGIME_VARIABLES, build_regime_error_dataset, regime_error_dataset, regime_table
+from nnmstop.figures.regime_errors import regime_error_figure
+from nnmstop.compare.regimes import REGIME_VARIABLES, regime_error_dataset, regime_table
+from nnmstop.tasks.compare import build_regime_error_dataset
+from nnmstop.tasks.figures import build_regime_error_figure
 
 PARAMS = {"alpha": 30.0, "beta": 1.0, "delta": 1.0}
 REGULARIZED_ATTRS = {**PARAMS, "eta": 0.1, "harmonics": 16}

@@ -1,0 +1,245 @@
+"""Tasks of the figure rules: read the datasets named by a rule, take the figure's settings, draw.
+
+The drawing functions (:mod:`nnmstop.figures`) take datasets and settings and never read
+files or the configuration; the functions here are the only ones of the figures that do:
+they pick the ``figures.<name>`` (or ``compare``, ``study``) settings of the validated
+configuration, check the rule's named inputs and outputs, load the datasets and save the
+PDF and its PNG side by side. Paths come from the rules (``workflow/rules/*.smk``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from nnmstop.figures import exact_vs_regularized as comparison_figures
+from nnmstop.figures import frequency_energy as fep
+from nnmstop.figures.common import save_figure
+from nnmstop.figures.regime_errors import regime_error_figure
+from nnmstop.figures.stability import ZOOM_ENERGY, stability_figure
+from nnmstop.figures.study import error_vs_runtime_figure, stiff_cases_figure
+from nnmstop.hbm.branches import combine_stages
+
+__all__ = [
+    "figure_config",
+    "figure_nnm1_stages",
+    "combine_nnm1_stages",
+    "build_exact_vs_regularized_figure",
+    "build_paper_figure",
+    "build_regime_error_figure",
+    "build_stability_figure",
+    "build_error_vs_runtime_figure",
+    "build_stiff_cases_figure",
+]
+
+
+def _read(path) -> xr.Dataset:
+    """A NetCDF dataset loaded into memory, the file closed."""
+    with xr.open_dataset(path) as ds:
+        return ds.load()
+
+
+def _as_list(value) -> list:
+    if value is None:
+        return []
+    if isinstance(value, (str, Path)):
+        return [value]
+    return list(value)
+
+
+def _pdf_and_png(name: str, outputs: dict) -> Path:
+    """The PDF output, checked to have its PNG beside it (``save_figure`` writes both)."""
+    pdf, png = Path(outputs["pdf"]), Path(outputs["png"])
+    if pdf.suffix != ".pdf" or png != pdf.with_suffix(".png"):
+        raise ValueError(f"{name}: outputs must be NAME.pdf and NAME.png side by side, got {pdf} and {png}")
+    return pdf
+
+
+def _need(name: str, inputs: dict, key: str):
+    if key not in inputs or not inputs[key]:
+        raise ValueError(f"{name}: missing input {key!r}, got {sorted(inputs)}")
+    return inputs[key]
+
+
+def figure_config(config: dict, name: str) -> dict:
+    """The ``figures.<name>`` section of a validated configuration.
+
+    Raises
+    ------
+    ValueError
+        If the configuration has no ``figures`` section or no entry ``name``.
+    """
+    figures = config.get("figures")
+    if not isinstance(figures, dict):
+        raise ValueError("the configuration has no 'figures' section (config/config.yaml, key 'figures')")
+    if name not in figures:
+        raise ValueError(f"the configuration has no entry 'figures.{name}'")
+    return figures[name]
+
+
+def figure_nnm1_stages(config: dict, figure: str) -> list[int]:
+    """Numbers of the NNM1 stages paper figure ``figure`` reads (``figures.<figure>.nnm1_stages``).
+
+    Raises
+    ------
+    ValueError
+        If the figure is not configured or names a stage that ``branches.nnm1`` lacks.
+    """
+    stages = figure_config(config, figure).get("nnm1_stages")
+    if not stages:
+        raise ValueError(f"the configuration has no 'figures.{figure}.nnm1_stages'")
+    available = len(config["branches"]["nnm1"]["stages"])
+    unknown = [k for k in stages if not 1 <= k <= available]
+    if unknown:
+        raise ValueError(
+            f"figures.{figure}.nnm1_stages: stage(s) {unknown} do not exist (branches.nnm1 has {available} stages)"
+        )
+    return [int(k) for k in stages]
+
+
+def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int] | None = None) -> xr.Dataset:
+    """Check and concatenate consecutive stage datasets of NNM1.
+
+    Parameters
+    ----------
+    stages : list of xarray.Dataset
+        Stage datasets in order (each holds a single ``stage`` value).
+    where : str
+        Figure name, for messages.
+    expected : list of int, optional
+        Stage numbers the datasets must hold, in order (from the configuration).
+
+    Raises
+    ------
+    ValueError
+        On NaN, a dataset of another branch, non-consecutive stages or stages
+        other than ``expected``.
+    """
+    if not stages:
+        raise ValueError(f"{where}: no NNM1 stage dataset given")
+    numbers = []
+    for ds in stages:
+        fep.check_finite(ds, where)
+        if ds.attrs.get("branch") != "nnm1":
+            found = ds.attrs.get("branch")
+            raise ValueError(
+                f"{where}: expected a dataset of branch 'nnm1', got branch {found!r} ({fep.dataset_name(ds)})"
+            )
+        held = np.unique(ds["stage"].values)
+        if held.size != 1:
+            raise ValueError(f"{where}: {fep.dataset_name(ds)} is not a single-stage dataset")
+        numbers.append(int(held[0]))
+    if expected is not None and numbers != list(expected):
+        raise ValueError(
+            f"{where}: the NNM1 datasets hold stages {numbers}, the configuration asks for {list(expected)}"
+        )
+    if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
+        raise ValueError(f"{where}: NNM1 stages must be consecutive to be joined, got {numbers}")
+    if len(stages) == 1:
+        return stages[0]
+    combined = combine_stages(stages)
+    combined.encoding = {}  # the first stage's file name would misname the combined branch
+    return combined
+
+
+def build_exact_vs_regularized_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
+    """Paper figure ``name`` (``fig02``, ``fig03`` or ``fig04``) from its rule's inputs.
+
+    Inputs: ``comparison`` (all three), plus ``exact`` and ``nnm1`` (stage 1) for
+    ``fig02``. Outputs: ``pdf`` and ``png`` side by side. The PNG resolution is
+    ``compare.png_dpi`` of the configuration.
+
+    Raises
+    ------
+    ValueError
+        On an unknown figure, a missing input, or outputs that are not NAME.pdf/NAME.png.
+    """
+    if name not in comparison_figures.FIGURES:
+        raise ValueError(f"unknown figure {name!r}; this task draws {comparison_figures.FIGURES}")
+    if "compare" not in config:
+        raise ValueError("config lacks the section 'compare'")
+    png_dpi = int(config["compare"]["png_dpi"])
+    pdf = _pdf_and_png(name, outputs)
+    needed = ("exact", "nnm1", "comparison") if name == "fig02" else ("comparison",)
+    data = {key: _read(_need(name, inputs, key)) for key in needed}
+    if name == "fig02":
+        return comparison_figures.figure_02(data["exact"], data["nnm1"], data["comparison"], pdf, png_dpi)
+    builder = comparison_figures.figure_03 if name == "fig03" else comparison_figures.figure_04
+    return builder(data["comparison"], pdf, png_dpi)
+
+
+def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> tuple[Path, Path]:
+    """Paper figure ``name`` (``fig05`` ... ``fig11``) from the named inputs of its rule.
+
+    Inputs: ``nnm1`` and ``nnm2`` (whole branches) for ``fig05``; ``nnm2`` for
+    ``fig06``; ``nnm1_stages`` (list of stage files), optionally ``exact`` (the exact
+    multi-impact NNM1 overlay) and, for Figs 8-10, ``nnm2`` and ``bifurcated`` (the files
+    of ``figures.<name>.bifurcated``, possibly none). Outputs: ``pdf`` and ``png``.
+
+    Raises
+    ------
+    ValueError
+        If the outputs do not share a stem, an input is missing, or the figure
+        cannot honour its configuration.
+    """
+    if name not in fep.PAPER_FIGURES:
+        raise ValueError(f"unknown paper figure {name!r}; figures are {sorted(fep.PAPER_FIGURES)}")
+    spec = figure_config(config, name)
+    png_dpi = int(config["figures"].get("png_dpi", 150))
+    pdf = _pdf_and_png(name, outputs)
+    if name == "fig05":
+        return fep.figure_05(_read(_need(name, inputs, "nnm1")), _read(_need(name, inputs, "nnm2")), spec, pdf, png_dpi)
+    if name == "fig06":
+        return fep.figure_06(_read(_need(name, inputs, "nnm2")), spec, pdf, png_dpi)
+    stages = [_read(p) for p in _as_list(_need(name, inputs, "nnm1_stages"))]
+    nnm1 = combine_nnm1_stages(stages, name, spec.get("nnm1_stages"))
+    # optional overlay of the exact multi-impact NNM1 (figures.overlay_exact)
+    exact = _read(inputs["exact"]) if inputs.get("exact") else None
+    if name in ("fig07", "fig11"):
+        builder = fep.figure_07 if name == "fig07" else fep.figure_11
+        return builder(nnm1, spec, pdf, png_dpi, exact=exact)
+    builder = {"fig08": fep.figure_08, "fig09": fep.figure_09, "fig10": fep.figure_10}[name]
+    # branches switched at branch points (figures.<name>.bifurcated), one input file each
+    wanted = spec.get("bifurcated", [])
+    bifurcated = [_read(p) for p in _as_list(_need(name, inputs, "bifurcated"))] if wanted else []
+    if len(bifurcated) != len(wanted):
+        raise ValueError(
+            f"{name}: figures.{name}.bifurcated lists {wanted}, the inputs hold {len(bifurcated)} datasets"
+        )
+    nnm2 = _read(_need(name, inputs, "nnm2"))
+    return builder(nnm1, nnm2, spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated)
+
+
+def build_regime_error_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
+    """Extra figure of the regime errors: ``pdf_path`` and its PNG (resolution ``figures.png_dpi``)."""
+    dpi = int(config.get("figures", {}).get("png_dpi", 150))
+    return save_figure(regime_error_figure(_read(dataset_path)), pdf_path, png_dpi=dpi)
+
+
+def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, Path]:
+    """Extra stability figure and its PNG (task of rule ``stability_figure``).
+
+    ``inputs``: ``exact`` and ``nnm1`` (branch datasets), ``dataset`` (the stability comparison).
+    """
+    for key in ("exact", "nnm1", "dataset"):
+        if key not in inputs:
+            raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
+    figures = config.get("figures", {})
+    dpi = int(figures.get("png_dpi", 150))
+    zoom = figures.get("extra_stability", {}).get("zoom_energy", ZOOM_ENERGY)
+    fig = stability_figure(_read(inputs["exact"]), _read(inputs["nnm1"]), _read(inputs["dataset"]), zoom_energy=zoom)
+    return save_figure(fig, pdf_path, png_dpi=dpi)
+
+
+def build_error_vs_runtime_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
+    """The study's error-against-run-time figure and its PNG (resolution ``study.png_dpi``)."""
+    fig = error_vs_runtime_figure(_read(dataset_path))
+    return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]))
+
+
+def build_stiff_cases_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
+    """The study's stiff-cases figure and its PNG (resolution ``study.png_dpi``)."""
+    fig = stiff_cases_figure(_read(dataset_path))
+    return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]))
