@@ -3,7 +3,7 @@
 What is compared
 ----------------
 On one side the exact two-impact NNM1 family of the non-smooth system, Eqs. (3)-(4)
-(:mod:`nnmstop.exact.two_impact`, closed form); on the other the regularized NNM1 of Eq. (7)
+(:mod:`nnmstop.exact`, closed form); on the other the regularized NNM1 of Eq. (7)
 computed by harmonic balance with ``H`` harmonics and the ANM (stage 1 of the branch,
 :mod:`nnmstop.hbm.branches`: from the linear mode up to the first orbit with more than
 one impact per stop). At each compared energy ``E`` the module finds one orbit of each
@@ -54,7 +54,7 @@ At a matched energy ``E``:
   ``E(y) = E`` (four equations, four unknowns, analytic Jacobian), seeded by linear
   interpolation of the family's unknowns between the two neighbouring orbits of the
   increasing arm; the residual and the energy are at round-off after convergence and the
-  orbit is checked with :func:`nnmstop.exact.two_impact.assess_orbit`;
+  orbit is checked with :func:`nnmstop.exact.grazing.assess_orbit`;
 * **regularized orbit**: Newton's method on the HBM equations ``S(U) = 0`` bordered with
   ``E(U) = E`` (mean energy over the period, analytic gradient), seeded by linear
   interpolation of the unknowns between the two neighbouring branch points. So the
@@ -92,7 +92,8 @@ import xarray as xr
 from nnmstop.hbm.branches import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
 from nnmstop.netcdf import write_dataset
-from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, time_history
+from nnmstop.exact.grazing import assess_orbit
+from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
 
@@ -286,7 +287,7 @@ class EnergyMatcher:
     Parameters
     ----------
     exact : xarray.Dataset
-        Exact two-impact family (:func:`nnmstop.exact.two_impact.family_dataset`).
+        Exact two-impact family (:func:`nnmstop.exact.dataset.two_impact_dataset`).
     branch : xarray.Dataset
         Regularized NNM1 branch or stage dataset (layout of :mod:`nnmstop.hbm.branches`).
     end_margin : float
@@ -386,7 +387,7 @@ class EnergyMatcher:
             converged = np.linalg.norm(dy) <= 1e-14 * (1.0 + np.linalg.norm(y))
         if not converged:
             raise ValueError(f"Newton's method did not converge for the exact orbit at energy {energy!r}")
-        check = assess_orbit(y, self.params, prob)
+        check = assess_orbit(prob, y)
         if not check.valid:
             raise ValueError(
                 f"the exact orbit found at energy {energy!r} violates the two-impact assumptions "
@@ -500,7 +501,7 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
     period_exact = 4.0 * y[3]
 
     def exact_on(phase):  # origin at the turning point T1
-        h = time_history(y, params, y[3] + phase * period_exact)
+        h = TwoImpactProblem(params).time_history(y, y[3] + phase * period_exact)
         return {"x": h.x, "u": h.u, "xdot": h.xdot, "udot": h.udot, "force": h.force}
 
     phase = np.arange(n) / n

@@ -14,10 +14,10 @@
   maximum of x), and the ``(x, f)`` curve of the regularized orbit (blue) against the
   piecewise-linear law, Eq. (4) (red).
 
-Inputs are datasets only: the exact family (:mod:`nnmstop.exact.two_impact`), NNM1 stage 1
+Inputs are datasets only: the exact family (:mod:`nnmstop.exact`), NNM1 stage 1
 (:mod:`nnmstop.hbm.branches`) and the comparison at matched energies
 (:mod:`nnmstop.compare.matching`), which holds both orbits at a) and b) at exactly the same
-energy. Orbits are reconstructed in closed form (exact: :func:`nnmstop.exact.two_impact.time_history`
+energy. Orbits are reconstructed in closed form (exact: :meth:`nnmstop.exact.problem.TwoImpactProblem.time_history`
 from the stored unknowns; regularized: the stored Fourier series); nothing is solved.
 Frequencies are in Hz of the nondimensional time, energies on a logarithmic axis.
 """
@@ -32,7 +32,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop.compare.matching import MAX_IMPACTS
-from nnmstop.exact.two_impact import time_history
+from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
 from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, save_figure
 
@@ -127,7 +127,7 @@ def aligned_orbits(comparison: xr.Dataset, point: int, phase) -> tuple[dict, dic
     p = comparison.isel(point=point)
     params = _parameters(comparison, where="aligned_orbits")
     y = np.array([float(p[v]) for v in ("exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1")])
-    h = time_history(y, params, y[3] + phase * 4.0 * y[3])
+    h = TwoImpactProblem(params).time_history(y, y[3] + phase * 4.0 * y[3])
     exact = {"x": h.x, "u": h.u, "xdot": h.xdot, "udot": h.udot, "f": h.force}
     omega = float(np.sqrt(p["omega_squared"]))
     k = comparison["harmonic"].values
