@@ -83,6 +83,7 @@ class SequenceProblem:
         self.n_unknowns = self.n_phases + 2
         self.phases = tuple(phase_of(params, kind) for kind in sequence)
         self.levels = switch_levels(sequence)
+        self._last_states = (None, None)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.sequence!r})"
@@ -119,14 +120,21 @@ class SequenceProblem:
 
     def switch_states(self, y) -> np.ndarray:
         """States ``z_0`` (origin) ... ``z_n`` (turning point), shape ``(n + 1, 4)``."""
-        return self._switch_states(self.check(y))
+        return self._switch_states(self.check(y)).copy()
 
     def _switch_states(self, y) -> np.ndarray:
+        # A continuation step asks for the states of one orbit several times (residual, validity,
+        # Jacobian): the last ones are kept, keyed by the exact unknowns.
+        key = y.tobytes()
+        if self._last_states[0] == key:
+            return self._last_states[1]
         d = self._durations(y)
         z = np.empty((self.n_phases + 1, 4))
         z[0] = (0.0, 0.0, y[0], y[1])
         for k, phase in enumerate(self.phases):
             z[k + 1] = phase.state(z[k], d[k])
+        z.flags.writeable = False
+        self._last_states = (key, z)
         return z
 
     def residual_from_states(self, z) -> np.ndarray:
@@ -136,7 +144,7 @@ class SequenceProblem:
 
     def residual(self, y) -> np.ndarray:
         """Switching conditions ``x(end of phase k) - level_k`` then ``xdot(T1)``, ``udot(T1)``."""
-        return self.residual_from_states(self.switch_states(y))
+        return self.residual_from_states(self._switch_states(self.check(y)))
 
     def state_derivatives(self, y, z=None) -> list:
         """Exact ``dz_k / dy`` for ``k = 0..n``, each of shape ``(4, n + 2)``.

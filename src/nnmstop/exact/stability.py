@@ -197,16 +197,16 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
         the flag ``stable``, each with ``long_name`` and ``units``.
     """
     phases = _phases(params)
-    rows, monodromies = [], []
+    rows, origin = [], []
     for seq, d in zip(sequences, durations):
         mats = quarter_transitions(params, seq, d, phases)
-        monodromies.append(_monodromy_from(mats, "origin"))
-        rows.append(_trace_analysis(monodromies[-1], _monodromy_from(mats, "turning_point")))
+        origin.append(_monodromy_from(mats, "origin"))
+        rows.append(_trace_analysis(origin[-1], _monodromy_from(mats, "turning_point")))
     if not rows:
         raise ValueError("no orbit to compute the multipliers of")
     s, margin, tol, _ = (np.array(column) for column in zip(*rows))
     lam = multipliers_from_invariant(s)[:, 2]
-    trivial = _trivial_distance(np.array(monodromies))
+    trivial = _trivial_distance(np.array(origin))
     stable = margin >= -tol
 
     def var(values, long_name):
