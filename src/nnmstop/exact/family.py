@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg
 
 from nnmstop.exact.grazing import Transition, assess_orbit, classify_boundary, describe_margin, split_start
-from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem, first_grazing_orbit
+from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem, first_grazing_orbit, newton
 from nnmstop.models.two_dof import ModelParameters, total_energy
 
 __all__ = [
@@ -214,21 +214,14 @@ def _correct(problem: SequenceProblem, y_prev, tangent, sigma, max_iter=15):
     another family, e.g. the spurious zero-duration family near a grazing orbit).
     """
     pred = y_prev + sigma * tangent
-    y = pred.copy()
-    converged = False
-    for _ in range(max_iter):
-        residual, jac = problem.linearize(y)
-        f = np.append(residual, tangent @ (y - y_prev) - sigma)
-        try:
-            dy = np.linalg.solve(np.vstack([jac, tangent]), -f)
-        except np.linalg.LinAlgError:
-            return None
-        y = y + dy
-        if not np.all(np.isfinite(y)):
-            return None
-        if converged:
-            break
-        converged = np.linalg.norm(dy) <= 1e-13 * (1.0 + np.linalg.norm(y))
+
+    def fun(y):
+        return np.append(problem.residual(y), tangent @ (y - y_prev) - sigma)
+
+    def jac(y):
+        return np.vstack([problem.jacobian(y), tangent])
+
+    y, converged = newton(fun, jac, pred.copy(), tol=1e-13, max_iter=max_iter)
     if not converged or np.linalg.norm(problem.residual(y)) > 1e-10:
         return None
     if np.linalg.norm(y - pred) > 0.5 * abs(sigma) + 1e-13:

@@ -178,12 +178,6 @@ class SequenceProblem:
         """Analytic ``(n + 1) x (n + 2)`` Jacobian of :meth:`residual`."""
         return self._jacobian_from(self.state_derivatives(y))
 
-    def linearize(self, y):
-        """``(residual, jacobian)`` at ``y`` from one evaluation of the switch states."""
-        y = self.check(y)
-        z = self._switch_states(y)
-        return self.residual_from_states(z), self._jacobian_from(self.state_derivatives(y, z))
-
     def energy(self, y) -> float:
         """Total energy: the kinetic energy at the origin ``x = u = 0``."""
         y = self.check(y)
