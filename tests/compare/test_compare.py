@@ -19,7 +19,9 @@ from nnmstop.compare import matching as compare
 from nnmstop.compare.dataset import comparison_dataset, comparison_energies
 from nnmstop.hbm.branches import continue_stage, dataset_unknowns
 from nnmstop.config import ConfigError, load_config, validate_config
-from nnmstop.exact.two_impact import family_dataset, follow_family, time_history
+from nnmstop.exact.dataset import two_impact_dataset
+from nnmstop.exact.family import follow_two_impact_family
+from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.figures import exact_vs_regularized as fig
 from nnmstop.tasks.figures import build_exact_vs_regularized_figure
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
@@ -43,7 +45,7 @@ def small_config(eta: float = 0.1, until: dict | None = None) -> dict:
 
 @pytest.fixture(scope="module")
 def exact_family():
-    return family_dataset(follow_family(ModelParameters(), step=0.05))
+    return two_impact_dataset(follow_two_impact_family(ModelParameters(), step=0.05))
 
 
 @pytest.fixture(scope="module")
@@ -89,7 +91,7 @@ def test_energies_really_match(comparison):
     system = compare.system_from_dataset(comparison)
     for i, energy in enumerate(comparison["energy"].values):
         y = [comparison[v].values[i] for v in ("exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1")]
-        h = time_history(y, params, np.linspace(0.0, 4.0 * y[3], 37))
+        h = TwoImpactProblem(params).time_history(y, np.linspace(0.0, 4.0 * y[3], 37))
         e_t = total_energy(h.x, h.u, h.xdot, h.udot, params, model="piecewise")
         np.testing.assert_allclose(e_t, energy, rtol=1e-12)
         U = _hbm_unknowns(comparison, i, system)
@@ -154,7 +156,7 @@ def test_force_comparison_uses_the_piecewise_law_on_the_exact_orbit(comparison):
     phase = np.arange(n) / n
     for i in range(comparison.sizes["point"]):
         y = [comparison[v].values[i] for v in ("exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1")]
-        h = time_history(y, params, y[3] + phase * 4.0 * y[3])
+        h = TwoImpactProblem(params).time_history(y, y[3] + phase * 4.0 * y[3])
         assert h.x[0] == pytest.approx(h.x.max(), rel=1e-12)  # origin at the maximum of x
         reg = system.time_history(_hbm_unknowns(comparison, i, system), n)
         shift = comparison["regularized_origin_shift"].values[i]

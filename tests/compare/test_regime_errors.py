@@ -14,7 +14,10 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from nnmstop.exact import multi_impact as em, two_impact as exact
+from nnmstop.compare.exact_branches import main as compare_main
+from nnmstop.exact.dataset import exact_branch_dataset, two_impact_dataset
+from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impact_family
+from nnmstop.exact.problem import from_two_impact_unknowns
 from nnmstop.netcdf import check_labelled
 from nnmstop.figures.regime_errors import regime_error_figure
 from nnmstop.compare.regimes import REGIME_VARIABLES, regime_error_dataset, regime_table
@@ -100,12 +103,12 @@ def synthetic():
 @pytest.fixture(scope="module")
 def exact_branch(paper_params):
     """A real exact NNM1: the two-impact family and the FLFR and FLF segments after it."""
-    family = exact.follow_family(paper_params, step=0.1)
-    y = em.from_two_impact_unknowns(family.unknowns)
-    settings = em.ContinuationSettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=400,
-                                       max_segments=3)
-    segments = em.follow_branch(paper_params, "FR", y[-1], y[-1] - y[-2], settings)
-    return em.branch_dataset(exact.family_dataset(family), segments, paper_params)
+    family = follow_two_impact_family(paper_params, step=0.1)
+    y = from_two_impact_unknowns(family.unknowns)
+    settings = FamilySettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=400,
+                              max_segments=3)
+    segments = follow_branch(paper_params, "FR", y[-1], y[-1] - y[-2], settings)
+    return exact_branch_dataset(two_impact_dataset(family), segments, paper_params)
 
 
 def test_each_regime_reports_its_known_error(synthetic):
@@ -154,7 +157,7 @@ def test_dataset_regimes_are_the_rows_of_the_command_line_table(synthetic, tmp_p
     ds = regime_error_dataset(exact_ds, regularized)
     exact_ds.to_netcdf(tmp_path / "exact.nc")
     regularized.to_netcdf(tmp_path / "reg.nc")
-    em.main(["compare", str(tmp_path / "exact.nc"), str(tmp_path / "reg.nc")])
+    compare_main(["compare", str(tmp_path / "exact.nc"), str(tmp_path / "reg.nc")])
     lines = capsys.readouterr().out.splitlines()[2:-1]
     assert len(lines) == ds.sizes["regime"]
     for k, line in enumerate(lines):

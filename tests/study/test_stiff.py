@@ -10,7 +10,9 @@ import xarray as xr
 
 from nnmstop.compare.matching import EnergyMatcher
 from nnmstop.config import load_config
-from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, follow_family, time_history
+from nnmstop.exact.family import follow_two_impact_family
+from nnmstop.exact.grazing import assess_orbit
+from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
 from nnmstop.hbm.hill import orbit_initial_state, refine_orbit
 from nnmstop.study.runs import case_config, match_energies, run_stage_one, two_impact_arm
@@ -27,7 +29,7 @@ EPS = np.finfo(float).eps
 def stiff_family():
     """The first 40 orbits of the exact family for a nearly rigid stop (contact lasts ~1.6e-3)."""
     params = ModelParameters(alpha=1.0e6, beta=1.0, delta=1.0, eta=0.1)
-    return params, follow_family(params, step=2.0e-3, max_points=40)
+    return params, follow_two_impact_family(params, step=2.0e-3, max_points=40)
 
 
 def test_exact_residuals_at_round_off_for_alpha_1e6(stiff_family):
@@ -42,7 +44,7 @@ def test_exact_residuals_at_round_off_for_alpha_1e6(stiff_family):
         assert np.abs(r[1:]).max() <= 16 * EPS * scale
     contact = family.unknowns[-1, 3] - family.unknowns[-1, 2]
     assert 1e-4 < contact < 1e-2  # a real, short contact phase
-    assert all(assess_orbit(y, params, problem).valid for y in family.unknowns[1:])
+    assert all(assess_orbit(problem, y).valid for y in family.unknowns[1:])
 
 
 def test_exact_orbit_is_periodic_by_event_located_integration_for_alpha_1e6(stiff_family):
@@ -50,7 +52,7 @@ def test_exact_orbit_is_periodic_by_event_located_integration_for_alpha_1e6(stif
     y = family.unknowns[-1]
     t = np.linspace(0.0, 4.0 * y[3], 17)
     trajectory = integrate_nonsmooth(params, [0.0, 0.0, y[0], y[1]], t, max_step=5e-3)
-    exact = time_history(y, params, t)
+    exact = TwoImpactProblem(params).time_history(y, t)
     closed = np.column_stack([exact.x, exact.u, exact.xdot, exact.udot])
     assert trajectory.switch_times.size == 4  # enter and leave each stop once
     assert np.abs(trajectory.states[-1] - trajectory.states[0]).max() < 1e-9
@@ -60,7 +62,7 @@ def test_exact_orbit_is_periodic_by_event_located_integration_for_alpha_1e6(stif
 def test_a_continuation_step_longer_than_the_contact_is_caught_as_a_false_end():
     """With the default step the alpha = 1e6 family 'ends' two orbits after grazing; the check says so."""
     params = ModelParameters(alpha=1.0e6, beta=1.0, delta=1.0, eta=0.1)
-    family = follow_family(params, step=0.02, max_points=4000)
+    family = follow_two_impact_family(params, step=0.02, max_points=4000)
     confirmed, note = _confirm_end(params, family)
     assert not confirmed, note
     assert "NOT confirmed" in note and "goes on" in note
@@ -140,10 +142,10 @@ def config(repo_root):
 
 @pytest.fixture(scope="module")
 def exact_family_dataset(config):
-    from nnmstop.exact.two_impact import family_dataset
+    from nnmstop.exact.dataset import two_impact_dataset
 
     params = ModelParameters.from_config(config["model"])
-    return family_dataset(follow_family(params, step=config["exact"]["step"], max_points=config["exact"]["max_points"]))
+    return two_impact_dataset(follow_two_impact_family(params, step=config["exact"]["step"], max_points=config["exact"]["max_points"]))
 
 
 def _shoot_at_energy(params, state, period, energy, rtol=1e-10):
@@ -221,7 +223,7 @@ def test_sharp_stop_continuation_matches_the_exact_orbits_within_the_study_error
             # bounds the largest difference from below by the regularized force there less that.
             knee = np.sqrt(eta * alpha / 2.0)
             x_reg = integrate_regularized(params, z, phase * T).states[:, 0]
-            exact = time_history(y, system.params, y[3] + phase * exact_period)
+            exact = TwoImpactProblem(system.params).time_history(y, y[3] + phase * exact_period)
             force_reg = regularized_contact_force(x_reg, params)
             dx = x_difference[eta] = np.abs(x_reg - exact.x).max()
             df = np.abs(force_reg - exact.force).max()

@@ -53,10 +53,11 @@ def small(config):
 
 @pytest.fixture(scope="module")
 def exact(config):
-    from nnmstop.exact.two_impact import family_dataset, follow_family
+    from nnmstop.exact.dataset import two_impact_dataset
+    from nnmstop.exact.family import follow_two_impact_family
 
     params = ModelParameters.from_config(config["model"])
-    return family_dataset(follow_family(params, step=0.05, max_points=4000))
+    return two_impact_dataset(follow_two_impact_family(params, step=0.05, max_points=4000))
 
 
 @pytest.fixture(scope="module")

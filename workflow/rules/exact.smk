@@ -1,5 +1,5 @@
 # Exact (non-smooth, piecewise-linear) NNM1 family with one impact per stop per period,
-# Section 3.1 of the paper. Thin rule: everything happens in nnmstop.exact.two_impact.
+# Section 3.1 of the paper. Thin rule: everything happens in nnmstop.tasks.exact (numerics: nnmstop.exact).
 
 
 rule exact_two_impacts:

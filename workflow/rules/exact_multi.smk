@@ -1,6 +1,6 @@
 # Exact (non-smooth, piecewise-linear) NNM1 with any number of impacts per period: the
 # two-impact family continued through its grazing transitions. Thin rule: everything
-# happens in nnmstop.exact.multi_impact.
+# happens in nnmstop.tasks.exact (numerics: nnmstop.exact).
 
 
 rule exact_nnm1:

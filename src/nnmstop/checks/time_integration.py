@@ -1,6 +1,6 @@
 """Independent time-domain integrators, used as cross-checks of the closed-form orbits.
 
-Nothing in :mod:`nnmstop.exact.two_impact` uses this module: the point is to check the closed-form
+Nothing in :mod:`nnmstop.exact` uses this module: the point is to check the closed-form
 construction against a different method.
 
 * :func:`integrate_nonsmooth`: Eqs. (3)-(4) with :func:`scipy.integrate.solve_ivp`

@@ -1,6 +1,6 @@
 """Exact (non-smooth) and regularized NNM1 orbits at the same energy (Section 4.1).
 
-:class:`EnergyMatcher` takes the exact two-impact family (:mod:`nnmstop.exact.two_impact`) and a
+:class:`EnergyMatcher` takes the exact two-impact family (:mod:`nnmstop.exact`) and a
 regularized NNM1 branch dataset (:mod:`nnmstop.hbm.branches`) and finds, at a requested energy,
 one orbit of each model at exactly that energy: Newton's method on the closed-form
 quarter-period equations plus the energy, and on the HBM equations bordered with the mean
@@ -26,7 +26,8 @@ from nnmstop import fourier
 from nnmstop.hbm.branches import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
 from nnmstop.continuation.newton import newton_solve
-from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, time_history
+from nnmstop.exact.grazing import assess_orbit
+from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
 
@@ -218,7 +219,7 @@ class EnergyMatcher:
     Parameters
     ----------
     exact : xarray.Dataset
-        Exact two-impact family (:func:`nnmstop.exact.two_impact.family_dataset`).
+        Exact two-impact family (:func:`nnmstop.exact.dataset.two_impact_dataset`).
     branch : xarray.Dataset
         Regularized NNM1 branch or stage dataset (layout of :mod:`nnmstop.hbm.branches`).
     end_margin : float
@@ -313,7 +314,7 @@ class EnergyMatcher:
         if not solved.converged:
             raise ValueError(f"Newton's method did not converge for the exact orbit at energy {energy!r}")
         y, it = solved.y, solved.iterations
-        check = assess_orbit(y, self.params, prob)
+        check = assess_orbit(prob, y)
         if not check.valid:
             raise ValueError(
                 f"the exact orbit found at energy {energy!r} violates the two-impact assumptions "
@@ -442,7 +443,7 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
     period_exact = 4.0 * y[3]
 
     def exact_on(phase):  # origin at the turning point T1
-        h = time_history(y, params, y[3] + phase * period_exact)
+        h = TwoImpactProblem(params).time_history(y, y[3] + phase * period_exact)
         return {"x": h.x, "u": h.u, "xdot": h.xdot, "udot": h.udot, "force": h.force}
 
     phase = np.arange(n) / n

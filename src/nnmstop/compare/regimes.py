@@ -1,9 +1,9 @@
 """Regularization error of NNM1 in each impact regime, along the whole branch (issue 6).
 
-The exact NNM1 of the non-smooth system (:mod:`nnmstop.exact.multi_impact`) and the
+The exact NNM1 of the non-smooth system (:mod:`nnmstop.exact`) and the
 regularized NNM1 (HBM + ANM) cross the same sequence of impact regimes.
 :func:`regime_error_dataset` turns the comparison of
-:func:`nnmstop.exact.multi_impact.compare_with_regularized` (the one implementation of the
+:func:`nnmstop.compare.exact_branches.compare_with_regularized` (the one implementation of the
 metric) into a labelled dataset:
 
 * dimension ``regime``: one entry per pair of regimes with at least one compared point, in
@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from nnmstop.exact.multi_impact import _runs, compare_with_regularized
+from nnmstop.compare.exact_branches import compare_with_regularized, impact_runs
 
 __all__ = ["REGIME_VARIABLES", "POINT_VARIABLES", "regime_error_dataset", "regime_table"]
 
@@ -38,7 +38,7 @@ REGIME_VARIABLES = {
     "exact_sequence": (
         "exact_sequence",
         "phase sequence(s) of the exact orbits of the regime (F free flight, R/L contact with the stop "
-        "x = 1 / x = -1, over the quarter period; see nnmstop.exact.multi_impact)",
+        "x = 1 / x = -1, over the quarter period; see nnmstop.exact.sequences)",
         "1",
     ),
     "exact_energy_min": (("exact_energy", 0), "lowest energy of the exact regime (non-smooth model)", "1"),
@@ -109,7 +109,7 @@ def _attributes(exact: xr.Dataset, regularized: xr.Dataset) -> dict:
 def _unpaired_runs(regularized: xr.Dataset, rows: list) -> list:
     """Runs of the regularized branch (impacts, start, stop) that no row covers."""
     covered = {row["regularized_points"] for row in rows}
-    return [r for r in _runs(regularized["impacts_per_period"].values) if (r[1], r[2]) not in covered]
+    return [r for r in impact_runs(regularized["impacts_per_period"].values) if (r[1], r[2]) not in covered]
 
 
 def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: bool = True) -> xr.Dataset:
@@ -217,7 +217,7 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
             "paired in branch order (longest common subsequence of the impact counts). At each regularized "
             "orbit of a paired regime, the exact frequency is interpolated linearly in ln E on the pieces of the "
             "exact regime monotone in energy that cover its energy, keeping the one of nearest frequency "
-            "(nnmstop.exact.multi_impact.compare_with_regularized, also: python -m nnmstop.exact.multi_impact compare)."
+            "(nnmstop.compare.exact_branches.compare_with_regularized, also: python -m nnmstop.compare.exact_branches compare)."
         ),
     }
     return ds

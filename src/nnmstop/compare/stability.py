@@ -3,7 +3,7 @@
 Both branches carry a Floquet verdict ``stable`` per orbit: the exact one from
 :mod:`nnmstop.exact.stability`, the regularized one from the HBM datasets (whatever
 method produced it; an optional ``stability_resolved = 0`` marks an orbit without a
-verdict). The regimes are paired as in :func:`nnmstop.exact.multi_impact.compare_with_regularized`
+verdict). The regimes are paired as in :func:`nnmstop.compare.exact_branches.compare_with_regularized`
 (the one implementation of the pairing). For every compared regularized orbit of a regime,
 the exact verdict at the same energy is read on the exact regime (same monotone piece and
 nearest frequency as the frequency comparison); an orbit whose energy falls between two
@@ -21,8 +21,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from nnmstop.compare.exact_branches import compare_with_regularized, monotone_pieces
 from nnmstop.netcdf import flag_variable
-from nnmstop.exact.multi_impact import _monotone_pieces, compare_with_regularized
 
 __all__ = [
     "REGIME_COLUMNS",
@@ -40,7 +40,7 @@ UNSTABLE, STABLE, NO_VERDICT = 0, 1, -1
 #: Columns of the regime table: name -> (long_name, units).
 REGIME_COLUMNS = {
     "impacts_per_period": ("number of excursions of x beyond the stops (|x| > 1) per period", "1"),
-    "exact_sequence": ("phase sequence(s) of the exact orbits of the regime (see nnmstop.exact.multi_impact)", "1"),
+    "exact_sequence": ("phase sequence(s) of the exact orbits of the regime (see nnmstop.exact.sequences)", "1"),
     "n_compared": ("regularized orbits of the regime with a verdict on both sides at the same energy", "1"),
     "n_agree": ("compared orbits where the exact and regularized verdicts agree", "1"),
     "n_both_stable": ("compared orbits stable in both models", "1"),
@@ -111,7 +111,7 @@ def exact_verdict_at(energy, frequency, verdict, e, f) -> int:
     them) or no piece covers ``e``.
     """
     best = None
-    for a, b in _monotone_pieces(energy):
+    for a, b in monotone_pieces(energy):
         en = energy[a : b + 1]
         order = np.argsort(en)
         en, fr, ve = en[order], frequency[a : b + 1][order], verdict[a : b + 1][order]
@@ -248,7 +248,7 @@ def stability_comparison_dataset(exact_ds: xr.Dataset, regularized_ds: xr.Datase
         "agreeing_orbits": total["n_agree"],
         "regularized_stability_method": str(regularized_ds["stable"].attrs.get("comment", "as in the regularized dataset")),
         "method": (
-            "Regimes paired as in nnmstop.exact.multi_impact.compare_with_regularized; the exact verdict at each compared "
+            "Regimes paired as in nnmstop.compare.exact_branches.compare_with_regularized; the exact verdict at each compared "
             "regularized energy from the two bracketing exact orbits of the same monotone piece (nearest frequency); "
             "changes located between consecutive orbits; changes paired in branch order when both branches have "
             "the same number of changes going the same way in the regime (nnmstop.compare.stability)."

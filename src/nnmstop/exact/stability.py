@@ -13,7 +13,8 @@ from typing import NamedTuple
 import numpy as np
 
 from nnmstop.netcdf import flag_variable
-from nnmstop.exact.two_impact import LinearPhase
+from nnmstop.exact.phases import LinearPhase
+from nnmstop.floquet import multipliers_from_invariant
 from nnmstop.models.two_dof import ModelParameters
 
 __all__ = [
@@ -76,7 +77,7 @@ def quarter_transitions(params: ModelParameters, sequence: str, durations, phase
     ----------
     params : ModelParameters
     sequence : str
-        Quarter-period phase sequence (``"FR"``, ``"FLFR"``...; see :mod:`nnmstop.exact.multi_impact`).
+        Quarter-period phase sequence (``"FR"``, ``"FLFR"``...; see :mod:`nnmstop.exact.sequences`).
     durations : array_like
         Duration of each phase (>= 0), same length as ``sequence``.
     phases : dict, optional
@@ -145,6 +146,13 @@ def multipliers_from_monodromy(m, m_similar=None) -> ExactMultipliers:
     m_similar : array_like, shape (4, 4), optional
         A matrix similar to ``m`` in exact arithmetic.
     """
+    s, margin, tol, mismatch = _trace_analysis(m, m_similar)
+    lam = complex(multipliers_from_invariant(s)[2])
+    return ExactMultipliers(lam, s, margin, tol, bool(margin >= -tol), float(_trivial_distance(m)), mismatch)
+
+
+def _trace_analysis(m, m_similar=None):
+    """``(s, 2 - |s|, tolerance on s, invariant mismatch)`` of :func:`multipliers_from_monodromy`."""
     m = np.asarray(m, dtype=float)
     if m.shape != (4, 4) or not np.all(np.isfinite(m)):
         raise ValueError(f"the monodromy must be a finite 4 x 4 matrix, got shape {m.shape}")
@@ -154,17 +162,17 @@ def multipliers_from_monodromy(m, m_similar=None) -> ExactMultipliers:
     mismatch = abs(s - 0.5 * (minors - 2.0))
     spread = 0.0 if m_similar is None else abs(float(np.trace(m_similar)) - 2.0 - s)
     tol = TRACE_SAFETY * (spread + mismatch + 4.0 * eps * float(np.linalg.norm(m, 2)))
-    margin = 2.0 - abs(s)
-    if margin >= 0:
-        lam = complex(0.5 * s, np.sqrt(max(1.0 - 0.25 * s * s, 0.0)))
-    else:  # the root of larger modulus, without cancellation
-        lam = complex(0.5 * (s + np.copysign(np.sqrt(s * s - 4.0), s)), 0.0)
-    eig = np.linalg.eigvals(m)
-    trivial = np.sort(np.abs(eig - 1.0))[:2]
-    return ExactMultipliers(lam, s, margin, tol, bool(margin >= -tol), float(trivial.max()), float(mismatch))
+    return s, 2.0 - abs(s), tol, float(mismatch)
 
 
-def exact_multipliers(params: ModelParameters, sequence: str, durations, phases: dict | None = None) -> ExactMultipliers:
+def _trivial_distance(m):
+    """Largest distance to +1 of the two eigenvalues of ``m`` (or of each of a stack) nearest to +1."""
+    trivial = np.sort(np.abs(np.linalg.eigvals(m) - 1.0), axis=-1)[..., :2]
+    return trivial.max(axis=-1)
+
+
+def exact_multipliers(params: ModelParameters, sequence: str, durations,
+                      phases: dict | None = None) -> ExactMultipliers:
     """Monodromy (:func:`monodromy`) and multipliers (:func:`multipliers_from_monodromy`) of one orbit."""
     mats = quarter_transitions(params, sequence, durations, phases)
     return multipliers_from_monodromy(_monodromy_from(mats, "origin"), _monodromy_from(mats, "turning_point"))
@@ -189,10 +197,17 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
         the flag ``stable``, each with ``long_name`` and ``units``.
     """
     phases = _phases(params)
-    rows = [exact_multipliers(params, seq, d, phases) for seq, d in zip(sequences, durations)]
+    rows, origin = [], []
+    for seq, d in zip(sequences, durations):
+        mats = quarter_transitions(params, seq, d, phases)
+        origin.append(_monodromy_from(mats, "origin"))
+        rows.append(_trace_analysis(origin[-1], _monodromy_from(mats, "turning_point")))
     if not rows:
         raise ValueError("no orbit to compute the multipliers of")
-    lam = np.array([r.multiplier for r in rows])
+    s, margin, tol, _ = (np.array(column) for column in zip(*rows))
+    lam = multipliers_from_invariant(s)[:, 2]
+    trivial = _trivial_distance(np.array(origin))
+    stable = margin >= -tol
 
     def var(values, long_name):
         return ("point", np.asarray(values, dtype=float), {"long_name": long_name, "units": "1"})
@@ -203,23 +218,23 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
         "multiplier_imag": var(lam.imag, f"imaginary part of the {nontrivial} (>= 0 on the unit circle)"),
         "multiplier_modulus": var(np.abs(lam), "modulus of the largest non-trivial Floquet multiplier (1 if stable)"),
         "trace_invariant": var(
-            [r.trace_invariant for r in rows], "s = lambda + 1/lambda = trace of the monodromy matrix - 2"
+            s, "s = lambda + 1/lambda = trace of the monodromy matrix - 2"
         ),
         "stability_margin": var(
-            [r.stability_margin for r in rows],
+            margin,
             "2 - |s|: > 0 elliptic multiplier pair (on the unit circle), < 0 real pair off it",
         ),
         "stability_tolerance": var(
-            [r.tolerance for r in rows],
+            tol,
             "tolerance on s from its measured round-off; stable means stability_margin >= -stability_tolerance",
         ),
         "trivial_multiplier_distance": var(
-            [r.trivial_distance for r in rows],
+            trivial,
             "largest distance from +1 of the trivial multiplier pair (time shift and energy, a Jordan block; "
             "about sqrt(eps |M|) from round-off)",
         ),
         "stable": flag_variable(
-            "point", [r.stable for r in rows],
+            "point", stable,
             "Floquet stability of the exact orbit: non-trivial multipliers on the unit circle",
             "unstable stable",
         ),
@@ -240,14 +255,16 @@ def summarize(ds) -> str:
     band = np.abs(ds["stability_margin"].values) <= ds["stability_tolerance"].values
     if band.any():
         e = ds["energy"].values[band]
-        lines.append(f"{int(band.sum())} orbits with |stability_margin| <= stability_tolerance (verdict by convention), "
+        lines.append(f"{int(band.sum())} orbits with |stability_margin| <= stability_tolerance "
+                     "(verdict by convention), "
                      f"energy {e.min():.6g} to {e.max():.6g}")
     seq = ds["phase_sequence"].values if "phase_sequence" in ds else np.array(["FR"] * ds.sizes["point"])
     for c in stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds)):
         a, b = c["before"], c["after"]
         lines.append(
             f"change between points {a} and {b} ({seq[a]}): energy {c['energy_before']:.6g} -> "
-            f"{c['energy_after']:.6g}, s {float(ds['trace_invariant'][a]):.6f} -> {float(ds['trace_invariant'][b]):.6f}, "
+            f"{c['energy_after']:.6g}, s {float(ds['trace_invariant'][a]):.6f} -> "
+            f"{float(ds['trace_invariant'][b]):.6f}, "
             f"becomes {c['becomes']}"
         )
     return "\n".join(lines)

@@ -16,7 +16,7 @@
 
 Inputs are datasets only: the exact family, NNM1 stage 1 and the comparison at matched
 energies (:mod:`nnmstop.compare.dataset`), which holds both orbits at a) and b). Orbits are
-evaluated in closed form (exact: :func:`nnmstop.exact.two_impact.time_history` of the stored
+evaluated in closed form (exact: :meth:`nnmstop.exact.problem.TwoImpactProblem.time_history` of the stored
 unknowns; regularized: the stored Fourier series, :mod:`nnmstop.fourier`); nothing is solved.
 """
 
@@ -29,7 +29,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop.compare.matching import MAX_IMPACTS
-from nnmstop.exact.two_impact import time_history
+from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.fourier import fields_at_phases
 from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
 from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, save_figure
@@ -124,7 +124,7 @@ def aligned_orbits(comparison: xr.Dataset, point: int, phase) -> tuple[dict, dic
     p = comparison.isel(point=point)
     params = _parameters(comparison, where="aligned_orbits")
     y = np.array([float(p[v]) for v in ("exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1")])
-    h = time_history(y, params, y[3] + phase * 4.0 * y[3])
+    h = TwoImpactProblem(params).time_history(y, y[3] + phase * 4.0 * y[3])
     exact = {"x": h.x, "u": h.u, "xdot": h.xdot, "udot": h.udot, "f": h.force}
     omega = float(np.sqrt(p["omega_squared"]))
     theta = 2.0 * np.pi * (phase + float(p["regularized_origin_shift"]))

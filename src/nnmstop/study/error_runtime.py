@@ -23,7 +23,8 @@ import time
 import numpy as np
 import xarray as xr
 
-from nnmstop.exact.two_impact import follow_family, time_history
+from nnmstop.exact.family import follow_two_impact_family
+from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.branches import system_from_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
@@ -282,12 +283,12 @@ def exact_cost_dataset(config: dict, repeats: int = 3) -> xr.Dataset:
     family_times, history_times = [], []
     for _ in range(int(repeats)):
         start = time.perf_counter()
-        family = follow_family(params, step=float(exact["step"]), max_points=int(exact["max_points"]))
+        family = follow_two_impact_family(params, step=float(exact["step"]), max_points=int(exact["max_points"]))
         family_times.append(time.perf_counter() - start)
         y = family.unknowns[len(family) // 2]
         start = time.perf_counter()
         for _ in range(10):
-            time_history(y, params, np.linspace(0.0, 4.0 * y[3], samples, endpoint=False))
+            TwoImpactProblem(params).time_history(y, np.linspace(0.0, 4.0 * y[3], samples, endpoint=False))
         history_times.append((time.perf_counter() - start) / 10)
     n = len(family)
     data = {

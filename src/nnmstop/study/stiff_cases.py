@@ -26,15 +26,10 @@ import xarray as xr
 from nnmstop.hbm.branches import start_point, system_from_config
 from nnmstop.compare.matching import exact_increasing_arm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
-from nnmstop.exact.two_impact import (
-    TwoImpactProblem,
-    assess_orbit,
-    family_dataset,
-    follow_family,
-    grazing_orbit,
-    high_energy_orbit,
-    time_history,
-)
+from nnmstop.exact.dataset import two_impact_dataset
+from nnmstop.exact.family import follow_two_impact_family
+from nnmstop.exact.grazing import assess_orbit
+from nnmstop.exact.problem import TwoImpactProblem, first_grazing_orbit, high_energy_orbit
 from nnmstop.models.two_dof import ModelParameters, linear_modes, stiffness_matrix
 from nnmstop.checks.time_integration import integrate_nonsmooth
 from nnmstop.study.error_runtime import study_settings
@@ -103,7 +98,7 @@ def periodicity_check(params: ModelParameters, y, samples: int = 16) -> dict:
     start = time.perf_counter()
     trajectory = integrate_nonsmooth(params, [0.0, 0.0, y[0], y[1]], t)
     seconds = time.perf_counter() - start
-    exact = time_history(y, params, t)
+    exact = TwoImpactProblem(params).time_history(y, t)
     closed = np.column_stack([exact.x, exact.u, exact.xdot, exact.udot])
     scale = float(np.abs(closed).max())
     return {
@@ -120,7 +115,7 @@ def exact_checks(params: ModelParameters, step: float, max_points: int) -> tuple
     when the end was not confirmed) and a dict of the checks (see the module docstring).
     """
     start = time.perf_counter()
-    family = follow_family(params, step=step, max_points=max_points)
+    family = follow_two_impact_family(params, step=step, max_points=max_points)
     seconds = time.perf_counter() - start
     confirmed, note = _confirm_end(params, family)
     used_step = step
@@ -128,7 +123,7 @@ def exact_checks(params: ModelParameters, step: float, max_points: int) -> tuple
         logger.warning("alpha = %g: %s; following the family again with step %g", params.alpha, note, step / 10)
         used_step = step / 10
         start = time.perf_counter()
-        family = follow_family(params, step=used_step, max_points=max_points)
+        family = follow_two_impact_family(params, step=used_step, max_points=max_points)
         seconds = time.perf_counter() - start
     problem = TwoImpactProblem(params)
     residuals = np.array([np.linalg.norm(problem.residual(y)) for y in family.unknowns])
@@ -163,7 +158,7 @@ def _confirm_end(params: ModelParameters, family) -> tuple[bool, str]:
     span = float(np.linalg.norm(family.unknowns[-1] - start_y))
     fine_step = family.step / 100.0
     points = int(min(20000, max(50, 3.0 * span / fine_step)))
-    fine = follow_family(params, step=fine_step, max_points=points, start=start_y, direction=direction)
+    fine = follow_two_impact_family(params, step=fine_step, max_points=points, start=start_y, direction=direction)
     end_a, end_b = family.energy[-1], fine.energy[-1]
     same = fine.end_margin == family.end_margin and abs(end_b - end_a) <= 1e-6 * abs(end_a)
     if same:
@@ -178,7 +173,7 @@ def stiff_exact_dataset(config: dict, alpha, beta, delta) -> xr.Dataset:
     """The exact family of one ``(alpha, beta, delta)`` with its checks as scalar variables."""
     params = _params(config, alpha, beta, delta)
     family, checks = exact_checks(params, float(config["exact"]["step"]), int(config["exact"]["max_points"]))
-    ds = family_dataset(family)
+    ds = two_impact_dataset(family)
     for key, long_name, units in (
         ("relative_residual", "largest residual of the quarter-period equations, relative to max velocity * sqrt(1 + beta + alpha)", "1"),
         ("periodicity_error", "middle orbit integrated over one period with event location: max |z(T) - z(0)| / max |z|", "1"),
@@ -322,7 +317,7 @@ def _hbm_from_exact(system, params: ModelParameters, y) -> np.ndarray:
     """HBM seed from an exact orbit: Fourier coefficients of x, u, the piecewise force, z."""
     samples = system.M
     t = y[3] + np.arange(samples) / samples * 4.0 * y[3]  # origin at the turning point: a cosine series
-    h = time_history(y, params, t)
+    h = TwoImpactProblem(params).time_history(y, t)
     x, u, f = (system.to_coefficients(v) for v in (h.x, h.u, h.force))
     g_t = system.to_time(f / params.alpha - x)
     z = system.to_coefficients(g_t * g_t)
@@ -342,10 +337,10 @@ def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
            "periodicity_error": np.nan, "integration_difference": np.nan, "exact_note": "",
            "hbm_converged": False, "hbm_failure": "", "hbm_frequency_difference": np.nan,
            "hbm_energy_mismatch": np.nan, "hbm_truncation": np.nan}
-    grazing = problem.energy(grazing_orbit(params))
+    grazing = problem.energy(first_grazing_orbit(params))
     y = None
     if family is None:
-        family = follow_family(params, step=float(config["exact"]["step"]), max_points=int(config["exact"]["max_points"]))
+        family = follow_two_impact_family(params, step=float(config["exact"]["step"]), max_points=int(config["exact"]["max_points"]))
     if energy < grazing:
         amplitude, phi, omega = _linear_amplitude(params, energy, "no_contact")
         out.update(kind="linear", exact_energy=energy, exact_frequency=omega / (2 * np.pi), exact_residual=0.0,
@@ -358,7 +353,7 @@ def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
     else:
         try:
             y = _high_energy_at(params, energy)
-            check = assess_orbit(y, params, problem)
+            check = assess_orbit(problem, y)
             if check.valid:
                 out.update(kind="high_energy", exact_note="high-energy two-impact segment, solved at exactly this energy")
             else:
@@ -412,7 +407,7 @@ def energy_sweep_dataset(config: dict, alpha: float) -> xr.Dataset:
     stiff = study_settings(config)["stiff"]
     energies = np.asarray(stiff["energies"], dtype=float)
     params = _params(config, alpha, config["model"]["beta"], config["model"]["delta"], stiff["energy_eta"])
-    family = follow_family(params, step=float(config["exact"]["step"]), max_points=int(config["exact"]["max_points"]))
+    family = follow_two_impact_family(params, step=float(config["exact"]["step"]), max_points=int(config["exact"]["max_points"]))
     rows = [energy_case(config, float(alpha), float(e), family) for e in energies]
     col = lambda key: [r[key] for r in rows]  # noqa: E731
     e = ("energy",)

@@ -31,14 +31,14 @@ logger = logging.getLogger("nnmstop.tasks.run")
 
 def exact_two_impacts(config, inputs, outputs):
     """Exact two-impact NNM1 family of the non-smooth system (Section 3.1)."""
-    from nnmstop.exact.two_impact import build_two_impact_dataset
+    from nnmstop.tasks.exact import build_two_impact_dataset
 
     build_two_impact_dataset(config, outputs["dataset"])
 
 
 def exact_nnm1(config, inputs, outputs):
     """Exact NNM1 with any number of impacts per period, continued from the two-impact family."""
-    from nnmstop.exact.multi_impact import build_multi_impact_dataset
+    from nnmstop.tasks.exact import build_multi_impact_dataset
 
     build_multi_impact_dataset(config, inputs["two_impacts"], outputs["dataset"])
 

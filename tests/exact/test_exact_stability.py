@@ -11,19 +11,21 @@ import pytest
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from nnmstop.exact import multi_impact as em, two_impact as exact
+from nnmstop.exact.dataset import two_impact_dataset
+from nnmstop.exact.family import follow_two_impact_family
+from nnmstop.exact.problem import SequenceProblem, first_grazing_orbit
 from nnmstop.exact import stability as es
 from nnmstop.models.two_dof import linear_modes, mass_matrix, stiffness_matrix
 from nnmstop.checks.time_integration import integrate_nonsmooth
 
-from test_exact_multi import SEEDS, _refine
+from test_multi_impact import SEEDS, _refine
 
 
 @pytest.fixture(scope="module")
 def orbits(paper_params):
     out = {}
     for seq in ("FLF", "FL", "FRFR", "FR"):
-        problem = em.MultiImpactProblem(paper_params, seq)
+        problem = SequenceProblem(paper_params, seq)
         out[seq] = (problem, _refine(problem, SEEDS[seq]))
     return out
 
@@ -74,7 +76,7 @@ def test_constructed_symplectic_spectrum_is_recovered(lam):
 
 def test_grazing_orbit_has_the_multipliers_of_the_linear_mode(paper_params):
     """The grazing orbit is the first linear mode: the other mode turns by omega2 T in one period."""
-    y = exact.grazing_orbit(paper_params)
+    y = first_grazing_orbit(paper_params)
     r = es.exact_multipliers(paper_params, "FR", [y[2], y[3] - y[2]])
     omega, _ = linear_modes(paper_params, "no_contact")
     expected = 2.0 * np.cos(2.0 * np.pi * omega[1] / omega[0])
@@ -158,8 +160,8 @@ def test_bad_inputs_are_rejected(paper_params):
 def test_two_impact_family_changes_stability_at_its_energy_extrema(paper_params):
     """On the energy surface, a fold of the family in energy is a saddle-node of the Poincare map:
     the non-trivial pair passes +1 there and nowhere else on this stretch of the family."""
-    family = exact.follow_family(paper_params, step=0.02, max_points=40)
-    ds = exact.family_dataset(family)
+    family = follow_two_impact_family(paper_params, step=0.02, max_points=40)
+    ds = two_impact_dataset(family)
     for name in ("stable", "multiplier_real", "multiplier_imag", "multiplier_modulus", "stability_margin",
                  "stability_tolerance", "trivial_multiplier_distance", "trace_invariant"):
         assert {"long_name", "units"} <= set(ds[name].attrs), name

@@ -10,7 +10,12 @@ import pytest
 import scipy.linalg
 import xarray as xr
 
-from nnmstop.exact import two_impact as exact
+from nnmstop.exact.dataset import two_impact_dataset
+from nnmstop.exact.family import follow_two_impact_family
+from nnmstop.exact.grazing import TWO_IMPACT_MARGINS, assess_orbit
+from nnmstop.exact.phases import LinearPhase
+from nnmstop.exact.problem import TwoImpactProblem, first_grazing_orbit, high_energy_orbit
+from nnmstop.tasks.exact import build_two_impact_dataset
 from nnmstop.models.two_dof import ModelParameters, linear_modes, mass_matrix, stiffness_matrix, total_energy
 from nnmstop.checks.time_integration import integrate_nonsmooth, integrate_regularized
 
@@ -19,12 +24,12 @@ OTHER_PARAMS = ModelParameters(alpha=5.0, beta=0.3, delta=2.5, eta=0.4)
 
 @pytest.fixture(scope="module")
 def family(paper_params):
-    return exact.follow_family(paper_params, step=0.02, max_points=4000)
+    return follow_two_impact_family(paper_params, step=0.02, max_points=4000)
 
 
 @pytest.fixture(scope="module")
 def other_family():
-    return exact.follow_family(OTHER_PARAMS, step=0.02, max_points=4000)
+    return follow_two_impact_family(OTHER_PARAMS, step=0.02, max_points=4000)
 
 
 def _z0(y):
@@ -45,7 +50,7 @@ def _interior_indices(n, count=6):
 
 @pytest.mark.parametrize("phase_name", ["free_flight", "contact"])
 def test_linear_phase_matches_the_matrix_exponential(paper_params, phase_name):
-    phase = getattr(exact.LinearPhase, phase_name)(paper_params)
+    phase = getattr(LinearPhase, phase_name)(paper_params)
     m, k = mass_matrix(paper_params), stiffness_matrix(paper_params, 0.0 if phase_name == "free_flight" else 30.0)
     a = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(m, k), np.zeros((2, 2))]])
     z_eq = np.concatenate([np.linalg.solve(k, phase.force), np.zeros(2)])
@@ -58,8 +63,8 @@ def test_linear_phase_matches_the_matrix_exponential(paper_params, phase_name):
 
 
 def test_analytic_jacobian_matches_finite_differences(paper_params, family):
-    problem = exact.TwoImpactProblem(paper_params)
-    for y in (family.unknowns[40], exact.grazing_orbit(paper_params) + [0.03, -0.05, -0.2, 0.1]):
+    problem = TwoImpactProblem(paper_params)
+    for y in (family.unknowns[40], first_grazing_orbit(paper_params) + [0.03, -0.05, -0.2, 0.1]):
         h = 1e-6
         fd = np.column_stack(
             [(problem.residual(y + h * e) - problem.residual(y - h * e)) / (2 * h) for e in np.eye(4)]
@@ -72,11 +77,11 @@ def test_analytic_jacobian_matches_finite_differences(paper_params, family):
 
 def test_grazing_orbit_is_the_first_linear_mode_with_unit_amplitude(paper_params, family):
     omega, _ = linear_modes(paper_params, "no_contact")
-    y = exact.grazing_orbit(paper_params)
+    y = first_grazing_orbit(paper_params)
     np.testing.assert_array_equal(family.unknowns[0], y)
     assert family.frequency[0] == pytest.approx(omega[0] / (2 * np.pi), rel=1e-14)
-    assert np.linalg.norm(exact.TwoImpactProblem(paper_params).residual(y)) < 1e-15
-    hist = exact.time_history(y, paper_params, np.linspace(0.0, 4 * y[3], 4001))
+    assert np.linalg.norm(TwoImpactProblem(paper_params).residual(y)) < 1e-15
+    hist = TwoImpactProblem(paper_params).time_history(y, np.linspace(0.0, 4 * y[3], 4001))
     assert hist.x.max() == pytest.approx(1.0, abs=1e-12)
     assert hist.x.min() == pytest.approx(-1.0, abs=1e-12)
     assert np.all(hist.force == 0.0)
@@ -91,7 +96,7 @@ def test_grazing_orbit_is_the_first_linear_mode_with_unit_amplitude(paper_params
 def test_residuals_are_at_round_off(which, family, other_family):
     fam = family if which == "paper" else other_family
     assert fam.residual.max() < 1e-13
-    problem = exact.TwoImpactProblem(fam.params)
+    problem = TwoImpactProblem(fam.params)
     recomputed = [np.linalg.norm(problem.residual(y)) for y in fam.unknowns]
     np.testing.assert_allclose(recomputed, fam.residual, atol=1e-16)
 
@@ -102,7 +107,7 @@ def test_residuals_are_at_round_off(which, family, other_family):
 def test_energy_is_conserved_along_the_full_period(paper_params, family):
     for k in _interior_indices(len(family)):
         y = family.unknowns[k]
-        hist = exact.time_history(y, paper_params, np.linspace(0.0, 4 * y[3], 2001))
+        hist = TwoImpactProblem(paper_params).time_history(y, np.linspace(0.0, 4 * y[3], 2001))
         energy = total_energy(hist.x, hist.u, hist.xdot, hist.udot, paper_params, model="piecewise")
         np.testing.assert_allclose(energy, family.energy[k], rtol=1e-13)
 
@@ -127,7 +132,7 @@ def test_time_history_matches_integration_over_the_period(paper_params, family):
         y = family.unknowns[k]
         t = np.linspace(0.0, 4 * y[3], 41)
         traj = integrate_nonsmooth(paper_params, _z0(y), t)
-        hist = exact.time_history(y, paper_params, t)
+        hist = TwoImpactProblem(paper_params).time_history(y, t)
         np.testing.assert_allclose(np.column_stack([hist.x, hist.u, hist.xdot, hist.udot]), traj.states, atol=1e-9)
         # impacts at x = 1 occur at tau1 and 2 T1 - tau1 (mirror symmetry about T1)
         np.testing.assert_allclose(traj.switch_times[:2], [y[2], 2 * y[3] - y[2]], atol=1e-9)
@@ -160,11 +165,11 @@ def test_time_history_force_and_symmetries(paper_params, family):
     y = family.unknowns[300]
     quarter, period = y[3], 4 * y[3]
     t = np.linspace(-period, 2 * period, 3001)
-    hist = exact.time_history(y, paper_params, t)
-    shifted = exact.time_history(y, paper_params, t + period / 2)
+    hist = TwoImpactProblem(paper_params).time_history(y, t)
+    shifted = TwoImpactProblem(paper_params).time_history(y, t + period / 2)
     np.testing.assert_allclose(shifted.x, -hist.x, atol=1e-13)
     np.testing.assert_allclose(shifted.udot, -hist.udot, atol=1e-13)
-    mirrored = exact.time_history(y, paper_params, 2 * quarter - t)
+    mirrored = TwoImpactProblem(paper_params).time_history(y, 2 * quarter - t)
     np.testing.assert_allclose(mirrored.u, hist.u, atol=1e-13)
     np.testing.assert_allclose(mirrored.xdot, -hist.xdot, atol=1e-13)
     contact = np.abs(hist.x) > 1
@@ -179,7 +184,7 @@ def test_time_history_force_and_symmetries(paper_params, family):
 
 def _orbit_past(params, y_end, tangent, sigma):
     """Solve the quarter-period equations at arclength ``sigma`` from ``y_end`` along ``tangent``."""
-    problem = exact.TwoImpactProblem(params)
+    problem = TwoImpactProblem(params)
     y = y_end + sigma * tangent
     for _ in range(20):
         f = np.append(problem.residual(y), tangent @ (y - y_end) - sigma)
@@ -192,15 +197,15 @@ def _orbit_past(params, y_end, tangent, sigma):
 def test_family_ends_where_the_recorded_assumption_fails(which, family, other_family):
     fam = family if which == "paper" else other_family
     name = fam.end_margin
-    assert fam.end_reason == exact.MARGIN_REASONS[name]
+    assert fam.end_reason == TWO_IMPACT_MARGINS[name]
     last = fam.assessments[-1]
     assert last.valid and 0 < last.margins[name] < 1e-9
-    problem = exact.TwoImpactProblem(fam.params)
+    problem = TwoImpactProblem(fam.params)
     null = scipy.linalg.null_space(problem.jacobian(fam.unknowns[-1]))[:, 0]
     tangent = null if null @ (fam.unknowns[-1] - fam.unknowns[-2]) > 0 else -null
     for sigma in (1e-6, 1e-4):
-        past = exact.assess_orbit(_orbit_past(fam.params, fam.unknowns[-1], tangent, sigma), fam.params)
-        before = exact.assess_orbit(_orbit_past(fam.params, fam.unknowns[-1], tangent, -sigma), fam.params)
+        past = assess_orbit(TwoImpactProblem(fam.params), _orbit_past(fam.params, fam.unknowns[-1], tangent, sigma))
+        before = assess_orbit(TwoImpactProblem(fam.params), _orbit_past(fam.params, fam.unknowns[-1], tangent, -sigma))
         assert past.margins[name] < 0 and name in past.violated
         assert before.valid and before.margins[name] > 0
 
@@ -210,7 +215,7 @@ def test_paper_family_ends_on_the_opposite_stop_as_the_integrator_confirms(paper
     assert family.end_margin == "opposite_stop"
     y_prev = family.unknowns[-2]
     assert y_prev[0] < 0  # x starts each quarter by moving away from the stop it will hit
-    problem = exact.TwoImpactProblem(paper_params)
+    problem = TwoImpactProblem(paper_params)
     null = scipy.linalg.null_space(problem.jacobian(family.unknowns[-1]))[:, 0]
     tangent = null if null @ (family.unknowns[-1] - y_prev) > 0 else -null
     y_past = _orbit_past(paper_params, family.unknowns[-1], tangent, 1e-3)
@@ -220,7 +225,8 @@ def test_paper_family_ends_on_the_opposite_stop_as_the_integrator_confirms(paper
     assert early.size == 2, traj.switch_times  # enters and leaves the stop x = -1 well before tau1
     dip = integrate_nonsmooth(paper_params, _z0(y_past), [0.0, early.mean()]).states[-1]
     assert dip[0] < -1.0
-    hist = exact.time_history(family.unknowns[-1], paper_params, np.linspace(0, family.unknowns[-1][2], 20001))
+    y = family.unknowns[-1]
+    hist = TwoImpactProblem(paper_params).time_history(y, np.linspace(0, y[2], 20001))
     assert hist.x.min() == pytest.approx(-1.0, abs=1e-9)
 
 
@@ -232,7 +238,7 @@ def test_energy_is_not_monotone_along_the_paper_family(family):
 
 
 def test_max_points_stops_the_continuation(paper_params):
-    fam = exact.follow_family(paper_params, step=0.02, max_points=25)
+    fam = follow_two_impact_family(paper_params, step=0.02, max_points=25)
     assert len(fam) == 25 and fam.end_margin == "" and "max_points" in fam.end_reason
     assert all(a.valid for a in fam.assessments[1:])
 
@@ -251,11 +257,11 @@ def test_frequency_rises_towards_the_gap_zero_mode(paper_params, family):
 
 def test_high_energy_orbits_tend_to_the_gap_zero_mode(paper_params):
     f_gap0 = linear_modes(paper_params, "gap_zero")[0][0] / (2 * np.pi)
-    problem = exact.TwoImpactProblem(paper_params)
+    problem = TwoImpactProblem(paper_params)
     gaps = []
     for x_max in (10.0, 100.0, 1000.0):
-        y = exact.high_energy_orbit(paper_params, x_max)
-        check = exact.assess_orbit(y, paper_params, problem)
+        y = high_energy_orbit(paper_params, x_max)
+        check = assess_orbit(problem, y)
         assert check.valid and check.x_max == pytest.approx(x_max, rel=1e-12)
         assert np.linalg.norm(problem.residual(y)) < 1e-14 * np.linalg.norm(y)
         gaps.append(f_gap0 - 1 / (4 * y[3]))
@@ -285,7 +291,7 @@ def test_regularized_orbit_approaches_the_exact_orbit_as_eta_shrinks(paper_param
 
 
 def test_dataset_is_labelled_and_consistent(paper_params, family, tmp_path):
-    ds = exact.family_dataset(family)
+    ds = two_impact_dataset(family)
     for name in ["energy", "frequency", "period", "x_max", "u_at_x_max", "xdot0", "udot0",
                  "free_flight_time", "contact_time", "residual"]:
         assert name in ds.data_vars and ds[name].dims == ("point",)
@@ -302,7 +308,7 @@ def test_dataset_is_labelled_and_consistent(paper_params, family, tmp_path):
 def test_build_dataset_writes_netcdf(tmp_path):
     config = {"model": {"alpha": 30.0, "beta": 1.0, "delta": 1.0, "eta": 0.1},
               "exact": {"step": 0.05, "max_points": 30}}
-    path = exact.build_two_impact_dataset(config, tmp_path / "out" / "family.nc")
+    path = build_two_impact_dataset(config, tmp_path / "out" / "family.nc")
     with xr.open_dataset(path) as ds:
         assert ds.sizes["point"] == 30
         assert "max_points" in ds.attrs["end_reason"]
@@ -311,14 +317,14 @@ def test_build_dataset_writes_netcdf(tmp_path):
 
 def test_bad_inputs_are_rejected_naming_the_value(paper_params):
     with pytest.raises(ValueError, match="step"):
-        exact.follow_family(paper_params, step=-0.1)
+        follow_two_impact_family(paper_params, step=-0.1)
     with pytest.raises(ValueError, match="max_points"):
-        exact.follow_family(paper_params, max_points=1)
+        follow_two_impact_family(paper_params, max_points=1)
     with pytest.raises(ValueError, match="x_max"):
-        exact.high_energy_orbit(paper_params, 0.5)
+        high_energy_orbit(paper_params, 0.5)
     with pytest.raises(ValueError, match="shape"):
-        exact.time_history([1.0, 2.0, 3.0], paper_params, [0.0])
+        TwoImpactProblem(paper_params).time_history([1.0, 2.0, 3.0], [0.0])
     with pytest.raises(ValueError, match="residual"):
-        exact.follow_family(paper_params, start=[1.0, 1.0, 1.0, 2.0])
+        follow_two_impact_family(paper_params, start=[1.0, 1.0, 1.0, 2.0])
     with pytest.raises(ValueError, match="model"):
-        exact.build_two_impact_dataset({"exact": {"step": 0.1, "max_points": 10}}, "unused.nc")
+        build_two_impact_dataset({"exact": {"step": 0.1, "max_points": 10}}, "unused.nc")

@@ -10,7 +10,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nnmstop.exact import multi_impact as em, two_impact as exact
+from nnmstop.exact.dataset import two_impact_dataset
+from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impact_family, unit_null_vector
+from nnmstop.exact.grazing import OrbitAssessment, assess_orbit, classify_boundary, merge_seed, split_start
+from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem, from_two_impact_unknowns, high_energy_orbit
+from nnmstop.exact.sequences import check_sequence, sequence_impacts
+from nnmstop.tasks.exact import build_multi_impact_dataset
 from nnmstop.hbm.system import impacts_per_period as sampled_impacts
 from nnmstop.models.two_dof import total_energy
 from nnmstop.checks.time_integration import integrate_nonsmooth
@@ -31,7 +36,7 @@ SEEDS = {
 IMPACTS = {"FLFR": 6, "FLF": 4, "FL": 2, "FRFL": 6, "FRFLF": 8, "FRFLFR": 10, "FRFR": 6, "FR": 2}
 
 #: Coarse but exact continuation settings (fewer orbits, same transitions).
-COARSE = em.ContinuationSettings(step=0.25, max_frequency_step=2e-4, max_log_energy_step=0.1, max_points=400)
+COARSE = FamilySettings(step=0.25, max_frequency_step=2e-4, max_log_energy_step=0.1, max_points=400)
 
 
 def _refine(problem, y):
@@ -46,7 +51,7 @@ def _refine(problem, y):
 def orbits(paper_params):
     out = {}
     for seq, seed in SEEDS.items():
-        problem = em.MultiImpactProblem(paper_params, seq)
+        problem = SequenceProblem(paper_params, seq)
         y = _refine(problem, seed)
         assert np.linalg.norm(problem.residual(y)) < 1e-12
         assert np.linalg.norm(y - seed) < 1e-9
@@ -56,16 +61,16 @@ def orbits(paper_params):
 
 @pytest.fixture(scope="module")
 def two_family(paper_params):
-    return exact.follow_family(paper_params, step=0.1)
+    return follow_two_impact_family(paper_params, step=0.1)
 
 
 @pytest.fixture(scope="module")
 def first_segments(paper_params, two_family):
     """The continuation from the end of the two-impact family: FR -> FLFR -> FLF."""
-    y = em.from_two_impact_unknowns(two_family.unknowns)
-    settings = em.ContinuationSettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=400,
+    y = from_two_impact_unknowns(two_family.unknowns)
+    settings = FamilySettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=400,
                                        max_segments=3)
-    return em.follow_branch(paper_params, "FR", y[-1], y[-1] - y[-2], settings)
+    return follow_branch(paper_params, "FR", y[-1], y[-1] - y[-2], settings)
 
 
 def _z0(y):
@@ -76,18 +81,18 @@ def _z0(y):
 
 
 def test_sequences_are_validated():
-    assert em.check_sequence("FRFL") == "FRFL"
+    assert check_sequence("FRFL") == "FRFL"
     for bad in ("", "RF", "FF", "FRL", "FRRF", "FXR", None):
         with pytest.raises(ValueError):
-            em.check_sequence(bad)
-    assert [em.impacts_per_period(s) for s in ("F", "FR", "FLF", "FLFR", "FRFLF", "FRFLFR")] == [0, 2, 4, 6, 8, 10]
+            check_sequence(bad)
+    assert [sequence_impacts(s) for s in ("F", "FR", "FLF", "FLFR", "FRFLF", "FRFLFR")] == [0, 2, 4, 6, 8, 10]
 
 
 def test_fr_equations_are_the_two_impact_equations(paper_params, two_family):
-    fr = em.MultiImpactProblem(paper_params, "FR")
-    two = exact.TwoImpactProblem(paper_params)
+    fr = SequenceProblem(paper_params, "FR")
+    two = TwoImpactProblem(paper_params)
     for y4 in two_family.unknowns[::20]:
-        y = em.from_two_impact_unknowns(y4)
+        y = from_two_impact_unknowns(y4)
         np.testing.assert_allclose(fr.residual(y), two.residual(y4), atol=1e-14)
         # d/d(d2) = d/dT1 and d/d(d1) = d/dtau1 + d/dT1
         j4 = two.jacobian(y4)
@@ -115,11 +120,11 @@ def test_analytic_jacobian_matches_finite_differences(orbits, seq):
 @pytest.mark.parametrize("seq", list(SEEDS))
 def test_orbits_are_periodic_for_the_event_driven_integrator(paper_params, orbits, seq):
     problem, y = orbits[seq]
-    assert em.assess_orbit(problem, y).valid
+    assert assess_orbit(problem, y).valid
     period = 4 * problem.quarter(y)
     t = np.linspace(0.0, period, 25)
     traj = integrate_nonsmooth(paper_params, _z0(y), t)
-    hist = em.time_history(paper_params, seq, y, t)
+    hist = SequenceProblem(paper_params, seq).time_history(y, t)
     np.testing.assert_allclose(traj.states[-1], _z0(y), rtol=0, atol=1e-9)
     np.testing.assert_allclose(
         np.column_stack([hist.x, hist.u, hist.xdot, hist.udot]), traj.states, rtol=0,
@@ -134,23 +139,23 @@ def test_orbits_are_periodic_for_the_event_driven_integrator(paper_params, orbit
 def test_energy_is_conserved_and_impacts_are_counted_like_the_regularized_branch(paper_params, orbits, seq):
     problem, y = orbits[seq]
     period = 4 * problem.quarter(y)
-    hist = em.time_history(paper_params, seq, y, np.linspace(0.0, period, 20000, endpoint=False))
+    hist = SequenceProblem(paper_params, seq).time_history(y, np.linspace(0.0, period, 20000, endpoint=False))
     energy = total_energy(hist.x, hist.u, hist.xdot, hist.udot, paper_params, model="piecewise")
     np.testing.assert_allclose(energy, problem.energy(y), rtol=1e-12)
     assert sampled_impacts(hist.x) == problem.impacts_per_period
-    check = em.assess_orbit(problem, y)
+    check = assess_orbit(problem, y)
     assert hist.x.max() <= check.x_max + 1e-12 and check.x_max - hist.x.max() < 1e-5 * check.x_max  # sampled
     # the symmetries of the class: q(t + T/2) = -q(t), and a turning point at T1
-    half = em.time_history(paper_params, seq, y, hist.t + period / 2)
+    half = SequenceProblem(paper_params, seq).time_history(y, hist.t + period / 2)
     np.testing.assert_allclose(half.x, -hist.x, atol=1e-12 * max(1.0, abs(y[:2]).max()))
-    turn = em.time_history(paper_params, seq, y, np.array([problem.quarter(y)]))
+    turn = SequenceProblem(paper_params, seq).time_history(y, np.array([problem.quarter(y)]))
     assert abs(turn.xdot[0]) < 1e-11 * max(1.0, abs(y[:2]).max()) and abs(turn.udot[0]) < 1e-11 * abs(y[:2]).max()
 
 
 def test_high_energy_fr_orbits_are_those_of_the_two_impact_module(paper_params, orbits):
     problem, y = orbits["FR"]
-    x_max = em.assess_orbit(problem, y).x_turning
-    y_he = em.from_two_impact_unknowns(exact.high_energy_orbit(paper_params, x_max))
+    x_max = assess_orbit(problem, y).x_turning
+    y_he = from_two_impact_unknowns(high_energy_orbit(paper_params, x_max))
     np.testing.assert_allclose(y_he, y, rtol=1e-9)
 
 
@@ -163,14 +168,14 @@ def test_the_two_impact_family_ends_at_a_grazing_of_the_other_stop(paper_params,
     tr = fr.transition
     assert (tr.kind, tr.old, tr.new, tr.level) == ("split", "FR", "FLFR", -1.0)
     # located where the end of the two-impact family was (to its bisection tolerance)
-    y_end = em.from_two_impact_unknowns(two_family.unknowns[-1])
+    y_end = from_two_impact_unknowns(two_family.unknowns[-1])
     np.testing.assert_allclose(tr.y_graze, y_end, rtol=0, atol=1e-9)
     # the grazing condition: x = -1 with xdot = 0 at t* inside the free flight, x >= -1 around
-    problem = em.MultiImpactProblem(paper_params, "FR")
+    problem = SequenceProblem(paper_params, "FR")
     z = problem.phases[0].state(problem.switch_states(tr.y_graze)[0], tr.t_star)
     assert abs(z[0] + 1.0) < 1e-13 and abs(z[2]) < 1e-12
     assert 0 < tr.t_star < tr.y_graze[2]
-    hist = em.time_history(paper_params, "FR", tr.y_graze, np.linspace(0, tr.y_graze[2], 20001))
+    hist = SequenceProblem(paper_params, "FR").time_history(tr.y_graze, np.linspace(0, tr.y_graze[2], 20001))
     assert -1.0 - 1e-13 < hist.x.min() < -1.0 + 1e-8  # sampled: the tangency lies between two samples
     # the new left-stop contact starts at the tangency, with the duration of the first orbit
     y1 = flfr.unknowns[0]
@@ -180,7 +185,7 @@ def test_the_two_impact_family_ends_at_a_grazing_of_the_other_stop(paper_params,
     assert 0 < gap < 2e-6 * problem.energy(tr.y_graze)
     # the new family is analytic in the new duration, the old one in its square: halving the
     # duration of the new contact divides the energy gap by four
-    _, y_half, index = em.split_start(paper_params, "FR", tr.y_graze, 0, tr.t_star, -1.0, 0.5 * y1[3])
+    _, y_half, index = split_start(paper_params, "FR", tr.y_graze, 0, tr.t_star, -1.0, 0.5 * y1[3])
     assert index == 3 and y_half[3] == 0.5 * y1[3]
     ratio = gap / (flfr.problem.energy(y_half) - problem.energy(tr.y_graze))
     assert ratio == pytest.approx(4.0, rel=0.05)
@@ -195,7 +200,7 @@ def test_a_vanishing_contact_merges_the_sequences(paper_params, first_segments):
     # the grazing orbit: FLF whose turning point touches the stop x = 1
     g = flf.unknowns[0]
     assert flf.grazing[0] and np.array_equal(g, tr.y_graze)
-    assert em.MultiImpactProblem(paper_params, "FLF").switch_states(g)[-1, 0] == pytest.approx(1.0, abs=1e-13)
+    assert SequenceProblem(paper_params, "FLF").switch_states(g)[-1, 0] == pytest.approx(1.0, abs=1e-13)
     assert flf.problem.energy(g) == pytest.approx(flfr.problem.energy(last), rel=1e-9)
     assert flf.problem.frequency(g) == pytest.approx(flfr.problem.frequency(last), rel=1e-9)
     assert all(a.valid for a in flf.assessments[1:])
@@ -211,27 +216,28 @@ def test_transitions_are_found_again_in_the_reverse_direction(paper_params, firs
     Each grazing orbit is the one of the forward transition (FL -> FRFL split, FLF -> FL merge,
     FLFR -> FLF merge), found from the other side.
     """
-    problem = em.MultiImpactProblem(paper_params, "FRFL")
+    problem = SequenceProblem(paper_params, "FRFL")
     y0 = _refine(problem, SEEDS["FRFL"])
-    direction = em._null_vector(problem.jacobian(y0))
+    direction = unit_null_vector(problem.jacobian(y0))
     direction *= -np.sign(direction[3])  # shrink the right-stop contact
-    settings = em.ContinuationSettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=900,
+    settings = FamilySettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=900,
                                        max_segments=4)
-    segs = em.follow_branch(paper_params, "FRFL", y0, direction, settings)
+    segs = follow_branch(paper_params, "FRFL", y0, direction, settings)
     kinds = [(s.transition.kind, s.transition.old, s.transition.new) for s in segs[:3]]
     assert kinds == [("merge", "FRFL", "FL"), ("append", "FL", "FLF"), ("append", "FLF", "FLFR")]
     # the reversed transitions meet the same grazing orbits as the forward ones
     fl_split = segs[1].unknowns[0]  # FL grazing orbit: x grazes x = 1 in its free flight
-    problem_fl = em.MultiImpactProblem(paper_params, "FL")
-    check = em.assess_orbit(problem_fl, fl_split)
+    problem_fl = SequenceProblem(paper_params, "FL")
+    check = assess_orbit(problem_fl, fl_split)
     assert abs(check.margins[("interior", 0)]) < 1e-12
     flf_turn = segs[2].transition.y_graze  # FLF whose turning point reaches x = 1
-    assert em.MultiImpactProblem(paper_params, "FLF").switch_states(flf_turn)[-1, 0] == pytest.approx(1.0, abs=1e-13)
+    assert SequenceProblem(paper_params, "FLF").switch_states(flf_turn)[-1, 0] == pytest.approx(1.0, abs=1e-13)
     # the very orbit where the forward continuation merged FLFR into FLF
     forward = first_segments[1].transition
     assert (forward.kind, forward.old, forward.new) == ("merge", "FLFR", "FLF")
     np.testing.assert_allclose(flf_turn, forward.y_graze, rtol=1e-9)
-    assert segs[2].problem.energy(flf_turn) == pytest.approx(first_segments[2].problem.energy(forward.y_graze), rel=1e-9)
+    expected = first_segments[2].problem.energy(forward.y_graze)
+    assert segs[2].problem.energy(flf_turn) == pytest.approx(expected, rel=1e-9)
     # FL -> FLF: the turning point in the left stop comes back to x = -1 (the contact splits)
     fl_turn = segs[1].transition.y_graze
     assert problem_fl.switch_states(fl_turn)[-1, 0] == pytest.approx(-1.0, abs=1e-13)
@@ -239,34 +245,34 @@ def test_transitions_are_found_again_in_the_reverse_direction(paper_params, firs
 
 def test_the_six_impact_high_energy_family_ends_on_the_two_impact_high_energy_orbits(paper_params, orbits):
     problem, y = orbits["FRFR"]
-    direction = em._null_vector(problem.jacobian(y))
+    direction = unit_null_vector(problem.jacobian(y))
     direction *= -np.sign(direction[4])  # shrink the free flight between the two right-stop contacts
-    settings = em.ContinuationSettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=500,
+    settings = FamilySettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=500,
                                        max_segments=2, energy_max=2000.0)
-    segs = em.follow_branch(paper_params, "FRFR", y, direction, settings)
+    segs = follow_branch(paper_params, "FRFR", y, direction, settings)
     tr = segs[0].transition
     assert (tr.kind, tr.old, tr.new, tr.margin) == ("merge", "FRFR", "FR", ("duration", 2))
     # the grazing orbit: FR whose contact has an interior minimum x = 1 (x leaves the stop)
-    fr = em.MultiImpactProblem(paper_params, "FR")
+    fr = SequenceProblem(paper_params, "FR")
     z = fr.phases[1].state(fr.switch_states(tr.y_graze)[1], tr.t_star)
     assert abs(z[0] - 1.0) < 1e-13 and abs(z[2]) < 1e-11
     # then the FR family grows in energy and its orbits are the high-energy orbits of exact.py
     high = segs[1]
     assert high.sequence == "FR" and high.energy[-1] > 2000.0 and np.all(np.diff(high.energy) > 0)
     for yk, check in list(zip(high.unknowns, high.assessments))[10::40]:
-        y_he = em.from_two_impact_unknowns(exact.high_energy_orbit(paper_params, check.x_turning))
+        y_he = from_two_impact_unknowns(high_energy_orbit(paper_params, check.x_turning))
         np.testing.assert_allclose(y_he, yk, rtol=1e-9)
 
 
 def test_classification_refuses_non_generic_ends(paper_params):
-    problem = em.MultiImpactProblem(paper_params, "FR")
+    problem = SequenceProblem(paper_params, "FR")
     with pytest.raises(ValueError, match="first free flight"):
-        em.merge_seed("FR", [1.0, 1.0, 0.0, 1.0], 0)
+        merge_seed("FR", [1.0, 1.0, 0.0, 1.0], 0)
     with pytest.raises(ValueError, match="cannot vanish"):
-        em.merge_seed("FRFLF", np.ones(7), 2)
-    fake = em.OrbitAssessment({("switch", 0): -1.0}, {}, 1.0, 0.0, 1.0)
+        merge_seed("FRFLF", np.ones(7), 2)
+    fake = OrbitAssessment({("switch", 0): -1.0}, {}, 1.0, 0.0, 1.0)
     with pytest.raises(RuntimeError, match="not a generic grazing"):
-        em.classify_boundary(problem, [1.0, 1.0, 1.0, 1.0], fake, fake)
+        classify_boundary(problem, [1.0, 1.0, 1.0, 1.0], fake, fake)
 
 
 # --------------------------------------------------------------------------- dataset
@@ -274,14 +280,14 @@ def test_classification_refuses_non_generic_ends(paper_params):
 
 def test_dataset_starts_with_the_two_impact_family_unchanged(paper_params, two_family, tmp_path):
     two_path = tmp_path / "two.nc"
-    two = exact.family_dataset(two_family)
+    two = two_impact_dataset(two_family)
     two.to_netcdf(two_path)
     config = {
         "model": {"alpha": 30.0, "beta": 1.0, "delta": 1.0, "eta": 0.1},
         "exact_multi": {"step": 0.25, "max_points": 150, "energy_max": 1.5e5, "max_log_energy_step": 0.1,
                         "max_frequency_step": 5e-4, "grazing_epsilon": 1e-3},
     }
-    out = em.build_multi_impact_dataset(config, two_path, tmp_path / "nnm1.nc")
+    out = build_multi_impact_dataset(config, two_path, tmp_path / "nnm1.nc")
     with xr.open_dataset(two_path) as a, xr.open_dataset(out) as b:
         two, ds = a.load(), b.load()
     n = two.sizes["point"]
@@ -300,13 +306,13 @@ def test_dataset_starts_with_the_two_impact_family_unchanged(paper_params, two_f
     # inconsistent parameters are refused
     config["model"]["alpha"] = 20.0
     with pytest.raises(ValueError, match="alpha"):
-        em.build_multi_impact_dataset(config, two_path, tmp_path / "bad.nc")
+        build_multi_impact_dataset(config, two_path, tmp_path / "bad.nc")
 
 
 def test_settings_are_checked():
     with pytest.raises(ValueError, match="unknown exact_multi settings"):
-        em.ContinuationSettings.from_config({"step": 0.1, "stepp": 1})
+        FamilySettings.from_config({"step": 0.1, "stepp": 1})
     with pytest.raises(ValueError, match="step"):
-        em.ContinuationSettings(step=-1.0)
+        FamilySettings(step=-1.0)
     with pytest.raises(ValueError, match="max_points"):
-        em.ContinuationSettings(max_points=0)
+        FamilySettings(max_points=0)

@@ -1,0 +1,88 @@
+"""Time the exact-orbit tasks (``exact_two_impacts``, ``exact_nnm1``) of two commits side by side.
+
+Extracts each committed tree into a fresh temporary directory (as ``cold_build.py`` does),
+runs the two tasks through ``python -m nnmstop.tasks.run`` with ``PYTHONPATH`` set to that
+tree's ``src``, alternately ``--repeat`` times (A, B, A, B, ...), and reports the best wall
+and CPU (user + system) time of each task with the ratio B/A. The CPU time is the steadier
+figure on a shared machine; the wall time is what the build waits for. Both trees read
+the configuration of their own commit. It also says whether the two commits wrote the same
+data (``nnmstop.verify.data_digest``).
+
+Usage::
+
+    python benchmarks/exact_build.py --compare main HEAD [--repeat 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cold_build import tracked_copy  # noqa: E402
+
+TASKS = (
+    ("exact_two_impacts", [], "two_impacts.nc"),
+    ("exact_nnm1", ["--input", "two_impacts=two_impacts.nc"], "nnm1.nc"),
+)
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run_tasks(tree: Path) -> dict:
+    """Run the exact tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``."""
+    env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    times = {}
+    for task, extra, output in TASKS:
+        cpu0, wall0 = _children_cpu(), time.perf_counter()
+        subprocess.run([sys.executable, "-m", "nnmstop.tasks.run", task, *extra, "--output", f"dataset={output}",
+                        "--log", "task.log"], cwd=tree, env=env, check=True)
+        times[task] = (time.perf_counter() - wall0, _children_cpu() - cpu0)
+    return times
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--compare", nargs=2, metavar=("A", "B"), default=("main", "HEAD"))
+    parser.add_argument("--repeat", type=int, default=2)
+    args = parser.parse_args(argv)
+    if args.repeat < 1:
+        raise ValueError(f"--repeat must be >= 1, got {args.repeat}")
+    trees = {}
+    try:
+        for ref in args.compare:
+            trees[ref] = Path(tempfile.mkdtemp(prefix="nnmstop-exact-"))
+            tracked_copy(trees[ref], ref)
+        best = {ref: {} for ref in args.compare}
+        for _ in range(args.repeat):
+            for ref in args.compare:
+                for task, (wall, cpu) in run_tasks(trees[ref]).items():
+                    old = best[ref].get(task, (float("inf"), float("inf")))
+                    best[ref][task] = (min(old[0], wall), min(old[1], cpu))
+        a, b = args.compare
+        from nnmstop.verify import data_digest
+
+        print(f"| task | {a} wall [s] | {b} wall [s] | ratio | {a} CPU [s] | {b} CPU [s] | ratio | same data |")
+        print("|---|---|---|---|---|---|---|---|")
+        for task, _, output in TASKS:
+            (wa, ca), (wb, cb) = best[a][task], best[b][task]
+            same = data_digest(trees[a] / output) == data_digest(trees[b] / output)
+            print(f"| {task} | {wa:.1f} | {wb:.1f} | {wb / wa:.2f} | {ca:.1f} | {cb:.1f} | {cb / ca:.2f} | {same} |")
+    finally:
+        for tree in trees.values():
+            shutil.rmtree(tree, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,208 @@
+"""Linear phases of the non-smooth 2-DOF system and the time histories built from them.
+
+Between switchings Eqs. (3)-(4) are linear with constant coefficients: free flight ``F``
+(Eq. 8), contact with the right stop ``R`` or the left stop ``L`` (Eq. 9 and its mirror).
+Each phase is solved in closed form by its mass-normalized modes, so states, vector field
+and transition matrix are exact to round-off (:class:`LinearPhase`). The orbits of the
+symmetry class of Section 3.1 are decided by their quarter period; :func:`unfold_quarter`
+builds the whole period from it. Method notes: ``docs/methods/exact.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+from nnmstop.models.two_dof import ModelParameters, mass_matrix, piecewise_contact_force, stiffness_matrix
+
+__all__ = [
+    "PHASE_NAMES",
+    "STOP_SIDE",
+    "LinearPhase",
+    "phase_of",
+    "interior_extrema",
+    "OrbitTimeHistory",
+    "unfold_quarter",
+]
+
+#: The linear phases and what they mean.
+PHASE_NAMES = {
+    "F": "free flight, |x| <= 1 (Eq. 8)",
+    "R": "contact with the right stop, x >= 1 (Eq. 9)",
+    "L": "contact with the left stop, x <= -1 (Eq. 9 mirrored)",
+}
+#: Position of the stop of each contact phase.
+STOP_SIDE = {"R": 1.0, "L": -1.0}
+
+_ROUND_OFF = np.finfo(float).eps
+
+
+@dataclass(frozen=True)
+class LinearPhase:
+    """Closed-form flow of ``M q'' + K q = force`` (constant coefficients).
+
+    The state is ``z = (x, u, xdot, udot)``. With the mass-normalized modes ``Phi``
+    (``Phi^T M Phi = I``, ``Phi^T K Phi = diag(omega**2)``) and ``q_eq = K^{-1} force``::
+
+        q(t) = q_eq + Phi (a cos(omega t) + b / omega sin(omega t)),
+        a = Phi^T M (q(0) - q_eq),  b = Phi^T M qdot(0).
+
+    Parameters
+    ----------
+    mass, stiffness : ndarray, shape (2, 2)
+        Symmetric positive definite matrices.
+    force : ndarray, shape (2,)
+        Constant right-hand side.
+    """
+
+    mass: np.ndarray
+    stiffness: np.ndarray
+    force: np.ndarray
+    omega: np.ndarray = field(init=False)
+    modes: np.ndarray = field(init=False)
+    q_eq: np.ndarray = field(init=False)
+    projection: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        lam, modes = scipy.linalg.eigh(self.stiffness, self.mass)  # Phi^T M Phi = I
+        if np.any(lam <= 0):
+            raise ValueError(f"stiffness matrix must be positive definite, got eigenvalues {lam}")
+        object.__setattr__(self, "omega", np.sqrt(lam))
+        object.__setattr__(self, "modes", modes)
+        object.__setattr__(self, "q_eq", np.linalg.solve(self.stiffness, self.force))
+        # Phi^T M formed once: every state and transition uses it.
+        object.__setattr__(self, "projection", modes.T @ self.mass)
+        diagonal = np.diag(self.mass)
+        object.__setattr__(self, "_mass_diagonal", diagonal if np.all(self.mass == np.diag(diagonal)) else None)
+
+    @classmethod
+    def free_flight(cls, params: ModelParameters) -> "LinearPhase":
+        """Eq. (8): no contact force, ``|x| <= 1``."""
+        return cls(mass_matrix(params), stiffness_matrix(params), np.zeros(2))
+
+    @classmethod
+    def contact(cls, params: ModelParameters, side: float = 1.0) -> "LinearPhase":
+        """Eq. (9): in contact with the stop at ``x = side`` (stiffness ``alpha`` and force ``side alpha`` on x)."""
+        return cls(mass_matrix(params), stiffness_matrix(params, params.alpha), np.array([side * params.alpha, 0.0]))
+
+    def state(self, z0, t):
+        """State ``(x, u, xdot, udot)`` at time(s) ``t`` from ``z0`` at time 0.
+
+        Returns an array of shape ``np.shape(t) + (4,)``.
+        """
+        z0 = np.asarray(z0, dtype=float)
+        omega, modes_t = self.omega, self.modes.T
+        a = self.projection @ (z0[:2] - self.q_eq)
+        b = self.projection @ z0[2:]
+        # a scalar time (switch states, root finding) skips the outer product: the same numbers
+        wt = t * omega if isinstance(t, float) else np.multiply.outer(np.asarray(t, dtype=float), omega)
+        c, s = np.cos(wt), np.sin(wt)
+        eta = a * c + (b / omega) * s
+        eta_dot = -(a * omega) * s + b * c
+        out = np.empty(wt.shape[:-1] + (4,))
+        out[..., :2] = self.q_eq + eta @ modes_t
+        out[..., 2:] = eta_dot @ modes_t
+        return out
+
+    def transition(self, t: float) -> np.ndarray:
+        """Transition matrix ``d z(t) / d z(0)`` (4 x 4), exact."""
+        c, s = np.cos(self.omega * t), np.sin(self.omega * t)
+        proj, phi = self.projection, self.modes
+        out = np.empty((4, 4))
+        out[:2, :2] = out[2:, 2:] = phi @ (c[:, None] * proj)
+        out[:2, 2:] = phi @ ((s / self.omega)[:, None] * proj)
+        out[2:, :2] = phi @ ((-self.omega * s)[:, None] * proj)
+        return out
+
+    def field(self, z) -> np.ndarray:
+        """Time derivative ``(xdot, udot, xddot, uddot)`` of the state ``z`` (last axis)."""
+        z = np.asarray(z, dtype=float)
+        rhs = self.force - z[..., :2] @ self.stiffness.T
+        if self._mass_diagonal is not None:  # M = diag(1, delta): the solve is a division
+            acc = rhs / self._mass_diagonal
+        else:
+            acc = np.linalg.solve(self.mass, rhs.T).T
+        out = np.empty(z.shape)
+        out[..., :2] = z[..., 2:]
+        out[..., 2:] = acc
+        return out
+
+
+def phase_of(params: ModelParameters, kind: str) -> LinearPhase:
+    """The linear phase ``kind`` (``"F"``, ``"R"`` or ``"L"``, see :data:`PHASE_NAMES`)."""
+    if kind == "F":
+        return LinearPhase.free_flight(params)
+    if kind not in STOP_SIDE:
+        raise ValueError(f"unknown phase {kind!r}; use one of {sorted(PHASE_NAMES)}")
+    return LinearPhase.contact(params, STOP_SIDE[kind])
+
+
+def interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 64):
+    """Interior extrema of x over ``(0, duration)`` of a linear phase: times and states.
+
+    Sign changes of the closed-form xdot on a grid of ``samples_per_period`` samples per
+    period of the fastest mode, refined by Brent's method to round-off; times in
+    increasing order. Two extrema closer than one grid interval (a nearly degenerate
+    inflection) would be missed; with 64 samples per period their amplitude is negligible.
+    """
+    if not duration > 0:
+        return np.empty(0), np.empty((0, 4))
+    n = samples_per_period * max(1, int(np.ceil(duration * phase.omega.max() / (2 * np.pi)))) + 1
+    t = np.linspace(0.0, duration, n)
+    xdot = phase.state(z0, t)[:, 2]
+    changes = np.flatnonzero(np.sign(xdot[:-1]) * np.sign(xdot[1:]) < 0)
+    times = list(t[1:-1][xdot[1:-1] == 0.0])
+    if changes.size:
+        z0 = np.asarray(z0, dtype=float)
+
+        def velocity(s):
+            return phase.state(z0, s)[2]
+
+        times.extend(
+            scipy.optimize.brentq(velocity, t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF) for i in changes
+        )
+    # discard the end points themselves (they are not interior extrema)
+    tol = 1e-12 * max(duration, 1.0)
+    times = np.array(sorted(s for s in times if tol < s < duration - tol))
+    if times.size == 0:
+        return times, np.empty((0, 4))
+    return times, phase.state(z0, times)
+
+
+class OrbitTimeHistory(NamedTuple):
+    """Full-period time history of an exact orbit (all arrays have the shape of ``t``)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+    xdot: np.ndarray
+    udot: np.ndarray
+    force: np.ndarray
+
+
+def unfold_quarter(quarter_state, quarter: float, t, alpha: float) -> OrbitTimeHistory:
+    """Full-period time history at times ``t`` from the quarter period ``[0, quarter]``.
+
+    ``quarter_state(r)`` gives the states ``(x, u, xdot, udot)`` at times ``r`` of the
+    quarter period (last axis). The NNM symmetries unfold it: the mirror
+    ``q(T1 + s) = q(T1 - s)`` (velocities change sign) and the half-period shift
+    ``q(t + T/2) = -q(t)``; ``t`` may be any real times (the orbit is ``4 quarter``-periodic).
+    The contact force is the piecewise-linear law, Eq. (4).
+    """
+    t = np.asarray(t, dtype=float)
+    period = 4.0 * quarter
+    s = np.mod(t, period)
+    second_half = s >= 0.5 * period
+    s = np.where(second_half, s - 0.5 * period, s)
+    mirrored = s > quarter
+    r = np.where(mirrored, 2.0 * quarter - s, s)
+    z = quarter_state(np.clip(r, 0.0, quarter))
+    sign_q = np.where(second_half, -1.0, 1.0)
+    sign_v = sign_q * np.where(mirrored, -1.0, 1.0)
+    x, u = sign_q * z[..., 0], sign_q * z[..., 1]
+    xdot, udot = sign_v * z[..., 2], sign_v * z[..., 3]
+    return OrbitTimeHistory(t, x, u, xdot, udot, piecewise_contact_force(x, alpha))
