@@ -16,7 +16,8 @@ import pytest
 
 from fixed_energy import orbit_at_energy
 from nnmstop.compare import matching as compare
-from nnmstop.hbm.branches import continue_stage, dataset_unknowns
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.tasks.hbm import build_stage
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.exact.two_impact import family_dataset, follow_family, time_history
 from nnmstop.figures import exact_vs_regularized as fig
@@ -46,7 +47,7 @@ def exact_family():
 
 @pytest.fixture(scope="module")
 def stage1():
-    return continue_stage(small_config(), "nnm1", 1)
+    return build_stage(small_config(), "nnm1", 1)
 
 
 @pytest.fixture(scope="module")
@@ -188,7 +189,7 @@ def test_frequency_difference_shrinks_with_eta(exact_family):
     energy = 4.0
     out = {}
     for eta in (0.1, 0.02):
-        branch = continue_stage(small_config(eta, {"energy_above": 8.0}), "nnm1", 1)
+        branch = build_stage(small_config(eta, {"energy_above": 8.0}), "nnm1", 1)
         m = compare.EnergyMatcher(exact_family, branch)
         out[eta] = compare.orbit_differences(m.match(energy), m.system, 1024)
     assert abs(out[0.02]["frequency_difference"]) < 0.5 * abs(out[0.1]["frequency_difference"])

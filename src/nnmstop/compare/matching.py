@@ -5,7 +5,7 @@ What is compared
 On one side the exact two-impact NNM1 family of the non-smooth system, Eqs. (3)-(4)
 (:mod:`nnmstop.exact.two_impact`, closed form); on the other the regularized NNM1 of Eq. (7)
 computed by harmonic balance with ``H`` harmonics and the ANM (stage 1 of the branch,
-:mod:`nnmstop.hbm.branches`: from the linear mode up to the first orbit with more than
+:mod:`nnmstop.hbm.dataset`: from the linear mode up to the first orbit with more than
 one impact per stop). At each compared energy ``E`` the module finds one orbit of each
 model **at exactly that energy** and records
 
@@ -89,7 +89,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from nnmstop.hbm.branches import dataset_unknowns
+from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
 from nnmstop.netcdf import write_dataset
 from nnmstop.exact.two_impact import TwoImpactProblem, assess_orbit, time_history
@@ -288,7 +288,7 @@ class EnergyMatcher:
     exact : xarray.Dataset
         Exact two-impact family (:func:`nnmstop.exact.two_impact.family_dataset`).
     branch : xarray.Dataset
-        Regularized NNM1 branch or stage dataset (layout of :mod:`nnmstop.hbm.branches`).
+        Regularized NNM1 branch or stage dataset (layout of :mod:`nnmstop.hbm.dataset`).
     end_margin : float
         Relative margin kept from both ends of the common energy range, in ``[0, 0.5)``.
 

@@ -15,7 +15,7 @@
   piecewise-linear law, Eq. (4) (red).
 
 Inputs are datasets only: the exact family (:mod:`nnmstop.exact.two_impact`), NNM1 stage 1
-(:mod:`nnmstop.hbm.branches`) and the comparison at matched energies
+(:mod:`nnmstop.hbm.dataset`) and the comparison at matched energies
 (:mod:`nnmstop.compare.matching`), which holds both orbits at a) and b) at exactly the same
 energy. Orbits are reconstructed in closed form (exact: :func:`nnmstop.exact.two_impact.time_history`
 from the stored unknowns; regularized: the stored Fourier series); nothing is solved.

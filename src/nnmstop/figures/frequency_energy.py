@@ -1,6 +1,6 @@
 """Figs 5-11 of the paper: frequency-energy plots of the regularized NNMs with modal lines.
 
-Every figure is built from branch datasets only (layout of :mod:`nnmstop.hbm.branches`):
+Every figure is built from branch datasets only (layout of :mod:`nnmstop.hbm.dataset`):
 it reads the energies, frequencies and impact counts of the points and reconstructs
 the modal lines of the labelled points from their Fourier coefficients; it never
 continues a branch. NNM1 is blue, NNM2 green, the NNM2 curve divided by 5 red (as in
@@ -185,7 +185,7 @@ def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int
         On NaN, a dataset of another branch, non-consecutive stages or stages
         other than ``expected``.
     """
-    from nnmstop.hbm.branches import combine_stages
+    from nnmstop.hbm.stages import combine_stages
 
     if not stages:
         raise ValueError(f"{where}: no NNM1 stage dataset given")

@@ -1,33 +1,18 @@
-r"""Simple branch points of the HBM system and switching onto the bifurcated branch.
+r"""Simple branch points of the HBM system and switching onto the bifurcated branch (detection and switching only).
 
-A *simple branch point* ``U*`` of the balanced system ``S(U) = 0`` (``n`` equations,
-``n + 1`` unknowns, :mod:`nnmstop.hbm.system`) is where two solution curves cross: the
-Jacobian ``J(U*)`` has rank ``n - 1``, its null space is a plane that holds the tangents
-of both curves. Along a branch the determinant of the bordered matrix ``[J; t^T]``
-(``t`` the unit tangent, oriented along the travel) changes sign there, and not at
-folds; the ANM records the steps across which it does
-(:attr:`nnmstop.continuation.core.Branch.branch_points`, the ``branch_point`` flag of the
-datasets).
+A simple branch point ``U*`` of ``S(U) = 0`` (``n`` equations, ``n + 1`` unknowns) is where two solution
+curves cross: ``J(U*)`` has rank ``n - 1``. Along a branch the sign of ``det [J; t^T]`` changes there (not
+at folds); the continuation flags the steps across which it does. On NNM1 such points are the ``n:1``
+internal resonances, where the orbit has period ``T/n`` and is crossed by NNM2 read over ``n`` periods.
 
-On NNM1 such points sit where the fundamental harmonic of the orbit changes sign
-(internal resonances ``n:1``): the orbit there has period ``T/n``; it is an orbit of
-NNM2 read over ``n`` of its periods, and the curve that crosses NNM1 at ``U*`` is that
-NNM2 family read at ``n T`` (the "three time FEP of the second NNM" of Fig. 8).
+* :func:`locate_branch_point` bisects the sign change along the step's path;
+* :func:`bifurcation_tangents` solves Keller's algebraic bifurcation equation on the null plane of
+  ``J(U*)`` with the exact quadratic form of the recast (:func:`quadratic_form`);
+* :func:`switch_branch` steps onto the other curve, :func:`continue_bifurcated_branch` follows it both ways;
+* :func:`classify_branch_point`, :func:`locate_flagged_branch_points`: what crosses at each flagged step.
 
-Branch switching, after Keller's algebraic bifurcation equation:
-
-1. :func:`locate_branch_point` recomputes the ANM step across the sign change and
-   bisects the sign along its power series.
-2. :func:`bifurcation_tangents`: with ``phi_1, phi_2`` a basis of the null plane of
-   ``J(U*)`` and ``psi`` its left null vector, the tangents ``tau = a phi_1 + b phi_2``
-   of the curves through ``U*`` solve the quadratic
-   ``psi^T S''(U*)[tau, tau] = 0``. The system is exactly quadratic (the recast,
-   Eq. 12), so ``S''`` is the bilinear form ``2 Q`` that the ANM already evaluates
-   (:func:`quadratic_form`). One root is the incoming tangent;
-   the other is the tangent of the bifurcated curve, not in general orthogonal to it.
-3. :func:`switch_branch` steps along that tangent and corrects by Newton in the
-   hyperplane orthogonal to it; the ANM then follows the bifurcated curve both ways
-   (:func:`continue_bifurcated_branch`).
+Orchestration (which stage, which settings, the datasets) is in :mod:`nnmstop.hbm.stages`; method notes in
+``docs/methods/hbm.md``.
 """
 
 from __future__ import annotations
@@ -39,7 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
+from nnmstop.continuation.anm import continue_anm
 from nnmstop.continuation.core import (
+    Branch,
     ContinuationError,
     ContinuationStats,
     determinant_sign,
@@ -340,9 +327,6 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, settings, switc
         (whose index is ``branch.branch_points[0]``; the branch points passed on
         either side follow). ``stats`` add up both sides.
     """
-    from nnmstop.continuation.anm import continue_anm
-    from nnmstop.continuation.core import Branch
-
     sides = {}
     for sign in (-1.0, 1.0):
         U1 = switch_branch(system, point, sign * switch_step)

@@ -65,7 +65,7 @@ import xarray as xr
 
 from nnmstop.netcdf import write_dataset
 from nnmstop.exact.two_impact import follow_family, time_history
-from nnmstop.hbm.branches import system_from_config
+from nnmstop.tasks.hbm import system_from_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.study.runs import (

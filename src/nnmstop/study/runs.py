@@ -4,8 +4,8 @@ Guarded continuation
 --------------------
 :func:`run_stage_one` continues stage 1 of the regularized NNM1 (from the linear mode to
 the first orbit with more than one impact per stop, as ``continue_stage`` does) with the
-engine's public pieces (:func:`nnmstop.hbm.branches.start_point`,
-:func:`nnmstop.hbm.branches.stage_criterion`, :func:`nnmstop.continuation.anm.continue_anm`), measures its
+engine's public pieces (:func:`nnmstop.hbm.stages.start_point`,
+:func:`nnmstop.hbm.stages.stage_criterion`, :func:`nnmstop.continuation.anm.continue_anm`), measures its
 wall-clock and CPU time and its cost counters, and adds one check the engine does not
 make yet: a :class:`TruncationGuard` that stops the continuation with an
 :class:`UnresolvedBranchError` (naming the energy, the frequency, the truncation
@@ -53,7 +53,9 @@ import numpy as np
 import xarray as xr
 
 from nnmstop.continuation.anm import ANMSettings, continue_anm
-from nnmstop.hbm.branches import TruncationGuard, branch_dataset, dataset_unknowns, start_point, stage_criterion, system_from_config
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stages import TruncationGuard, stage_criterion, stage_dataset, start_point
+from nnmstop.tasks.hbm import branch_settings, system_from_config
 from nnmstop.compare.matching import EnergyMatcher, _regularized_on_phase, exact_increasing_arm, orbit_differences
 from nnmstop.config import validate_config
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, UnresolvedBranchError, newton_correct
@@ -168,7 +170,7 @@ class StageRun:
     Attributes
     ----------
     dataset : xarray.Dataset or None
-        Branch dataset (layout of :mod:`nnmstop.hbm.branches`); None when the run failed.
+        Branch dataset (layout of :mod:`nnmstop.hbm.dataset`); None when the run failed.
     failure : str
         Why the run failed ('' when it converged).
     runtime, cpu_time : float
@@ -238,7 +240,8 @@ def run_stage_one(config: dict, max_truncation: float, label: str = "NNM1 stage 
     runtime, cpu_time = time.perf_counter() - wall, time.process_time() - cpu
     if not failure:
         # the study compares orbits: branch points stay flagged, not located (costly, unused here)
-        dataset = branch_dataset(system, branch, 1, config, "nnm1", located=[])
+        labels = {"branch": "nnm1", "mode": int(spec["mode"]), "stages": len(spec["stages"])}
+        dataset = stage_dataset(system, branch, 1, branch_settings(config), labels, located=[])
     logger.info("%s, H = %d: %s in %.2f s", label, system.H, failure or "converged", runtime)
     return StageRun(dataset, failure, runtime, cpu_time, stats, guard.largest, system.H, {"unresolved": unresolved})
 
@@ -248,7 +251,7 @@ def path_error(system: HarmonicBalanceSystem, branch: xr.Dataset) -> tuple[float
 
     The point with the largest algebraic residual (interior points of ANM steps are not
     Newton-corrected by the engine) is corrected by Newton's method at fixed amplitude
-    ``x_c^1`` (as :func:`nnmstop.hbm.branches.start_point` does). Returns the largest relative
+    ``x_c^1`` (as :func:`nnmstop.hbm.stages.start_point` does). Returns the largest relative
     algebraic residual and the relative frequency shift of that point.
     """
     residual = np.asarray(branch["algebraic_residual"].values, dtype=float)
