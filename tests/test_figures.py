@@ -32,7 +32,7 @@ def small_config(repo_root):
     config["hbm"]["max_truncation"] = 5e-2  # coarse on purpose: these tests are about drawing
     config["branches"]["nnm1"]["stages"] = [{"name": "one_impact_per_stop", "until": {"impacts_above": 2}}]
     config["branches"]["nnm2"]["stages"] = [{"name": "moderate_energy", "until": {"energy_above": 50.0}}]
-    # no branch switching here: its parent stage is cut away (tests/test_bifurcation.py covers it)
+    # no branch switching here: its parent stage is cut away (tests/hbm/test_bifurcation.py covers it)
     config.pop("bifurcations", None)
     for spec in config["figures"].values():
         if isinstance(spec, dict):
