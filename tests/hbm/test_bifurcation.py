@@ -181,7 +181,7 @@ def test_config_checks_of_bifurcations(resonance_config):
 
 
 def test_summary_reports_the_branch_point(bifurcated):
-    from nnmstop.hbm.bifurcation import summarize_bifurcated
+    from nnmstop.hbm.dataset import summarize_bifurcated
 
     stage2, ds = bifurcated
     text = summarize_bifurcated(ds)

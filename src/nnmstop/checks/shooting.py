@@ -48,8 +48,6 @@ class MonodromyResult:
     closure: float
 
 
-
-
 def _check_unknowns(system, U):
     U = np.asarray(U, dtype=float)
     if U.shape != (system.n_unknowns,) or not np.all(np.isfinite(U)):
@@ -192,7 +190,15 @@ def monodromy(params: ModelParameters, state0, period, rtol: float = 1e-12, atol
     return MonodromyResult(matrix=Phi, multipliers=mu, final_state=zT, closure=closure)
 
 
-def refine_orbit(params: ModelParameters, state0, period, tol: float = 1e-11, max_iter: int = 20, rtol: float = 1e-12, atol: float = 1e-12):
+def refine_orbit(
+    params: ModelParameters,
+    state0,
+    period,
+    tol: float = 1e-11,
+    max_iter: int = 20,
+    rtol: float = 1e-12,
+    atol: float = 1e-12,
+):
     """Exact time-reversible periodic orbit of (7) near an HBM orbit, by shooting.
 
     A time-reversible orbit that starts at rest (``xdot = udot = 0``) is at rest
@@ -236,8 +242,14 @@ def refine_orbit(params: ModelParameters, state0, period, tol: float = 1e-11, ma
         if np.max(np.abs(r)) <= tol * scale * 2 * np.pi / T:
             return z, T
         # d(xdot, udot)(T/2) / d(u0, T): Phi column of u0; accelerations at T/2 times 1/2.
-        acc = np.array([-(1 + params.beta) * zh[0] + params.beta * zh[1] - float(regularized_contact_force(np.array([zh[0]]), params)[0]),
-                        params.beta * (zh[0] - zh[1]) / params.delta])
+        acc = np.array(
+            [
+                -(1 + params.beta) * zh[0]
+                + params.beta * zh[1]
+                - float(regularized_contact_force(np.array([zh[0]]), params)[0]),
+                params.beta * (zh[0] - zh[1]) / params.delta,
+            ]
+        )
         J = np.column_stack([Phi[2:, 1], 0.5 * acc])
         du, dT = np.linalg.solve(J, -r)
         z[1] += du

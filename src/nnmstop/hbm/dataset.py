@@ -19,6 +19,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop.continuation.core import Branch, ContinuationError, relative_residual
+from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.netcdf import flag_variable
 
 __all__ = [
@@ -26,6 +27,7 @@ __all__ = [
     "FOLD_DIM",
     "branch_dataset",
     "bifurcated_dataset",
+    "summarize_bifurcated",
     "located_branch_point_variables",
     "located_fold_variables",
     "energy_folds",
@@ -73,34 +75,133 @@ def branch_dataset(system, branch: Branch, stage: int, located, stability, conti
         cos = np.concatenate([full[:, :1], full[:, 1 : H + 1]], axis=1)
         sin = np.concatenate([np.zeros((len(U), 1)), full[:, H + 1 :]], axis=1)
         return {
-            f"{symbol}_cos": (("point", "harmonic"), cos, {"long_name": f"cosine Fourier coefficients of {name}", "units": "1"}),
-            f"{symbol}_sin": (("point", "harmonic"), sin, {"long_name": f"sine Fourier coefficients of {name}", "units": "1"}),
+            f"{symbol}_cos": (
+                ("point", "harmonic"),
+                cos,
+                {"long_name": f"cosine Fourier coefficients of {name}", "units": "1"},
+            ),
+            f"{symbol}_sin": (
+                ("point", "harmonic"),
+                sin,
+                {"long_name": f"sine Fourier coefficients of {name}", "units": "1"},
+            ),
         }
 
     def col(key):
         return np.array([d[key] for d in diags])
 
     data = {}
-    for c, name, symbol in ((x, "x (first mass)", "x"), (u, "u (second mass)", "u"), (f, "regularized contact force f", "f"), (z, "internal variable z = (f/alpha - x)^2", "z")):
+    for c, name, symbol in (
+        (x, "x (first mass)", "x"),
+        (u, "u (second mass)", "u"),
+        (f, "regularized contact force f", "f"),
+        (z, "internal variable z = (f/alpha - x)^2", "z"),
+    ):
         data.update(series(c, name, symbol))
     omega = np.sqrt(lam)
     data.update(
         {
-            "omega_squared": ("point", lam, {"long_name": "squared angular frequency (unknown lambda of the HBM system)", "units": "1"}),
-            "unfolding": ("point", nu, {"long_name": "unfolding parameter nu (fictitious damping times omega; zero on periodic orbits)", "units": "1"}),
-            "energy": ("point", col("energy"), {"long_name": "total energy of the regularized model (contact potential included), mean over the period", "units": "1"}),
-            "frequency": ("point", col("frequency"), {"long_name": "frequency omega/(2 pi) in Hz of the nondimensional time", "units": "Hz"}),
-            "period": ("point", 2 * np.pi / omega, {"long_name": "period of the orbit in nondimensional time", "units": "1"}),
-            "x_max": ("point", col("x_max"), {"long_name": "largest displacement of the first mass over the period", "units": "1"}),
-            "u_max": ("point", col("u_max"), {"long_name": "largest displacement of the second mass over the period", "units": "1"}),
-            "impacts_per_period": ("point", col("impacts_per_period").astype(np.int32), {"long_name": "number of excursions of x beyond the stops (|x| > 1) per period", "units": "1"}),
-            "algebraic_residual": ("point", np.array([relative_residual(system, p) for p in U]), {"long_name": "norm of the residual of the HBM algebraic system relative to the norm of the unknowns", "units": "1"}),
-            "time_residual": ("point", col("time_residual"), {"long_name": "largest residual in time of the regularized equation of x (true cubic root for f) relative to the largest restoring force", "units": "1"}),
-            "force_error": ("point", col("force_error"), {"long_name": "largest difference between the HBM contact force and the cubic root f(x(t)), relative to max |f|", "units": "1"}),
-            "energy_spread": ("point", col("energy_spread"), {"long_name": "relative variation of the total energy over the period (zero for an exact orbit)", "units": "1"}),
-            "truncation": ("point", col("truncation"), {"long_name": "share of the mean square of x'' or f carried by the top tenth of the harmonics (larger of the two)", "units": "1"}),
-            "step": ("point", np.asarray(steps, dtype=np.int32), {"long_name": "index of the ANM step that produced the point", "units": "1"}),
-            "stage": ("point", np.full(len(U), stage, dtype=np.int32), {"long_name": "continuation stage of the point", "units": "1"}),
+            "omega_squared": (
+                "point",
+                lam,
+                {"long_name": "squared angular frequency (unknown lambda of the HBM system)", "units": "1"},
+            ),
+            "unfolding": (
+                "point",
+                nu,
+                {
+                    "long_name": "unfolding parameter nu (fictitious damping times omega; zero on periodic orbits)",
+                    "units": "1",
+                },
+            ),
+            "energy": (
+                "point",
+                col("energy"),
+                {
+                    "long_name": "total energy of the regularized model (contact potential included), mean over the "
+                    "period",
+                    "units": "1",
+                },
+            ),
+            "frequency": (
+                "point",
+                col("frequency"),
+                {"long_name": "frequency omega/(2 pi) in Hz of the nondimensional time", "units": "Hz"},
+            ),
+            "period": (
+                "point",
+                2 * np.pi / omega,
+                {"long_name": "period of the orbit in nondimensional time", "units": "1"},
+            ),
+            "x_max": (
+                "point",
+                col("x_max"),
+                {"long_name": "largest displacement of the first mass over the period", "units": "1"},
+            ),
+            "u_max": (
+                "point",
+                col("u_max"),
+                {"long_name": "largest displacement of the second mass over the period", "units": "1"},
+            ),
+            "impacts_per_period": (
+                "point",
+                col("impacts_per_period").astype(np.int32),
+                {"long_name": "number of excursions of x beyond the stops (|x| > 1) per period", "units": "1"},
+            ),
+            "algebraic_residual": (
+                "point",
+                np.array([relative_residual(system, p) for p in U]),
+                {
+                    "long_name": "norm of the residual of the HBM algebraic system relative to the norm of the "
+                    "unknowns",
+                    "units": "1",
+                },
+            ),
+            "time_residual": (
+                "point",
+                col("time_residual"),
+                {
+                    "long_name": "largest residual in time of the regularized equation of x (true cubic root for f) "
+                    "relative to the largest restoring force",
+                    "units": "1",
+                },
+            ),
+            "force_error": (
+                "point",
+                col("force_error"),
+                {
+                    "long_name": "largest difference between the HBM contact force and the cubic root f(x(t)), "
+                    "relative to max |f|",
+                    "units": "1",
+                },
+            ),
+            "energy_spread": (
+                "point",
+                col("energy_spread"),
+                {
+                    "long_name": "relative variation of the total energy over the period (zero for an exact orbit)",
+                    "units": "1",
+                },
+            ),
+            "truncation": (
+                "point",
+                col("truncation"),
+                {
+                    "long_name": "share of the mean square of x'' or f carried by the top tenth of the harmonics "
+                    "(larger of the two)",
+                    "units": "1",
+                },
+            ),
+            "step": (
+                "point",
+                np.asarray(steps, dtype=np.int32),
+                {"long_name": "index of the ANM step that produced the point", "units": "1"},
+            ),
+            "stage": (
+                "point",
+                np.full(len(U), stage, dtype=np.int32),
+                {"long_name": "continuation stage of the point", "units": "1"},
+            ),
         }
     )
     branch_point = np.zeros(len(U), dtype=bool)
@@ -108,8 +209,16 @@ def branch_dataset(system, branch: Branch, stage: int, located, stability, conti
     fold = energy_folds(col("energy"))
     data.update(
         {
-            "branch_point": flag_variable("point", branch_point, "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM step that ends at this point", "regular branch_point"),
-            "energy_fold": flag_variable("point", fold, "1 where the energy has a local extremum along the branch (energy fold)", "regular fold"),
+            "branch_point": flag_variable(
+                "point",
+                branch_point,
+                "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM "
+                "step that ends at this point",
+                "regular branch_point",
+            ),
+            "energy_fold": flag_variable(
+                "point", fold, "1 where the energy has a local extremum along the branch (energy fold)", "regular fold"
+            ),
         }
     )
     data.update(located_branch_point_variables(system, located))
@@ -118,7 +227,10 @@ def branch_dataset(system, branch: Branch, stage: int, located, stability, conti
     ds = xr.Dataset(data, coords=coords)
     ds = ds.assign(located_fold_variables(coefficient_vectors(ds), col("energy"), col("frequency")))
     ds["point"].attrs = {"long_name": "index of the point along the branch", "units": "1"}
-    ds["multiplier"].attrs = {"long_name": "index of the Floquet multiplier: 0, 1 trivial pair; 2, 3 non-trivial pair", "units": "1"}
+    ds["multiplier"].attrs = {
+        "long_name": "index of the Floquet multiplier: 0, 1 trivial pair; 2, 3 non-trivial pair",
+        "units": "1",
+    }
     ds["harmonic"].attrs = {"long_name": "harmonic number k (0 is the mean)", "units": "1"}
     ds.attrs = {
         **system.params.as_attrs(),
@@ -147,13 +259,49 @@ def located_branch_point_variables(system, located) -> dict:
     dim = (BRANCH_POINT_DIM,)
     diags = [system.diagnostics(point.U) for _, point, _, _ in located]
     return {
-        "branch_point_energy": (dim, np.array([d["energy"] for d in diags], dtype=float), {"long_name": "energy of the located branch point", "units": "1"}),
-        "branch_point_frequency": (dim, np.array([d["frequency"] for d in diags], dtype=float), {"long_name": "frequency of the located branch point", "units": "Hz"}),
-        "branch_point_resonance": (dim, np.array([n for _, _, n, _ in located], dtype=np.int32), {"long_name": "n where the orbit at the branch point has period T/n (n:1 internal resonance), else 0", "units": "1"}),
-        "branch_point_symmetry_breaking": flag_variable(dim, [b for _, _, _, b in located], "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))", "no yes"),
-        "branch_point_tangent_angle": (dim, np.array([p.angle for _, p, _, _ in located], dtype=float), {"long_name": "angle between the tangents of the two curves at the branch point", "units": "degree"}),
-        "branch_point_singular_ratio": (dim, np.array([p.singular_ratio for _, p, _, _ in located], dtype=float), {"long_name": "smallest over second-smallest singular value of J at the located point (zero at an exact branch point)", "units": "1"}),
-        "branch_point_flagged_point": (dim, np.array([i for i, _, _, _ in located], dtype=np.int32), {"long_name": "index of the point that ends the ANM step holding the branch point", "units": "1"}),
+        "branch_point_energy": (
+            dim,
+            np.array([d["energy"] for d in diags], dtype=float),
+            {"long_name": "energy of the located branch point", "units": "1"},
+        ),
+        "branch_point_frequency": (
+            dim,
+            np.array([d["frequency"] for d in diags], dtype=float),
+            {"long_name": "frequency of the located branch point", "units": "Hz"},
+        ),
+        "branch_point_resonance": (
+            dim,
+            np.array([n for _, _, n, _ in located], dtype=np.int32),
+            {
+                "long_name": "n where the orbit at the branch point has period T/n (n:1 internal resonance), else 0",
+                "units": "1",
+            },
+        ),
+        "branch_point_symmetry_breaking": flag_variable(
+            dim,
+            [b for _, _, _, b in located],
+            "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))",
+            "no yes",
+        ),
+        "branch_point_tangent_angle": (
+            dim,
+            np.array([p.angle for _, p, _, _ in located], dtype=float),
+            {"long_name": "angle between the tangents of the two curves at the branch point", "units": "degree"},
+        ),
+        "branch_point_singular_ratio": (
+            dim,
+            np.array([p.singular_ratio for _, p, _, _ in located], dtype=float),
+            {
+                "long_name": "smallest over second-smallest singular value of J at the located point (zero at an exact "
+                "branch point)",
+                "units": "1",
+            },
+        ),
+        "branch_point_flagged_point": (
+            dim,
+            np.array([i for i, _, _, _ in located], dtype=np.int32),
+            {"long_name": "index of the point that ends the ANM step holding the branch point", "units": "1"},
+        ),
     }
 
 
@@ -177,9 +325,25 @@ def located_fold_variables(U, energy, frequency) -> dict:
         f_fold.append(float(np.polyval(cf, vertex)))
     dim = (FOLD_DIM,)
     return {
-        "fold_energy": (dim, np.array(e_fold, dtype=float), {"long_name": "energy at the fold (local extremum along the branch), parabola through the three nearest points", "units": "1"}),
-        "fold_frequency": (dim, np.array(f_fold, dtype=float), {"long_name": "frequency at the fold, same parabola", "units": "Hz"}),
-        "fold_point": (dim, np.array(index, dtype=np.int32), {"long_name": "index of the point of extremal energy", "units": "1"}),
+        "fold_energy": (
+            dim,
+            np.array(e_fold, dtype=float),
+            {
+                "long_name": "energy at the fold (local extremum along the branch), parabola through the three nearest "
+                "points",
+                "units": "1",
+            },
+        ),
+        "fold_frequency": (
+            dim,
+            np.array(f_fold, dtype=float),
+            {"long_name": "frequency at the fold, same parabola", "units": "Hz"},
+        ),
+        "fold_point": (
+            dim,
+            np.array(index, dtype=np.int32),
+            {"long_name": "index of the point of extremal energy", "units": "1"},
+        ),
     }
 
 
@@ -215,8 +379,9 @@ def coefficient_vectors(ds: xr.Dataset) -> np.ndarray:
     return np.concatenate(parts + [ds["omega_squared"].values[:, None]], axis=1)
 
 
-def bifurcated_dataset(ds: xr.Dataset, name: str, parent: str, resonance: int, subharmonic_share, branch_point: dict,
-                       switch_step: float) -> xr.Dataset:
+def bifurcated_dataset(
+    ds: xr.Dataset, name: str, parent: str, resonance: int, subharmonic_share, branch_point: dict, switch_step: float
+) -> xr.Dataset:
     """Turn the :func:`branch_dataset` of a bifurcated branch into its final layout.
 
     Adds ``subharmonic_share`` (one value per point, zero on orbits of period ``T/n``), relabels
@@ -229,12 +394,59 @@ def bifurcated_dataset(ds: xr.Dataset, name: str, parent: str, resonance: int, s
     ds["subharmonic_share"] = (
         "point",
         np.asarray(subharmonic_share, dtype=float),
-        {"long_name": f"share of the mean square of x and u in harmonics that are not multiples of {n} "
-                      f"(zero for an orbit of period T/{n})", "units": "1"},
+        {
+            "long_name": f"share of the mean square of x and u in harmonics that are not multiples of {n} "
+            f"(zero for an orbit of period T/{n})",
+            "units": "1",
+        },
     )
     ds["stage"].attrs["long_name"] = "stage of the parent branch from whose branch point the branch was switched"
-    ds["step"].attrs["long_name"] = "index of the ANM step that produced the point (negative on the side followed backwards)"
+    ds["step"].attrs["long_name"] = (
+        "index of the ANM step that produced the point (negative on the side followed backwards)"
+    )
     for key in ("mode", "stages"):
         ds.attrs.pop(key, None)
-    ds.attrs.update({"branch": name, "parent_branch": parent, "resonance": n, **branch_point, "switch_step": switch_step})
+    ds.attrs.update(
+        {"branch": name, "parent_branch": parent, "resonance": n, **branch_point, "switch_step": switch_step}
+    )
     return ds
+
+
+def summarize_bifurcated(ds, nnm2=None) -> str:
+    """Plain-text summary of a bifurcated-branch dataset (``results/hbm/bifurcated/*.nc``).
+
+    With ``nnm2`` (a regularized NNM2 dataset), also the relative distance of
+    ``n f`` on the bifurcated branch from the NNM2 frequency at the same energy
+    (NNM2 interpolated linearly in ``ln E``; its energy must increase along the branch).
+    """
+    n = int(ds.attrs["resonance"])
+    e, f = ds["energy"].values, ds["frequency"].values
+    resolved = ds["stability_resolved"] == 1
+    lines = [
+        f"branch {ds.attrs['branch']}: switched from {ds.attrs['parent_branch']} at its {n}:1 branch point",
+        f"  branch point: energy {ds.attrs['branch_point_energy']:.6g}, frequency "
+        f"{ds.attrs['branch_point_frequency']:.6g} Hz, "
+        f"angle between the tangents {ds.attrs['tangent_angle']:.2f} deg, singular ratio "
+        f"{ds.attrs['singular_ratio']:.2e}",
+        f"  {ds.sizes['point']} points, energy {e.min():.4g} .. {e.max():.4g}, frequency {f.min():.6g} .. "
+        f"{f.max():.6g} Hz, "
+        f"{int(ds.attrs['anm_steps'])} ANM steps",
+        f"  largest share of harmonics not multiple of {n}: {float(ds['subharmonic_share'].max()):.2e}",
+        f"  stability: {int(((ds['stable'] == 1) & resolved).sum())} stable, "
+        f"{int(((ds['stable'] == 0) & resolved).sum())} unstable, {int((~resolved).sum())} unresolved "
+        f"of {ds.sizes['point']} points",
+    ]
+    if nnm2 is not None:
+        e2, f2 = nnm2["energy"].values, nnm2["frequency"].values
+        rising = np.all(np.diff(e2) > 0)
+        if not rising:
+            raise ValueError("the NNM2 dataset's energy is not increasing along the branch: cannot interpolate")
+        inside = (e >= e2.min()) & (e <= e2.max())
+        ref = np.interp(np.log(e[inside]), np.log(e2), f2)
+        dev = np.abs(n * f[inside] - ref) / ref
+        lines.append(
+            f"  |{n} f - f_NNM2(E)| / f_NNM2 over {int(inside.sum())} points: max {dev.max():.2e}, median "
+            f"{np.median(dev):.2e} "
+            f"(NNM2 interpolated in ln E between its stored points)"
+        )
+    return "\n".join(lines)

@@ -128,7 +128,9 @@ class FloquetResult:
 def _check_unknowns(system, U):
     U = np.asarray(U, dtype=float)
     if U.shape != (system.n_unknowns,):
-        raise ValueError(f"U must be one unknown vector of length {system.n_unknowns} for this system, got shape {U.shape}")
+        raise ValueError(
+            f"U must be one unknown vector of length {system.n_unknowns} for this system, got shape {U.shape}"
+        )
     if not np.all(np.isfinite(U)):
         raise ValueError("U must be finite")
     lam = system.split(U)[4]

@@ -127,22 +127,40 @@ class BranchHill:
             "stable": flag_variable(
                 "point",
                 self.stable,
-                f"orbit linearly stable (1) or unstable (0): largest |multiplier| of the non-trivial pair <= 1 + {self.tol:g}",
+                "orbit linearly stable (1) or unstable (0): largest |multiplier| of the non-trivial pair <= 1 + "
+                f"{self.tol:g}",
                 "unstable stable",
                 comment=note,
             ),
-            "multiplier_real": (("point", "multiplier"), self.multipliers.real, {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note}),
-            "multiplier_imag": (("point", "multiplier"), self.multipliers.imag, {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note}),
-            "max_multiplier": ("point", self.max_multiplier, {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"}),
+            "multiplier_real": (
+                ("point", "multiplier"),
+                self.multipliers.real,
+                {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note},
+            ),
+            "multiplier_imag": (
+                ("point", "multiplier"),
+                self.multipliers.imag,
+                {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note},
+            ),
+            "max_multiplier": (
+                "point",
+                self.max_multiplier,
+                {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"},
+            ),
             "stability_orbit_residual": (
                 "point",
                 self.orbit_residual,
-                {"long_name": "relative residual of the orbit velocity in the linearized equations (accuracy of the orbit for the stability analysis)", "units": "1"},
+                {
+                    "long_name": "relative residual of the orbit velocity in the linearized equations (accuracy of the "
+                    "orbit for the stability analysis)",
+                    "units": "1",
+                },
             ),
             "stability_resolved": flag_variable(
                 "point",
                 self.resolved,
-                f"stability verdict resolved (1): distance of mu_1 to the collision point(s) > {RESOLUTION_FACTOR:g} x stability_orbit_residual",
+                f"stability verdict resolved (1): distance of mu_1 to the collision point(s) > {RESOLUTION_FACTOR:g} x "
+                "stability_orbit_residual",
                 "unresolved resolved",
             ),
         }
@@ -185,7 +203,9 @@ def branch_hill(
         raise ValueError(f"U_array must have shape (n, {system.n_unknowns}), got {U_array.shape}")
     tol = check_tolerance(tol)
     Hp = check_harmonics(harmonics, system.H)
-    if blas_threads is not None and (not isinstance(blas_threads, (int, np.integer)) or isinstance(blas_threads, bool) or blas_threads < 1):
+    if blas_threads is not None and (
+        not isinstance(blas_threads, (int, np.integer)) or isinstance(blas_threads, bool) or blas_threads < 1
+    ):
         raise ValueError(f"blas_threads must be None or an integer >= 1, got {blas_threads!r}")
     n = len(U_array)
     mult = np.empty((n, 4), dtype=complex)

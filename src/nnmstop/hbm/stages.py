@@ -141,7 +141,7 @@ def stage_criterion(until: dict, params: ModelParameters, mode: int):
     """
     if len(until) != 1 or next(iter(until)) not in CRITERIA:
         raise ValueError(f"a stage's 'until' must hold exactly one of {CRITERIA}, got {until!r}")
-    (kind, value), = until.items()
+    ((kind, value),) = until.items()
     if kind == "energy_above":
         return lambda U, d: f"energy above {value:g}" if d["energy"] > value else ""
     if kind == "impacts_above":
@@ -198,7 +198,9 @@ class TruncationGuard:
         return self.inner(U, diag)
 
 
-def stage_dataset(system, branch: Branch, stage: int, settings: BranchSettings, labels: dict, located=None) -> xr.Dataset:
+def stage_dataset(
+    system, branch: Branch, stage: int, settings: BranchSettings, labels: dict, located=None
+) -> xr.Dataset:
     """Dataset of a continued branch: branch points located, stability computed, then assembled.
 
     ``located``: the located branch points (:func:`nnmstop.hbm.bifurcation.locate_flagged_branch_points`);
@@ -213,7 +215,9 @@ def stage_dataset(system, branch: Branch, stage: int, settings: BranchSettings, 
     time_residual = np.array([d["time_residual"] for d in branch.diagnostics])
     stability = orbit_stability(system, U, settings.stability, time_residual=time_residual)
     # Wall time in the log only (datasets stay byte-reproducible); benchmarks/cold_build.py reads it.
-    logger.info("stability of %d points in %.2f s (%s)", len(U), time.perf_counter() - started, settings.stability.method)
+    logger.info(
+        "stability of %d points in %.2f s (%s)", len(U), time.perf_counter() - started, settings.stability.method
+    )
     return branch_dataset(system, branch, stage, located, stability, settings.continuation, labels)
 
 
@@ -239,7 +243,9 @@ def continue_stage(system, settings: BranchSettings, spec: BranchSpec, stage: in
         U0, direction = points[-1], points[-1] - points[-2]
     current = spec.stages[stage - 1]
     label = f"{spec.name} stage {stage} ({current.name})"
-    stop = TruncationGuard(system, stage_criterion(current.until, system.params, spec.mode), settings.max_truncation, label)
+    stop = TruncationGuard(
+        system, stage_criterion(current.until, system.params, spec.mode), settings.max_truncation, label
+    )
     branch = continue_anm(system, U0, direction, stop, settings.continuation, label=label)
     labels = {"branch": spec.name, "mode": int(spec.mode), "stages": len(spec.stages)}
     return stage_dataset(system, branch, stage, settings, labels)
@@ -271,7 +277,9 @@ def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
     # folds at the junction of two stages are only visible on the combined branch
     out["energy_fold"].values[:] = energy_folds(out["energy"].values).astype(np.int8)
     if folds:
-        out = out.assign(located_fold_variables(coefficient_vectors(out), out["energy"].values, out["frequency"].values))
+        out = out.assign(
+            located_fold_variables(coefficient_vectors(out), out["energy"].values, out["frequency"].values)
+        )
     out.attrs["end_reason"] = stages[-1].attrs["end_reason"]
     out.attrs["anm_steps"] = int(sum(ds.attrs["anm_steps"] for ds in stages))
     out.attrs["factorizations"] = int(sum(ds.attrs["factorizations"] for ds in stages))
@@ -299,14 +307,19 @@ def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, p
             f"{parent_stage.attrs.get('branch')!r} stage(s) {list(stages_in)}"
         )
     if "branch_point_resonance" not in parent_stage:
-        raise ValueError(f"bifurcations.{spec.name}: the {parent} stage dataset has no located branch points; rebuild it")
+        raise ValueError(
+            f"bifurcations.{spec.name}: the {parent} stage dataset has no located branch points; rebuild it"
+        )
     resonance = parent_stage["branch_point_resonance"].values
     match = np.flatnonzero(resonance == n)
     if match.size == 0:
         found = [
             f"energy {e:.6g} ({branch_point_kind(int(m), bool(b))})"
-            for e, m, b in zip(parent_stage["branch_point_energy"].values, resonance,
-                               parent_stage["branch_point_symmetry_breaking"].values)
+            for e, m, b in zip(
+                parent_stage["branch_point_energy"].values,
+                resonance,
+                parent_stage["branch_point_symmetry_breaking"].values,
+            )
         ]
         raise ValueError(
             f"no branch point of the {n}:1 resonance (orbit of period T/{n}) among the flagged steps of "
@@ -324,8 +337,9 @@ def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, p
 
     stop = TruncationGuard(system, out_of_range, settings.max_truncation, label)
     branch = continue_bifurcated_branch(system, point, stop, settings.continuation, spec.switch_step, label)
-    ds = stage_dataset(system, branch, spec.stage, settings, {"branch": parent},
-                       located=[(branch.branch_points[0], point, n, False)])
+    ds = stage_dataset(
+        system, branch, spec.stage, settings, {"branch": parent}, located=[(branch.branch_points[0], point, n, False)]
+    )
     diag = system.diagnostics(point.U)
     described = {
         "branch_point_energy": float(diag["energy"]),

@@ -5,7 +5,8 @@ configuration becomes the settings of :mod:`nnmstop.hbm.stages` (:func:`branch_s
 :func:`branch_spec`, :func:`bifurcation_spec`); :func:`build_stage` and :func:`build_bifurcated`
 return the datasets in memory (tests and studies use them); the tasks ``hbm_stage``,
 ``hbm_bifurcated`` and ``hbm_branch`` (dispatched by :mod:`nnmstop.tasks.run`) read their inputs
-and write their outputs.
+and write their outputs. Command line: ``python -m nnmstop.tasks.hbm summary BIFURCATED.nc [NNM2.nc]``
+prints :func:`nnmstop.hbm.dataset.summarize_bifurcated`.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import xarray as xr
 
 from nnmstop.continuation.anm import ANMSettings
+from nnmstop.hbm.dataset import summarize_bifurcated
 from nnmstop.hbm.monodromy import MonodromySettings
 from nnmstop.hbm.stability import StabilitySettings
 from nnmstop.hbm.stages import (
@@ -39,6 +41,7 @@ __all__ = [
     "hbm_stage",
     "hbm_bifurcated",
     "hbm_branch",
+    "main",
 ]
 
 
@@ -56,7 +59,9 @@ def stability_settings(config: dict) -> StabilitySettings:
     """Stability settings from the ``stability`` section (the monodromy method when it is absent)."""
     spec = config.get("stability", {"method": "monodromy"})
     hill = {"hill_tol": spec["hill_tol"]} if "hill_tol" in spec else {}
-    return StabilitySettings(method=spec.get("method", "monodromy"), monodromy=MonodromySettings.from_config(spec), **hill)
+    return StabilitySettings(
+        method=spec.get("method", "monodromy"), monodromy=MonodromySettings.from_config(spec), **hill
+    )
 
 
 def branch_settings(config: dict) -> BranchSettings:
@@ -75,19 +80,23 @@ def branch_spec(config: dict, name: str) -> BranchSpec:
 def bifurcation_spec(config: dict, name: str) -> BifurcationSpec:
     """The switched branch ``bifurcations.<name>`` of the configuration."""
     spec = config["bifurcations"][name]
-    return BifurcationSpec(name, spec["parent"], spec["resonance"], spec["stage"], tuple(spec["energy_range"]),
-                           spec["switch_step"])
+    return BifurcationSpec(
+        name, spec["parent"], spec["resonance"], spec["stage"], tuple(spec["energy_range"]), spec["switch_step"]
+    )
 
 
 def build_stage(config: dict, branch: str, stage: int, previous: xr.Dataset | None = None) -> xr.Dataset:
     """Dataset of stage ``stage`` of ``branches.<branch>`` (``previous``: the dataset of the stage before)."""
-    return continue_stage(system_from_config(config), branch_settings(config), branch_spec(config, branch), stage, previous)
+    return continue_stage(
+        system_from_config(config), branch_settings(config), branch_spec(config, branch), stage, previous
+    )
 
 
 def build_bifurcated(config: dict, name: str, parent_stage: xr.Dataset) -> xr.Dataset:
     """Dataset of the switched branch ``bifurcations.<name>`` from the dataset of its parent stage."""
-    return bifurcated_branch(system_from_config(config), branch_settings(config), bifurcation_spec(config, name),
-                             parent_stage)
+    return bifurcated_branch(
+        system_from_config(config), branch_settings(config), bifurcation_spec(config, name), parent_stage
+    )
 
 
 def _load(path) -> xr.Dataset:
@@ -145,3 +154,20 @@ def hbm_branch(config, inputs, outputs, branch: str):
         ),
         metadata=config.get("metadata"),
     )
+
+
+def main(argv=None) -> None:
+    """Command line: ``python -m nnmstop.tasks.hbm summary BIFURCATED.nc [NNM2.nc]``."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.tasks.hbm", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    summary = sub.add_parser("summary", help="branch point and bifurcated branch, optionally against NNM2")
+    summary.add_argument("bifurcated", help="e.g. results/hbm/bifurcated/nnm1_3to1.nc")
+    summary.add_argument("nnm2", nargs="?", help="e.g. results/hbm/nnm2.nc")
+    args = parser.parse_args(argv)
+    print(summarize_bifurcated(_load(args.bifurcated), _load(args.nnm2) if args.nnm2 else None))
+
+
+if __name__ == "__main__":
+    main()
