@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from nnmstop.hbm.hill import check_unknowns
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force
 
 __all__ = ["MonodromyResult", "orbit_initial_state", "monodromy", "refine_orbit"]
@@ -48,19 +49,9 @@ class MonodromyResult:
     closure: float
 
 
-def _check_unknowns(system, U):
-    U = np.asarray(U, dtype=float)
-    if U.shape != (system.n_unknowns,) or not np.all(np.isfinite(U)):
-        raise ValueError(f"U must be one finite unknown vector of length {system.n_unknowns}, got shape {U.shape}")
-    lam = system.split(U)[4]
-    if not lam > 0:
-        raise ValueError(f"omega**2 must be > 0 on a periodic orbit, got {lam!r}")
-    return U
-
-
 def orbit_initial_state(system, U):
     """State ``(x, u, xdot, udot)`` of an HBM orbit at ``t = 0`` and its period ``T``."""
-    U = _check_unknowns(system, U)
+    U = check_unknowns(system, U)
     x, u, _, _, lam, _ = system.split(U)
     omega = float(np.sqrt(lam))
     xf, uf = system.to_full(x), system.to_full(u)

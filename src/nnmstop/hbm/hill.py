@@ -35,6 +35,7 @@ __all__ = [
     "is_reversible",
     "is_halfwave_symmetric",
     "floquet",
+    "check_unknowns",
     "check_tolerance",
     "check_harmonics",
 ]
@@ -125,7 +126,8 @@ class FloquetResult:
 # --------------------------------------------------------------------------- checks
 
 
-def _check_unknowns(system, U):
+def check_unknowns(system, U):
+    """``U`` as one finite unknown vector of ``system`` with ``omega**2 > 0`` (ValueError otherwise)."""
     U = np.asarray(U, dtype=float)
     if U.shape != (system.n_unknowns,):
         raise ValueError(
@@ -155,53 +157,10 @@ def check_tolerance(tol):
     return float(tol)
 
 
-# --------------------------------------------------------------------------- Hill operator
-
-
-def _grid_size(harmonics_orbit, harmonics_perturbation):
-    """Samples for the Fourier coefficients of ``k(t)`` up to harmonic ``2 H_p``.
-
-    At least 8 samples per harmonic of the orbit (``k`` is a steep function of a
-    series of ``H`` harmonics, its spectrum extends well beyond ``H``) and more than
-    ``4 H_p`` (no wrap-around of the Toeplitz indices); a power of two.
-    """
-    need = max(8 * harmonics_orbit, 4 * harmonics_perturbation + 1, 64)
-    return int(2 ** np.ceil(np.log2(need)))
-
-
-def contact_stiffness_series(system, U, linearization: str = "model", samples: int | None = None):
-    """Samples of ``k(t) = f'(x(t))`` over one period, on ``samples`` equispaced phases.
-
-    Parameters
-    ----------
-    system : HarmonicBalanceSystem
-    U : array_like
-        Unknown vector of an orbit (cosine or full basis).
-    linearization : {"model", "recast"}
-        ``"model"``: :func:`nnmstop.models.two_dof.regularized_contact_stiffness` of the HBM
-        ``x(t)``; ``"recast"``: ``(eta - 2 f g) / (1 - z - 2 f g / alpha)`` on the HBM
-        fields (see docs/methods/hill.md).
-    samples : int, optional
-        Number of samples (default: 8 per harmonic of the orbit, power of two).
-
-    Returns
-    -------
-    ndarray, shape (samples,)
-    """
-    if linearization not in LINEARIZATIONS:
-        raise ValueError(f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}")
-    U = _check_unknowns(system, U)
-    n = _grid_size(system.H, system.H) if samples is None else samples
-    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < system.nfull:
-        raise ValueError(f"samples must be an integer >= 2H+1 = {system.nfull}, got {samples!r}")
-    p = system.params
-    x, _, f, z, _, _ = system.split(U)
-    if linearization == "model":
-        return regularized_contact_stiffness(system.to_time(x, int(n)), p)
-    g = f / p.alpha - x
-    f_t, z_t, g_t = system.to_time(np.stack([f, z, g]), int(n))
-    fg = f_t * g_t
-    return (p.eta - 2.0 * fg) / (1.0 - z_t - 2.0 * fg / p.alpha)
+# --------------------------------------------------------------------------- Fourier layout
+# Matrices and conversions on the full real layout [c_0, c_c^1..c_c^H, c_s^1..c_s^H] for any number of
+# harmonics H_p (the system's helpers are bound to its own H). Kept together here until nnmstop.fourier
+# (helper compare) owns the layout; then they move there.
 
 
 def _real_multiplication_matrix(a_samples, harmonics, even: bool, halfwave: bool = False):
@@ -249,6 +208,65 @@ def _derivative_matrix(harmonics):
     return D
 
 
+def _complex_harmonics(P, H):
+    """Complex harmonic amplitudes (``k = -H..H``) of real-layout coefficients (last axis)."""
+    c0 = P[..., :1]
+    c = P[..., 1 : H + 1]
+    s = P[..., H + 1 :]
+    pos = 0.5 * (c - 1j * s)
+    neg = 0.5 * (c + 1j * s)
+    return np.concatenate([neg[..., ::-1], c0, pos], axis=-1)
+
+
+# --------------------------------------------------------------------------- Hill operator
+
+
+def _grid_size(harmonics_orbit, harmonics_perturbation):
+    """Samples for the Fourier coefficients of ``k(t)`` up to harmonic ``2 H_p``.
+
+    At least 8 samples per harmonic of the orbit (``k`` is a steep function of a
+    series of ``H`` harmonics, its spectrum extends well beyond ``H``) and more than
+    ``4 H_p`` (no wrap-around of the Toeplitz indices); a power of two.
+    """
+    need = max(8 * harmonics_orbit, 4 * harmonics_perturbation + 1, 64)
+    return int(2 ** np.ceil(np.log2(need)))
+
+
+def contact_stiffness_series(system, U, linearization: str = "model", samples: int | None = None):
+    """Samples of ``k(t) = f'(x(t))`` over one period, on ``samples`` equispaced phases.
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+    U : array_like
+        Unknown vector of an orbit (cosine or full basis).
+    linearization : {"model", "recast"}
+        ``"model"``: :func:`nnmstop.models.two_dof.regularized_contact_stiffness` of the HBM
+        ``x(t)``; ``"recast"``: ``(eta - 2 f g) / (1 - z - 2 f g / alpha)`` on the HBM
+        fields (see docs/methods/hill.md).
+    samples : int, optional
+        Number of samples (default: 8 per harmonic of the orbit, power of two).
+
+    Returns
+    -------
+    ndarray, shape (samples,)
+    """
+    if linearization not in LINEARIZATIONS:
+        raise ValueError(f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}")
+    U = check_unknowns(system, U)
+    n = _grid_size(system.H, system.H) if samples is None else samples
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < system.nfull:
+        raise ValueError(f"samples must be an integer >= 2H+1 = {system.nfull}, got {samples!r}")
+    p = system.params
+    x, _, f, z, _, _ = system.split(U)
+    if linearization == "model":
+        return regularized_contact_stiffness(system.to_time(x, int(n)), p)
+    g = f / p.alpha - x
+    f_t, z_t, g_t = system.to_time(np.stack([f, z, g]), int(n))
+    fg = f_t * g_t
+    return (p.eta - 2.0 * fg) / (1.0 - z_t - 2.0 * fg / p.alpha)
+
+
 def is_reversible(system, U) -> bool:
     """Whether an orbit is even in time (no sine content in ``x`` and ``u``).
 
@@ -257,7 +275,7 @@ def is_reversible(system, U) -> bool:
     """
     if not system.full:
         return True
-    U = _check_unknowns(system, U)
+    U = check_unknowns(system, U)
     x, u = system.split(U)[:2]
     H = system.H
     scale = max(np.max(np.abs(x)), np.max(np.abs(u)), 1e-300)
@@ -274,7 +292,7 @@ def is_halfwave_symmetric(system, U) -> bool:
     ``z`` even ones); continued branches keep it up to round-off drift (about
     ``2e-10`` along the H = 100 NNM1 branch).
     """
-    U = _check_unknowns(system, U)
+    U = check_unknowns(system, U)
     x, u = (system.to_full(c) for c in system.split(U)[:2])
     H = system.H
     even = np.r_[0, np.arange(2, H + 1, 2), H + np.arange(2, H + 1, 2)]
@@ -323,7 +341,7 @@ def _orbit_velocity(system, U, H):
 
 
 def _hill_operator(system, U, harmonics, linearization, even, halfwave=False):
-    U = _check_unknowns(system, U)
+    U = check_unknowns(system, U)
     Hp = check_harmonics(harmonics, system.H)
     p = system.params
     lam = float(system.split(U)[4])
@@ -379,16 +397,6 @@ def _companion(op):
 
 
 # --------------------------------------------------------------------------- selection helpers
-
-
-def _complex_harmonics(P, H):
-    """Complex harmonic amplitudes (``k = -H..H``) of real-layout coefficients (last axis)."""
-    c0 = P[..., :1]
-    c = P[..., 1 : H + 1]
-    s = P[..., H + 1 :]
-    pos = 0.5 * (c - 1j * s)
-    neg = 0.5 * (c + 1j * s)
-    return np.concatenate([neg[..., ::-1], c0, pos], axis=-1)
 
 
 def _spectral_shape(P, H, delta):
