@@ -89,6 +89,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from nnmstop import fourier
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
 from nnmstop.netcdf import write_dataset
@@ -198,8 +199,8 @@ class _EnergyOperator:
         self.system = system
         self.m = _energy_samples(system)
         eye = np.eye(system.nc)
-        self.synth = system.to_time(eye, self.m).T  # (m, nc): samples of each kept basis function
-        self.dsynth = system.to_time(system.derivative(eye), self.m).T  # d/dtheta of each
+        self.synth = fourier.to_time(eye, system.H, self.m).T  # (m, nc): samples of each kept basis function
+        self.dsynth = fourier.to_time(fourier.derivative(eye, system.H), system.H, self.m).T  # d/dtheta of each
 
     def __call__(self, U, gradient: bool = False):
         s, p = self.system, self.system.params
@@ -454,26 +455,12 @@ def _regularized_on_phase(system: HarmonicBalanceSystem, U, phase: np.ndarray, s
     """
     x, u, f, _, lam, _ = system.split(U)
     omega = float(np.sqrt(lam))
-    H = system.H
-    k = np.arange(H + 1)
-    full = {name: system.to_full(c) for name, c in (("x", x), ("u", u), ("f", f))}
-
-    def at(theta):
-        c, s = np.cos(np.outer(theta, k)), np.sin(np.outer(theta, k))
-        out = {}
-        for name, coef in full.items():
-            a = coef[: H + 1]
-            b = np.concatenate([[0.0], coef[H + 1 :]])
-            out[name] = c @ a + s @ b
-            if name != "f":
-                out[name + "dot"] = omega * (c @ (k * b) - s @ (k * a))
-        return out
-
+    series = {name: fourier.to_cos_sin(c, system.H) for name, c in (("x", x), ("u", u), ("f", f))}
     # t = 0 and t = T/2 are both symmetry axes of a cosine series; take the one at max x
     if shift is None:
-        ends = at(np.array([0.0, np.pi]))["x"]
+        ends = fourier.PhaseSynthesis(np.array([0.0, np.pi]), system.H).values(*series["x"])
         shift = 0.5 if ends[1] > ends[0] else 0.0
-    return at(2.0 * np.pi * (np.asarray(phase) + shift)), shift
+    return fourier.fields_at_phases(2.0 * np.pi * (np.asarray(phase) + shift), omega, series), shift
 
 
 def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, phase_samples: int = 4096) -> dict:
@@ -708,8 +695,7 @@ def comparison_dataset(
     x, u, f, z, lam, _ = system.split(U)
     fields = ((x, "x", "x"), (u, "u", "u"), (f, "regularized contact force f", "f"), (z, "internal variable z", "z"))
     for c, name, symbol in fields:
-        full = system.to_full(c)
-        parts = {"cos": full[:, : H + 1], "sin": np.concatenate([np.zeros((n, 1)), full[:, H + 1 :]], axis=1)}
+        parts = dict(zip(("cos", "sin"), fourier.to_cos_sin(c, H)))
         for kind, values in parts.items():
             word = {"cos": "cosine", "sin": "sine"}[kind]
             attrs = {"long_name": f"regularized orbit: {word} Fourier coefficients of {name}", "units": one}

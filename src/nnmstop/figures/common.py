@@ -13,6 +13,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from nnmstop.fourier import fields_at_phases  # noqa: E402
+
 __all__ = [
     "EXACT_COLOR",
     "REGULARIZED_COLOR",
@@ -69,17 +71,9 @@ def orbit(ds: xr.Dataset, point: int, samples: int = 512) -> dict:
     """
     p = ds.isel(point=point)
     omega = float(np.sqrt(p["omega_squared"]))
-    k = ds["harmonic"].values
     t = np.arange(samples + 1) * (2 * np.pi / omega) / samples
-    phase = np.outer(omega * t, k)
-    cos, sin = np.cos(phase), np.sin(phase)
-    out = {"t": t}
-    for symbol in ("x", "u", "f"):
-        a, b = p[f"{symbol}_cos"].values, p[f"{symbol}_sin"].values
-        out[symbol] = cos @ a + sin @ b
-        if symbol != "f":
-            out[f"{symbol}dot"] = omega * (cos @ (k * b) - sin @ (k * a))
-    return out
+    series = {symbol: (p[f"{symbol}_cos"].values, p[f"{symbol}_sin"].values) for symbol in ("x", "u", "f")}
+    return {"t": t, **fields_at_phases(omega * t, omega, series)}
 
 
 STABILITY_LINESTYLES = {"stable": "-", "unstable": "--", "unresolved": ":"}

@@ -33,6 +33,7 @@ import xarray as xr
 
 from nnmstop.compare.matching import MAX_IMPACTS
 from nnmstop.exact.two_impact import time_history
+from nnmstop.fourier import fields_at_phases
 from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
 from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, open_dataset, save_figure
 
@@ -130,16 +131,9 @@ def aligned_orbits(comparison: xr.Dataset, point: int, phase) -> tuple[dict, dic
     h = time_history(y, params, y[3] + phase * 4.0 * y[3])
     exact = {"x": h.x, "u": h.u, "xdot": h.xdot, "udot": h.udot, "f": h.force}
     omega = float(np.sqrt(p["omega_squared"]))
-    k = comparison["harmonic"].values
     theta = 2.0 * np.pi * (phase + float(p["regularized_origin_shift"]))
-    c, s = np.cos(np.outer(theta, k)), np.sin(np.outer(theta, k))
-    reg = {}
-    for symbol in ("x", "u", "f"):
-        a, b = p[f"{symbol}_cos"].values, p[f"{symbol}_sin"].values
-        reg[symbol] = c @ a + s @ b
-        if symbol != "f":
-            reg[symbol + "dot"] = omega * (c @ (k * b) - s @ (k * a))
-    return exact, reg
+    series = {symbol: (p[f"{symbol}_cos"].values, p[f"{symbol}_sin"].values) for symbol in ("x", "u", "f")}
+    return exact, fields_at_phases(theta, omega, series)
 
 
 def _title(comparison: xr.Dataset, label: str, point: int) -> str:
