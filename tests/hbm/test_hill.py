@@ -356,11 +356,3 @@ def test_bad_arguments(system, nnm1):
         floquet(system, bad)
     with pytest.raises(ValueError, match="U_array"):
         branch_hill(system, U[0])
-    with pytest.raises(ValueError, match="state0"):
-        monodromy(system.params, [0.0, 1.0], 1.0)
-    with pytest.raises(ValueError, match="period"):
-        monodromy(system.params, [0.1, 0.2, 0.0, 0.0], -1.0)
-    with pytest.raises(ValueError, match="params"):
-        monodromy({"alpha": 30.0}, [0.1, 0.2, 0.0, 0.0], 1.0)
-    with pytest.raises(ValueError, match="at rest"):
-        refine_orbit(system.params, [0.1, 0.2, 0.3, 0.0], 6.0)

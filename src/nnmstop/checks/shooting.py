@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from nnmstop import fourier
+from nnmstop.continuation.newton import newton_solve
 from nnmstop.hbm.hill import check_unknowns
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force
 
@@ -54,17 +56,9 @@ def orbit_initial_state(system, U):
     U = check_unknowns(system, U)
     x, u, _, _, lam, _ = system.split(U)
     omega = float(np.sqrt(lam))
-    xf, uf = system.to_full(x), system.to_full(u)
-    H = system.H
-    k = np.arange(1, H + 1)
-    state = np.array(
-        [
-            xf[0] + xf[1 : H + 1].sum(),
-            uf[0] + uf[1 : H + 1].sum(),
-            omega * np.dot(k, xf[H + 1 :]),
-            omega * np.dot(k, uf[H + 1 :]),
-        ]
-    )
+    pairs = {"x": fourier.to_cos_sin(x, system.H), "u": fourier.to_cos_sin(u, system.H)}
+    at_start = fourier.fields_at_phases([0.0], omega, pairs)
+    state = np.array([at_start[name][0] for name in ("x", "u", "xdot", "udot")])
     return state, 2 * np.pi / omega
 
 
@@ -227,22 +221,36 @@ def refine_orbit(
     if abs(z[2]) > 1e-8 * scale * 2 * np.pi / T or abs(z[3]) > 1e-8 * scale * 2 * np.pi / T:
         raise ValueError(f"state0 must start at rest (xdot = udot = 0) for a time-reversible orbit, got {state0!r}")
     z[2:] = 0.0
-    for _ in range(max_iter):
-        zh, Phi, rhs = _variational_flow(params, z, T / 2, rtol, atol)
-        r = zh[2:]
-        if np.max(np.abs(r)) <= tol * scale * 2 * np.pi / T:
-            return z, T
+    x0 = z[0]
+
+    def half_period_velocities(y):
+        """``(xdot, udot)(T/2)`` for ``y = (u(0), T)`` and their Jacobian in ``y``."""
+        zh, Phi, _ = _variational_flow(params, np.array([x0, y[0], 0.0, 0.0]), y[1] / 2, rtol, atol)
         # d(xdot, udot)(T/2) / d(u0, T): Phi column of u0; accelerations at T/2 times 1/2.
+        force = float(regularized_contact_force(np.array([zh[0]]), params)[0])
         acc = np.array(
             [
-                -(1 + params.beta) * zh[0]
-                + params.beta * zh[1]
-                - float(regularized_contact_force(np.array([zh[0]]), params)[0]),
+                -(1 + params.beta) * zh[0] + params.beta * zh[1] - force,
                 params.beta * (zh[0] - zh[1]) / params.delta,
             ]
         )
-        J = np.column_stack([Phi[2:, 1], 0.5 * acc])
-        du, dT = np.linalg.solve(J, -r)
-        z[1] += du
-        T += dT
-    raise RuntimeError(f"shooting did not converge in {max_iter} iterations (half-period velocities {r})")
+        return zh[2:], np.column_stack([Phi[2:, 1], 0.5 * acc])
+
+    def at_rest(y, r, dy):
+        return bool(np.max(np.abs(r)) <= tol * scale * 2 * np.pi / y[1])
+
+    result = newton_solve(
+        half_period_velocities,
+        None,
+        [z[1], T],
+        tol=tol,
+        max_iter=max_iter,
+        criterion=at_rest,
+        norm=lambda y, r: float(np.max(np.abs(r))),
+    )
+    if not result.converged:
+        raise RuntimeError(
+            f"shooting did not converge: {result.reason} (largest half-period velocity {result.residual_norm:.3g})"
+        )
+    u0, T = result.y
+    return np.array([x0, u0, 0.0, 0.0]), float(T)
