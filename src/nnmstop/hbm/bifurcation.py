@@ -31,8 +31,9 @@ from nnmstop.continuation.core import (
     ContinuationStats,
     determinant_sign,
     newton_correct,
-    relative_residual,
+    relative_of_residual,
 )
+from nnmstop.continuation.newton import newton_solve
 
 __all__ = [
     "BranchPoint",
@@ -198,19 +199,26 @@ def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
     ContinuationError
         If the relative residual does not reach ``tol``.
     """
-    U = np.array(U, dtype=float)
-    for _ in range(max_iter):
-        r = system.residual(U)
-        if relative_residual(system, U) <= tol:
-            return U
-        dU = np.linalg.lstsq(system.jacobian(U), -r, rcond=1e-12)[0]
-        U += dU
-    if relative_residual(system, U) <= tol:
-        return U
+    result = newton_solve(
+        system.residual, lambda V: _LeastNormSolve(system.jacobian(V)), U, tol=tol, max_iter=max_iter,
+        criterion="residual", norm=relative_of_residual,
+    )
+    if result.converged:
+        return result.y
     raise ContinuationError(
         f"projection onto the branch did not converge in {max_iter} iterations "
-        f"(relative residual {relative_residual(system, U):.2e} > {tol:.1e})"
+        f"(relative residual {result.residual_norm:.2e} > {tol:.1e})"
     )
+
+
+class _LeastNormSolve:
+    """``solve(rhs)``: least-norm solution of ``J x = rhs``, singular values below ``1e-12`` of the largest cut off."""
+
+    def __init__(self, J):
+        self.J = J
+
+    def solve(self, rhs):
+        return np.linalg.lstsq(self.J, rhs, rcond=1e-12)[0]
 
 
 def _null_plane(system, U):
