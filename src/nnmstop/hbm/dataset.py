@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from nnmstop import fourier
 from nnmstop.continuation.core import Branch, ContinuationError, relative_residual
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.netcdf import flag_variable
@@ -71,9 +72,7 @@ def branch_dataset(system, branch: Branch, stage: int, located, stability, conti
     coords = {"point": np.arange(len(U)), "harmonic": np.arange(H + 1)}
 
     def series(c, name, symbol):
-        full = system.to_full(c)
-        cos = np.concatenate([full[:, :1], full[:, 1 : H + 1]], axis=1)
-        sin = np.concatenate([np.zeros((len(U), 1)), full[:, H + 1 :]], axis=1)
+        cos, sin = fourier.to_cos_sin(c, H)
         return {
             f"{symbol}_cos": (
                 ("point", "harmonic"),
@@ -363,9 +362,7 @@ def dataset_unknowns(ds: xr.Dataset, system: HarmonicBalanceSystem) -> np.ndarra
         raise ValueError(f"dataset has {ds.sizes['harmonic'] - 1} harmonics, the system {H}")
     parts = []
     for symbol in ("x", "u", "f", "z"):
-        cos = ds[f"{symbol}_cos"].values
-        sin = ds[f"{symbol}_sin"].values
-        full = np.concatenate([cos, sin[:, 1:]], axis=1)
+        full = fourier.from_cos_sin(ds[f"{symbol}_cos"].values, ds[f"{symbol}_sin"].values)
         parts.append(full[:, : system.nc])
     tail = [ds["omega_squared"].values[:, None]]
     if system.full:

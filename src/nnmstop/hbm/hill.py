@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import eig
 
+from nnmstop import fourier
 from nnmstop.models.two_dof import regularized_contact_stiffness, stiffness_matrix
 
 __all__ = [
@@ -160,7 +161,7 @@ def check_tolerance(tol):
 # --------------------------------------------------------------------------- Fourier layout
 # Matrices and conversions on the full real layout [c_0, c_c^1..c_c^H, c_s^1..c_s^H] for any number of
 # harmonics H_p (the system's helpers are bound to its own H). Kept together here until nnmstop.fourier
-# (helper compare) owns the layout; then they move there.
+# (helper compare) has them too; the derivative comes from it already.
 
 
 def _real_multiplication_matrix(a_samples, harmonics, even: bool, halfwave: bool = False):
@@ -196,16 +197,6 @@ def _real_multiplication_matrix(a_samples, harmonics, even: bool, halfwave: bool
     R[1 : H + 1] = TQ[pos] + TQ[neg]
     R[H + 1 :] = 1j * (TQ[pos] - TQ[neg])
     return R.real
-
-
-def _derivative_matrix(harmonics):
-    """``d/dtheta`` on the full real layout: ``(c_k, s_k) -> (k s_k, -k c_k)``."""
-    H = harmonics
-    k = np.arange(1, H + 1, dtype=float)
-    D = np.zeros((2 * H + 1, 2 * H + 1))
-    D[1 : H + 1, H + 1 :] = np.diag(k)
-    D[H + 1 :, 1 : H + 1] = -np.diag(k)
-    return D
 
 
 def _complex_harmonics(P, H):
@@ -387,7 +378,7 @@ def hill_matrix(system, U, harmonics: int | None = None, linearization: str = "m
 
 def _companion(op):
     m, Hp = op.m, op.H
-    D = _derivative_matrix(Hp)
+    D = fourier.derivative(np.eye(m), Hp).T  # d/dtheta on the full layout, (c_k, s_k) -> (k s_k, -k c_k)
     A = np.zeros((4 * m, 4 * m))
     A[: 2 * m, 2 * m :] = np.eye(2 * m)
     A[2 * m :, : 2 * m] = -op.Kt
