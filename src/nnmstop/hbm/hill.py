@@ -10,8 +10,8 @@ Hamiltonian structure is kept exactly). Two solvers:
 * ``"companion"`` (any orbit): the first-order companion form.
 
 The non-trivial pair is picked by the spectral centroid of the eigenvectors. :func:`floquet`
-handles one orbit, :func:`branch_hill` a branch; the dataset variables are built in
-:mod:`nnmstop.hbm.stability`. Method notes: ``docs/methods/hill.md``; independent reference:
+handles one orbit; :func:`nnmstop.hbm.stability.branch_hill` runs it along a branch and builds the
+dataset variables. Method notes: ``docs/methods/hill.md``; independent reference:
 :mod:`nnmstop.checks.shooting`.
 """
 

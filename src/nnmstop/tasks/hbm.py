@@ -5,7 +5,8 @@ configuration becomes the settings of :mod:`nnmstop.hbm.stages` (:func:`branch_s
 :func:`branch_spec`, :func:`bifurcation_spec`); :func:`build_stage` and :func:`build_bifurcated`
 return the datasets in memory (tests and studies use them); the tasks ``hbm_stage``,
 ``hbm_bifurcated`` and ``hbm_branch`` (dispatched by :mod:`nnmstop.tasks.run`) read their inputs
-and write their outputs. Command line: ``python -m nnmstop.tasks.hbm summary BIFURCATED.nc [NNM2.nc]``
+and write their outputs; the configured paths come from the workflow's rules, never from the library.
+Command line: ``python -m nnmstop.tasks.hbm summary BIFURCATED.nc [NNM2.nc]``
 prints :func:`nnmstop.hbm.dataset.summarize_bifurcated`.
 """
 
