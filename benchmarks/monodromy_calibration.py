@@ -3,7 +3,7 @@
 For every ``--stride``-th orbit of a built branch dataset: the invariant
 ``s = mu + 1/mu`` of the HBM orbit's monodromy (:func:`nnmstop.hbm.monodromy.branch_monodromy`)
 against that of the exact periodic orbit of (7) nearby (shooting,
-:func:`nnmstop.hbm.hill.refine_orbit`, DOP853 monodromy); prints the ratio of their
+:func:`nnmstop.checks.shooting.refine_orbit`, DOP853 monodromy); prints the ratio of their
 difference to the orbit's ``time_residual`` near the type changes (``|s -+ 2| < 0.05``) and
 elsewhere, and the margins (in units of ``time_residual``) of the points whose verdicts differ.
 
@@ -20,10 +20,11 @@ import sys
 import numpy as np
 import xarray as xr
 
-from nnmstop.hbm.branches import dataset_unknowns, system_from_config
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.tasks.hbm import system_from_config
 from nnmstop.config import load_config
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, trace_invariants
-from nnmstop.hbm.hill import monodromy, orbit_initial_state, refine_orbit
+from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
 
 
 def main(argv=None) -> int:

@@ -4,7 +4,7 @@ Reads the orbits of built branch datasets (default: ``results/hbm/nnm1.nc``,
 ``results/hbm/nnm2.nc`` and the switched branches; build them first with
 ``snakemake --cores 2 results/hbm/nnm1.nc ...``), takes every ``--stride``-th point,
 and times on the same points, alternately, Hill's method
-(:func:`nnmstop.hbm.hill.branch_stability`) and the monodromy
+(:func:`nnmstop.hbm.stability.branch_hill`) and the monodromy
 (:func:`nnmstop.hbm.monodromy.branch_monodromy`, settings from ``config/config.yaml``).
 Also reports how many verdicts each resolves and whether they agree where both do.
 
@@ -25,10 +25,11 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from nnmstop.hbm.branches import dataset_unknowns, system_from_config
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.tasks.hbm import system_from_config
 from nnmstop.config import load_config
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
-from nnmstop.hbm.hill import branch_stability
+from nnmstop.hbm.stability import branch_hill
 
 DEFAULT_DATASETS = ["results/hbm/nnm1.nc", "results/hbm/nnm2.nc", "results/hbm/bifurcated/nnm1_3to1.nc", "results/hbm/bifurcated/nnm1_5to1.nc"]
 
@@ -71,7 +72,7 @@ def main(argv=None) -> int:
             system = system_from_config(config, harmonics=int(ds.attrs["harmonics"]))
             U = dataset_unknowns(ds.load(), system)[:: args.stride]
             residual = ds["time_residual"].values[:: args.stride]
-        hill, t_hill = best_time(lambda: branch_stability(system, U), args.repeat)
+        hill, t_hill = best_time(lambda: branch_hill(system, U), args.repeat)
         mono, t_mono = best_time(lambda: branch_monodromy(system, U, settings, time_residual=residual), args.repeat)
         both = hill.resolved & mono.resolved
         differ = int(np.sum(hill.stable[both] != mono.stable[both]))

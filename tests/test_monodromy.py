@@ -2,7 +2,7 @@
 
 References: the closed-form Floquet multipliers of the linear limit, Hill's method
 (a different discretization of the same linearization), the monodromy of an exact
-periodic orbit of (7) integrated by DOP853 (shooting-refined, nnmstop.hbm.hill),
+periodic orbit of (7) integrated by DOP853 (shooting-refined, nnmstop.checks.shooting),
 and the symplecticity of the flow of a Hamiltonian linear system. Small H = 40
 branches keep the module cheap.
 """
@@ -12,12 +12,14 @@ import copy
 import numpy as np
 import pytest
 
-from nnmstop.hbm.branches import continue_stage, dataset_unknowns, orbit_stability, system_from_config
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stability import branch_hill, orbit_stability
+from nnmstop.tasks.hbm import build_stage, stability_settings, system_from_config
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
-from nnmstop.hbm.hill import branch_stability, monodromy, orbit_initial_state, refine_orbit
+from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
 
 H_BRANCH = 40
 
@@ -43,14 +45,14 @@ def system(config):
 @pytest.fixture(scope="module")
 def nnm1(config, system):
     """Unknowns of NNM1 stages 1 and 2 (0, 2 then 6 impacts per period, through an energy fold)."""
-    first = continue_stage(config, "nnm1", 1)
-    second = continue_stage(config, "nnm1", 2, first)
+    first = build_stage(config, "nnm1", 1)
+    second = build_stage(config, "nnm1", 2, first)
     return np.concatenate([dataset_unknowns(first, system), dataset_unknowns(second, system)])
 
 
 @pytest.fixture(scope="module")
 def verdicts(system, nnm1):
-    return branch_monodromy(system, nnm1, MonodromySettings()), branch_stability(system, nnm1)
+    return branch_monodromy(system, nnm1, MonodromySettings()), branch_hill(system, nnm1)
 
 
 def test_linear_limit_matches_closed_form():
@@ -128,9 +130,9 @@ def test_error_estimate_bounds_the_error(system, nnm1):
 def test_config_selects_the_method(config, system, nnm1):
     U = nnm1[:3]
     c = copy.deepcopy(config)
-    assert "stability_reason" in orbit_stability(system, U, c).data_vars()
+    assert "stability_reason" in orbit_stability(system, U, stability_settings(c)).data_vars()
     c["stability"]["method"] = "hill"
-    assert "stability_reason" not in orbit_stability(system, U, c).data_vars()
+    assert "stability_reason" not in orbit_stability(system, U, stability_settings(c)).data_vars()
 
 
 @pytest.mark.parametrize(

@@ -17,7 +17,8 @@ import pytest
 from fixed_energy import orbit_at_energy
 from nnmstop.compare import matching as compare
 from nnmstop.compare.dataset import comparison_dataset, comparison_energies
-from nnmstop.hbm.branches import continue_stage, dataset_unknowns
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.tasks.hbm import build_stage
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.exact.dataset import two_impact_dataset
 from nnmstop.exact.family import follow_two_impact_family
@@ -50,7 +51,7 @@ def exact_family():
 
 @pytest.fixture(scope="module")
 def stage1():
-    return continue_stage(small_config(), "nnm1", 1)
+    return build_stage(small_config(), "nnm1", 1)
 
 
 @pytest.fixture(scope="module")
@@ -192,7 +193,7 @@ def test_frequency_difference_shrinks_with_eta(exact_family):
     energy = 4.0
     out = {}
     for eta in (0.1, 0.02):
-        branch = continue_stage(small_config(eta, {"energy_above": 8.0}), "nnm1", 1)
+        branch = build_stage(small_config(eta, {"energy_above": 8.0}), "nnm1", 1)
         m = compare.EnergyMatcher(exact_family, branch)
         out[eta] = compare.orbit_differences(m.match(energy), m.system, 1024)
     assert abs(out[0.02]["frequency_difference"]) < 0.5 * abs(out[0.1]["frequency_difference"])

@@ -12,7 +12,8 @@ import copy
 import numpy as np
 import pytest
 
-from nnmstop.hbm.branches import combine_stages, continue_stage
+from nnmstop.hbm.stages import combine_stages
+from nnmstop.tasks.hbm import build_stage
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.figures import frequency_energy as fe
 from nnmstop.tasks.figures import combine_nnm1_stages
@@ -32,7 +33,7 @@ def small_config(repo_root):
     config["hbm"]["max_truncation"] = 5e-2  # coarse on purpose: these tests are about drawing
     config["branches"]["nnm1"]["stages"] = [{"name": "one_impact_per_stop", "until": {"impacts_above": 2}}]
     config["branches"]["nnm2"]["stages"] = [{"name": "moderate_energy", "until": {"energy_above": 50.0}}]
-    # no branch switching here: its parent stage is cut away (tests/test_bifurcation.py covers it)
+    # no branch switching here: its parent stage is cut away (tests/hbm/test_bifurcation.py covers it)
     config.pop("bifurcations", None)
     for spec in config["figures"].values():
         if isinstance(spec, dict):
@@ -42,13 +43,13 @@ def small_config(repo_root):
 
 @pytest.fixture(scope="module")
 def nnm2(small_config):
-    return continue_stage(small_config, "nnm2", 1)
+    return build_stage(small_config, "nnm2", 1)
 
 
 @pytest.fixture(scope="module")
 def nnm1_stages(small_config):
     """NNM1 stage 1 cut into four consecutive 'stages' sharing their junction points."""
-    whole = continue_stage(small_config, "nnm1", 1)
+    whole = build_stage(small_config, "nnm1", 1)
     n = whole.sizes["point"]
     cuts = np.linspace(0, n - 1, 5).round().astype(int)
     stages = []

@@ -14,7 +14,7 @@ from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
-from nnmstop.hbm.hill import orbit_initial_state, refine_orbit
+from nnmstop.checks.shooting import orbit_initial_state, refine_orbit
 from nnmstop.study.runs import case_config, match_energies, run_stage_one, two_impact_arm
 from nnmstop.study.stiff_cases import _confirm_end, exact_checks
 from nnmstop.checks.time_integration import integrate_nonsmooth, integrate_regularized
@@ -151,7 +151,7 @@ def exact_family_dataset(config):
 def _shoot_at_energy(params, state, period, energy, rtol=1e-10):
     """Periodic orbit of the regularized equations (7) at ``energy``, by time integration only.
 
-    :func:`nnmstop.hbm.hill.refine_orbit` shoots at fixed ``x(0)`` (start at rest, velocities
+    :func:`nnmstop.checks.shooting.refine_orbit` shoots at fixed ``x(0)`` (start at rest, velocities
     zero at T/2); a secant iteration on ``x(0)`` then brings the energy of the start state
     (at rest: potential energy only, :func:`nnmstop.models.two_dof.total_energy`) to ``energy``.
     ``rtol`` (relative, on the energy) sits above the shooting's own accuracy (velocities to

@@ -1,7 +1,7 @@
 """Exact (non-smooth) and regularized NNM1 orbits at the same energy (Section 4.1).
 
 :class:`EnergyMatcher` takes the exact two-impact family (:mod:`nnmstop.exact`) and a
-regularized NNM1 branch dataset (:mod:`nnmstop.hbm.branches`) and finds, at a requested energy,
+regularized NNM1 branch dataset (:mod:`nnmstop.hbm.dataset`) and finds, at a requested energy,
 one orbit of each model at exactly that energy: Newton's method on the closed-form
 quarter-period equations plus the energy, and on the HBM equations bordered with the mean
 energy over the period, each seeded between the two neighbouring points of the monotone part
@@ -23,7 +23,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop import fourier
-from nnmstop.hbm.branches import dataset_unknowns
+from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
 from nnmstop.continuation.newton import newton_solve
 from nnmstop.exact.grazing import assess_orbit
@@ -221,7 +221,7 @@ class EnergyMatcher:
     exact : xarray.Dataset
         Exact two-impact family (:func:`nnmstop.exact.dataset.two_impact_dataset`).
     branch : xarray.Dataset
-        Regularized NNM1 branch or stage dataset (layout of :mod:`nnmstop.hbm.branches`).
+        Regularized NNM1 branch or stage dataset (layout of :mod:`nnmstop.hbm.dataset`).
     end_margin : float
         Relative margin kept from both ends of the common energy range, in ``[0, 0.5)``.
 

@@ -1,6 +1,6 @@
 """Figs 5-11 of the paper: frequency-energy plots of the regularized NNMs with modal lines.
 
-Every figure is drawn from branch datasets (layout of :mod:`nnmstop.hbm.branches`) and its
+Every figure is drawn from branch datasets (layout of :mod:`nnmstop.hbm.dataset`) and its
 ``figures.<name>`` settings: energies, frequencies and impact counts of the points, and the
 modal lines of the labelled points from their Fourier coefficients; nothing is solved. NNM1 is
 blue, NNM2 green, the NNM2 curve divided by 5 red (as in the paper); frequencies in Hz of the

@@ -149,7 +149,7 @@ def select_point(ds: xr.Dataset, spec: LabelSpec, where: str) -> int:
     Parameters
     ----------
     ds : xarray.Dataset
-        Branch dataset (layout of :mod:`nnmstop.hbm.branches`), one or several stages.
+        Branch dataset (layout of :mod:`nnmstop.hbm.dataset`), one or several stages.
     spec : LabelSpec
         The requested point.
     where : str

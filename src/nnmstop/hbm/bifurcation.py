@@ -1,4 +1,4 @@
-r"""Simple branch points of the HBM system and switching onto the bifurcated branch.
+r"""Simple branch points of the HBM system and switching onto the bifurcated branch (detection and switching only).
 
 A *simple branch point* ``U*`` of the balanced system ``S(U) = 0`` (``n`` equations,
 ``n + 1`` unknowns, :mod:`nnmstop.hbm.system`) is where two solution curves cross: the
@@ -9,10 +9,11 @@ folds; the continuation records the steps across which it does
 (:attr:`nnmstop.continuation.core.Branch.branch_points`, the ``branch_point`` flag of the
 datasets; ``docs/methods/continuation.md``).
 
-On NNM1 such points sit where the fundamental harmonic of the orbit changes sign
-(internal resonances ``n:1``): the orbit there has period ``T/n``; it is an orbit of
-NNM2 read over ``n`` of its periods, and the curve that crosses NNM1 at ``U*`` is that
-NNM2 family read at ``n T`` (the "three time FEP of the second NNM" of Fig. 8).
+* :func:`locate_branch_point` bisects the sign change along the step's path;
+* :func:`bifurcation_tangents` solves Keller's algebraic bifurcation equation on the null plane of
+  ``J(U*)`` with the exact quadratic form of the recast (:func:`quadratic_form`);
+* :func:`switch_branch` steps onto the other curve, :func:`continue_bifurcated_branch` follows it both ways;
+* :func:`classify_branch_point`, :func:`locate_flagged_branch_points`: what crosses at each flagged step.
 
 Branch switching, after Keller's algebraic bifurcation equation:
 
@@ -63,7 +64,6 @@ __all__ = [
     "branch_point_kind",
     "classify_branch_point",
     "locate_flagged_branch_points",
-    "summarize_bifurcated",
 ]
 
 logger = logging.getLogger("nnmstop.hbm.bifurcation")
@@ -386,60 +386,3 @@ def locate_flagged_branch_points(system, points, steps, flagged, method=None) ->
 def branch_point_kind(n: int, symmetry_breaking: bool) -> str:
     """Words for the classification of :func:`classify_branch_point`."""
     return f"{n}:1 resonance" if n else ("symmetry breaking" if symmetry_breaking else "unclassified")
-
-
-def summarize_bifurcated(ds, nnm2=None) -> str:
-    """Plain-text summary of a bifurcated-branch dataset (``results/hbm/bifurcated/*.nc``).
-
-    With ``nnm2`` (a regularized NNM2 dataset), also the relative distance of
-    ``n f`` on the bifurcated branch from the NNM2 frequency at the same energy
-    (NNM2 interpolated linearly in ``ln E``; its energy must increase along the branch).
-    """
-    n = int(ds.attrs["resonance"])
-    e, f = ds["energy"].values, ds["frequency"].values
-    resolved = ds["stability_resolved"] == 1
-    lines = [
-        f"branch {ds.attrs['branch']}: switched from {ds.attrs['parent_branch']} at its {n}:1 branch point",
-        f"  branch point: energy {ds.attrs['branch_point_energy']:.6g}, frequency {ds.attrs['branch_point_frequency']:.6g} Hz, "
-        f"angle between the tangents {ds.attrs['tangent_angle']:.2f} deg, singular ratio {ds.attrs['singular_ratio']:.2e}",
-        f"  {ds.sizes['point']} points, energy {e.min():.4g} .. {e.max():.4g}, frequency {f.min():.6g} .. {f.max():.6g} Hz, "
-        f"{int(ds.attrs['anm_steps'])} ANM steps",
-        f"  largest share of harmonics not multiple of {n}: {float(ds['subharmonic_share'].max()):.2e}",
-        f"  stability: {int(((ds['stable'] == 1) & resolved).sum())} stable, "
-        f"{int(((ds['stable'] == 0) & resolved).sum())} unstable, {int((~resolved).sum())} unresolved "
-        f"of {ds.sizes['point']} points",
-    ]
-    if nnm2 is not None:
-        e2, f2 = nnm2["energy"].values, nnm2["frequency"].values
-        rising = np.all(np.diff(e2) > 0)
-        if not rising:
-            raise ValueError("the NNM2 dataset's energy is not increasing along the branch: cannot interpolate")
-        inside = (e >= e2.min()) & (e <= e2.max())
-        ref = np.interp(np.log(e[inside]), np.log(e2), f2)
-        dev = np.abs(n * f[inside] - ref) / ref
-        lines.append(
-            f"  |{n} f - f_NNM2(E)| / f_NNM2 over {int(inside.sum())} points: max {dev.max():.2e}, median {np.median(dev):.2e} "
-            f"(NNM2 interpolated in ln E between its stored points)"
-        )
-    return "\n".join(lines)
-
-
-def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.hbm.bifurcation summary BIFURCATED.nc [NNM2.nc]``."""
-    import argparse
-
-    import xarray as xr
-
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.hbm.bifurcation", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    summary = sub.add_parser("summary", help="branch point and bifurcated branch, optionally against NNM2")
-    summary.add_argument("bifurcated", help="e.g. results/hbm/bifurcated/nnm1_3to1.nc")
-    summary.add_argument("nnm2", nargs="?", help="e.g. results/hbm/nnm2.nc")
-    args = parser.parse_args(argv)
-    with xr.open_dataset(args.bifurcated) as ds:
-        nnm2 = xr.open_dataset(args.nnm2).load() if args.nnm2 else None
-        print(summarize_bifurcated(ds.load(), nnm2))
-
-
-if __name__ == "__main__":
-    main()

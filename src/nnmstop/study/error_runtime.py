@@ -25,7 +25,7 @@ import xarray as xr
 
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.problem import TwoImpactProblem
-from nnmstop.hbm.branches import system_from_config
+from nnmstop.tasks.hbm import system_from_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.study.runs import (

@@ -1,7 +1,7 @@
 """Shared pieces of the study: a guarded, timed continuation of NNM1 and matched-energy errors.
 
 * :func:`run_stage_one` continues stage 1 of the regularized NNM1 with the engine's
-  :class:`~nnmstop.hbm.branches.TruncationGuard` (the study's own ``max_truncation``), an
+  :class:`~nnmstop.hbm.stages.TruncationGuard` (the study's own ``max_truncation``), an
   optional energy limit and no branch-point location, and measures its wall-clock and CPU
   time and its cost counters; a numerical failure becomes ``StageRun.failure``, never an
   exception.
@@ -26,14 +26,9 @@ import numpy as np
 import xarray as xr
 
 from nnmstop.continuation.anm import ANMSettings, continue_anm
-from nnmstop.hbm.branches import (
-    TruncationGuard,
-    branch_dataset,
-    dataset_unknowns,
-    start_point,
-    stage_criterion,
-    system_from_config,
-)
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stages import TruncationGuard, stage_criterion, stage_dataset, start_point
+from nnmstop.tasks.hbm import branch_settings, system_from_config
 from nnmstop.compare.matching import (
     EnergyMatcher,
     exact_increasing_arm,
@@ -140,7 +135,7 @@ class StageRun:
     Attributes
     ----------
     dataset : xarray.Dataset or None
-        Branch dataset (layout of :mod:`nnmstop.hbm.branches`); None when the run failed.
+        Branch dataset (layout of :mod:`nnmstop.hbm.dataset`); None when the run failed.
     failure : str
         Why the run failed ('' when it converged).
     runtime, cpu_time : float
@@ -214,7 +209,8 @@ def run_stage_one(
     runtime, cpu_time = time.perf_counter() - wall, time.process_time() - cpu
     if not failure:
         # the study compares orbits: branch points stay flagged, not located (costly, unused here)
-        dataset = branch_dataset(system, branch, 1, config, "nnm1", located=[])
+        labels = {"branch": "nnm1", "mode": int(spec["mode"]), "stages": len(spec["stages"])}
+        dataset = stage_dataset(system, branch, 1, branch_settings(config), labels, located=[])
     logger.info("%s, H = %d: %s in %.2f s", label, system.H, failure or "converged", runtime)
     return StageRun(dataset, failure, runtime, cpu_time, stats, guard.largest, system.H, {"unresolved": unresolved})
 
@@ -224,7 +220,7 @@ def path_error(system: HarmonicBalanceSystem, branch: xr.Dataset) -> tuple[float
 
     The point with the largest algebraic residual (interior points of ANM steps are not
     Newton-corrected by the engine) is corrected by Newton's method at fixed amplitude
-    ``x_c^1`` (as :func:`nnmstop.hbm.branches.start_point` does). Returns the largest relative
+    ``x_c^1`` (as :func:`nnmstop.hbm.stages.start_point` does). Returns the largest relative
     algebraic residual and the relative frequency shift of that point.
     """
     residual = np.asarray(branch["algebraic_residual"].values, dtype=float)

@@ -23,7 +23,8 @@ import numpy as np
 import scipy.optimize
 import xarray as xr
 
-from nnmstop.hbm.branches import start_point, system_from_config
+from nnmstop.hbm.stages import start_point
+from nnmstop.tasks.hbm import system_from_config
 from nnmstop.compare.matching import exact_increasing_arm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
 from nnmstop.exact.dataset import two_impact_dataset

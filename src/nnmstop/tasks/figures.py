@@ -20,7 +20,7 @@ from nnmstop.figures.common import save_figure
 from nnmstop.figures.regime_errors import regime_error_figure
 from nnmstop.figures.stability import ZOOM_ENERGY, stability_figure
 from nnmstop.figures.study import error_vs_runtime_figure, stiff_cases_figure
-from nnmstop.hbm.branches import combine_stages
+from nnmstop.hbm.stages import combine_stages
 
 __all__ = [
     "figure_config",

@@ -22,7 +22,7 @@ import logging
 import sys
 from pathlib import Path
 
-import xarray as xr
+from nnmstop.tasks.hbm import hbm_bifurcated, hbm_branch, hbm_stage
 
 __all__ = ["TASKS", "run_task", "main"]
 
@@ -41,75 +41,6 @@ def exact_nnm1(config, inputs, outputs):
     from nnmstop.tasks.exact import build_multi_impact_dataset
 
     build_multi_impact_dataset(config, inputs["two_impacts"], outputs["dataset"])
-
-
-def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
-    """One stage of a regularized NNM branch (HBM + ANM)."""
-    from nnmstop.hbm.branches import continue_stage
-    from nnmstop.netcdf import write_dataset
-
-    stage = int(stage)
-    previous = None
-    if stage > 1:
-        with xr.open_dataset(inputs["previous"]) as prev:
-            previous = prev.load()
-    ds = continue_stage(config, branch, stage, previous)
-    name = config["branches"][branch]["stages"][stage - 1]["name"]
-    write_dataset(
-        ds,
-        outputs["dataset"],
-        title=f"Regularized {branch.upper()}, stage {stage} ({name}): HBM-ANM continuation",
-        summary=(
-            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
-            f"{branch.upper()}, stage {stage} ({name}), computed by harmonic balance with "
-            f"{ds.attrs['harmonics']} harmonics and the asymptotic numerical method."
-        ),
-        metadata=config.get("metadata"),
-    )
-
-
-def hbm_bifurcated(config, inputs, outputs, bifurcation: str):
-    """The branch switched at a branch point of a regularized branch (``bifurcations.<name>``)."""
-    from nnmstop.hbm.branches import bifurcated_branch
-    from nnmstop.netcdf import write_dataset
-
-    with xr.open_dataset(inputs["parent"]) as parent:
-        ds = bifurcated_branch(config, bifurcation, parent.load())
-    n, parent_name = ds.attrs["resonance"], ds.attrs["parent_branch"].upper()
-    write_dataset(
-        ds,
-        outputs["dataset"],
-        title=f"Branch bifurcating from regularized {parent_name} at the {n}:1 internal resonance ({bifurcation})",
-        summary=(
-            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop on the curve "
-            f"that crosses {parent_name} at its {n}:1 branch point (orbits of period T/{n}), reached by branch "
-            f"switching and continued both ways by harmonic balance with {ds.attrs['harmonics']} harmonics "
-            f"and the asymptotic numerical method."
-        ),
-        metadata=config.get("metadata"),
-    )
-
-
-def hbm_branch(config, inputs, outputs, branch: str):
-    """Concatenate the stages of a branch into one dataset."""
-    from nnmstop.hbm.branches import combine_stages
-    from nnmstop.netcdf import write_dataset
-
-    stages = []
-    for path in inputs["stages"]:
-        with xr.open_dataset(path) as ds:
-            stages.append(ds.load())
-    combined = combine_stages(stages)
-    write_dataset(
-        combined,
-        outputs["dataset"],
-        title=f"Regularized {branch.upper()}: HBM-ANM continuation, whole branch",
-        summary=(
-            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
-            f"{branch.upper()}, from its linear mode to the end of the last continuation stage."
-        ),
-        metadata=config.get("metadata"),
-    )
 
 
 def compare_nnm1(config, inputs, outputs):

@@ -1,4 +1,4 @@
-"""Branch points and branch switching (nnmstop.hbm.bifurcation, branches.bifurcated_branch)."""
+"""Branch points and branch switching (nnmstop.hbm.bifurcation, nnmstop.hbm.stages.bifurcated_branch)."""
 
 import copy
 
@@ -14,7 +14,9 @@ from nnmstop.hbm.bifurcation import (
     subharmonic_share,
     switch_branch,
 )
-from nnmstop.hbm.branches import bifurcated_branch, continue_stage, dataset_unknowns, start_point, system_from_config
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stages import start_point
+from nnmstop.tasks.hbm import build_bifurcated, build_stage, system_from_config
 from nnmstop.config import ConfigError, validate_config
 from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.system import HarmonicBalanceSystem
@@ -105,10 +107,10 @@ def resonance_config(repo_root):
 
 @pytest.fixture(scope="module")
 def bifurcated(resonance_config):
-    stage1 = continue_stage(resonance_config, "nnm1", 1)
-    stage2 = continue_stage(resonance_config, "nnm1", 2, stage1)
+    stage1 = build_stage(resonance_config, "nnm1", 1)
+    stage2 = build_stage(resonance_config, "nnm1", 2, stage1)
     stage2.attrs["previous_stage"] = stage1  # kept for the combination test (never written)
-    return stage2, bifurcated_branch(resonance_config, "nnm1_3to1", stage2)
+    return stage2, build_bifurcated(resonance_config, "nnm1_3to1", stage2)
 
 
 def test_bifurcated_branch_is_nnm2_read_over_three_periods(resonance_config, bifurcated):
@@ -160,7 +162,7 @@ def test_resonance_without_branch_point_is_refused(resonance_config, bifurcated)
     config = copy.deepcopy(resonance_config)
     config["bifurcations"]["nnm1_3to1"]["resonance"] = 5
     with pytest.raises(ValueError, match="no branch point of the 5:1 resonance"):
-        bifurcated_branch(config, "nnm1_3to1", stage2)
+        build_bifurcated(config, "nnm1_3to1", stage2)
 
 
 def test_config_checks_of_bifurcations(resonance_config):
@@ -179,7 +181,7 @@ def test_config_checks_of_bifurcations(resonance_config):
 
 
 def test_summary_reports_the_branch_point(bifurcated):
-    from nnmstop.hbm.bifurcation import summarize_bifurcated
+    from nnmstop.hbm.dataset import summarize_bifurcated
 
     stage2, ds = bifurcated
     text = summarize_bifurcated(ds)
@@ -211,7 +213,7 @@ def test_stage_dataset_records_located_branch_points_and_folds(bifurcated):
 
 
 def test_combined_stages_keep_the_located_points(bifurcated):
-    from nnmstop.hbm.branches import combine_stages
+    from nnmstop.hbm.stages import combine_stages
 
     stage2, _ = bifurcated
     stage1 = stage2.attrs["previous_stage"]

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nnmstop.hbm.branches import combine_stages, continue_stage, dataset_unknowns, system_from_config
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stages import combine_stages
+from nnmstop.tasks.hbm import build_stage, system_from_config
 from nnmstop.config import load_config
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
 from nnmstop.netcdf import check_labelled
@@ -29,13 +31,13 @@ def small_config():
 
 @pytest.fixture(scope="module")
 def nnm1_stages(small_config):
-    first = continue_stage(small_config, "nnm1", 1)
-    second = continue_stage(small_config, "nnm1", 2, first)
+    first = build_stage(small_config, "nnm1", 1)
+    second = build_stage(small_config, "nnm1", 2, first)
     return first, second
 
 
 def test_nnm2_approaches_gap_zero_mode_from_below(small_config):
-    ds = continue_stage(small_config, "nnm2", 1)
+    ds = build_stage(small_config, "nnm2", 1)
     params = ModelParameters.from_config(small_config["model"])
     limit = linear_modes(params, "gap_zero")[0][1] / (2 * np.pi)
     start = linear_modes(params, "regularized")[0][1] / (2 * np.pi)
@@ -71,7 +73,7 @@ def test_staged_branch_matches_a_single_run(small_config, nnm1_stages):
     """Two stages trace the same curve as one continuation run with the last criterion."""
     single_config = copy.deepcopy(small_config)
     single_config["branches"]["nnm1"]["stages"] = [small_config["branches"]["nnm1"]["stages"][1]]
-    single = continue_stage(single_config, "nnm1", 1)
+    single = build_stage(single_config, "nnm1", 1)
     staged = combine_stages(list(nnm1_stages))
     # energy grows monotonically up to E = 20 on NNM1 here: compare frequency at matched energies
     for ds in (single, staged):
@@ -113,4 +115,4 @@ def test_failed_stage_names_step_and_energy_and_leaves_no_dataset(small_config, 
 
 def test_stage_number_out_of_range_is_rejected(small_config):
     with pytest.raises(ValueError, match="stage must be in 1..2"):
-        continue_stage(small_config, "nnm1", 3)
+        build_stage(small_config, "nnm1", 3)

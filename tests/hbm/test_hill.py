@@ -12,21 +12,16 @@ import numpy as np
 import pytest
 
 from fixed_energy import orbit_at_energy
-from nnmstop.hbm.branches import continue_stage, dataset_unknowns, start_point, system_from_config
+from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stability import BranchHill, branch_hill
+from nnmstop.hbm.stages import start_point
+from nnmstop.tasks.hbm import build_stage, system_from_config
 from nnmstop.compare.matching import regularized_monotone_part
 from nnmstop.config import load_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, linear_modes
-from nnmstop.hbm.hill import (
-    BranchStability,
-    branch_stability,
-    floquet,
-    hill_matrix,
-    is_halfwave_symmetric,
-    monodromy,
-    orbit_initial_state,
-    refine_orbit,
-)
+from nnmstop.hbm.hill import floquet, hill_matrix, is_halfwave_symmetric
 
 H_BRANCH = 40
 
@@ -53,14 +48,14 @@ def system(config):
 @pytest.fixture(scope="module")
 def nnm1(config, system):
     """NNM1: stage 1 (0 then 2 impacts per period) and stage 2 (6 impacts, down to the energy fold and back)."""
-    first = continue_stage(config, "nnm1", 1)
-    second = continue_stage(config, "nnm1", 2, first)
+    first = build_stage(config, "nnm1", 1)
+    second = build_stage(config, "nnm1", 2, first)
     return first, dataset_unknowns(first, system), second, dataset_unknowns(second, system)
 
 
 @pytest.fixture(scope="module")
 def nnm2(config, system):
-    ds = continue_stage(config, "nnm2", 1)
+    ds = build_stage(config, "nnm2", 1)
     return ds, dataset_unknowns(ds, system)
 
 
@@ -142,7 +137,7 @@ def test_nnm2_with_impacts_matches_monodromy_and_is_stable(system, nnm2):
         assert np.allclose(np.abs(ref), 1.0, atol=1e-8)  # elliptic for the exact orbit too
         assert pair_distance(r.multipliers[2:], ref) < 1e-4, (i, r.multipliers, ref)
     # The whole stretch is stable (NNM2 is stable over its whole range at H = 100 too).
-    b = branch_stability(system, U)
+    b = branch_hill(system, U)
     assert b.stable.all()
 
 
@@ -216,7 +211,7 @@ def test_nnm1_stability_changes_at_the_energy_fold(system, nnm1):
     fold_energy, falling, rising = six_impact_arms(second, U)
     before = np.array([orbit_at_energy(system, *falling, f * fold_energy) for f in (1.2, 1.5, 2.0, 3.0, 5.0)])
     after = np.array([orbit_at_energy(system, *rising, f * fold_energy) for f in (1.2, 1.6, 2.0)])
-    b, a = branch_stability(system, before), branch_stability(system, after)
+    b, a = branch_hill(system, before), branch_hill(system, after)
     assert not b.stable.any()
     assert a.stable[1:].all()
     # the pair is close to +1 near the fold (orbits at 1.2 times its energy)
@@ -314,10 +309,10 @@ def test_full_basis_orbit_uses_the_companion_solver():
 # --------------------------------------------------------------------------- branch API
 
 
-def test_branch_stability_layout(system, nnm1):
+def test_branch_hill_layout(system, nnm1):
     first, U, _, _ = nnm1
-    b = branch_stability(system, U[:5])
-    assert isinstance(b, BranchStability)
+    b = branch_hill(system, U[:5])
+    assert isinstance(b, BranchHill)
     assert b.stable.shape == (5,) and b.stable.dtype == bool
     assert b.multipliers.shape == (5, 4) and np.iscomplexobj(b.multipliers)
     assert b.seconds_per_point > 0 and b.harmonics == H_BRANCH and b.method == "reversible"
@@ -360,12 +355,4 @@ def test_bad_arguments(system, nnm1):
     with pytest.raises(ValueError, match="omega"):
         floquet(system, bad)
     with pytest.raises(ValueError, match="U_array"):
-        branch_stability(system, U[0])
-    with pytest.raises(ValueError, match="state0"):
-        monodromy(system.params, [0.0, 1.0], 1.0)
-    with pytest.raises(ValueError, match="period"):
-        monodromy(system.params, [0.1, 0.2, 0.0, 0.0], -1.0)
-    with pytest.raises(ValueError, match="params"):
-        monodromy({"alpha": 30.0}, [0.1, 0.2, 0.0, 0.0], 1.0)
-    with pytest.raises(ValueError, match="at rest"):
-        refine_orbit(system.params, [0.1, 0.2, 0.3, 0.0], 6.0)
+        branch_hill(system, U[0])

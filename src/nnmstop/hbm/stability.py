@@ -1,0 +1,252 @@
+"""Floquet stability of the orbits of a branch: Hill's method or the monodromy matrix, and the verdict variables.
+
+:func:`orbit_stability` is what dataset assembly calls: it dispatches on
+:attr:`StabilitySettings.method` (config ``stability.method``) to
+
+* ``"monodromy"`` (default): :func:`nnmstop.hbm.monodromy.branch_monodromy`
+  (``docs/methods/monodromy.md``), or
+* ``"hill"``: :func:`branch_hill`, Hill's method of :mod:`nnmstop.hbm.hill` on every orbit
+  (``docs/methods/hill.md``).
+
+Both return an object whose ``data_vars()`` gives the dataset variables: ``stable``,
+``multiplier_real``/``multiplier_imag(point, multiplier)``, ``max_multiplier``,
+``stability_orbit_residual``, ``stability_resolved`` (and for the monodromy its reason code and
+error estimates).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from nnmstop.hbm.hill import DEFAULT_TOL, RESOLUTION_FACTOR, check_harmonics, check_tolerance, floquet
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
+from nnmstop.netcdf import flag_variable
+
+__all__ = ["STABILITY_METHODS", "StabilitySettings", "BranchHill", "branch_hill", "orbit_stability"]
+
+STABILITY_METHODS = ("monodromy", "hill")
+
+
+@dataclass(frozen=True)
+class StabilitySettings:
+    """How the stability of branch orbits is computed (config section ``stability``).
+
+    Attributes
+    ----------
+    method : {"monodromy", "hill"}
+    hill_tol : float
+        Hill's method: stable when the largest non-trivial ``|mu| <= 1 + hill_tol``.
+    monodromy : MonodromySettings
+        Settings of the monodromy method.
+    """
+
+    method: str = "monodromy"
+    hill_tol: float = DEFAULT_TOL
+    monodromy: MonodromySettings = field(default_factory=MonodromySettings)
+
+    def __post_init__(self):
+        if self.method not in STABILITY_METHODS:
+            raise ValueError(f"stability.method must be one of {STABILITY_METHODS}, got {self.method!r}")
+        check_tolerance(self.hill_tol)
+        if not isinstance(self.monodromy, MonodromySettings):
+            raise ValueError(f"monodromy must be a MonodromySettings, got {type(self.monodromy).__name__}")
+
+
+def orbit_stability(system, U_array, settings: StabilitySettings, time_residual=None):
+    """Floquet stability of the orbits ``U_array`` of a branch by the method of ``settings``.
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+    U_array : array_like, shape (n, n_unknowns)
+    settings : StabilitySettings
+    time_residual : array_like, shape (n,), optional
+        The orbits' residuals of Eq. (7), if already at hand (monodromy method).
+
+    Returns
+    -------
+    BranchMonodromy or BranchHill
+        Its ``data_vars()`` are the dataset variables.
+    """
+    if not isinstance(settings, StabilitySettings):
+        raise ValueError(f"settings must be a StabilitySettings, got {type(settings).__name__}")
+    if settings.method == "monodromy":
+        return branch_monodromy(system, U_array, settings.monodromy, time_residual=time_residual)
+    return branch_hill(system, U_array, tol=settings.hill_tol)
+
+
+@dataclass
+class BranchHill:
+    """Stability of every point of a branch by Hill's method (arrays along the points).
+
+    Attributes
+    ----------
+    stable : ndarray of bool, shape (n,)
+    multipliers : ndarray of complex, shape (n, 4)
+        Layout of :attr:`nnmstop.hbm.hill.FloquetResult.multipliers`.
+    exponents : ndarray of complex, shape (n, 4)
+    max_multiplier, orbit_residual, margin, tail_fraction : ndarray, shape (n,)
+    resolved : ndarray of bool, shape (n,)
+        :attr:`nnmstop.hbm.hill.FloquetResult.resolved` of each point.
+    tol : float
+    harmonics : int
+    method : str
+    seconds_per_point : float
+        Mean wall time per point.
+    """
+
+    stable: np.ndarray
+    multipliers: np.ndarray
+    exponents: np.ndarray
+    max_multiplier: np.ndarray
+    orbit_residual: np.ndarray
+    margin: np.ndarray
+    resolved: np.ndarray
+    tail_fraction: np.ndarray
+    tol: float
+    harmonics: int
+    method: str
+    seconds_per_point: float = 0.0
+
+    def data_vars(self) -> dict:
+        """Variables for a branch dataset, ``{name: (dims, values, attrs)}``.
+
+        Dimensions ``point`` and ``multiplier`` (0..3, layout of
+        :attr:`nnmstop.hbm.hill.FloquetResult.multipliers`); complex values are split into real and
+        imaginary parts (netCDF has no complex type).
+        """
+        note = (
+            f"Floquet multipliers by Hill's method ({self.method} solver, {self.harmonics} harmonics on the "
+            f"perturbation), ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|"
+        )
+        return {
+            "stable": flag_variable(
+                "point",
+                self.stable,
+                "orbit linearly stable (1) or unstable (0): largest |multiplier| of the non-trivial pair <= 1 + "
+                f"{self.tol:g}",
+                "unstable stable",
+                comment=note,
+            ),
+            "multiplier_real": (
+                ("point", "multiplier"),
+                self.multipliers.real,
+                {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note},
+            ),
+            "multiplier_imag": (
+                ("point", "multiplier"),
+                self.multipliers.imag,
+                {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note},
+            ),
+            "max_multiplier": (
+                "point",
+                self.max_multiplier,
+                {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"},
+            ),
+            "stability_orbit_residual": (
+                "point",
+                self.orbit_residual,
+                {
+                    "long_name": "relative residual of the orbit velocity in the linearized equations (accuracy of the "
+                    "orbit for the stability analysis)",
+                    "units": "1",
+                },
+            ),
+            "stability_resolved": flag_variable(
+                "point",
+                self.resolved,
+                f"stability verdict resolved (1): distance of mu_1 to the collision point(s) > {RESOLUTION_FACTOR:g} x "
+                "stability_orbit_residual",
+                "unresolved resolved",
+            ),
+        }
+
+
+def branch_hill(
+    system,
+    U_array,
+    harmonics: int | None = None,
+    tol: float = DEFAULT_TOL,
+    linearization: str = "model",
+    method: str = "auto",
+    symmetry: bool = True,
+    progress=None,
+    blas_threads: int | None = 1,
+) -> BranchHill:
+    """Floquet stability of every point of a branch.
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+    U_array : array_like, shape (n, n_unknowns)
+        Unknown vectors of the points (e.g. from
+        :func:`nnmstop.hbm.dataset.dataset_unknowns`).
+    harmonics, tol, linearization, method, symmetry
+        As in :func:`nnmstop.hbm.hill.floquet`.
+    progress : callable, optional
+        Called as ``progress(i, n)`` after each point.
+    blas_threads : int or None
+        Limit of BLAS threads during the loop when :mod:`threadpoolctl` is installed
+        (None: leave as is). Otherwise set ``OPENBLAS_NUM_THREADS=1`` in the
+        environment (the cost section of docs/methods/hill.md).
+
+    Returns
+    -------
+    BranchHill
+    """
+    U_array = np.asarray(U_array, dtype=float)
+    if U_array.ndim != 2 or U_array.shape[1] != system.n_unknowns:
+        raise ValueError(f"U_array must have shape (n, {system.n_unknowns}), got {U_array.shape}")
+    tol = check_tolerance(tol)
+    Hp = check_harmonics(harmonics, system.H)
+    if blas_threads is not None and (
+        not isinstance(blas_threads, (int, np.integer)) or isinstance(blas_threads, bool) or blas_threads < 1
+    ):
+        raise ValueError(f"blas_threads must be None or an integer >= 1, got {blas_threads!r}")
+    n = len(U_array)
+    mult = np.empty((n, 4), dtype=complex)
+    expo = np.empty((n, 4), dtype=complex)
+    stable = np.empty(n, dtype=bool)
+    max_mu, resid, margin, tailf = (np.empty(n) for _ in range(4))
+    resolved = np.empty(n, dtype=bool)
+    methods = set()
+    start = time.perf_counter()
+    with _blas_thread_limit(blas_threads):
+        for i, U in enumerate(U_array):
+            r = floquet(system, U, harmonics=Hp, tol=tol, linearization=linearization, method=method, symmetry=symmetry)
+            mult[i], expo[i], stable[i] = r.multipliers, r.exponents, r.stable
+            max_mu[i], resid[i], margin[i], tailf[i] = r.max_multiplier, r.orbit_residual, r.margin, r.tail_fraction
+            resolved[i] = r.resolved
+            methods.add(r.method)
+            if progress is not None:
+                progress(i, n)
+    elapsed = time.perf_counter() - start
+    return BranchHill(
+        stable=stable,
+        multipliers=mult,
+        exponents=expo,
+        max_multiplier=max_mu,
+        orbit_residual=resid,
+        margin=margin,
+        resolved=resolved,
+        tail_fraction=tailf,
+        tol=tol,
+        harmonics=Hp,
+        method="+".join(sorted(methods)) if methods else method,
+        seconds_per_point=elapsed / max(n, 1),
+    )
+
+
+def _blas_thread_limit(threads):
+    """Context limiting the BLAS threads with threadpoolctl when available."""
+    if threads is None:
+        return contextlib.nullcontext()
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=int(threads), user_api="blas")

@@ -1,0 +1,44 @@
+"""Stability dispatch (nnmstop.hbm.stability): both methods on orbits near rest, settings checks."""
+
+import numpy as np
+import pytest
+
+from nnmstop.hbm.hill import DEFAULT_TOL
+from nnmstop.hbm.monodromy import MonodromySettings
+from nnmstop.hbm.stability import StabilitySettings, orbit_stability
+from nnmstop.hbm.stages import start_point
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.two_dof import linear_modes
+from nnmstop.tasks.hbm import stability_settings
+
+
+@pytest.mark.parametrize("method", ["hill", "monodromy"])
+def test_both_methods_give_the_modal_multipliers_near_rest(paper_params, method):
+    """Near rest NNM1 is the linear mode: the non-trivial pair is exp(+-i omega_2 T), elliptic."""
+    system = HarmonicBalanceSystem(paper_params, harmonics=8)
+    U = np.array([start_point(system, 1, amplitude)[0] for amplitude in (1e-3, 2e-3)])
+    result = orbit_stability(system, U, StabilitySettings(method=method))
+    omega = linear_modes(paper_params, "regularized")[0]
+    period = 2 * np.pi / omega[0]
+    expected = np.exp(1j * omega[1] * period)
+    assert result.stable.all() and result.resolved.all()
+    for mu in result.multipliers:
+        assert mu[:2] == pytest.approx([1.0, 1.0], abs=1e-6)
+        assert np.abs(mu[2:]) == pytest.approx([1.0, 1.0], abs=1e-9)
+        assert sorted(np.angle(mu[2:])) == pytest.approx(sorted([np.angle(expected), -np.angle(expected)]), abs=1e-5)
+    data = result.data_vars()
+    assert data["multiplier_real"][0] == ("point", "multiplier")
+
+
+def test_settings_from_the_configuration_and_bad_values():
+    assert stability_settings({}) == StabilitySettings()
+    hill = stability_settings({"stability": {"method": "hill", "hill_tol": 1e-7}})
+    assert hill.method == "hill" and hill.hill_tol == 1e-7
+    mono = stability_settings({"stability": {"method": "monodromy", "steps": 128}})
+    assert mono.monodromy == MonodromySettings(steps=128) and mono.hill_tol == DEFAULT_TOL
+    with pytest.raises(ValueError, match="'qz'"):
+        StabilitySettings(method="qz")
+    with pytest.raises(ValueError, match="tol"):
+        StabilitySettings(hill_tol=-1.0)
+    with pytest.raises(ValueError, match="StabilitySettings"):
+        orbit_stability(None, np.zeros((1, 3)), {"method": "hill"})
