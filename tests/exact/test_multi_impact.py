@@ -1,6 +1,6 @@
 """The exact NNM1 with any number of impacts per period, against independent references.
 
-References: the two-impact construction of :mod:`nnmstop.exact.two_impact`, finite differences, and
+References: the two-impact problem (:class:`nnmstop.exact.problem.TwoImpactProblem`), finite differences, and
 the event-driven time integration of Eqs. (3)-(4) (:mod:`nnmstop.checks.time_integration`,
 DOP853 restarted at every located stop crossing). Everything here is computed from
 scratch (no pipeline output is read) and runs in well under a minute.

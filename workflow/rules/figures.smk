@@ -4,14 +4,6 @@
 # stages listed under `figures.figNN.nnm1_stages` in config/config.yaml.
 
 
-from nnmstop.tasks.figures import figure_nnm1_stages
-
-
-def nnm1_stage_files(figure):
-    """The NNM1 stage datasets paper figure ``figure`` reads (``figures.<figure>.nnm1_stages``)."""
-    return [stage_file("nnm1", k) for k in figure_nnm1_stages(config, figure)]
-
-
 rule paper_fig05:
     """Fig 5: FEP of NNM1 (blue) and NNM2 (green) over the whole energy range."""
     input:
