@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nnmstop.netcdf import check_up_to_date, cf_variable, flag_variable, read_dataset, write_dataset
+from nnmstop.netcdf import cf_variable, check_up_to_date, flag_variable, read_dataset, write_dataset
 
 WRITE_TWICE_EMPTY = """
 import sys

@@ -79,7 +79,7 @@ def provenance() -> dict:
     """
     commit = _git("rev-parse", "HEAD") or "unknown"
     epoch = os.environ.get("SOURCE_DATE_EPOCH") or _git("log", "-1", "--format=%ct") or "0"
-    date = _dt.datetime.fromtimestamp(int(epoch), tz=_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    date = _dt.datetime.fromtimestamp(int(epoch), tz=_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     return {"commit": commit, "date_created": date}
 
 
@@ -107,7 +107,9 @@ def global_attributes(title: str, summary: str, keywords: str = "", metadata: di
         "date_created": prov["date_created"],
         "source": f"nnmstop {__version__} (git commit {prov['commit']})",
         # No date, host or path: a rebuild of the same commit must give the same bytes.
-        "history": f"computed and written by nnmstop {__version__} (git commit {prov['commit']}), nnmstop.netcdf.write_dataset",
+        "history": (
+            f"computed and written by nnmstop {__version__} (git commit {prov['commit']}), nnmstop.netcdf.write_dataset"
+        ),
         "references": PAPER_REFERENCE,
         # No variable has a CF standard name (CF defines none for these quantities); the
         # attribute names the table such names would come from, as ACDD asks: the version the
@@ -251,7 +253,9 @@ def read_dataset(path: str | Path, required: Iterable[str] = (), expected: Mappi
     return loaded
 
 
-def check_up_to_date(ds: xr.Dataset, expected: Mapping, source: str | Path = "the dataset", rtol: float = 1e-12) -> None:
+def check_up_to_date(
+    ds: xr.Dataset, expected: Mapping, source: str | Path = "the dataset", rtol: float = 1e-12
+) -> None:
     """Refuse a dataset computed with other settings than ``expected`` (a stale input).
 
     Parameters

@@ -1,32 +1,41 @@
-"""Tasks of the Snakemake workflow, callable from rules and from the command line.
+"""The task dispatcher of the workflow: :func:`run_task` and the command line.
 
-Every rule of ``workflow/rules/*.smk`` is a one-line call of :func:`run_task`; the
-same task runs standalone for debugging::
+A rule of ``workflow/rules/<file>.smk`` runs the function of the rule's own name in the task
+module of its rule file, :mod:`nnmstop.tasks.<file>` (:data:`TASK_MODULES`), through the one
+script ``workflow/scripts/run_task.py``. A task takes ``(config, inputs, outputs, **wildcards)``:
+the configuration sections its rule passes as ``params.config`` (a rule reruns when they
+change), its named inputs and outputs (paths) and the rule's wildcards. A task module lists its
+tasks in ``__all__``. The same task runs standalone for debugging, with the whole configuration::
 
     python -m nnmstop.tasks.run hbm_stage --branch nnm1 --stage 2 \\
         --input previous=results/hbm/stages/nnm1_stage1.nc \\
         --output dataset=/tmp/nnm1_stage2.nc
 
-Wildcards of other rules go through ``--wildcard KEY=VALUE`` (for example the study's
-``--wildcard harmonics=100 --wildcard eta=0.1``).
-
-A task reads the validated configuration, its named inputs and writes its named
-outputs; its log goes to the rule's ``log:`` file (or stderr).
+Other wildcards go through ``--wildcard KEY=VALUE`` (for example the study's
+``--wildcard harmonics=100 --wildcard eta=0.1``). The log goes to the rule's ``log:`` file
+(or stderr). The bodies of the exact, hbm, compare, figure and study tasks below are moving to
+their task modules; a task module that defines a name takes precedence over them.
 """
 
 from __future__ import annotations
 
 import argparse
 import functools
+import importlib
+import importlib.util
 import logging
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import xarray as xr
 
-__all__ = ["TASKS", "run_task", "main"]
+__all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "run_task", "main"]
 
 logger = logging.getLogger("nnmstop.tasks.run")
+
+#: Task modules, one per rule file: ``workflow/rules/<name>.smk`` -> ``nnmstop.tasks.<name>``.
+TASK_MODULES = ("exact", "hbm", "compare", "figures", "study", "manifest", "bundle", "verify")
 
 
 def exact_two_impacts(config, inputs, outputs):
@@ -161,33 +170,6 @@ def paper_figure(name: str, config, inputs, outputs):
     build_figure(name, config, inputs, outputs)
 
 
-def dataset_manifest(config, inputs, outputs):
-    """SHA-256 manifest of the datasets (``sha256sum -c`` format, paths as given)."""
-    import hashlib
-
-    lines = []
-    for path in sorted(inputs["datasets"] if not isinstance(inputs["datasets"], str) else [inputs["datasets"]]):
-        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-        lines.append(f"{digest}  {path}\n")
-    out = Path(outputs["manifest"])
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text("".join(lines))
-
-
-def bundle(config, inputs, outputs):
-    """The result bundle (``nnmstop.bundle.build_bundle``): datasets, figures, manifest, lock, workflow."""
-    from nnmstop.bundle import build_bundle
-
-    def as_list(value):
-        return [value] if isinstance(value, str) else list(value)
-
-    build_bundle(
-        config, datasets=as_list(inputs["datasets"]), figures=as_list(inputs["figures"]), manifest=inputs["manifest"],
-        environment_lock=inputs["environment_lock"], workflow_files=as_list(inputs["workflow_files"]),
-        output=outputs["bundle"],
-    )
-
-
 # one task per paper figure, named as the rules call them: paper_fig02 ... paper_fig11
 PAPER_FIGURE_TASKS = {f"paper_fig{n:02d}": functools.partial(paper_figure, f"fig{n:02d}") for n in range(2, 12)}
 
@@ -283,9 +265,60 @@ STUDY_TASKS = (
 TASKS = {
     **{f.__name__: f for f in (exact_two_impacts, exact_nnm1, hbm_stage, hbm_bifurcated, hbm_branch, compare_nnm1,
                                compare_regimes, regime_error_figure, compare_stability, stability_figure,
-                               dataset_manifest, bundle, *STUDY_TASKS)},
+                               *STUDY_TASKS)},
     **PAPER_FIGURE_TASKS,
 }
+
+
+def _module_tasks(module) -> dict[str, Callable]:
+    names = getattr(module, "__all__", None)
+    if names is None:  # a module without __all__: its public functions
+        names = [n for n, f in vars(module).items() if callable(f) and not n.startswith("_")
+                 and getattr(f, "__module__", None) == module.__name__]
+    return {name: getattr(module, name) for name in names if callable(getattr(module, name))}
+
+
+@functools.cache
+def _task_modules() -> dict[str, dict[str, Callable]]:
+    """Tasks of every task module that exists, by module name."""
+    found = {}
+    for name in TASK_MODULES:
+        qualified = f"nnmstop.tasks.{name}"
+        if importlib.util.find_spec(qualified) is not None:
+            found[qualified] = _module_tasks(importlib.import_module(qualified))
+    return found
+
+
+def task_module(name: str) -> str:
+    """Name of the module that holds task ``name``.
+
+    Raises
+    ------
+    ValueError
+        If no task module defines ``name``, or two do.
+    """
+    holders = [module for module, tasks in _task_modules().items() if name in tasks]
+    if len(holders) > 1:
+        raise ValueError(f"task {name!r} is defined in several task modules: {holders}")
+    if holders:
+        return holders[0]
+    if name in TASKS:  # not moved to its task module yet
+        return __name__
+    raise ValueError(f"unknown task {name!r}; tasks are {sorted(task_table())}")
+
+
+def find_task(name: str) -> Callable:
+    """The function of task ``name`` (see :func:`task_module`)."""
+    module = task_module(name)
+    return TASKS[name] if module == __name__ else _task_modules()[module][name]
+
+
+def task_table() -> dict[str, Callable]:
+    """Every task, by name."""
+    table = {name: TASKS[name] for name in TASKS}
+    for tasks in _task_modules().values():
+        table.update(tasks)
+    return table
 
 
 def configure_logging(log_path: str | None) -> None:
@@ -303,18 +336,21 @@ def configure_logging(log_path: str | None) -> None:
     root.setLevel(logging.INFO)
 
 
+def _as_dict(named) -> dict:
+    """A Snakemake ``Namedlist`` (or a dict, or None) as a plain dict of its named entries."""
+    return dict(named.items()) if hasattr(named, "items") else dict(named or {})
+
+
 def run_task(name: str, config: dict, inputs=None, outputs=None, log: str | None = None, **wildcards):
     """Run task ``name`` with named inputs/outputs (Snakemake ``Namedlist`` or dict).
 
-    ``log`` is the path of the log file (None or '-' for stderr).
+    ``config`` holds the configuration sections the task reads; ``log`` is the path of the
+    log file (None or '-' for stderr); ``wildcards`` are passed on as keywords.
     """
-    if name not in TASKS:
-        raise ValueError(f"unknown task {name!r}; tasks are {sorted(TASKS)}")
+    task = find_task(name)
     configure_logging(log)
-    inputs = dict(inputs.items()) if hasattr(inputs, "items") else dict(inputs or {})
-    outputs = dict(outputs.items()) if hasattr(outputs, "items") else dict(outputs or {})
     try:
-        TASKS[name](config, inputs, outputs, **wildcards)
+        task(config, _as_dict(inputs), _as_dict(outputs), **wildcards)
     except Exception:
         logger.exception("task %s failed", name)
         raise
@@ -335,7 +371,7 @@ def main(argv=None) -> None:
     from nnmstop.config import load_config
 
     parser = argparse.ArgumentParser(prog="python -m nnmstop.tasks.run", description=__doc__.splitlines()[0])
-    parser.add_argument("task", choices=sorted(TASKS))
+    parser.add_argument("task", choices=sorted(task_table()))
     parser.add_argument("--config", default="config/config.yaml")
     parser.add_argument("--input", action="append", metavar="KEY=PATH", help="named input (repeatable)")
     parser.add_argument("--output", action="append", metavar="KEY=PATH", help="named output (repeatable)")
