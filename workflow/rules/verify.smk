@@ -1,7 +1,7 @@
 # Issue 11: check a build against the committed reference (reference/), or regenerate it.
-# Both rules have no output, so they run whenever they are asked for; the tasks
-# (nnmstop.tasks.verify) print the verifier's table and fail on a discrepant file
-# (docs/reproducibility.md).
+# Both rules have no output (and so no benchmark: it would be one), so they run whenever they
+# are asked for; the tasks (nnmstop.tasks.verify) print the verifier's table and fail on a
+# discrepant file (docs/reproducibility.md).
 
 
 rule verify:
@@ -11,8 +11,6 @@ rule verify:
         manifest=rules.dataset_manifest.output.manifest,
     log:
         logs("verify.log"),
-    benchmark:
-        benchmarks("verify.tsv")
     params:
         config=task_config(),
     conda:
@@ -28,8 +26,6 @@ rule update_reference:
         manifest=rules.dataset_manifest.output.manifest,
     log:
         logs("update_reference.log"),
-    benchmark:
-        benchmarks("update_reference.tsv")
     params:
         config=task_config(),
     conda:
