@@ -24,18 +24,24 @@ validate_config(config)
 os.environ.update(numerics_env(pin_kernels=config.get("numerics", {}).get("pin_kernels", True)))
 
 
+# Rule files in the order of the data flow; a rule refers to the outputs of the rules it reads
+# (rules.<rule>.output), so a file comes after those it reads from. Each rule runs the task of
+# its name in nnmstop.tasks.<rule file> (nnmstop.tasks.run).
 include: "workflow/rules/common.smk"
 include: "workflow/rules/exact.smk"
-include: "workflow/rules/exact_multi.smk"
 include: "workflow/rules/hbm.smk"
 include: "workflow/rules/compare.smk"
 include: "workflow/rules/figures.smk"
-include: "workflow/rules/manifest.smk"
 include: "workflow/rules/study.smk"
+
+
+PAPER_DATASETS = paper_datasets()
+PAPER_FIGURES = paper_figure_files()
+
+
+include: "workflow/rules/manifest.smk"
 include: "workflow/rules/verify.smk"
-
-
-PAPER_FIGURES = [f"paper_figures/fig{n:02d}.{ext}" for n in range(2, 12) for ext in ("pdf", "png")]
+include: "workflow/rules/bundle.smk"
 
 
 rule all:
@@ -44,8 +50,4 @@ rule all:
     input:
         PAPER_FIGURES,
         PAPER_DATASETS,
-        "results/MANIFEST.sha256",
-
-
-# After PAPER_FIGURES: the bundle packs the figures.
-include: "workflow/rules/bundle.smk"
+        rules.dataset_manifest.output.manifest,

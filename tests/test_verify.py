@@ -17,7 +17,7 @@ import pytest
 import xarray as xr
 import yaml
 
-from nnmstop.tasks.run import dataset_manifest
+from nnmstop.tasks.manifest import dataset_manifest
 from nnmstop.verify import file_verdicts, main, update_reference, verify
 
 REPO = Path(__file__).resolve().parents[1]

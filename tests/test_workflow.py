@@ -21,12 +21,14 @@ import pytest
 import xarray as xr
 import yaml
 
-from nnmstop.netcdf import check_labelled
 from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.netcdf import check_labelled
 
 REPO = Path(__file__).resolve().parents[1]
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
-ACDD = ("Conventions", "title", "summary", "keywords", "date_created", "source", "references", "creator_name", "license")
+ACDD = (
+    "Conventions", "title", "summary", "keywords", "date_created", "source", "references", "creator_name", "license"
+)
 
 
 def snakemake(workdir: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess:
@@ -104,7 +106,8 @@ def test_physics_sanity_of_the_outputs(built):
         assert nnm1.attrs["harmonics"] == 16
     with xr.open_dataset(built / "results/exact/nnm1_two_impacts.nc") as exact:
         assert float(exact["residual"].max()) < 1e-11
-        assert exact["frequency"].values[0] == pytest.approx(linear_modes(params, "no_contact")[0][0] / (2 * np.pi), rel=1e-9)
+        no_contact = linear_modes(params, "no_contact")[0][0] / (2 * np.pi)
+        assert exact["frequency"].values[0] == pytest.approx(no_contact, rel=1e-9)
     with xr.open_dataset(built / "results/compare/nnm1_exact_vs_regularized.nc") as cmp:
         # near grazing the regularized law (f >= the piecewise law, f ~ eta x inside the gap)
         # is clearly stiffer: the regularized NNM1 sits above the exact one there
@@ -144,6 +147,24 @@ def test_a_figure_alone_plans_only_what_it_needs(tmp_path):
     assert "nnm2" not in out and "nnm1_stage2" not in out
 
 
+def test_a_job_reruns_when_the_configuration_its_task_reads_changes(built, tmp_path):
+    """Each rule passes its task only the sections it reads (params.config): an edit reruns exactly those jobs."""
+    config = yaml.safe_load(SMALL_CONFIG.read_text())
+    config["figures"]["fig07"]["labels"][0]["energy"] *= 1.5
+    config["branches"]["nnm2"]["start_amplitude"] *= 2
+    edited = tmp_path / "edited.yaml"
+    edited.write_text(yaml.safe_dump(config, sort_keys=False))  # same key order: only the values change
+    cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(built),
+           "--configfile", str(edited), "-n"]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=True).stdout
+    planned = set(re.findall(r"^(?:local)?rule (\w+):", out, flags=re.MULTILINE)) - {"all"}
+    # Fig 7 is redrawn; NNM2 is recomputed, then what reads it; NNM1 and the exact branches are not touched
+    assert planned == {"paper_fig07", "hbm_stage", "hbm_branch", "paper_fig05", "paper_fig06", "paper_fig08",
+                       "paper_fig09", "paper_fig10", "dataset_manifest"}, out[-3000:]
+    outputs = set(re.findall(r"^\s+output: (.+)$", out, flags=re.MULTILINE))
+    assert not any("nnm1" in line for line in outputs), outputs
+
+
 def test_slurm_profile_plans_the_jobs(tmp_path):
     """A dry run with the SLURM profile plans the cluster jobs (no cluster needed)."""
     profile = REPO / "profiles" / "slurm"
@@ -160,7 +181,8 @@ def test_report_holds_the_figures(built):
 
 
 def test_workflow_lint_is_clean():
-    result = subprocess.run([sys.executable, "-m", "snakemake", "--lint"], cwd=REPO, capture_output=True, text=True, timeout=120)
+    result = subprocess.run([sys.executable, "-m", "snakemake", "--lint"], cwd=REPO, capture_output=True, text=True,
+                            timeout=120)
     assert "Congratulations" in result.stdout + result.stderr, (result.stdout + result.stderr)[-2000:]
 
 

@@ -1,15 +1,18 @@
-"""Writing labelled branches to NetCDF: CF/ACDD metadata, determinism, atomicity.
+"""NetCDF datasets of the pipeline: labelled variables, writing, reading, staleness.
 
-Every dataset of the pipeline goes through :func:`write_dataset`, which
+The one owner of the pipeline's file format. Variables are built with :func:`cf_variable`
+(and :func:`flag_variable` for 0/1 flags), so each carries ``long_name`` and ``units``.
+:func:`write_dataset` refuses unlabelled variables and NaN or infinite values (a failed
+computation never leaves a dataset), adds the CF-1.10 / ACDD-1.3 global attributes
+(``date_created`` from ``SOURCE_DATE_EPOCH`` or the commit date, never the clock; who made and
+publishes the data from the configuration's ``metadata`` section), gives every variable a
+``coverage_content_type`` and writes through a temporary file renamed at the end, so an
+interrupted run leaves no partial file under the final name.
 
-* checks that every variable and coordinate carries ``long_name`` and ``units``,
-* refuses NaN or infinite values (a failed computation never leaves a dataset),
-* adds the CF-1.10 / ACDD-1.3 global attributes (``date_created`` comes from
-  ``SOURCE_DATE_EPOCH`` or the commit date of the git checkout, never the clock; who made and
-  publishes the data comes from the configuration's ``metadata`` section),
-* gives every variable a ``coverage_content_type`` (ACDD),
-* writes to a temporary file and renames it, so an interrupted run leaves no
-  partial file under the final name.
+:func:`read_dataset` loads an input into memory and checks the variables a task needs;
+:func:`check_up_to_date` refuses an input whose recorded settings (global attributes such as
+``alpha`` or ``harmonics``) differ from the configuration: a stale file that Snakemake did not
+rebuild, for instance one copied in or built with ``--rerun-triggers mtime``.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import subprocess
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -32,9 +36,12 @@ __all__ = [
     "provenance",
     "global_attributes",
     "dataset_id",
+    "cf_variable",
     "flag_variable",
     "check_labelled",
     "write_dataset",
+    "read_dataset",
+    "check_up_to_date",
 ]
 
 PAPER_TITLE = "Nonlinear normal modes of a two degree of freedom oscillator with a bilateral elastic stop"
@@ -72,7 +79,7 @@ def provenance() -> dict:
     """
     commit = _git("rev-parse", "HEAD") or "unknown"
     epoch = os.environ.get("SOURCE_DATE_EPOCH") or _git("log", "-1", "--format=%ct") or "0"
-    date = _dt.datetime.fromtimestamp(int(epoch), tz=_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    date = _dt.datetime.fromtimestamp(int(epoch), tz=_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     return {"commit": commit, "date_created": date}
 
 
@@ -100,7 +107,9 @@ def global_attributes(title: str, summary: str, keywords: str = "", metadata: di
         "date_created": prov["date_created"],
         "source": f"nnmstop {__version__} (git commit {prov['commit']})",
         # No date, host or path: a rebuild of the same commit must give the same bytes.
-        "history": f"computed and written by nnmstop {__version__} (git commit {prov['commit']}), nnmstop.netcdf.write_dataset",
+        "history": (
+            f"computed and written by nnmstop {__version__} (git commit {prov['commit']}), nnmstop.netcdf.write_dataset"
+        ),
         "references": PAPER_REFERENCE,
         # No variable has a CF standard name (CF defines none for these quantities); the
         # attribute names the table such names would come from, as ACDD asks: the version the
@@ -134,14 +143,42 @@ def _coverage_content_type(var: xr.DataArray, coordinate: bool) -> str:
     return "modelResult"
 
 
+def cf_variable(dims, values, long_name: str, units: str = "1", *, dtype=float, fill_value=None, **extra) -> tuple:
+    """A labelled variable ``(dims, array, attrs)`` for :class:`xarray.Dataset`.
+
+    Parameters
+    ----------
+    dims : str or tuple of str
+        Dimension name(s) of the variable.
+    values : array_like
+        Its values, converted to ``dtype`` (``None`` keeps their own type, e.g. strings).
+    long_name, units : str
+        CF attributes; ``units`` is ``"1"`` for a dimensionless quantity.
+    fill_value : float, optional
+        For a variable where some values are legitimately missing (a case that failed in a study):
+        non-finite floats become ``fill_value`` and the attribute ``_FillValue`` names it, so a reader
+        gets NaN back and never a number that looks valid.
+    **extra
+        Further attributes, in order after ``long_name`` and ``units``.
+    """
+    values = np.asarray(values) if dtype is None else np.asarray(values, dtype=dtype)
+    attrs = {"long_name": long_name, "units": units, **extra}
+    if fill_value is not None and np.issubdtype(values.dtype, np.floating):
+        missing = ~np.isfinite(values)
+        if missing.any():
+            values = np.where(missing, fill_value, values)
+        attrs["_FillValue"] = fill_value
+    return dims, values, attrs
+
+
 def flag_variable(dims, values, long_name: str, meanings: str, **extra) -> tuple:
     """A 0/1 flag variable ``(dims, int8 values, attrs)`` with CF ``flag_values``/``flag_meanings``.
 
     ``meanings`` names the two values in order, e.g. ``"unstable stable"``.
     """
-    attrs = {"long_name": long_name, "units": "1", "flag_values": np.array([0, 1], dtype=np.int8),
-             "flag_meanings": meanings, **extra}
-    return dims, np.asarray(values).astype(np.int8), attrs
+    flags = np.asarray(values).astype(np.int8)
+    return cf_variable(dims, flags, long_name, "1", dtype=None, flag_values=np.array([0, 1], dtype=np.int8),
+                       flag_meanings=meanings, **extra)
 
 
 def check_labelled(ds: xr.Dataset) -> None:
@@ -184,3 +221,70 @@ def write_dataset(
     out.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
     os.replace(tmp, path)
     return path
+
+
+def read_dataset(path: str | Path, required: Iterable[str] = (), expected: Mapping | None = None) -> xr.Dataset:
+    """Load the NetCDF dataset at ``path`` into memory and close the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dataset (an input of a task).
+    required : iterable of str
+        Variables or coordinates the caller reads; a dataset without one of them is refused.
+    expected : mapping, optional
+        Settings the dataset must have been computed with (see :func:`check_up_to_date`).
+
+    Raises
+    ------
+    ValueError
+        If the file does not exist, lacks a required variable, or is stale.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no dataset at {path}")
+    with xr.open_dataset(path) as ds:
+        loaded = ds.load()
+    missing = [name for name in required if name not in loaded.variables]
+    if missing:
+        raise ValueError(f"{path} lacks the variable(s) {missing}; it holds {sorted(map(str, loaded.variables))}")
+    if expected:
+        check_up_to_date(loaded, expected, source=path)
+    return loaded
+
+
+def check_up_to_date(
+    ds: xr.Dataset, expected: Mapping, source: str | Path = "the dataset", rtol: float = 1e-12
+) -> None:
+    """Refuse a dataset computed with other settings than ``expected`` (a stale input).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A dataset read back from a file; its global attributes record the settings it was computed with.
+    expected : mapping
+        Attribute name -> the configured value: numbers are compared with relative tolerance
+        ``rtol`` (a float read back from NetCDF is the float written, so only round-off of a
+        conversion is allowed), anything else must be equal.
+    source : str or Path
+        Where ``ds`` came from, for the message.
+
+    Raises
+    ------
+    ValueError
+        Naming the first attribute that is missing or differs, its stored and its configured value.
+    """
+    for key, value in expected.items():
+        stored = ds.attrs.get(key)
+        if stored is None:
+            raise ValueError(f"{source} does not record {key!r} (configured {value!r}); rebuild it")
+        if isinstance(value, (int, float, np.number)) and not isinstance(value, bool):
+            try:
+                same = bool(np.isclose(float(stored), float(value), rtol=rtol, atol=0))
+            except (TypeError, ValueError):  # a text attribute where a number is configured
+                same = False
+        else:
+            same = str(stored) == str(value)
+        if not same:
+            raise ValueError(f"{source}: {key} = {stored!r} in the dataset but {value!r} in the configuration "
+                             "(stale dataset); rebuild it")

@@ -1,5 +1,6 @@
 # Result bundle to share and cite (nnmstop.bundle): one deterministic zip under dist/ with the
 # datasets, figures, manifest, configuration, environment.lock, CITATION.cff and an RO-Crate.
+# Task: nnmstop.tasks.bundle.
 #
 #   snakemake --cores 2 bundle
 
@@ -13,7 +14,7 @@ rule bundle:
     input:
         datasets=PAPER_DATASETS,
         figures=PAPER_FIGURES,
-        manifest="results/MANIFEST.sha256",
+        manifest=rules.dataset_manifest.output.manifest,
         environment_lock=os.path.join(workflow.basedir, "environment.lock"),
         workflow_files=[
             os.path.join(workflow.basedir, "Snakefile"),
@@ -22,9 +23,11 @@ rule bundle:
     output:
         bundle="dist/nnmstop-results.zip",
     log:
-        "logs/bundle.log",
+        logs("bundle.log"),
+    benchmark:
+        benchmarks("bundle.tsv")
     params:
-        task="bundle",
+        config=config,  # stored in the bundle as config/config.yaml
     conda:
         "../envs/nnmstop.yaml"
     script:

@@ -1,22 +1,74 @@
-# Input functions and file patterns shared by the rules.
+# Paths, configuration slices and input functions shared by the rules. Every folder of the
+# workflow's files is named here once; a rule names its outputs with these helpers and its
+# inputs with `rules.<rule>.output.<name>`, so a path is written in one place only.
 
-from nnmstop.study.error_runtime import sweep_cases
-from nnmstop.study.runs import format_number
-from nnmstop.study.stiff_cases import stiff_case_parameters
-from nnmstop.tasks.figures import figure_nnm1_stages
+
+def results(path):
+    """A dataset or table under results/."""
+    return f"results/{path}"
+
+
+def paper_figures(path):
+    """A figure under paper_figures/."""
+    return f"paper_figures/{path}"
+
+
+def logs(path):
+    """The log file of a job, under logs/."""
+    return f"logs/{path}"
+
+
+def benchmarks(path):
+    """The run time and memory of a job (Snakemake `benchmark:`), under benchmarks/runs/."""
+    return f"benchmarks/runs/{path}"
+
+
+def task_config(*sections, **parts):
+    """`params: config=...`: the configuration a rule's task reads, and nothing else.
+
+    Each name of `sections` passes that top-level section whole; each keyword passes part of
+    a section: the keys it lists, or that a function of the wildcards returns (the rule's own
+    branch, say). Snakemake records the params of every job, so a job reruns when the part of
+    the configuration its task reads changes, and only then.
+    """
+
+    def config_of_job(wildcards):
+        sliced = {name: config[name] for name in sections if name in config}
+        for name, keys in parts.items():
+            wanted = keys(wildcards) if callable(keys) else keys
+            sliced[name] = {key: config[name][key] for key in wanted if key in config.get(name, {})}
+        return sliced
+
+    return config_of_job
+
+
+# --------------------------------------------------------------------------- regularized branches
 
 
 def stage_file(branch, stage):
-    """The dataset of stage ``stage`` (1-based) of ``branch``."""
-    return f"results/hbm/stages/{branch}_stage{stage}.nc"
+    """The dataset of one continuation stage of a regularized branch (rule hbm_stage)."""
+    return expand(rules.hbm_stage.output.dataset, branch=branch, stage=stage)[0]
+
+
+def stage_files(branch):
+    """The stage datasets of a branch, in order."""
+    return [stage_file(branch, k) for k in range(1, len(config["branches"][branch]["stages"]) + 1)]
+
+
+def branch_file(branch):
+    """The whole regularized branch (rule hbm_branch)."""
+    return expand(rules.hbm_branch.output.dataset, branch=branch)[0]
+
+
+def bifurcated_file(name):
+    """The branch switched at the branch point `bifurcations.<name>` (rule hbm_bifurcated)."""
+    return expand(rules.hbm_bifurcated.output.dataset, bifurcation=name)[0]
 
 
 def previous_stage(wildcards):
     """Stage k > 1 of a branch starts from the dataset of stage k - 1."""
     stage = int(wildcards.stage)
-    if stage == 1:
-        return {}
-    return {"previous": stage_file(wildcards.branch, stage - 1)}
+    return {"previous": stage_file(wildcards.branch, stage - 1)} if stage > 1 else {}
 
 
 def branch_stages(wildcards):
@@ -24,78 +76,64 @@ def branch_stages(wildcards):
     return {"stages": stage_files(wildcards.branch)}
 
 
-def stage_files(branch):
-    """Stage datasets of a branch, in order."""
-    n = len(config["branches"][branch]["stages"])
-    return [stage_file(branch, k) for k in range(1, n + 1)]
-
-
 def bifurcation_parent(wildcards):
     """The stage dataset of the parent branch that holds the branch point."""
     spec = config["bifurcations"][wildcards.bifurcation]
-    return {"parent": f"results/hbm/stages/{spec['parent']}_stage{spec['stage']}.nc"}
+    return {"parent": stage_file(spec["parent"], spec["stage"])}
+
+
+def bifurcation_branches(wildcards):
+    """`branches` part of the configuration that a switched branch reads: its parent's."""
+    return [config["bifurcations"][wildcards.bifurcation]["parent"]]
+
+
+# --------------------------------------------------------------------------- figures
+
+
+def figure_stages(figure):
+    """NNM1 stage datasets drawn on paper figure `figure` (`figures.<figure>.nnm1_stages`)."""
+    stages = config["figures"].get(figure, {}).get("nnm1_stages")
+    if not stages:
+        raise ValueError(f"the configuration has no 'figures.{figure}.nnm1_stages'")
+    available = len(config["branches"]["nnm1"]["stages"])
+    unknown = [k for k in stages if not 1 <= k <= available]
+    if unknown:
+        raise ValueError(
+            f"figures.{figure}.nnm1_stages: stage(s) {unknown} do not exist (branches.nnm1 has {available} stages)"
+        )
+    return [stage_file("nnm1", k) for k in stages]
 
 
 def bifurcated_files(figure):
-    """Bifurcated-branch datasets drawn on a figure (``figures.<figure>.bifurcated``)."""
-    return [f"results/hbm/bifurcated/{name}.nc" for name in config["figures"][figure].get("bifurcated", [])]
-
-
-# Every dataset behind the paper's figures (the study's measurements are kept apart).
-PAPER_DATASETS = [
-    "results/exact/nnm1_two_impacts.nc",
-    "results/hbm/nnm1.nc",
-    "results/hbm/nnm2.nc",
-    "results/compare/nnm1_exact_vs_regularized.nc",
-    *stage_files("nnm1"),
-    *stage_files("nnm2"),
-    *[f"results/hbm/bifurcated/{name}.nc" for name in config.get("bifurcations", {})],
-]
-# The error per impact regime needs the exact multi-impact NNM1, whose settings section
-# (exact_multi) a configuration may leave out: then there is no such branch to compare.
-if "exact_multi" in config:
-    PAPER_DATASETS += ["results/exact/nnm1.nc", "results/compare/nnm1_regimes.nc"]
+    """Switched-branch datasets drawn on a figure (`figures.<figure>.bifurcated`)."""
+    return [bifurcated_file(name) for name in config["figures"][figure].get("bifurcated", [])]
 
 
 def exact_overlay(wildcards):
     """The exact multi-impact NNM1, for Figs 7-11 when figures.overlay_exact is true."""
     if config.get("figures", {}).get("overlay_exact", False):
-        return {"exact": "results/exact/nnm1.nc"}
+        return {"exact": rules.exact_nnm1.output.dataset}
     return {}
 
 
-def nnm1_stage_files(figure):
-    """The NNM1 stage datasets paper figure ``figure`` reads (``figures.<figure>.nnm1_stages``)."""
-    return [stage_file("nnm1", k) for k in figure_nnm1_stages(config, figure)]
+def paper_datasets():
+    """Every dataset behind the paper's figures (the study's measurements are kept apart)."""
+    datasets = [
+        rules.exact_two_impacts.output.dataset,
+        branch_file("nnm1"),
+        branch_file("nnm2"),
+        rules.compare_nnm1.output.dataset,
+        *stage_files("nnm1"),
+        *stage_files("nnm2"),
+        *[bifurcated_file(name) for name in config.get("bifurcations", {})],
+    ]
+    # The error per impact regime needs the exact multi-impact NNM1, whose settings section
+    # (exact_multi) a configuration may leave out: then there is no such branch to compare.
+    if "exact_multi" in config:
+        datasets += [rules.exact_nnm1.output.dataset, rules.compare_regimes.output.dataset]
+    return datasets
 
 
-# The files of the sweep jobs: one pattern each, used by the job rules and by the gathers
-# (which receive the files in the order of sweep_cases / stiff_case_parameters).
-STUDY_CASE = "results/study/cases/H{harmonics}_eta{eta}.nc"
-STUDY_ANM_CASE = "results/study/cases/anm_N{order}_tol{tolerance}.nc"
-STUDY_REFERENCE = "results/study/cases/reference_eta{eta}.nc"
-STUDY_EXACT_COST = "results/study/cases/exact_cost.nc"
-STIFF_EXACT = "results/study/stiff/exact_a{alpha}_b{beta}_d{delta}.nc"
-STIFF_BRANCH = "results/study/stiff/nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.nc"
-STIFF_ENERGY = "results/study/stiff/energy_a{alpha}.nc"
-
-
-def study_case_files(config):
-    """Files of the error-against-run-time jobs, by kind, in the order the gather expects."""
-    cases, n = sweep_cases(config), format_number
-    return {
-        "cases": [STUDY_CASE.format(harmonics=H, eta=n(eta)) for H, eta in cases["cases"]],
-        "anm_cases": [STUDY_ANM_CASE.format(order=order, tolerance=n(tol)) for order, tol in cases["anm_cases"]],
-        "references": [STUDY_REFERENCE.format(eta=n(eta)) for eta in cases["references"]],
-        "exact_cost": STUDY_EXACT_COST,
-    }
-
-
-def stiff_case_files(config):
-    """Files of the stiff-case jobs, by kind, in the order the gather expects."""
-    cases, n = stiff_case_parameters(config), format_number
-    return {
-        "exact": [STIFF_EXACT.format(alpha=n(a), beta=n(b), delta=n(d)) for a, b, d in cases["exact"]],
-        "branches": [STIFF_BRANCH.format(alpha=n(a), beta=n(b), delta=n(d), eta=n(e)) for a, b, d, e in cases["branches"]],
-        "energy": [STIFF_ENERGY.format(alpha=n(a)) for a in cases["energy"]],
-    }
+def paper_figure_files():
+    """Figs 2-11 of the paper, PDF and PNG of each."""
+    return [path for n in range(2, 12) for path in getattr(rules, f"paper_fig{n:02d}").output]

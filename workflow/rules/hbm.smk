@@ -1,6 +1,8 @@
 # Regularized NNMs by harmonic balance (H harmonics) and ANM continuation, in stages:
 # stage k starts from the last point of stage k-1, so a figure that needs only the
-# low-energy part of a branch builds only the first stages.
+# low-energy part of a branch builds only the first stages. Tasks: nnmstop.tasks.hbm.
+
+HBM_SECTIONS = ("model", "hbm", "anm", "stability", "metadata")
 
 
 rule hbm_stage:
@@ -8,17 +10,16 @@ rule hbm_stage:
     input:
         unpack(previous_stage),
     output:
-        dataset="results/hbm/stages/{branch}_stage{stage}.nc",
+        dataset=results("hbm/stages/{branch}_stage{stage}.nc"),
     wildcard_constraints:
         branch="nnm[12]",
         stage=r"\d+",
     log:
-        "logs/hbm/{branch}_stage{stage}.log",
+        logs("hbm/{branch}_stage{stage}.log"),
     benchmark:
-        "benchmarks/runs/hbm_{branch}_stage{stage}.tsv"
+        benchmarks("hbm_{branch}_stage{stage}.tsv")
     params:
-        task="hbm_stage",
-        settings=lambda wildcards: repr([config[k] for k in ("model", "hbm", "anm")] + [config["branches"][wildcards.branch], config.get("stability")]),
+        config=task_config(*HBM_SECTIONS, branches=lambda wildcards: [wildcards.branch]),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -30,16 +31,19 @@ rule hbm_bifurcated:
     input:
         unpack(bifurcation_parent),
     output:
-        dataset="results/hbm/bifurcated/{bifurcation}.nc",
+        dataset=results("hbm/bifurcated/{bifurcation}.nc"),
     wildcard_constraints:
         bifurcation="[a-z0-9_]+",
     log:
-        "logs/hbm/bifurcated_{bifurcation}.log",
+        logs("hbm/bifurcated_{bifurcation}.log"),
     benchmark:
-        "benchmarks/runs/hbm_bifurcated_{bifurcation}.tsv"
+        benchmarks("hbm_bifurcated_{bifurcation}.tsv")
     params:
-        task="hbm_bifurcated",
-        settings=lambda wildcards: repr([config[k] for k in ("model", "hbm", "anm")] + [config["bifurcations"][wildcards.bifurcation], config.get("stability")]),
+        config=task_config(
+            *HBM_SECTIONS,
+            bifurcations=lambda wildcards: [wildcards.bifurcation],
+            branches=bifurcation_branches,
+        ),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -51,15 +55,15 @@ rule hbm_branch:
     input:
         unpack(branch_stages),
     output:
-        dataset="results/hbm/{branch}.nc",
+        dataset=results("hbm/{branch}.nc"),
     wildcard_constraints:
         branch="nnm[12]",
     log:
-        "logs/hbm/{branch}.log",
+        logs("hbm/{branch}.log"),
     benchmark:
-        "benchmarks/runs/hbm_{branch}.tsv"
+        benchmarks("hbm_{branch}.tsv")
     params:
-        task="hbm_branch",
+        config=task_config("metadata"),
     conda:
         "../envs/nnmstop.yaml"
     script:

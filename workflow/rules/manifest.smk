@@ -1,4 +1,5 @@
-# SHA-256 manifest of the datasets behind the paper's figures (for sharing and checking copies).
+# SHA-256 manifest of the datasets behind the paper's figures (for sharing and checking
+# copies). Task: nnmstop.tasks.manifest.
 
 
 rule dataset_manifest:
@@ -6,11 +7,13 @@ rule dataset_manifest:
     input:
         datasets=PAPER_DATASETS,
     output:
-        manifest="results/MANIFEST.sha256",
+        manifest=results("MANIFEST.sha256"),
     log:
-        "logs/dataset_manifest.log",
+        logs("dataset_manifest.log"),
+    benchmark:
+        benchmarks("dataset_manifest.tsv")
     params:
-        task="dataset_manifest",
+        config=task_config(),
     conda:
         "../envs/nnmstop.yaml"
     script:

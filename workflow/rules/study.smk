@@ -9,9 +9,38 @@
 #   snakemake --profile profiles/slurm study
 
 
-STUDY_CASES = study_case_files(config) if "study" in config else {"cases": [], "anm_cases": [], "references": [], "exact_cost": []}
-STIFF_CASES = stiff_case_files(config) if "study" in config else {"exact": [], "branches": [], "energy": []}
+from nnmstop.study.error_runtime import sweep_cases
+from nnmstop.study.runs import format_number
+from nnmstop.study.stiff_cases import stiff_case_parameters
+
+
+def study_case_files():
+    """Files of the error-against-run-time jobs, by kind, in the order the gather expects."""
+    cases, n = sweep_cases(config), format_number
+    return {
+        "cases": [results(f"study/cases/H{H}_eta{n(eta)}.nc") for H, eta in cases["cases"]],
+        "anm_cases": [results(f"study/cases/anm_N{order}_tol{n(tol)}.nc") for order, tol in cases["anm_cases"]],
+        "references": [results(f"study/cases/reference_eta{n(eta)}.nc") for eta in cases["references"]],
+        "exact_cost": results("study/cases/exact_cost.nc"),
+    }
+
+
+def stiff_case_files():
+    """Files of the stiff-case jobs, by kind, in the order the gather expects."""
+    cases, n = stiff_case_parameters(config), format_number
+    return {
+        "exact": [results(f"study/stiff/exact_a{n(a)}_b{n(b)}_d{n(d)}.nc") for a, b, d in cases["exact"]],
+        "branches": [results(f"study/stiff/nnm1_a{n(a)}_b{n(b)}_d{n(d)}_e{n(e)}.nc") for a, b, d, e in cases["branches"]],
+        "energy": [results(f"study/stiff/energy_a{n(a)}.nc") for a in cases["energy"]],
+    }
+
+
+STUDY_CASES = study_case_files() if "study" in config else {"cases": [], "anm_cases": [], "references": [], "exact_cost": []}
+STIFF_CASES = stiff_case_files() if "study" in config else {"exact": [], "branches": [], "energy": []}
 STUDY_NUMBER = r"[0-9][0-9.e-]*"
+# The study reruns whole continuations with overrides and validates that configuration again,
+# so its tasks read every section the schema requires (nnmstop.study.runs.case_config).
+STUDY_SECTIONS = ("model", "exact", "hbm", "anm", "stability", "branches", "study", "metadata")
 
 # Gathers and figures are light: on a cluster they run on the submitting node.
 localrules:
@@ -22,32 +51,21 @@ localrules:
     study_stiff_cases_figure,
 
 
-rule study:
-    """Both studies: datasets and figures."""
-    input:
-        "results/study/error_vs_runtime.nc",
-        "paper_figures/error_vs_runtime.pdf",
-        "paper_figures/error_vs_runtime.png",
-        "results/study/stiff_cases.nc",
-        "paper_figures/stiff_cases.pdf",
-        "paper_figures/stiff_cases.png",
-
-
 rule study_error_case:
     """One (H, eta) setting: timed, guarded continuation of NNM1 stage 1, errors at matched energies."""
     input:
-        exact="results/exact/nnm1_two_impacts.nc",
+        exact=rules.exact_two_impacts.output.dataset,
     output:
-        dataset=STUDY_CASE,
+        dataset=results("study/cases/H{harmonics}_eta{eta}.nc"),
     wildcard_constraints:
         harmonics=r"\d+",
         eta=STUDY_NUMBER,
     log:
-        "logs/study/H{harmonics}_eta{eta}.log",
+        logs("study/H{harmonics}_eta{eta}.log"),
     benchmark:
-        "benchmarks/runs/study_H{harmonics}_eta{eta}.tsv"
+        benchmarks("study_H{harmonics}_eta{eta}.tsv")
     params:
-        task="study_error_case",
+        config=task_config(*STUDY_SECTIONS),
     resources:
         runtime=30,
         mem_mb=2000,
@@ -60,18 +78,18 @@ rule study_error_case:
 rule study_anm_case:
     """One ANM (order, tolerance) setting at study.error_runtime.anm_harmonics and model.eta."""
     input:
-        exact="results/exact/nnm1_two_impacts.nc",
+        exact=rules.exact_two_impacts.output.dataset,
     output:
-        dataset=STUDY_ANM_CASE,
+        dataset=results("study/cases/anm_N{order}_tol{tolerance}.nc"),
     wildcard_constraints:
         order=r"\d+",
         tolerance=STUDY_NUMBER,
     log:
-        "logs/study/anm_N{order}_tol{tolerance}.log",
+        logs("study/anm_N{order}_tol{tolerance}.log"),
     benchmark:
-        "benchmarks/runs/study_anm_N{order}_tol{tolerance}.tsv"
+        benchmarks("study_anm_N{order}_tol{tolerance}.tsv")
     params:
-        task="study_anm_case",
+        config=task_config(*STUDY_SECTIONS),
     resources:
         runtime=30,
         mem_mb=2000,
@@ -84,17 +102,17 @@ rule study_anm_case:
 rule study_reference:
     """Reference orbits of one eta with study.error_runtime.reference_harmonics (truncation part)."""
     input:
-        exact="results/exact/nnm1_two_impacts.nc",
+        exact=rules.exact_two_impacts.output.dataset,
     output:
-        dataset=STUDY_REFERENCE,
+        dataset=results("study/cases/reference_eta{eta}.nc"),
     wildcard_constraints:
         eta=STUDY_NUMBER,
     log:
-        "logs/study/reference_eta{eta}.log",
+        logs("study/reference_eta{eta}.log"),
     benchmark:
-        "benchmarks/runs/study_reference_eta{eta}.tsv"
+        benchmarks("study_reference_eta{eta}.tsv")
     params:
-        task="study_reference",
+        config=task_config(*STUDY_SECTIONS),
     resources:
         runtime=60,
         mem_mb=4000,
@@ -107,13 +125,13 @@ rule study_reference:
 rule study_exact_cost:
     """Cost per orbit of the exact (closed-form) solver."""
     output:
-        dataset=STUDY_EXACT_COST,
+        dataset=results("study/cases/exact_cost.nc"),
     log:
-        "logs/study/exact_cost.log",
+        logs("study/exact_cost.log"),
     benchmark:
-        "benchmarks/runs/study_exact_cost.tsv"
+        benchmarks("study_exact_cost.tsv")
     params:
-        task="study_exact_cost",
+        config=task_config(*STUDY_SECTIONS),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -128,13 +146,13 @@ rule study_error_vs_runtime:
         references=STUDY_CASES["references"],
         exact_cost=STUDY_CASES["exact_cost"],
     output:
-        dataset="results/study/error_vs_runtime.nc",
+        dataset=results("study/error_vs_runtime.nc"),
     log:
-        "logs/study/error_vs_runtime.log",
+        logs("study/error_vs_runtime.log"),
     benchmark:
-        "benchmarks/runs/study_error_vs_runtime.tsv"
+        benchmarks("study_error_vs_runtime.tsv")
     params:
-        task="study_error_vs_runtime",
+        config=task_config(*STUDY_SECTIONS),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -144,14 +162,16 @@ rule study_error_vs_runtime:
 rule study_error_vs_runtime_figure:
     """Error against run time, log-log, Pareto front marked, labelled points."""
     input:
-        dataset="results/study/error_vs_runtime.nc",
+        dataset=rules.study_error_vs_runtime.output.dataset,
     output:
-        pdf="paper_figures/error_vs_runtime.pdf",
-        png="paper_figures/error_vs_runtime.png",
+        pdf=paper_figures("error_vs_runtime.pdf"),
+        png=paper_figures("error_vs_runtime.png"),
     log:
-        "logs/study/error_vs_runtime_figure.log",
+        logs("study/error_vs_runtime_figure.log"),
+    benchmark:
+        benchmarks("study_error_vs_runtime_figure.tsv")
     params:
-        task="study_error_vs_runtime_figure",
+        config=task_config("study"),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -161,17 +181,17 @@ rule study_error_vs_runtime_figure:
 rule study_stiff_exact:
     """Exact family of one (alpha, beta, delta): residuals, confirmed end, periodicity by integration."""
     output:
-        dataset=STIFF_EXACT,
+        dataset=results("study/stiff/exact_a{alpha}_b{beta}_d{delta}.nc"),
     wildcard_constraints:
         alpha=STUDY_NUMBER,
         beta=STUDY_NUMBER,
         delta=STUDY_NUMBER,
     log:
-        "logs/study/stiff/exact_a{alpha}_b{beta}_d{delta}.log",
+        logs("study/stiff/exact_a{alpha}_b{beta}_d{delta}.log"),
     benchmark:
-        "benchmarks/runs/study_stiff_exact_a{alpha}_b{beta}_d{delta}.tsv"
+        benchmarks("study_stiff_exact_a{alpha}_b{beta}_d{delta}.tsv")
     params:
-        task="study_stiff_exact",
+        config=task_config(*STUDY_SECTIONS),
     resources:
         runtime=30,
         mem_mb=2000,
@@ -184,20 +204,20 @@ rule study_stiff_exact:
 rule study_stiff_branch:
     """Harmonics ladder of NNM1 stage 1 for one stiff case, errors against its exact family."""
     input:
-        exact=STIFF_EXACT,
+        exact=rules.study_stiff_exact.output.dataset,
     output:
-        dataset=STIFF_BRANCH,
+        dataset=results("study/stiff/nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.nc"),
     wildcard_constraints:
         alpha=STUDY_NUMBER,
         beta=STUDY_NUMBER,
         delta=STUDY_NUMBER,
         eta=STUDY_NUMBER,
     log:
-        "logs/study/stiff/nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.log",
+        logs("study/stiff/nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.log"),
     benchmark:
-        "benchmarks/runs/study_stiff_nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.tsv"
+        benchmarks("study_stiff_nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.tsv")
     params:
-        task="study_stiff_branch",
+        config=task_config(*STUDY_SECTIONS),
     resources:
         runtime=60,
         mem_mb=2000,
@@ -210,15 +230,15 @@ rule study_stiff_branch:
 rule study_stiff_energy:
     """Exact solver and HBM at energies from 1e-6 to 1e6, for one alpha."""
     output:
-        dataset=STIFF_ENERGY,
+        dataset=results("study/stiff/energy_a{alpha}.nc"),
     wildcard_constraints:
         alpha=STUDY_NUMBER,
     log:
-        "logs/study/stiff/energy_a{alpha}.log",
+        logs("study/stiff/energy_a{alpha}.log"),
     benchmark:
-        "benchmarks/runs/study_stiff_energy_a{alpha}.tsv"
+        benchmarks("study_stiff_energy_a{alpha}.tsv")
     params:
-        task="study_stiff_energy",
+        config=task_config(*STUDY_SECTIONS),
     resources:
         runtime=30,
         mem_mb=2000,
@@ -235,13 +255,13 @@ rule study_stiff_cases:
         branches=STIFF_CASES["branches"],
         energy=STIFF_CASES["energy"],
     output:
-        dataset="results/study/stiff_cases.nc",
+        dataset=results("study/stiff_cases.nc"),
     log:
-        "logs/study/stiff_cases.log",
+        logs("study/stiff_cases.log"),
     benchmark:
-        "benchmarks/runs/study_stiff_cases.tsv"
+        benchmarks("study_stiff_cases.tsv")
     params:
-        task="study_stiff_cases",
+        config=task_config(*STUDY_SECTIONS),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -251,15 +271,26 @@ rule study_stiff_cases:
 rule study_stiff_cases_figure:
     """Stiff cases: harmonics needed, exactness of the exact solver, errors, extreme energies."""
     input:
-        dataset="results/study/stiff_cases.nc",
+        dataset=rules.study_stiff_cases.output.dataset,
     output:
-        pdf="paper_figures/stiff_cases.pdf",
-        png="paper_figures/stiff_cases.png",
+        pdf=paper_figures("stiff_cases.pdf"),
+        png=paper_figures("stiff_cases.png"),
     log:
-        "logs/study/stiff_cases_figure.log",
+        logs("study/stiff_cases_figure.log"),
+    benchmark:
+        benchmarks("study_stiff_cases_figure.tsv")
     params:
-        task="study_stiff_cases_figure",
+        config=task_config("study"),
     conda:
         "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
+
+
+rule study:
+    """Both studies: datasets and figures."""
+    input:
+        rules.study_error_vs_runtime.output.dataset,
+        rules.study_error_vs_runtime_figure.output,
+        rules.study_stiff_cases.output.dataset,
+        rules.study_stiff_cases_figure.output,

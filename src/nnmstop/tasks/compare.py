@@ -244,5 +244,28 @@ def main(argv=None) -> None:
     print(f"{ds.attrs['agreeing_orbits']} of {ds.attrs['compared_orbits']} compared orbits agree")
 
 
+
+# --------------------------------------------------------------------------- the rules' tasks
+
+
+def compare_nnm1(config, inputs, outputs):
+    """Exact vs regularized NNM1 at matched energies (inputs ``exact``, ``nnm1`` = stage 1)."""
+    build_comparison_dataset(config, inputs, outputs["dataset"])
+
+
+def compare_regimes(config, inputs, outputs):
+    """Frequency error of the regularized NNM1 per impact regime, whole branch (inputs ``exact``, ``nnm1``)."""
+    build_regime_error_dataset(config, inputs, outputs)
+
+
+def compare_stability(config, inputs, outputs):
+    """Exact vs regularized Floquet verdicts of NNM1 per impact regime (inputs ``exact``, ``nnm1``)."""
+    build_stability_comparison(config, inputs, outputs)
+
+
+#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+TASKS = {f.__name__: f for f in (compare_nnm1, compare_regimes, compare_stability)}
+
+
 if __name__ == "__main__":
     main()

@@ -122,3 +122,20 @@ def build_multi_impact_dataset(config: dict, two_impact_path: str | Path, output
     )
     logger.info("wrote %s (%d orbits, %d segments)", path, ds.sizes["point"], ds.attrs["segments"])
     return path
+
+
+# --------------------------------------------------------------------------- the rules' tasks
+
+
+def exact_two_impacts(config, inputs, outputs):
+    """Exact two-impact NNM1 family of the non-smooth system (Section 3.1)."""
+    build_two_impact_dataset(config, outputs["dataset"])
+
+
+def exact_nnm1(config, inputs, outputs):
+    """Exact NNM1 with any number of impacts per period, continued from the two-impact family."""
+    build_multi_impact_dataset(config, inputs["two_impacts"], outputs["dataset"])
+
+
+#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+TASKS = {f.__name__: f for f in (exact_two_impacts, exact_nnm1)}

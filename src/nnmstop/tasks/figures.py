@@ -9,6 +9,8 @@ PDF and its PNG side by side. Paths come from the rules (``workflow/rules/*.smk`
 
 from __future__ import annotations
 
+import functools
+
 from pathlib import Path
 
 import numpy as np
@@ -17,8 +19,8 @@ import xarray as xr
 from nnmstop.figures import exact_vs_regularized as comparison_figures
 from nnmstop.figures import frequency_energy as fep
 from nnmstop.figures.common import save_figure
-from nnmstop.figures.regime_errors import regime_error_figure
-from nnmstop.figures.stability import ZOOM_ENERGY, stability_figure
+from nnmstop.figures import regime_errors as regime_error_drawing
+from nnmstop.figures import stability as stability_drawing
 from nnmstop.figures.study import error_vs_runtime_figure, stiff_cases_figure
 from nnmstop.hbm.stages import combine_stages
 
@@ -215,7 +217,7 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
 def build_regime_error_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
     """Extra figure of the regime errors: ``pdf_path`` and its PNG (resolution ``figures.png_dpi``)."""
     dpi = int(config.get("figures", {}).get("png_dpi", 150))
-    return save_figure(regime_error_figure(_read(dataset_path)), pdf_path, png_dpi=dpi)
+    return save_figure(regime_error_drawing.regime_error_figure(_read(dataset_path)), pdf_path, png_dpi=dpi)
 
 
 def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, Path]:
@@ -228,8 +230,8 @@ def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, 
             raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
     figures = config.get("figures", {})
     dpi = int(figures.get("png_dpi", 150))
-    zoom = figures.get("extra_stability", {}).get("zoom_energy", ZOOM_ENERGY)
-    fig = stability_figure(_read(inputs["exact"]), _read(inputs["nnm1"]), _read(inputs["dataset"]), zoom_energy=zoom)
+    zoom = figures.get("extra_stability", {}).get("zoom_energy", stability_drawing.ZOOM_ENERGY)
+    fig = stability_drawing.stability_figure(_read(inputs["exact"]), _read(inputs["nnm1"]), _read(inputs["dataset"]), zoom_energy=zoom)
     return save_figure(fig, pdf_path, png_dpi=dpi)
 
 
@@ -243,3 +245,35 @@ def build_stiff_cases_figure(config: dict, dataset_path, pdf_path) -> tuple[Path
     """The study's stiff-cases figure and its PNG (resolution ``study.png_dpi``)."""
     fig = stiff_cases_figure(_read(dataset_path))
     return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]))
+
+
+# --------------------------------------------------------------------------- the rules' tasks
+
+
+def regime_error_figure(config, inputs, outputs):
+    """paper_figures/extra_regime_error.pdf/.png from the regime error dataset (input ``dataset``)."""
+    build_regime_error_figure(config, inputs["dataset"], outputs["pdf"])
+
+
+def stability_figure(config, inputs, outputs):
+    """paper_figures/extra_stability.pdf/.png (inputs ``exact``, ``nnm1``, ``dataset``)."""
+    build_stability_figure(config, inputs, outputs["pdf"])
+
+
+def paper_figure(name: str, config, inputs, outputs):
+    """Draw paper figure ``name`` (``fig02`` ... ``fig11``) from its rule's datasets.
+
+    Figs 2-4 read the exact family, NNM1 stage 1 and the comparison
+    (:mod:`nnmstop.figures.exact_vs_regularized`); Figs 5-11 read the branch datasets
+    (:mod:`nnmstop.figures.frequency_energy`). Outputs ``pdf`` and ``png``.
+    """
+    build_figure = build_exact_vs_regularized_figure if name in ("fig02", "fig03", "fig04") else build_paper_figure
+    build_figure(name, config, inputs, outputs)
+
+
+#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+TASKS = {
+    **{f.__name__: f for f in (regime_error_figure, stability_figure)},
+    # one task per paper figure, named as the rules call them: paper_fig02 ... paper_fig11
+    **{f"paper_fig{n:02d}": functools.partial(paper_figure, f"fig{n:02d}") for n in range(2, 12)},
+}

@@ -170,5 +170,10 @@ def main(argv=None) -> None:
     print(summarize_bifurcated(_load(args.bifurcated), _load(args.nnm2) if args.nnm2 else None))
 
 
+#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+TASKS = {f.__name__: f for f in (hbm_stage, hbm_bifurcated, hbm_branch)}
+
+
+
 if __name__ == "__main__":
     main()

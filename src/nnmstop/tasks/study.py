@@ -157,3 +157,70 @@ def build_stiff_cases(config: dict, inputs: dict, output_path) -> Path:
         keywords="study, stiff cases, robustness",
         metadata=config.get("metadata"),
     )
+
+
+# --------------------------------------------------------------------------- the rules' tasks
+
+
+def study_error_case(config, inputs, outputs, harmonics, eta):
+    """One (H, eta) setting of the error-against-run-time study (input ``exact``)."""
+    build_error_case(config, inputs, outputs["dataset"], harmonics, eta)
+
+
+def study_anm_case(config, inputs, outputs, order, tolerance):
+    """One ANM (order, tolerance) setting at ``study.error_runtime.anm_harmonics`` and ``model.eta``."""
+    H = config["study"]["error_runtime"]["anm_harmonics"]
+    build_error_case(config, inputs, outputs["dataset"], H, config["model"]["eta"], order, tolerance)
+
+
+def study_reference(config, inputs, outputs, eta):
+    """Large-H reference orbits of one eta (truncation/regularization split)."""
+    build_reference(config, inputs, outputs["dataset"], eta)
+
+
+def study_exact_cost(config, inputs, outputs):
+    """Cost per orbit of the exact solver."""
+    build_exact_cost(config, inputs, outputs["dataset"])
+
+
+def study_error_vs_runtime(config, inputs, outputs):
+    """Gather the sweep into results/study/error_vs_runtime.nc."""
+    build_error_vs_runtime(config, inputs, outputs["dataset"])
+
+
+def study_error_vs_runtime_figure(config, inputs, outputs):
+    """paper_figures/error_vs_runtime.pdf/.png (input ``dataset``)."""
+    from nnmstop.tasks.figures import build_error_vs_runtime_figure
+
+    build_error_vs_runtime_figure(config, inputs["dataset"], outputs["pdf"])
+
+
+def study_stiff_exact(config, inputs, outputs, alpha, beta, delta):
+    """Exact family and its exactness checks for one (alpha, beta, delta)."""
+    build_stiff_exact(config, inputs, outputs["dataset"], alpha, beta, delta)
+
+
+def study_stiff_branch(config, inputs, outputs, alpha, beta, delta, eta):
+    """Harmonics ladder of NNM1 stage 1 for one stiff case (input ``exact``)."""
+    build_stiff_branch(config, inputs, outputs["dataset"], alpha, beta, delta, eta)
+
+
+def study_stiff_energy(config, inputs, outputs, alpha):
+    """Exact solver and HBM at energies 1e-6..1e6 for one alpha."""
+    build_stiff_energy(config, inputs, outputs["dataset"], alpha)
+
+
+def study_stiff_cases(config, inputs, outputs):
+    """Gather the stiff cases into results/study/stiff_cases.nc."""
+    build_stiff_cases(config, inputs, outputs["dataset"])
+
+
+def study_stiff_cases_figure(config, inputs, outputs):
+    """paper_figures/stiff_cases.pdf/.png (input ``dataset``)."""
+    from nnmstop.tasks.figures import build_stiff_cases_figure
+
+    build_stiff_cases_figure(config, inputs["dataset"], outputs["pdf"])
+
+
+#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+TASKS = {f.__name__: f for f in (study_error_case, study_anm_case, study_reference, study_exact_cost, study_error_vs_runtime, study_error_vs_runtime_figure, study_stiff_exact, study_stiff_branch, study_stiff_energy, study_stiff_cases, study_stiff_cases_figure)}
