@@ -90,12 +90,13 @@ def run_worker(spec: dict) -> dict:
     from nnmstop.anm import ANMSettings, continue_anm
     from nnmstop.continuation import ContinuationError, ContinuationStats, newton_correct, relative_residual
     from nnmstop.hbm import HarmonicBalanceSystem
+    from nnmstop.models.structure import two_dof_structure
     from nnmstop.model import ModelParameters, linear_modes
     from nnmstop.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
 
     rss_after_imports = _rss_mb()
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
-    system = HarmonicBalanceSystem(params, spec["harmonics"])
+    system = HarmonicBalanceSystem(two_dof_structure(params), spec["harmonics"])
     mode = 2 if spec["branch"] == "NNM2" else 1
     e = np.zeros(system.n_unknowns)
     e[system.slices["x"].start + 1] = 1.0
@@ -166,11 +167,12 @@ def run_operations_worker(spec: dict) -> dict:
     from nnmstop.anm import ANMSettings, anm_series, continue_anm, step_length
     from nnmstop.continuation import ContinuationStats, newton_correct
     from nnmstop.hbm import HarmonicBalanceSystem
+    from nnmstop.models.structure import two_dof_structure
     from nnmstop.model import ModelParameters
     from nnmstop.pade import pade_pair, pade_step_length
 
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
-    system = HarmonicBalanceSystem(params, spec["harmonics"])
+    system = HarmonicBalanceSystem(two_dof_structure(params), spec["harmonics"])
     e = np.zeros(system.n_unknowns)
     e[system.slices["x"].start + 1] = 1.0
     U0, _ = newton_correct(system, system.linear_mode_guess(1, 0.05), e, ContinuationStats(), 1e-12)

@@ -13,6 +13,7 @@ import pytest
 from nnmstop.anm import ANMSettings, continue_anm
 from nnmstop.continuation import ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.model import ModelParameters, linear_modes
 from nnmstop.pseudo_arclength import PseudoArclengthSettings, PseudoArclengthStats, continue_pseudo_arclength
 
@@ -91,7 +92,7 @@ CASES = {
 @pytest.fixture(scope="module", params=list(CASES))
 def both_methods(request):
     H, mode, stop = CASES[request.param]
-    system = HarmonicBalanceSystem(PARAMS, H)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), H)
     U0, e = start_point(system, mode)
     anm = continue_anm(
         system, U0, e, stop(), ANMSettings(tolerance=TOLERANCE, points_per_step=8), progress_seconds=QUIET
@@ -171,7 +172,7 @@ def test_pseudo_arclength_bookkeeping(both_methods):
 
 @pytest.fixture(scope="module")
 def small_system():
-    system = HarmonicBalanceSystem(PARAMS, 10)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 10)
     U0, e = start_point(system, 2)
     return system, U0, e
 

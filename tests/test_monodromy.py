@@ -15,6 +15,7 @@ import pytest
 from nnmstop.branches import continue_stage, dataset_unknowns, orbit_stability, system_from_config
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.hbm import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.model import ModelParameters
 from nnmstop.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
 from nnmstop.stability import branch_stability, monodromy, orbit_initial_state, refine_orbit
@@ -56,7 +57,7 @@ def verdicts(system, nnm1):
 def test_linear_limit_matches_closed_form():
     """Tiny amplitude: k = eta, so the non-trivial pair is exp(+-i Omega_2 T) with the modes of K + eta."""
     p = ModelParameters()
-    system = HarmonicBalanceSystem(p, harmonics=16)
+    system = HarmonicBalanceSystem(two_dof_structure(p), harmonics=16)
     U = system.linear_mode_guess(1, 1e-4)
     K = np.array([[1 + p.beta + p.eta, -p.beta], [-p.beta / p.delta, p.beta / p.delta]])
     w = np.sqrt(np.sort(np.linalg.eigvals(K).real))

@@ -16,6 +16,7 @@ from nnmstop.branches import continue_stage, dataset_unknowns, start_point, syst
 from nnmstop.compare import regularized_monotone_part
 from nnmstop.config import load_config
 from nnmstop.hbm import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.model import ModelParameters, linear_modes
 from nnmstop.stability import (
     BranchStability,
@@ -87,7 +88,7 @@ def pair_distance(a, b):
 @pytest.mark.parametrize("method,symmetry", [("reversible", True), ("reversible", False), ("companion", True)])
 def test_linear_limit_is_neutral_with_modal_exponents(mode, method, symmetry):
     params = ModelParameters()
-    system = HarmonicBalanceSystem(params, harmonics=24)
+    system = HarmonicBalanceSystem(two_dof_structure(params), harmonics=24)
     U, _ = start_point(system, mode, 1e-3)
     r = floquet(system, U, method=method, symmetry=symmetry)
     omega_modes = linear_modes(params, "regularized")[0]
@@ -113,7 +114,7 @@ def test_linear_limit_is_neutral_with_modal_exponents(mode, method, symmetry):
 def test_hill_matrix_matches_linear_theory_at_rest():
     """At vanishing amplitude the Hill spectrum is {+-i omega_k + i m omega} exactly."""
     params = ModelParameters()
-    system = HarmonicBalanceSystem(params, harmonics=6)
+    system = HarmonicBalanceSystem(two_dof_structure(params), harmonics=6)
     U, _ = start_point(system, 1, 1e-6)
     A, omega = hill_matrix(system, U)
     assert A.shape == (4 * 13, 4 * 13)
@@ -284,8 +285,8 @@ def test_recast_linearization_agrees_at_low_energy(system, nnm1):
 
 def test_full_basis_orbit_uses_the_companion_solver():
     params = ModelParameters()
-    cos_system = HarmonicBalanceSystem(params, harmonics=12)
-    full_system = HarmonicBalanceSystem(params, harmonics=12, basis="full")
+    cos_system = HarmonicBalanceSystem(two_dof_structure(params), harmonics=12)
+    full_system = HarmonicBalanceSystem(two_dof_structure(params), harmonics=12, basis="full")
     U, _ = start_point(cos_system, 2, 0.5)
     x, u, f, z, lam, _ = cos_system.split(U)
     Uf = full_system.pack(*(cos_system.to_full(c) for c in (x, u, f, z)), lam, 0.0)

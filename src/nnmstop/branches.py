@@ -44,6 +44,7 @@ from .continuation import (
 )
 from .datasets import flag_variable
 from .hbm import HarmonicBalanceSystem
+from .models.structure import two_dof_structure
 from .model import ModelParameters, linear_modes
 from .monodromy import MonodromySettings, branch_monodromy
 from .stability import DEFAULT_TOL, branch_stability
@@ -73,7 +74,7 @@ def system_from_config(config: dict, harmonics: int | None = None, eta: float | 
         model["eta"] = eta
     params = ModelParameters.from_config(model)
     H = config["hbm"]["harmonics"] if harmonics is None else harmonics
-    return HarmonicBalanceSystem(params, H, time_samples=config["hbm"]["time_samples"])
+    return HarmonicBalanceSystem(two_dof_structure(params), H, time_samples=config["hbm"]["time_samples"])
 
 
 def start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float):

@@ -94,6 +94,7 @@ from .continuation import relative_residual
 from .datasets import write_dataset
 from .exact import TwoImpactProblem, assess_orbit, time_history
 from .hbm import HarmonicBalanceSystem
+from .models.structure import two_dof_structure
 from .model import ModelParameters, regularized_contact_force, total_energy
 
 __all__ = [
@@ -177,7 +178,7 @@ def system_from_dataset(branch: xr.Dataset) -> HarmonicBalanceSystem:
         raise ValueError(f"the regularized branch dataset lacks the global attribute(s) {missing}")
     params = ModelParameters(**{k: float(branch.attrs[k]) for k in PARAMETER_KEYS})
     return HarmonicBalanceSystem(
-        params, int(branch.attrs["harmonics"]), time_samples=int(branch.attrs["time_samples"]),
+        two_dof_structure(params), int(branch.attrs["harmonics"]), time_samples=int(branch.attrs["time_samples"]),
         basis=str(branch.attrs["basis"]),
     )
 

@@ -829,7 +829,8 @@ def floquet(
     --------
     >>> from nnmstop.hbm import HarmonicBalanceSystem
     >>> from nnmstop.model import ModelParameters
-    >>> system = HarmonicBalanceSystem(ModelParameters(), harmonics=8)
+    >>> from nnmstop.models.structure import two_dof_structure
+    >>> system = HarmonicBalanceSystem(two_dof_structure(ModelParameters()), harmonics=8)
     >>> r = floquet(system, system.linear_mode_guess(1, 0.1))
     >>> r.stable, float(r.max_multiplier)
     (True, 1.0)

@@ -67,6 +67,7 @@ from ..datasets import write_dataset
 from ..exact import follow_family, time_history
 from ..branches import system_from_config
 from ..hbm import HarmonicBalanceSystem
+from ..models.structure import two_dof_structure
 from ..model import ModelParameters
 from .runs import (
     ERROR_KEYS,
@@ -414,7 +415,7 @@ def _check_case(ds: xr.Dataset, path, config: dict, expect: dict) -> None:
 
 def _system(config: dict, harmonics: int, eta: float) -> HarmonicBalanceSystem:
     model = {**config["model"], "eta": eta}
-    return HarmonicBalanceSystem(ModelParameters.from_config(model), int(harmonics), time_samples=0)
+    return HarmonicBalanceSystem(two_dof_structure(ModelParameters.from_config(model)), int(harmonics), time_samples=0)
 
 
 def _max_abs(values, axis=-1):

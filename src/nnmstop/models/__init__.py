@@ -1,0 +1,1 @@
+"""Structures whose nonlinear normal modes the harmonic-balance engine computes."""
