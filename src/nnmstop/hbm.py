@@ -186,9 +186,9 @@ class HarmonicBalanceSystem:
 
     @property
     def params(self) -> ModelParameters:
-        """The paper's parameters, for a system of the paper's oscillator only."""
+        """The paper's parameters, for a system of the paper's oscillator only (AttributeError otherwise)."""
         if self._params is None:
-            raise ValueError(
+            raise AttributeError(
                 f"params exist only for the paper's two-DOF oscillator; this structure has {self.n_dofs} "
                 f"degrees of freedom and {self.n_stops} stop(s)"
             )

@@ -203,3 +203,18 @@ def test_hbm_orbit_with_impacts_is_periodic_in_time():
         # (resonant growth eps omega t / 2 of an oscillator), relative to the amplitude
         assert defects[-1] <= np.pi * diagnostics["time_residual"]
     assert defects[1] < 1e-2 * defects[0]  # and it falls with the truncation
+
+
+def test_bad_input_is_named():
+    params = ModelParameters()
+    with pytest.raises(TypeError, match="two_dof_structure"):
+        HarmonicBalanceSystem(params, 5)
+    with pytest.raises(ValueError, match="linear_algebra"):
+        HarmonicBalanceSystem(two_dof_structure(params), 5, linear_algebra="banded")
+    system = HarmonicBalanceSystem(chain(4, [Stop(dof=1, gap=1.0, stiffness=10.0, eta=0.1)]), 5)
+    with pytest.raises(ValueError, match="1..4"):
+        system.linear_mode_guess(5, 0.1)
+    with pytest.raises(AttributeError, match="two-DOF oscillator"):
+        system.params
+    with pytest.raises(ValueError, match="tangent"):
+        system.factorize_bordered(np.zeros(system.n_unknowns), np.ones(3))
