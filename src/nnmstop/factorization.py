@@ -104,11 +104,16 @@ class SparseBorderedLU:
             raise ValueError(f"need J of shape ({n - 1}, {n}) and an order of 0..{n - 1}, got J {jacobian.shape}")
         _finite_or_error(tangent, "tangent")
         k = int(np.argmax(np.abs(tangent)))
-        row = sp.csr_matrix(([1.0], ([0], [k])), shape=(1, n))
-        square = sp.vstack([sp.csr_matrix(jacobian), row], format="csc")[order][:, order]
-        _finite_or_error(square.data, "matrix")
+        coo = sp.coo_matrix(jacobian)
+        _finite_or_error(coo.data, "Jacobian")
+        # A = [J; e_k^T] with rows and columns renumbered by the order, assembled directly
+        position = np.empty(n, dtype=np.int64)
+        position[order] = np.arange(n)
+        rows = position[np.append(coo.row, n - 1)]
+        cols = position[np.append(coo.col, k)]
+        square = sp.csc_matrix((np.append(coo.data, 1.0), (rows, cols)), shape=(n, n))
         self.order = order
-        self.lu = splu(sp.csc_matrix(square), permc_spec=column_ordering, diag_pivot_thresh=pivot_threshold)
+        self.lu = splu(square, permc_spec=column_ordering, diag_pivot_thresh=pivot_threshold)
         self._w = tangent.copy()
         self._w[k] -= 1.0
         e_last = np.zeros(n)

@@ -354,15 +354,17 @@ class HarmonicBalanceSystem:
         Dense ndarray, or scipy.sparse CSR matrix with ``sparse=True``; by default as the
         system's ``linear_algebra``.
         """
-        groups = self._jacobian_entries(U)
-        shape = (self.n_equations, self.n_unknowns)
         if sparse if sparse is not None else self.linear_algebra == "sparse":
-            rows, cols, values = (np.concatenate([np.ravel(g[i]) for g in groups]) for i in range(3))
-            return sp.csr_matrix((values, (rows, cols)), shape=shape)
-        J = np.zeros(shape)
-        for rows, cols, values in groups:
+            return self._sparse_jacobian(U).tocsr()
+        J = np.zeros((self.n_equations, self.n_unknowns))
+        for rows, cols, values in self._jacobian_entries(U):
             J[rows, cols] = values
         return J
+
+    def _sparse_jacobian(self, U):
+        groups = self._jacobian_entries(U)
+        rows, cols, values = (np.concatenate([np.ravel(g[i]) for g in groups]) for i in range(3))
+        return sp.coo_matrix((values, (rows, cols)), shape=(self.n_equations, self.n_unknowns))
 
     def factorize_bordered(self, U, tangent):
         """LU factors of the bordered Jacobian ``[J(U); tangent^T]``.
@@ -380,7 +382,7 @@ class HarmonicBalanceSystem:
             raise ValueError(f"tangent must have shape ({self.n_unknowns},), got {tangent.shape}")
         if self.linear_algebra == "dense":
             return DenseBorderedLU(np.vstack([self.jacobian(U, sparse=False), tangent[None, :]]))
-        return SparseBorderedLU(self.jacobian(U, sparse=True), tangent, self.elimination_order())
+        return SparseBorderedLU(self._sparse_jacobian(U), tangent, self.elimination_order())
 
     def elimination_order(self):
         """Order of the unknowns (and of the equations alike) for the sparse LU.
