@@ -6,8 +6,8 @@ of its determinant. :class:`DenseBorderedLU` is LAPACK's partial-pivoting LU of 
 matrix (small systems: the paper's oscillator); :class:`SparseBorderedLU` is SuperLU on the
 sparse matrix, reordered by the caller so that elimination follows the structure of the
 harmonic-balance Jacobian (see docs/methods/hbm_structure.md). Both offer ``solve``,
-``determinant_sign`` and ``pivot_ratio`` (smallest over largest ``|U_ii|``, the measure of
-near-singularity the continuation checks).
+``determinant_sign``, ``pivot_ratio`` (smallest over largest ``|U_ii|``) and ``is_singular(tol)``,
+the test of near-singularity the continuation applies.
 """
 
 from __future__ import annotations
@@ -67,6 +67,10 @@ class DenseBorderedLU:
         swaps = np.count_nonzero(pivots != np.arange(len(pivots)))
         negative = np.count_nonzero(np.diag(factors) < 0)
         return -1 if (swaps + negative) % 2 else 1
+
+    def is_singular(self, tol: float) -> bool:
+        """``pivot_ratio`` is at most ``tol`` (singular to working precision for ``tol`` ~ 1e-14)."""
+        return self.pivot_ratio <= tol
 
 
 class SparseBorderedLU:
@@ -142,3 +146,7 @@ class SparseBorderedLU:
         negative = np.count_nonzero(self.lu.U.diagonal() < 0) + (self._denominator < 0)
         parity = negative + permutation_parity(self.lu.perm_r) + permutation_parity(self.lu.perm_c)
         return -1 if parity % 2 else 1
+
+    def is_singular(self, tol: float) -> bool:
+        """``pivot_ratio`` is at most ``tol`` (singular to working precision for ``tol`` ~ 1e-14)."""
+        return self.pivot_ratio <= tol

@@ -130,6 +130,7 @@ def random_point(system, rng):
     return U
 
 
+@pytest.mark.filterwarnings("ignore::scipy.linalg.LinAlgWarning")  # LAPACK on the singular case below
 def test_sparse_and_dense_factorizations_agree():
     structure, rng = random_structure()
     dense = HarmonicBalanceSystem(structure, 6, basis="full", linear_algebra="dense")
@@ -148,6 +149,11 @@ def test_sparse_and_dense_factorizations_agree():
     for lu in (dense.factorize_bordered(U, tangent), sparse.factorize_bordered(U, tangent)):
         np.testing.assert_allclose(lu.solve(rhs), solution, rtol=0, atol=tolerance)
         np.testing.assert_allclose(lu.solve(rhs[:, 0]), solution[:, 0], rtol=0, atol=tolerance)
+        assert not lu.is_singular(1e-14)
+    # a bordering row that repeats a row of J makes the matrix singular: both paths see it
+    repeated = dense.jacobian(U)[7]
+    for system in (dense, sparse):
+        assert system.factorize_bordered(U, repeated).is_singular(1e-12)
 
 
 @pytest.mark.parametrize("basis", ["cosine", "full"])
