@@ -158,6 +158,7 @@ def main(argv=None):
         print(json.dumps(run_case(method, dofs, harmonics, args.repeat)))
         return
     rows = []
+    load_start = os.getloadavg()[0]
     for harmonics in args.harmonics:
         for dofs in [2] + args.dofs:
             unknowns = (dofs + 2) * (harmonics + 1) + 1
@@ -202,7 +203,9 @@ def main(argv=None):
         lines.append(f"| {r['method']} | {r['dofs']} | {r['harmonics']} | {r['unknowns']} | {r['step']:.4g} | "
                      f"{r['factor']:.4g} | {r['products']:.3g} | {r['solves']:.3g} | {r['peak_mb']:.0f} |")
     exponents = ", ".join(f"H = {h}: {fitted_exponent(rows, h):.2f}" for h in args.harmonics)
-    lines += ["", f"Fitted exponent of the sparse cost per step, 50-{largest} DOF: {exponents}.", ""]
+    lines += ["", f"Fitted exponent of the sparse cost per step, 50-{largest} DOF: {exponents}.",
+              f"Load average (1 min) at the start and end of the run: {load_start:.1f}, {os.getloadavg()[0]:.1f} "
+              f"on {os.cpu_count()} CPUs: on a shared machine absolute times stretch, the side-by-side ratios hold.", ""]
     summary = (f"exponent of sparse cost per step (50-{largest} DOF, H = {top}): {exponent:.2f}; "
                f"speed-up over dense LU at {largest} DOF, H = {top}: {speedup:.0f}x ({how})")
     lines.append(summary)
