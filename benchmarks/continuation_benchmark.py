@@ -92,10 +92,11 @@ def run_worker(spec: dict) -> dict:
     from nnmstop.hbm.system import HarmonicBalanceSystem
     from nnmstop.models.two_dof import ModelParameters, linear_modes
     from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
+    from nnmstop.models.structure import two_dof_structure
 
     rss_after_imports = _rss_mb()
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
-    system = HarmonicBalanceSystem(params, spec["harmonics"])
+    system = HarmonicBalanceSystem(two_dof_structure(params), spec["harmonics"])
     mode = 2 if spec["branch"] == "NNM2" else 1
     e = np.zeros(system.n_unknowns)
     e[system.slices["x"].start + 1] = 1.0
@@ -168,9 +169,10 @@ def run_operations_worker(spec: dict) -> dict:
     from nnmstop.hbm.system import HarmonicBalanceSystem
     from nnmstop.models.two_dof import ModelParameters
     from nnmstop.continuation.pade import pade_pair, pade_step_length
+    from nnmstop.models.structure import two_dof_structure
 
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
-    system = HarmonicBalanceSystem(params, spec["harmonics"])
+    system = HarmonicBalanceSystem(two_dof_structure(params), spec["harmonics"])
     e = np.zeros(system.n_unknowns)
     e[system.slices["x"].start + 1] = 1.0
     U0, _ = newton_correct(system, system.linear_mode_guess(1, 0.05), e, ContinuationStats(), 1e-12)

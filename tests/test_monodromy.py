@@ -20,6 +20,7 @@ from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
+from nnmstop.models.structure import two_dof_structure
 
 H_BRANCH = 40
 
@@ -58,7 +59,7 @@ def verdicts(system, nnm1):
 def test_linear_limit_matches_closed_form():
     """Tiny amplitude: k = eta, so the non-trivial pair is exp(+-i Omega_2 T) with the modes of K + eta."""
     p = ModelParameters()
-    system = HarmonicBalanceSystem(p, harmonics=16)
+    system = HarmonicBalanceSystem(two_dof_structure(p), harmonics=16)
     U = system.linear_mode_guess(1, 1e-4)
     K = np.array([[1 + p.beta + p.eta, -p.beta], [-p.beta / p.delta, p.beta / p.delta]])
     w = np.sqrt(np.sort(np.linalg.eigvals(K).real))

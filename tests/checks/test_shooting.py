@@ -8,6 +8,7 @@ multipliers are known in closed form (``linear_modes(params, "regularized")``).
 import numpy as np
 import pytest
 
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, linear_modes
@@ -51,7 +52,7 @@ def test_monodromy_of_a_linear_mode_has_the_modal_multipliers(paper_params, mode
 
 def test_initial_state_of_an_hbm_orbit_at_rest():
     """A cosine-basis orbit starts at rest, at the sum of its cosine coefficients."""
-    system = HarmonicBalanceSystem(ModelParameters(), harmonics=6)
+    system = HarmonicBalanceSystem(two_dof_structure(ModelParameters()), harmonics=6)
     U = system.linear_mode_guess(2, 0.3)
     state, period = orbit_initial_state(system, U)
     x, u, _, _, lam, _ = system.split(U)
@@ -60,7 +61,7 @@ def test_initial_state_of_an_hbm_orbit_at_rest():
 
 
 def test_bad_arguments(paper_params):
-    system = HarmonicBalanceSystem(paper_params, harmonics=4)
+    system = HarmonicBalanceSystem(two_dof_structure(paper_params), harmonics=4)
     with pytest.raises(ValueError, match="state0"):
         monodromy(paper_params, [0.0, 1.0], 1.0)
     with pytest.raises(ValueError, match="period"):

@@ -19,6 +19,7 @@ from nnmstop.continuation.pseudo_arclength import (
     PseudoArclengthStats,
     continue_pseudo_arclength,
 )
+from nnmstop.models.structure import two_dof_structure
 
 PARAMS = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
 TOLERANCE = 1e-8  # ANM series tolerance and pseudo-arclength corrector tolerance
@@ -95,7 +96,7 @@ CASES = {
 @pytest.fixture(scope="module", params=list(CASES))
 def both_methods(request):
     H, mode, stop = CASES[request.param]
-    system = HarmonicBalanceSystem(PARAMS, H)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), H)
     U0, e = start_point(system, mode)
     anm = continue_anm(
         system, U0, e, stop(), ANMSettings(tolerance=TOLERANCE, points_per_step=8), progress_seconds=QUIET
@@ -175,7 +176,7 @@ def test_pseudo_arclength_bookkeeping(both_methods):
 
 @pytest.fixture(scope="module")
 def small_system():
-    system = HarmonicBalanceSystem(PARAMS, 10)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 10)
     U0, e = start_point(system, 2)
     return system, U0, e
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.continuation.anm import ANMSettings, ANMStepper, continue_anm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.continuation.corrected_path import CorrectedPath
@@ -159,7 +160,7 @@ def test_errors_name_the_step_and_energy_and_bad_starts_are_refused():
 @pytest.fixture(scope="module")
 def nnm1_through_3to1():
     """NNM1 at H = 21 up its first energy fold, back down through the 3:1 branch point and up again."""
-    system = HarmonicBalanceSystem(ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1), 21)
+    system = HarmonicBalanceSystem(two_dof_structure(ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)), 21)
     direction = np.zeros(system.n_unknowns)
     direction[system.slices["x"].start + 1] = 1.0
     U0, _ = newton_correct(system, system.linear_mode_guess(1, 0.05), direction, ContinuationStats(), 1e-12)

@@ -20,6 +20,7 @@ from nnmstop.continuation.core import relative_residual
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.continuation.pade import pade_pair, pade_step_length
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
+from nnmstop.models.structure import two_dof_structure
 
 from test_continuation import (
     CASES,
@@ -154,7 +155,7 @@ def test_pade_setting_is_validated(repo_root):
 @pytest.fixture(scope="module", params=list(CASES))
 def three_runs(request):
     H, mode, stop = CASES[request.param]
-    system = HarmonicBalanceSystem(PARAMS, H)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), H)
     U0, e = start_point(system, mode)
     runs = {
         pade: continue_anm(system, U0, e, stop(), ANMSettings(tolerance=TOLERANCE, points_per_step=4, pade=pade),

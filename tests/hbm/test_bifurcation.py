@@ -20,6 +20,7 @@ from nnmstop.tasks.hbm import build_bifurcated, build_stage, system_from_config
 from nnmstop.config import ConfigError, validate_config
 from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 
 
 class Transcritical:
@@ -82,7 +83,7 @@ def test_no_branch_point_between_regular_points():
 
 def test_quadratic_form_against_the_jacobian(paper_params):
     """The ANM bilinear form against the analytic Jacobian: J(U + b) a - J(U) a = 2 Q(a, b)."""
-    system = HarmonicBalanceSystem(paper_params, 8)
+    system = HarmonicBalanceSystem(two_dof_structure(paper_params), 8)
     rng = np.random.default_rng(3)
     U, a, b = (rng.normal(size=system.n_unknowns) for _ in range(3))
     lhs = system.jacobian(U + b) @ a - system.jacobian(U) @ a

@@ -22,6 +22,7 @@ from nnmstop.config import load_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, linear_modes
 from nnmstop.hbm.hill import floquet, hill_matrix, is_halfwave_symmetric
+from nnmstop.models.structure import two_dof_structure
 
 H_BRANCH = 40
 
@@ -82,7 +83,7 @@ def pair_distance(a, b):
 @pytest.mark.parametrize("method,symmetry", [("reversible", True), ("reversible", False), ("companion", True)])
 def test_linear_limit_is_neutral_with_modal_exponents(mode, method, symmetry):
     params = ModelParameters()
-    system = HarmonicBalanceSystem(params, harmonics=24)
+    system = HarmonicBalanceSystem(two_dof_structure(params), harmonics=24)
     U, _ = start_point(system, mode, 1e-3)
     r = floquet(system, U, method=method, symmetry=symmetry)
     omega_modes = linear_modes(params, "regularized")[0]
@@ -108,7 +109,7 @@ def test_linear_limit_is_neutral_with_modal_exponents(mode, method, symmetry):
 def test_hill_matrix_matches_linear_theory_at_rest():
     """At vanishing amplitude the Hill spectrum is {+-i omega_k + i m omega} exactly."""
     params = ModelParameters()
-    system = HarmonicBalanceSystem(params, harmonics=6)
+    system = HarmonicBalanceSystem(two_dof_structure(params), harmonics=6)
     U, _ = start_point(system, 1, 1e-6)
     A, omega = hill_matrix(system, U)
     assert A.shape == (4 * 13, 4 * 13)
@@ -279,8 +280,8 @@ def test_recast_linearization_agrees_at_low_energy(system, nnm1):
 
 def test_full_basis_orbit_uses_the_companion_solver():
     params = ModelParameters()
-    cos_system = HarmonicBalanceSystem(params, harmonics=12)
-    full_system = HarmonicBalanceSystem(params, harmonics=12, basis="full")
+    cos_system = HarmonicBalanceSystem(two_dof_structure(params), harmonics=12)
+    full_system = HarmonicBalanceSystem(two_dof_structure(params), harmonics=12, basis="full")
     U, _ = start_point(cos_system, 2, 0.5)
     x, u, f, z, lam, _ = cos_system.split(U)
     Uf = full_system.pack(*(cos_system.to_full(c) for c in (x, u, f, z)), lam, 0.0)

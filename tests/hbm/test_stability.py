@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.hbm.hill import DEFAULT_TOL
 from nnmstop.hbm.monodromy import MonodromySettings
 from nnmstop.hbm.stability import StabilitySettings, orbit_stability
@@ -15,7 +16,7 @@ from nnmstop.tasks.hbm import stability_settings
 @pytest.mark.parametrize("method", ["hill", "monodromy"])
 def test_both_methods_give_the_modal_multipliers_near_rest(paper_params, method):
     """Near rest NNM1 is the linear mode: the non-trivial pair is exp(+-i omega_2 T), elliptic."""
-    system = HarmonicBalanceSystem(paper_params, harmonics=8)
+    system = HarmonicBalanceSystem(two_dof_structure(paper_params), harmonics=8)
     U = np.array([start_point(system, 1, amplitude)[0] for amplitude in (1e-3, 2e-3)])
     result = orbit_stability(system, U, StabilitySettings(method=method))
     omega = linear_modes(paper_params, "regularized")[0]

@@ -16,6 +16,7 @@ from nnmstop.continuation.anm import ANMSettings, anm_series, continue_anm
 from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_contact_force
+from nnmstop.models.structure import two_dof_structure
 
 PARAMS = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
 BASES = ("cosine", "full")
@@ -71,7 +72,7 @@ def scale_of(v):
 def test_jacobian_matches_central_differences(basis):
     # S is quadratic in U, so central differences are exact up to round-off whatever
     # the increment: the comparison can be tight.
-    system = HarmonicBalanceSystem(PARAMS, 10, basis=basis)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 10, basis=basis)
     U = generic_point(system, seed=1)
     J = system.jacobian(U)
     assert J.shape == (system.n_equations, system.n_unknowns)
@@ -88,7 +89,7 @@ def test_jacobian_matches_central_differences(basis):
 def test_series_products_is_the_quadratic_part(basis):
     # S(U + aV) = S(U) + a J(U) V + a^2 Q(V, V) exactly, with Q(V, V) the order-2
     # right-hand side of the ANM (series [U, V]).
-    system = HarmonicBalanceSystem(PARAMS, 12, basis=basis)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 12, basis=basis)
     U = generic_point(system, seed=2)
     V = generic_point(system, seed=3) - system.linear_mode_guess(2, 1.5)
     V[system.i_lam] = 0.4
@@ -105,7 +106,7 @@ def test_series_products_is_the_quadratic_part(basis):
 @pytest.mark.parametrize("basis", BASES)
 def test_series_products_order_three_is_symmetric_sum(basis):
     # Order 3: Q(U1, U2) + Q(U2, U1) = Q(U1 + U2, U1 + U2) - Q(U1, U1) - Q(U2, U2).
-    system = HarmonicBalanceSystem(PARAMS, 8, basis=basis)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 8, basis=basis)
     U0 = generic_point(system, seed=4)
     U1 = generic_point(system, seed=5) - U0
     U2 = generic_point(system, seed=6) - U0
@@ -125,7 +126,7 @@ def test_anm_series_solves_the_order_equations(basis):
     # (exact for a quadratic S; on unit vectors, scaled back, to keep round-off relative),
     # and a dense solve of the bordered system at every order.
     order = 12
-    system = HarmonicBalanceSystem(PARAMS, 12, basis=basis)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 12, basis=basis)
     U0 = generic_point(system, seed=7)
     n = system.n_unknowns
     t = np.random.default_rng(8).standard_normal(n)
@@ -184,7 +185,7 @@ def trigonometric_product(system, a, b):
 @pytest.mark.parametrize("basis", BASES)
 @pytest.mark.parametrize("time_samples", [0, 31])
 def test_products_are_alias_free(basis, time_samples):
-    system = HarmonicBalanceSystem(PARAMS, 10, time_samples=time_samples, basis=basis)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 10, time_samples=time_samples, basis=basis)
     rng = np.random.default_rng(7)
     a = rng.standard_normal(system.nc)
     b = rng.standard_normal(system.nc)
@@ -209,7 +210,7 @@ def test_products_are_alias_free(basis, time_samples):
 
 def test_too_few_time_samples_are_rejected():
     with pytest.raises(ValueError, match=r"time_samples must be .* >= 3H\+1 = 31 .*got 30"):
-        HarmonicBalanceSystem(PARAMS, 10, time_samples=30)
+        HarmonicBalanceSystem(two_dof_structure(PARAMS), 10, time_samples=30)
 
 
 # --------------------------------------------------------------------------- linear limit
@@ -217,7 +218,7 @@ def test_too_few_time_samples_are_rejected():
 
 @pytest.mark.parametrize("mode", [1, 2])
 def test_small_amplitude_frequency_is_the_regularized_linear_mode(mode):
-    system = HarmonicBalanceSystem(PARAMS, 10)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 10)
     f_linear = linear_modes(PARAMS, "regularized")[0][mode - 1] / (2 * np.pi)
     U0, e = start_point(system, mode, 1e-3)
     branch = continue_to(
@@ -288,7 +289,7 @@ def time_domain(request):
     the first iterate (chord iterations after that).
     """
     mode, energy = TIME_DOMAIN_CASES[request.param]
-    system = HarmonicBalanceSystem(PARAMS, 60)
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 60)
     U0, e = start_point(system, mode, 0.05)
     branch = continue_to(system, U0, e, lambda U, d: "reached" if d["energy"] > energy else "")
     U = branch.points[-1]
@@ -363,7 +364,7 @@ def both_bases():
     """NNM2 at H = 15 continued in both bases by the ANM, up to two impacts per period."""
     out = {}
     for basis in BASES:
-        system = HarmonicBalanceSystem(PARAMS, 15, basis=basis)
+        system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 15, basis=basis)
         U0, e = start_point(system, 2, 0.05)
         branch = continue_to(system, U0, e, lambda U, d: "reached" if d["energy"] > 20.0 else "")
         out[basis] = (system, branch)

@@ -25,6 +25,7 @@ from nnmstop.figures.study import pareto_front
 from nnmstop.tasks.figures import build_error_vs_runtime_figure
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.study import error_runtime as er
 from nnmstop.tasks import study as ts
 from nnmstop.study.runs import FILL_VALUE, case_config, format_number
@@ -128,7 +129,7 @@ def test_study_settings_refuse_inconsistent_values(config):
 
 def test_truncation_indicator_sees_the_odd_top_harmonic():
     """NNM1 orbits carry odd harmonics only: the top share must hold an odd harmonic even at H = 10."""
-    system = HarmonicBalanceSystem(ModelParameters(), harmonics=10)
+    system = HarmonicBalanceSystem(two_dof_structure(ModelParameters()), harmonics=10)
     U = system.linear_mode_guess(1, 0.5)
     x, u, f, z, lam, _ = system.split(U)
     f = f.copy()

@@ -23,6 +23,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop import fourier
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
 from nnmstop.continuation.newton import newton_solve
@@ -110,7 +111,7 @@ def system_from_dataset(branch: xr.Dataset) -> HarmonicBalanceSystem:
         raise ValueError(f"the regularized branch dataset lacks the global attribute(s) {missing}")
     params = ModelParameters(**{k: float(branch.attrs[k]) for k in PARAMETER_KEYS})
     return HarmonicBalanceSystem(
-        params, int(branch.attrs["harmonics"]), time_samples=int(branch.attrs["time_samples"]),
+        two_dof_structure(params), int(branch.attrs["harmonics"]), time_samples=int(branch.attrs["time_samples"]),
         basis=str(branch.attrs["basis"]),
     )
 

@@ -588,7 +588,8 @@ def floquet(
     --------
     >>> from nnmstop.hbm.system import HarmonicBalanceSystem
     >>> from nnmstop.models.two_dof import ModelParameters
-    >>> system = HarmonicBalanceSystem(ModelParameters(), harmonics=8)
+    >>> from nnmstop.models.structure import two_dof_structure
+    >>> system = HarmonicBalanceSystem(two_dof_structure(ModelParameters()), harmonics=8)
     >>> r = floquet(system, system.linear_mode_guess(1, 0.1))
     >>> r.stable, float(r.max_multiplier)
     (True, 1.0)

@@ -28,6 +28,7 @@ from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.tasks.hbm import system_from_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.study.runs import (
     ERROR_KEYS,
     case_config,
@@ -320,7 +321,7 @@ def _check_case(ds: xr.Dataset, label: str, config: dict, expect: dict) -> None:
 
 def _system(config: dict, harmonics: int, eta: float) -> HarmonicBalanceSystem:
     model = {**config["model"], "eta": eta}
-    return HarmonicBalanceSystem(ModelParameters.from_config(model), int(harmonics), time_samples=0)
+    return HarmonicBalanceSystem(two_dof_structure(ModelParameters.from_config(model)), int(harmonics), time_samples=0)
 
 
 def _max_abs(values, axis=-1):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import xarray as xr
 
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.continuation.anm import ANMSettings
 from nnmstop.hbm.dataset import summarize_bifurcated
 from nnmstop.hbm.monodromy import MonodromySettings
@@ -53,7 +54,7 @@ def system_from_config(config: dict, harmonics: int | None = None, eta: float | 
         model["eta"] = eta
     params = ModelParameters.from_config(model)
     H = config["hbm"]["harmonics"] if harmonics is None else harmonics
-    return HarmonicBalanceSystem(params, H, time_samples=config["hbm"]["time_samples"])
+    return HarmonicBalanceSystem(two_dof_structure(params), H, time_samples=config["hbm"]["time_samples"])
 
 
 def stability_settings(config: dict) -> StabilitySettings:
