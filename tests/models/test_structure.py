@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import scipy.sparse
 
-from nnmstop.model import ModelParameters, linear_modes, mass_matrix, stiffness_matrix
+from nnmstop.models.two_dof import ModelParameters, linear_modes, mass_matrix, stiffness_matrix
 from nnmstop.models.beam import Beam, BeamStop, beam_structure, euler_bernoulli_frequencies
 from nnmstop.models.structure import (
     DENSE_EIGEN_LIMIT,
