@@ -153,6 +153,14 @@ def test_beam_family_from_grazing_ends_on_a_located_boundary(small_beam):
     # the grazing orbit is the first linear mode: frequency 1/(2 pi) in the nondimensional time
     np.testing.assert_allclose(family.frequency[0], 1.0 / (2.0 * np.pi), rtol=1e-12)
     assert np.all(family.contact_time >= 0)
+    # Independent look at the located end: on a fine grid of the exact contact phase, the stop degree of
+    # freedom comes back to the gap (an interior minimum at g, to the grid's resolution) without crossing it.
+    assert family.end_margin == "leaves_stop"
+    y = family.unknowns[-1]
+    t = np.linspace(y[-2], y[-1], 200001)
+    x = problem.quarter_state(y, t)[:, problem.dof]
+    interior_minima = x[1:-1][(x[1:-1] < x[:-2]) & (x[1:-1] <= x[2:])]
+    assert interior_minima.size and 0.0 <= interior_minima.min() - problem.gap < 1e-7
 
 
 def test_validation_names_the_value():

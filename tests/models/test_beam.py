@@ -116,6 +116,18 @@ def test_beam_validation_names_the_value(changes, match):
         _tube(**changes)
 
 
+def test_parameter_keys_are_checked():
+    parameters = default_tube_parameters()
+    del parameters["left"]
+    parameters["lenght"] = 1.0
+    with pytest.raises(ValueError, match=r"missing keys \['left'\], unknown keys \['lenght'\]"):
+        Beam.from_parameters(parameters)
+    parameters = default_tube_parameters()
+    parameters["stops"][0]["clearance"] = 1.0
+    with pytest.raises(ValueError, match="each stop must be a dict with keys among"):
+        Beam.from_parameters(parameters)
+
+
 def test_analytical_frequencies_validation():
     with pytest.raises(ValueError, match=r"left_bc must be one of .*got 'sliding'"):
         euler_bernoulli_frequencies("sliding", "free", 2, 1.0, 1.0, 1.0)

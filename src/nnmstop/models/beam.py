@@ -156,10 +156,18 @@ class Beam:
 
     @classmethod
     def from_parameters(cls, parameters: dict) -> "Beam":
-        """Build from a dict shaped like :func:`default_tube_parameters`."""
-        stops = tuple(BeamStop(**dict(s)) for s in parameters["stops"])
-        keys = ("length", "bending_stiffness", "mass_per_length", "n_elements", "left", "right")
-        return cls(**{k: parameters[k] for k in keys}, stops=stops)
+        """Build from a dict shaped like :func:`default_tube_parameters` (missing or unknown keys are named)."""
+        keys = ("length", "bending_stiffness", "mass_per_length", "n_elements", "left", "right", "stops")
+        missing = [k for k in keys if k not in parameters]
+        unknown = sorted(set(parameters) - set(keys))
+        if missing or unknown:
+            raise ValueError(f"beam parameters: missing keys {missing}, unknown keys {unknown}; expected {list(keys)}")
+        stop_keys = {"gap", "stiffness", "eta", "node", "position"}
+        for stop in parameters["stops"]:
+            if not isinstance(stop, dict) or set(stop) - stop_keys:
+                raise ValueError(f"each stop must be a dict with keys among {sorted(stop_keys)}, got {stop!r}")
+        stops = tuple(BeamStop(**stop) for stop in parameters["stops"])
+        return cls(**{k: parameters[k] for k in keys[:-1]}, stops=stops)
 
 
 def element_matrices(h: float, bending_stiffness: float, mass_per_length: float):
