@@ -414,8 +414,9 @@ def _correct(residual, jacobian, y_prev, tangent, sigma, max_iter=15):
     return y, res
 
 
-class FamilyTrace(NamedTuple):
-    """Raw output of :func:`continue_family`."""
+@dataclass
+class FamilyTrace:
+    """Output of :func:`continue_family`: orbits in continuation order and why the family ends."""
 
     unknowns: np.ndarray
     arclength: np.ndarray
@@ -488,21 +489,15 @@ def continue_family(residual, jacobian, assess, y0, direction, step: float, max_
 
 
 @dataclass
-class OneStopFamily:
+class OneStopFamily(FamilyTrace):
     """A followed family of one-stop orbits (arrays along the family, in continuation order).
 
     ``unknowns`` rows are ``(b, tau1, T1)`` (modal initial velocities, see :class:`OneStopProblem`); the
     properties give the physical quantities.
     """
 
-    problem: OneStopProblem
-    unknowns: np.ndarray
-    arclength: np.ndarray
-    residual: np.ndarray
-    assessments: list
-    end_reason: str
-    end_margin: str
-    start: str
+    problem: OneStopProblem | None = None
+    start: str = ""
 
     def __len__(self) -> int:
         return len(self.unknowns)
@@ -570,8 +565,7 @@ def follow_one_stop_family(structure: Structure, step: float = 0.02, max_points:
     trace = continue_family(problem.residual, problem.jacobian, lambda y: assess_orbit(problem, y), y0, direction,
                             step, max_points)
     label = f"grazing orbit of linear mode {mode}" if start is None else "user-supplied orbit"
-    return OneStopFamily(problem, trace.unknowns, trace.arclength, trace.residual, trace.assessments,
-                         trace.end_reason, trace.end_margin, label)
+    return OneStopFamily(**vars(trace), problem=problem, start=label)
 
 
 # --------------------------------------------------------------------------- time histories
