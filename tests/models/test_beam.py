@@ -8,6 +8,7 @@ from nnmstop.models.beam import (
     Beam,
     BeamStop,
     assemble_free_beam,
+    beam_deflection,
     beam_scales,
     beam_structure,
     default_tube_parameters,
@@ -89,6 +90,26 @@ def test_nondimensional_structure_scales_and_static_deflection():
     np.testing.assert_allclose(scales["angular_frequency"], omega, rtol=1e-12)
     exact = euler_bernoulli_frequencies("clamped", "free", 1, beam.length, beam.bending_stiffness, beam.mass_per_length)
     assert 0 < omega / exact[0] - 1 < 1e-5
+
+
+def test_deflection_between_nodes_is_the_static_cubic():
+    # Under a force P at s = a the cantilever bends as P s^2 (3a - s) / (6 EI) for s <= a and linearly beyond:
+    # cubic per element, which the Hermite interpolation of the FE solution must reproduce between nodes.
+    beam = Beam.from_parameters(default_tube_parameters())
+    structure = beam_structure(beam)
+    scales = beam_scales(beam)
+    (stop,) = structure.stops
+    a = beam.stops[0].position
+    force = 1.0
+    x = np.linalg.solve(structure.stiffness.toarray(),
+                        force / (scales["length"] * scales["stiffness"]) * np.eye(structure.n_dofs)[stop.dof])
+    s = np.linspace(0.0, 1.0, 37) * beam.length
+    under = np.minimum(s, a)
+    exact = force * under**2 * (3 * a - under) / (6 * beam.bending_stiffness)
+    exact += np.where(s > a, force * a**2 / (2 * beam.bending_stiffness) * (s - a), 0.0)
+    w = beam_deflection(structure, np.stack([x, 2 * x]), s / beam.length) * scales["length"]
+    np.testing.assert_allclose(w[0], exact, rtol=1e-11, atol=1e-12 * exact.max())
+    np.testing.assert_allclose(w[1], 2 * exact, rtol=1e-11, atol=1e-12 * exact.max())
 
 
 def _tube(**changes):

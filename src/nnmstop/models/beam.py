@@ -28,6 +28,7 @@ __all__ = [
     "assemble_free_beam",
     "beam_structure",
     "beam_scales",
+    "beam_deflection",
     "euler_bernoulli_frequencies",
     "rigid_body_modes",
     "default_tube_parameters",
@@ -274,6 +275,45 @@ def beam_structure(beam: Beam) -> Structure:
         node_coordinates=beam.node_coordinates / beam.length,
         dof_nodes=tuple(int(d) // 2 for d in kept),
     )
+
+
+def beam_deflection(structure: Structure, q, s) -> np.ndarray:
+    """Transverse displacement along the beam from degree-of-freedom vectors, by the Hermite shape functions.
+
+    Parameters
+    ----------
+    structure : Structure
+        From :func:`beam_structure` (uses its ``dof_labels``, ``dof_nodes`` and ``node_coordinates``).
+    q : array_like, shape (..., N)
+        Degree-of-freedom vectors (nondimensional: displacements over the gap, rotations over gap / L).
+    s : array_like, shape (m,)
+        Nondimensional positions ``s / L`` in ``[0, 1]``.
+
+    Returns
+    -------
+    ndarray, shape (..., m)
+        Nondimensional displacement ``w / gap`` at ``s`` (constrained degrees of freedom are 0).
+    """
+    if structure.dof_labels is None or structure.dof_nodes is None or structure.node_coordinates is None:
+        raise ValueError("beam_deflection needs a structure from beam_structure (labels, nodes and coordinates)")
+    nodes = structure.node_coordinates
+    q = np.asarray(q, dtype=float)
+    s = np.asarray(s, dtype=float)
+    if q.shape[-1] != structure.n_dofs:
+        raise ValueError(f"q must have {structure.n_dofs} degrees of freedom on its last axis, got shape {q.shape}")
+    if s.ndim != 1 or np.any(s < nodes[0]) or np.any(s > nodes[-1]):
+        raise ValueError(f"s must be a 1-D array of positions in [{nodes[0]}, {nodes[-1]}]")
+    nodal = np.zeros(q.shape[:-1] + (len(nodes), 2))  # (w, theta) at every node, 0 where constrained
+    for k, (label, node) in enumerate(zip(structure.dof_labels, structure.dof_nodes)):
+        nodal[..., node, 0 if label.startswith("w") else 1] = q[..., k]
+    element = np.clip(np.searchsorted(nodes, s, side="right") - 1, 0, len(nodes) - 2)
+    h = nodes[element + 1] - nodes[element]
+    xi = (s - nodes[element]) / h
+    shape = np.stack([1 - 3 * xi**2 + 2 * xi**3, h * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3,
+                      h * (xi**3 - xi**2)])
+    left, right = nodal[..., element, :], nodal[..., element + 1, :]
+    return (shape[0] * left[..., 0] + shape[1] * left[..., 1] + shape[2] * right[..., 0]
+            + shape[3] * right[..., 1])
 
 
 # --------------------------------------------------------------------------- analytical frequencies
