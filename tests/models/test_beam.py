@@ -13,6 +13,7 @@ from nnmstop.models.beam import (
     beam_structure,
     default_tube_parameters,
     euler_bernoulli_frequencies,
+    mode_frequencies,
 )
 from nnmstop.models.structure import generalized_modes, linear_frequencies
 
@@ -43,6 +44,17 @@ def test_fe_frequencies_converge_at_fourth_order(left, right):
     observed_order = np.log2(errors[1] / errors[2])
     np.testing.assert_allclose(observed_order, 4.0, atol=0.15)
     assert np.all(np.abs(np.log2(errors[0] / errors[1]) - 4.0) < 0.3)
+
+
+def test_mode_frequencies_in_nondimensional_hz():
+    beam = Beam(LENGTH, EI, RHO_A, 16, "free", "free", stops=(BeamStop(1.0, 2.0, 1.0, node=3),))
+    frequencies = mode_frequencies(beam, 3)
+    np.testing.assert_allclose(frequencies["fe"][0], 1.0 / (2.0 * np.pi), rtol=1e-12)
+    # same physical frequencies as the convergence test's, divided by the same FE first frequency
+    exact = euler_bernoulli_frequencies("free", "free", 3, LENGTH, EI, RHO_A)
+    fe = _fe_frequencies("free", "free", 16, 3)
+    np.testing.assert_allclose(frequencies["euler_bernoulli"] / frequencies["fe"], exact / fe, rtol=1e-12)
+    assert np.all(frequencies["fe"] > frequencies["euler_bernoulli"])  # Rayleigh-Ritz: from above
 
 
 def test_pinned_pinned_frequencies_are_n_pi_squared():

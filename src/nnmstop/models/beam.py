@@ -29,6 +29,7 @@ __all__ = [
     "beam_structure",
     "beam_scales",
     "beam_deflection",
+    "mode_frequencies",
     "euler_bernoulli_frequencies",
     "rigid_body_modes",
     "default_tube_parameters",
@@ -383,6 +384,21 @@ def euler_bernoulli_frequencies(left_bc: str, right_bc: str, n_modes: int, lengt
         roots = np.array([scipy.optimize.brentq(fun, *bracket(k), xtol=1e-15, rtol=4 * np.finfo(float).eps)
                           for k in n])
     return roots**2 * np.sqrt(EI / (rhoA * length**4))
+
+
+def mode_frequencies(beam: Beam, n_modes: int) -> dict:
+    """Linear (no-contact) frequencies of the first ``n_modes`` flexible modes, FE and analytical, in Hz of the
+    nondimensional time of :func:`beam_structure` (mode 1 of the FE model is ``1 / (2 pi)``).
+
+    For dataset attributes: ``{"fe": ..., "euler_bernoulli": ...}``, arrays of shape ``(n_modes,)``; the
+    analytical ones are those of the continuous beam with the same end conditions, rigid-body modes left out.
+    """
+    rigid = rigid_body_modes(beam.left, beam.right)
+    structure = beam_structure(beam)
+    fe = linear_frequencies(structure, rigid + n_modes)[rigid:]
+    exact = euler_bernoulli_frequencies(beam.left, beam.right, n_modes, beam.length, beam.bending_stiffness,
+                                        beam.mass_per_length) / beam_scales(beam)["angular_frequency"]
+    return {"fe": fe / (2 * np.pi), "euler_bernoulli": exact / (2 * np.pi)}
 
 
 # --------------------------------------------------------------------------- default scene
