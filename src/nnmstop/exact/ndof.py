@@ -7,8 +7,9 @@ quarter period as in Section 3.1 of the paper: free flight ``M q'' + K q = 0`` f
 velocities vanish at ``T1``. Unknowns ``(b, tau1, T1)`` (N + 2, ``b`` the modal coordinates of ``v``),
 equations ``q_c(tau1) = g`` and ``qdot(T1) = 0`` (N + 1): one-parameter families, followed by pseudo-arclength
 continuation from a grazing linear mode. Each phase is linear, solved in closed form by its modes
-(:class:`PhaseFlow`: the matrix exponential of the 2N-dimensional first-order system, exact to round-off). Orbits are checked against the
-assumptions of the construction (:func:`assess_orbit`) and a family ends, at a located point, where one fails.
+(:class:`PhaseFlow`: the matrix exponential of the 2N-dimensional first-order system, exact to round-off).
+Orbits are checked against the assumptions of the construction (:func:`assess_orbit`) and a family ends, at a
+located point, where one fails.
 Not covered: several stops, orbits with several impacts per stop per period, non-synchronous orbits, the
 regularized law. Method notes: docs/methods/exact_ndof.md.
 """
