@@ -49,6 +49,18 @@ def test_phase_flow_is_the_matrix_exponential(small_beam):
     np.testing.assert_allclose(phase.state(z0, t), expected[:-1], atol=1e-9 * np.abs(expected).max())
 
 
+def test_grid_sampling_matches_the_trigonometric_form(small_beam):
+    # products of exponentials over two memory chunks (12 DOFs: 174,720 samples per chunk) against cosines and
+    # sines at the same times
+    problem = OneStopProblem(small_beam)
+    z0 = np.random.default_rng(1).standard_normal(2 * problem.n)
+    t, x, v = problem.contact.component_on_grid(z0, 2.0, 200001, problem.dof)
+    np.testing.assert_array_equal(t, np.linspace(0.0, 2.0, 200001))
+    x_ref, v_ref = problem.contact.component(z0, t, problem.dof)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=1e-13 * np.abs(x_ref).max())
+    np.testing.assert_allclose(v, v_ref, rtol=0, atol=1e-13 * np.abs(v_ref).max())
+
+
 def test_two_dof_structure_reproduces_the_two_dof_exact_family(paper_params):
     """Two codes, one family: the N-DOF solver on the 2-DOF structure against nnmstop.exact.two_impact."""
     old = follow_family(paper_params, step=0.05)
