@@ -184,6 +184,8 @@ def test_validation_names_the_value():
         grazing_orbit(problem, 5)
     with pytest.raises(ValueError, match=r"contact_time must be a finite number >= 0, got -1\.0"):
         orbit_at_contact_time(problem, -1.0)
+    with pytest.raises(ValueError, match=r"increment must be a finite number > 0, got 0\.0"):
+        orbit_at_contact_time(problem, 0.1, increment=0.0)
     with pytest.raises(ValueError, match=r"unknowns must be \(b_1..b_2, tau1, T1\), shape \(4,\), got \(3,\)"):
         problem.residual(np.zeros(3))
     with pytest.raises(ValueError, match="stiffness of a phase must be positive definite"):

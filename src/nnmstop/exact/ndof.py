@@ -377,18 +377,29 @@ def _solve_with(problem: OneStopProblem, seed, extra, extra_gradient, name: str,
     return y
 
 
-def orbit_at_contact_time(problem: OneStopProblem, contact_time: float, seed=None) -> np.ndarray:
+def orbit_at_contact_time(problem: OneStopProblem, contact_time: float, seed=None, mode: int = 0,
+                          increment: float = 0.01) -> np.ndarray:
     """The orbit whose quarter-period contact duration ``T1 - tau1`` is ``contact_time``.
 
-    Newton on the quarter-period equations plus that condition, from ``seed`` (the grazing orbit of the first
-    mode by default, which suits small contact times). Not checked: use :func:`assess_orbit`.
+    Newton on the quarter-period equations plus that condition. From ``seed`` when given; otherwise from the
+    grazing orbit of linear mode ``mode`` through contact times increasing by at most ``increment``, each
+    solution seeding the next (natural continuation: it fails past a fold of the contact time along the
+    family, where :func:`follow_one_stop_family` is the tool). Not checked: use :func:`assess_orbit`.
     """
     if not (np.isfinite(contact_time) and contact_time >= 0):
         raise ValueError(f"contact_time must be a finite number >= 0, got {contact_time!r}")
-    seed = grazing_orbit(problem) if seed is None else seed
+    if not (np.isfinite(increment) and increment > 0):
+        raise ValueError(f"increment must be a finite number > 0, got {increment!r}")
     gradient = np.zeros(problem.n_unknowns)
     gradient[-2:] = (-1.0, 1.0)
-    return _solve_with(problem, seed, lambda y: y[-1] - y[-2], lambda y: gradient, "contact_time", contact_time)
+    if seed is not None:
+        targets, y = [contact_time], seed
+    else:
+        n_steps = max(1, int(np.ceil(contact_time / increment)))
+        targets, y = np.linspace(0.0, contact_time, n_steps + 1)[1:], grazing_orbit(problem, mode)
+    for target in targets:
+        y = _solve_with(problem, y, lambda u: u[-1] - u[-2], lambda u: gradient, "contact_time", float(target))
+    return y
 
 
 def orbit_at_energy(problem: OneStopProblem, energy: float, seed) -> np.ndarray:
