@@ -88,6 +88,29 @@ def test_two_dof_structure_reproduces_the_two_dof_exact_family(paper_params):
     assert compared >= 0.8 * len(old.unknowns[::10])
 
 
+def test_a_passive_stop_ends_the_family_where_it_is_reached(paper_params):
+    """The 2-DOF oscillator with a second stop on u: far away it changes nothing; at gap 2 the family ends where
+    max |u| over the orbit reaches 2 (u moves 1.618 times x in the first linear mode, so it starts below 2)."""
+    base = two_dof_structure(paper_params)
+    alone = follow_one_stop_family(base, step=0.05)
+
+    def with_u_stop(gap):
+        stops = base.stops + (Stop(dof=1, gap=gap, stiffness=paper_params.alpha, eta=paper_params.eta),)
+        return Structure(base.mass, base.stiffness, stops)
+
+    far = follow_one_stop_family(with_u_stop(1e6), step=0.05)
+    assert far.end_margin == alone.end_margin
+    np.testing.assert_allclose(far.energy[-1], alone.energy[-1], rtol=1e-12)
+    near = follow_one_stop_family(with_u_stop(2.0), step=0.05)
+    assert near.end_margin == "other_stops"
+    assert near.energy[-1] < alone.energy.max()
+    # independent look at the end orbit: u on a fine grid of the exact time history touches 2 without passing it
+    problem = near.problem
+    y = near.unknowns[-1]
+    u = time_history(problem, y, np.linspace(0.0, 4.0 * y[-1], 400001)).q[:, 1]
+    assert 0.0 <= 2.0 - np.abs(u).max() < 1e-8
+
+
 def _integrate_nonsmooth(structure, z0, duration):
     """Non-smooth equations integrated region by region (free flight, contact right/left), switching at events
     |x_c| = gap; returns the final state and the list of (time, side) of the contact entries."""
@@ -177,8 +200,8 @@ def test_beam_family_from_grazing_ends_on_a_located_boundary(small_beam):
 
 def test_validation_names_the_value():
     stops = (Stop(0, 1.0, 30.0, 0.1), Stop(1, 1.0, 30.0, 0.1))
-    with pytest.raises(ValueError, match="exactly one stop, got 2"):
-        OneStopProblem(Structure(np.eye(2), np.diag([1.0, 2.0]), stops))
+    with pytest.raises(ValueError, match=r"stop_index must be an integer in \[0, 2\), got 2"):
+        OneStopProblem(Structure(np.eye(2), np.diag([1.0, 2.0]), stops), stop_index=2)
     problem = OneStopProblem(two_dof_structure(ModelParameters()))
     with pytest.raises(ValueError, match=r"mode must be in \[0, 2\), got 5"):
         grazing_orbit(problem, 5)

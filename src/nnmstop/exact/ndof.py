@@ -1,17 +1,17 @@
 """Exact non-smooth periodic orbits of an N-DOF structure with one bilateral stop, one impact per side per period.
 
-Covered: a :class:`~nnmstop.models.structure.Structure` with exactly **one** stop (degree of freedom ``c``, gap
-``g``, stiffness ``alpha``) and the piecewise-linear law; symmetric synchronous orbits (NNM-like) built from a
-quarter period as in Section 3.1 of the paper: free flight ``M q'' + K q = 0`` from ``q = 0`` with velocities
-``v`` until ``q_c = g`` at ``tau1``, then contact ``M q'' + (K + alpha e_c e_c^T) q = alpha g e_c`` until all
-velocities vanish at ``T1``. Unknowns ``(b, tau1, T1)`` (N + 2, ``b`` the modal coordinates of ``v``),
-equations ``q_c(tau1) = g`` and ``qdot(T1) = 0`` (N + 1): one-parameter families, followed by pseudo-arclength
-continuation from a grazing linear mode. Each phase is linear, solved in closed form by its modes
-(:class:`PhaseFlow`: the matrix exponential of the 2N-dimensional first-order system, exact to round-off).
-Orbits are checked against the assumptions of the construction (:func:`assess_orbit`) and a family ends, at a
-located point, where one fails.
-Not covered: several stops, orbits with several impacts per stop per period, non-synchronous orbits, the
-regularized law. Method notes: docs/methods/exact_ndof.md.
+Covered: a :class:`~nnmstop.models.structure.Structure` with **one struck** stop (degree of freedom ``c``, gap
+``g``, stiffness ``alpha``; any other stop must stay untouched, which is checked), the piecewise-linear law, and
+symmetric synchronous orbits (NNM-like) built from a quarter period as in Section 3.1 of the paper: free flight
+``M q'' + K q = 0`` from ``q = 0`` with velocities ``v`` until ``q_c = g`` at ``tau1``, then contact
+``M q'' + (K + alpha e_c e_c^T) q = alpha g e_c`` until all velocities vanish at ``T1``. Unknowns
+``(b, tau1, T1)`` (N + 2, ``b`` the modal coordinates of ``v``), equations ``q_c(tau1) = g`` and
+``qdot(T1) = 0`` (N + 1): one-parameter families, followed by pseudo-arclength continuation from a grazing
+linear mode. Each phase is linear, solved in closed form by its modes (:class:`PhaseFlow`: the matrix
+exponential of the 2N-dimensional first-order system, exact to round-off). Orbits are checked against the
+assumptions of the construction (:func:`assess_orbit`); a family ends, at a located point, where one fails.
+Not covered: orbits striking several stops or with several impacts per stop per period, non-synchronous
+orbits, the regularized law. Method notes: docs/methods/exact_ndof.md.
 """
 
 from __future__ import annotations
@@ -43,6 +43,11 @@ __all__ = [
 ]
 
 _ROUND_OFF = np.finfo(float).eps
+#: Why an orbit stops being admissible, by validity margin: those of the 2-DOF code and the passive stops.
+REASONS = {
+    **MARGIN_REASONS,
+    "other_stops": "the degree of freedom of a passive stop reaches its gap (that stop would be struck too)",
+}
 #: Grid density of the extremum search, in samples per period of the fastest mode of a phase.
 SAMPLES_PER_PERIOD = 64
 
@@ -167,16 +172,20 @@ class OneStopProblem:
     Parameters
     ----------
     structure : Structure
-        With exactly one stop and a positive definite stiffness.
+        With a positive definite stiffness.
+    stop_index : int
+        The stop that the orbits strike (index into ``structure.stops``). Any other stop is passive: the
+        orbits are those of the whole structure only while its degree of freedom stays inside its gap, which
+        :func:`assess_orbit` checks (margin ``other_stops``).
     """
 
-    def __init__(self, structure: Structure):
-        if len(structure.stops) != 1:
-            raise ValueError(
-                f"the exact one-stop construction needs a structure with exactly one stop, got {len(structure.stops)}"
-            )
+    def __init__(self, structure: Structure, stop_index: int = 0):
+        if isinstance(stop_index, bool) or not isinstance(stop_index, (int, np.integer)) \
+                or not 0 <= stop_index < len(structure.stops):
+            raise ValueError(f"stop_index must be an integer in [0, {len(structure.stops)}), got {stop_index!r}")
         self.structure = structure
-        (self.stop,) = structure.stops
+        self.stop = structure.stops[stop_index]
+        self.passive_stops = tuple(s for k, s in enumerate(structure.stops) if k != stop_index)
         self.dof, self.gap = self.stop.dof, self.stop.gap
         self.n = structure.n_dofs
         mass, stiffness = structure.dense_matrices()
@@ -301,10 +310,15 @@ def _interior_extreme(phase: PhaseFlow, z0, duration: float, dof: int, sign: flo
     idx = np.flatnonzero((v[:-1] > 0) & (v[1:] <= 0))
     edge = 1e-12 * max(duration, 1.0)
     best = None
+    def velocity(r):
+        return phase.component(z0, r, dof)[1]
+
     for i in idx[np.argsort(-np.maximum(x[idx], x[idx + 1]))[:3]]:
-        s = t[i + 1] if v[i + 1] == 0 else scipy.optimize.brentq(
-            lambda r: phase.component(z0, r, dof)[1], t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF
-        )
+        v_left, v_right = velocity(t[i]), velocity(t[i + 1])
+        if v_left * v_right > 0:  # a zero of the velocity at a grid point, seen with opposite round-off signs
+            s = t[i] if abs(v_left) < abs(v_right) else t[i + 1]
+        else:
+            s = scipy.optimize.brentq(velocity, t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF)
         if edge < s < duration - edge:
             value = sign * phase.component(z0, s, dof)[0]
             best = value if best is None else max(best, value)
@@ -316,7 +330,8 @@ def assess_orbit(problem: OneStopProblem, y) -> OneStopAssessment:
 
     ``free_flight_time`` tau1, ``contact_time`` T1 - tau1, ``entry_velocity`` qdot_c(tau1), ``early_impact``
     g - (largest interior maximum of q_c in free flight), ``opposite_stop`` g + (smallest q_c in free flight),
-    ``leaves_stop`` (smallest interior minimum of q_c in contact) - g, ``final_position`` q_c(T1) - g.
+    ``leaves_stop`` (smallest interior minimum of q_c in contact) - g, ``final_position`` q_c(T1) - g, and with
+    passive stops ``other_stops``: the smallest ``gap - max |q|`` over them (:data:`REASONS`).
     By the symmetries of the orbit the quarter period decides for the whole period.
     """
     y = problem.check(y)
@@ -332,8 +347,22 @@ def assess_orbit(problem: OneStopProblem, y) -> OneStopAssessment:
     contact_max = _interior_extreme(problem.contact, z1, quarter - tau1, c, 1.0)
     margins["leaves_stop"] = np.inf if contact_min is None else contact_min - g
     margins["final_position"] = z2[c] - g
+    if problem.passive_stops:
+        margins["other_stops"] = min(s.gap - _largest_magnitude(problem, y, s.dof) for s in problem.passive_stops)
     x_max = max(v for v in (z1[c], z2[c], free_max, contact_max) if v is not None)
     return OneStopAssessment({k: float(v) for k, v in margins.items()}, float(x_max))
+
+
+def _largest_magnitude(problem: OneStopProblem, y, dof: int) -> float:
+    """``max |q_dof|`` over the orbit (the quarter period decides): phase ends and interior extrema."""
+    z0, z1, z2 = problem.switch_states(y)
+    values = [abs(z1[dof]), abs(z2[dof])]
+    for phase, start, duration in ((problem.free, z0, y[-2]), (problem.contact, z1, y[-1] - y[-2])):
+        for sign in (1.0, -1.0):
+            extreme = _interior_extreme(phase, start, duration, dof, sign)
+            if extreme is not None:
+                values.append(abs(extreme))
+    return max(values)
 
 
 # --------------------------------------------------------------------------- single orbits
@@ -577,13 +606,13 @@ class OneStopFamily(FamilyTrace):
 
 
 def follow_one_stop_family(structure: Structure, step: float = 0.02, max_points: int = 2000, mode: int = 0,
-                           start=None, direction=None) -> OneStopFamily:
+                           start=None, direction=None, stop_index: int = 0) -> OneStopFamily:
     """Follow the family of one-stop orbits of ``structure`` from the grazing orbit of linear mode ``mode``.
 
     Parameters
     ----------
     structure : Structure
-        With exactly one stop.
+        Its stop ``stop_index`` is struck, the others must stay inside their gaps (see :class:`OneStopProblem`).
     step : float
         Nominal pseudo-arclength step in the unknowns ``(b, tau1, T1)``.
     max_points : int
@@ -594,14 +623,16 @@ def follow_one_stop_family(structure: Structure, step: float = 0.02, max_points:
         A first orbit ``(b, tau1, T1)`` instead of the grazing one.
     direction : array_like, optional
         Orientation of the first tangent; by default increasing contact duration.
+    stop_index : int
+        The struck stop.
     """
-    problem = OneStopProblem(structure)
+    problem = OneStopProblem(structure, stop_index)
     y0 = grazing_orbit(problem, mode) if start is None else problem.check(start)
     if direction is None:
         direction = np.zeros(problem.n_unknowns)
         direction[-2:] = (-1.0, 1.0)
     trace = continue_family(problem.residual, problem.jacobian, lambda y: assess_orbit(problem, y), y0, direction,
-                            step, max_points)
+                            step, max_points, reasons=REASONS)
     label = f"grazing orbit of linear mode {mode}" if start is None else "user-supplied orbit"
     return OneStopFamily(**vars(trace), problem=problem, start=label)
 
