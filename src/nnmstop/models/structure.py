@@ -1,10 +1,11 @@
-"""A linear structure with bilateral elastic stops: the input of the harmonic-balance engine.
+"""The structure as a parameter of the engines: mass, stiffness and the degrees of freedom that meet a stop.
 
-``M q'' + K q + sum_i e_i F_i(q_{d_i}) = 0``: mass and stiffness matrices of ``N`` degrees of
-freedom, and stops, each acting on one degree of freedom ``d_i`` with its gap, stiffness and
-regularization ``eta``. The paper's two-DOF oscillator is :func:`two_dof_structure`.
-
-(Minimal stand-in written by the engine branch; the finite-element branch owns this module.)
+A :class:`Structure` describes ``M q'' + K q + sum_s e_s f_s(q[dof_s]) = 0`` in nondimensional form: symmetric
+``M`` (positive definite) and ``K`` (dense or scipy.sparse), and one or more bilateral elastic stops
+(:class:`Stop`), each acting on one degree of freedom with its gap, stiffness ``alpha`` and regularization
+``eta``. The paper's oscillator is :func:`two_dof_structure`; a finite-element beam is built by
+:mod:`nnmstop.models.beam`. :func:`normal_modes` solves the generalized eigenproblem of the linear
+(no-contact) structure, densely for small models and by shift-invert Lanczos for large sparse ones.
 """
 
 from __future__ import annotations
@@ -12,15 +13,46 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
+import scipy.sparse
+import scipy.sparse.linalg
 
-from nnmstop.models.two_dof import ModelParameters
+from nnmstop.models.two_dof import ModelParameters, mass_matrix, stiffness_matrix
 
-__all__ = ["Stop", "Structure", "two_dof_structure"]
+__all__ = ["Stop", "Structure", "two_dof_structure", "generalized_modes", "normal_modes", "linear_frequencies"]
+
+#: Relative asymmetry ``max|A - A^T| / max|A|`` accepted as round-off.
+SYMMETRY_TOLERANCE = 1e-12
+#: Largest model solved by dense ``eigh`` in :func:`normal_modes`; sparse shift-invert above.
+DENSE_EIGEN_LIMIT = 400
+
+
+def _real_number(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    if not np.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True)
 class Stop:
-    """A bilateral elastic stop on degree of freedom ``dof``: gap, stiffness and regularization ``eta``."""
+    """A bilateral elastic stop acting on one degree of freedom.
+
+    The piecewise-linear force is ``stiffness (x - sgn(x) gap)`` for ``|x| > gap`` and 0 inside the gap
+    (Eq. 4 with a gap that need not be 1); the regularized law of Eq. (5) uses ``eta``.
+
+    Parameters
+    ----------
+    dof : int
+        Index of the degree of freedom ``x`` that meets the stop (>= 0).
+    gap : float
+        Clearance (> 0).
+    stiffness : float
+        Stop stiffness ``alpha`` (> 0).
+    eta : float
+        Regularization stiffness, ``0 < eta < stiffness``.
+    """
 
     dof: int
     gap: float
@@ -28,55 +60,217 @@ class Stop:
     eta: float
 
     def __post_init__(self):
-        if not isinstance(self.dof, (int, np.integer)) or isinstance(self.dof, bool) or self.dof < 0:
-            raise ValueError(f"stop dof must be an integer >= 0, got {self.dof!r}")
+        if isinstance(self.dof, bool) or not isinstance(self.dof, (int, np.integer)):
+            raise TypeError(f"stop dof must be an integer, got {self.dof!r}")
+        if self.dof < 0:
+            raise ValueError(f"stop dof must be >= 0, got {self.dof!r}")
+        object.__setattr__(self, "dof", int(self.dof))
         for name in ("gap", "stiffness", "eta"):
-            value = getattr(self, name)
-            if not np.isfinite(value) or value <= 0:
-                raise ValueError(f"stop {name} must be finite and > 0, got {value!r}")
+            value = _real_number(f"stop {name}", getattr(self, name))
+            if value <= 0:
+                raise ValueError(f"stop {name} must be > 0, got {value!r}")
+            object.__setattr__(self, name, value)
         if self.eta >= self.stiffness:
-            raise ValueError(f"stop eta must be smaller than its stiffness, got eta={self.eta!r} >= {self.stiffness!r}")
+            raise ValueError(
+                f"stop eta must be smaller than its stiffness alpha (0 < eta < alpha), got eta={self.eta!r} "
+                f">= alpha={self.stiffness!r}"
+            )
+
+    def piecewise_force(self, x):
+        """Piecewise-linear force ``alpha (x - sgn(x) gap)`` beyond the gap, 0 inside."""
+        x = np.asarray(x, dtype=float)
+        return self.stiffness * np.sign(x) * np.maximum(np.abs(x) - self.gap, 0.0)
+
+    def piecewise_potential(self, x):
+        """Potential of :meth:`piecewise_force`: ``alpha/2 (|x| - gap)**2`` beyond the gap."""
+        x = np.asarray(x, dtype=float)
+        return 0.5 * self.stiffness * np.maximum(np.abs(x) - self.gap, 0.0) ** 2
+
+
+def _square_matrix(name: str, matrix):
+    """Float CSR or dense copy of ``matrix``, checked square, finite and symmetric."""
+    if scipy.sparse.issparse(matrix):
+        matrix = scipy.sparse.csr_matrix(matrix, dtype=float)
+        values = matrix.data
+    else:
+        matrix = np.array(matrix, dtype=float)
+        values = matrix
+    if matrix.ndim != 2 or matrix.shape[0] != matrix.shape[1] or matrix.shape[0] == 0:
+        raise ValueError(f"{name} must be a non-empty square matrix, got shape {matrix.shape}")
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{name} must be finite")
+    scale = np.abs(values).max() if values.size else 0.0
+    asym = abs(matrix - matrix.T)
+    asym = asym.max() if scipy.sparse.issparse(asym) else np.max(asym)
+    if asym > SYMMETRY_TOLERANCE * scale:
+        raise ValueError(
+            f"{name} must be symmetric to round-off, got max|A - A^T| = {asym:.3e} for max|A| = {scale:.3e}"
+        )
+    return matrix
+
+
+def _lower_band(matrix) -> np.ndarray:
+    """Lower banded storage (rows = diagonals) of a symmetric matrix, for ``scipy.linalg.cholesky_banded``."""
+    coo = scipy.sparse.coo_matrix(matrix)
+    lower = coo.row >= coo.col
+    rows, cols, vals = coo.row[lower], coo.col[lower], coo.data[lower]
+    width = int((rows - cols).max()) if rows.size else 0
+    band = np.zeros((width + 1, matrix.shape[0]))
+    np.add.at(band, (rows - cols, cols), vals)
+    return band
+
+
+def _check_positive_definite(name: str, matrix) -> None:
+    try:
+        scipy.linalg.cholesky_banded(_lower_band(matrix), lower=True)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{name} must be positive definite (its Cholesky factorization fails)") from None
 
 
 @dataclass(frozen=True, eq=False)
 class Structure:
-    """Mass and stiffness matrices (``N x N``, dense or scipy.sparse) and the stops."""
+    """Mass, stiffness and stops of ``M q'' + K q + sum_s e_s f_s(q[dof_s]) = 0`` (nondimensional).
+
+    Parameters
+    ----------
+    mass, stiffness : ndarray or scipy.sparse matrix, shape (N, N)
+        Symmetric to round-off; ``mass`` positive definite. Sparse input is kept as CSR.
+    stops : sequence of Stop
+        At least one, on distinct degrees of freedom in ``[0, N)``.
+    dof_labels : sequence of str, optional
+        A name for each degree of freedom (``N`` of them), for datasets.
+    node_coordinates : array_like, optional
+        Coordinates of the mesh nodes (finite-element models), for datasets.
+    dof_nodes : sequence of int, optional
+        Node index of each degree of freedom (``N`` of them), into ``node_coordinates``.
+    """
 
     mass: object
     stiffness: object
     stops: tuple
+    dof_labels: tuple | None = None
+    node_coordinates: np.ndarray | None = None
+    dof_nodes: tuple | None = None
 
     def __post_init__(self):
-        n = self.mass.shape[0]
-        for name in ("mass", "stiffness"):
-            shape = getattr(self, name).shape
-            if shape != (n, n):
-                raise ValueError(f"{name} must be square {n} x {n}, got shape {shape}")
-        object.__setattr__(self, "stops", tuple(self.stops))
-        if not self.stops:
-            raise ValueError("a structure needs at least one stop")
-        for stop in self.stops:
+        mass = _square_matrix("mass", self.mass)
+        stiffness = _square_matrix("stiffness", self.stiffness)
+        if mass.shape != stiffness.shape:
+            raise ValueError(f"mass and stiffness must have the same shape, got {mass.shape} and {stiffness.shape}")
+        _check_positive_definite("mass", mass)
+        object.__setattr__(self, "mass", mass)
+        object.__setattr__(self, "stiffness", stiffness)
+        n = mass.shape[0]
+        stops = (self.stops,) if isinstance(self.stops, Stop) else tuple(self.stops)
+        if not stops:
+            raise ValueError("a structure needs at least one stop, got none")
+        for stop in stops:
+            if not isinstance(stop, Stop):
+                raise TypeError(f"stops must be Stop instances, got {stop!r}")
             if stop.dof >= n:
-                raise ValueError(f"stop on dof {stop.dof} is off the structure's {n} degrees of freedom")
-        if len(set(self.stop_dofs)) != len(self.stops):
-            raise ValueError(f"at most one stop per degree of freedom, got dofs {self.stop_dofs}")
+                raise ValueError(f"stop dof {stop.dof} is out of range for {n} degrees of freedom (0..{n - 1})")
+        dofs = [s.dof for s in stops]
+        if len(set(dofs)) != len(dofs):
+            raise ValueError(f"stops must act on distinct degrees of freedom, got dofs {dofs}")
+        object.__setattr__(self, "stops", stops)
+        if self.dof_labels is not None:
+            labels = tuple(str(s) for s in self.dof_labels)
+            if len(labels) != n:
+                raise ValueError(f"dof_labels must name the {n} degrees of freedom, got {len(labels)} labels")
+            object.__setattr__(self, "dof_labels", labels)
+        if self.node_coordinates is not None:
+            coords = np.array(self.node_coordinates, dtype=float)
+            if coords.ndim != 1 or not np.all(np.isfinite(coords)):
+                raise ValueError(f"node_coordinates must be a finite 1-D array, got shape {coords.shape}")
+            coords.setflags(write=False)
+            object.__setattr__(self, "node_coordinates", coords)
+        if self.dof_nodes is not None:
+            nodes = tuple(int(k) for k in self.dof_nodes)
+            n_nodes = None if self.node_coordinates is None else len(self.node_coordinates)
+            if len(nodes) != n or (n_nodes is not None and any(not 0 <= k < n_nodes for k in nodes)):
+                raise ValueError(f"dof_nodes must give a valid node index for each of the {n} degrees of freedom")
+            object.__setattr__(self, "dof_nodes", nodes)
 
     @property
     def n_dofs(self) -> int:
         """Number of degrees of freedom ``N``."""
-        return int(self.mass.shape[0])
+        return self.mass.shape[0]
 
     @property
     def stop_dofs(self) -> tuple:
         """Degree of freedom of each stop, in the order of ``stops``."""
-        return tuple(int(stop.dof) for stop in self.stops)
+        return tuple(s.dof for s in self.stops)
+
+    @property
+    def is_sparse(self) -> bool:
+        """Whether the matrices are stored sparse."""
+        return scipy.sparse.issparse(self.mass)
+
+    def dense_matrices(self) -> tuple:
+        """``(M, K)`` as dense arrays (copies)."""
+        return tuple(a.toarray() if scipy.sparse.issparse(a) else a.copy() for a in (self.mass, self.stiffness))
 
 
 def two_dof_structure(params: ModelParameters) -> Structure:
-    """The paper's oscillator: ``diag(1, delta)``, ``[[1+beta, -beta], [-beta, beta]]``, a stop on x, gap 1."""
-    b = params.beta
-    return Structure(
-        mass=np.diag([1.0, params.delta]),
-        stiffness=np.array([[1.0 + b, -b], [-b, b]]),
-        stops=(Stop(dof=0, gap=1.0, stiffness=params.alpha, eta=params.eta),),
-    )
+    """The paper's oscillator (Eqs. 3-4) as a :class:`Structure`.
+
+    ``q = (x, u)``, ``M = diag(1, delta)``, ``K = [[1 + beta, -beta], [-beta, beta]]`` and one stop on ``x``
+    with gap 1, stiffness ``alpha`` and regularization ``eta``.
+    """
+    stop = Stop(dof=0, gap=1.0, stiffness=params.alpha, eta=params.eta)
+    return Structure(mass_matrix(params), stiffness_matrix(params), (stop,), dof_labels=("x", "u"))
+
+
+def generalized_modes(mass, stiffness, n_modes: int):
+    """The ``n_modes`` lowest solutions of ``K phi = omega**2 M phi`` (``M``, ``K`` dense or sparse, symmetric).
+
+    Both paths solve for the largest ``1 / (lambda - sigma)`` (``sigma = 0``, or a small negative shift when
+    ``K`` is singular): dense ``eigh`` up to :data:`DENSE_EIGEN_LIMIT` degrees of freedom, shift-invert Lanczos
+    (``eigsh``) on sparse matrices above.
+
+    Returns
+    -------
+    omega : ndarray, shape (n_modes,)
+        Increasing angular frequencies (rad per unit time); rigid-body modes give 0 up to round-off.
+    shapes : ndarray, shape (N, n_modes)
+        Mass-normalized mode shapes (``Phi^T M Phi = I``).
+    """
+    n = mass.shape[0]
+    if isinstance(n_modes, bool) or not isinstance(n_modes, (int, np.integer)) or not 1 <= n_modes <= n:
+        raise ValueError(f"n_modes must be an integer in [1, {n}], got {n_modes!r}")
+    # Solve the inverse problem M phi = mu (K - sigma M) phi for its largest mu = 1 / (lambda - sigma): the
+    # round-off on the low lambda is then relative to lambda itself, not to the largest eigenvalue as in a
+    # direct solve (which loses about lambda_max / lambda_1 in relative accuracy: 1e-5 at 400 beam DOFs).
+    # sigma = 0 when K is positive definite, a small negative shift when it has rigid-body modes.
+    try:
+        scipy.linalg.cholesky_banded(_lower_band(stiffness), lower=True)
+        sigma = 0.0
+    except np.linalg.LinAlgError:
+        diag_k = stiffness.diagonal() if scipy.sparse.issparse(stiffness) else np.diag(stiffness)
+        diag_m = mass.diagonal() if scipy.sparse.issparse(mass) else np.diag(mass)
+        sigma = -1e-6 * np.abs(diag_k).max() / diag_m.max()
+    sparse = scipy.sparse.issparse(mass) and scipy.sparse.issparse(stiffness)
+    if not sparse or n <= DENSE_EIGEN_LIMIT or n_modes >= n - 1:
+        mass, stiffness = (a.toarray() if scipy.sparse.issparse(a) else np.asarray(a) for a in (mass, stiffness))
+        mu, shapes = scipy.linalg.eigh(mass, stiffness - sigma * mass, subset_by_index=[n - n_modes, n - 1])
+        mu, shapes = mu[::-1], shapes[:, ::-1]
+        lam = sigma + 1.0 / mu
+    else:
+        mass, stiffness = scipy.sparse.csc_matrix(mass), scipy.sparse.csc_matrix(stiffness)
+        lam, shapes = scipy.sparse.linalg.eigsh(stiffness, k=n_modes, M=mass, sigma=sigma, which="LM")
+        order = np.argsort(lam)
+        lam, shapes = lam[order], shapes[:, order]
+    shapes = shapes / np.sqrt(np.einsum("ij,ij->j", shapes, mass @ shapes))
+    # Rigid-body modes have eigenvalue 0 up to round-off of the order of eps ||K|| ||M^-1||; clip the
+    # negative ones.
+    return np.sqrt(np.maximum(lam, 0.0)), shapes
+
+
+def normal_modes(structure: Structure, n_modes: int):
+    """The ``n_modes`` lowest linear (no-contact) modes of ``structure``, see :func:`generalized_modes`."""
+    return generalized_modes(structure.mass, structure.stiffness, n_modes)
+
+
+def linear_frequencies(structure: Structure, n_modes: int) -> np.ndarray:
+    """Angular frequencies (rad per unit time) of the ``n_modes`` lowest linear modes, see :func:`normal_modes`."""
+    return normal_modes(structure, n_modes)[0]
