@@ -17,7 +17,8 @@ from nnmstop.exact.ndof import (
     piecewise_energy,
     time_history,
 )
-from nnmstop.exact.two_impact import TwoImpactProblem, follow_family
+from nnmstop.exact.family import follow_two_impact_family as follow_family
+from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.models.beam import Beam, BeamStop, beam_structure
 from nnmstop.models.structure import Stop, Structure, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
@@ -62,7 +63,7 @@ def test_grid_sampling_matches_the_trigonometric_form(small_beam):
 
 
 def test_two_dof_structure_reproduces_the_two_dof_exact_family(paper_params):
-    """Two codes, one family: the N-DOF solver on the 2-DOF structure against nnmstop.exact.two_impact."""
+    """Two codes, one family: the N-DOF solver on the 2-DOF structure against nnmstop.exact.family."""
     old = follow_family(paper_params, step=0.05)
     new = follow_one_stop_family(two_dof_structure(paper_params), step=0.05)
     problem = new.problem

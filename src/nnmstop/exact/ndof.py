@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.optimize
 
-from nnmstop.exact.two_impact import MARGIN_REASONS, MarginChecks
+from nnmstop.exact.grazing import TWO_IMPACT_MARGINS, MarginChecks
 from nnmstop.models.structure import Structure, generalized_modes
 
 __all__ = [
@@ -47,7 +47,7 @@ __all__ = [
 _ROUND_OFF = np.finfo(float).eps
 #: Why an orbit stops being admissible, by validity margin: those of the 2-DOF code and the passive stops.
 REASONS = {
-    **MARGIN_REASONS,
+    **TWO_IMPACT_MARGINS,
     "other_stops": "the degree of freedom of a passive stop reaches its gap (that stop would be struck too)",
 }
 #: Grid density of the extremum search, in samples per period of the fastest mode of a phase.
@@ -283,7 +283,7 @@ def grazing_orbit(problem: OneStopProblem, mode: int = 0) -> np.ndarray:
 
 @dataclass(frozen=True)
 class OneStopAssessment(MarginChecks):
-    """Validity margins (names and meanings of :data:`nnmstop.exact.two_impact.MARGIN_REASONS`, with ``x`` the
+    """Validity margins (names and meanings of :data:`nnmstop.exact.grazing.TWO_IMPACT_MARGINS`, with ``x`` the
     stop degree of freedom and 1 its gap) and the maximum ``x_max`` of the stop degree of freedom."""
 
     margins: dict
@@ -497,7 +497,7 @@ class FamilyTrace:
 
 
 def continue_family(residual, jacobian, assess, y0, direction, step: float, max_points: int,
-                    min_step_ratio: float = 1e-6, reasons: dict = MARGIN_REASONS) -> FamilyTrace:
+                    min_step_ratio: float = 1e-6, reasons: dict = TWO_IMPACT_MARGINS) -> FamilyTrace:
     """Pseudo-arclength continuation of ``residual(y) = 0`` (m equations, m + 1 unknowns) with validity checks.
 
     Generic in the problem: ``assess(y)`` returns an object with ``valid`` and ``violated`` (a
