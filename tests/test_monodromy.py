@@ -3,8 +3,11 @@
 References: the closed-form Floquet multipliers of the linear limit, Hill's method
 (a different discretization of the same linearization), the monodromy of an exact
 periodic orbit of (7) integrated by DOP853 (shooting-refined, nnmstop.stability),
-and the symplecticity of the flow of a Hamiltonian linear system. Small H = 40
-branches keep the module cheap.
+and the symplecticity of the flow of a Hamiltonian linear system. The shooting
+refinement (nnmstop.shooting_refinement) of the orbits whose own error decides the
+verdict is checked against the same DOP853 integrator (periodicity and multipliers of
+the refined orbit) and against the growth of a perturbation of an orbit it finds
+unstable. Small H = 40 branches keep the module cheap.
 """
 
 import copy
@@ -17,6 +20,7 @@ from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.hbm import HarmonicBalanceSystem
 from nnmstop.model import ModelParameters
 from nnmstop.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
+from nnmstop.shooting_refinement import refined_stability
 from nnmstop.stability import branch_stability, monodromy, orbit_initial_state, refine_orbit
 
 H_BRANCH = 40
@@ -92,11 +96,78 @@ def test_agrees_with_hill_where_both_resolve(verdicts):
 def test_every_orbit_gets_a_verdict_with_a_reason(verdicts):
     mono, _ = verdicts
     F = mono.settings.resolution_factor
-    unresolved = ~mono.resolved
+    hbm = ~mono.refined
     limit = F * np.maximum(mono.integration_error, mono.orbit_error)
-    assert np.all((mono.margin <= limit)[unresolved])
-    assert np.all((mono.margin > limit)[mono.resolved])
-    assert np.all(np.isin(mono.reason[unresolved], [1, 2]))
+    assert np.all((mono.margin <= limit)[hbm & ~mono.resolved])
+    assert np.all((mono.margin > limit)[hbm & mono.resolved])
+    assert np.all(np.isin(mono.reason[hbm & ~mono.resolved], [1, 2]))
+    # Refined orbits: the margin against their own (integration and closure) errors.
+    refined_limit = np.maximum(F * np.maximum(mono.integration_error, mono.refined_residual), mono.settings.trace_tol)
+    assert np.all(np.isin(mono.reason[mono.refined], [3, 4, 5]))
+    assert np.all((mono.margin > refined_limit)[mono.reason == 3])
+    assert np.all((mono.margin <= refined_limit)[mono.reason == 5])
+
+
+def test_refinement_replaces_every_orbit_error_verdict(system, nnm1, verdicts):
+    """Every orbit whose own error decides the verdict (reason 2 without refinement) is refined."""
+    mono, _ = verdicts
+    plain = branch_monodromy(system, nnm1, MonodromySettings(refine=False))
+    assert np.any(plain.reason == 2)
+    np.testing.assert_array_equal(mono.refined, plain.reason == 2)
+    assert not np.any(mono.reason == 2)
+    np.testing.assert_array_equal(mono.invariant[~mono.refined], plain.invariant[~mono.refined])
+
+
+@pytest.fixture(scope="module")
+def refined(system, nnm1):
+    """The orbits left to their own error by the HBM monodromy, refined by shooting."""
+    plain = branch_monodromy(system, nnm1, MonodromySettings(refine=False))
+    idx = np.flatnonzero(plain.reason == 2)
+    s = MonodromySettings()
+    r = refined_stability(system, nnm1[idx], s.refine_steps, s.refine_max_steps, s.refine_tol, s.resolution_factor,
+                          s.refine_max_change, floor=s.trace_tol)
+    assert np.all(r.converged)
+    return r
+
+
+def test_refined_orbits_match_adaptive_integration(system, refined):
+    """DOP853 over a whole period (an independent integrator, no symmetry used) from the refined start:
+    the orbit closes, and the multipliers of its monodromy match, within the two integrators' errors."""
+    stable = np.abs(refined.invariant) <= 2
+    assert stable.any() and (~stable).any()
+    picks = [int(np.argmax(np.where(stable, np.abs(refined.invariant - 2), -1))),
+             int(np.argmax(np.where(~stable, np.abs(refined.invariant - 2), -1)))]
+    for i in picks:
+        z = np.r_[refined.start[i], 0.0, 0.0]
+        coarse = monodromy(system.params, z, refined.period[i], rtol=1e-12, atol=1e-12)
+        fine = monodromy(system.params, z, refined.period[i], rtol=1e-13, atol=1e-13)
+        assert fine.closure < 1e-8
+        # Trivial pair at +1 on a periodic orbit: s = tr M - 2 (reference error from its two tolerances).
+        s_coarse, s_fine = np.trace(coarse.matrix) - 2.0, np.trace(fine.matrix) - 2.0
+        assert abs(refined.invariant[i] - s_fine) <= 2 * refined.integration_error[i] + abs(s_fine - s_coarse) + 1e-10
+        assert (abs(s_fine) <= 2) == stable[i]
+
+
+def test_unstable_refined_orbit_perturbation_grows_like_its_multiplier(system, refined):
+    """A small perturbation along the unstable direction, integrated through the nonlinear equations (7)
+    period after period (DOP853), grows by the refined orbit's multiplier mu = s/2 + sqrt(s**2/4 - 1)."""
+    unstable = np.flatnonzero(np.abs(refined.invariant) > 2)
+    i = int(unstable[np.argmax(refined.invariant[unstable])])
+    s = refined.invariant[i]
+    mu = s / 2 + np.sqrt(s * s / 4 - 1)
+    assert mu > 1.05  # growth measurable in a few periods
+    z0 = np.r_[refined.start[i], 0.0, 0.0]
+    T = refined.period[i]
+    ref = monodromy(system.params, z0, T)
+    w, V = np.linalg.eig(ref.matrix)
+    v = V[:, np.argmax(np.abs(w))].real
+    delta = 1e-6 * np.abs(z0).max()
+    z = z0 + delta * v / np.linalg.norm(v)
+    periods = 6
+    for _ in range(periods):
+        z = monodromy(system.params, z, T).final_state
+    growth = np.linalg.norm(z - z0) / delta
+    assert abs(np.log(growth) / periods - np.log(mu)) < 0.02 * np.log(mu) + 1e-3
 
 
 def test_matches_integrated_monodromy_of_refined_orbits(system, nnm1, verdicts):
@@ -135,7 +206,8 @@ def test_config_selects_the_method(config, system, nnm1):
 
 @pytest.mark.parametrize(
     "key, value",
-    [("method", "shooting"), ("steps", 100), ("max_steps", 64), ("trace_tol", -1.0), ("resolution_factor", 0.5)],
+    [("method", "shooting"), ("steps", 100), ("max_steps", 64), ("trace_tol", -1.0), ("resolution_factor", 0.5),
+     ("refine", "yes"), ("refine_steps", 100), ("refine_tol", 0.0), ("refine_max_change", 1.0)],
 )
 def test_bad_stability_config_is_named(key, value):
     c = copy.deepcopy(load_config("config/config.yaml"))
@@ -149,3 +221,7 @@ def test_bad_settings():
         MonodromySettings(steps=100)
     with pytest.raises(ValueError, match="max_steps"):
         MonodromySettings(steps=512, max_steps=256)
+    with pytest.raises(ValueError, match="refine_max_steps"):
+        MonodromySettings(refine_steps=256, refine_max_steps=256)
+    with pytest.raises(ValueError, match="refine_tol"):
+        MonodromySettings(refine_tol=1e-3)
