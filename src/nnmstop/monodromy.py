@@ -11,6 +11,7 @@ refines the orbit by shooting (:mod:`nnmstop.shooting_refinement`). Hill's metho
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 
@@ -31,6 +32,8 @@ __all__ = [
     "orbit_monodromy",
     "branch_monodromy",
 ]
+
+logger = logging.getLogger(__name__)
 
 # Codes of `stability_reason`: why a verdict is resolved or not (dataset flag values).
 # 3-5 only where the HBM orbit's error decided (2) and the orbit was refined by shooting.
@@ -365,9 +368,10 @@ class BranchMonodromy:
         ``integration_error`` and ``steps`` are those of the refined orbit.
     refined_frequency_change, refined_energy_change : ndarray
         Relative change of the frequency and of the energy (at ``t = 0``) from the HBM
-        orbit to the refined one (NaN where not refined or not converged).
+        orbit to the refined one (0 where not refined or not converged).
     refined_residual : ndarray
-        Closure of the shooting conditions relative to the amplitude (NaN where not refined).
+        Closure of the shooting conditions relative to the amplitude (0 where not
+        refined, 1 where the shooting diverged at once).
     refine_seconds : float
         Time spent refining.
     """
@@ -394,7 +398,7 @@ class BranchMonodromy:
         n = len(self.reason)
         for name in ("refined_frequency_change", "refined_energy_change", "refined_residual"):
             if getattr(self, name) is None:
-                setattr(self, name, np.full(n, np.nan))
+                setattr(self, name, np.zeros(n))
         if self.refined is None:
             self.refined = np.zeros(n, dtype=bool)
 
@@ -457,13 +461,13 @@ class BranchMonodromy:
             ),
             "stability_refined_frequency_change": ("point", self.refined_frequency_change, {
                 "long_name": "relative change of the frequency from the HBM orbit to the shooting-refined orbit "
-                "(NaN where not refined or not converged)", "units": "1"}),
+                "(0 where stability_refined = 0 or stability_reason = 4)", "units": "1"}),
             "stability_refined_energy_change": ("point", self.refined_energy_change, {
                 "long_name": "relative change of the energy at t = 0 (start at rest) from the HBM orbit to the "
-                "shooting-refined orbit (NaN where not refined or not converged)", "units": "1"}),
+                "shooting-refined orbit (0 where stability_refined = 0 or stability_reason = 4)", "units": "1"}),
             "stability_refined_residual": ("point", self.refined_residual, {
                 "long_name": "closure of the shooting conditions x = u = 0 at a quarter period relative to the "
-                "amplitude (NaN where not refined)", "units": "1"}),
+                "amplitude (0 where stability_refined = 0; 1 where the shooting diverged at once)", "units": "1"}),
         }
 
 
@@ -562,7 +566,7 @@ def _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings: 
     n = len(s)
     out = {"refined": np.zeros(n, dtype=bool)}
     for name in ("refined_frequency_change", "refined_energy_change", "refined_residual"):
-        out[name] = np.full(n, np.nan)
+        out[name] = np.zeros(n)
     candidates = np.flatnonzero((reason == 2) & halfwave) if settings.refine else np.array([], dtype=int)
     idx = np.array([i for i in candidates if is_reversible(system, U_array[i])], dtype=int)
     if not len(idx):
@@ -579,15 +583,19 @@ def _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings: 
     margin[done] = np.abs(s[done] - 2.0)  # half-wave symmetric: the pair changes type only at +1
     # Error of the refined s: the integration error, and the orbit's closure error (which moves s by
     # about as much, as the HBM orbit's time residual does); a margin below trace_tol is a pair at +1.
-    bound = F * np.maximum(err[done], r.residual[ok])
+    bound = F * np.maximum(err[done], r.residual[ok])  # converged: both finite
     resolved = margin[done] > np.maximum(bound, settings.trace_tol)
     reason[done] = np.where(resolved, 3, 5)
     reason[idx[~ok]] = 4
     out["refined"][idx] = True
-    out["refined_residual"][idx] = r.residual
+    out["refined_residual"][idx] = np.where(np.isfinite(r.residual), r.residual, 1.0)
     out["refined_frequency_change"][done] = r.initial_period[ok] / r.period[ok] - 1.0
     out["refined_energy_change"][done] = r.energy[ok] / r.initial_energy[ok] - 1.0
     out["refine_seconds"] = time.perf_counter() - start
+    logger.info(
+        "refined %d orbits by shooting in %.2f s: %d resolved, %d at a type change, %d not converged",
+        len(idx), out["refine_seconds"], np.sum(reason[idx] == 3), np.sum(reason[idx] == 5), np.sum(reason[idx] == 4),
+    )
     return out
 
 
