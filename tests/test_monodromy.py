@@ -7,10 +7,12 @@ and the symplecticity of the flow of a Hamiltonian linear system. The shooting
 refinement (nnmstop.shooting_refinement) of the orbits whose own error decides the
 verdict is checked against the same DOP853 integrator (periodicity and multipliers of
 the refined orbit) and against the growth of a perturbation of an orbit it finds
-unstable. Small H = 40 branches keep the module cheap.
+unstable, and against the exact multipliers of the non-smooth model as eta -> 0. Small
+H = 40 branches keep the module cheap.
 """
 
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
@@ -20,7 +22,9 @@ from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.hbm import HarmonicBalanceSystem
 from nnmstop.model import ModelParameters
 from nnmstop.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
-from nnmstop.shooting_refinement import refined_stability
+from nnmstop.exact import follow_family, time_history
+from nnmstop.exact_stability import exact_multipliers
+from nnmstop.shooting_refinement import refined_stability, shooting_stability
 from nnmstop.stability import branch_stability, monodromy, orbit_initial_state, refine_orbit
 
 H_BRANCH = 40
@@ -225,3 +229,29 @@ def test_bad_settings():
         MonodromySettings(refine_steps=256, refine_max_steps=256)
     with pytest.raises(ValueError, match="refine_tol"):
         MonodromySettings(refine_tol=1e-3)
+
+
+def test_refined_multipliers_tend_to_the_exact_ones_as_eta_vanishes():
+    """As eta -> 0 the regularized force tends to the piecewise-linear law: the periodic orbit of (7)
+    found by shooting from an exact two-impact orbit (no HBM involved) has a Floquet invariant tending
+    to the exact one (product of the phase exponentials, nnmstop.exact_stability), to first order in eta."""
+    base = ModelParameters()
+    family = follow_family(base, step=0.25, max_points=400)
+    y = family.unknowns[int(np.argmin(np.abs(np.asarray(family.energy) - 5.0)))]  # (xdot0, udot0, tau1, T1)
+    exact = exact_multipliers(base, "FR", [y[2], y[3] - y[2]])
+    period = 4.0 * y[3]
+    theta = np.linspace(0.0, 0.5 * np.pi, 2049)
+    s = MonodromySettings()
+    errors = []
+    for eta in (1e-2, 1e-3, 1e-4):
+        params = dataclasses.replace(base, eta=eta)
+        orbit = time_history(y, params, y[3] + theta * period / (2 * np.pi))  # from the turning point, at rest
+        r = shooting_stability(params, [[orbit.x[0], orbit.u[0]]], [period], orbit.x[None],
+                               (orbit.xdot * period / (2 * np.pi))[None], s.refine_steps, s.refine_max_steps,
+                               s.refine_tol, s.resolution_factor, s.refine_max_change)
+        assert r.converged[0]
+        assert (abs(r.invariant[0]) <= 2) == exact.stable
+        errors.append(abs(r.invariant[0] - exact.trace_invariant))
+    # First order: the error falls by about 10 per decade of eta (between orders 0.7 and 1.3).
+    assert all(0.05 < later / earlier < 0.2 for earlier, later in zip(errors, errors[1:]))
+    assert errors[-1] < 1e-3

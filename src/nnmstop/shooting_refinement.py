@@ -22,7 +22,7 @@ from scipy.integrate._ivp import dop853_coefficients as _dop853
 from .model import ModelParameters, regularized_contact_force, regularized_contact_potential
 from .stability import orbit_initial_state
 
-__all__ = ["RefinedStability", "quarter_period_flow", "step_phases", "shoot", "refined_stability"]
+__all__ = ["RefinedStability", "quarter_period_flow", "step_phases", "shoot", "refined_stability", "shooting_stability"]
 
 _STAGES = _dop853.N_STAGES
 _A = np.asarray(_dop853.A[:_STAGES, :_STAGES], dtype=float)
@@ -231,7 +231,7 @@ class RefinedStability:
     period, energy : ndarray
         Period and energy of the refined orbits.
     initial_period, initial_energy : ndarray
-        The same for the HBM orbits (energy of their state at ``t = 0``, the start of the shooting).
+        The same for the start orbits (energy of their state at ``t = 0``).
     """
 
     invariant: np.ndarray
@@ -259,6 +259,46 @@ def refined_stability(
 ):
     """Refine HBM orbits into periodic orbits of (7) by shooting and compute their Floquet invariant.
 
+    The start (state at ``t = 0`` and period) and the step grid come from the HBM orbits;
+    :func:`shooting_stability` does the rest.
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+    U_array : ndarray, shape (n, n_unknowns)
+        Time-reversible, half-wave symmetric HBM orbits (the start of the shooting).
+    steps, max_steps, tol, resolution_factor, max_change, floor, max_iter
+        As in :func:`shooting_stability`.
+
+    Returns
+    -------
+    RefinedStability
+    """
+    values, slopes = _quarter_period_samples(system, U_array, _GRID_SAMPLES)
+    initial = [orbit_initial_state(system, U) for U in U_array]
+    start = np.array([state[:2] for state, _ in initial])
+    period = np.array([T for _, T in initial])
+    return shooting_stability(
+        system.params, start, period, values, slopes, steps, max_steps, tol, resolution_factor, max_change, floor, max_iter
+    )
+
+
+def shooting_stability(
+    params: ModelParameters,
+    start,
+    period,
+    x_phase,
+    x_slope_phase,
+    steps: int,
+    max_steps: int,
+    tol: float,
+    resolution_factor: float,
+    max_change: float,
+    floor: float = 0.0,
+    max_iter: int = 10,
+):
+    """Periodic orbits of (7) by shooting from approximate ones, and their Floquet invariant.
+
     Newton's method (:func:`shoot`) with ``N = steps`` Runge-Kutta steps per quarter period, then
     the invariant with ``2N`` steps at the corrected orbit, compared with the ``N``-step one. Where
     ``|s - 2|`` (the distance to the type change of a half-wave symmetric orbit) is within
@@ -269,16 +309,21 @@ def refined_stability(
 
     Parameters
     ----------
-    system : HarmonicBalanceSystem
-    U_array : ndarray, shape (n, n_unknowns)
-        Time-reversible, half-wave symmetric HBM orbits (the start of the shooting).
+    params : ModelParameters
+    start : array_like, shape (n, 2)
+        Approximate ``(x, u)`` at ``t = 0`` (at rest) of time-reversible, half-wave symmetric orbits.
+    period : array_like, shape (n,)
+        Approximate periods.
+    x_phase, x_slope_phase : ndarray, shape (n, m + 1)
+        Approximate ``x`` and ``dx/dtheta`` on a uniform grid of the phase ``[0, pi/2]``, for the
+        step grid (:func:`step_phases`).
     steps, max_steps : int
     tol : float
         Shooting tolerance on the closure relative to the amplitude.
     resolution_factor : float
     max_change : float
         Largest relative change of ``x(0)``, ``u(0)`` (relative to the amplitude) and ``T`` from the
-        HBM orbit: a shooting that goes farther has found another orbit and counts as not converged.
+        start: a shooting that goes farther has found another orbit and counts as not converged.
     floor : float
     max_iter : int
         Newton updates per step count.
@@ -287,12 +332,9 @@ def refined_stability(
     -------
     RefinedStability
     """
-    params = system.params
-    n = len(U_array)
-    values, slopes = _quarter_period_samples(system, U_array, _GRID_SAMPLES)
-    initial = [orbit_initial_state(system, U) for U in U_array]
-    start = np.array([state[:2] for state, _ in initial])
-    period = np.array([T for _, T in initial])
+    start = np.array(start, dtype=float)
+    period = np.array(period, dtype=float)
+    n = len(start)
     initial_start, initial_period, initial_energy = start.copy(), period.copy(), _energy_at_rest(start, params)
     width = np.sqrt(2.0 * params.eps)  # width in x of the contact transition
     s = np.zeros(n)
@@ -303,14 +345,14 @@ def refined_stability(
     todo = np.arange(n)
     N = steps
     while len(todo):
-        phases = step_phases(values[todo], slopes[todo], N, width)
+        phases = step_phases(x_phase[todo], x_slope_phase[todo], N, width)
         z, T, res, conv, Q = shoot(params, start[todo], period[todo], phases, tol, max_iter)
         start[todo], period[todo], residual[todo], converged[todo] = z, T, res, conv
         ok = todo[conv]
         if not len(ok):
             break
         coarse = _half_period_invariant(Q[conv])
-        fine_phases = step_phases(values[ok], slopes[ok], 2 * N, width)
+        fine_phases = step_phases(x_phase[ok], x_slope_phase[ok], 2 * N, width)
         _, Q_fine = quarter_period_flow(params, start[ok], period[ok], fine_phases)
         s[ok] = _half_period_invariant(Q_fine)
         err[ok] = np.abs(s[ok] - coarse)
