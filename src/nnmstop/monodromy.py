@@ -416,15 +416,17 @@ class BranchMonodromy:
         note = (
             "Floquet multipliers from the monodromy matrix of the variational equation of (7) along the HBM orbit "
             f"(4th-order Magnus steps, {2 * st.steps} to {st.max_steps} per integrated interval, checked against half as many), non-trivial pair from the "
-            "invariant s = mu + 1/mu of the symplectic matrix, ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|"
+            "invariant s = mu + 1/mu of the symplectic matrix, ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|; "
+            "where stability_refined = 1 and the shooting converged, from the monodromy of the periodic orbit of (7) "
+            f"refined by shooting (8th-order Runge-Kutta, {st.refine_steps} to {st.refine_max_steps} steps per quarter "
+            "period, checked against half as many)"
         )
         F = f"{st.resolution_factor:g}"
         reason_attrs = {
             "long_name": "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within "
             f"{F} x stability_integration_error at the largest step count; 2 stability_margin within "
-            f"{F} x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it) and "
-            "the orbit "
-            "not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's "
+            f"{F} x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it) and the "
+            "orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's "
             f"margin was within {F} x its error; stability variables from the refined orbit); 4 the shooting did not "
             f"converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within {F} x its "
             "integration error at the largest step count or below trace_tol: the non-trivial pair sits at +1 (a "
