@@ -4,19 +4,23 @@ The method (Magnus steps on a uniform grid, batched exponentials, pairwise produ
 multipliers from the invariants of the symplectic matrix, the tolerances and the
 reason codes) is described in ``docs/methods/monodromy.md``. :func:`branch_monodromy`
 is the entry point used when branch datasets are assembled
-(``stability.method: monodromy``); Hill's method stays in :mod:`nnmstop.hbm.hill`.
+(``stability.method: monodromy``); where the HBM orbit's own error decides the verdict it
+refines the orbit by shooting (:mod:`nnmstop.hbm.shooting_refinement`). Hill's method stays in
+:mod:`nnmstop.hbm.hill`.
 """
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.netcdf import flag_variable
+from nnmstop.hbm.hill import is_halfwave_symmetric, is_reversible
+from nnmstop.hbm.shooting_refinement import refined_stability
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
-from nnmstop.hbm.hill import is_halfwave_symmetric
+from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "MonodromySettings",
@@ -29,8 +33,14 @@ __all__ = [
     "branch_monodromy",
 ]
 
+logger = logging.getLogger(__name__)
+
 # Codes of `stability_reason`: why a verdict is resolved or not (dataset flag values).
-REASONS = ("resolved", "integration_error", "orbit_error")
+# 3-5 only where the HBM orbit's error decided (2) and the orbit was refined by shooting.
+REASONS = (
+    "resolved", "integration_error", "orbit_error", "resolved_refined", "shooting_not_converged", "refined_at_type_change"
+)
+RESOLVED_REASONS = (0, 3)
 # Gauss-Legendre nodes of one step (fractions of the step).
 _GAUSS = (0.5 - np.sqrt(3.0) / 6.0, 0.5 + np.sqrt(3.0) / 6.0)
 # Matrices of the batched products per chunk: 4 MB an array, about the fastest here (memory traffic).
@@ -54,12 +64,30 @@ class MonodromySettings:
     resolution_factor : float
         A verdict is resolved when the distance of ``mu + 1/mu`` to the points where
         the pair changes type exceeds this factor times the error estimates.
+    refine : bool
+        Refine the orbits whose own error decides the verdict into periodic orbits of
+        (7) by shooting, and take the verdict from those
+        (:mod:`nnmstop.shooting_refinement`).
+    refine_steps, refine_max_steps : int
+        Runge-Kutta steps per quarter period of the shooting: first try, and the most
+        the steps are doubled to where the integration error decides (powers of two).
+    refine_tol : float
+        Shooting tolerance: closure of the quarter-period conditions relative to the
+        amplitude.
+    refine_max_change : float
+        Largest relative change of the start state and period from the HBM orbit to the
+        refined one; a shooting that goes farther has found another orbit (not converged).
     """
 
     steps: int = 256
     max_steps: int = 4096
     trace_tol: float = 1e-9
     resolution_factor: float = 2.0
+    refine: bool = True
+    refine_steps: int = 256
+    refine_max_steps: int = 4096
+    refine_tol: float = 1e-11
+    refine_max_change: float = 1e-2
 
     def __post_init__(self):
         for name in ("steps", "max_steps"):
@@ -72,11 +100,30 @@ class MonodromySettings:
             raise ValueError(f"stability trace_tol must be a finite number >= 0, got {self.trace_tol!r}")
         if not (np.isfinite(self.resolution_factor) and self.resolution_factor >= 1):
             raise ValueError(f"stability resolution_factor must be a finite number >= 1, got {self.resolution_factor!r}")
+        if not isinstance(self.refine, (bool, np.bool_)):
+            raise ValueError(f"stability refine must be true or false, got {self.refine!r}")
+        for name in ("refine_steps", "refine_max_steps"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 16 or value & (value - 1):
+                raise ValueError(f"stability {name} must be a power of two >= 16, got {value!r}")
+        if self.refine_max_steps < 2 * self.refine_steps:
+            raise ValueError(
+                f"stability refine_max_steps ({self.refine_max_steps}) must be >= 2 x refine_steps ({self.refine_steps})"
+            )
+        if not (np.isfinite(self.refine_tol) and 0 < self.refine_tol <= 1e-6):
+            raise ValueError(f"stability refine_tol must be a number in (0, 1e-6], got {self.refine_tol!r}")
+        if not (np.isfinite(self.refine_max_change) and 0 < self.refine_max_change <= 0.5):
+            raise ValueError(
+                f"stability refine_max_change must be a number in (0, 0.5], got {self.refine_max_change!r}"
+            )
 
     @classmethod
     def from_config(cls, stability: dict) -> "MonodromySettings":
         """Settings from the (validated) ``stability`` section of the config."""
-        keys = ("steps", "max_steps", "trace_tol", "resolution_factor")
+        keys = (
+            "steps", "max_steps", "trace_tol", "resolution_factor",
+            "refine", "refine_steps", "refine_max_steps", "refine_tol", "refine_max_change",
+        )
         return cls(**{k: stability[k] for k in keys if k in stability})
 
 
@@ -315,6 +362,18 @@ class BranchMonodromy:
     halfwave : ndarray of bool
     settings : MonodromySettings
     seconds_per_point : float
+    refined : ndarray of bool
+        Orbit refined by shooting (its own error decided the verdict). Where the
+        shooting converged, ``stable``, ``multipliers``, ``invariant``, ``margin``,
+        ``integration_error`` and ``steps`` are those of the refined orbit.
+    refined_frequency_change, refined_energy_change : ndarray
+        Relative change of the frequency and of the energy (at ``t = 0``) from the HBM
+        orbit to the refined one (0 where not refined or not converged).
+    refined_residual : ndarray
+        Closure of the shooting conditions relative to the amplitude (0 where not
+        refined, 1 where the shooting diverged at once).
+    refine_seconds : float
+        Time spent refining.
     """
 
     stable: np.ndarray
@@ -329,10 +388,23 @@ class BranchMonodromy:
     halfwave: np.ndarray
     settings: MonodromySettings
     seconds_per_point: float = 0.0
+    refined: np.ndarray | None = None
+    refined_frequency_change: np.ndarray | None = None
+    refined_energy_change: np.ndarray | None = None
+    refined_residual: np.ndarray | None = None
+    refine_seconds: float = 0.0
+
+    def __post_init__(self):
+        n = len(self.reason)
+        for name in ("refined_frequency_change", "refined_energy_change", "refined_residual"):
+            if getattr(self, name) is None:
+                setattr(self, name, np.zeros(n))
+        if self.refined is None:
+            self.refined = np.zeros(n, dtype=bool)
 
     @property
     def resolved(self) -> np.ndarray:
-        return self.reason == 0
+        return np.isin(self.reason, RESOLVED_REASONS)
 
     @property
     def max_multiplier(self) -> np.ndarray:
@@ -344,12 +416,21 @@ class BranchMonodromy:
         note = (
             "Floquet multipliers from the monodromy matrix of the variational equation of (7) along the HBM orbit "
             f"(4th-order Magnus steps, {2 * st.steps} to {st.max_steps} per integrated interval, checked against half as many), non-trivial pair from the "
-            "invariant s = mu + 1/mu of the symplectic matrix, ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|"
+            "invariant s = mu + 1/mu of the symplectic matrix, ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|; "
+            "where stability_refined = 1 and the shooting converged, from the monodromy of the periodic orbit of (7) "
+            f"refined by shooting (8th-order Runge-Kutta, {st.refine_steps} to {st.refine_max_steps} steps per quarter "
+            "period, checked against half as many)"
         )
+        F = f"{st.resolution_factor:g}"
         reason_attrs = {
             "long_name": "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within "
-            f"{st.resolution_factor:g} x stability_integration_error at the largest step count; 2 stability_margin within "
-            f"{st.resolution_factor:g} x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it)",
+            f"{F} x stability_integration_error at the largest step count; 2 stability_margin within "
+            f"{F} x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it) and the "
+            "orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's "
+            f"margin was within {F} x its error; stability variables from the refined orbit); 4 the shooting did not "
+            f"converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within {F} x its "
+            "integration error at the largest step count or below trace_tol: the non-trivial pair sits at +1 (a "
+            "stability change, e.g. an energy fold)",
             "units": "1",
             "flag_values": np.arange(len(REASONS), dtype=np.int8),
             "flag_meanings": " ".join(REASONS),
@@ -374,7 +455,21 @@ class BranchMonodromy:
             "floquet_invariant": ("point", self.invariant, {"long_name": "invariant mu + 1/mu of the non-trivial Floquet pair (in [-2, 2] when elliptic)", "units": "1"}),
             "stability_margin": ("point", self.margin, {"long_name": "distance of floquet_invariant to the values where the non-trivial pair changes type (2, and -2 unless half-wave symmetric)", "units": "1"}),
             "stability_integration_error": ("point", self.integration_error, {"long_name": "change of floquet_invariant between the last two step counts of the monodromy integration", "units": "1"}),
-            "stability_steps": ("point", self.steps.astype(np.int32), {"long_name": "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric)", "units": "1"}),
+            "stability_steps": ("point", self.steps.astype(np.int32), {"long_name": "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric); on refined orbits (stability_reason 3-5) Runge-Kutta steps over a quarter period", "units": "1"}),
+            "stability_refined": flag_variable(
+                "point", self.refined,
+                "orbit refined by shooting into a periodic orbit of (7) for its verdict (stability_reason 3-5)",
+                "no yes",
+            ),
+            "stability_refined_frequency_change": ("point", self.refined_frequency_change, {
+                "long_name": "relative change of the frequency from the HBM orbit to the shooting-refined orbit "
+                "(0 where stability_refined = 0 or stability_reason = 4)", "units": "1"}),
+            "stability_refined_energy_change": ("point", self.refined_energy_change, {
+                "long_name": "relative change of the energy at t = 0 (start at rest) from the HBM orbit to the "
+                "shooting-refined orbit (0 where stability_refined = 0 or stability_reason = 4)", "units": "1"}),
+            "stability_refined_residual": ("point", self.refined_residual, {
+                "long_name": "closure of the shooting conditions x = u = 0 at a quarter period relative to the "
+                "amplitude (0 where stability_refined = 0; 1 where the shooting diverged at once)", "units": "1"}),
         }
 
 
@@ -443,6 +538,7 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     reason = np.zeros(n, dtype=np.int8)
     reason[margin <= F * err] = 1
     reason[margin <= F * orbit_error] = 2  # the orbit's error decides whatever the steps
+    refinement = _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings)
     multipliers = _multipliers_from_invariant(s)
     return BranchMonodromy(
         stable=np.abs(s) <= 2.0 + settings.trace_tol,
@@ -457,7 +553,52 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
         halfwave=halfwave,
         settings=settings,
         seconds_per_point=(time.perf_counter() - start) / max(n, 1),
+        **refinement,
     )
+
+
+def _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings: MonodromySettings) -> dict:
+    """Shooting refinement of the orbits whose own error decides the verdict (reason 2), in place.
+
+    Applies to time-reversible, half-wave symmetric orbits (all NNM orbits of the
+    branches); others keep reason 2. Updates ``s``, ``margin``, ``err``, ``steps`` and
+    ``reason`` of the refined orbits and returns the diagnostics for
+    :class:`BranchMonodromy`.
+    """
+    n = len(s)
+    out = {"refined": np.zeros(n, dtype=bool)}
+    for name in ("refined_frequency_change", "refined_energy_change", "refined_residual"):
+        out[name] = np.zeros(n)
+    candidates = np.flatnonzero((reason == 2) & halfwave) if settings.refine else np.array([], dtype=int)
+    idx = np.array([i for i in candidates if is_reversible(system, U_array[i])], dtype=int)
+    if not len(idx):
+        return out
+    start = time.perf_counter()
+    F = settings.resolution_factor
+    r = refined_stability(
+        system, U_array[idx], settings.refine_steps, settings.refine_max_steps, settings.refine_tol, F,
+        settings.refine_max_change, floor=settings.trace_tol,
+    )
+    ok = r.converged
+    done = idx[ok]
+    s[done], err[done], steps[done] = r.invariant[ok], r.integration_error[ok], r.steps[ok]
+    margin[done] = np.abs(s[done] - 2.0)  # half-wave symmetric: the pair changes type only at +1
+    # Error of the refined s: the integration error, and the orbit's closure error (which moves s by
+    # about as much, as the HBM orbit's time residual does); a margin below trace_tol is a pair at +1.
+    bound = F * np.maximum(err[done], r.residual[ok])  # converged: both finite
+    resolved = margin[done] > np.maximum(bound, settings.trace_tol)
+    reason[done] = np.where(resolved, 3, 5)
+    reason[idx[~ok]] = 4
+    out["refined"][idx] = True
+    out["refined_residual"][idx] = np.where(np.isfinite(r.residual), r.residual, 1.0)
+    out["refined_frequency_change"][done] = r.initial_period[ok] / r.period[ok] - 1.0
+    out["refined_energy_change"][done] = r.energy[ok] / r.initial_energy[ok] - 1.0
+    out["refine_seconds"] = time.perf_counter() - start
+    logger.info(
+        "refined %d orbits by shooting in %.2f s: %d resolved, %d at a type change, %d not converged",
+        len(idx), out["refine_seconds"], np.sum(reason[idx] == 3), np.sum(reason[idx] == 5), np.sum(reason[idx] == 4),
+    )
+    return out
 
 
 def orbit_monodromy(system, U, steps: int = 1024):

@@ -1,0 +1,103 @@
+"""Cost of the shooting refinement of the monodromy verdicts, side by side in one run.
+
+For each built branch dataset (default: ``results/hbm/nnm1.nc``, ``results/hbm/nnm2.nc`` and the
+switched branches; the per-stage datasets ``results/hbm/stages/*.nc`` are what the ``hbm_stage``
+jobs compute) the monodromy stability of all its orbits (:func:`nnmstop.monodromy.branch_monodromy`,
+settings from ``config/config.yaml``) with ``refine: false`` and with ``refine: true``,
+alternately, best of ``--repeat``: CPU time (``time.process_time``, robust on a shared machine)
+and wall time, the time added per refined orbit, the verdicts resolved, the reasons, and the
+change of frequency and energy from the HBM orbits to the refined ones.
+
+Usage::
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/refinement_benchmark.py [--repeat 3] [--output FILE] [DATASET ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from nnmstop.branches import dataset_unknowns, system_from_config
+from nnmstop.config import load_config
+from nnmstop.monodromy import REASONS, MonodromySettings, branch_monodromy
+
+DEFAULT_DATASETS = [
+    "results/hbm/nnm1.nc",
+    "results/hbm/nnm2.nc",
+    "results/hbm/bifurcated/nnm1_3to1.nc",
+    "results/hbm/bifurcated/nnm1_5to1.nc",
+]
+
+
+def timed(function):
+    """Result, CPU time and wall time of one call."""
+    cpu, wall = time.process_time(), time.perf_counter()
+    result = function()
+    return result, time.process_time() - cpu, time.perf_counter() - wall
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("datasets", nargs="*", default=DEFAULT_DATASETS)
+    parser.add_argument("--config", default="config/config.yaml")
+    parser.add_argument("--repeat", type=int, default=3, help="best of this many runs per setting")
+    parser.add_argument("--output", type=Path, help="also write the Markdown table here")
+    args = parser.parse_args(argv)
+    if args.repeat < 1:
+        raise ValueError(f"--repeat must be >= 1, got {args.repeat}")
+    config = load_config(args.config)
+    refined_settings = dataclasses.replace(MonodromySettings.from_config(config.get("stability", {})), refine=True)
+    plain_settings = dataclasses.replace(refined_settings, refine=False)
+    lines = [
+        f"Monodromy stability without and with the shooting refinement (refine_steps {refined_settings.refine_steps}), "
+        f"best of {args.repeat}, CPU time (wall time in parentheses):",
+        "",
+        "| dataset | points | resolved without | refined | resolved with | reasons with (code: count) | "
+        "CPU without (s) | CPU with (s) | added CPU per refined orbit (ms) | max abs frequency change | "
+        "max abs energy change |",
+        "|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|",
+    ]
+    for name in args.datasets:
+        path = Path(name)
+        if not path.exists():
+            print(f"skipping {name}: not built", file=sys.stderr)
+            continue
+        with xr.open_dataset(path) as ds:
+            system = system_from_config(config, harmonics=int(ds.attrs["harmonics"]))
+            U = dataset_unknowns(ds.load(), system)
+            residual = ds["time_residual"].values
+        best = {"plain": (np.inf, np.inf), "refined": (np.inf, np.inf)}
+        results = {}
+        for _ in range(args.repeat):
+            for key, settings in (("plain", plain_settings), ("refined", refined_settings)):
+                result, cpu, wall = timed(lambda: branch_monodromy(system, U, settings, time_residual=residual))
+                results[key] = result
+                best[key] = (min(best[key][0], cpu), min(best[key][1], wall))
+        plain, refined = results["plain"], results["refined"]
+        count = int(refined.refined.sum())
+        added = f"{1e3 * (best['refined'][0] - best['plain'][0]) / count:.1f}" if count else "-"
+        reasons = ", ".join(f"{code} {REASONS[code]}: {n}" for code, n in enumerate(np.bincount(refined.reason)) if n)
+        converged = refined.refined & (refined.reason != 4)
+        df = float(np.abs(refined.refined_frequency_change[converged]).max()) if converged.any() else 0.0
+        de = float(np.abs(refined.refined_energy_change[converged]).max()) if converged.any() else 0.0
+        lines.append(
+            f"| {path.name} | {len(U)} | {int(plain.resolved.sum())} | {count} | {int(refined.resolved.sum())} | "
+            f"{reasons} | {best['plain'][0]:.2f} ({best['plain'][1]:.2f}) | {best['refined'][0]:.2f} "
+            f"({best['refined'][1]:.2f}) | {added} | {df:.1e} | {de:.1e} |"
+        )
+    report = "\n".join(lines)
+    print(report)
+    if args.output:
+        args.output.write_text(report + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,261 @@
+"""Stability from the monodromy matrix (nnmstop.hbm.monodromy) against independent computations.
+
+References: the closed-form Floquet multipliers of the linear limit, Hill's method
+(a different discretization of the same linearization), the monodromy of an exact
+periodic orbit of (7) integrated by DOP853 (shooting-refined, nnmstop.checks.shooting),
+and the symplecticity of the flow of a Hamiltonian linear system. The shooting
+refinement (nnmstop.hbm.shooting_refinement) of the orbits whose own error decides the
+verdict is checked against the same DOP853 integrator (periodicity and multipliers of
+the refined orbit) and against the growth of a perturbation of an orbit it finds
+unstable, and against the exact multipliers of the non-smooth model as eta -> 0. Small
+H = 40 branches keep the module cheap.
+"""
+
+import copy
+import dataclasses
+
+import numpy as np
+import pytest
+
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stability import branch_hill, orbit_stability
+from nnmstop.tasks.hbm import build_stage, stability_settings, system_from_config
+from nnmstop.config import ConfigError, load_config, validate_config
+from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
+from nnmstop.exact.family import follow_two_impact_family as follow_family
+from nnmstop.exact.problem import TwoImpactProblem
+from nnmstop.exact.stability import exact_multipliers
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
+from nnmstop.hbm.shooting_refinement import refined_stability, shooting_stability
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.two_dof import ModelParameters
+
+H_BRANCH = 40
+
+
+@pytest.fixture(scope="module")
+def config():
+    """Paper physics, H = 40; NNM1 from no impact up to the first orbit with four impacts per period."""
+    c = copy.deepcopy(load_config("config/config.yaml"))
+    c["hbm"]["harmonics"] = H_BRANCH
+    c["hbm"]["points_per_step"] = 1
+    c["branches"]["nnm1"]["stages"] = [
+        {"name": "one_impact_per_stop", "until": {"impacts_above": 2}},
+        {"name": "three_impacts_per_stop", "until": {"impacts_at_most": 4}},
+    ]
+    return c
+
+
+@pytest.fixture(scope="module")
+def system(config):
+    return system_from_config(config)
+
+
+@pytest.fixture(scope="module")
+def nnm1(config, system):
+    """Unknowns of NNM1 stages 1 and 2 (0, 2 then 6 impacts per period, through an energy fold)."""
+    first = build_stage(config, "nnm1", 1)
+    second = build_stage(config, "nnm1", 2, first)
+    return np.concatenate([dataset_unknowns(first, system), dataset_unknowns(second, system)])
+
+
+@pytest.fixture(scope="module")
+def verdicts(system, nnm1):
+    return branch_monodromy(system, nnm1, MonodromySettings()), branch_hill(system, nnm1)
+
+
+def test_linear_limit_matches_closed_form():
+    """Tiny amplitude: k = eta, so the non-trivial pair is exp(+-i Omega_2 T) with the modes of K + eta."""
+    p = ModelParameters()
+    system = HarmonicBalanceSystem(two_dof_structure(p), harmonics=16)
+    U = system.linear_mode_guess(1, 1e-4)
+    K = np.array([[1 + p.beta + p.eta, -p.beta], [-p.beta / p.delta, p.beta / p.delta]])
+    w = np.sqrt(np.sort(np.linalg.eigvals(K).real))
+    T = 2 * np.pi / w[0]
+    r = branch_monodromy(system, U[None])
+    assert r.halfwave[0]
+    assert abs(r.invariant[0] - 2 * np.cos(w[1] * T)) < 1e-7
+    assert r.stable[0] and r.resolved[0]
+
+
+def test_monodromy_is_symplectic(system, nnm1):
+    """The flow of M y'' + (K + k(t) E) y = 0 preserves the symplectic form: M^T J M = J, det M = 1."""
+    J = np.block([[np.zeros((2, 2)), np.diag([1.0, system.params.delta])], [-np.diag([1.0, system.params.delta]), np.zeros((2, 2))]])
+    for U in nnm1[:: max(1, len(nnm1) // 6)]:
+        M = orbit_monodromy(system, U, steps=512)
+        scale = np.linalg.norm(M) ** 2
+        assert np.abs(M.T @ J @ M - J).max() < 1e-11 * scale
+        assert abs(np.linalg.det(M) - 1.0) < 1e-10 * scale
+
+
+def test_agrees_with_hill_where_both_resolve(verdicts):
+    mono, hill = verdicts
+    both = mono.resolved & hill.resolved
+    assert both.sum() > 0.5 * len(both)
+    np.testing.assert_array_equal(mono.stable[both], hill.stable[both])
+    # The invariants agree to the errors of the two methods (orbit error for both).
+    mu = hill.multipliers[:, 2]
+    s_hill = (mu + 1 / mu).real
+    bound = mono.settings.resolution_factor * (mono.integration_error + mono.orbit_error + hill.orbit_residual) + 1e-9
+    assert np.all(np.abs(mono.invariant - s_hill)[both] <= bound[both])
+
+
+def test_every_orbit_gets_a_verdict_with_a_reason(verdicts):
+    mono, _ = verdicts
+    F = mono.settings.resolution_factor
+    hbm = ~mono.refined
+    limit = F * np.maximum(mono.integration_error, mono.orbit_error)
+    assert np.all((mono.margin <= limit)[hbm & ~mono.resolved])
+    assert np.all((mono.margin > limit)[hbm & mono.resolved])
+    assert np.all(np.isin(mono.reason[hbm & ~mono.resolved], [1, 2]))
+    # Refined orbits: the margin against their own (integration and closure) errors.
+    refined_limit = np.maximum(F * np.maximum(mono.integration_error, mono.refined_residual), mono.settings.trace_tol)
+    assert np.all(np.isin(mono.reason[mono.refined], [3, 4, 5]))
+    assert np.all((mono.margin > refined_limit)[mono.reason == 3])
+    assert np.all((mono.margin <= refined_limit)[mono.reason == 5])
+
+
+def test_refinement_replaces_every_orbit_error_verdict(system, nnm1, verdicts):
+    """Every orbit whose own error decides the verdict (reason 2 without refinement) is refined."""
+    mono, _ = verdicts
+    plain = branch_monodromy(system, nnm1, MonodromySettings(refine=False))
+    assert np.any(plain.reason == 2)
+    np.testing.assert_array_equal(mono.refined, plain.reason == 2)
+    assert not np.any(mono.reason == 2)
+    np.testing.assert_array_equal(mono.invariant[~mono.refined], plain.invariant[~mono.refined])
+
+
+@pytest.fixture(scope="module")
+def refined(system, nnm1):
+    """The orbits left to their own error by the HBM monodromy, refined by shooting."""
+    plain = branch_monodromy(system, nnm1, MonodromySettings(refine=False))
+    idx = np.flatnonzero(plain.reason == 2)
+    s = MonodromySettings()
+    r = refined_stability(system, nnm1[idx], s.refine_steps, s.refine_max_steps, s.refine_tol, s.resolution_factor,
+                          s.refine_max_change, floor=s.trace_tol)
+    assert np.all(r.converged)
+    return r
+
+
+def test_refined_orbits_match_adaptive_integration(system, refined):
+    """DOP853 over a whole period (an independent integrator, no symmetry used) from the refined start:
+    the orbit closes, and the multipliers of its monodromy match, within the two integrators' errors."""
+    stable = np.abs(refined.invariant) <= 2
+    assert stable.any() and (~stable).any()
+    picks = [int(np.argmax(np.where(stable, np.abs(refined.invariant - 2), -1))),
+             int(np.argmax(np.where(~stable, np.abs(refined.invariant - 2), -1)))]
+    for i in picks:
+        z = np.r_[refined.start[i], 0.0, 0.0]
+        coarse = monodromy(system.params, z, refined.period[i], rtol=1e-12, atol=1e-12)
+        fine = monodromy(system.params, z, refined.period[i], rtol=1e-13, atol=1e-13)
+        assert fine.closure < 1e-8
+        # Trivial pair at +1 on a periodic orbit: s = tr M - 2 (reference error from its two tolerances).
+        s_coarse, s_fine = np.trace(coarse.matrix) - 2.0, np.trace(fine.matrix) - 2.0
+        assert abs(refined.invariant[i] - s_fine) <= 2 * refined.integration_error[i] + abs(s_fine - s_coarse) + 1e-10
+        assert (abs(s_fine) <= 2) == stable[i]
+
+
+def test_unstable_refined_orbit_perturbation_grows_like_its_multiplier(system, refined):
+    """A small perturbation along the unstable direction, integrated through the nonlinear equations (7)
+    period after period (DOP853), grows by the refined orbit's multiplier mu = s/2 + sqrt(s**2/4 - 1)."""
+    unstable = np.flatnonzero(np.abs(refined.invariant) > 2)
+    i = int(unstable[np.argmax(refined.invariant[unstable])])
+    s = refined.invariant[i]
+    mu = s / 2 + np.sqrt(s * s / 4 - 1)
+    assert mu > 1.05  # growth measurable in a few periods
+    z0 = np.r_[refined.start[i], 0.0, 0.0]
+    T = refined.period[i]
+    ref = monodromy(system.params, z0, T)
+    w, V = np.linalg.eig(ref.matrix)
+    v = V[:, np.argmax(np.abs(w))].real
+    delta = 1e-6 * np.abs(z0).max()
+    z = z0 + delta * v / np.linalg.norm(v)
+    periods = 6
+    for _ in range(periods):
+        z = monodromy(system.params, z, T).final_state
+    growth = np.linalg.norm(z - z0) / delta
+    assert abs(np.log(growth) / periods - np.log(mu)) < 0.02 * np.log(mu) + 1e-3
+
+
+def test_matches_integrated_monodromy_of_refined_orbits(system, nnm1, verdicts):
+    """DOP853 monodromy of an exact periodic orbit of (7) near the HBM orbit (shooting)."""
+    mono, _ = verdicts
+    energy = np.array([system.diagnostics(U)["energy"] for U in nnm1])
+    impacts = np.array([system.diagnostics(U)["impacts_per_period"] for U in nnm1])
+    picks = [int(np.argmin(energy)), int(np.flatnonzero(impacts == 2)[len(np.flatnonzero(impacts == 2)) // 2]),
+             int(np.flatnonzero(impacts == 6)[len(np.flatnonzero(impacts == 6)) // 2])]
+    for i in picks:
+        z0, T = orbit_initial_state(system, nnm1[i])
+        z, T = refine_orbit(system.params, z0, T)
+        ref = monodromy(system.params, z, T)
+        s_ref, dev_ref = trace_invariants(ref.matrix)
+        assert dev_ref < 1e-6  # exact orbit: trivial pair at +1
+        # The HBM orbit differs from the exact one by its error: s moves by about its time residual.
+        tol = mono.settings.resolution_factor * (mono.integration_error[i] + mono.orbit_error[i]) + 1e-8
+        assert abs(mono.invariant[i] - s_ref) <= tol
+        if mono.resolved[i]:
+            assert mono.stable[i] == (abs(s_ref) <= 2)
+
+
+def test_error_estimate_bounds_the_error(system, nnm1):
+    coarse = branch_monodromy(system, nnm1[::5], MonodromySettings(steps=128, max_steps=256))
+    fine = branch_monodromy(system, nnm1[::5], MonodromySettings(steps=4096, max_steps=8192))
+    assert np.all(np.abs(coarse.invariant - fine.invariant) <= coarse.integration_error + 10 * fine.integration_error + 1e-12)
+
+
+def test_config_selects_the_method(config, system, nnm1):
+    U = nnm1[:3]
+    c = copy.deepcopy(config)
+    assert "stability_reason" in orbit_stability(system, U, stability_settings(c)).data_vars()
+    c["stability"]["method"] = "hill"
+    assert "stability_reason" not in orbit_stability(system, U, stability_settings(c)).data_vars()
+
+
+@pytest.mark.parametrize(
+    "key, value",
+    [("method", "shooting"), ("steps", 100), ("max_steps", 64), ("trace_tol", -1.0), ("resolution_factor", 0.5),
+     ("refine", "yes"), ("refine_steps", 100), ("refine_tol", 0.0), ("refine_max_change", 1.0)],
+)
+def test_bad_stability_config_is_named(key, value):
+    c = copy.deepcopy(load_config("config/config.yaml"))
+    c["stability"][key] = value
+    with pytest.raises(ConfigError, match=f"stability.{key}"):
+        validate_config(c)
+
+
+def test_bad_settings():
+    with pytest.raises(ValueError, match="power of two"):
+        MonodromySettings(steps=100)
+    with pytest.raises(ValueError, match="max_steps"):
+        MonodromySettings(steps=512, max_steps=256)
+    with pytest.raises(ValueError, match="refine_max_steps"):
+        MonodromySettings(refine_steps=256, refine_max_steps=256)
+    with pytest.raises(ValueError, match="refine_tol"):
+        MonodromySettings(refine_tol=1e-3)
+
+
+def test_refined_multipliers_tend_to_the_exact_ones_as_eta_vanishes():
+    """As eta -> 0 the regularized force tends to the piecewise-linear law: the periodic orbit of (7)
+    found by shooting from an exact two-impact orbit (no HBM involved) has a Floquet invariant tending
+    to the exact one (product of the phase exponentials, nnmstop.exact_stability), to first order in eta."""
+    base = ModelParameters()
+    family = follow_family(base, step=0.25, max_points=400)
+    y = family.unknowns[int(np.argmin(np.abs(np.asarray(family.energy) - 5.0)))]  # (xdot0, udot0, tau1, T1)
+    exact = exact_multipliers(base, "FR", [y[2], y[3] - y[2]])
+    period = 4.0 * y[3]
+    theta = np.linspace(0.0, 0.5 * np.pi, 2049)
+    s = MonodromySettings()
+    errors = []
+    for eta in (1e-2, 1e-3, 1e-4):
+        params = dataclasses.replace(base, eta=eta)
+        orbit = TwoImpactProblem(params).time_history(y, y[3] + theta * period / (2 * np.pi))  # from the turning point, at rest
+        r = shooting_stability(params, [[orbit.x[0], orbit.u[0]]], [period], orbit.x[None],
+                               (orbit.xdot * period / (2 * np.pi))[None], s.refine_steps, s.refine_max_steps,
+                               s.refine_tol, s.resolution_factor, s.refine_max_change)
+        assert r.converged[0]
+        assert (abs(r.invariant[0]) <= 2) == exact.stable
+        errors.append(abs(r.invariant[0] - exact.trace_invariant))
+    # First order: the error falls by about 10 per decade of eta (between orders 0.7 and 1.3).
+    assert all(0.05 < later / earlier < 0.2 for earlier, later in zip(errors, errors[1:]))
+    assert errors[-1] < 1e-3
