@@ -249,6 +249,11 @@ def bifurcation_tangents(system, U_star, reference):
     incoming, bifurcated = tangents
     if incoming @ reference < 0:
         incoming = -incoming
+    # The null plane's basis comes from an SVD whose signs are arbitrary (round-off decides them), so the
+    # bifurcated tangent gets a fixed orientation: its largest component positive. The switched branch is
+    # then stored in the same direction on every machine.
+    if bifurcated[np.argmax(np.abs(bifurcated))] < 0:
+        bifurcated = -bifurcated
     return BranchPoint(
         U=np.asarray(U_star, float),
         incoming=incoming,
