@@ -78,7 +78,24 @@ def validate_config(config: dict) -> dict:
                 f"config key 'figures.{figure}.bifurcated': {unknown} not among the configured bifurcations "
                 f"{sorted(config.get('bifurcations', {}))}"
             )
+    if "tube" in config:
+        _check_tube(config["tube"])
     return config
+
+
+def _check_tube(tube: dict) -> None:
+    """The tube's structure must make a beam (stops on nodes, eta below the stop stiffness, ...)."""
+    from nnmstop.models.beam import Beam
+
+    try:
+        beam = Beam.from_parameters(tube["structure"])
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"config key 'tube.structure': {err}") from None
+    for name, spec in tube["branches"].items():
+        dofs = 2 * (beam.n_elements + 1)
+        if spec["mode"] > dofs:
+            raise ConfigError(f"config key 'tube.branches.{name}.mode': {spec['mode']} exceeds the {dofs} degrees of "
+                              "freedom of the mesh")
 
 
 def load_config(path: str | Path = "config/config.yaml") -> dict:

@@ -32,7 +32,7 @@ __all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "run_task",
 logger = logging.getLogger("nnmstop.tasks.run")
 
 #: Task modules, one per rule file: ``workflow/rules/<name>.smk`` -> ``nnmstop.tasks.<name>``.
-TASK_MODULES = ("exact", "hbm", "compare", "figures", "study", "manifest", "bundle", "verify")
+TASK_MODULES = ("exact", "hbm", "compare", "figures", "study", "manifest", "bundle", "verify", "tube")
 
 
 

@@ -1,0 +1,194 @@
+"""Figures of the finite-element tube (``paper_figures/tube_*``), drawn from its datasets only.
+
+``frequency_energy``: NNM1 and NNM2 (regularized, stable solid, unstable dashed, branch points and
+folds marked), the exact NNM1, the linear frequencies (FE and Euler-Bernoulli); ``shapes``: deformed
+shapes over half a period at the configured energies; ``contact_force``: the stop force over a period
+at those energies; ``exact_vs_regularized``: the relative frequency difference at matched energies.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from nnmstop import fourier
+from nnmstop.figures.common import save_figure
+
+__all__ = ["TUBE_FIGURES", "draw_tube_figure", "point_at_energy"]
+
+REGULARIZED, EXACT = "tab:blue", "tab:red"
+
+
+def point_at_energy(energy, target: float) -> int:
+    """Index of the stored point nearest (in log energy) to where the branch first reaches ``target``."""
+    energy = np.asarray(energy, float)
+    reached = np.flatnonzero(energy >= target)
+    if reached.size == 0:
+        raise ValueError(f"the branch never reaches energy {target!r} (highest {energy.max():.4g})")
+    i = reached[0]
+    if i > 0 and abs(np.log(energy[i - 1] / target)) < abs(np.log(energy[i] / target)):
+        i -= 1
+    return int(i)
+
+
+def _line_segments(ax, x, y, stable, color, label):
+    """Stable parts solid, unstable dashed; one legend entry."""
+    stable = np.asarray(stable, bool)
+    edges = np.flatnonzero(np.diff(stable.astype(int))) + 1
+    for k, (a, b) in enumerate(zip(np.r_[0, edges], np.r_[edges, len(x)])):
+        b = min(b + 1, len(x))
+        ax.plot(x[a:b], y[a:b], color=color, lw=1.2, ls="-" if stable[a] else "--", label=label if k == 0 else None)
+
+
+def _frequency_energy(fig, data, spec):
+    ax = fig.add_subplot(111)
+    styles = {"nnm1": REGULARIZED, "nnm2": "tab:green"}
+    for name, color in styles.items():
+        ds = data.get(name)
+        if ds is None:
+            continue
+        _line_segments(ax, ds.energy.values, ds.frequency.values, ds.stable.values, color,
+                       f"{name.upper()} regularized (H = {ds.attrs['harmonics']})")
+        bp = ds.branch_point_energy.values
+        if bp.size:
+            ax.plot(bp, ds.branch_point_frequency.values, "kx", ms=6, label="branch point" if name == "nnm1" else None)
+        if ds.fold_energy.size:
+            ax.plot(ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec=color, ms=5)
+        for key, ls in (("linear_frequency_fe", ":"), ("linear_frequency_euler_bernoulli", "-.")):
+            ax.axhline(ds.attrs[key], color=color, lw=0.7, ls=ls)
+    exact = data.get("exact")
+    if exact is not None:
+        ax.plot(exact.energy.values, exact.frequency.values, color=EXACT, lw=1.0, label="NNM1 exact (non-smooth)")
+    ax.set_xscale("log")
+    ax.set_xlabel("energy (nondimensional)")
+    ax.set_ylabel("frequency (Hz of the nondimensional time)")
+    ax.set_title("Tube with a support plate: frequency-energy plot\n(dashed: unstable; dotted: FE linear; "
+                 "dash-dot: Euler-Bernoulli linear; o: energy folds)", fontsize=9)
+    ax.legend(fontsize=8, loc="best")
+
+
+def _orbit_samples(ds, i: int, samples: int):
+    """q (dof, samples) and stop force (stop, samples) of point ``i`` over one period."""
+    H = int(ds.attrs["harmonics"])
+    q = fourier.to_time(fourier.from_cos_sin(ds.q_cos.values[i], ds.q_sin.values[i]), H, samples)
+    f = fourier.to_time(fourier.from_cos_sin(ds.f_cos.values[i], ds.f_sin.values[i]), H, samples)
+    return q, f
+
+
+def _deflection(ds, q, s):
+    from nnmstop.models.beam import beam_deflection
+
+    labels = [str(v) for v in ds.dof_label.values]
+    nodes = [int(label.lstrip("wtheta")) for label in labels]
+    shape = SimpleNamespace(dof_labels=labels, dof_nodes=nodes, node_coordinates=ds.node_coordinate.values,
+                            n_dofs=len(labels))
+    return beam_deflection(shape, q, s)
+
+
+def _shapes(fig, data, spec):
+    ds = data["nnm1"]
+    energies = spec["energies"]
+    s = np.linspace(0.0, 1.0, 201)
+    stop_node = int(np.atleast_1d(ds.attrs["stop_nodes"])[0])
+    s_stop = float(ds.node_coordinate.values[stop_node])
+    axes = fig.subplots(1, len(energies), sharey=False, squeeze=False)[0]
+    m = 2 * int(spec["shape_samples"] - 1)
+    for ax, target in zip(axes, energies):
+        i = point_at_energy(ds.energy.values, target)
+        q, _ = _orbit_samples(ds, i, max(m, 2 * int(ds.attrs["harmonics"]) + 2))
+        step = q.shape[1] // m
+        w = _deflection(ds, q[:, : q.shape[1] // 2 + 1 : step].T, s)
+        colors = np.linspace(0.15, 0.85, len(w))
+        for wk, c in zip(w, colors):
+            ax.plot(wk, s, color=(c, 0.3, 1 - c), lw=0.9)
+        ax.axhline(s_stop, color="0.6", lw=0.6)
+        ax.plot([-1, -1], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
+        ax.plot([1, 1], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
+        ax.set_title(f"E = {ds.energy.values[i]:.3g}, {int(ds.impacts_per_period.values[i])} impacts/T", fontsize=9)
+        ax.set_xlabel("w / gap")
+    axes[0].set_ylabel("s / L (foot at 0)")
+    fig.suptitle("Tube NNM1: deformed shapes over half a period (plate: black bars at +-gap)", fontsize=10)
+
+
+def _contact_force(fig, data, spec):
+    ds = data["nnm1"]
+    ax = fig.add_subplot(111)
+    samples = 8 * int(ds.attrs["harmonics"]) + 8
+    t = np.arange(samples) / samples
+    for target in spec["energies"]:
+        i = point_at_energy(ds.energy.values, target)
+        _, f = _orbit_samples(ds, i, samples)
+        ax.plot(t, f[0], lw=1.0, label=f"E = {ds.energy.values[i]:.3g}")
+    ax.set_xlabel("t / T")
+    ax.set_ylabel("regularized stop force f (nondimensional)")
+    ax.set_title("Tube NNM1: contact force at the plate over one period", fontsize=10)
+    ax.legend(fontsize=8)
+
+
+def _exact_vs_regularized(fig, data, spec):
+    comparison = data["comparison"]
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    ax1.plot(data["exact"].energy.values, data["exact"].frequency.values, color=EXACT, label="exact (non-smooth)")
+    nnm1 = data["nnm1"]
+    ax1.plot(nnm1.energy.values, nnm1.frequency.values, color=REGULARIZED, label="regularized")
+    ax1.set_xscale("log")
+    ax1.set_ylabel("frequency (Hz)")
+    ax1.legend(fontsize=8)
+    ax2.plot(comparison.energy.values, np.abs(comparison.relative_difference.values), "o-", color="k", ms=3)
+    ax2.set_yscale("log")
+    ax2.set_xlabel("energy (nondimensional)")
+    ax2.set_ylabel("|f_reg - f_exact| / f_exact")
+    fig.suptitle("Tube NNM1: exact against regularized at matched energies", fontsize=10)
+
+
+TUBE_FIGURES = {
+    "frequency_energy": (_frequency_energy, (7.0, 5.0)),
+    "shapes": (_shapes, (10.0, 4.5)),
+    "contact_force": (_contact_force, (7.0, 4.0)),
+    "exact_vs_regularized": (_exact_vs_regularized, (7.0, 6.0)),
+}
+
+
+def draw_tube_figure(name: str, data: dict, spec: dict, pdf_path, png_path) -> None:
+    """Draw tube figure ``name`` from the datasets ``data`` (keys nnm1, nnm2, exact, comparison as needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if name not in TUBE_FIGURES:
+        raise ValueError(f"tube figure must be one of {sorted(TUBE_FIGURES)}, got {name!r}")
+    draw, size = TUBE_FIGURES[name]
+    fig = plt.figure(figsize=size)
+    draw(fig, data, spec)
+    fig.tight_layout()
+    save_figure(fig, pdf_path, spec["png_dpi"])
+    plt.close(fig)
+
+
+def draw_study_figure(cases: list, spec: dict, pdf_path, png_path) -> None:
+    """NNM1 backbones of the study cases: physical frequency against the largest displacement at the plate."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.0, 5.0))
+    factors = sorted({float(ds.attrs["study_stiffness_factor"]) for ds in cases})
+    gaps = sorted({float(ds.attrs["study_gap_m"]) for ds in cases})
+    styles = ["-", "--", ":", "-."]
+    for ds in cases:
+        factor, gap = float(ds.attrs["study_stiffness_factor"]), float(ds.attrs["study_gap_m"])
+        color = plt.cm.viridis(factors.index(factor) / max(1, len(factors) - 1))
+        hz = ds.frequency.values * float(ds.attrs["angular_frequency_unit_rad_per_s"])
+        ax.plot(ds.x_max.values * gap * 1e3, hz, color=color, ls=styles[gaps.index(gap) % len(styles)],
+                label=f"k = {factor:g} x 3EI/a^3, gap = {gap * 1e3:g} mm")
+    ax.set_xscale("log")
+    ax.set_xlabel("largest displacement at the plate (mm)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title("Tube NNM1 over gap and plate stiffness (regularized, H from the config)", fontsize=10)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, pdf_path, spec["png_dpi"])
+    plt.close(fig)

@@ -1,0 +1,28 @@
+"""Matching a structure's exact and regularized branches at energies, on constructed branches."""
+
+import numpy as np
+import pytest
+
+from nnmstop.compare.structure_branches import compare_at_energies, first_crossing
+
+
+def test_first_crossing_takes_the_first_pass_in_branch_order():
+    energy = np.array([1.0, 2.0, 3.0, 2.0, 1.0, 4.0])  # reaches 1.5 three times
+    values = np.array([10.0, 20.0, 30.0, 40.0, 50.0, 60.0])
+    assert first_crossing(energy, values, 1.5) == pytest.approx(15.0)
+    assert first_crossing(energy, values, 3.5) == pytest.approx(50.0 + 10.0 * 2.5 / 3.0)  # 1 -> 4 segment
+    assert np.isnan(first_crossing(energy, values, 5.0))
+
+
+def test_compare_at_energies_on_two_linear_branches():
+    e = np.linspace(1.0, 10.0, 50)
+    ds = compare_at_energies(e, 1.0 + 0.01 * e, e + 0.5, 1.0 + 0.01 * (e + 0.5) + 1e-3, 5)  # same law + 1e-3
+    exact = 1.0 + 0.01 * ds.energy.values
+    np.testing.assert_allclose(ds.exact_frequency.values, exact, rtol=1e-12)
+    np.testing.assert_allclose(ds.relative_difference.values, 1e-3 / exact, rtol=1e-9)
+    assert ds.energy.values.min() > 1.5 and ds.energy.values.max() < 10.0
+
+
+def test_disjoint_branches_are_an_error():
+    with pytest.raises(ValueError, match="share no energy"):
+        compare_at_energies([1.0, 2.0], [1.0, 1.0], [3.0, 4.0], [1.0, 1.0], 4)
