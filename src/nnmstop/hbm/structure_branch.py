@@ -18,7 +18,7 @@ import xarray as xr
 from nnmstop.continuation.anm import ANMSettings, continue_anm
 from nnmstop.continuation.core import Branch, ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.bifurcation import locate_flagged_branch_points
-from nnmstop.hbm.branches import energy_folds, located_branch_point_variables, located_fold_variables
+from nnmstop.hbm.dataset import energy_folds, located_branch_point_variables, located_fold_variables
 from nnmstop.hbm.structure_stability import StructureStability
 from nnmstop.hbm.system import HarmonicBalanceSystem, impacts_per_period
 from nnmstop.netcdf import flag_variable
