@@ -249,11 +249,6 @@ def bifurcation_tangents(system, U_star, reference):
     incoming, bifurcated = tangents
     if incoming @ reference < 0:
         incoming = -incoming
-    # The null plane's basis comes from an SVD whose signs are arbitrary (round-off decides them), so the
-    # bifurcated tangent gets a fixed orientation: its largest component positive. The switched branch is
-    # then stored in the same direction on every machine.
-    if bifurcated[np.argmax(np.abs(bifurcated))] < 0:
-        bifurcated = -bifurcated
     return BranchPoint(
         U=np.asarray(U_star, float),
         incoming=incoming,
@@ -313,8 +308,8 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
     Returns
     -------
     Branch
-        The points of the ``-`` side in reverse order, the branch point, then the
-        points of the ``+`` side: one curve, in order, through the branch point
+        The points of one side in reverse order, the branch point, then the points of the
+        other side, the side ending at the lower energy first: one curve, in order, through the branch point
         (whose index is ``branch.branch_points[0]``; the branch points passed on
         either side follow). ``stats`` add up both sides.
     """
@@ -324,6 +319,10 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
         sides[sign] = continue_branch(system, U1, sign * point.bifurcated, as_stepper(method), stop,
                                       label=f"{label} ({'+' if sign > 0 else '-'} side)")
     minus, plus = sides[-1.0], sides[1.0]
+    # The sign of point.bifurcated comes from an SVD (round-off decides it): store the curve from its
+    # low-energy end, so that it runs the same way on every machine.
+    if _end_energy(system, minus) > _end_energy(system, plus):
+        minus, plus = plus, minus
     merged = Branch()
     n_minus = len(minus.points)
     for U, step, diag in zip(minus.points[::-1], minus.step[::-1], minus.diagnostics[::-1]):
@@ -339,6 +338,11 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
         setattr(merged.stats, field.name, getattr(minus.stats, field.name) + getattr(plus.stats, field.name))
     merged.end_reason = f"- side: {minus.end_reason}; + side: {plus.end_reason}"
     return merged
+
+
+def _end_energy(system, branch: Branch) -> float:
+    diagnostics = branch.diagnostics[-1] or system.diagnostics(branch.points[-1])
+    return float(diagnostics["energy"])
 
 
 def classify_branch_point(system, point: BranchPoint, max_resonance: int = 20, share_tol: float = 1e-6):
