@@ -309,7 +309,7 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
     -------
     Branch
         The points of one side in reverse order, the branch point, then the points of the
-        other side, the side ending at the lower energy first: one curve, in order, through the branch point
+        other side, the side ending at the higher energy first: one curve, in order, through the branch point
         (whose index is ``branch.branch_points[0]``; the branch points passed on
         either side follow). ``stats`` add up both sides.
     """
@@ -320,8 +320,8 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
                                       label=f"{label} ({'+' if sign > 0 else '-'} side)")
     minus, plus = sides[-1.0], sides[1.0]
     # The sign of point.bifurcated comes from an SVD (round-off decides it): store the curve from its
-    # low-energy end, so that it runs the same way on every machine.
-    if _end_energy(system, minus) > _end_energy(system, plus):
+    # high-energy end, so that it runs the same way on every machine.
+    if _end_energy(system, minus) < _end_energy(system, plus):
         minus, plus = plus, minus
     merged = Branch()
     n_minus = len(minus.points)
