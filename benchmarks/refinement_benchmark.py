@@ -24,9 +24,10 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from nnmstop.branches import dataset_unknowns, system_from_config
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.tasks.hbm import system_from_config
 from nnmstop.config import load_config
-from nnmstop.monodromy import REASONS, MonodromySettings, branch_monodromy
+from nnmstop.hbm.monodromy import REASONS, MonodromySettings, branch_monodromy
 
 DEFAULT_DATASETS = [
     "results/hbm/nnm1.nc",

@@ -5,7 +5,7 @@ regularized NNM by the ANM until an energy limit or the truncation limit;
 :func:`structure_branch_dataset` assembles the labelled dataset (Fourier coefficients of every
 degree of freedom and stop force, energy, frequency, impacts per stop, residuals, located branch
 points and folds, Floquet stability). The paper's 2-DOF branches keep their own stages and datasets
-(:mod:`nnmstop.hbm.branches`); both run the same harmonic-balance system and continuation.
+(:mod:`nnmstop.hbm.stages`); both run the same harmonic-balance system and continuation.
 """
 
 from __future__ import annotations
