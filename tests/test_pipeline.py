@@ -1,5 +1,6 @@
 """The task dispatcher and its command line (nnmstop.tasks.run)."""
 
+import importlib
 import re
 
 import pytest
@@ -57,3 +58,10 @@ def test_every_rule_runs_the_task_of_its_name_from_the_module_of_its_rule_file(r
     assert {f.stem for f in rule_files if script_rules(f)} == set(pipeline.TASK_MODULES)
     # and no task without a rule
     assert set(pipeline.task_table()) == covered
+
+
+def test_the_task_index_matches_the_task_modules():
+    """The dispatcher imports one module per job from TASK_INDEX: it must list exactly each module's TASKS."""
+    for module, names in pipeline.TASK_INDEX.items():
+        tasks = pipeline._module_tasks(importlib.import_module(f"nnmstop.tasks.{module}"))
+        assert set(tasks) == set(names), module

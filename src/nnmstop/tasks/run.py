@@ -31,10 +31,24 @@ __all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "run_task",
 
 logger = logging.getLogger("nnmstop.tasks.run")
 
-#: Task modules, one per rule file: ``workflow/rules/<name>.smk`` -> ``nnmstop.tasks.<name>``.
-TASK_MODULES = ("exact", "hbm", "compare", "figures", "study", "manifest", "bundle", "verify", "tube")
-
-
+#: The tasks of each task module, one module per rule file (``workflow/rules/<name>.smk`` ->
+#: ``nnmstop.tasks.<name>``). A job imports only the module of its task (the figure modules pull in
+#: matplotlib, the others need not); tests/test_pipeline.py checks this index against the modules'
+#: ``TASKS`` tables and the rule files.
+TASK_INDEX = {
+    "exact": ("exact_two_impacts", "exact_nnm1"),
+    "hbm": ("hbm_stage", "hbm_bifurcated", "hbm_branch"),
+    "compare": ("compare_nnm1", "compare_regimes", "compare_stability"),
+    "figures": ("regime_error_figure", "stability_figure", *(f"paper_fig{n:02d}" for n in range(2, 12))),
+    "study": ("study_error_case", "study_anm_case", "study_reference", "study_exact_cost", "study_error_vs_runtime",
+              "study_error_vs_runtime_figure", "study_stiff_exact", "study_stiff_branch", "study_stiff_energy",
+              "study_stiff_cases", "study_stiff_cases_figure"),
+    "manifest": ("dataset_manifest",),
+    "bundle": ("bundle",),
+    "verify": ("verify", "update_reference"),
+    "tube": ("tube_exact", "tube_branch", "tube_compare", "tube_figure", "tube_study_case", "tube_study"),
+}
+TASK_MODULES = tuple(TASK_INDEX)
 
 
 def _module_tasks(module) -> dict[str, Callable]:
@@ -57,24 +71,22 @@ def _task_modules() -> dict[str, dict[str, Callable]]:
 
 
 def task_module(name: str) -> str:
-    """Name of the module that holds task ``name``.
+    """Name of the module that holds task ``name`` (from :data:`TASK_INDEX`, without importing anything).
 
     Raises
     ------
     ValueError
-        If no task module defines ``name``, or two do.
+        If no task module holds ``name``.
     """
-    holders = [module for module, tasks in _task_modules().items() if name in tasks]
-    if len(holders) > 1:
-        raise ValueError(f"task {name!r} is defined in several task modules: {holders}")
-    if holders:
-        return holders[0]
-    raise ValueError(f"unknown task {name!r}; tasks are {sorted(task_table())}")
+    for module, names in TASK_INDEX.items():
+        if name in names:
+            return f"nnmstop.tasks.{module}"
+    raise ValueError(f"unknown task {name!r}; tasks are {sorted(n for names in TASK_INDEX.values() for n in names)}")
 
 
 def find_task(name: str) -> Callable:
-    """The function of task ``name`` (see :func:`task_module`)."""
-    return _task_modules()[task_module(name)][name]
+    """The function of task ``name``: imports its task module only (see :func:`task_module`)."""
+    return _module_tasks(importlib.import_module(task_module(name)))[name]
 
 
 def task_table() -> dict[str, Callable]:
