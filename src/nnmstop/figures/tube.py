@@ -42,30 +42,30 @@ def _line_segments(ax, x, y, stable, color, label):
 
 
 def _frequency_energy(fig, data, spec):
-    ax = fig.add_subplot(111)
-    styles = {"nnm1": REGULARIZED, "nnm2": "tab:green"}
-    for name, color in styles.items():
-        ds = data.get(name)
-        if ds is None:
-            continue
+    """One panel per NNM (their frequencies differ by a factor of about six), the exact NNM1 on the first."""
+    names = [name for name in ("nnm1", "nnm2") if name in data]
+    axes = fig.subplots(1, len(names), squeeze=False)[0]
+    for ax, name in zip(axes, names):
+        ds = data[name]
+        color = REGULARIZED if name == "nnm1" else "tab:green"
         _line_segments(ax, ds.energy.values, ds.frequency.values, ds.stable.values, color,
                        f"{name.upper()} regularized (H = {ds.attrs['harmonics']})")
-        bp = ds.branch_point_energy.values
-        if bp.size:
-            ax.plot(bp, ds.branch_point_frequency.values, "kx", ms=6, label="branch point" if name == "nnm1" else None)
+        if ds.branch_point_energy.size:
+            ax.plot(ds.branch_point_energy.values, ds.branch_point_frequency.values, "kx", ms=6, label="branch point")
         if ds.fold_energy.size:
-            ax.plot(ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec=color, ms=5)
-        for key, ls in (("linear_frequency_fe", ":"), ("linear_frequency_euler_bernoulli", "-.")):
-            ax.axhline(ds.attrs[key], color=color, lw=0.7, ls=ls)
-    exact = data.get("exact")
-    if exact is not None:
-        ax.plot(exact.energy.values, exact.frequency.values, color=EXACT, lw=1.0, label="NNM1 exact (non-smooth)")
-    ax.set_xscale("log")
-    ax.set_xlabel("energy (nondimensional)")
-    ax.set_ylabel("frequency (Hz of the nondimensional time)")
-    ax.set_title("Tube with a support plate: frequency-energy plot\n(dashed: unstable; dotted: FE linear; "
-                 "dash-dot: Euler-Bernoulli linear; o: energy folds)", fontsize=9)
-    ax.legend(fontsize=8, loc="best")
+            ax.plot(ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=5, label="energy fold")
+        ax.axhline(ds.attrs["linear_frequency_fe"], color="0.4", lw=0.8, ls=":", label="linear, finite elements")
+        ax.axhline(ds.attrs["linear_frequency_euler_bernoulli"], color="0.4", lw=0.8, ls="-.",
+                   label="linear, Euler-Bernoulli")
+        if name == "nnm1" and "exact" in data:
+            exact = data["exact"]
+            ax.plot(exact.energy.values, exact.frequency.values, color=EXACT, lw=1.2, label="NNM1 exact (non-smooth)")
+        ax.set_xscale("log")
+        ax.set_xlabel("energy (nondimensional)")
+        ax.set_title(f"{name.upper()}: dashed where unstable", fontsize=9)
+        ax.legend(fontsize=7, loc="best")
+    axes[0].set_ylabel("frequency (Hz of the nondimensional time)")
+    fig.suptitle("Tube with a support plate: frequency-energy plots", fontsize=10)
 
 
 def _orbit_samples(ds, i: int, samples: int):
@@ -143,7 +143,7 @@ def _exact_vs_regularized(fig, data, spec):
 
 
 TUBE_FIGURES = {
-    "frequency_energy": (_frequency_energy, (7.0, 5.0)),
+    "frequency_energy": (_frequency_energy, (11.0, 4.8)),
     "shapes": (_shapes, (10.0, 4.5)),
     "contact_force": (_contact_force, (7.0, 4.0)),
     "exact_vs_regularized": (_exact_vs_regularized, (7.0, 6.0)),
