@@ -25,7 +25,8 @@ import scipy.sparse as sp
 from scipy.linalg import eigh
 
 from nnmstop import fourier
-from nnmstop.hbm.factorization import DenseBorderedLU, SparseBorderedLU
+from nnmstop.continuation.linear import BorderedFactorization
+from nnmstop.hbm.factorization import SparseBorderedLU
 from nnmstop.hbm.series_cache import SeriesCache
 from nnmstop.models.structure import Structure, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, regularized_force_and_potential
@@ -343,7 +344,7 @@ class HarmonicBalanceSystem:
 
         Returns
         -------
-        DenseBorderedLU or SparseBorderedLU
+        BorderedFactorization or SparseBorderedLU
             With ``solve(rhs)`` (1-D, or 2-D with one right-hand side per column),
             ``determinant_sign()`` and ``pivot_ratio``. Dense LAPACK LU when the system's
             ``linear_algebra`` is "dense", SuperLU in the order of :meth:`elimination_order`
@@ -353,7 +354,7 @@ class HarmonicBalanceSystem:
         if tangent.shape != (self.n_unknowns,):
             raise ValueError(f"tangent must have shape ({self.n_unknowns},), got {tangent.shape}")
         if self.linear_algebra == "dense":
-            return DenseBorderedLU(np.vstack([self.jacobian(U, sparse=False), tangent[None, :]]))
+            return BorderedFactorization.of_matrix(np.vstack([self.jacobian(U, sparse=False), tangent[None, :]]))
         return SparseBorderedLU(self._sparse_jacobian(U), tangent, self.elimination_order())
 
     def elimination_order(self):
