@@ -33,7 +33,7 @@ class SeriesCache:
         Highest order ``N`` of the series.
     """
 
-    def __init__(self, system: "HarmonicBalanceSystem", order: int):
+    def __init__(self, system: HarmonicBalanceSystem, order: int):
         self.system = system
         s = system.n_stops
         # samples[r] holds f, g, z, g of every stop (s channels each) of term r on the M
