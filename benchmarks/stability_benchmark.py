@@ -19,11 +19,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from timing import best_time, emit_report
 
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.tasks.hbm import system_from_config
@@ -32,16 +32,6 @@ from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
 from nnmstop.hbm.stability import branch_hill
 
 DEFAULT_DATASETS = ["results/hbm/nnm1.nc", "results/hbm/nnm2.nc", "results/hbm/bifurcated/nnm1_3to1.nc", "results/hbm/bifurcated/nnm1_5to1.nc"]
-
-
-def best_time(function, repeat: int):
-    """Result and smallest wall time of ``repeat`` calls."""
-    best, result = np.inf, None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = function()
-        best = min(best, time.perf_counter() - start)
-    return result, best
 
 
 def main(argv=None) -> int:
@@ -81,11 +71,7 @@ def main(argv=None) -> int:
             f"| {path.name} | {n} | {1e3 * t_hill / n:.1f} | {1e3 * t_mono / n:.1f} | {t_hill / t_mono:.1f}x | "
             f"{int(hill.resolved.sum())} | {int(mono.resolved.sum())} | {differ} |"
         )
-    report = "\n".join(lines)
-    print(report)
-    if args.output:
-        args.output.write_text(report + "\n")
-    return 0
+    return emit_report("\n".join(lines), args.output)
 
 
 if __name__ == "__main__":
