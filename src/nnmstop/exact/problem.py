@@ -33,7 +33,8 @@ __all__ = [
 def newton(fun, jac, y, tol=1e-14, max_iter=40):
     """Newton iteration to round-off: once a step is below ``tol (1 + |y|)``, one more step.
 
-    :func:`nnmstop.continuation.newton.newton_solve` with its step criterion and a polishing update.
+    :func:`nnmstop.continuation.newton.newton_solve` with its step criterion; the polishing update counts
+    among the ``max_iter`` updates (none when the criterion holds only at the last one).
 
     Returns
     -------
@@ -42,7 +43,9 @@ def newton(fun, jac, y, tol=1e-14, max_iter=40):
         False on a singular Jacobian, a non-finite iterate or ``max_iter`` iterations.
     """
     try:
-        result = newton_solve(fun, jac, y, tol=tol, max_iter=max_iter, polish=True)
+        result = newton_solve(fun, jac, y, tol=tol, max_iter=max_iter)
+        if result.converged and result.iterations < max_iter:
+            result = newton_solve(fun, jac, result.y, tol=tol, max_iter=1, criterion=lambda y, r, dy: dy is not None)
     except np.linalg.LinAlgError:
         return np.asarray(y, dtype=float), False
     return result.y, result.converged
