@@ -21,14 +21,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 
-from timing import check_repeat, emit_report, timed
-
+from branch_orbits import branch_orbits
 from nnmstop.config import load_config
-from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.monodromy import REASONS, MonodromySettings, branch_monodromy
-from nnmstop.tasks.hbm import system_from_config
+from timing import check_repeat, emit_report, timed
 
 DEFAULT_DATASETS = [
     "results/hbm/nnm1.nc",
@@ -58,15 +55,7 @@ def main(argv=None) -> int:
         "max abs energy change |",
         "|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|",
     ]
-    for name in args.datasets:
-        path = Path(name)
-        if not path.exists():
-            print(f"skipping {name}: not built", file=sys.stderr)
-            continue
-        with xr.open_dataset(path) as ds:
-            system = system_from_config(config, harmonics=int(ds.attrs["harmonics"]))
-            U = dataset_unknowns(ds.load(), system)
-            residual = ds["time_residual"].values
+    for path, system, U, residual in branch_orbits(args.datasets, config):
         best = {"plain": (np.inf, np.inf), "refined": (np.inf, np.inf)}
         results = {}
         for _ in range(args.repeat):
