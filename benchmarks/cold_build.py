@@ -33,6 +33,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from timing import check_repeat, emit_report
+
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -104,8 +106,7 @@ def main(argv=None) -> int:
     parser.add_argument("--output", type=Path, help="also write the Markdown table here")
     parser.add_argument("--keep", action="store_true", help="keep the temporary build directories")
     args = parser.parse_args(argv)
-    if args.repeat < 1:
-        raise ValueError(f"--repeat must be >= 1, got {args.repeat}")
+    check_repeat(args.repeat)
     refs = args.compare or ["HEAD"]
     best: dict[str, tuple] = {}
     try:
@@ -136,11 +137,7 @@ def main(argv=None) -> int:
         lines.append("")
     for ref in refs:
         lines += rule_table(ref, args.cores, *best[ref][:2]) + [""]
-    report = "\n".join(lines).rstrip()
-    print(report)
-    if args.output:
-        args.output.write_text(report + "\n")
-    return 0
+    return emit_report("\n".join(lines).rstrip(), args.output)
 
 
 if __name__ == "__main__":

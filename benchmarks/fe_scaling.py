@@ -77,7 +77,8 @@ def run_case(method: str, dofs: int, harmonics: int, repeat: int) -> dict:
 
     import numpy as np
 
-    from nnmstop.factorization import DenseBorderedLU, SparseBorderedLU
+    from nnmstop.continuation.linear import BorderedFactorization
+    from nnmstop.hbm.factorization import SparseBorderedLU
     from nnmstop.hbm.system import HarmonicBalanceSystem
 
     algebra = "dense" if method == "dense" else "sparse"
@@ -90,7 +91,7 @@ def run_case(method: str, dofs: int, harmonics: int, repeat: int) -> dict:
     for _ in range(repeat):
         t0 = time.perf_counter()
         if method == "dense":
-            lu = DenseBorderedLU(dense_bordered(system, U, tangent), overwrite=True)
+            lu = BorderedFactorization.of_matrix(dense_bordered(system, U, tangent), overwrite=True)
         elif method == "sparse":
             lu = system.factorize_bordered(U, tangent)
         else:

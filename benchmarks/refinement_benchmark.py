@@ -18,16 +18,14 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.tasks.hbm import system_from_config
+from branch_orbits import branch_orbits
 from nnmstop.config import load_config
 from nnmstop.hbm.monodromy import REASONS, MonodromySettings, branch_monodromy
+from timing import check_repeat, emit_report, timed
 
 DEFAULT_DATASETS = [
     "results/hbm/nnm1.nc",
@@ -37,13 +35,6 @@ DEFAULT_DATASETS = [
 ]
 
 
-def timed(function):
-    """Result, CPU time and wall time of one call."""
-    cpu, wall = time.process_time(), time.perf_counter()
-    result = function()
-    return result, time.process_time() - cpu, time.perf_counter() - wall
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("datasets", nargs="*", default=DEFAULT_DATASETS)
@@ -51,8 +42,7 @@ def main(argv=None) -> int:
     parser.add_argument("--repeat", type=int, default=3, help="best of this many runs per setting")
     parser.add_argument("--output", type=Path, help="also write the Markdown table here")
     args = parser.parse_args(argv)
-    if args.repeat < 1:
-        raise ValueError(f"--repeat must be >= 1, got {args.repeat}")
+    check_repeat(args.repeat)
     config = load_config(args.config)
     refined_settings = dataclasses.replace(MonodromySettings.from_config(config.get("stability", {})), refine=True)
     plain_settings = dataclasses.replace(refined_settings, refine=False)
@@ -65,15 +55,7 @@ def main(argv=None) -> int:
         "max abs energy change |",
         "|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|",
     ]
-    for name in args.datasets:
-        path = Path(name)
-        if not path.exists():
-            print(f"skipping {name}: not built", file=sys.stderr)
-            continue
-        with xr.open_dataset(path) as ds:
-            system = system_from_config(config, harmonics=int(ds.attrs["harmonics"]))
-            U = dataset_unknowns(ds.load(), system)
-            residual = ds["time_residual"].values
+    for path, system, U, residual in branch_orbits(args.datasets, config):
         best = {"plain": (np.inf, np.inf), "refined": (np.inf, np.inf)}
         results = {}
         for _ in range(args.repeat):
@@ -93,11 +75,7 @@ def main(argv=None) -> int:
             f"{reasons} | {best['plain'][0]:.2f} ({best['plain'][1]:.2f}) | {best['refined'][0]:.2f} "
             f"({best['refined'][1]:.2f}) | {added} | {df:.1e} | {de:.1e} |"
         )
-    report = "\n".join(lines)
-    print(report)
-    if args.output:
-        args.output.write_text(report + "\n")
-    return 0
+    return emit_report("\n".join(lines), args.output)
 
 
 if __name__ == "__main__":

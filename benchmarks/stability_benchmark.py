@@ -19,29 +19,17 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.tasks.hbm import system_from_config
+from branch_orbits import branch_orbits
 from nnmstop.config import load_config
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
 from nnmstop.hbm.stability import branch_hill
+from timing import best_time, emit_report
 
 DEFAULT_DATASETS = ["results/hbm/nnm1.nc", "results/hbm/nnm2.nc", "results/hbm/bifurcated/nnm1_3to1.nc", "results/hbm/bifurcated/nnm1_5to1.nc"]
-
-
-def best_time(function, repeat: int):
-    """Result and smallest wall time of ``repeat`` calls."""
-    best, result = np.inf, None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = function()
-        best = min(best, time.perf_counter() - start)
-    return result, best
 
 
 def main(argv=None) -> int:
@@ -63,15 +51,7 @@ def main(argv=None) -> int:
         "| dataset | points | Hill (ms/point) | monodromy (ms/point) | speed-up | resolved Hill | resolved monodromy | verdicts differ where both resolved |",
         "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    for name in args.datasets:
-        path = Path(name)
-        if not path.exists():
-            print(f"skipping {name}: not built", file=sys.stderr)
-            continue
-        with xr.open_dataset(path) as ds:
-            system = system_from_config(config, harmonics=int(ds.attrs["harmonics"]))
-            U = dataset_unknowns(ds.load(), system)[:: args.stride]
-            residual = ds["time_residual"].values[:: args.stride]
+    for path, system, U, residual in branch_orbits(args.datasets, config, args.stride):
         hill, t_hill = best_time(lambda: branch_hill(system, U), args.repeat)
         mono, t_mono = best_time(lambda: branch_monodromy(system, U, settings, time_residual=residual), args.repeat)
         both = hill.resolved & mono.resolved
@@ -81,11 +61,7 @@ def main(argv=None) -> int:
             f"| {path.name} | {n} | {1e3 * t_hill / n:.1f} | {1e3 * t_mono / n:.1f} | {t_hill / t_mono:.1f}x | "
             f"{int(hill.resolved.sum())} | {int(mono.resolved.sum())} | {differ} |"
         )
-    report = "\n".join(lines)
-    print(report)
-    if args.output:
-        args.output.write_text(report + "\n")
-    return 0
+    return emit_report("\n".join(lines), args.output)
 
 
 if __name__ == "__main__":

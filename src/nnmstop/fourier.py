@@ -28,6 +28,8 @@ __all__ = [
     "to_time",
     "to_coefficients",
     "synthesis_matrix",
+    "multiplication_matrix",
+    "complex_amplitudes",
     "to_cos_sin",
     "from_cos_sin",
     "PhaseSynthesis",
@@ -203,3 +205,48 @@ def fields_at_phases(theta, omega: float, series: dict, velocities=("x", "u")) -
         if name in velocities:
             out[name + "dot"] = omega * at.theta_derivative(c, s)
     return out
+
+
+def multiplication_matrix(a_samples, harmonics: int, even: bool = False, halfwave: bool = False) -> np.ndarray:
+    """Galerkin matrix of ``w -> [a w]`` on the full layout with ``harmonics`` harmonics, for uniform samples of ``a``.
+
+    Built from the complex Fourier coefficients ``a_n`` (``|n| <= 2 H``) of the
+    samples: Toeplitz ``T[k, l] = a_{k-l}`` on complex harmonics ``-H..H``, changed
+    to the ``[c_0, c_c^k, c_s^k]`` layout. ``even`` drops the (round-off) odd part of
+    ``a`` in time, so that the matrix keeps the cosine/sine parity exactly;
+    ``halfwave`` drops its (round-off) odd harmonics, so that it keeps the parity of
+    the harmonic numbers.
+    """
+    H = harmonics
+    n = a_samples.shape[-1]
+    spec = np.fft.fft(a_samples) / n
+    if even:
+        spec = spec.real.astype(complex)
+    if halfwave:
+        spec[1::2] = 0.0
+    k = np.arange(-H, H + 1)
+    T = spec[(k[:, None] - k[None, :]) % n]  # rows/columns ordered by k = -H..H
+    i0 = H
+    pos = i0 + np.arange(1, H + 1)
+    neg = i0 - np.arange(1, H + 1)
+    # Columns: complex harmonics of the real basis functions 1, cos(l t), sin(l t).
+    TQ = np.empty((2 * H + 1, 2 * H + 1), dtype=complex)
+    TQ[:, 0] = T[:, i0]
+    TQ[:, 1 : H + 1] = 0.5 * (T[:, pos] + T[:, neg])
+    TQ[:, H + 1 :] = -0.5j * (T[:, pos] - T[:, neg])
+    # Rows: real coefficients from complex ones, c_k = P_k + P_-k, s_k = i (P_k - P_-k).
+    R = np.empty_like(TQ)
+    R[0] = TQ[i0]
+    R[1 : H + 1] = TQ[pos] + TQ[neg]
+    R[H + 1 :] = 1j * (TQ[pos] - TQ[neg])
+    return R.real
+
+
+def complex_amplitudes(P, H: int) -> np.ndarray:
+    """Complex harmonic amplitudes (``k = -H..H``) of full-layout coefficients (last axis)."""
+    c0 = P[..., :1]
+    c = P[..., 1 : H + 1]
+    s = P[..., H + 1 :]
+    pos = 0.5 * (c - 1j * s)
+    neg = 0.5 * (c + 1j * s)
+    return np.concatenate([neg[..., ::-1], c0, pos], axis=-1)

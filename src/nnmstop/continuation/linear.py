@@ -35,11 +35,14 @@ class BorderedFactorization:
     def __init__(self, lu, pivots):
         self.lu = lu
         self.pivots = pivots
+        magnitudes = np.abs(np.diag(lu))
+        #: Smallest over largest ``|U_ii|`` (0 when every pivot is 0), as the sparse factors report it.
+        self.pivot_ratio = float(magnitudes.min() / magnitudes.max()) if magnitudes.max() > 0 else 0.0
 
     @classmethod
-    def of_matrix(cls, matrix) -> "BorderedFactorization":
-        """Factorize a square matrix (it must be finite)."""
-        return cls(*lu_factor(matrix, check_finite=True))
+    def of_matrix(cls, matrix, overwrite: bool = False) -> "BorderedFactorization":
+        """Factorize a square matrix (it must be finite); ``overwrite`` factors a Fortran-ordered one in place."""
+        return cls(*lu_factor(matrix, overwrite_a=overwrite, check_finite=True))
 
     def solve(self, rhs) -> np.ndarray:
         """``A^{-1} rhs`` by LAPACK ``getrs``.
@@ -64,9 +67,8 @@ class BorderedFactorization:
         return -1 if (swaps + negative) % 2 else 1
 
     def is_singular(self, tol: float) -> bool:
-        """The smallest absolute pivot is at most ``tol`` times the largest."""
-        pivots = np.abs(np.diag(self.lu))
-        return bool(pivots.min() <= tol * pivots.max())
+        """``pivot_ratio`` is at most ``tol`` (singular to working precision for ``tol`` ~ 1e-14)."""
+        return self.pivot_ratio <= tol
 
 
 def factorize_bordered(system, U, tangent, stats=None, *, singular_tol: float | None = 1e-14):
@@ -82,8 +84,10 @@ def factorize_bordered(system, U, tangent, stats=None, *, singular_tol: float | 
     stats : ContinuationStats, optional
         The factorization is counted in ``stats.factorizations``.
     singular_tol : float or None
-        The dense factors are refused when the smallest pivot is at most ``singular_tol``
-        times the largest; None accepts any (for sign evaluations close to a branch point).
+        The factors are refused when their ``is_singular(singular_tol)`` holds (dense: the
+        smallest pivot is at most ``singular_tol`` times the largest; a system's own factors
+        without ``is_singular`` are accepted); None accepts any (for sign evaluations close to
+        a branch point).
 
     Returns
     -------
@@ -102,8 +106,10 @@ def factorize_bordered(system, U, tangent, stats=None, *, singular_tol: float | 
         stats.factorizations += 1
     own = getattr(system, "factorize_bordered", None)
     if own is not None:
-        return own(U, tangent)
-    factors = BorderedFactorization.of_matrix(np.vstack([system.jacobian(U), np.asarray(tangent)[None, :]]))
-    if singular_tol is not None and factors.is_singular(singular_tol):
+        factors = own(U, tangent)
+    else:
+        factors = BorderedFactorization.of_matrix(np.vstack([system.jacobian(U), np.asarray(tangent)[None, :]]))
+    # a system's own factors are held to the same test when they offer it
+    if singular_tol is not None and getattr(factors, "is_singular", lambda tol: False)(singular_tol):
         raise np.linalg.LinAlgError("bordered Jacobian is singular to working precision")
     return factors

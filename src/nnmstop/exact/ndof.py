@@ -22,7 +22,10 @@ from typing import NamedTuple
 import numpy as np
 import scipy.optimize
 
+from nnmstop.continuation.newton import newton_solve
+from nnmstop.exact.arclength import FamilyTrace, continue_family, round_off_criterion
 from nnmstop.exact.grazing import TWO_IMPACT_MARGINS, MarginChecks
+from nnmstop.exact.phases import unfold_quarter_states
 from nnmstop.models.structure import Structure, generalized_modes
 
 __all__ = [
@@ -39,7 +42,6 @@ __all__ = [
     "FamilyTrace",
     "continue_family",
     "REASONS",
-    "unfold_quarter",
     "time_history",
     "piecewise_energy",
 ]
@@ -370,27 +372,10 @@ def _largest_magnitude(problem: OneStopProblem, y, dof: int) -> float:
 # --------------------------------------------------------------------------- single orbits
 
 
-def _newton_converged(dy_norm: float, previous: float, y_norm: float) -> bool:
-    """Newton has reached round-off: the update is below 1e-13 relative, or it has stopped shrinking (by at
-    least half per iteration) while below 1e-8 relative. The second case is the floor set by the conditioning
-    of the quarter-period equations of a model with fast modes (round-off of their velocities at T1)."""
-    scale = 1.0 + y_norm
-    return dy_norm <= 1e-13 * scale or (dy_norm <= 1e-8 * scale and dy_norm > 0.5 * previous)
-
-
 def _newton(fun, jac, y, max_iter=30):
-    """Newton iteration to round-off (see :func:`_newton_converged`); None if it fails."""
-    previous = np.inf
-    for _ in range(max_iter):
-        dy = np.linalg.solve(jac(y), -fun(y))
-        y = y + dy
-        if not np.all(np.isfinite(y)):
-            return None
-        dy_norm = float(np.linalg.norm(dy))
-        if _newton_converged(dy_norm, previous, float(np.linalg.norm(y))):
-            return y
-        previous = dy_norm
-    return None
+    """Newton iteration to round-off (:func:`~nnmstop.exact.arclength.round_off_criterion`); None if it fails."""
+    result = newton_solve(fun, jac, y, tol=0.0, max_iter=max_iter, criterion=round_off_criterion())
+    return result.y if result.converged else None
 
 
 def _solve_with(problem: OneStopProblem, seed, extra, extra_gradient, name: str, value: float) -> np.ndarray:
@@ -444,117 +429,7 @@ def orbit_at_energy(problem: OneStopProblem, energy: float, seed) -> np.ndarray:
     return _solve_with(problem, seed, problem.energy, gradient, "energy", energy)
 
 
-# --------------------------------------------------------------------------- continuation
-
-
-def _unit_tangent(jac: np.ndarray, previous: np.ndarray) -> np.ndarray:
-    """Null vector of the m x (m + 1) Jacobian, oriented like ``previous``, unit length."""
-    rhs = np.zeros(jac.shape[1])
-    rhs[-1] = 1.0
-    t = np.linalg.solve(np.vstack([jac, previous]), rhs)
-    return t / np.linalg.norm(t)
-
-
-def _correct(residual, jacobian, y_prev, tangent, sigma, max_iter=15):
-    """Pseudo-arclength corrector to round-off (:func:`_newton_converged`); ``(y, residual norm)`` or ``(None, inf)``.
-
-    Refuses a solution farther than half the step from the predictor (a jump to another branch).
-    """
-    y = y_prev + sigma * tangent
-    previous = np.inf
-    for _ in range(max_iter):
-        f = np.append(residual(y), tangent @ (y - y_prev) - sigma)
-        try:
-            dy = np.linalg.solve(np.vstack([jacobian(y), tangent]), -f)
-        except np.linalg.LinAlgError:
-            return None, np.inf
-        y = y + dy
-        if not np.all(np.isfinite(y)):
-            return None, np.inf
-        dy_norm = float(np.linalg.norm(dy))
-        if _newton_converged(dy_norm, previous, float(np.linalg.norm(y))):
-            break
-        previous = dy_norm
-    else:
-        return None, np.inf
-    res = float(np.linalg.norm(residual(y)))
-    if np.linalg.norm(y - (y_prev + sigma * tangent)) > 0.5 * abs(sigma) + 1e-12:
-        return None, np.inf
-    return y, res
-
-
-@dataclass
-class FamilyTrace:
-    """Output of :func:`continue_family`: orbits in continuation order and why the family ends."""
-
-    unknowns: np.ndarray
-    arclength: np.ndarray
-    residual: np.ndarray
-    assessments: list
-    end_reason: str
-    end_margin: str
-    end_tangent: np.ndarray
-
-
-def continue_family(residual, jacobian, assess, y0, direction, step: float, max_points: int,
-                    min_step_ratio: float = 1e-6, reasons: dict = TWO_IMPACT_MARGINS) -> FamilyTrace:
-    """Pseudo-arclength continuation of ``residual(y) = 0`` (m equations, m + 1 unknowns) with validity checks.
-
-    Generic in the problem: ``assess(y)`` returns an object with ``valid`` and ``violated`` (a
-    :class:`MarginChecks`). The tangent at ``y0`` is oriented along ``direction``. At the first invalid orbit the
-    boundary is located by bisection on the arclength of the last step (to ``1e-13`` of it), the last valid orbit
-    is kept and the family ends there, with the reason from ``reasons``. The step is halved when Newton fails and
-    restored after a success.
-    """
-    if not (np.isfinite(step) and step > 0):
-        raise ValueError(f"step must be a finite number > 0, got {step!r}")
-    if int(max_points) != max_points or max_points < 2:
-        raise ValueError(f"max_points must be an integer >= 2, got {max_points!r}")
-    y = np.asarray(y0, dtype=float)
-    res0 = float(np.linalg.norm(residual(y)))
-    if res0 > 1e-8:
-        raise ValueError(f"the start is not a solution (residual {res0:.3e})")
-    tangent = _unit_tangent(jacobian(y), np.asarray(direction, dtype=float))
-    ys, arcs, residuals, checks = [y], [0.0], [res0], [assess(y)]
-    h, s = float(step), 0.0
-    end_reason, end_margin = f"max_points = {max_points} reached (the family is still valid there)", ""
-    while len(ys) < max_points:
-        y_new, res = _correct(residual, jacobian, y, tangent, h)
-        if y_new is None:
-            h *= 0.5
-            if h < min_step_ratio * step:
-                end_reason = f"continuation failed: Newton did not converge for steps down to {h:.3e}"
-                break
-            continue
-        check = assess(y_new)
-        if not check.valid:
-            lo, hi, y_lo, check_lo, name = 0.0, h, None, None, check.violated[0]
-            while hi - lo > 1e-13 * h:
-                mid = 0.5 * (lo + hi)
-                y_mid, _ = _correct(residual, jacobian, y, tangent, mid)
-                if y_mid is None:
-                    hi = mid
-                    continue
-                check_mid = assess(y_mid)
-                if check_mid.valid:
-                    lo, y_lo, check_lo = mid, y_mid, check_mid
-                else:
-                    hi, name = mid, check_mid.violated[0]
-            if y_lo is not None and lo > 0:
-                ys.append(y_lo)
-                arcs.append(s + lo)
-                residuals.append(float(np.linalg.norm(residual(y_lo))))
-                checks.append(check_lo)
-            end_reason, end_margin = reasons.get(name, name), name
-            break
-        tangent = _unit_tangent(jacobian(y_new), tangent)
-        y, s = y_new, s + h
-        ys.append(y)
-        arcs.append(s)
-        residuals.append(res)
-        checks.append(check)
-        h = min(step, 2.0 * h)
-    return FamilyTrace(np.array(ys), np.array(arcs), np.array(residuals), checks, end_reason, end_margin, tangent)
+# --------------------------------------------------------------------------- families
 
 
 @dataclass
@@ -642,26 +517,6 @@ def follow_one_stop_family(structure: Structure, step: float = 0.02, max_points:
 # --------------------------------------------------------------------------- time histories
 
 
-def unfold_quarter(quarter_state, quarter: float, t):
-    """Full-period states at times ``t`` from the quarter period ``[0, quarter]`` of a symmetric orbit.
-
-    ``quarter_state(r)`` gives the states ``(q, qdot)`` (last axis, 2N) at times ``r`` in ``[0, quarter]``. The
-    mirror ``q(T1 + s) = q(T1 - s)`` (velocities change sign) and the half-period shift ``q(t + T/2) = -q(t)``
-    give the rest; ``t`` may be any real times (period ``4 quarter``).
-    """
-    t = np.asarray(t, dtype=float)
-    period = 4.0 * quarter
-    s = np.mod(t, period)
-    second_half = s >= 0.5 * period
-    s = np.where(second_half, s - 0.5 * period, s)
-    mirrored = s > quarter
-    z = np.asarray(quarter_state(np.clip(np.where(mirrored, 2.0 * quarter - s, s), 0.0, quarter)))
-    n = z.shape[-1] // 2
-    sign_q = np.where(second_half, -1.0, 1.0)[..., None]
-    sign_v = sign_q * np.where(mirrored, -1.0, 1.0)[..., None]
-    return np.concatenate([sign_q * z[..., :n], sign_v * z[..., n:]], axis=-1)
-
-
 class NdofTimeHistory(NamedTuple):
     """Time history of a one-stop orbit: ``q`` and ``qdot`` of shape ``t.shape + (N,)``, stop force like ``t``."""
 
@@ -674,7 +529,7 @@ class NdofTimeHistory(NamedTuple):
 def time_history(problem: OneStopProblem, y, t) -> NdofTimeHistory:
     """Exact time history of the orbit ``y`` at times ``t`` (piecewise-linear stop force)."""
     y = problem.check(y)
-    z = unfold_quarter(lambda r: problem.quarter_state(y, r), y[-1], t)
+    z = unfold_quarter_states(lambda r: problem.quarter_state(y, r), y[-1], t)
     q = z[..., : problem.n]
     force = problem.stop.piecewise_force(q[..., problem.dof])
     return NdofTimeHistory(np.asarray(t, dtype=float), q, z[..., problem.n:], force)

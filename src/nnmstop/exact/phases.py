@@ -26,6 +26,7 @@ __all__ = [
     "phase_of",
     "interior_extrema",
     "OrbitTimeHistory",
+    "unfold_quarter_states",
     "unfold_quarter",
 ]
 
@@ -184,14 +185,13 @@ class OrbitTimeHistory(NamedTuple):
     force: np.ndarray
 
 
-def unfold_quarter(quarter_state, quarter: float, t, alpha: float) -> OrbitTimeHistory:
-    """Full-period time history at times ``t`` from the quarter period ``[0, quarter]``.
+def unfold_quarter_states(quarter_state, quarter: float, t) -> np.ndarray:
+    """Full-period states ``(q, qdot)`` (last axis, ``2N``) at times ``t`` from the quarter period ``[0, quarter]``.
 
-    ``quarter_state(r)`` gives the states ``(x, u, xdot, udot)`` at times ``r`` of the
-    quarter period (last axis). The NNM symmetries unfold it: the mirror
+    ``quarter_state(r)`` gives the states at times ``r`` of the quarter period (last axis, positions
+    then velocities, any number ``N`` of degrees of freedom). The NNM symmetries unfold it: the mirror
     ``q(T1 + s) = q(T1 - s)`` (velocities change sign) and the half-period shift
     ``q(t + T/2) = -q(t)``; ``t`` may be any real times (the orbit is ``4 quarter``-periodic).
-    The contact force is the piecewise-linear law, Eq. (4).
     """
     t = np.asarray(t, dtype=float)
     period = 4.0 * quarter
@@ -200,9 +200,21 @@ def unfold_quarter(quarter_state, quarter: float, t, alpha: float) -> OrbitTimeH
     s = np.where(second_half, s - 0.5 * period, s)
     mirrored = s > quarter
     r = np.where(mirrored, 2.0 * quarter - s, s)
-    z = quarter_state(np.clip(r, 0.0, quarter))
-    sign_q = np.where(second_half, -1.0, 1.0)
-    sign_v = sign_q * np.where(mirrored, -1.0, 1.0)
-    x, u = sign_q * z[..., 0], sign_q * z[..., 1]
-    xdot, udot = sign_v * z[..., 2], sign_v * z[..., 3]
+    z = np.asarray(quarter_state(np.clip(r, 0.0, quarter)))
+    n = z.shape[-1] // 2
+    sign_q = np.where(second_half, -1.0, 1.0)[..., None]
+    sign_v = sign_q * np.where(mirrored, -1.0, 1.0)[..., None]
+    return np.concatenate([sign_q * z[..., :n], sign_v * z[..., n:]], axis=-1)
+
+
+def unfold_quarter(quarter_state, quarter: float, t, alpha: float) -> OrbitTimeHistory:
+    """Full-period time history of the 2-DOF system at times ``t`` from the quarter period ``[0, quarter]``.
+
+    ``quarter_state(r)`` gives the states ``(x, u, xdot, udot)`` at times ``r`` of the
+    quarter period (last axis), unfolded by :func:`unfold_quarter_states`. The contact force
+    is the piecewise-linear law, Eq. (4).
+    """
+    t = np.asarray(t, dtype=float)
+    z = unfold_quarter_states(quarter_state, quarter, t)
+    x, u, xdot, udot = z[..., 0], z[..., 1], z[..., 2], z[..., 3]
     return OrbitTimeHistory(t, x, u, xdot, udot, piecewise_contact_force(x, alpha))

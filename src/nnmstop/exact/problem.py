@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from nnmstop.continuation.newton import newton_solve
 from nnmstop.exact.phases import OrbitTimeHistory, phase_of, unfold_quarter
 from nnmstop.exact.sequences import check_sequence, sequence_impacts, switch_levels
 from nnmstop.models.two_dof import ModelParameters, linear_modes, total_energy
@@ -32,25 +33,22 @@ __all__ = [
 def newton(fun, jac, y, tol=1e-14, max_iter=40):
     """Newton iteration to round-off: once a step is below ``tol (1 + |y|)``, one more step.
 
+    :func:`nnmstop.continuation.newton.newton_solve` with its step criterion; the polishing update counts
+    among the ``max_iter`` updates (none when the criterion holds only at the last one).
+
     Returns
     -------
     y : ndarray
     converged : bool
         False on a singular Jacobian, a non-finite iterate or ``max_iter`` iterations.
     """
-    converged = False
-    for _ in range(max_iter):
-        try:
-            dy = np.linalg.solve(jac(y), -fun(y))
-        except np.linalg.LinAlgError:
-            return y, False
-        y = y + dy
-        if not np.all(np.isfinite(y)):
-            return y, False
-        if converged:
-            break
-        converged = np.linalg.norm(dy) <= tol * (1.0 + np.linalg.norm(y))
-    return y, converged
+    try:
+        result = newton_solve(fun, jac, y, tol=tol, max_iter=max_iter)
+        if result.converged and result.iterations < max_iter:
+            result = newton_solve(fun, jac, result.y, tol=tol, max_iter=1, criterion=lambda y, r, dy: dy is not None)
+    except np.linalg.LinAlgError:
+        return np.asarray(y, dtype=float), False
+    return result.y, result.converged
 
 
 class SequenceProblem:

@@ -2,10 +2,11 @@
 
 A continuation step factors the bordered matrix once and back-substitutes many times
 (about twenty right-hand sides per ANM series), and branch-point detection reads the sign
-of its determinant. :class:`DenseBorderedLU` is LAPACK's partial-pivoting LU of the full
-matrix (small systems: the paper's oscillator); :class:`SparseBorderedLU` is SuperLU on the
-sparse matrix, reordered by the caller so that elimination follows the structure of the
-harmonic-balance Jacobian (see docs/methods/hbm_structure.md). Both offer ``solve``,
+of its determinant. The dense factors (LAPACK's partial-pivoting LU of the full matrix, for
+small systems such as the paper's oscillator) are
+:class:`nnmstop.continuation.linear.BorderedFactorization`; :class:`SparseBorderedLU` here is
+SuperLU on the sparse matrix, reordered by the caller so that elimination follows the structure
+of the harmonic-balance Jacobian (see docs/methods/hbm_structure.md). Both offer ``solve``,
 ``determinant_sign``, ``pivot_ratio`` (smallest over largest ``|U_ii|``) and ``is_singular(tol)``,
 the test of near-singularity the continuation applies.
 """
@@ -14,11 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import lu_factor
-from scipy.linalg.lapack import dgetrs
 from scipy.sparse.linalg import splu
 
-__all__ = ["DenseBorderedLU", "SparseBorderedLU", "permutation_parity"]
+__all__ = ["SparseBorderedLU", "permutation_parity"]
 
 
 def permutation_parity(perm) -> int:
@@ -41,36 +40,6 @@ def _finite_or_error(x, what: str):
     if not np.all(np.isfinite(x)):
         raise np.linalg.LinAlgError(f"bordered solve failed: non-finite values in the {what}")
     return x
-
-
-class DenseBorderedLU:
-    """``scipy.linalg.lu_factor`` of a dense square matrix; ``lu`` holds the factors and pivots.
-
-    With ``overwrite=True`` a Fortran-ordered ``matrix`` is factored in place (no copy).
-    """
-
-    def __init__(self, matrix, overwrite: bool = False):
-        self.lu = lu_factor(matrix, overwrite_a=overwrite, check_finite=True)
-        pivots = np.abs(np.diag(self.lu[0]))
-        self.pivot_ratio = float(pivots.min() / pivots.max()) if pivots.max() > 0 else 0.0
-
-    def solve(self, rhs):
-        """Solution of ``A x = rhs`` (one right-hand side, or one per column of a 2-D array)."""
-        x, info = dgetrs(self.lu[0], self.lu[1], rhs)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"bordered solve failed (getrs info {info})")
-        return _finite_or_error(x, "solution")
-
-    def determinant_sign(self) -> int:
-        """Sign of ``det A``: negative diagonal entries of ``U`` plus row interchanges, mod 2."""
-        factors, pivots = self.lu
-        swaps = np.count_nonzero(pivots != np.arange(len(pivots)))
-        negative = np.count_nonzero(np.diag(factors) < 0)
-        return -1 if (swaps + negative) % 2 else 1
-
-    def is_singular(self, tol: float) -> bool:
-        """``pivot_ratio`` is at most ``tol`` (singular to working precision for ``tol`` ~ 1e-14)."""
-        return self.pivot_ratio <= tol
 
 
 class SparseBorderedLU:

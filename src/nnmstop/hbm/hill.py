@@ -158,57 +158,6 @@ def check_tolerance(tol):
     return float(tol)
 
 
-# --------------------------------------------------------------------------- Fourier layout
-# Matrices and conversions on the full real layout [c_0, c_c^1..c_c^H, c_s^1..c_s^H] for any number of
-# harmonics H_p (the system's helpers are bound to its own H). Kept together here until nnmstop.fourier
-# (helper compare) has them too; the derivative comes from it already.
-
-
-def _real_multiplication_matrix(a_samples, harmonics, even: bool, halfwave: bool = False):
-    """Galerkin matrix of ``w -> [a w]`` on the full real layout with ``harmonics`` harmonics.
-
-    Built from the complex Fourier coefficients ``a_n`` (``|n| <= 2 H``) of the
-    samples: Toeplitz ``T[k, l] = a_{k-l}`` on complex harmonics ``-H..H``, changed
-    to the ``[c_0, c_c^k, c_s^k]`` layout. ``even`` drops the (round-off) odd part of
-    ``a`` in time, so that the matrix keeps the cosine/sine parity exactly;
-    ``halfwave`` drops its (round-off) odd harmonics, so that it keeps the parity of
-    the harmonic numbers.
-    """
-    H = harmonics
-    n = a_samples.shape[-1]
-    spec = np.fft.fft(a_samples) / n
-    if even:
-        spec = spec.real.astype(complex)
-    if halfwave:
-        spec[1::2] = 0.0
-    k = np.arange(-H, H + 1)
-    T = spec[(k[:, None] - k[None, :]) % n]  # rows/columns ordered by k = -H..H
-    i0 = H
-    pos = i0 + np.arange(1, H + 1)
-    neg = i0 - np.arange(1, H + 1)
-    # Columns: complex harmonics of the real basis functions 1, cos(l t), sin(l t).
-    TQ = np.empty((2 * H + 1, 2 * H + 1), dtype=complex)
-    TQ[:, 0] = T[:, i0]
-    TQ[:, 1 : H + 1] = 0.5 * (T[:, pos] + T[:, neg])
-    TQ[:, H + 1 :] = -0.5j * (T[:, pos] - T[:, neg])
-    # Rows: real coefficients from complex ones, c_k = P_k + P_-k, s_k = i (P_k - P_-k).
-    R = np.empty_like(TQ)
-    R[0] = TQ[i0]
-    R[1 : H + 1] = TQ[pos] + TQ[neg]
-    R[H + 1 :] = 1j * (TQ[pos] - TQ[neg])
-    return R.real
-
-
-def _complex_harmonics(P, H):
-    """Complex harmonic amplitudes (``k = -H..H``) of real-layout coefficients (last axis)."""
-    c0 = P[..., :1]
-    c = P[..., 1 : H + 1]
-    s = P[..., H + 1 :]
-    pos = 0.5 * (c - 1j * s)
-    neg = 0.5 * (c + 1j * s)
-    return np.concatenate([neg[..., ::-1], c0, pos], axis=-1)
-
-
 # --------------------------------------------------------------------------- Hill operator
 
 
@@ -338,7 +287,7 @@ def _hill_operator(system, U, harmonics, linearization, even, halfwave=False):
     lam = float(system.split(U)[4])
     a = contact_stiffness_series(system, U, linearization, _grid_size(system.H, Hp))
     m = 2 * Hp + 1
-    T = _real_multiplication_matrix(a, Hp, even, halfwave)
+    T = fourier.multiplication_matrix(a, Hp, even, halfwave)
     d2 = -np.r_[0.0, np.arange(1, Hp + 1), np.arange(1, Hp + 1)] ** 2
     K = stiffness_matrix(p)
     eye = np.eye(m)
@@ -393,8 +342,8 @@ def _companion(op):
 def _spectral_shape(P, H, delta):
     """Centroid ``kappa`` and top-tenth power share of perturbation vectors (columns of ``P``, 2m rows)."""
     m = 2 * H + 1
-    px = _complex_harmonics(P[:m].T, H)
-    pu = _complex_harmonics(P[m : 2 * m].T, H)
+    px = fourier.complex_amplitudes(P[:m].T, H)
+    pu = fourier.complex_amplitudes(P[m : 2 * m].T, H)
     power = np.abs(px) ** 2 + delta * np.abs(pu) ** 2
     k = np.arange(-H, H + 1)
     total = power.sum(axis=1)

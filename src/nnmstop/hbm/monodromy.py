@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nnmstop.floquet import multipliers_from_invariant
 from nnmstop.hbm.hill import is_halfwave_symmetric, is_reversible
 from nnmstop.hbm.shooting_refinement import refined_stability
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
@@ -263,19 +264,6 @@ def trace_invariants(matrices):
     s_t = np.where(trivial_first, r1, r2)
     s = np.where(trivial_first, r2, r1)
     return s, np.abs(s_t - 2.0)
-
-
-def _multipliers_from_invariant(s):
-    """``[1, 1, mu_1, mu_2]`` from ``s = mu + 1/mu`` (``|mu_1| >= |mu_2|``)."""
-    s = np.asarray(s, dtype=float)
-    out = np.ones(s.shape + (4,), dtype=complex)
-    elliptic = np.abs(s) <= 2.0
-    root = np.sqrt(np.abs(0.25 * s * s - 1.0))
-    # Hyperbolic: the larger root without cancellation, the other its inverse.
-    big = 0.5 * s + np.sign(s) * root
-    out[..., 2] = np.where(elliptic, 0.5 * s + 1j * root, big)
-    out[..., 3] = np.where(elliptic, 0.5 * s - 1j * root, 1.0 / np.where(elliptic, 1.0, big))
-    return out
 
 
 # --------------------------------------------------------------------------- orbits
@@ -539,7 +527,7 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     reason[margin <= F * err] = 1
     reason[margin <= F * orbit_error] = 2  # the orbit's error decides whatever the steps
     refinement = _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings)
-    multipliers = _multipliers_from_invariant(s)
+    multipliers = multipliers_from_invariant(s)
     return BranchMonodromy(
         stable=np.abs(s) <= 2.0 + settings.trace_tol,
         multipliers=multipliers,

@@ -24,7 +24,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import eigh
 
-from nnmstop.hbm.factorization import DenseBorderedLU, SparseBorderedLU
+from nnmstop import fourier
+from nnmstop.continuation.linear import BorderedFactorization
+from nnmstop.hbm.factorization import SparseBorderedLU
+from nnmstop.hbm.series_cache import SeriesCache
 from nnmstop.models.structure import Structure, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, regularized_force_and_potential
 
@@ -146,15 +149,12 @@ class HarmonicBalanceSystem:
         if linear_algebra == "auto":
             linear_algebra = "sparse" if self.n_unknowns > DENSE_MAX_UNKNOWNS else "dense"
         self.linear_algebra = linear_algebra
-        theta = 2 * np.pi * np.arange(self.M) / self.M
-        kt = np.outer(theta, self.k)
         # Synthesis matrix of the kept coefficients: time samples = E @ coefficients.
-        blocks = [np.ones((self.M, 1)), np.cos(kt)] + ([np.sin(kt)] if self.full else [])
-        self.synthesis = np.hstack(blocks)
-        self._d2 = -np.concatenate([[0.0], self.k, self.k])[: self.nc] ** 2
+        self.synthesis = fourier.synthesis_matrix(self.H, self.M, basis)
+        self._d2 = fourier.second_derivative_factors(self.H, basis)
         # ANM products (SeriesCache): transforms as small matrix products, cheaper than
         # the FFT calls at this size once their set-up is counted (same values to ~1e-15)
-        self._synthesis_t = np.ascontiguousarray(self.synthesis.T)
+        self.synthesis_transposed = np.ascontiguousarray(self.synthesis.T)
         weights = np.full(self.nc, 2.0 / self.M)
         weights[0] = 1.0 / self.M
         self._projection = self.synthesis * weights
@@ -197,54 +197,27 @@ class HarmonicBalanceSystem:
     # ------------------------------------------------------------------ Fourier helpers
 
     def to_full(self, c):
-        """Coefficients in the full layout ``[c_0, c_c^1..c_c^H, c_s^1..c_s^H]``."""
-        c = np.asarray(c, dtype=float)
-        if c.shape[-1] == self.nfull:
-            return c
-        out = np.zeros(c.shape[:-1] + (self.nfull,))
-        out[..., : self.nc] = c
-        return out
+        """Coefficients in the full layout ``[c_0, c_c^1..c_c^H, c_s^1..c_s^H]`` (:func:`nnmstop.fourier.to_full`)."""
+        return fourier.to_full(c, self.H)
 
     def second_derivative(self, c):
         """``d^2/dtheta^2`` of kept-basis coefficient vectors (last axis)."""
         return np.asarray(c, dtype=float) * self._d2
 
     def derivative(self, c):
-        """``d/dtheta`` of coefficient vectors, returned in the full layout."""
-        c = self.to_full(c)
-        H = self.H
-        out = np.empty_like(c)
-        out[..., 0] = 0.0
-        out[..., 1 : H + 1] = self.k * c[..., H + 1 :]
-        out[..., H + 1 :] = -self.k * c[..., 1 : H + 1]
-        return out
+        """``d/dtheta`` of coefficient vectors, returned in the full layout (:func:`nnmstop.fourier.derivative`)."""
+        return fourier.derivative(c, self.H)
 
     def to_time(self, c, samples: int | None = None):
         """Time samples on ``samples`` (default ``M``) equispaced phases of one period.
 
-        ``c`` holds kept-basis or full-layout coefficients on its last axis.
+        :func:`nnmstop.fourier.to_time`; ``c`` holds kept-basis or full-layout coefficients on its last axis.
         """
-        c = self.to_full(c)
-        m = self.M if samples is None else int(samples)
-        if m < self.nfull:
-            raise ValueError(f"samples must be >= 2H+1 = {self.nfull}, got {m}")
-        H = self.H
-        spec = np.zeros(c.shape[:-1] + (m // 2 + 1,), dtype=complex)
-        spec[..., 0] = c[..., 0] * m
-        spec[..., 1 : H + 1] = 0.5 * m * (c[..., 1 : H + 1] - 1j * c[..., H + 1 :])
-        return np.fft.irfft(spec, n=m, axis=-1)
+        return fourier.to_time(c, self.H, self.M if samples is None else samples)
 
     def to_coefficients(self, samples):
         """Galerkin projection of time samples onto the kept basis (first ``H`` harmonics)."""
-        samples = np.asarray(samples, dtype=float)
-        m = samples.shape[-1]
-        spec = np.fft.rfft(samples, axis=-1)
-        H = self.H
-        out = np.empty(samples.shape[:-1] + (self.nfull,))
-        out[..., 0] = spec[..., 0].real / m
-        out[..., 1 : H + 1] = 2.0 * spec[..., 1 : H + 1].real / m
-        out[..., H + 1 :] = -2.0 * spec[..., 1 : H + 1].imag / m
-        return out[..., : self.nc]
+        return fourier.to_coefficients(samples, self.H)[..., : self.nc]
 
     def multiplication_matrix(self, c):
         """Matrix of ``w -> [a w]`` (projected product) for the fixed series ``a = c``."""
@@ -371,7 +344,7 @@ class HarmonicBalanceSystem:
 
         Returns
         -------
-        DenseBorderedLU or SparseBorderedLU
+        BorderedFactorization or SparseBorderedLU
             With ``solve(rhs)`` (1-D, or 2-D with one right-hand side per column),
             ``determinant_sign()`` and ``pivot_ratio``. Dense LAPACK LU when the system's
             ``linear_algebra`` is "dense", SuperLU in the order of :meth:`elimination_order`
@@ -381,7 +354,7 @@ class HarmonicBalanceSystem:
         if tangent.shape != (self.n_unknowns,):
             raise ValueError(f"tangent must have shape ({self.n_unknowns},), got {tangent.shape}")
         if self.linear_algebra == "dense":
-            return DenseBorderedLU(np.vstack([self.jacobian(U, sparse=False), tangent[None, :]]))
+            return BorderedFactorization.of_matrix(np.vstack([self.jacobian(U, sparse=False), tangent[None, :]]))
         return SparseBorderedLU(self._sparse_jacobian(U), tangent, self.elimination_order())
 
     def elimination_order(self):
@@ -613,47 +586,3 @@ def impacts_per_period(x_samples) -> int:
     enter_above = np.count_nonzero(above & ~np.roll(above, 1))
     enter_below = np.count_nonzero(below & ~np.roll(below, 1))
     return int(enter_above + enter_below)
-
-
-class SeriesCache:
-    """Time samples of ``f``, ``z`` and ``g = f/alpha - x`` of every stop for the terms of one ANM series.
-
-    Preallocated for the terms ``U_0 .. U_order`` and filled in order as
-    :meth:`HarmonicBalanceSystem.series_products` needs them, so that each term is
-    transformed to the time domain once per series and the sums over the orders read
-    slices of one array.
-
-    Parameters
-    ----------
-    system : HarmonicBalanceSystem
-    order : int
-        Highest order ``N`` of the series.
-    """
-
-    def __init__(self, system: HarmonicBalanceSystem, order: int):
-        self.system = system
-        s = system.n_stops
-        # samples[r] holds f, g, z, g of every stop (s channels each) of term r on the M
-        # phases: channels 0:2s and 2s:4s are the left and right factors of f z and g g
-        self.samples = np.empty((order + 1, 4 * s, system.M))
-        self.products = np.empty((2 * s, system.M))
-        self.coefficients = np.empty((2 * s, system.nc))
-        self.filled = 1  # U_0 never enters the products
-
-    def fill(self, series, p: int):
-        """Transform the terms ``filled .. p - 1`` of ``series`` (rows or list items)."""
-        if p > self.samples.shape[0]:
-            raise ValueError(f"cache holds orders up to {self.samples.shape[0] - 1}, order {p - 1} requested")
-        if self.filled >= p:
-            return
-        system = self.system
-        N, s, nc = system.n_dofs, system.n_stops, system.nc
-        terms = np.asarray(series[self.filled : p], dtype=float)
-        f = terms[:, N * nc : (N + s) * nc].reshape(-1, s, nc)
-        x = terms[:, : N * nc].reshape(-1, N, nc)[:, system.stop_dofs] / system.gaps[:, None]
-        g = f / system.alphas[:, None] - x
-        fields = np.concatenate([f, g, terms[:, (N + s) * nc : (N + 2 * s) * nc].reshape(-1, s, nc)], axis=1)
-        block = self.samples[self.filled : p]
-        np.matmul(fields, system._synthesis_t, out=block[:, : 3 * s])
-        block[:, 3 * s :] = block[:, s : 2 * s]
-        self.filled = p
