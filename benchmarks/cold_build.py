@@ -125,7 +125,10 @@ def main(argv=None) -> int:
         lines += [
             f"Cold builds side by side (`snakemake --cores {args.cores}`, best of {args.repeat}, alternating):",
             "",
-            "| ref | wall (s) | ratio to " + f"`{base}`" + " | job CPU time (s) | hbm_stage jobs (s) | stability logged in hbm_stage (s) | stability share of hbm_stage |",
+            "| ref | wall (s) | ratio to "
+            + f"`{base}`"
+            + " | job CPU time (s) | hbm_stage jobs (s) | stability logged in hbm_stage (s) | stability share "
+            "of hbm_stage |",
             "|---|---:|---:|---:|---:|---:|---:|",
         ]
         for ref in refs:
@@ -133,7 +136,10 @@ def main(argv=None) -> int:
             stage = per_rule.get("hbm_stage", (0, 0.0, 0.0))[1]
             cpu = sum(entry[2] for entry in per_rule.values())
             share = f"{100 * stability / stage:.0f} %" if stability and stage else "not logged"
-            lines.append(f"| `{ref}` | {wall:.1f} | {wall / best[base][0]:.2f} | {cpu:.1f} | {stage:.1f} | {stability:.1f} | {share} |")
+            lines.append(
+                f"| `{ref}` | {wall:.1f} | {wall / best[base][0]:.2f} | {cpu:.1f} | {stage:.1f} | "
+                f"{stability:.1f} | {share} |"
+            )
         lines.append("")
     for ref in refs:
         lines += rule_table(ref, args.cores, *best[ref][:2]) + [""]

@@ -89,10 +89,10 @@ def run_worker(spec: dict) -> dict:
 
     from nnmstop.continuation.anm import ANMSettings, continue_anm
     from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct, relative_residual
-    from nnmstop.hbm.system import HarmonicBalanceSystem
-    from nnmstop.models.two_dof import ModelParameters, linear_modes
     from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
+    from nnmstop.hbm.system import HarmonicBalanceSystem
     from nnmstop.models.structure import two_dof_structure
+    from nnmstop.models.two_dof import ModelParameters, linear_modes
 
     rss_after_imports = _rss_mb()
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
@@ -129,8 +129,7 @@ def run_worker(spec: dict) -> dict:
     if spec["method"].startswith("ANM"):
         # Untimed second run storing 8 points per series step (with their diagnostics),
         # only to draw the reference frequency-energy curve densely.
-        settings = ANMSettings(order=spec["order"], tolerance=spec["tolerance"], points_per_step=8,
-                               pade=spec["pade"])
+        settings = ANMSettings(order=spec["order"], tolerance=spec["tolerance"], points_per_step=8, pade=spec["pade"])
         branch = continue_anm(system, U0, e, stop, settings, label=label, progress_seconds=1e9)
     curve = np.array([[np.log10(d["energy"]), d["frequency"]] for d in branch.diagnostics])
     np.save(spec["curve_file"], curve)
@@ -166,10 +165,10 @@ def run_operations_worker(spec: dict) -> dict:
 
     from nnmstop.continuation.anm import ANMSettings, anm_series, continue_anm, step_length
     from nnmstop.continuation.core import ContinuationStats, newton_correct
-    from nnmstop.hbm.system import HarmonicBalanceSystem
-    from nnmstop.models.two_dof import ModelParameters
     from nnmstop.continuation.pade import pade_pair, pade_step_length
+    from nnmstop.hbm.system import HarmonicBalanceSystem
     from nnmstop.models.structure import two_dof_structure
+    from nnmstop.models.two_dof import ModelParameters
 
     params = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
     system = HarmonicBalanceSystem(two_dof_structure(params), spec["harmonics"])

@@ -45,8 +45,22 @@ def run_tasks(tree: Path) -> dict:
     times = {}
     for task, extra, output in TASKS:
         cpu0, wall0 = _children_cpu(), time.perf_counter()
-        subprocess.run([sys.executable, "-m", "nnmstop.tasks.run", task, *extra, "--output", f"dataset={output}",
-                        "--log", "task.log"], cwd=tree, env=env, check=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "nnmstop.tasks.run",
+                task,
+                *extra,
+                "--output",
+                f"dataset={output}",
+                "--log",
+                "task.log",
+            ],
+            cwd=tree,
+            env=env,
+            check=True,
+        )
         times[task] = (time.perf_counter() - wall0, _children_cpu() - cpu0)
     return times
 

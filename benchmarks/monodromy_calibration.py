@@ -17,14 +17,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
 import xarray as xr
 
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.tasks.hbm import system_from_config
-from nnmstop.config import load_config
-from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, trace_invariants
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
+from nnmstop.config import load_config
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, trace_invariants
+from nnmstop.tasks.hbm import system_from_config
 
 
 def main(argv=None) -> int:
@@ -38,7 +37,9 @@ def main(argv=None) -> int:
         system = system_from_config(config, harmonics=int(ds.attrs["harmonics"]))
         U = dataset_unknowns(ds.load(), system)[:: args.stride]
         residual = ds["time_residual"].values[:: args.stride]
-    mono = branch_monodromy(system, U, MonodromySettings.from_config(config.get("stability", {})), time_residual=residual)
+    mono = branch_monodromy(
+        system, U, MonodromySettings.from_config(config.get("stability", {})), time_residual=residual
+    )
     near, far, wrong, failed = [], [], [], 0
     for i, orbit in enumerate(U):
         z0, period = orbit_initial_state(system, orbit)
@@ -53,7 +54,10 @@ def main(argv=None) -> int:
         if (abs(s_exact) <= 2) != bool(mono.stable[i]):
             wrong.append(mono.margin[i] / residual[i])
     print(f"{len(U)} orbits, shooting failed at {failed}")
-    print(f"near a type change (margin < 0.05): {len(near)} orbits, largest |s_HBM - s_exact| / time_residual {max(near, default=0):.2f}")
+    print(
+        f"near a type change (margin < 0.05): {len(near)} orbits, largest |s_HBM - s_exact| / time_residual "
+        f"{max(near, default=0):.2f}"
+    )
     print(f"elsewhere: {len(far)} orbits, largest ratio {max(far, default=0):.2f}")
     print("margins / time_residual where the verdicts differ:", ", ".join(f"{m:.2f}" for m in wrong) or "none")
     return 0

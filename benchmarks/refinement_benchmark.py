@@ -60,7 +60,8 @@ def main(argv=None) -> int:
         results = {}
         for _ in range(args.repeat):
             for key, settings in (("plain", plain_settings), ("refined", refined_settings)):
-                result, cpu, wall = timed(lambda: branch_monodromy(system, U, settings, time_residual=residual))
+                # called at once, inside this iteration: the loop variables are the ones meant
+                result, cpu, wall = timed(lambda: branch_monodromy(system, U, settings, time_residual=residual))  # noqa: B023
                 results[key] = result
                 best[key] = (min(best[key][0], cpu), min(best[key][1], wall))
         plain, refined = results["plain"], results["refined"]

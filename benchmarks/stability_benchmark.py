@@ -10,7 +10,8 @@ Also reports how many verdicts each resolves and whether they agree where both d
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/stability_benchmark.py [--stride 4] [--repeat 3] [--output FILE] [DATASET ...]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/stability_benchmark.py [--stride 4] [--repeat 3] \
+        [--output FILE] [DATASET ...]
 
 Wall times on a shared machine are noisy: compare the two columns of one run.
 """
@@ -29,7 +30,12 @@ from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
 from nnmstop.hbm.stability import branch_hill
 from timing import best_time, emit_report
 
-DEFAULT_DATASETS = ["results/hbm/nnm1.nc", "results/hbm/nnm2.nc", "results/hbm/bifurcated/nnm1_3to1.nc", "results/hbm/bifurcated/nnm1_5to1.nc"]
+DEFAULT_DATASETS = [
+    "results/hbm/nnm1.nc",
+    "results/hbm/nnm2.nc",
+    "results/hbm/bifurcated/nnm1_3to1.nc",
+    "results/hbm/bifurcated/nnm1_5to1.nc",
+]
 
 
 def main(argv=None) -> int:
@@ -48,12 +54,13 @@ def main(argv=None) -> int:
         f"Stability cost per point, Hill's method vs monodromy (steps {settings.steps}..{settings.max_steps}), "
         f"every {args.stride}th point, best of {args.repeat}:",
         "",
-        "| dataset | points | Hill (ms/point) | monodromy (ms/point) | speed-up | resolved Hill | resolved monodromy | verdicts differ where both resolved |",
+        "| dataset | points | Hill (ms/point) | monodromy (ms/point) | speed-up | resolved Hill | resolved "
+        "monodromy | verdicts differ where both resolved |",
         "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for path, system, U, residual in branch_orbits(args.datasets, config, args.stride):
-        hill, t_hill = best_time(lambda: branch_hill(system, U), args.repeat)
-        mono, t_mono = best_time(lambda: branch_monodromy(system, U, settings, time_residual=residual), args.repeat)
+        hill, t_hill = best_time(lambda: branch_hill(system, U), args.repeat)  # noqa: B023 (called at once)
+        mono, t_mono = best_time(lambda: branch_monodromy(system, U, settings, time_residual=residual), args.repeat)  # noqa: B023 (called at once)
         both = hill.resolved & mono.resolved
         differ = int(np.sum(hill.stable[both] != mono.stable[both]))
         n = len(U)

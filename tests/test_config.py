@@ -91,7 +91,10 @@ def test_workflow_refuses_a_negative_alpha(repo_root, tmp_path):
     override.write_text(yaml.safe_dump({"model": {"alpha": -1.0}}))
     proc = subprocess.run(
         [sys.executable, "-m", "snakemake", "-n", "--configfile", str(override)],
-        cwd=repo_root, capture_output=True, text=True, timeout=120,
+        cwd=repo_root,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     output = proc.stdout + proc.stderr
     assert proc.returncode != 0, output

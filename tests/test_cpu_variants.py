@@ -78,8 +78,18 @@ def test_numerics_tests_pass_under_other_cpu_kernels(name, request, repo_root):
         pytest.skip(f"this CPU lacks {needs}, which the {name} kernels need")
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     env.update({key: value for key, value in settings.items() if value})
-    command = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-m", "numerics", "--cpu-variants=none",
-               str(repo_root / "tests")]
+    command = [
+        sys.executable,
+        "-m",
+        "pytest",
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "-m",
+        "numerics",
+        "--cpu-variants=none",
+        str(repo_root / "tests"),
+    ]
     run = subprocess.run(command, cwd=repo_root, env=env, capture_output=True, text=True)
     shown = " ".join(f"{key}={value!r}" for key, value in settings.items() if value)
     assert run.returncode == 0, (

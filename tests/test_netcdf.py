@@ -39,8 +39,10 @@ def test_zero_length_dimensions_are_written_in_a_fixed_order(tmp_path):
 
 
 def labelled(**attrs) -> xr.Dataset:
-    ds = xr.Dataset({"frequency": cf_variable("point", [0.1, 0.2], "frequency", "Hz")},
-                    coords={"point": cf_variable("point", [0, 1], "index of the orbit", dtype=np.int32)})
+    ds = xr.Dataset(
+        {"frequency": cf_variable("point", [0.1, 0.2], "frequency", "Hz")},
+        coords={"point": cf_variable("point", [0, 1], "index of the orbit", dtype=np.int32)},
+    )
     ds.attrs.update(attrs)
     return ds
 

@@ -13,8 +13,15 @@ NEEDS = {"Haswell": {"avx2", "fma", "avx", "sse3"}, "Sandybridge": {"avx", "sse3
 
 
 def test_never_a_kernel_the_cpu_cannot_run():
-    cpus = [set(), {"sse3"}, {"sse3", "avx"}, {"sse3", "avx", "avx2"}, {"sse3", "avx", "fma"},
-            {"sse3", "avx", "avx2", "fma"}, {"sse3", "avx", "avx2", "fma", "avx512f"}]
+    cpus = [
+        set(),
+        {"sse3"},
+        {"sse3", "avx"},
+        {"sse3", "avx", "avx2"},
+        {"sse3", "avx", "fma"},
+        {"sse3", "avx", "avx2", "fma"},
+        {"sse3", "avx", "avx2", "fma", "avx512f"},
+    ]
     for flags in cpus:
         kernel = openblas_coretype(flags, machine="x86_64")
         assert kernel is None or NEEDS[kernel] <= flags, (flags, kernel)
@@ -49,5 +56,7 @@ def test_numpy_accepts_the_disabled_features():
     assert "X86_V3" not in disabled.split()
     env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=disabled)
     code = "import numpy._core._multiarray_umath as m; print(' '.join(k for k, v in m.__cpu_features__.items() if v))"
-    enabled = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout.split()
+    enabled = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    ).stdout.split()
     assert not set(disabled.split()) & set(enabled)

@@ -39,7 +39,9 @@ def no_cluster(reason: str):
 def cluster_partition() -> str:
     """The default partition of the reachable SLURM cluster, with an idle or mixed node."""
     if shutil.which("sinfo") is None:
-        no_cluster("sinfo not found: no SLURM client here (run the cluster check: bash tests/cluster/run_cluster_check.sh)")
+        no_cluster(
+            "sinfo not found: no SLURM client here (run the cluster check: bash tests/cluster/run_cluster_check.sh)"
+        )
     try:
         answer = subprocess.run(["sinfo", "--noheader", "--format=%P %T"], capture_output=True, text=True, timeout=60)
     except subprocess.TimeoutExpired:
@@ -47,22 +49,34 @@ def cluster_partition() -> str:
     if answer.returncode != 0:
         last_line = (answer.stderr.strip().splitlines() or ["(no message)"])[-1]
         no_cluster(f"sinfo reaches no SLURM controller: {last_line}")
-    usable = [line.split()[0] for line in answer.stdout.splitlines()
-              if line.split()[0].endswith("*") and line.split()[1] in ("idle", "mixed")]
+    usable = [
+        line.split()[0]
+        for line in answer.stdout.splitlines()
+        if line.split()[0].endswith("*") and line.split()[1] in ("idle", "mixed")
+    ]
     if not usable:
         no_cluster(f"no idle or mixed node in the default partition; sinfo says: {answer.stdout.strip()!r}")
     return usable[0].rstrip("*")
 
 
 def snakemake_command(workdir: Path, *args: str) -> list[str]:
-    return [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
-            "--configfile", str(SMALL_CONFIG), *args]
+    return [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(workdir),
+        "--configfile",
+        str(SMALL_CONFIG),
+        *args,
+    ]
 
 
 def run_under_timeout(cmd: list[str], timeout: float) -> subprocess.CompletedProcess:
     """Run ``cmd``; past ``timeout`` interrupt it (Snakemake then cancels its SLURM jobs) and fail."""
-    process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                               start_new_session=True)
+    process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
     try:
         output, _ = process.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -79,8 +93,12 @@ def run_under_timeout(cmd: list[str], timeout: float) -> subprocess.CompletedPro
 
 def outputs(workdir: Path) -> dict[str, bytes]:
     """Every file of results/ and paper_figures/, by path relative to the work directory."""
-    return {str(p.relative_to(workdir)): p.read_bytes()
-            for d in ("results", "paper_figures") for p in sorted((workdir / d).rglob("*")) if p.is_file()}
+    return {
+        str(p.relative_to(workdir)): p.read_bytes()
+        for d in ("results", "paper_figures")
+        for p in sorted((workdir / d).rglob("*"))
+        if p.is_file()
+    }
 
 
 def test_slurm_build_is_byte_identical_to_local_build(cluster_partition, tmp_path):
@@ -104,5 +122,7 @@ def test_slurm_build_is_byte_identical_to_local_build(cluster_partition, tmp_pat
     assert sorted(produced) == sorted(expected)
     differing = [path for path in expected if produced[path] != expected[path]]
     assert not differing, f"differ between the SLURM and the local build: {differing}"
-    print(f"\nSLURM run ({cluster_partition}): {slurm_seconds:.0f} s; local run (--cores 2): {local_seconds:.0f} s; "
-          f"{len(expected)} files byte-identical")
+    print(
+        f"\nSLURM run ({cluster_partition}): {slurm_seconds:.0f} s; local run (--cores 2): {local_seconds:.0f} s; "
+        f"{len(expected)} files byte-identical"
+    )

@@ -27,12 +27,26 @@ TARGETS = ["results/exact/nnm1_two_impacts.nc", "results/hbm/nnm1.nc"]
 
 def _build(workdir: Path, config: Path) -> Path:
     """Build TARGETS with the workflow and write their manifest; return the results directory."""
-    cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
-           "--configfile", str(config), "--cores", "2", *TARGETS]
+    cmd = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(workdir),
+        "--configfile",
+        str(config),
+        "--cores",
+        "2",
+        *TARGETS,
+    ]
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
     datasets = sorted(str(p.relative_to(workdir)) for p in (workdir / "results").rglob("*.nc"))
-    dataset_manifest({}, {"datasets": [str(workdir / d) for d in datasets]}, {"manifest": str(workdir / "results/MANIFEST.sha256")})
+    dataset_manifest(
+        {}, {"datasets": [str(workdir / d) for d in datasets]}, {"manifest": str(workdir / "results/MANIFEST.sha256")}
+    )
     manifest = workdir / "results/MANIFEST.sha256"  # paths relative to the work directory, as the workflow writes them
     manifest.write_text(manifest.read_text().replace(f"{workdir}/", ""))
     return workdir / "results"

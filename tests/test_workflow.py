@@ -27,13 +27,31 @@ from nnmstop.netcdf import check_labelled
 REPO = Path(__file__).resolve().parents[1]
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
 ACDD = (
-    "Conventions", "title", "summary", "keywords", "date_created", "source", "references", "creator_name", "license"
+    "Conventions",
+    "title",
+    "summary",
+    "keywords",
+    "date_created",
+    "source",
+    "references",
+    "creator_name",
+    "license",
 )
 
 
 def snakemake(workdir: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
-           "--configfile", str(SMALL_CONFIG), *args]
+    cmd = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(workdir),
+        "--configfile",
+        str(SMALL_CONFIG),
+        *args,
+    ]
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     if check and result.returncode != 0:
         raise AssertionError(f"{' '.join(cmd)} failed:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}")
@@ -61,9 +79,16 @@ def outputs(workdir: Path) -> list[Path]:
 def test_every_declared_output_exists(built):
     figures = {p.name for p in (built / "paper_figures").iterdir()}
     assert figures == {f"fig{n:02d}.{ext}" for n in range(2, 12) for ext in ("pdf", "png")}
-    for name in ("exact/nnm1_two_impacts.nc", "exact/nnm1.nc", "hbm/nnm1.nc", "hbm/nnm2.nc",
-                 "compare/nnm1_exact_vs_regularized.nc", "compare/nnm1_regimes.nc", "compare/nnm1_regimes.csv",
-                 "MANIFEST.sha256"):
+    for name in (
+        "exact/nnm1_two_impacts.nc",
+        "exact/nnm1.nc",
+        "hbm/nnm1.nc",
+        "hbm/nnm2.nc",
+        "compare/nnm1_exact_vs_regularized.nc",
+        "compare/nnm1_regimes.nc",
+        "compare/nnm1_regimes.csv",
+        "MANIFEST.sha256",
+    ):
         assert (built / "results" / name).is_file(), name
     assert not [p for p in outputs(built) if p.name.endswith(".tmp") or ".tmp." in p.name]
 
@@ -127,9 +152,14 @@ def test_physics_sanity_of_the_outputs(built):
 
 def test_rerun_from_scratch_is_byte_identical(built, tmp_path):
     """A second fresh run of the same targets reproduces datasets and figures byte for byte."""
-    targets = ["results/hbm/nnm2.nc", "paper_figures/fig06.pdf", "results/exact/nnm1_two_impacts.nc",
-               "results/compare/nnm1_exact_vs_regularized.nc", "paper_figures/fig02.pdf",
-               "results/compare/nnm1_regimes.nc"]
+    targets = [
+        "results/hbm/nnm2.nc",
+        "paper_figures/fig06.pdf",
+        "results/exact/nnm1_two_impacts.nc",
+        "results/compare/nnm1_exact_vs_regularized.nc",
+        "paper_figures/fig02.pdf",
+        "results/compare/nnm1_regimes.nc",
+    ]
     snakemake(tmp_path, "--cores", "2", *targets)
     produced = outputs(tmp_path)
     assert len(produced) >= 8
@@ -154,13 +184,32 @@ def test_a_job_reruns_when_the_configuration_its_task_reads_changes(built, tmp_p
     config["branches"]["nnm2"]["start_amplitude"] *= 2
     edited = tmp_path / "edited.yaml"
     edited.write_text(yaml.safe_dump(config, sort_keys=False))  # same key order: only the values change
-    cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(built),
-           "--configfile", str(edited), "-n"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(built),
+        "--configfile",
+        str(edited),
+        "-n",
+    ]
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=True).stdout
     planned = set(re.findall(r"^(?:local)?rule (\w+):", out, flags=re.MULTILINE)) - {"all"}
     # Fig 7 is redrawn; NNM2 is recomputed, then what reads it; NNM1 and the exact branches are not touched
-    assert planned == {"paper_fig07", "hbm_stage", "hbm_branch", "paper_fig05", "paper_fig06", "paper_fig08",
-                       "paper_fig09", "paper_fig10", "dataset_manifest"}, out[-3000:]
+    assert planned == {
+        "paper_fig07",
+        "hbm_stage",
+        "hbm_branch",
+        "paper_fig05",
+        "paper_fig06",
+        "paper_fig08",
+        "paper_fig09",
+        "paper_fig10",
+        "dataset_manifest",
+    }, out[-3000:]
     outputs = set(re.findall(r"^\s+output: (.+)$", out, flags=re.MULTILINE))
     assert not any("nnm1" in line for line in outputs), outputs
 
@@ -181,8 +230,9 @@ def test_report_holds_the_figures(built):
 
 
 def test_workflow_lint_is_clean():
-    result = subprocess.run([sys.executable, "-m", "snakemake", "--lint"], cwd=REPO, capture_output=True, text=True,
-                            timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-m", "snakemake", "--lint"], cwd=REPO, capture_output=True, text=True, timeout=120
+    )
     assert "Congratulations" in result.stdout + result.stderr, (result.stdout + result.stderr)[-2000:]
 
 
@@ -235,8 +285,14 @@ def test_bundle_describes_the_run_and_every_file(built, bundle, tmp_path):
         names = archive.namelist()
         archive.extractall(tmp_path)
     assert names == sorted(names)
-    assert {"ro-crate-metadata.json", "CITATION.cff", "environment.lock", "config/config.yaml", "Snakefile",
-            "results/MANIFEST.sha256"} <= set(names)
+    assert {
+        "ro-crate-metadata.json",
+        "CITATION.cff",
+        "environment.lock",
+        "config/config.yaml",
+        "Snakefile",
+        "results/MANIFEST.sha256",
+    } <= set(names)
     crate = ROCrate(tmp_path)
     workflow = crate.mainEntity
     assert workflow.id == "Snakefile" and "ComputationalWorkflow" in workflow.type
@@ -299,8 +355,12 @@ def cffconvert_command() -> str | None:
     executable = venv / "bin" / "cffconvert"
     if not executable.exists():
         subprocess.run([sys.executable, "-m", "venv", "--clear", str(venv)], check=True, timeout=120)
-        install = subprocess.run([str(venv / "bin" / "pip"), "install", "-q", f"cffconvert=={CFFCONVERT_VERSION}"],
-                                 capture_output=True, text=True, timeout=600)
+        install = subprocess.run(
+            [str(venv / "bin" / "pip"), "install", "-q", f"cffconvert=={CFFCONVERT_VERSION}"],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         if install.returncode != 0:
             shutil.rmtree(venv, ignore_errors=True)
             return None
@@ -316,6 +376,7 @@ def test_bundle_citation_is_valid_cff(bundle, tmp_path):
         pytest.skip(f"cffconvert {CFFCONVERT_VERSION} not found and not installable (set CFFCONVERT)")
     with zipfile.ZipFile(bundle) as archive:
         (tmp_path / "CITATION.cff").write_bytes(archive.read("CITATION.cff"))
-    result = subprocess.run([cffconvert, "--validate", "-i", str(tmp_path / "CITATION.cff")],
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [cffconvert, "--validate", "-i", str(tmp_path / "CITATION.cff")], capture_output=True, text=True, timeout=120
+    )
     assert result.returncode == 0, result.stdout + result.stderr

@@ -163,7 +163,9 @@ def build_bundle(
         config_copy = generated / "config.yaml"
         config_copy.write_text(yaml.safe_dump(config, sort_keys=False, allow_unicode=True))
         citation_file = generated / "CITATION.cff"
-        citation_file.write_text(yaml.safe_dump(citation(metadata, date_created[:10]), sort_keys=False, allow_unicode=True))
+        citation_file.write_text(
+            yaml.safe_dump(citation(metadata, date_created[:10]), sort_keys=False, allow_unicode=True)
+        )
 
         crate = ROCrate(version="1.1")
         crate.name = f"{metadata['project']}: result bundle"
@@ -175,40 +177,83 @@ def build_bundle(
         crate.root_dataset["datePublished"] = date_created
         crate.root_dataset["version"] = __version__
         crate.root_dataset["conformsTo"] = [
-            crate.add(ContextEntity(crate, url, properties={"@type": "CreativeWork", "name": name, "version": url.rsplit("/", 1)[1]}))
+            crate.add(
+                ContextEntity(
+                    crate, url, properties={"@type": "CreativeWork", "name": name, "version": url.rsplit("/", 1)[1]}
+                )
+            )
             for url, name in _PROFILES.items()
         ]
-        creator = crate.add(ContextEntity(crate, metadata["creator_url"], properties={
-            "@type": "Organization" if metadata["creator_type"] != "person" else "Person",
-            "name": metadata["creator_name"], "email": metadata["creator_email"]}))
+        creator = crate.add(
+            ContextEntity(
+                crate,
+                metadata["creator_url"],
+                properties={
+                    "@type": "Organization" if metadata["creator_type"] != "person" else "Person",
+                    "name": metadata["creator_name"],
+                    "email": metadata["creator_email"],
+                },
+            )
+        )
         crate.creator = creator
-        crate.publisher = crate.add(ContextEntity(crate, metadata["publisher_url"], properties={
-            "@type": "Organization" if metadata["publisher_type"] != "person" else "Person",
-            "name": metadata["publisher_name"], "email": metadata["publisher_email"]}))
+        crate.publisher = crate.add(
+            ContextEntity(
+                crate,
+                metadata["publisher_url"],
+                properties={
+                    "@type": "Organization" if metadata["publisher_type"] != "person" else "Person",
+                    "name": metadata["publisher_name"],
+                    "email": metadata["publisher_email"],
+                },
+            )
+        )
 
         main_workflow, *rule_files = (Path(p) for p in workflow_files)
         workflow = crate.add_workflow(
-            main_workflow, "Snakefile", main=True, lang="snakemake",
+            main_workflow,
+            "Snakefile",
+            main=True,
+            lang="snakemake",
             properties=_file_properties(main_workflow, "Snakemake workflow of the nnmstop pipeline"),
         )
         for rule_file in sorted(rule_files):
-            crate.add_file(rule_file, f"workflow/rules/{rule_file.name}",
-                           properties=_file_properties(rule_file, f"Snakemake rules {rule_file.name}"))
-        configuration = crate.add_file(config_copy, "config/config.yaml",
-                                       properties=_file_properties(config_copy, "configuration of the run (validated)"))
+            crate.add_file(
+                rule_file,
+                f"workflow/rules/{rule_file.name}",
+                properties=_file_properties(rule_file, f"Snakemake rules {rule_file.name}"),
+            )
+        configuration = crate.add_file(
+            config_copy,
+            "config/config.yaml",
+            properties=_file_properties(config_copy, "configuration of the run (validated)"),
+        )
         results = [
             crate.add_file(root / path, path.as_posix(), properties=_file_properties(root / path, path.name))
             for path in sorted(Path(p) for p in (*datasets, *figures))
         ]
-        crate.add_file(root / manifest, Path(manifest).as_posix(),
-                       properties=_file_properties(root / manifest, "SHA-256 manifest of the datasets"))
-        crate.add_file(Path(environment_lock), "environment.lock",
-                       properties=_file_properties(Path(environment_lock), "locked Python environment (pip-compile)"))
-        crate.add_file(citation_file, "CITATION.cff", properties=_file_properties(citation_file, "how to cite this bundle"))
-        crate.add_action(workflow, identifier="#run", object=[configuration], result=results, properties={
-            "name": f"Run of the nnmstop workflow (nnmstop {__version__}, git commit {provenance()['commit']})",
-            "actionStatus": "http://schema.org/CompletedActionStatus",
-        })
+        crate.add_file(
+            root / manifest,
+            Path(manifest).as_posix(),
+            properties=_file_properties(root / manifest, "SHA-256 manifest of the datasets"),
+        )
+        crate.add_file(
+            Path(environment_lock),
+            "environment.lock",
+            properties=_file_properties(Path(environment_lock), "locked Python environment (pip-compile)"),
+        )
+        crate.add_file(
+            citation_file, "CITATION.cff", properties=_file_properties(citation_file, "how to cite this bundle")
+        )
+        crate.add_action(
+            workflow,
+            identifier="#run",
+            object=[configuration],
+            result=results,
+            properties={
+                "name": f"Run of the nnmstop workflow (nnmstop {__version__}, git commit {provenance()['commit']})",
+                "actionStatus": "http://schema.org/CompletedActionStatus",
+            },
+        )
 
         staged = Path(tmp) / "crate"
         crate.write(staged)
@@ -248,7 +293,9 @@ def verify_bundle(path) -> list[str]:
                 problems.append(f"{entity.id}: listed in the crate but missing from the archive")
                 continue
             if str(target.stat().st_size) != str(entity.get("contentSize")):
-                problems.append(f"{entity.id}: {target.stat().st_size} bytes, the crate records {entity.get('contentSize')}")
+                problems.append(
+                    f"{entity.id}: {target.stat().st_size} bytes, the crate records {entity.get('contentSize')}"
+                )
             if _sha256(target) != entity.get("sha256"):
                 problems.append(f"{entity.id}: SHA-256 differs from the crate's record")
     return problems

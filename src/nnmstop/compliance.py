@@ -63,8 +63,9 @@ def checker_findings(path, checkers=CHECKERS, exclude: bool = True) -> list[str]
     CheckSuite.load_all_available_checkers()
     with tempfile.TemporaryDirectory(prefix="nnmstop-cc-") as tmp:
         report_path = Path(tmp) / "report.json"
-        ComplianceChecker.run_checker(str(path), list(checkers), 0, "normal",
-                                      output_filename=str(report_path), output_format="json")
+        ComplianceChecker.run_checker(
+            str(path), list(checkers), 0, "normal", output_filename=str(report_path), output_format="json"
+        )
         report = json.loads(report_path.read_text())
     findings = []
     for checker in checkers:

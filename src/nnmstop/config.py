@@ -65,14 +65,21 @@ def validate_config(config: dict) -> dict:
             )
         low, high = spec["energy_range"]
         if not low < high:
-            raise ConfigError(f"config key 'bifurcations.{name}.energy_range': {spec['energy_range']} must be increasing")
+            raise ConfigError(
+                f"config key 'bifurcations.{name}.energy_range': {spec['energy_range']} must be increasing"
+            )
     stability = config.get("stability", {})
     if stability.get("max_steps", 0) and stability.get("steps", 0) and stability["max_steps"] < stability["steps"]:
         raise ConfigError(
-            f"config key 'stability.max_steps': {stability['max_steps']} must be >= stability.steps = {stability['steps']}"
+            f"config key 'stability.max_steps': {stability['max_steps']} must be >= stability.steps = "
+            f"{stability['steps']}"
         )
     for figure, spec in config.get("figures", {}).items():
-        unknown = [n for n in (spec.get("bifurcated", []) if isinstance(spec, dict) else []) if n not in config.get("bifurcations", {})]
+        unknown = [
+            n
+            for n in (spec.get("bifurcated", []) if isinstance(spec, dict) else [])
+            if n not in config.get("bifurcations", {})
+        ]
         if unknown:
             raise ConfigError(
                 f"config key 'figures.{figure}.bifurcated': {unknown} not among the configured bifurcations "
@@ -94,8 +101,10 @@ def _check_tube(tube: dict) -> None:
     for name, spec in tube["branches"].items():
         dofs = 2 * (beam.n_elements + 1)
         if spec["mode"] > dofs:
-            raise ConfigError(f"config key 'tube.branches.{name}.mode': {spec['mode']} exceeds the {dofs} degrees of "
-                              "freedom of the mesh")
+            raise ConfigError(
+                f"config key 'tube.branches.{name}.mode': {spec['mode']} exceeds the {dofs} degrees of "
+                "freedom of the mesh"
+            )
 
 
 def load_config(path: str | Path = "config/config.yaml") -> dict:

@@ -61,8 +61,10 @@ def to_full(c, harmonics: int) -> np.ndarray:
     if c.shape[-1] == 2 * H + 1:
         return c
     if c.shape[-1] != H + 1:
-        raise ValueError(f"coefficients must have H+1 = {H + 1} (cosine) or 2H+1 = {2 * H + 1} (full) entries "
-                         f"on their last axis, got {c.shape[-1]}")
+        raise ValueError(
+            f"coefficients must have H+1 = {H + 1} (cosine) or 2H+1 = {2 * H + 1} (full) entries "
+            f"on their last axis, got {c.shape[-1]}"
+        )
     out = np.zeros(c.shape[:-1] + (2 * H + 1,))
     out[..., : H + 1] = c
     return out
@@ -87,7 +89,7 @@ def second_derivative_factors(harmonics: int, basis: str = "full") -> np.ndarray
     """Diagonal of ``d^2/dtheta^2`` in a kept basis: ``[0, -1, .., -H^2(, -1, .., -H^2)]``."""
     n = coefficient_count(harmonics, basis)
     k = np.arange(1, int(harmonics) + 1, dtype=float)
-    return -np.concatenate([[0.0], k, k])[:n] ** 2
+    return -(np.concatenate([[0.0], k, k])[:n] ** 2)
 
 
 def to_time(c, harmonics: int, samples: int) -> np.ndarray:

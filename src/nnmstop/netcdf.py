@@ -50,9 +50,23 @@ PAPER_REFERENCE = ", ".join(f"{given} {family}" for given, family in PAPER_AUTHO
 _REPO_ROOT = Path(__file__).resolve().parents[2]
 # Keys of the configuration's ``metadata`` section copied verbatim into every dataset's global attributes.
 METADATA_ATTRIBUTES = (
-    "institution", "project", "naming_authority", "processing_level", "comment", "acknowledgment", "license",
-    "creator_name", "creator_type", "creator_email", "creator_url", "creator_institution",
-    "publisher_name", "publisher_type", "publisher_email", "publisher_url", "publisher_institution",
+    "institution",
+    "project",
+    "naming_authority",
+    "processing_level",
+    "comment",
+    "acknowledgment",
+    "license",
+    "creator_name",
+    "creator_type",
+    "creator_email",
+    "creator_url",
+    "creator_institution",
+    "publisher_name",
+    "publisher_type",
+    "publisher_email",
+    "publisher_url",
+    "publisher_institution",
 )
 
 
@@ -129,7 +143,7 @@ def dataset_id(path: str | Path) -> str:
     parts = Path(path).with_suffix("").parts
     if "results" in parts:
         last = len(parts) - 1 - parts[::-1].index("results")
-        return "/".join(parts[last + 1:])
+        return "/".join(parts[last + 1 :])
     return parts[-1]
 
 
@@ -177,8 +191,16 @@ def flag_variable(dims, values, long_name: str, meanings: str, **extra) -> tuple
     ``meanings`` names the two values in order, e.g. ``"unstable stable"``.
     """
     flags = np.asarray(values).astype(np.int8)
-    return cf_variable(dims, flags, long_name, "1", dtype=None, flag_values=np.array([0, 1], dtype=np.int8),
-                       flag_meanings=meanings, **extra)
+    return cf_variable(
+        dims,
+        flags,
+        long_name,
+        "1",
+        dtype=None,
+        flag_values=np.array([0, 1], dtype=np.int8),
+        flag_meanings=meanings,
+        **extra,
+    )
 
 
 def check_labelled(ds: xr.Dataset) -> None:
@@ -286,5 +308,7 @@ def check_up_to_date(
         else:
             same = str(stored) == str(value)
         if not same:
-            raise ValueError(f"{source}: {key} = {stored!r} in the dataset but {value!r} in the configuration "
-                             "(stale dataset); rebuild it")
+            raise ValueError(
+                f"{source}: {key} = {stored!r} in the dataset but {value!r} in the configuration "
+                "(stale dataset); rebuild it"
+            )

@@ -22,8 +22,8 @@ __all__ = ["cpu_flags", "openblas_coretype", "numpy_disabled_features", "numeric
 # the CPU cannot run dies with an illegal instruction.
 OPENBLAS_KERNELS = (
     ("Haswell", {"avx2", "fma"}),  # every AVX2+FMA CPU: Intel since 2013, AMD Zen, AVX-512 CPUs
-    ("Sandybridge", {"avx"}),       # AVX without AVX2
-    ("Prescott", {"sse3"}),         # SSE3 ("pni" in /proc/cpuinfo): any other x86_64
+    ("Sandybridge", {"avx"}),  # AVX without AVX2
+    ("Prescott", {"sse3"}),  # SSE3 ("pni" in /proc/cpuinfo): any other x86_64
 )
 
 # numpy dispatch level matching the Haswell kernel family (AVX2 + FMA3).
@@ -121,7 +121,8 @@ def numerics_env(pin_kernels: bool = True, cpuinfo: str | Path = "/proc/cpuinfo"
         warnings.warn(
             f"no pinned OpenBLAS kernel for this CPU ({platform.machine()}, flags from {cpuinfo}): "
             "OpenBLAS chooses natively, datasets are byte-reproducible on this machine only",
-            RuntimeWarning, stacklevel=2,
+            RuntimeWarning,
+            stacklevel=2,
         )
     else:
         env["OPENBLAS_CORETYPE"] = kernel

@@ -8,9 +8,9 @@ multipliers are known in closed form (``linear_modes(params, "regularized")``).
 import numpy as np
 import pytest
 
-from nnmstop.models.structure import two_dof_structure
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
 from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, linear_modes
 
 

@@ -15,19 +15,19 @@ import numpy as np
 import pytest
 
 from fixed_energy import orbit_at_energy
+from nnmstop.checks.time_integration import integrate_nonsmooth
 from nnmstop.compare import matching as compare
 from nnmstop.compare.dataset import comparison_dataset, comparison_energies
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.tasks.hbm import build_stage
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.exact.dataset import two_impact_dataset
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.figures import exact_vs_regularized as fig
-from nnmstop.tasks.figures import build_exact_vs_regularized_figure
+from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
+from nnmstop.tasks.figures import build_exact_vs_regularized_figure
+from nnmstop.tasks.hbm import build_stage
 from nnmstop.tasks.run import run_task
-from nnmstop.checks.time_integration import integrate_nonsmooth
 
 H = 30
 PNG_DPI = 60
@@ -126,7 +126,9 @@ def test_frequencies_agree_with_the_branches(comparison, stage1, matcher):
     np.testing.assert_allclose(comparison["frequency_exact"], 1.0 / (4.0 * comparison["exact_T1"]), rtol=1e-14)
     diff = comparison["frequency_regularized"] - comparison["frequency_exact"]
     np.testing.assert_allclose(comparison["frequency_difference"], diff, rtol=1e-12)
-    np.testing.assert_allclose(comparison["relative_frequency_difference"], diff / comparison["frequency_exact"], rtol=1e-12)
+    np.testing.assert_allclose(
+        comparison["relative_frequency_difference"], diff / comparison["frequency_exact"], rtol=1e-12
+    )
 
 
 def test_energy_gradient_matches_finite_differences(matcher):
@@ -293,13 +295,27 @@ def test_figures_refuse_bad_datasets(tmp_path, exact_family, stage1, comparison)
     with pytest.raises(ValueError, match=r"point a\)"):
         fig.figure_03(unmarked, tmp_path / "f.pdf", PNG_DPI)
     with pytest.raises(ValueError, match="missing input 'exact'"):
-        build_exact_vs_regularized_figure("fig02", small_config(), {"comparison": "x.nc"}, {"pdf": "a.pdf", "png": "a.png"})
+        build_exact_vs_regularized_figure(
+            "fig02", small_config(), {"comparison": "x.nc"}, {"pdf": "a.pdf", "png": "a.png"}
+        )
 
 
 def test_fig02_needs_no_nnm2_and_no_later_nnm1_stage(repo_root):
     out = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-n", "--forceall", "paper_figures/fig02.pdf", "paper_figures/fig03.pdf", "paper_figures/fig04.pdf"],
-        cwd=repo_root, capture_output=True, text=True, timeout=120,
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "-n",
+            "--forceall",
+            "paper_figures/fig02.pdf",
+            "paper_figures/fig03.pdf",
+            "paper_figures/fig04.pdf",
+        ],
+        cwd=repo_root,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert out.returncode == 0, out.stderr
     text = out.stdout + out.stderr

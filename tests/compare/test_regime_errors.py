@@ -15,12 +15,12 @@ import pytest
 import xarray as xr
 
 from nnmstop.compare.exact_branches import main as compare_main
+from nnmstop.compare.regimes import REGIME_VARIABLES, regime_error_dataset, regime_table
 from nnmstop.exact.dataset import exact_branch_dataset, two_impact_dataset
 from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impact_family
 from nnmstop.exact.problem import from_two_impact_unknowns
-from nnmstop.netcdf import check_labelled
 from nnmstop.figures.regime_errors import regime_error_figure
-from nnmstop.compare.regimes import REGIME_VARIABLES, regime_error_dataset, regime_table
+from nnmstop.netcdf import check_labelled
 from nnmstop.tasks.compare import build_regime_error_dataset
 from nnmstop.tasks.figures import build_regime_error_figure
 
@@ -54,12 +54,18 @@ def _branch(parts, attrs, sequences=True):
     data = {
         "energy": ("point", energy, {"long_name": "energy", "units": "1"}),
         "frequency": ("point", np.concatenate([p[3] for p in parts]), {"long_name": "frequency", "units": "Hz"}),
-        "impacts_per_period": ("point", np.concatenate([np.full(len(p[2]), p[0], dtype=np.int32) for p in parts]),
-                               {"long_name": "impacts", "units": "1"}),
+        "impacts_per_period": (
+            "point",
+            np.concatenate([np.full(len(p[2]), p[0], dtype=np.int32) for p in parts]),
+            {"long_name": "impacts", "units": "1"},
+        ),
     }
     if sequences:
-        data["phase_sequence"] = ("point", np.concatenate([np.full(len(p[2]), p[1], dtype=object) for p in parts]),
-                                  {"long_name": "phase sequence", "units": "1"})
+        data["phase_sequence"] = (
+            "point",
+            np.concatenate([np.full(len(p[2]), p[1], dtype=object) for p in parts]),
+            {"long_name": "phase sequence", "units": "1"},
+        )
     return xr.Dataset(data, coords={"point": np.arange(energy.size)}, attrs=dict(attrs))
 
 
@@ -76,7 +82,12 @@ def synthetic():
     exact_ds = _branch(
         [
             (0, "F", np.array([1.0]), np.array([_f_two_falling(1.0)])),
-            (2, "FR", np.concatenate([falling, rising]), np.concatenate([_f_two_falling(falling), _f_two_rising(rising)])),
+            (
+                2,
+                "FR",
+                np.concatenate([falling, rising]),
+                np.concatenate([_f_two_falling(falling), _f_two_rising(rising)]),
+            ),
             (6, "FLFR", six, _f_six(six)),
             (4, "FLF", four, _f_four(four)),
         ],
@@ -105,8 +116,9 @@ def exact_branch(paper_params):
     """A real exact NNM1: the two-impact family and the FLFR and FLF segments after it."""
     family = follow_two_impact_family(paper_params, step=0.1)
     y = from_two_impact_unknowns(family.unknowns)
-    settings = FamilySettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=400,
-                              max_segments=3)
+    settings = FamilySettings(
+        step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=400, max_segments=3
+    )
     segments = follow_branch(paper_params, "FR", y[-1], y[-1] - y[-2], settings)
     return exact_branch_dataset(two_impact_dataset(family), segments, paper_params)
 
@@ -163,8 +175,11 @@ def test_dataset_regimes_are_the_rows_of_the_command_line_table(synthetic, tmp_p
     for k, line in enumerate(lines):
         cols = line.split()
         r = ds.isel(regime=k)
-        assert (int(cols[0]), cols[1], int(cols[4])) == (int(r["impacts_per_period"]), str(r["exact_sequence"].values),
-                                                         int(r["n_matched"]))
+        assert (int(cols[0]), cols[1], int(cols[4])) == (
+            int(r["impacts_per_period"]),
+            str(r["exact_sequence"].values),
+            int(r["n_matched"]),
+        )
         assert float(cols[5]) == pytest.approx(float(r["max_abs_frequency_error"]), rel=5e-3)
         assert float(cols[7]) == pytest.approx(float(r["median_abs_frequency_error"]), rel=5e-3)
         assert float(cols[9]) == pytest.approx(float(r["max_rel_frequency_error"]), rel=5e-3)
@@ -191,8 +206,15 @@ def test_real_exact_branch_against_its_subsample_shows_only_interpolation_error(
     assert rel[ds["energy"].values > 0.8].max() < 2e-3
 
 
-@pytest.mark.parametrize("side, variable", [("exact", "frequency"), ("regularized", "impacts_per_period"),
-                                            ("exact", "phase_sequence"), ("regularized", "energy")])
+@pytest.mark.parametrize(
+    "side, variable",
+    [
+        ("exact", "frequency"),
+        ("regularized", "impacts_per_period"),
+        ("exact", "phase_sequence"),
+        ("regularized", "energy"),
+    ],
+)
 def test_a_missing_variable_is_named(synthetic, side, variable):
     exact_ds, regularized = synthetic
     inputs = {"exact": exact_ds, "regularized": regularized}

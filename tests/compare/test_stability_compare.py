@@ -70,8 +70,9 @@ def test_energy_fold_reads_the_verdict_of_the_piece_of_nearest_frequency():
     down = np.linspace(10.0, 2.0, 17)[1:]
     e_x = np.concatenate([up, down])
     f_x = np.concatenate([0.10 + 0.001 * up, 0.20 - 0.001 * down])
-    exact = _branch(e_x, f_x, np.full(e_x.size, 4), np.concatenate([np.ones(up.size), np.zeros(down.size)]),
-                    sequence="FLF")
+    exact = _branch(
+        e_x, f_x, np.full(e_x.size, 4), np.concatenate([np.ones(up.size), np.zeros(down.size)]), sequence="FLF"
+    )
     # regularized orbits on the upper piece, all unstable: every verdict agrees
     e_r = np.array([3.1, 4.1, 5.1, 6.1])
     reg = _branch(e_r, 0.20 - 0.001 * e_r, np.full(4, 4), np.zeros(4))

@@ -12,14 +12,14 @@ import pytest
 
 from nnmstop.continuation.anm import ANMSettings, continue_anm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct, relative_residual
-from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.two_dof import ModelParameters, linear_modes
 from nnmstop.continuation.pseudo_arclength import (
     PseudoArclengthSettings,
     PseudoArclengthStats,
     continue_pseudo_arclength,
 )
+from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.two_dof import ModelParameters, linear_modes
 
 PARAMS = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
 TOLERANCE = 1e-8  # ANM series tolerance and pseudo-arclength corrector tolerance

@@ -10,7 +10,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nnmstop.models.structure import two_dof_structure
 from nnmstop.continuation.anm import ANMSettings, ANMStepper, continue_anm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.continuation.corrected_path import CorrectedPath
@@ -19,6 +18,7 @@ from nnmstop.continuation.linear import BorderedFactorization
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
 from nnmstop.hbm.bifurcation import locate_branch_point, locate_flagged_branch_points
 from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
 
 QUIET = 1e9  # progress_seconds: no progress messages
@@ -98,8 +98,10 @@ class OwnFactorization(QuadraticToy):
 @pytest.mark.parametrize("name", list(METHODS))
 def test_every_factorization_goes_through_the_systems_own(name):
     own, dense = OwnFactorization(), circle()
-    runs = [continue_branch(system, [1.0, 0.0], [0.0, 1.0], METHODS[name].stepper(), half_turn,
-                            progress_seconds=QUIET) for system in (own, dense)]
+    runs = [
+        continue_branch(system, [1.0, 0.0], [0.0, 1.0], METHODS[name].stepper(), half_turn, progress_seconds=QUIET)
+        for system in (own, dense)
+    ]
     assert own.calls == runs[0].stats.factorizations > 0
     np.testing.assert_array_equal(np.array(runs[0].points), np.array(runs[1].points))
 
@@ -108,8 +110,9 @@ def test_paths_of_both_steppers_stay_on_the_circle():
     system = circle()
     U_a, U_b = np.array([1.0, 0.0]), np.array([np.cos(0.9), np.sin(0.9)])
     t_a = np.array([0.0, 1.0])
-    anm_path, a_end = ANMStepper().path_through(system, U_a, t_a, np.array([np.cos(0.3), np.sin(0.3)]),
-                                                ContinuationStats())
+    anm_path, a_end = ANMStepper().path_through(
+        system, U_a, t_a, np.array([np.cos(0.3), np.sin(0.3)]), ContinuationStats()
+    )
     corrected = CorrectedPath(system, U_a, t_a, U_b)
     assert corrected.length == pytest.approx(np.sin(0.9), rel=1e-14)  # a = <U - U_a, t_a> = y
     for a in np.linspace(0.0, corrected.length, 7):
@@ -128,8 +131,9 @@ def test_branch_point_flag_ends_the_step_that_holds_it(name):
     system = crossing_on_a_circle()
     stop = lambda U, d: "past" if U[2] > 0.5 else ""  # noqa: E731
     settings = METHODS[name]
-    branch = continue_branch(system, [0.0, 0.8, -0.6], [0.0, 0.6, 0.8], settings.stepper(), stop,
-                             progress_seconds=QUIET)
+    branch = continue_branch(
+        system, [0.0, 0.8, -0.6], [0.0, 0.6, 0.8], settings.stepper(), stop, progress_seconds=QUIET
+    )
     assert len(branch.branch_points) == 1
     i = branch.branch_points[0]
     start = branch.step.index(branch.step[i]) - 1  # the point that starts the step ending at i
@@ -144,8 +148,14 @@ def test_branch_point_flag_ends_the_step_that_holds_it(name):
 def test_errors_name_the_step_and_energy_and_bad_starts_are_refused():
     system = circle()
     with pytest.raises(ContinuationError, match=r"max_steps = 3 steps \(last energy"):
-        continue_branch(system, [1.0, 0.0], [0.0, 1.0], PseudoArclengthSettings(max_steps=3).stepper(),
-                        lambda U, d: "", progress_seconds=QUIET)
+        continue_branch(
+            system,
+            [1.0, 0.0],
+            [0.0, 1.0],
+            PseudoArclengthSettings(max_steps=3).stepper(),
+            lambda U, d: "",
+            progress_seconds=QUIET,
+        )
     with pytest.raises(ValueError, match=r"U_start must have shape \(2,\)"):
         continue_anm(system, [1.0, 0.0, 0.0], [0.0, 1.0], half_turn)
     with pytest.raises(ValueError, match="direction must be a non-zero vector"):
@@ -177,8 +187,9 @@ def nnm1_through_3to1():
 
     runs = {
         "ANM": continue_anm(system, U0, direction, stop_factory(), METHODS["ANM"], progress_seconds=QUIET),
-        "pseudo-arclength": continue_pseudo_arclength(system, U0, direction, stop_factory(),
-                                                      METHODS["pseudo-arclength"], progress_seconds=QUIET),
+        "pseudo-arclength": continue_pseudo_arclength(
+            system, U0, direction, stop_factory(), METHODS["pseudo-arclength"], progress_seconds=QUIET
+        ),
     }
     return system, runs
 

@@ -99,14 +99,16 @@ def test_chord_iterations_on_a_fixed_factorization_converge_linearly():
 
 def test_failure_is_reported_not_raised():
     # x^2 + 1 has no real root: Newton wanders and never converges
-    result = newton_solve(lambda y: np.array([y[0] ** 2 + 1.0]), lambda y: np.array([[2 * y[0]]]), [0.5],
-                          tol=1e-12, max_iter=25)
+    result = newton_solve(
+        lambda y: np.array([y[0] ** 2 + 1.0]), lambda y: np.array([[2 * y[0]]]), [0.5], tol=1e-12, max_iter=25
+    )
     assert not result.converged and result.iterations == 25
     assert "no convergence in 25 iterations" in result.reason
     # non-finite residual on the way
     with np.errstate(invalid="ignore"):  # log of a negative iterate
-        result = newton_solve(lambda y: np.array([np.log(y[0])]), lambda y: np.array([[1.0 / y[0]]]), [5.0],
-                              tol=1e-12, max_iter=10)
+        result = newton_solve(
+            lambda y: np.array([np.log(y[0])]), lambda y: np.array([[1.0 / y[0]]]), [5.0], tol=1e-12, max_iter=10
+        )
     assert not result.converged and "non-finite" in result.reason
 
 
@@ -140,8 +142,15 @@ def test_bisection_locates_a_known_root_to_the_tolerance():
     assert abs(out.midpoint - root) <= 0.5e-12
     assert np.sign(out.value_lo) == 1 and np.sign(out.value_hi) == -1
     # reversed bracket and a labelled side with values known at the ends
-    out = bisect_sign_change(lambda x: {"valid": x < root}, 1.0, 0.0, tol=1e-10, side=lambda v: v["valid"],
-                             f_a={"valid": False}, f_b={"valid": True})
+    out = bisect_sign_change(
+        lambda x: {"valid": x < root},
+        1.0,
+        0.0,
+        tol=1e-10,
+        side=lambda v: v["valid"],
+        f_a={"valid": False},
+        f_b={"valid": True},
+    )
     assert out.lo >= root >= out.hi and abs(out.lo - out.hi) <= 1e-10
 
 

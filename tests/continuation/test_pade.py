@@ -13,15 +13,6 @@ import copy
 import numpy as np
 import pytest
 import yaml
-
-from nnmstop.continuation.anm import ANMSettings, continue_anm, step_length
-from nnmstop.config import ConfigError, validate_config
-from nnmstop.continuation.core import relative_residual
-from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.continuation.pade import pade_pair, pade_step_length
-from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
-from nnmstop.models.structure import two_dof_structure
-
 from test_continuation import (
     CASES,
     PARAMS,
@@ -33,6 +24,13 @@ from test_continuation import (
     start_point,
 )
 
+from nnmstop.config import ConfigError, validate_config
+from nnmstop.continuation.anm import ANMSettings, continue_anm, step_length
+from nnmstop.continuation.core import relative_residual
+from nnmstop.continuation.pade import pade_pair, pade_step_length
+from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 
 # --------------------------------------------------------------------------- closed forms
 
@@ -134,8 +132,12 @@ def test_degenerate_terms_give_no_approximant():
 
 def test_pade_setting_is_validated(repo_root):
     assert ANMSettings().pade is True  # the default, as in config/config.yaml
-    assert ANMSettings.from_config({"order": 20, "tolerance": 1e-8, "newton_threshold": 1e-7, "max_steps": 10,
-                                    "pade": True}).pade is True
+    assert (
+        ANMSettings.from_config(
+            {"order": 20, "tolerance": 1e-8, "newton_threshold": 1e-7, "max_steps": 10, "pade": True}
+        ).pade
+        is True
+    )
     with pytest.raises(ValueError, match="pade must be true or false"):
         ANMSettings(pade="yes")
     config = yaml.safe_load((repo_root / "tests" / "data" / "small_config.yaml").read_text())
@@ -158,12 +160,19 @@ def three_runs(request):
     system = HarmonicBalanceSystem(two_dof_structure(PARAMS), H)
     U0, e = start_point(system, mode)
     runs = {
-        pade: continue_anm(system, U0, e, stop(), ANMSettings(tolerance=TOLERANCE, points_per_step=4, pade=pade),
-                           progress_seconds=QUIET)
+        pade: continue_anm(
+            system,
+            U0,
+            e,
+            stop(),
+            ANMSettings(tolerance=TOLERANCE, points_per_step=4, pade=pade),
+            progress_seconds=QUIET,
+        )
         for pade in (True, False)
     }
-    pal = continue_pseudo_arclength(system, U0, e, stop(), PseudoArclengthSettings(tolerance=TOLERANCE),
-                                    progress_seconds=QUIET)
+    pal = continue_pseudo_arclength(
+        system, U0, e, stop(), PseudoArclengthSettings(tolerance=TOLERANCE), progress_seconds=QUIET
+    )
     return request.param, system, runs[True], runs[False], pal
 
 

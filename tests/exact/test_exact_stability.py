@@ -10,15 +10,14 @@ import numpy as np
 import pytest
 import scipy.linalg
 from scipy.integrate import solve_ivp
+from test_multi_impact import SEEDS, _refine
 
+from nnmstop.checks.time_integration import integrate_nonsmooth
+from nnmstop.exact import stability as es
 from nnmstop.exact.dataset import two_impact_dataset
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.problem import SequenceProblem, first_grazing_orbit
-from nnmstop.exact import stability as es
 from nnmstop.models.two_dof import linear_modes, mass_matrix, stiffness_matrix
-from nnmstop.checks.time_integration import integrate_nonsmooth
-
-from test_multi_impact import SEEDS, _refine
 
 
 @pytest.fixture(scope="module")
@@ -162,8 +161,16 @@ def test_two_impact_family_changes_stability_at_its_energy_extrema(paper_params)
     the non-trivial pair passes +1 there and nowhere else on this stretch of the family."""
     family = follow_two_impact_family(paper_params, step=0.02, max_points=40)
     ds = two_impact_dataset(family)
-    for name in ("stable", "multiplier_real", "multiplier_imag", "multiplier_modulus", "stability_margin",
-                 "stability_tolerance", "trivial_multiplier_distance", "trace_invariant"):
+    for name in (
+        "stable",
+        "multiplier_real",
+        "multiplier_imag",
+        "multiplier_modulus",
+        "stability_margin",
+        "stability_tolerance",
+        "trivial_multiplier_distance",
+        "trace_invariant",
+    ):
         assert {"long_name", "units"} <= set(ds[name].attrs), name
     energy, stable = ds["energy"].values, ds["stable"].values
     extrema = np.flatnonzero(np.diff(np.sign(np.diff(energy)))) + 1
@@ -190,8 +197,14 @@ def _variational_monodromy(params, z0, period):
     for (a, b), x in zip(zip(edges[:-1], edges[1:]), x_mid):
         k = stiffness_matrix(params, params.alpha if abs(x) > 1.0 else 0.0)
         a_r = np.block([[np.zeros((2, 2)), np.eye(2)], [-minv @ k, np.zeros((2, 2))]])
-        sol = solve_ivp(lambda _t, y: (a_r @ y.reshape(4, 4)).ravel(), (a, b), phi.ravel(), method="DOP853",
-                        rtol=1e-13, atol=1e-14)
+        sol = solve_ivp(
+            lambda _t, y, a_r=a_r: (a_r @ y.reshape(4, 4)).ravel(),
+            (a, b),
+            phi.ravel(),
+            method="DOP853",
+            rtol=1e-13,
+            atol=1e-14,
+        )
         phi = sol.y[:, -1].reshape(4, 4)
     return phi, traj.switch_times.size
 

@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from nnmstop.checks.time_integration import integrate_nonsmooth
 from nnmstop.exact.dataset import two_impact_dataset
 from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impact_family, unit_null_vector
 from nnmstop.exact.grazing import OrbitAssessment, assess_orbit, classify_boundary, merge_seed, split_start
 from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem, from_two_impact_unknowns, high_energy_orbit
 from nnmstop.exact.sequences import check_sequence, sequence_impacts
-from nnmstop.tasks.exact import build_multi_impact_dataset
 from nnmstop.hbm.system import impacts_per_period as sampled_impacts
 from nnmstop.models.two_dof import total_energy
-from nnmstop.checks.time_integration import integrate_nonsmooth
+from nnmstop.tasks.exact import build_multi_impact_dataset
 
 #: One orbit inside each phase-sequence segment of the paper's NNM1 (12 digits; refined below).
 SEEDS = {
@@ -26,10 +26,25 @@ SEEDS = {
     "FLF": [-1.36214252196, -3.11476639254, 0.719241631803, 0.595237490946, 0.552017931707],
     "FL": [3.58117585002, -67.9525338339, 0.659053425763, 0.94891098536],
     "FRFL": [4.89968359833, -85.7168374147, 0.261823288542, 0.117913362811, 0.273142193535, 0.952303860863],
-    "FRFLF": [8.18306455422, -75.1564366294, 0.12591644523, 0.38252558803, 0.159081806857, 0.819070494983,
-              0.118618766641],
-    "FRFLFR": [22.1488562221, 2.17760844609, 0.0451782773206, 0.552029818726, 0.0914679219936, 0.54166874271,
-               0.0908059545011, 0.279162626281],
+    "FRFLF": [
+        8.18306455422,
+        -75.1564366294,
+        0.12591644523,
+        0.38252558803,
+        0.159081806857,
+        0.819070494983,
+        0.118618766641,
+    ],
+    "FRFLFR": [
+        22.1488562221,
+        2.17760844609,
+        0.0451782773206,
+        0.552029818726,
+        0.0914679219936,
+        0.54166874271,
+        0.0908059545011,
+        0.279162626281,
+    ],
     "FRFR": [12.7283350125, 46.5547850713, 0.0784317292241, 0.64750810085, 0.484740969017, 0.401108899658],
     "FR": [12.3734998422, 286.101172806, 0.0790786761847, 1.5211388878],
 }
@@ -68,8 +83,9 @@ def two_family(paper_params):
 def first_segments(paper_params, two_family):
     """The continuation from the end of the two-impact family: FR -> FLFR -> FLF."""
     y = from_two_impact_unknowns(two_family.unknowns)
-    settings = FamilySettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=400,
-                                       max_segments=3)
+    settings = FamilySettings(
+        step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=400, max_segments=3
+    )
     return follow_branch(paper_params, "FR", y[-1], y[-1] - y[-2], settings)
 
 
@@ -127,7 +143,9 @@ def test_orbits_are_periodic_for_the_event_driven_integrator(paper_params, orbit
     hist = SequenceProblem(paper_params, seq).time_history(y, t)
     np.testing.assert_allclose(traj.states[-1], _z0(y), rtol=0, atol=1e-9)
     np.testing.assert_allclose(
-        np.column_stack([hist.x, hist.u, hist.xdot, hist.udot]), traj.states, rtol=0,
+        np.column_stack([hist.x, hist.u, hist.xdot, hist.udot]),
+        traj.states,
+        rtol=0,
         atol=1e-9,
     )
     # every impact: the integrator enters and leaves a stop once
@@ -220,8 +238,9 @@ def test_transitions_are_found_again_in_the_reverse_direction(paper_params, firs
     y0 = _refine(problem, SEEDS["FRFL"])
     direction = unit_null_vector(problem.jacobian(y0))
     direction *= -np.sign(direction[3])  # shrink the right-stop contact
-    settings = FamilySettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=900,
-                                       max_segments=4)
+    settings = FamilySettings(
+        step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=900, max_segments=4
+    )
     segs = follow_branch(paper_params, "FRFL", y0, direction, settings)
     kinds = [(s.transition.kind, s.transition.old, s.transition.new) for s in segs[:3]]
     assert kinds == [("merge", "FRFL", "FL"), ("append", "FL", "FLF"), ("append", "FLF", "FLFR")]
@@ -247,8 +266,9 @@ def test_the_six_impact_high_energy_family_ends_on_the_two_impact_high_energy_or
     problem, y = orbits["FRFR"]
     direction = unit_null_vector(problem.jacobian(y))
     direction *= -np.sign(direction[4])  # shrink the free flight between the two right-stop contacts
-    settings = FamilySettings(step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=500,
-                                       max_segments=2, energy_max=2000.0)
+    settings = FamilySettings(
+        step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=500, max_segments=2, energy_max=2000.0
+    )
     segs = follow_branch(paper_params, "FRFR", y, direction, settings)
     tr = segs[0].transition
     assert (tr.kind, tr.old, tr.new, tr.margin) == ("merge", "FRFR", "FR", ("duration", 2))
@@ -284,8 +304,14 @@ def test_dataset_starts_with_the_two_impact_family_unchanged(paper_params, two_f
     two.to_netcdf(two_path)
     config = {
         "model": {"alpha": 30.0, "beta": 1.0, "delta": 1.0, "eta": 0.1},
-        "exact_multi": {"step": 0.25, "max_points": 150, "energy_max": 1.5e5, "max_log_energy_step": 0.1,
-                        "max_frequency_step": 5e-4, "grazing_epsilon": 1e-3},
+        "exact_multi": {
+            "step": 0.25,
+            "max_points": 150,
+            "energy_max": 1.5e5,
+            "max_log_energy_step": 0.1,
+            "max_frequency_step": 5e-4,
+            "grazing_epsilon": 1e-3,
+        },
     }
     out = build_multi_impact_dataset(config, two_path, tmp_path / "nnm1.nc")
     with xr.open_dataset(two_path) as a, xr.open_dataset(out) as b:

@@ -6,6 +6,7 @@ import pytest
 import scipy.integrate
 import scipy.linalg
 
+from nnmstop.exact.family import follow_two_impact_family as follow_family
 from nnmstop.exact.ndof import (
     OneStopProblem,
     PhaseFlow,
@@ -17,7 +18,6 @@ from nnmstop.exact.ndof import (
     piecewise_energy,
     time_history,
 )
-from nnmstop.exact.family import follow_two_impact_family as follow_family
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.models.beam import Beam, BeamStop, beam_structure
 from nnmstop.models.structure import Stop, Structure, two_dof_structure
@@ -39,12 +39,12 @@ def test_phase_flow_is_the_matrix_exponential(small_beam):
     stiffness = stiffness + problem.stop.stiffness * np.outer(np.eye(n)[problem.dof], np.eye(n)[problem.dof])
     # first-order system augmented with a constant state 1 carrying the force: z' = A z + f
     a = np.zeros((2 * n + 1, 2 * n + 1))
-    a[:n, n:2 * n] = np.eye(n)
-    a[n:2 * n, :n] = -np.linalg.solve(mass, stiffness)
-    a[n:2 * n, -1] = np.linalg.solve(mass, phase.force)
+    a[:n, n : 2 * n] = np.eye(n)
+    a[n : 2 * n, :n] = -np.linalg.solve(mass, stiffness)
+    a[n : 2 * n, -1] = np.linalg.solve(mass, phase.force)
     t = 0.37
     expm = scipy.linalg.expm(a * t)
-    np.testing.assert_allclose(phase.transition(t), expm[:2 * n, :2 * n], atol=1e-9 * np.abs(expm).max())
+    np.testing.assert_allclose(phase.transition(t), expm[: 2 * n, : 2 * n], atol=1e-9 * np.abs(expm).max())
     z0 = np.random.default_rng(0).standard_normal(2 * n)
     expected = expm @ np.append(z0, 1.0)
     np.testing.assert_allclose(phase.state(z0, t), expected[:-1], atol=1e-9 * np.abs(expected).max())
@@ -125,19 +125,22 @@ def _integrate_nonsmooth(structure, z0, duration):
         def f(t, z):
             force = alpha * (z[c] - side * g) if side else 0.0
             return np.concatenate([z[n:], -minv_k @ z[:n] - force * minv_e])
+
         return f
 
     def event(level, direction):
         def e(t, z):
             return z[c] - level
+
         e.terminal, e.direction = True, direction
         return e
 
     t, z, side, entries = 0.0, np.asarray(z0, dtype=float), 0, []
     while t < duration:
         events = [event(g, 1), event(-g, -1)] if side == 0 else [event(side * g, -side)]
-        sol = scipy.integrate.solve_ivp(rhs(side), (t, duration), z, method="DOP853", rtol=1e-12, atol=1e-12,
-                                        events=events)
+        sol = scipy.integrate.solve_ivp(
+            rhs(side), (t, duration), z, method="DOP853", rtol=1e-12, atol=1e-12, events=events
+        )
         t, z = sol.t[-1], sol.y[:, -1]
         if sol.status == 1:
             if side == 0:

@@ -10,14 +10,14 @@ import pytest
 import scipy.linalg
 import xarray as xr
 
+from nnmstop.checks.time_integration import integrate_nonsmooth, integrate_regularized
 from nnmstop.exact.dataset import two_impact_dataset
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.grazing import TWO_IMPACT_MARGINS, assess_orbit
 from nnmstop.exact.phases import LinearPhase
 from nnmstop.exact.problem import TwoImpactProblem, first_grazing_orbit, high_energy_orbit
-from nnmstop.tasks.exact import build_two_impact_dataset
 from nnmstop.models.two_dof import ModelParameters, linear_modes, mass_matrix, stiffness_matrix, total_energy
-from nnmstop.checks.time_integration import integrate_nonsmooth, integrate_regularized
+from nnmstop.tasks.exact import build_two_impact_dataset
 
 OTHER_PARAMS = ModelParameters(alpha=5.0, beta=0.3, delta=2.5, eta=0.4)
 
@@ -66,9 +66,7 @@ def test_analytic_jacobian_matches_finite_differences(paper_params, family):
     problem = TwoImpactProblem(paper_params)
     for y in (family.unknowns[40], first_grazing_orbit(paper_params) + [0.03, -0.05, -0.2, 0.1]):
         h = 1e-6
-        fd = np.column_stack(
-            [(problem.residual(y + h * e) - problem.residual(y - h * e)) / (2 * h) for e in np.eye(4)]
-        )
+        fd = np.column_stack([(problem.residual(y + h * e) - problem.residual(y - h * e)) / (2 * h) for e in np.eye(4)])
         np.testing.assert_allclose(problem.jacobian(y), fd, rtol=1e-7, atol=1e-8)
 
 
@@ -292,8 +290,18 @@ def test_regularized_orbit_approaches_the_exact_orbit_as_eta_shrinks(paper_param
 
 def test_dataset_is_labelled_and_consistent(paper_params, family, tmp_path):
     ds = two_impact_dataset(family)
-    for name in ["energy", "frequency", "period", "x_max", "u_at_x_max", "xdot0", "udot0",
-                 "free_flight_time", "contact_time", "residual"]:
+    for name in [
+        "energy",
+        "frequency",
+        "period",
+        "x_max",
+        "u_at_x_max",
+        "xdot0",
+        "udot0",
+        "free_flight_time",
+        "contact_time",
+        "residual",
+    ]:
         assert name in ds.data_vars and ds[name].dims == ("point",)
     for var in {**ds.coords, **ds.data_vars}.values():
         assert var.attrs["units"] and var.attrs["long_name"]
@@ -306,8 +314,10 @@ def test_dataset_is_labelled_and_consistent(paper_params, family, tmp_path):
 
 
 def test_build_dataset_writes_netcdf(tmp_path):
-    config = {"model": {"alpha": 30.0, "beta": 1.0, "delta": 1.0, "eta": 0.1},
-              "exact": {"step": 0.05, "max_points": 30}}
+    config = {
+        "model": {"alpha": 30.0, "beta": 1.0, "delta": 1.0, "eta": 0.1},
+        "exact": {"step": 0.05, "max_points": 30},
+    }
     path = build_two_impact_dataset(config, tmp_path / "out" / "family.nc")
     with xr.open_dataset(path) as ds:
         assert ds.sizes["point"] == 30

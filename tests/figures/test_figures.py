@@ -12,13 +12,13 @@ import copy
 import numpy as np
 import pytest
 
-from nnmstop.hbm.stages import combine_stages
-from nnmstop.tasks.hbm import build_stage
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.figures import frequency_energy as fe
-from nnmstop.tasks.figures import combine_nnm1_stages
 from nnmstop.figures.modal_lines import LabelSpec, energy_crossings, label_specs, select_point
+from nnmstop.hbm.stages import combine_stages
 from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.tasks.figures import combine_nnm1_stages
+from nnmstop.tasks.hbm import build_stage
 from nnmstop.tasks.run import run_task
 
 PNG_DPI = 60  # small PNGs keep the tests fast; the pipeline uses figures.png_dpi
@@ -80,7 +80,10 @@ def specs(nnm1_stages, nnm2):
     return {
         "fig05": {},
         "fig06": {"labels": [{"label": "a", "energy": float(nnm2["energy"].values[3])}, _label("b", nnm2)]},
-        "fig07": {"nnm1_stages": [1], "labels": [_label("a", s[0], 1), {"label": "b", "energy": float(s[0]["energy"].values[-2]), "stage": 1}]},
+        "fig07": {
+            "nnm1_stages": [1],
+            "labels": [_label("a", s[0], 1), {"label": "b", "energy": float(s[0]["energy"].values[-2]), "stage": 1}],
+        },
         "fig08": {"nnm1_stages": [1, 2], "labels": [_label("d", s[1], 2), _label("e", s[0], 1)]},
         "fig09": {"nnm1_stages": [2, 3], "labels": [_label("j", s[2], 3)]},
         "fig10": {"nnm1_stages": [3, 4], "labels": [_label("o", s[2], 3), _label("p", s[3], 4)]},
@@ -188,8 +191,12 @@ def test_select_point_honours_stage_impacts_and_occurrence():
     stage = np.array([1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2])
     impacts = np.array([0, 0, 2, 2, 2, 2, 2, 4, 4, 4, 4])
     branch = xr.Dataset(
-        {"energy": ("point", energy), "frequency": ("point", 0.1 + 0.01 * np.arange(energy.size)),
-         "stage": ("point", stage), "impacts_per_period": ("point", impacts)},
+        {
+            "energy": ("point", energy),
+            "frequency": ("point", 0.1 + 0.01 * np.arange(energy.size)),
+            "stage": ("point", stage),
+            "impacts_per_period": ("point", impacts),
+        },
         coords={"point": np.arange(energy.size)},
     )
     # E = 5 is met on the way up (nearest point E = 4), down (E = 4) and up again (E = 6)
@@ -237,7 +244,11 @@ def test_pipeline_task_draws_fig06_from_the_nnm2_file_alone(small_config, nnm2, 
 def test_figures_section_of_the_configuration_is_validated(repo_root):
     config = load_config(repo_root / "config" / "config.yaml")
     assert set(fe.PAPER_FIGURES) <= set(config["figures"])
-    for bad in ({"label": "ab", "energy": 1.0}, {"label": "a", "energy": -1.0}, {"label": "a", "energy": 1.0, "colour": "red"}):
+    for bad in (
+        {"label": "ab", "energy": 1.0},
+        {"label": "a", "energy": -1.0},
+        {"label": "a", "energy": 1.0, "colour": "red"},
+    ):
         broken = copy.deepcopy(config)
         broken["figures"]["fig07"]["labels"][0] = bad
         with pytest.raises(ConfigError, match=r"figures\.fig07\.labels\.0"):

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 import yaml
 
+from nnmstop.config import ConfigError, validate_config
 from nnmstop.continuation.anm import ANMSettings, continue_anm
+from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.bifurcation import (
     bifurcation_tangents,
     locate_branch_point,
@@ -16,11 +18,9 @@ from nnmstop.hbm.bifurcation import (
 )
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.stages import start_point
-from nnmstop.tasks.hbm import build_bifurcated, build_stage, system_from_config
-from nnmstop.config import ConfigError, validate_config
-from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
+from nnmstop.tasks.hbm import build_bifurcated, build_stage, system_from_config
 
 
 class Transcritical:
@@ -132,8 +132,9 @@ def test_bifurcated_branch_is_nnm2_read_over_three_periods(resonance_config, bif
     # bifurcated branch restricted to the harmonics 3k, with lam read as 9 lam
     nnm2_system = system_from_config(resonance_config, harmonics=17)
     U0, direction = start_point(nnm2_system, 2, 0.05)
-    nnm2 = continue_anm(nnm2_system, U0, direction, lambda U, d: "end" if d["energy"] > 40.0 else "",
-                        ANMSettings(points_per_step=4))
+    nnm2 = continue_anm(
+        nnm2_system, U0, direction, lambda U, d: "end" if d["energy"] > 40.0 else "", ANMSettings(points_per_step=4)
+    )
     nnm2_points = np.array(nnm2.points)
     system = system_from_config(resonance_config)
     fixed_lam = np.zeros(nnm2_system.n_unknowns)
@@ -221,7 +222,10 @@ def test_combined_stages_keep_the_located_points(bifurcated):
     plain = stage2.copy()
     plain.attrs = {k: v for k, v in stage2.attrs.items() if k != "previous_stage"}
     both = combine_stages([stage1, plain])
-    assert both.sizes["located_branch_point"] == stage1.sizes["located_branch_point"] + stage2.sizes["located_branch_point"]
+    assert (
+        both.sizes["located_branch_point"]
+        == stage1.sizes["located_branch_point"] + stage2.sizes["located_branch_point"]
+    )
     # indices shifted to the combined branch: they still point at flagged steps and energy extrema
     assert np.all(both["branch_point"].values[both["branch_point_flagged_point"].values] == 1)
     assert np.all(both["energy_fold"].values[both["fold_point"].values] == 1)

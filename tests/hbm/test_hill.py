@@ -13,16 +13,16 @@ import pytest
 
 from fixed_energy import orbit_at_energy
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.stability import BranchHill, branch_hill
-from nnmstop.hbm.stages import start_point
-from nnmstop.tasks.hbm import build_stage, system_from_config
 from nnmstop.compare.matching import regularized_monotone_part
 from nnmstop.config import load_config
-from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.hill import floquet, hill_matrix, is_halfwave_symmetric
+from nnmstop.hbm.stability import BranchHill, branch_hill
+from nnmstop.hbm.stages import start_point
+from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.tasks.hbm import build_stage, system_from_config
 
 H_BRANCH = 40
 
@@ -236,7 +236,9 @@ def test_pair_structure(system, nnm1):
     # double +1 up to the orbit's error (square-root split).
     assert rc.pairing_error < 1e-10
     assert rc.trivial_deviation < 5 * np.sqrt(rc.orbit_residual)
-    assert np.allclose(rc.exponents[0], -rc.exponents[1], atol=1e-8) or np.allclose(rc.exponents[0], np.conj(rc.exponents[1]), atol=1e-8)
+    assert np.allclose(rc.exponents[0], -rc.exponents[1], atol=1e-8) or np.allclose(
+        rc.exponents[0], np.conj(rc.exponents[1]), atol=1e-8
+    )
     # Reversible solver: exact pair structure by construction.
     r = floquet(system, U[i])
     assert np.array_equal(r.multipliers[:2], [1.0, 1.0])
@@ -292,12 +294,14 @@ def test_full_basis_orbit_uses_the_companion_solver():
     # Phase-shifted orbit: sine content, not reversible about t = 0.
     theta0 = 0.3
     k = np.arange(1, 13)
+
     def shift(c):
         c = c.copy()
         cc, ss = c[1:13].copy(), c[13:].copy()
         c[1:13] = cc * np.cos(k * theta0) - ss * np.sin(k * theta0)
         c[13:] = cc * np.sin(k * theta0) + ss * np.cos(k * theta0)
         return c
+
     xs, us, fs, zs = (shift(cos_system.to_full(c)) for c in (x, u, f, z))
     shifted = full_system.pack(xs, us, fs, zs, lam, 0.0)
     r_shift = floquet(full_system, shifted)
@@ -323,7 +327,7 @@ def test_branch_hill_layout(system, nnm1):
     assert set(data) >= {"stable", "multiplier_real", "multiplier_imag", "max_multiplier"}
     assert data["multiplier_real"][0] == ("point", "multiplier")
     assert data["stable"][1].dtype == np.int8
-    for dims, values, attrs in data.values():
+    for _dims, values, attrs in data.values():
         assert "long_name" in attrs and "units" in attrs
         assert np.shape(values)[0] == 5
 

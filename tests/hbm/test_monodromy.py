@@ -17,19 +17,19 @@ import dataclasses
 import numpy as np
 import pytest
 
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.stability import branch_hill, orbit_stability
-from nnmstop.tasks.hbm import build_stage, stability_settings, system_from_config
-from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
+from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.exact.family import follow_two_impact_family as follow_family
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.exact.stability import exact_multipliers
+from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
 from nnmstop.hbm.shooting_refinement import refined_stability, shooting_stability
+from nnmstop.hbm.stability import branch_hill, orbit_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
+from nnmstop.tasks.hbm import build_stage, stability_settings, system_from_config
 
 H_BRANCH = 40
 
@@ -81,7 +81,12 @@ def test_linear_limit_matches_closed_form():
 
 def test_monodromy_is_symplectic(system, nnm1):
     """The flow of M y'' + (K + k(t) E) y = 0 preserves the symplectic form: M^T J M = J, det M = 1."""
-    J = np.block([[np.zeros((2, 2)), np.diag([1.0, system.params.delta])], [-np.diag([1.0, system.params.delta]), np.zeros((2, 2))]])
+    J = np.block(
+        [
+            [np.zeros((2, 2)), np.diag([1.0, system.params.delta])],
+            [-np.diag([1.0, system.params.delta]), np.zeros((2, 2))],
+        ]
+    )
     for U in nnm1[:: max(1, len(nnm1) // 6)]:
         M = orbit_monodromy(system, U, steps=512)
         scale = np.linalg.norm(M) ** 2
@@ -132,8 +137,16 @@ def refined(system, nnm1):
     plain = branch_monodromy(system, nnm1, MonodromySettings(refine=False))
     idx = np.flatnonzero(plain.reason == 2)
     s = MonodromySettings()
-    r = refined_stability(system, nnm1[idx], s.refine_steps, s.refine_max_steps, s.refine_tol, s.resolution_factor,
-                          s.refine_max_change, floor=s.trace_tol)
+    r = refined_stability(
+        system,
+        nnm1[idx],
+        s.refine_steps,
+        s.refine_max_steps,
+        s.refine_tol,
+        s.resolution_factor,
+        s.refine_max_change,
+        floor=s.trace_tol,
+    )
     assert np.all(r.converged)
     return r
 
@@ -143,8 +156,10 @@ def test_refined_orbits_match_adaptive_integration(system, refined):
     the orbit closes, and the multipliers of its monodromy match, within the two integrators' errors."""
     stable = np.abs(refined.invariant) <= 2
     assert stable.any() and (~stable).any()
-    picks = [int(np.argmax(np.where(stable, np.abs(refined.invariant - 2), -1))),
-             int(np.argmax(np.where(~stable, np.abs(refined.invariant - 2), -1)))]
+    picks = [
+        int(np.argmax(np.where(stable, np.abs(refined.invariant - 2), -1))),
+        int(np.argmax(np.where(~stable, np.abs(refined.invariant - 2), -1))),
+    ]
     for i in picks:
         z = np.r_[refined.start[i], 0.0, 0.0]
         coarse = monodromy(system.params, z, refined.period[i], rtol=1e-12, atol=1e-12)
@@ -183,8 +198,11 @@ def test_matches_integrated_monodromy_of_refined_orbits(system, nnm1, verdicts):
     mono, _ = verdicts
     energy = np.array([system.diagnostics(U)["energy"] for U in nnm1])
     impacts = np.array([system.diagnostics(U)["impacts_per_period"] for U in nnm1])
-    picks = [int(np.argmin(energy)), int(np.flatnonzero(impacts == 2)[len(np.flatnonzero(impacts == 2)) // 2]),
-             int(np.flatnonzero(impacts == 6)[len(np.flatnonzero(impacts == 6)) // 2])]
+    picks = [
+        int(np.argmin(energy)),
+        int(np.flatnonzero(impacts == 2)[len(np.flatnonzero(impacts == 2)) // 2]),
+        int(np.flatnonzero(impacts == 6)[len(np.flatnonzero(impacts == 6)) // 2]),
+    ]
     for i in picks:
         z0, T = orbit_initial_state(system, nnm1[i])
         z, T = refine_orbit(system.params, z0, T)
@@ -201,7 +219,9 @@ def test_matches_integrated_monodromy_of_refined_orbits(system, nnm1, verdicts):
 def test_error_estimate_bounds_the_error(system, nnm1):
     coarse = branch_monodromy(system, nnm1[::5], MonodromySettings(steps=128, max_steps=256))
     fine = branch_monodromy(system, nnm1[::5], MonodromySettings(steps=4096, max_steps=8192))
-    assert np.all(np.abs(coarse.invariant - fine.invariant) <= coarse.integration_error + 10 * fine.integration_error + 1e-12)
+    assert np.all(
+        np.abs(coarse.invariant - fine.invariant) <= coarse.integration_error + 10 * fine.integration_error + 1e-12
+    )
 
 
 def test_config_selects_the_method(config, system, nnm1):
@@ -214,8 +234,17 @@ def test_config_selects_the_method(config, system, nnm1):
 
 @pytest.mark.parametrize(
     "key, value",
-    [("method", "shooting"), ("steps", 100), ("max_steps", 64), ("trace_tol", -1.0), ("resolution_factor", 0.5),
-     ("refine", "yes"), ("refine_steps", 100), ("refine_tol", 0.0), ("refine_max_change", 1.0)],
+    [
+        ("method", "shooting"),
+        ("steps", 100),
+        ("max_steps", 64),
+        ("trace_tol", -1.0),
+        ("resolution_factor", 0.5),
+        ("refine", "yes"),
+        ("refine_steps", 100),
+        ("refine_tol", 0.0),
+        ("refine_max_change", 1.0),
+    ],
 )
 def test_bad_stability_config_is_named(key, value):
     c = copy.deepcopy(load_config("config/config.yaml"))
@@ -249,10 +278,21 @@ def test_refined_multipliers_tend_to_the_exact_ones_as_eta_vanishes():
     errors = []
     for eta in (1e-2, 1e-3, 1e-4):
         params = dataclasses.replace(base, eta=eta)
-        orbit = TwoImpactProblem(params).time_history(y, y[3] + theta * period / (2 * np.pi))  # from the turning point, at rest
-        r = shooting_stability(params, [[orbit.x[0], orbit.u[0]]], [period], orbit.x[None],
-                               (orbit.xdot * period / (2 * np.pi))[None], s.refine_steps, s.refine_max_steps,
-                               s.refine_tol, s.resolution_factor, s.refine_max_change)
+        orbit = TwoImpactProblem(params).time_history(
+            y, y[3] + theta * period / (2 * np.pi)
+        )  # from the turning point, at rest
+        r = shooting_stability(
+            params,
+            [[orbit.x[0], orbit.u[0]]],
+            [period],
+            orbit.x[None],
+            (orbit.xdot * period / (2 * np.pi))[None],
+            s.refine_steps,
+            s.refine_max_steps,
+            s.refine_tol,
+            s.resolution_factor,
+            s.refine_max_change,
+        )
         assert r.converged[0]
         assert (abs(r.invariant[0]) <= 2) == exact.stable
         errors.append(abs(r.invariant[0] - exact.trace_invariant))

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from nnmstop.models.structure import two_dof_structure
 from nnmstop.hbm.hill import DEFAULT_TOL
 from nnmstop.hbm.monodromy import MonodromySettings
 from nnmstop.hbm.stability import StabilitySettings, orbit_stability
 from nnmstop.hbm.stages import start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import linear_modes
 from nnmstop.tasks.hbm import stability_settings
 

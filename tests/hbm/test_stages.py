@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.stages import combine_stages
-from nnmstop.tasks.hbm import build_stage, system_from_config
 from nnmstop.config import load_config
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
-from nnmstop.netcdf import check_labelled
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stages import combine_stages
 from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.netcdf import check_labelled
+from nnmstop.tasks.hbm import build_stage, system_from_config
 from nnmstop.tasks.run import run_task
 
 
@@ -62,8 +62,10 @@ def test_stage_ends_where_its_criterion_is_first_met(nnm1_stages):
 def test_stages_join_continuously(small_config, nnm1_stages):
     """Stage 2 starts exactly where stage 1 ends; the combined branch has every point once."""
     first, second = nnm1_stages
-    xr.testing.assert_allclose(first.isel(point=-1).drop_vars(["point", "step", "stage"]),
-                               second.isel(point=0).drop_vars(["point", "step", "stage"]))
+    xr.testing.assert_allclose(
+        first.isel(point=-1).drop_vars(["point", "step", "stage"]),
+        second.isel(point=0).drop_vars(["point", "step", "stage"]),
+    )
     both = combine_stages([first, second])
     assert both.sizes["point"] == first.sizes["point"] + second.sizes["point"] - 1
     np.testing.assert_array_equal(both["point"].values, np.arange(both.sizes["point"]))

@@ -66,4 +66,3 @@ def test_hbm_orbits_of_the_tube_are_periodic_in_time(tube_branch):
         checked_impacts.append(diagnostics["impacts_per_period"])
     assert max(checked_impacts) >= 4  # several impacts per stop were checked, not only the one-impact regime
     assert 2 in checked_impacts
-

@@ -12,8 +12,8 @@ import scipy.sparse as sp
 from scipy.integrate import solve_ivp
 
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.two_dof import ModelParameters, regularized_contact_force
 from nnmstop.models.structure import Stop, Structure, two_dof_structure
+from nnmstop.models.two_dof import ModelParameters, regularized_contact_force
 
 
 def chain(n, stops, masses=None, springs=None, ground=None):
@@ -120,8 +120,9 @@ def test_oscillator_inside_larger_structure_gives_the_same_orbit(basis):
 def random_structure(n=20, seed=3):
     rng = np.random.default_rng(seed)
     stops = [Stop(dof=4, gap=0.7, stiffness=25.0, eta=0.2), Stop(dof=13, gap=1.6, stiffness=8.0, eta=0.05)]
-    return chain(n, stops, masses=rng.uniform(0.5, 2.0, n), springs=rng.uniform(0.5, 3.0, n + 1),
-                 ground=rng.uniform(0.0, 0.3, n)), rng
+    return chain(
+        n, stops, masses=rng.uniform(0.5, 2.0, n), springs=rng.uniform(0.5, 3.0, n + 1), ground=rng.uniform(0.0, 0.3, n)
+    ), rng
 
 
 def random_point(system, rng):
@@ -221,6 +222,6 @@ def test_bad_input_is_named():
     with pytest.raises(ValueError, match="1..4"):
         system.linear_mode_guess(5, 0.1)
     with pytest.raises(AttributeError, match="two-DOF oscillator"):
-        system.params
+        _ = system.params
     with pytest.raises(ValueError, match="tangent"):
         system.factorize_bordered(np.zeros(system.n_unknowns), np.ones(3))

@@ -15,8 +15,8 @@ from scipy.integrate import solve_ivp
 from nnmstop.continuation.anm import ANMSettings, anm_series, continue_anm
 from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_contact_force
 from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_contact_force
 
 PARAMS = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
 BASES = ("cosine", "full")

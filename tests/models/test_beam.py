@@ -113,8 +113,10 @@ def test_deflection_between_nodes_is_the_static_cubic():
     (stop,) = structure.stops
     a = beam.stops[0].position
     force = 1.0
-    x = np.linalg.solve(structure.stiffness.toarray(),
-                        force / (scales["length"] * scales["stiffness"]) * np.eye(structure.n_dofs)[stop.dof])
+    x = np.linalg.solve(
+        structure.stiffness.toarray(),
+        force / (scales["length"] * scales["stiffness"]) * np.eye(structure.n_dofs)[stop.dof],
+    )
     s = np.linspace(0.0, 1.0, 37) * beam.length
     under = np.minimum(s, a)
     exact = force * under**2 * (3 * a - under) / (6 * beam.bending_stiffness)

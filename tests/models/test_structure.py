@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 import scipy.sparse
 
-from nnmstop.models.two_dof import ModelParameters, linear_modes, mass_matrix, stiffness_matrix
 from nnmstop.models.beam import Beam, BeamStop, beam_structure, euler_bernoulli_frequencies
 from nnmstop.models.structure import (
     DENSE_EIGEN_LIMIT,
@@ -15,6 +14,7 @@ from nnmstop.models.structure import (
     normal_modes,
     two_dof_structure,
 )
+from nnmstop.models.two_dof import ModelParameters, linear_modes, mass_matrix, stiffness_matrix
 
 
 @pytest.mark.parametrize("params", [ModelParameters(), ModelParameters(alpha=5.0, beta=0.3, delta=2.5, eta=0.2)])
@@ -91,8 +91,9 @@ def test_structure_validation_names_the_value():
     with pytest.raises(ValueError, match=r"stop dof 3 is out of range for 3 degrees of freedom"):
         Structure(_spd(), _spd(), (Stop(3, 1.0, 30.0, 0.1),))
     asymmetric = _spd() + np.diag([1.0, 1.0], 1)
-    with pytest.raises(ValueError,
-                       match=r"stiffness must be symmetric to round-off, got max\|A - A\^T\| = 1\.000e\+00"):
+    with pytest.raises(
+        ValueError, match=r"stiffness must be symmetric to round-off, got max\|A - A\^T\| = 1\.000e\+00"
+    ):
         Structure(_spd(), asymmetric, (stop,))
     with pytest.raises(ValueError, match="mass must be positive definite"):
         Structure(np.diag([1.0, -1.0, 1.0]), _spd(), (stop,))

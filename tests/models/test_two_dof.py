@@ -91,8 +91,15 @@ def test_stiffness_matches_finite_differences(params):
 def test_potential_is_the_integral_of_the_force(params):
     for x in SAMPLE_X:
         points = [s for s in (-1.0, 1.0) if min(0.0, x) < s < max(0.0, x)]
-        ref, err = quad(lambda s: float(regularized_contact_force(s, params)), 0.0, x, points=points or None,
-                        epsabs=0.0, epsrel=1e-13, limit=200)
+        ref, err = quad(
+            lambda s: float(regularized_contact_force(s, params)),
+            0.0,
+            x,
+            points=points or None,
+            epsabs=0.0,
+            epsrel=1e-13,
+            limit=200,
+        )
         assert regularized_contact_potential(x, params) == pytest.approx(ref, rel=1e-10, abs=1e-15), f"x={x}"
 
 

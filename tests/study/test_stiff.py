@@ -8,16 +8,16 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from nnmstop.checks.shooting import orbit_initial_state, refine_orbit
+from nnmstop.checks.time_integration import integrate_nonsmooth, integrate_regularized
 from nnmstop.compare.matching import EnergyMatcher
 from nnmstop.config import load_config
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
-from nnmstop.checks.shooting import orbit_initial_state, refine_orbit
 from nnmstop.study.runs import case_config, match_energies, run_stage_one, two_impact_arm
 from nnmstop.study.stiff_cases import _confirm_end, exact_checks
-from nnmstop.checks.time_integration import integrate_nonsmooth, integrate_regularized
 
 EPS = np.finfo(float).eps
 
@@ -80,7 +80,9 @@ def test_exact_checks_confirm_a_genuine_end():
 # --------------------------------------------------------------------------- regularized force, extremes
 
 
-X_EXTREME = np.concatenate([-np.logspace(300, -300, 121), np.logspace(-300, 300, 121), [0.5, 0.999, 1.0, 1.001, 2.0, 3.0]])
+X_EXTREME = np.concatenate(
+    [-np.logspace(300, -300, 121), np.logspace(-300, 300, 121), [0.5, 0.999, 1.0, 1.001, 2.0, 3.0]]
+)
 PARAMS_EXTREME = [(a, e) for a in (30.0, 1.0e4, 1.0e8) for e in (0.1, 1.0e-3, 1.0e-8)]
 
 
@@ -123,7 +125,7 @@ def test_regularized_force_is_the_middle_root_of_the_cubic(alpha, eta):
             continue
         xf = Fraction(float(x))
 
-        def p(v):
+        def p(v, xf=xf):
             v = Fraction(float(v))
             return v * (v - a * (xf - 1)) * (v - a * (xf + 1)) + e * a * a * xf
 
@@ -145,7 +147,9 @@ def exact_family_dataset(config):
     from nnmstop.exact.dataset import two_impact_dataset
 
     params = ModelParameters.from_config(config["model"])
-    return two_impact_dataset(follow_two_impact_family(params, step=config["exact"]["step"], max_points=config["exact"]["max_points"]))
+    return two_impact_dataset(
+        follow_two_impact_family(params, step=config["exact"]["step"], max_points=config["exact"]["max_points"])
+    )
 
 
 def _shoot_at_energy(params, state, period, energy, rtol=1e-10):

@@ -20,15 +20,15 @@ import yaml
 
 from nnmstop.config import ConfigError, load_config
 from nnmstop.continuation.core import ContinuationError
-from nnmstop.netcdf import write_dataset
 from nnmstop.figures.study import pareto_front
-from nnmstop.tasks.figures import build_error_vs_runtime_figure
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.two_dof import ModelParameters
 from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.two_dof import ModelParameters
+from nnmstop.netcdf import write_dataset
 from nnmstop.study import error_runtime as er
-from nnmstop.tasks import study as ts
 from nnmstop.study.runs import FILL_VALUE, case_config, format_number
+from nnmstop.tasks import study as ts
+from nnmstop.tasks.figures import build_error_vs_runtime_figure
 
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]  # the environment's own Snakemake, never skipped
 
@@ -46,8 +46,13 @@ def small(config):
     study["energies"] = [3.0, 12.0]
     study["phase_samples"] = 512
     study["error_runtime"].update(
-        harmonics=[10, 30], eta=[0.1, 0.01], reference_harmonics=60, reference_seed_harmonics=30,
-        anm_harmonics=30, anm_orders=[10, 20], anm_tolerances=[1e-6],
+        harmonics=[10, 30],
+        eta=[0.1, 0.01],
+        reference_harmonics=60,
+        reference_seed_harmonics=30,
+        anm_harmonics=30,
+        anm_orders=[10, 20],
+        anm_tolerances=[1e-6],
     )
     return cfg
 
@@ -78,7 +83,9 @@ def gathered(small, exact, tmp_path_factory):
     for order, tol in cases["anm_cases"]:
         path = root / f"anm_N{order}_tol{tol:g}.nc"
         H_anm, eta_anm = small["study"]["error_runtime"]["anm_harmonics"], small["model"]["eta"]
-        out["anm_cases"].append(str(ts.build_error_case(small, inputs, path, H_anm, eta_anm, str(order), format_number(tol))))
+        out["anm_cases"].append(
+            str(ts.build_error_case(small, inputs, path, H_anm, eta_anm, str(order), format_number(tol)))
+        )
     out["exact_cost"] = str(ts.build_exact_cost(small, inputs, root / "exact_cost.nc"))
     target = root / "results/study/error_vs_runtime.nc"
     ts.build_error_vs_runtime(small, out, target)
@@ -168,8 +175,19 @@ def test_gathered_dataset_layout(gathered, small):
     assert ds["frequency_error"].dims == ("harmonics", "eta")
     assert ds["harmonics"].values.tolist() == [10, 30] and ds["eta"].values.tolist() == [0.1, 0.01]
     assert ds["anm_runtime"].dims == ("order", "tolerance")
-    for name in ("runtime", "cpu_time", "factorizations", "x_error", "u_error", "force_error", "converged", "failure",
-                 "frequency_error_truncation", "frequency_error_regularization", "exact_seconds_per_orbit"):
+    for name in (
+        "runtime",
+        "cpu_time",
+        "factorizations",
+        "x_error",
+        "u_error",
+        "force_error",
+        "converged",
+        "failure",
+        "frequency_error_truncation",
+        "frequency_error_regularization",
+        "exact_seconds_per_orbit",
+    ):
         assert name in ds, name
     assert ds["runtime"].attrs["units"] == "s"
     # H = 10 does not resolve the stop: reported, never a number
@@ -194,7 +212,10 @@ def test_error_split_is_consistent(gathered):
         bound = ds[f"{key}_regularization_at_energy"] + ok[f"{key}_truncation_at_energy"]
         assert (total <= bound * 1.01 + 1e-12).all(), key
     freq = ok["relative_frequency_difference_at_energy"]
-    split = ds["relative_frequency_difference_regularization_at_energy"] + ok["relative_frequency_difference_truncation_at_energy"]
+    split = (
+        ds["relative_frequency_difference_regularization_at_energy"]
+        + ok["relative_frequency_difference_truncation_at_energy"]
+    )
     np.testing.assert_allclose(freq, split, rtol=1e-3, atol=1e-9)  # frequencies add up (up to f_ref / f_exact)
     reg = ds["frequency_error_regularization"]
     assert float(reg.sel(eta=0.01)) < float(reg.sel(eta=0.1))
@@ -224,12 +245,20 @@ def test_error_vs_runtime_figure(gathered, small, tmp_path):
 
 
 def test_stiff_gather_and_figure(small, tmp_path):
-    from nnmstop.tasks.figures import build_stiff_cases_figure
     from nnmstop.study import stiff_cases as sc
+    from nnmstop.tasks.figures import build_stiff_cases_figure
 
     cfg = copy.deepcopy(small)
-    cfg["study"]["stiff"].update(harmonics=[20, 40], alpha=[30.0, 300.0], eta=[0.1], ratios=[1.0],
-                                 energies=[1e-6, 1e3], energy_alpha=[30.0], max_steps=150, compare_count=2)
+    cfg["study"]["stiff"].update(
+        harmonics=[20, 40],
+        alpha=[30.0, 300.0],
+        eta=[0.1],
+        ratios=[1.0],
+        energies=[1e-6, 1e3],
+        energy_alpha=[30.0],
+        max_steps=150,
+        compare_count=2,
+    )
     cases = sc.stiff_case_parameters(cfg)
     assert len(cases["exact"]) == 2 and len(cases["branches"]) == 2
     inputs = {"exact": [], "branches": [], "energy": []}
@@ -293,7 +322,9 @@ def test_numerical_failure_mid_branch_names_step_and_energy_and_leaves_no_datase
     cfg = case_config(config, harmonics=10)
     output = tmp_path / "results/hbm/stages/nnm1_stage1.nc"
     with pytest.raises(ContinuationError, match=r"nnm1 stage 1 .*: step 3 failed at energy [0-9.e+-]+ \(frequency"):
-        run_task("hbm_stage", cfg, {}, {"dataset": str(output)}, log=str(tmp_path / "log.txt"), branch="nnm1", stage="1")
+        run_task(
+            "hbm_stage", cfg, {}, {"dataset": str(output)}, log=str(tmp_path / "log.txt"), branch="nnm1", stage="1"
+        )
     assert not output.exists() and not output.with_name(output.name + ".tmp").exists()
     assert "step 3 failed at energy" in (tmp_path / "log.txt").read_text()
 
@@ -306,24 +337,44 @@ def _small_pipeline(tmp_path, repo_root, name):
     shutil.copytree(repo_root / "workflow", work / "workflow")
     shutil.copytree(repo_root / "config", work / "config")
     # coarse on purpose (this test is about restarting, not accuracy)
-    small = {"hbm": {"harmonics": 40, "time_samples": 0, "points_per_step": 2, "max_truncation": 1.0e-2}, "exact": {"step": 0.05, "max_points": 4000}}
+    small = {
+        "hbm": {"harmonics": 40, "time_samples": 0, "points_per_step": 2, "max_truncation": 1.0e-2},
+        "exact": {"step": 0.05, "max_points": 4000},
+    }
     (work / "small.yaml").write_text(yaml.safe_dump(small))
     return work
 
 
-TARGETS = ["results/exact/nnm1_two_impacts.nc", "results/hbm/stages/nnm1_stage1.nc", "results/hbm/stages/nnm1_stage2.nc"]
+TARGETS = [
+    "results/exact/nnm1_two_impacts.nc",
+    "results/hbm/stages/nnm1_stage1.nc",
+    "results/hbm/stages/nnm1_stage2.nc",
+]
 
 
 def test_interrupted_run_restarts_to_the_outputs_of_a_clean_run(repo_root, tmp_path):
     env = {**os.environ, "SOURCE_DATE_EPOCH": "0"}
     clean = _small_pipeline(tmp_path, repo_root, "clean")
-    proc = subprocess.run([*SNAKEMAKE, "--cores", "1", *TARGETS, "--configfile", "small.yaml"], cwd=clean,
-                          capture_output=True, text=True, timeout=600, env=env)
+    proc = subprocess.run(
+        [*SNAKEMAKE, "--cores", "1", *TARGETS, "--configfile", "small.yaml"],
+        cwd=clean,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=env,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
 
     broken = _small_pipeline(tmp_path, repo_root, "interrupted")
-    runner = subprocess.Popen([*SNAKEMAKE, "--cores", "1", *TARGETS, "--configfile", "small.yaml"], cwd=broken,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, start_new_session=True)
+    runner = subprocess.Popen(
+        [*SNAKEMAKE, "--cores", "1", *TARGETS, "--configfile", "small.yaml"],
+        cwd=broken,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
     deadline = time.monotonic() + 300
     first = broken / TARGETS[1]
     while not first.exists() and runner.poll() is None and time.monotonic() < deadline:
@@ -337,11 +388,23 @@ def test_interrupted_run_restarts_to_the_outputs_of_a_clean_run(repo_root, tmp_p
     stale.parent.mkdir(parents=True, exist_ok=True)
     stale.write_bytes(b"partial netcdf")
     # a hard kill leaves the working directory locked: unlock (as after a lost cluster node), then rerun
-    proc = subprocess.run([*SNAKEMAKE, "--unlock", *TARGETS, "--configfile", "small.yaml"], cwd=broken,
-                          capture_output=True, text=True, timeout=300, env=env)
+    proc = subprocess.run(
+        [*SNAKEMAKE, "--unlock", *TARGETS, "--configfile", "small.yaml"],
+        cwd=broken,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
-    proc = subprocess.run([*SNAKEMAKE, "--cores", "1", "--rerun-incomplete", *TARGETS, "--configfile", "small.yaml"],
-                          cwd=broken, capture_output=True, text=True, timeout=600, env=env)
+    proc = subprocess.run(
+        [*SNAKEMAKE, "--cores", "1", "--rerun-incomplete", *TARGETS, "--configfile", "small.yaml"],
+        cwd=broken,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=env,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     for target in TARGETS:
         with xr.open_dataset(clean / target) as a, xr.open_dataset(broken / target) as b:

@@ -17,8 +17,18 @@ TUBE_CONFIG = REPO / "tests" / "data" / "small_tube_config.yaml"
 
 
 def snakemake(workdir: Path, *args: str) -> str:
-    cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
-           "--configfile", str(TUBE_CONFIG), *args]
+    cmd = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(workdir),
+        "--configfile",
+        str(TUBE_CONFIG),
+        *args,
+    ]
     result = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, f"{' '.join(cmd)}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
     return result.stdout
@@ -33,8 +43,11 @@ def built(tmp_path_factory):
 
 def test_tube_target_builds_every_dataset_and_figure(built):
     names = {p.name for p in (built / "paper_figures").iterdir()}
-    assert names == {f"tube_{n}.{e}" for n in ("frequency_energy", "shapes", "contact_force", "exact_vs_regularized",
-                                                "study") for e in ("pdf", "png")}
+    assert names == {
+        f"tube_{n}.{e}"
+        for n in ("frequency_energy", "shapes", "contact_force", "exact_vs_regularized", "study")
+        for e in ("pdf", "png")
+    }
     for path in (built / "results" / "tube").rglob("*.nc"):
         with xr.open_dataset(path) as ds:
             check_labelled(ds)  # long_name and units everywhere, no NaN

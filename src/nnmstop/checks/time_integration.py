@@ -150,8 +150,15 @@ def integrate_nonsmooth(
         if len(switches) > max_switches:
             raise RuntimeError(f"more than max_switches={max_switches} stop crossings; grazing chatter?")
         sol = solve_ivp(
-            rhs_for(region), (t, t_eval[-1]), z, method="DOP853", rtol=rtol, atol=atol,
-            events=events[region], t_eval=t_eval[k:], max_step=max_step,
+            rhs_for(region),
+            (t, t_eval[-1]),
+            z,
+            method="DOP853",
+            rtol=rtol,
+            atol=atol,
+            events=events[region],
+            t_eval=t_eval[k:],
+            max_step=max_step,
         )
         if sol.status < 0:
             raise RuntimeError(f"solve_ivp failed: {sol.message}")

@@ -97,8 +97,13 @@ def comparison_dataset(
         orbits.append(pair.regularized)
         logger.info(
             "E = %.6g: frequency exact %.8f Hz, regularized %.8f Hz (relative difference %+.3e); max |dx| %.3e, "
-            "|du| %.3e, |df| %.3e", energy, diff["frequency_exact"], diff["frequency_regularized"],
-            diff["relative_frequency_difference"], diff["max_x_difference"], diff["max_u_difference"],
+            "|du| %.3e, |df| %.3e",
+            energy,
+            diff["frequency_exact"],
+            diff["frequency_regularized"],
+            diff["relative_frequency_difference"],
+            diff["max_x_difference"],
+            diff["max_u_difference"],
             diff["max_force_difference"],
         )
     n = len(energies)

@@ -187,8 +187,9 @@ def format_comparison(rows: list) -> str:
 
 def main(argv=None) -> None:
     """Command line: ``python -m nnmstop.compare.exact_branches compare EXACT.nc REGULARIZED.nc``."""
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.compare.exact_branches",
-                                     description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m nnmstop.compare.exact_branches", description=__doc__.splitlines()[0]
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     cmp_ = sub.add_parser("compare", help="regularization error of the frequency per impact regime")
     cmp_.add_argument("exact", help="exact branch, e.g. results/exact/nnm1.nc")

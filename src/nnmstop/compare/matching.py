@@ -23,13 +23,13 @@ import numpy as np
 import xarray as xr
 
 from nnmstop import fourier
-from nnmstop.models.structure import two_dof_structure
-from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.continuation.core import relative_residual
 from nnmstop.continuation.newton import newton_solve
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem
+from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
 
 __all__ = [
@@ -111,7 +111,9 @@ def system_from_dataset(branch: xr.Dataset) -> HarmonicBalanceSystem:
         raise ValueError(f"the regularized branch dataset lacks the global attribute(s) {missing}")
     params = ModelParameters(**{k: float(branch.attrs[k]) for k in PARAMETER_KEYS})
     return HarmonicBalanceSystem(
-        two_dof_structure(params), int(branch.attrs["harmonics"]), time_samples=int(branch.attrs["time_samples"]),
+        two_dof_structure(params),
+        int(branch.attrs["harmonics"]),
+        time_samples=int(branch.attrs["time_samples"]),
         basis=str(branch.attrs["basis"]),
     )
 
@@ -203,7 +205,6 @@ def _bracket(energies: np.ndarray, target: float) -> tuple[int, float]:
     return i, (target - energies[i]) / (energies[i + 1] - energies[i])
 
 
-
 def _check_between(solution, points, i: int, message: str) -> None:
     """Raise ``ValueError(message)`` if ``solution`` strayed from the segment ``points[i:i+2]``.
 
@@ -213,6 +214,7 @@ def _check_between(solution, points, i: int, message: str) -> None:
     step = np.abs(points[i + 1] - points[i]).max()
     if np.abs(solution - points[i]).max() > 2.0 * step + 1e-12:
         raise ValueError(message)
+
 
 class EnergyMatcher:
     """Exact and regularized NNM1 orbits at prescribed energies (see the module docstring).
@@ -274,9 +276,7 @@ class EnergyMatcher:
         self.overlap = (float(lo), float(hi))
         self.energy_range = (float(lo * (1.0 + end_margin)), float(hi * (1.0 - end_margin)))
         if not self.energy_range[0] < self.energy_range[1]:
-            raise ValueError(
-                f"end_margin {end_margin!r} leaves no energy in the overlap {lo:.6g}..{hi:.6g}"
-            )
+            raise ValueError(f"end_margin {end_margin!r} leaves no energy in the overlap {lo:.6g}..{hi:.6g}")
 
     # ------------------------------------------------------------------ checks
 
@@ -318,11 +318,12 @@ class EnergyMatcher:
         check = assess_orbit(prob, y)
         if not check.valid:
             raise ValueError(
-                f"the exact orbit found at energy {energy!r} violates the two-impact assumptions "
-                f"{check.violated}"
+                f"the exact orbit found at energy {energy!r} violates the two-impact assumptions {check.violated}"
             )
         _check_between(
-            y, self._exact_unknowns, i,
+            y,
+            self._exact_unknowns,
+            i,
             f"Newton's method left the increasing arm of the exact family at energy {energy!r}",
         )
         return y, float(np.linalg.norm(prob.residual(y))), it
@@ -355,7 +356,9 @@ class EnergyMatcher:
                 f"(relative residual {relative_residual(s, U):.2e}); too close to an energy fold?"
             )
         _check_between(
-            U, self._hbm_unknowns, i,
+            U,
+            self._hbm_unknowns,
+            i,
             f"Newton's method left the regularized branch between its points at energy {energy!r}",
         )
         return U, relative_residual(s, U), it, lin

@@ -56,14 +56,20 @@ REGIME_VARIABLES = {
         "1",
     ),
     "max_abs_frequency_error": (
-        "max_abs_error", "largest |regularized - exact frequency| over the compared orbits of the regime", _HZ,
+        "max_abs_error",
+        "largest |regularized - exact frequency| over the compared orbits of the regime",
+        _HZ,
     ),
     "energy_at_max_error": ("energy_at_max", "regularized energy where max_abs_frequency_error occurs", "1"),
     "median_abs_frequency_error": (
-        "median_abs_error", "median of |regularized - exact frequency| over the compared orbits of the regime", _HZ,
+        "median_abs_error",
+        "median of |regularized - exact frequency| over the compared orbits of the regime",
+        _HZ,
     ),
     "mean_frequency_error": (
-        "mean_error", "mean of (regularized - exact frequency) over the compared orbits of the regime", _HZ,
+        "mean_error",
+        "mean of (regularized - exact frequency) over the compared orbits of the regime",
+        _HZ,
     ),
     "max_rel_frequency_error": (
         "max_rel_error",
@@ -177,22 +183,31 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
             array = np.array(values, dtype=np.int32 if name in _INTEGER_VARIABLES else float)
         data[name] = ("regime", array, {"long_name": long_name, "units": units})
     coords = {
-        "regime": ("regime", np.arange(len(compared), dtype=np.int32),
-                   {"long_name": "index of the pair of impact regimes, in branch order", "units": "1"}),
+        "regime": (
+            "regime",
+            np.arange(len(compared), dtype=np.int32),
+            {"long_name": "index of the pair of impact regimes, in branch order", "units": "1"},
+        ),
     }
     if points:
         for name, (key, long_name, units) in POINT_VARIABLES.items():
             values = np.concatenate([row["points"][key] for row in compared])
-            data[name] = ("point", values.astype(np.int32 if name == "regularized_index" else float),
-                          {"long_name": long_name, "units": units})
+            data[name] = (
+                "point",
+                values.astype(np.int32 if name == "regularized_index" else float),
+                {"long_name": long_name, "units": units},
+            )
         data["point_regime"] = (
             "point",
             np.concatenate([np.full(row["matched"], k, dtype=np.int32) for k, row in enumerate(compared)]),
             {"long_name": "index of the regime (dimension regime) of the compared orbit", "units": "1"},
         )
         n_points = int(data["point_regime"][1].size)
-        coords["point"] = ("point", np.arange(n_points, dtype=np.int32),
-                           {"long_name": "index of the compared regularized orbit", "units": "1"})
+        coords["point"] = (
+            "point",
+            np.arange(n_points, dtype=np.int32),
+            {"long_name": "index of the compared regularized orbit", "units": "1"},
+        )
 
     n_regularized = int(regularized.sizes["point"])
     matched = int(sum(row["matched"] for row in compared))
@@ -209,15 +224,18 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
         "regularized_points": n_regularized,
         "matched_points": matched,
         "unmatched_points": n_regularized - matched,
-        "unpaired_points": int(sum(b - a for _, a, b in unpaired)
-                               + sum(r["regularized_points"][1] - r["regularized_points"][0] for r in no_overlap)),
+        "unpaired_points": int(
+            sum(b - a for _, a, b in unpaired)
+            + sum(r["regularized_points"][1] - r["regularized_points"][0] for r in no_overlap)
+        ),
         "unpaired_regimes": "; ".join(unpaired_text) if unpaired_text else "none",
         "method": (
             "Both branches are cut into runs of equal impacts per period (runs of a single orbit dropped), "
             "paired in branch order (longest common subsequence of the impact counts). At each regularized "
             "orbit of a paired regime, the exact frequency is interpolated linearly in ln E on the pieces of the "
             "exact regime monotone in energy that cover its energy, keeping the one of nearest frequency "
-            "(nnmstop.compare.exact_branches.compare_with_regularized, also: python -m nnmstop.compare.exact_branches compare)."
+            "(nnmstop.compare.exact_branches.compare_with_regularized, also: python -m "
+            "nnmstop.compare.exact_branches compare)."
         ),
     }
     return ds

@@ -60,9 +60,19 @@ REGIME_COLUMNS = {
     "regularized_change_energies": ("energies of the regularized stability changes (same)", "1"),
 }
 
-_INTEGER = ("impacts_per_period", "n_compared", "n_agree", "n_both_stable", "n_both_unstable", "n_exact_stable_only",
-            "n_regularized_stable_only", "n_no_regularized_verdict", "n_at_exact_change", "n_exact_changes",
-            "n_regularized_changes")
+_INTEGER = (
+    "impacts_per_period",
+    "n_compared",
+    "n_agree",
+    "n_both_stable",
+    "n_both_unstable",
+    "n_exact_stable_only",
+    "n_regularized_stable_only",
+    "n_no_regularized_verdict",
+    "n_at_exact_change",
+    "n_exact_changes",
+    "n_regularized_changes",
+)
 
 
 def verdicts(ds: xr.Dataset) -> np.ndarray:
@@ -92,13 +102,17 @@ def stability_changes(energy, frequency, verdict) -> list:
     out = []
     for a, b in zip(known, known[1:]):
         if verdict[a] != verdict[b]:
-            out.append({
-                "before": int(a), "after": int(b),
-                "energy_before": float(energy[a]), "energy_after": float(energy[b]),
-                "energy": float(np.sqrt(energy[a] * energy[b])),
-                "frequency": float(0.5 * (frequency[a] + frequency[b])),
-                "becomes": "stable" if verdict[b] == STABLE else "unstable",
-            })
+            out.append(
+                {
+                    "before": int(a),
+                    "after": int(b),
+                    "energy_before": float(energy[a]),
+                    "energy_after": float(energy[b]),
+                    "energy": float(np.sqrt(energy[a] * energy[b])),
+                    "frequency": float(0.5 * (frequency[a] + frequency[b])),
+                    "becomes": "stable" if verdict[b] == STABLE else "unstable",
+                }
+            )
     return out
 
 
@@ -171,33 +185,40 @@ def compare_stability(exact_ds: xr.Dataset, regularized_ds: xr.Dataset) -> tuple
         changes_x = stability_changes(e_x[ax:bx], f_x[ax:bx], v_x[ax:bx])
         changes_r = stability_changes(e_r[ar:br], f_r[ar:br], v_r[ar:br])
         n = int(both.sum())
-        rows.append({
-            "impacts_per_period": row["impacts"],
-            "exact_sequence": row["exact_sequence"],
-            "n_compared": n,
-            "n_agree": int(agree.sum()),
-            "n_both_stable": int((agree & (ex == STABLE)).sum()),
-            "n_both_unstable": int((agree & (ex == UNSTABLE)).sum()),
-            "n_exact_stable_only": int((both & (ex == STABLE) & (reg == UNSTABLE)).sum()),
-            "n_regularized_stable_only": int((both & (ex == UNSTABLE) & (reg == STABLE)).sum()),
-            "n_no_regularized_verdict": int((reg == NO_VERDICT).sum()),
-            "n_at_exact_change": int(((ex == NO_VERDICT) & (reg != NO_VERDICT)).sum()),
-            "agreement": float(agree.sum() / n) if n else 1.0,
-            "disagreement_energies": _intervals(e_r[idx][both], (reg != ex)[both]),
-            "n_exact_changes": len(changes_x),
-            "n_regularized_changes": len(changes_r),
-            "exact_change_energies": ", ".join(f"{c['energy']:.4g}" for c in changes_x) or "none",
-            "regularized_change_energies": ", ".join(f"{c['energy']:.4g}" for c in changes_r) or "none",
-        })
+        rows.append(
+            {
+                "impacts_per_period": row["impacts"],
+                "exact_sequence": row["exact_sequence"],
+                "n_compared": n,
+                "n_agree": int(agree.sum()),
+                "n_both_stable": int((agree & (ex == STABLE)).sum()),
+                "n_both_unstable": int((agree & (ex == UNSTABLE)).sum()),
+                "n_exact_stable_only": int((both & (ex == STABLE) & (reg == UNSTABLE)).sum()),
+                "n_regularized_stable_only": int((both & (ex == UNSTABLE) & (reg == STABLE)).sum()),
+                "n_no_regularized_verdict": int((reg == NO_VERDICT).sum()),
+                "n_at_exact_change": int(((ex == NO_VERDICT) & (reg != NO_VERDICT)).sum()),
+                "agreement": float(agree.sum() / n) if n else 1.0,
+                "disagreement_energies": _intervals(e_r[idx][both], (reg != ex)[both]),
+                "n_exact_changes": len(changes_x),
+                "n_regularized_changes": len(changes_r),
+                "exact_change_energies": ", ".join(f"{c['energy']:.4g}" for c in changes_x) or "none",
+                "regularized_change_energies": ", ".join(f"{c['energy']:.4g}" for c in changes_r) or "none",
+            }
+        )
         # Changes are paired only when the two branches tell the same story in the regime.
         if len(changes_x) == len(changes_r) and all(a["becomes"] == b["becomes"] for a, b in zip(changes_x, changes_r)):
             for a, b in zip(changes_x, changes_r):
-                pairs.append({
-                    "regime": k, "becomes": a["becomes"],
-                    "exact_energy": a["energy"], "regularized_energy": b["energy"],
-                    "exact_frequency": a["frequency"], "regularized_frequency": b["frequency"],
-                    "energy_ratio": b["energy"] / a["energy"],
-                })
+                pairs.append(
+                    {
+                        "regime": k,
+                        "becomes": a["becomes"],
+                        "exact_energy": a["energy"],
+                        "regularized_energy": b["energy"],
+                        "exact_frequency": a["frequency"],
+                        "regularized_frequency": b["frequency"],
+                        "energy_ratio": b["energy"] / a["energy"],
+                    }
+                )
     return rows, pairs
 
 
@@ -223,32 +244,49 @@ def stability_comparison_dataset(exact_ds: xr.Dataset, regularized_ds: xr.Datase
         "change_exact_energy": ("exact_energy", "energy of the exact stability change", float),
         "change_regularized_energy": ("regularized_energy", "energy of the regularized stability change", float),
         "change_exact_frequency": ("exact_frequency", "frequency of the exact stability change", float),
-        "change_regularized_frequency": ("regularized_frequency", "frequency of the regularized stability change",
-                                         float),
+        "change_regularized_frequency": (
+            "regularized_frequency",
+            "frequency of the regularized stability change",
+            float,
+        ),
         "change_energy_ratio": ("energy_ratio", "regularized over exact energy of the paired change", float),
     }
     for name, (key, long_name, dtype) in change_vars.items():
         units = "Hz" if "frequency" in name else "1"
-        data[name] = ("paired_change", np.array([p[key] for p in pairs], dtype=dtype),
-                      {"long_name": long_name, "units": units})
+        data[name] = (
+            "paired_change",
+            np.array([p[key] for p in pairs], dtype=dtype),
+            {"long_name": long_name, "units": units},
+        )
     data["change_becomes_stable"] = flag_variable(
-        "paired_change", [p["becomes"] == "stable" for p in pairs],
-        "direction of the change in branch order", "becomes_unstable becomes_stable",
+        "paired_change",
+        [p["becomes"] == "stable" for p in pairs],
+        "direction of the change in branch order",
+        "becomes_unstable becomes_stable",
     )
     coords = {
-        "regime": ("regime", np.arange(len(rows), dtype=np.int32),
-                   {"long_name": "index of the pair of impact regimes, in branch order", "units": "1"}),
-        "paired_change": ("paired_change", np.arange(len(pairs), dtype=np.int32),
-                          {"long_name": "index of the paired stability change", "units": "1"}),
+        "regime": (
+            "regime",
+            np.arange(len(rows), dtype=np.int32),
+            {"long_name": "index of the pair of impact regimes, in branch order", "units": "1"},
+        ),
+        "paired_change": (
+            "paired_change",
+            np.arange(len(pairs), dtype=np.int32),
+            {"long_name": "index of the paired stability change", "units": "1"},
+        ),
     }
     ds = xr.Dataset(data, coords=coords)
     total = {k: int(sum(r[k] for r in rows)) for k in ("n_compared", "n_agree")}
     ds.attrs = {
         "compared_orbits": total["n_compared"],
         "agreeing_orbits": total["n_agree"],
-        "regularized_stability_method": str(regularized_ds["stable"].attrs.get("comment", "as in the regularized dataset")),
+        "regularized_stability_method": str(
+            regularized_ds["stable"].attrs.get("comment", "as in the regularized dataset")
+        ),
         "method": (
-            "Regimes paired as in nnmstop.compare.exact_branches.compare_with_regularized; the exact verdict at each compared "
+            "Regimes paired as in nnmstop.compare.exact_branches.compare_with_regularized; the exact verdict at "
+            "each compared "
             "regularized energy from the two bracketing exact orbits of the same monotone piece (nearest frequency); "
             "changes located between consecutive orbits; changes paired in branch order when both branches have "
             "the same number of changes going the same way in the regime (nnmstop.compare.stability)."

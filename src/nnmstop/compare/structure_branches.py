@@ -37,8 +37,10 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
     low = max(np.min(exact_energy), np.min(energy))
     high = min(np.max(exact_energy), np.max(energy))
     if not high > low:
-        raise ValueError(f"the exact ({np.min(exact_energy):.4g}..{np.max(exact_energy):.4g}) and regularized "
-                         f"({np.min(energy):.4g}..{np.max(energy):.4g}) branches share no energy range")
+        raise ValueError(
+            f"the exact ({np.min(exact_energy):.4g}..{np.max(exact_energy):.4g}) and regularized "
+            f"({np.min(energy):.4g}..{np.max(energy):.4g}) branches share no energy range"
+        )
     targets = np.geomspace(low * 1.01, high / 1.01, count)
     fe = np.array([first_crossing(exact_energy, exact_frequency, e) for e in targets])
     fr = np.array([first_crossing(energy, frequency, e) for e in targets])
@@ -46,9 +48,21 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
     one = {"units": "1"}
     return xr.Dataset(
         {
-            "exact_frequency": ("energy", fe[keep], {"long_name": "frequency of the exact non-smooth orbit", "units": "Hz"}),
-            "regularized_frequency": ("energy", fr[keep], {"long_name": "frequency of the regularized HBM orbit", "units": "Hz"}),
-            "relative_difference": ("energy", (fr[keep] - fe[keep]) / fe[keep], {"long_name": "(regularized - exact) / exact frequency", **one}),
+            "exact_frequency": (
+                "energy",
+                fe[keep],
+                {"long_name": "frequency of the exact non-smooth orbit", "units": "Hz"},
+            ),
+            "regularized_frequency": (
+                "energy",
+                fr[keep],
+                {"long_name": "frequency of the regularized HBM orbit", "units": "Hz"},
+            ),
+            "relative_difference": (
+                "energy",
+                (fr[keep] - fe[keep]) / fe[keep],
+                {"long_name": "(regularized - exact) / exact frequency", **one},
+            ),
         },
         coords={"energy": ("energy", targets[keep], {"long_name": "matched total energy", **one})},
     )

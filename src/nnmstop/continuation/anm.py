@@ -30,7 +30,7 @@ from nnmstop.continuation.core import (
     newton_correct,
     relative_residual,
 )
-from nnmstop.continuation.driver import StepResult, Stepper, continue_branch
+from nnmstop.continuation.driver import Stepper, StepResult, continue_branch
 from nnmstop.continuation.linear import factorize_bordered
 from nnmstop.continuation.pade import pade_pair, pade_step_length
 
@@ -98,12 +98,12 @@ class ANMSettings:
         if not isinstance(self.pade, (bool, np.bool_)):
             raise ValueError(f"pade must be true or false, got {self.pade!r}")
 
-    def stepper(self) -> "ANMStepper":
+    def stepper(self) -> ANMStepper:
         """The ANM step with these settings, for :func:`nnmstop.continuation.driver.continue_branch`."""
         return ANMStepper(self)
 
     @classmethod
-    def from_config(cls, anm_config: dict, **overrides) -> "ANMSettings":
+    def from_config(cls, anm_config: dict, **overrides) -> ANMSettings:
         keys = ("order", "tolerance", "newton_threshold", "max_steps")
         optional = {"pade": anm_config["pade"]} if "pade" in anm_config else {}
         return cls(**{k: anm_config[k] for k in keys}, **optional, **overrides)

@@ -47,8 +47,17 @@ class CorrectedPath:
     Calls raise ContinuationError when Newton does not converge.
     """
 
-    def __init__(self, system, U0, t0, U1, tol: float = 1e-10, max_iter: int = 60, near_singular: float = 1e-6,
-                 span: float = 1e-4):
+    def __init__(
+        self,
+        system,
+        U0,
+        t0,
+        U1,
+        tol: float = 1e-10,
+        max_iter: int = 60,
+        near_singular: float = 1e-6,
+        span: float = 1e-4,
+    ):
         self.system, self.U0, self.t0 = system, np.asarray(U0, float), np.asarray(t0, float)
         U1 = np.asarray(U1, float)
         self.length = float(np.dot(U1 - self.U0, self.t0))
@@ -121,8 +130,14 @@ class CorrectedPath:
                 return False
             return update <= 1e-14 * (1.0 + np.linalg.norm(V)) or update >= previous
 
-        return newton_solve(residual, lambda V: factorize_bordered(system, V, t0, singular_tol=None), guess,
-                            tol=tol, max_iter=self.max_iter, criterion=converged)
+        return newton_solve(
+            residual,
+            lambda V: factorize_bordered(system, V, t0, singular_tol=None),
+            guess,
+            tol=tol,
+            max_iter=self.max_iter,
+            criterion=converged,
+        )
 
     def _hermite(self, a: float):
         """Cubic Hermite interpolant of the path over ``[a - h, a + h]`` (within the path), ``h = span * length``."""
@@ -138,8 +153,14 @@ class CorrectedPath:
                 weights = np.array([6 * s**2 - 6 * s, 3 * s**2 - 4 * s + 1, -6 * s**2 + 6 * s, 3 * s**2 - 2 * s])
                 weights[[0, 2]] /= width
             else:
-                weights = np.array([2 * s**3 - 3 * s**2 + 1, (s**3 - 2 * s**2 + s) * width, -2 * s**3 + 3 * s**2,
-                                    (s**3 - s**2) * width])
+                weights = np.array(
+                    [
+                        2 * s**3 - 3 * s**2 + 1,
+                        (s**3 - 2 * s**2 + s) * width,
+                        -2 * s**3 + 3 * s**2,
+                        (s**3 - s**2) * width,
+                    ]
+                )
             return weights[0] * ends[0] + weights[1] * slopes[0] + weights[2] * ends[1] + weights[3] * slopes[1]
 
         return curve

@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -214,8 +215,13 @@ def continue_branch(
             return
         if new_sign != sign:
             branch.branch_points.append(len(branch.points) - 1)
-            log.info("%s: simple branch point passed near energy %.6g, frequency %.6g Hz (step %d)",
-                     label, diag["energy"], diag["frequency"], step)
+            log.info(
+                "%s: simple branch point passed near energy %.6g, frequency %.6g Hz (step %d)",
+                label,
+                diag["energy"],
+                diag["frequency"],
+                step,
+            )
         sign = new_sign
 
     for step in range(1, stepper.max_steps + 1):
@@ -253,4 +259,3 @@ def continue_branch(
         f"{label}: no stop criterion met after max_steps = {stepper.max_steps} steps "
         f"(last energy {diag['energy']:.6g}, frequency {diag['frequency']:.6g} Hz)"
     )
-

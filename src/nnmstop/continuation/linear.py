@@ -40,7 +40,7 @@ class BorderedFactorization:
         self.pivot_ratio = float(magnitudes.min() / magnitudes.max()) if magnitudes.max() > 0 else 0.0
 
     @classmethod
-    def of_matrix(cls, matrix, overwrite: bool = False) -> "BorderedFactorization":
+    def of_matrix(cls, matrix, overwrite: bool = False) -> BorderedFactorization:
         """Factorize a square matrix (it must be finite); ``overwrite`` factors a Fortran-ordered one in place."""
         return cls(*lu_factor(matrix, overwrite_a=overwrite, check_finite=True))
 

@@ -15,8 +15,9 @@ Method notes: ``docs/methods/continuation.md``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -122,9 +123,11 @@ def newton_solve(
         solve (for example ``numpy.linalg.LinAlgError``) propagate.
     """
     if criterion == "step":
+
         def test(y, r, dy):
             return dy is not None and step_converged(y, dy, tol)
     elif criterion == "residual":
+
         def test(y, r, dy):
             return norm(y, r) <= tol
     elif callable(criterion):

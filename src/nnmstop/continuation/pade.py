@@ -132,8 +132,16 @@ def pade_pair(series: np.ndarray, scale: float, rcond: float = 1e-13):
     return tuple(approximants)
 
 
-def pade_step_length(high: PadeApproximant, low: PadeApproximant, tolerance: float, a_start: float,
-                     max_factor: float = 50.0, pole_margin: float = 0.99, coarse: int = 32, fine: int = 24) -> float:
+def pade_step_length(
+    high: PadeApproximant,
+    low: PadeApproximant,
+    tolerance: float,
+    a_start: float,
+    max_factor: float = 50.0,
+    pole_margin: float = 0.99,
+    coarse: int = 32,
+    fine: int = 24,
+) -> float:
     """Largest ``a >= a_start`` with ``||P_N(a) - P_{N-1}(a)|| <= tolerance ||P_N(a) - U_0||``.
 
     ``low`` must be built from the leading terms of ``high`` (as :func:`pade_pair` does).
@@ -144,8 +152,7 @@ def pade_step_length(high: PadeApproximant, low: PadeApproximant, tolerance: flo
     values. Returns ``a_start`` when the criterion fails there already (the caller
     then keeps the series).
     """
-    limit = min(max_factor * a_start, pole_margin * high.first_positive_pole(),
-                pole_margin * low.first_positive_pole())
+    limit = min(max_factor * a_start, pole_margin * high.first_positive_pole(), pole_margin * low.first_positive_pole())
     if not limit > a_start:
         return a_start
 

@@ -34,7 +34,7 @@ from nnmstop.continuation.core import (
     relative_residual,
 )
 from nnmstop.continuation.corrected_path import CorrectedPath
-from nnmstop.continuation.driver import StepResult, Stepper, continue_branch
+from nnmstop.continuation.driver import Stepper, StepResult, continue_branch
 from nnmstop.continuation.linear import factorize_bordered
 from nnmstop.continuation.newton import newton_solve
 
@@ -124,7 +124,7 @@ class PseudoArclengthSettings:
         if not _is_real(self.max_angle) or not 0 < self.max_angle < np.pi:
             raise ValueError(f"max_angle must be in (0, pi) radians, got {self.max_angle!r}")
 
-    def stepper(self) -> "PseudoArclengthStepper":
+    def stepper(self) -> PseudoArclengthStepper:
         """The pseudo-arclength step with these settings, for :func:`nnmstop.continuation.driver.continue_branch`."""
         return PseudoArclengthStepper(self)
 
@@ -196,8 +196,16 @@ def corrector(system, U_pred, tangent, stats: ContinuationStats, tol: float, max
         return dU is not None and newton_converged(V, r, dU, tol)
 
     try:
-        result = newton_solve(system.residual, jacobian, U_pred, tol=tol, max_iter=max_iterations, criterion=converged,
-                              norm=relative_of_residual, stop_on_growth=True)
+        result = newton_solve(
+            system.residual,
+            jacobian,
+            U_pred,
+            tol=tol,
+            max_iter=max_iterations,
+            criterion=converged,
+            norm=relative_of_residual,
+            stop_on_growth=True,
+        )
     except (np.linalg.LinAlgError, ValueError) as err:
         done = factorizations[0] - 1  # the updates made before the failing one
         stats.newton_iterations += done
@@ -263,8 +271,9 @@ class PseudoArclengthStepper(Stepper):
             ds *= 0.5
             if ds < settings.min_step:
                 raise ContinuationError(f"step length {ds:.3g} fell below min_step {settings.min_step:.3g} ({reason})")
-        logger.debug("step %d accepted: ds = %.3g, %d iterations, tangent angle %.3g", stats.steps + 1, ds, iterations,
-                      angle)
+        logger.debug(
+            "step %d accepted: ds = %.3g, %d iterations, tangent angle %.3g", stats.steps + 1, ds, iterations, angle
+        )
         stats.corrected_steps += 1
         factor = settings.target_iterations / max(iterations, 1)
         if angle > 0:
@@ -302,5 +311,6 @@ def continue_pseudo_arclength(
     :class:`PseudoArclengthStats`. ``U_start`` must be on the branch (relative residual at
     most ``settings.tolerance``, else ValueError).
     """
-    return continue_branch(system, U_start, direction, PseudoArclengthStepper(settings), stop, label,
-                           progress_seconds, logger)
+    return continue_branch(
+        system, U_start, direction, PseudoArclengthStepper(settings), stop, label, progress_seconds, logger
+    )

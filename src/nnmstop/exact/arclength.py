@@ -56,6 +56,7 @@ def _correct(residual, jacobian, y_prev, tangent, sigma, max_iter=15):
 
     Refuses a solution farther than half the step from the predictor (a jump to another branch).
     """
+
     def bordered_residual(y):
         return np.append(residual(y), tangent @ (y - y_prev) - sigma)
 
@@ -63,8 +64,14 @@ def _correct(residual, jacobian, y_prev, tangent, sigma, max_iter=15):
         return np.vstack([jacobian(y), tangent])
 
     try:
-        result = newton_solve(bordered_residual, bordered_jacobian, y_prev + sigma * tangent, tol=0.0,
-                              max_iter=max_iter, criterion=round_off_criterion())
+        result = newton_solve(
+            bordered_residual,
+            bordered_jacobian,
+            y_prev + sigma * tangent,
+            tol=0.0,
+            max_iter=max_iter,
+            criterion=round_off_criterion(),
+        )
     except np.linalg.LinAlgError:
         return None, np.inf
     if not result.converged:
@@ -89,8 +96,17 @@ class FamilyTrace:
     end_tangent: np.ndarray
 
 
-def continue_family(residual, jacobian, assess, y0, direction, step: float, max_points: int,
-                    min_step_ratio: float = 1e-6, reasons: dict = TWO_IMPACT_MARGINS) -> FamilyTrace:
+def continue_family(
+    residual,
+    jacobian,
+    assess,
+    y0,
+    direction,
+    step: float,
+    max_points: int,
+    min_step_ratio: float = 1e-6,
+    reasons: dict = TWO_IMPACT_MARGINS,
+) -> FamilyTrace:
     """Pseudo-arclength continuation of ``residual(y) = 0`` (m equations, m + 1 unknowns) with validity checks.
 
     Generic in the problem: ``assess(y)`` returns an object with ``valid`` and ``violated`` (a

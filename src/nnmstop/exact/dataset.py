@@ -58,9 +58,7 @@ def two_impact_dataset(family: Family) -> xr.Dataset:
             "udot0": var(y[:, 1], "velocity of u at x = u = 0 (t = 0)", one),
             "free_flight_time": var(y[:, 2], "free-flight duration tau1 of the quarter period", one),
             "contact_time": var(y[:, 3] - y[:, 2], "contact duration T1 - tau1 of the quarter period", one),
-            "residual": var(
-                family.residual, "Euclidean norm of (x(tau1) - 1, xdot(T1), udot(T1))", one
-            ),
+            "residual": var(family.residual, "Euclidean norm of (x(tau1) - 1, xdot(T1), udot(T1))", one),
             "validity_margin": var(
                 margin,
                 "smallest margin of the assumptions of the two-impact construction "

@@ -83,7 +83,7 @@ class FamilySettings:
                 raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
 
     @classmethod
-    def from_config(cls, section: dict) -> "FamilySettings":
+    def from_config(cls, section: dict) -> FamilySettings:
         """From the ``exact_multi:`` section of the configuration."""
         kw = {k: section[k] for k in section if k in cls.__dataclass_fields__}
         unknown = sorted(set(section) - set(kw))
@@ -173,7 +173,7 @@ class Family:
         self.branch_point.append(bool(branch_point))
         self.grazing.append(bool(grazing))
 
-    def _freeze(self) -> "Family":
+    def _freeze(self) -> Family:
         for name in ("unknowns", "arclength", "residual"):
             setattr(self, name, np.array(getattr(self, name)))
         return self
@@ -367,8 +367,15 @@ def follow_family(
     energies, frequencies = family.energy, family.frequency
     logger.info(
         "%s family%s: %d orbits, energy %.6g..%.6g, frequency %.7g..%.7g Hz, max residual %.2e; end: %s",
-        problem.sequence, f" from the {start_label}" if start_label else "", len(family), energies.min(),
-        energies.max(), frequencies.min(), frequencies.max(), max(family.residual), family.end_reason,
+        problem.sequence,
+        f" from the {start_label}" if start_label else "",
+        len(family),
+        energies.min(),
+        energies.max(),
+        frequencies.min(),
+        frequencies.max(),
+        max(family.residual),
+        family.end_reason,
     )
     return family._freeze()
 
@@ -394,8 +401,9 @@ def _end_family(family: Family, y, tangent, h, s, check, transitions: bool) -> N
     family.end_reason = f"{tr.reason}: {tr.kind} {tr.old} -> {tr.new}"
     if tr.grazing_sequence == problem.sequence:
         g = tr.y_graze
-        family.append(g, family.arclength[-1] + np.linalg.norm(g - family.unknowns[-1]), assess_orbit(problem, g),
-                      grazing=True)
+        family.append(
+            g, family.arclength[-1] + np.linalg.norm(g - family.unknowns[-1]), assess_orbit(problem, g), grazing=True
+        )
 
 
 def follow_two_impact_family(
@@ -442,13 +450,26 @@ def follow_two_impact_family(
     problem = TwoImpactProblem(params)
     y = first_grazing_orbit(params) if start is None else problem.check(start).copy()
     label = start_label or ("grazing orbit" if start is None else "user-supplied orbit")
-    settings = FamilySettings(step=float(step), max_points=int(max_points), energy_max=np.inf,
-                              max_log_energy_step=np.inf, max_frequency_step=np.inf,
-                              min_step=min_step_ratio * step)
+    settings = FamilySettings(
+        step=float(step),
+        max_points=int(max_points),
+        energy_max=np.inf,
+        max_log_energy_step=np.inf,
+        max_frequency_step=np.inf,
+        min_step=min_step_ratio * step,
+    )
     orient = np.array([0.0, 0.0, -1.0, 1.0]) if direction is None else np.asarray(direction, dtype=float)
     try:
-        return follow_family(problem, y, orient, settings, transitions=False, tangent_from="null_space",
-                             start_label=label, start_violation=None if start is None else 1e-9)
+        return follow_family(
+            problem,
+            y,
+            orient,
+            settings,
+            transitions=False,
+            tangent_from="null_space",
+            start_label=label,
+            start_violation=None if start is None else 1e-9,
+        )
     except RuntimeError as exc:  # a singular start
         raise ValueError(f"cannot start the two-impact family at {y}: {exc}") from exc
 
@@ -529,8 +550,9 @@ def follow_branch(params: ModelParameters, sequence: str, y0, direction, setting
             segments[-1].end_reason += f"; cannot continue: {exc}"
             segments[-1].transition = None
             break
-        seg = follow_family(problem, y1, direction, settings, h0=h0, max_points=settings.max_points - used,
-                            first_grazing=graze)
+        seg = follow_family(
+            problem, y1, direction, settings, h0=h0, max_points=settings.max_points - used, first_grazing=graze
+        )
         segments.append(seg)
         used += len(seg)
     return segments

@@ -247,8 +247,10 @@ def describe_margin(problem: SequenceProblem, key, level: float | None = None) -
             gone = "that impact disappears" if last else "those impacts (one at t, one at -t) disappear"
             return f"the contact with {stop[phase]}, {where}, shrinks to zero duration: {gone}"
         if last:
-            return (f"the free flight {where} shrinks to zero: the two contacts with {stop[seq[k - 1]]} on either "
-                    "side of the turning point merge into one")
+            return (
+                f"the free flight {where} shrinks to zero: the two contacts with {stop[seq[k - 1]]} on either "
+                "side of the turning point merge into one"
+            )
         return f"the free flight {where} shrinks to zero: the contacts with {stop[seq[k - 1]]} on either side merge"
     if kind == "switch":
         return f"x crosses the stop with zero velocity at the end of {where}"
@@ -261,8 +263,10 @@ def describe_margin(problem: SequenceProblem, key, level: float | None = None) -
     if phase == "F":
         side = f"the stop x = {level:+g}" if level is not None else "a stop"
         return f"the turning point of the free flight {where} reaches {side}: a new impact around the turning point"
-    return (f"the turning point of the contact {where} comes back to {stop[phase]}: x leaves the stop around the "
-            "turning point and the contact splits in two")
+    return (
+        f"the turning point of the contact {where} comes back to {stop[phase]}: x leaves the stop around the "
+        "turning point and the contact splits in two"
+    )
 
 
 def locate_grazing_orbit(problem: SequenceProblem, y_seed, phase: int, level: float, t_seed: float | None = None):
@@ -497,5 +501,6 @@ def classify_boundary(problem: SequenceProblem, y_valid, check_valid, check_inva
     level = np.sign(check_valid.x_turning) if seq[-1] == "F" else STOP_SIDE[seq[-1]]
     y_g, t_star = locate_grazing_orbit(problem, y_valid, k, level, None)
     reason = describe_margin(problem, key, level)
-    return Transition("append", seq, split_sequence(seq, k, level, at_end=True), key, reason, seq, y_g, t_star, k,
-                      level)
+    return Transition(
+        "append", seq, split_sequence(seq, k, level, at_end=True), key, reason, seq, y_g, t_star, k, level
+    )

@@ -86,7 +86,7 @@ class PhaseFlow:
     def modal_coordinates(self, z0):
         """``(a, b)``: modal displacement about ``q_eq`` and modal velocity at time 0."""
         z0 = np.asarray(z0, dtype=float)
-        return self._projection @ (z0[: self.n] - self.q_eq), self._projection @ z0[self.n:]
+        return self._projection @ (z0[: self.n] - self.q_eq), self._projection @ z0[self.n :]
 
     def state(self, z0, t):
         """State at time(s) ``t`` from ``z0`` at time 0, shape ``np.shape(t) + (2N,)``."""
@@ -124,7 +124,7 @@ class PhaseFlow:
         blocks_per_chunk = max(1, 2**21 // (block * self.n))
         position, velocity = np.empty(n), np.empty(n)
         for k in range(0, len(starts), blocks_per_chunk):
-            coarse = np.exp(1j * np.multiply.outer(starts[k:k + blocks_per_chunk], self.omega))
+            coarse = np.exp(1j * np.multiply.outer(starts[k : k + blocks_per_chunk], self.omega))
             phasor = (coarse[:, None, :] * fine[None, :, :]).reshape(-1, self.n)
             j0 = k * block
             j1 = min(n, j0 + phasor.shape[0])
@@ -136,16 +136,18 @@ class PhaseFlow:
         """Transition matrix ``d z(t) / d z(0)`` (2N x 2N), i.e. ``expm(A t)``."""
         c, s = np.cos(self.omega * t), np.sin(self.omega * t)
         phi, proj = self.modes, self._projection
-        return np.block([
-            [phi @ (c[:, None] * proj), phi @ ((s / self.omega)[:, None] * proj)],
-            [phi @ ((-self.omega * s)[:, None] * proj), phi @ (c[:, None] * proj)],
-        ])
+        return np.block(
+            [
+                [phi @ (c[:, None] * proj), phi @ ((s / self.omega)[:, None] * proj)],
+                [phi @ ((-self.omega * s)[:, None] * proj), phi @ (c[:, None] * proj)],
+            ]
+        )
 
     def field(self, z) -> np.ndarray:
         """Time derivative ``(qdot, qddot)`` of the state(s) ``z`` (last axis)."""
         z = np.asarray(z, dtype=float)
         acc = np.linalg.solve(self.mass, (self.force - z[..., : self.n] @ self.stiffness.T).T).T
-        return np.concatenate([z[..., self.n:], acc], axis=-1)
+        return np.concatenate([z[..., self.n :], acc], axis=-1)
 
 
 def piecewise_energy(structure: Structure, q, qdot):
@@ -184,8 +186,11 @@ class OneStopProblem:
     """
 
     def __init__(self, structure: Structure, stop_index: int = 0):
-        if isinstance(stop_index, bool) or not isinstance(stop_index, (int, np.integer)) \
-                or not 0 <= stop_index < len(structure.stops):
+        if (
+            isinstance(stop_index, bool)
+            or not isinstance(stop_index, (int, np.integer))
+            or not 0 <= stop_index < len(structure.stops)
+        ):
             raise ValueError(f"stop_index must be an integer in [0, {len(structure.stops)}), got {stop_index!r}")
         self.structure = structure
         self.stop = structure.stops[stop_index]
@@ -195,8 +200,9 @@ class OneStopProblem:
         mass, stiffness = structure.dense_matrices()
         unit = np.eye(self.n)[self.dof]
         self.free = PhaseFlow(mass, stiffness, np.zeros(self.n))
-        self.contact = PhaseFlow(mass, stiffness + self.stop.stiffness * np.outer(unit, unit),
-                                 self.stop.stiffness * self.gap * unit)
+        self.contact = PhaseFlow(
+            mass, stiffness + self.stop.stiffness * np.outer(unit, unit), self.stop.stiffness * self.gap * unit
+        )
         self.n_unknowns = self.n + 2
 
     def check(self, y) -> np.ndarray:
@@ -219,7 +225,7 @@ class OneStopProblem:
     def residual(self, y) -> np.ndarray:
         """``(q_c(tau1) - g, qdot(T1))``, N + 1 values."""
         _, z1, z2 = self.switch_states(y)
-        return np.concatenate([[z1[self.dof] - self.gap], z2[self.n:]])
+        return np.concatenate([[z1[self.dof] - self.gap], z2[self.n :]])
 
     def state_derivatives(self, y):
         """Exact ``d z(tau1) / dy`` and ``d z(T1) / dy`` (2N x (N + 2)): transition matrices for the velocities,
@@ -238,7 +244,7 @@ class OneStopProblem:
     def jacobian(self, y) -> np.ndarray:
         """Analytic (N + 1) x (N + 2) Jacobian of :meth:`residual`."""
         dz1, dz2 = self.state_derivatives(y)
-        return np.vstack([dz1[self.dof], dz2[self.n:]])
+        return np.vstack([dz1[self.dof], dz2[self.n :]])
 
     def initial_velocity(self, y) -> np.ndarray:
         """Nodal velocities ``v = Phi b`` at ``q = 0``."""
@@ -314,6 +320,7 @@ def _interior_extreme(phase: PhaseFlow, z0, duration: float, dof: int, sign: flo
     idx = np.flatnonzero((v[:-1] > 0) & (v[1:] <= 0))
     edge = 1e-12 * max(duration, 1.0)
     best = None
+
     def velocity(r):
         return phase.component(z0, r, dof)[1]
 
@@ -393,8 +400,9 @@ def _solve_with(problem: OneStopProblem, seed, extra, extra_gradient, name: str,
     return y
 
 
-def orbit_at_contact_time(problem: OneStopProblem, contact_time: float, seed=None, mode: int = 0,
-                          increment: float = 0.01) -> np.ndarray:
+def orbit_at_contact_time(
+    problem: OneStopProblem, contact_time: float, seed=None, mode: int = 0, increment: float = 0.01
+) -> np.ndarray:
     """The orbit whose quarter-period contact duration ``T1 - tau1`` is ``contact_time``.
 
     Newton on the quarter-period equations plus that condition. From ``seed`` when given; otherwise from the
@@ -423,6 +431,7 @@ def orbit_at_energy(problem: OneStopProblem, energy: float, seed) -> np.ndarray:
     along the family). Not checked: use :func:`assess_orbit`."""
     if not (np.isfinite(energy) and energy > 0):
         raise ValueError(f"energy must be a finite number > 0, got {energy!r}")
+
     def gradient(y):
         return np.concatenate([y[: problem.n], [0.0, 0.0]])
 
@@ -482,8 +491,15 @@ class OneStopFamily(FamilyTrace):
         return np.array([a.x_max for a in self.assessments])
 
 
-def follow_one_stop_family(structure: Structure, step: float = 0.02, max_points: int = 2000, mode: int = 0,
-                           start=None, direction=None, stop_index: int = 0) -> OneStopFamily:
+def follow_one_stop_family(
+    structure: Structure,
+    step: float = 0.02,
+    max_points: int = 2000,
+    mode: int = 0,
+    start=None,
+    direction=None,
+    stop_index: int = 0,
+) -> OneStopFamily:
     """Follow the family of one-stop orbits of ``structure`` from the grazing orbit of linear mode ``mode``.
 
     Parameters
@@ -508,8 +524,16 @@ def follow_one_stop_family(structure: Structure, step: float = 0.02, max_points:
     if direction is None:
         direction = np.zeros(problem.n_unknowns)
         direction[-2:] = (-1.0, 1.0)
-    trace = continue_family(problem.residual, problem.jacobian, lambda y: assess_orbit(problem, y), y0, direction,
-                            step, max_points, reasons=REASONS)
+    trace = continue_family(
+        problem.residual,
+        problem.jacobian,
+        lambda y: assess_orbit(problem, y),
+        y0,
+        direction,
+        step,
+        max_points,
+        reasons=REASONS,
+    )
     label = f"grazing orbit of linear mode {mode}" if start is None else "user-supplied orbit"
     return OneStopFamily(**vars(trace), problem=problem, start=label)
 
@@ -532,4 +556,4 @@ def time_history(problem: OneStopProblem, y, t) -> NdofTimeHistory:
     z = unfold_quarter_states(lambda r: problem.quarter_state(y, r), y[-1], t)
     q = z[..., : problem.n]
     force = problem.stop.piecewise_force(q[..., problem.dof])
-    return NdofTimeHistory(np.asarray(t, dtype=float), q, z[..., problem.n:], force)
+    return NdofTimeHistory(np.asarray(t, dtype=float), q, z[..., problem.n :], force)

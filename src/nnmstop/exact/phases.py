@@ -81,12 +81,12 @@ class LinearPhase:
         object.__setattr__(self, "_mass_diagonal", diagonal if np.all(self.mass == np.diag(diagonal)) else None)
 
     @classmethod
-    def free_flight(cls, params: ModelParameters) -> "LinearPhase":
+    def free_flight(cls, params: ModelParameters) -> LinearPhase:
         """Eq. (8): no contact force, ``|x| <= 1``."""
         return cls(mass_matrix(params), stiffness_matrix(params), np.zeros(2))
 
     @classmethod
-    def contact(cls, params: ModelParameters, side: float = 1.0) -> "LinearPhase":
+    def contact(cls, params: ModelParameters, side: float = 1.0) -> LinearPhase:
         """Eq. (9): in contact with the stop at ``x = side`` (stiffness ``alpha`` and force ``side alpha`` on x)."""
         return cls(mass_matrix(params), stiffness_matrix(params, params.alpha), np.array([side * params.alpha, 0.0]))
 
@@ -163,9 +163,7 @@ def interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period
         def velocity(s):
             return phase.state(z0, s)[2]
 
-        times.extend(
-            scipy.optimize.brentq(velocity, t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF) for i in changes
-        )
+        times.extend(scipy.optimize.brentq(velocity, t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF) for i in changes)
     # discard the end points themselves (they are not interior extrema)
     tol = 1e-12 * max(duration, 1.0)
     times = np.array(sorted(s for s in times if tol < s < duration - tol))

@@ -12,10 +12,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nnmstop.netcdf import flag_variable
 from nnmstop.exact.phases import LinearPhase
 from nnmstop.floquet import multipliers_from_invariant
 from nnmstop.models.two_dof import ModelParameters
+from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "ExactMultipliers",
@@ -98,8 +98,9 @@ def quarter_transitions(params: ModelParameters, sequence: str, durations, phase
     return [phases[kind].transition(d) for kind, d in zip(sequence, durations)]
 
 
-def monodromy(params: ModelParameters, sequence: str, durations, start: str = "origin",
-              phases: dict | None = None) -> np.ndarray:
+def monodromy(
+    params: ModelParameters, sequence: str, durations, start: str = "origin", phases: dict | None = None
+) -> np.ndarray:
     """Monodromy matrix of the symmetric orbit with this quarter-period phase sequence.
 
     With ``A = E_n ... E_1`` (quarter period, origin to turning point) and
@@ -171,8 +172,9 @@ def _trivial_distance(m):
     return trivial.max(axis=-1)
 
 
-def exact_multipliers(params: ModelParameters, sequence: str, durations,
-                      phases: dict | None = None) -> ExactMultipliers:
+def exact_multipliers(
+    params: ModelParameters, sequence: str, durations, phases: dict | None = None
+) -> ExactMultipliers:
     """Monodromy (:func:`monodromy`) and multipliers (:func:`multipliers_from_monodromy`) of one orbit."""
     mats = quarter_transitions(params, sequence, durations, phases)
     return multipliers_from_monodromy(_monodromy_from(mats, "origin"), _monodromy_from(mats, "turning_point"))
@@ -217,9 +219,7 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
         "multiplier_real": var(lam.real, f"real part of the {nontrivial}; the other one is its reciprocal"),
         "multiplier_imag": var(lam.imag, f"imaginary part of the {nontrivial} (>= 0 on the unit circle)"),
         "multiplier_modulus": var(np.abs(lam), "modulus of the largest non-trivial Floquet multiplier (1 if stable)"),
-        "trace_invariant": var(
-            s, "s = lambda + 1/lambda = trace of the monodromy matrix - 2"
-        ),
+        "trace_invariant": var(s, "s = lambda + 1/lambda = trace of the monodromy matrix - 2"),
         "stability_margin": var(
             margin,
             "2 - |s|: > 0 elliptic multiplier pair (on the unit circle), < 0 real pair off it",
@@ -234,7 +234,8 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
             "about sqrt(eps |M|) from round-off)",
         ),
         "stable": flag_variable(
-            "point", stable,
+            "point",
+            stable,
             "Floquet stability of the exact orbit: non-trivial multipliers on the unit circle",
             "unstable stable",
         ),
@@ -255,9 +256,11 @@ def summarize(ds) -> str:
     band = np.abs(ds["stability_margin"].values) <= ds["stability_tolerance"].values
     if band.any():
         e = ds["energy"].values[band]
-        lines.append(f"{int(band.sum())} orbits with |stability_margin| <= stability_tolerance "
-                     "(verdict by convention), "
-                     f"energy {e.min():.6g} to {e.max():.6g}")
+        lines.append(
+            f"{int(band.sum())} orbits with |stability_margin| <= stability_tolerance "
+            "(verdict by convention), "
+            f"energy {e.min():.6g} to {e.max():.6g}"
+        )
     seq = ds["phase_sequence"].values if "phase_sequence" in ds else np.array(["FR"] * ds.sizes["point"])
     for c in stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds)):
         a, b = c["before"], c["after"]

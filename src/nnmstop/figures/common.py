@@ -103,7 +103,11 @@ def stability_legend_handles(drawn: set, color="0.3", lw: float = 1.2) -> list:
     from matplotlib.lines import Line2D
 
     text = {"unstable": "unstable orbits (Floquet multipliers)", "unresolved": "stability not resolved at this H"}
-    return [Line2D([], [], color=color, lw=lw, ls=STABILITY_LINESTYLES[c], label=text[c]) for c in ("unstable", "unresolved") if c in drawn]
+    return [
+        Line2D([], [], color=color, lw=lw, ls=STABILITY_LINESTYLES[c], label=text[c])
+        for c in ("unstable", "unresolved")
+        if c in drawn
+    ]
 
 
 def save_figure(fig, pdf_path, png_dpi: int = 150) -> tuple[Path, Path]:

@@ -30,9 +30,9 @@ import xarray as xr
 
 from nnmstop.compare.matching import MAX_IMPACTS
 from nnmstop.exact.problem import TwoImpactProblem
+from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, save_figure
 from nnmstop.fourier import fields_at_phases
 from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
-from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, save_figure
 
 __all__ = [
     "FIGURES",
@@ -100,7 +100,9 @@ def marked_points(comparison: xr.Dataset, where: str = "figure") -> dict:
     for label in LABELS:
         name = f"point_{label}"
         if name not in meanings:
-            raise ValueError(f"{where}: the comparison dataset has no labelled point {label}) (flag_meanings {meanings})")
+            raise ValueError(
+                f"{where}: the comparison dataset has no labelled point {label}) (flag_meanings {meanings})"
+            )
         hits = np.flatnonzero(flags.values == values[meanings.index(name)])
         if hits.size != 1:
             raise ValueError(f"{where}: point {label}) is flagged {hits.size} times in the comparison dataset")
@@ -195,34 +197,79 @@ def figure_02(exact: xr.Dataset, stage1: xr.Dataset, comparison: xr.Dataset, pdf
         axis.plot(e_reg, f_reg, color=REGULARIZED_COLOR, lw=2.0 * lw, zorder=2)  # wider: visible under red
         axis.plot([e_ex[0]], [f_ex[0]], marker="o", ms=5, mfc="white", mec=EXACT_COLOR, mew=1.3, ls="none", zorder=6)
         axis.plot([e_ex[-1]], [f_ex[-1]], marker="s", ms=5, mfc="white", mec=EXACT_COLOR, mew=1.3, ls="none", zorder=6)
-        axis.plot([e_reg[-1]], [f_reg[-1]], marker="s", ms=5, mfc="white", mec=REGULARIZED_COLOR, mew=1.3, ls="none", zorder=6)
-        for label, i in marks.items():
+        axis.plot(
+            [e_reg[-1]], [f_reg[-1]], marker="s", ms=5, mfc="white", mec=REGULARIZED_COLOR, mew=1.3, ls="none", zorder=6
+        )
+        for i in marks.values():
             e = float(comparison["energy"].values[i])
             for key, colour in (("frequency_exact", EXACT_COLOR), ("frequency_regularized", REGULARIZED_COLOR)):
-                axis.plot([e], [float(comparison[key].values[i])], marker="o", ms=4.5, color=colour, mec="black", mew=0.6, ls="none", zorder=7)
+                axis.plot(
+                    [e],
+                    [float(comparison[key].values[i])],
+                    marker="o",
+                    ms=4.5,
+                    color=colour,
+                    mec="black",
+                    mew=0.6,
+                    ls="none",
+                    zorder=7,
+                )
 
     draw(ax)
     ax.set_xlim(e_lo, e_hi)
     f_all = np.concatenate([f_reg, f_ex, [f_lin, f_gap0]])
     pad = 0.04 * (f_all.max() - f_all.min())
     ax.set_ylim(f_all.min() - pad, f_all.max() + pad)
-    ax.annotate("gap-0 first linear mode (stop always engaged)", xy=(e_lo, f_gap0), xytext=(4, -3),
-                textcoords="offset points", fontsize=7.5, color="0.3", ha="left", va="top")
+    ax.annotate(
+        "gap-0 first linear mode (stop always engaged)",
+        xy=(e_lo, f_gap0),
+        xytext=(4, -3),
+        textcoords="offset points",
+        fontsize=7.5,
+        color="0.3",
+        ha="left",
+        va="top",
+    )
 
     # labels a), b)
     for label, i in marks.items():
         e = float(comparison["energy"].values[i])
         f = float(comparison["frequency_regularized"].values[i])
         offset = (-14, 12)
-        ax.annotate(f"{label})", xy=(e, f), xytext=offset, textcoords="offset points", fontsize=10, fontweight="bold",
-                    ha="center", va="center", zorder=8,
-                    arrowprops={"arrowstyle": "-", "lw": 0.6, "color": "black", "shrinkA": 0, "shrinkB": 3})
-    ax.annotate("end of the exact family:\nx reaches the other stop\nbetween the impacts", xy=(e_ex[-1], f_ex[-1]),
-                xytext=(0, -62), textcoords="offset points", fontsize=7.5, ha="center", va="top", color=EXACT_COLOR,
-                arrowprops={"arrowstyle": "-", "lw": 0.6, "color": EXACT_COLOR, "shrinkB": 4})
-    ax.annotate("regularized: last orbit with\none impact per stop", xy=(e_reg[-1], f_reg[-1]), xytext=(-6, -20),
-                textcoords="offset points", fontsize=7.5, ha="right", va="top", color=REGULARIZED_COLOR,
-                arrowprops={"arrowstyle": "-", "lw": 0.6, "color": REGULARIZED_COLOR, "shrinkB": 4})
+        ax.annotate(
+            f"{label})",
+            xy=(e, f),
+            xytext=offset,
+            textcoords="offset points",
+            fontsize=10,
+            fontweight="bold",
+            ha="center",
+            va="center",
+            zorder=8,
+            arrowprops={"arrowstyle": "-", "lw": 0.6, "color": "black", "shrinkA": 0, "shrinkB": 3},
+        )
+    ax.annotate(
+        "end of the exact family:\nx reaches the other stop\nbetween the impacts",
+        xy=(e_ex[-1], f_ex[-1]),
+        xytext=(0, -62),
+        textcoords="offset points",
+        fontsize=7.5,
+        ha="center",
+        va="top",
+        color=EXACT_COLOR,
+        arrowprops={"arrowstyle": "-", "lw": 0.6, "color": EXACT_COLOR, "shrinkB": 4},
+    )
+    ax.annotate(
+        "regularized: last orbit with\none impact per stop",
+        xy=(e_reg[-1], f_reg[-1]),
+        xytext=(-6, -20),
+        textcoords="offset points",
+        fontsize=7.5,
+        ha="right",
+        va="top",
+        color=REGULARIZED_COLOR,
+        arrowprops={"arrowstyle": "-", "lw": 0.6, "color": REGULARIZED_COLOR, "shrinkB": 4},
+    )
 
     # inset: the grazing neighbourhood (energy fold of the exact family, point a)
     ia = ax.inset_axes([0.655, 0.07, 0.33, 0.36])
@@ -242,11 +289,28 @@ def figure_02(exact: xr.Dataset, stage1: xr.Dataset, comparison: xr.Dataset, pdf
     ticks = [0.6, 0.7, 0.8]
     ia.set_xticks([t for t in ticks if win_e[0] < t < win_e[1]])
     ia.set_xticklabels([f"{t:g}" for t in ticks if win_e[0] < t < win_e[1]])
-    ia.annotate("grazing", xy=(e_ex[0], f_ex[0]), xytext=(5, 4), textcoords="offset points", fontsize=7, color=EXACT_COLOR)
-    ia.annotate("energy fold", xy=(e_ex[fold], f_ex[fold]), xytext=(-3, 12), textcoords="offset points", fontsize=7,
-                color=EXACT_COLOR, ha="right", arrowprops={"arrowstyle": "-", "lw": 0.5, "color": EXACT_COLOR, "shrinkB": 2})
-    ia.annotate("a)", xy=(e_a, float(comparison["frequency_regularized"].values[i_a])), xytext=(-10, 8),
-                textcoords="offset points", fontsize=8, fontweight="bold", ha="center")
+    ia.annotate(
+        "grazing", xy=(e_ex[0], f_ex[0]), xytext=(5, 4), textcoords="offset points", fontsize=7, color=EXACT_COLOR
+    )
+    ia.annotate(
+        "energy fold",
+        xy=(e_ex[fold], f_ex[fold]),
+        xytext=(-3, 12),
+        textcoords="offset points",
+        fontsize=7,
+        color=EXACT_COLOR,
+        ha="right",
+        arrowprops={"arrowstyle": "-", "lw": 0.5, "color": EXACT_COLOR, "shrinkB": 2},
+    )
+    ia.annotate(
+        "a)",
+        xy=(e_a, float(comparison["frequency_regularized"].values[i_a])),
+        xytext=(-10, 8),
+        textcoords="offset points",
+        fontsize=8,
+        fontweight="bold",
+        ha="center",
+    )
     ax.indicate_inset_zoom(ia, edgecolor="0.4", lw=0.6)
 
     handles = [
@@ -264,9 +328,22 @@ def figure_02(exact: xr.Dataset, stage1: xr.Dataset, comparison: xr.Dataset, pdf
 
 
 _ORBIT_VARS = (
-    "marked", "energy", "exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1", "omega_squared",
-    "x_cos", "x_sin", "u_cos", "u_sin", "f_cos", "f_sin", "regularized_origin_shift",
-    "frequency_exact", "frequency_regularized",
+    "marked",
+    "energy",
+    "exact_xdot0",
+    "exact_udot0",
+    "exact_tau1",
+    "exact_T1",
+    "omega_squared",
+    "x_cos",
+    "x_sin",
+    "u_cos",
+    "u_sin",
+    "f_cos",
+    "f_sin",
+    "regularized_origin_shift",
+    "frequency_exact",
+    "frequency_regularized",
 )
 
 

@@ -29,18 +29,18 @@ import xarray as xr
 from matplotlib.lines import Line2D
 from matplotlib.ticker import LogFormatterSciNotation
 
-from nnmstop.models.two_dof import ModelParameters, linear_modes
 from nnmstop.figures.common import (
-    plot_branch,
-    stability_legend_handles,
     EXACT_OVERLAY_COLOR,
     NNM2_COLOR,
     REGULARIZED_COLOR,
     RESONANCE_COLOR,
     frequency_energy_axes,
+    plot_branch,
     save_figure,
+    stability_legend_handles,
 )
 from nnmstop.figures.modal_lines import LabelSpec, draw_modal_line, label_specs, mark_point, select_point
+from nnmstop.models.two_dof import ModelParameters, linear_modes
 
 __all__ = [
     "PAPER_FIGURES",
@@ -84,13 +84,23 @@ class _FigureKind:
 
 
 PAPER_FIGURES = {
-    "fig05": _FigureKind("nnm1", "Fig. 5: first (NNM1) and second (NNM2) nonlinear normal modes", gap_zero_modes=(1, 2)),
+    "fig05": _FigureKind(
+        "nnm1", "Fig. 5: first (NNM1) and second (NNM2) nonlinear normal modes", gap_zero_modes=(1, 2)
+    ),
     "fig06": _FigureKind("nnm2", "Fig. 6: second NNM and its modal lines", gap_zero_modes=(2,), inset_gap_zero_mode=2),
     "fig07": _FigureKind("nnm1", "Fig. 7: first NNM at low energy"),
-    "fig08": _FigureKind("nnm1", "Fig. 8: first NNM, three then two impacts per stop, 3:1 internal resonance", 3, NNM2_COLOR),
-    "fig09": _FigureKind("nnm1", "Fig. 9: first NNM, four then five impacts per stop, 5:1 internal resonance", 5, RESONANCE_COLOR),
-    "fig10": _FigureKind("nnm1", "Fig. 10: first NNM after the 5:1 internal resonance, back to one impact per stop", 5, RESONANCE_COLOR),
-    "fig11": _FigureKind("nnm1", "Fig. 11: first NNM at high energy, tending to the gap-0 first linear mode", inset_gap_zero_mode=1),
+    "fig08": _FigureKind(
+        "nnm1", "Fig. 8: first NNM, three then two impacts per stop, 3:1 internal resonance", 3, NNM2_COLOR
+    ),
+    "fig09": _FigureKind(
+        "nnm1", "Fig. 9: first NNM, four then five impacts per stop, 5:1 internal resonance", 5, RESONANCE_COLOR
+    ),
+    "fig10": _FigureKind(
+        "nnm1", "Fig. 10: first NNM after the 5:1 internal resonance, back to one impact per stop", 5, RESONANCE_COLOR
+    ),
+    "fig11": _FigureKind(
+        "nnm1", "Fig. 11: first NNM at high energy, tending to the gap-0 first linear mode", inset_gap_zero_mode=1
+    ),
 }
 
 
@@ -209,10 +219,17 @@ def _bifurcation_markers(ax, ds: xr.Dataset) -> set:
 
 
 def _bifurcation_legend(drawn: set) -> list:
-    text = {"resonance": "branch point, n:1 resonance (orbit of period T/n)",
-            "breaking": "branch point, symmetry breaking", "branch point": "branch point", "fold": "energy fold"}
-    return [Line2D([], [], label=text[k], **{a: v for a, v in BRANCH_POINT_STYLES[k].items() if a != "zorder"})
-            for k in ("resonance", "breaking", "branch point", "fold") if k in drawn]
+    text = {
+        "resonance": "branch point, n:1 resonance (orbit of period T/n)",
+        "breaking": "branch point, symmetry breaking",
+        "branch point": "branch point",
+        "fold": "energy fold",
+    }
+    return [
+        Line2D([], [], label=text[k], **{a: v for a, v in BRANCH_POINT_STYLES[k].items() if a != "zorder"})
+        for k in ("resonance", "breaking", "branch point", "fold")
+        if k in drawn
+    ]
 
 
 def _auto_limits(ds_list, energy_range, levels=()):
@@ -221,7 +238,9 @@ def _auto_limits(ds_list, energy_range, levels=()):
     freqs = [np.asarray(levels, dtype=float)]
     for ds in ds_list:
         e, f = ds["energy"].values, ds["frequency"].values
-        inside = np.ones(e.shape, dtype=bool) if energy_range is None else (e >= energy_range[0]) & (e <= energy_range[1])
+        inside = (
+            np.ones(e.shape, dtype=bool) if energy_range is None else (e >= energy_range[0]) & (e <= energy_range[1])
+        )
         freqs.append(f[inside])
     f = np.concatenate(freqs)
     if f.size == 0:
@@ -241,8 +260,18 @@ def _check_in_window(ds, point, spec: LabelSpec, energy_range, frequency_range, 
             )
 
 
-def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None, params, spec, where, branch_label,
-              exact: xr.Dataset | None = None, bifurcated: list | None = None):
+def _draw_fep(
+    ax,
+    kind: _FigureKind,
+    branch: xr.Dataset,
+    nnm2: xr.Dataset | None,
+    params,
+    spec,
+    where,
+    branch_label,
+    exact: xr.Dataset | None = None,
+    bifurcated: list | None = None,
+):
     """Frequency-energy plot of ``branch`` with its companions; returns the legend handles.
 
     ``exact``: optional exact NNM1 of the non-smooth system (results/exact/nnm1.nc),
@@ -259,18 +288,31 @@ def _draw_fep(ax, kind: _FigureKind, branch: xr.Dataset, nnm2: xr.Dataset | None
     handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
     handles.extend(stability_legend_handles(drawn, color=color))
     if exact is not None:
-        ax.plot(exact["energy"].values, exact["frequency"].values, color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", zorder=2.5)
-        handles.append(Line2D([], [], color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", label="non-smooth model, exact orbits"))
+        ax.plot(
+            exact["energy"].values, exact["frequency"].values, color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", zorder=2.5
+        )
+        handles.append(
+            Line2D([], [], color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", label="non-smooth model, exact orbits")
+        )
     if kind.resonance is not None:
         n = kind.resonance
         ax.plot(nnm2["energy"].values, nnm2["frequency"].values / n, color=kind.resonance_color, lw=1.2, zorder=2)
         handles.append(Line2D([], [], color=kind.resonance_color, lw=1.2, label=f"NNM2 frequency / {n} (same energy)"))
     for ds in bifurcated or []:
         drawn_b = plot_branch(ax, ds, BIFURCATED_COLOR, lw=0.7, zorder=2.6)
-        handles.append(Line2D([], [], color=BIFURCATED_COLOR, lw=0.7,
-                              label=f"branch switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)"))
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color=BIFURCATED_COLOR,
+                lw=0.7,
+                label=f"branch switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)",
+            )
+        )
         shown = {h.get_label() for h in handles}
-        handles.extend(h for h in stability_legend_handles(drawn_b, color=BIFURCATED_COLOR, lw=0.7) if h.get_label() not in shown)
+        handles.extend(
+            h for h in stability_legend_handles(drawn_b, color=BIFURCATED_COLOR, lw=0.7) if h.get_label() not in shown
+        )
     gap_zero = gap_zero_frequencies(params)
     levels = [float(gap_zero[mode - 1]) for mode in kind.gap_zero_modes]
     if frequency_range is None:
@@ -306,8 +348,17 @@ def _inset_grid(n: int) -> tuple[int, int]:
     return int(np.ceil(n / cols)), cols
 
 
-def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path, nnm2=None, png_dpi: int = 150, branch_label=None,
-                            exact=None, bifurcated=None):
+def _figure_with_modal_lines(
+    name: str,
+    branch: xr.Dataset,
+    spec: dict,
+    pdf_path,
+    nnm2=None,
+    png_dpi: int = 150,
+    branch_label=None,
+    exact=None,
+    bifurcated=None,
+):
     """Frequency-energy plot of ``branch`` on top, the modal lines of its labels below."""
     kind = PAPER_FIGURES[name]
     where = name
@@ -342,7 +393,9 @@ def _figure_with_modal_lines(name: str, branch: xr.Dataset, spec: dict, pdf_path
         fig.get_layout_engine().set(h_pad=0.06, w_pad=0.06, hspace=0.04, wspace=0.06)
         grid = fig.add_gridspec(1 + rows, cols, height_ratios=[4.0] + [2.3] * rows)
         ax = fig.add_subplot(grid[0, :])
-        handles, energy_range, frequency_range = _draw_fep(ax, kind, branch, nnm2, params, spec, where, branch_label, exact, bifurcated)
+        handles, energy_range, frequency_range = _draw_fep(
+            ax, kind, branch, nnm2, params, spec, where, branch_label, exact, bifurcated
+        )
         for i, (s, p) in enumerate(zip(labels, points)):
             _check_in_window(branch, p, s, energy_range, frequency_range, where)
             mark_point(ax, branch, p, s)
@@ -407,8 +460,16 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
     right = ax.get_xlim()[1]
     for mode in kind.gap_zero_modes:
         value = float(gap_zero[mode - 1])
-        ax.annotate(f"gap-0 linear mode {mode}: {value:.4f} Hz", xy=(right, value), xytext=(-4, 3),
-                    textcoords="offset points", fontsize=7.5, color="0.2", va="bottom", ha="right")
+        ax.annotate(
+            f"gap-0 linear mode {mode}: {value:.4f} Hz",
+            xy=(right, value),
+            xytext=(-4, 3),
+            textcoords="offset points",
+            fontsize=7.5,
+            color="0.2",
+            va="bottom",
+            ha="right",
+        )
     ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=8, framealpha=0.9)
     fig.suptitle(f"{kind.title}\n{_parameter_line(params, nnm1)}", fontsize=9.5, linespacing=1.4)
     return save_figure(fig, pdf_path, png_dpi=png_dpi)
@@ -425,8 +486,17 @@ def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
 def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None):
     stages = np.unique(branch["stage"].values)
     text = f"stage {stages[0]}" if stages.size == 1 else f"stages {stages[0]}-{stages[-1]}"
-    return _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi,
-                                    branch_label=f"NNM1 ({text} of the continuation)", exact=exact, bifurcated=bifurcated)
+    return _figure_with_modal_lines(
+        name,
+        branch,
+        spec,
+        pdf_path,
+        nnm2=nnm2,
+        png_dpi=png_dpi,
+        branch_label=f"NNM1 ({text} of the continuation)",
+        exact=exact,
+        bifurcated=bifurcated,
+    )
 
 
 def figure_07(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
@@ -436,22 +506,25 @@ def figure_07(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=
     return _nnm1_figure("fig07", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact)
 
 
-def figure_08(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
-              bifurcated=None):
+def figure_08(
+    nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None
+):
     """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; three then two impacts per stop and
     the 3:1 internal resonance, modal lines d)-i)."""
     return _nnm1_figure("fig08", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_09(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
-              bifurcated=None):
+def figure_09(
+    nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None
+):
     """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; four then five impacts per stop and
     the 5:1 internal resonance, modal lines j)-m)."""
     return _nnm1_figure("fig09", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
 
 
-def figure_10(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None,
-              bifurcated=None):
+def figure_10(
+    nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None
+):
     """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance: impacts
     without oscillation between the stops, back to one impact per stop, o)-q)."""
     return _nnm1_figure("fig10", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)

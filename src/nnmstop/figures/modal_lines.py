@@ -171,7 +171,9 @@ def select_point(ds: xr.Dataset, spec: LabelSpec, where: str) -> int:
         scope.append(f"stage {spec.stage}")
         if not allowed.any():
             held = ", ".join(str(int(s)) for s in np.unique(stages))
-            raise ValueError(f"{where}: label {spec.describe()}: the dataset holds no stage {spec.stage} (stages held: {held})")
+            raise ValueError(
+                f"{where}: label {spec.describe()}: the dataset holds no stage {spec.stage} (stages held: {held})"
+            )
     if spec.impacts is not None:
         allowed &= ds["impacts_per_period"].values == spec.impacts
         scope.append(f"{spec.impacts} impacts/period")
@@ -226,7 +228,13 @@ def mark_point(ax, ds: xr.Dataset, point: int, spec: LabelSpec) -> None:
 
 
 def draw_modal_line(
-    ax, ds: xr.Dataset, point: int, spec: LabelSpec, color: str, reference_slope: float | None = None, samples: int = 2048
+    ax,
+    ds: xr.Dataset,
+    point: int,
+    spec: LabelSpec,
+    color: str,
+    reference_slope: float | None = None,
+    samples: int = 2048,
 ) -> None:
     """Modal line ``(x, u)`` of one period of ``point`` in a small square axes.
 
@@ -251,7 +259,14 @@ def draw_modal_line(
     xlim = 1.15 * max(x_amp, 1.0)
     ulim = 1.15 * u_amp
     if reference_slope is not None:
-        ax.plot([-xlim, xlim], [-reference_slope * xlim, reference_slope * xlim], color="0.3", lw=0.8, ls=(0, (4, 2.5)), zorder=1)
+        ax.plot(
+            [-xlim, xlim],
+            [-reference_slope * xlim, reference_slope * xlim],
+            color="0.3",
+            lw=0.8,
+            ls=(0, (4, 2.5)),
+            zorder=1,
+        )
     ax.plot(x, u, color=color, lw=1.1, zorder=2)
     ax.set_xlim(-xlim, xlim)
     ax.set_ylim(-ulim, ulim)

@@ -9,11 +9,9 @@ silently.
 
 from __future__ import annotations
 
-
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
-
 
 __all__ = ["regime_error_figure"]
 

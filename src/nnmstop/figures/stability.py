@@ -10,7 +10,6 @@ The title gives the agreement counts of the comparison dataset
 
 from __future__ import annotations
 
-
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
@@ -37,8 +36,9 @@ def _check(name: str, ds: xr.Dataset) -> None:
             raise ValueError(f"the {name} dataset's {v!r} holds NaN or infinite values")
 
 
-def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.Dataset | None = None,
-                     zoom_energy=ZOOM_ENERGY):
+def stability_figure(
+    exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.Dataset | None = None, zoom_energy=ZOOM_ENERGY
+):
     """The figure (not saved).
 
     Parameters
@@ -66,17 +66,31 @@ def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.
     for ax in axes:
         frequency_energy_axes(ax)
         for ds, color, marker in ((regularized, REGULARIZED_COLOR, "s"), (exact, EXACT_COLOR, "o")):
-            drawn |= plot_branch(ax, ds, color, lw=0.9 if color == EXACT_COLOR else 2.4,
-                                 zorder=4 if color == EXACT_COLOR else 3)
+            drawn |= plot_branch(
+                ax, ds, color, lw=0.9 if color == EXACT_COLOR else 2.4, zorder=4 if color == EXACT_COLOR else 3
+            )
             changes = stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds))
             if changes:
-                ax.plot([c["energy"] for c in changes], [c["frequency"] for c in changes], marker, ms=6, mfc="none",
-                        mec=color, mew=1.3, ls="none", zorder=5)
+                ax.plot(
+                    [c["energy"] for c in changes],
+                    [c["frequency"] for c in changes],
+                    marker,
+                    ms=6,
+                    mfc="none",
+                    mec=color,
+                    mew=1.3,
+                    ls="none",
+                    zorder=5,
+                )
     axes[0].set_title("NNM1, whole branch", fontsize=9)
     for ax, (lo, hi) in zip(axes[1:], zoom_energy):
         ax.set_xlim(lo, hi)
-        window = np.concatenate([ds["frequency"].values[(ds["energy"].values >= lo) & (ds["energy"].values <= hi)]
-                                 for ds in (exact, regularized)])
+        window = np.concatenate(
+            [
+                ds["frequency"].values[(ds["energy"].values >= lo) & (ds["energy"].values <= hi)]
+                for ds in (exact, regularized)
+            ]
+        )
         if window.size:
             pad = 0.05 * (window.max() - window.min())
             ax.set_ylim(window.min() - pad, window.max() + pad)
@@ -84,7 +98,13 @@ def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.
         ax.xaxis.set_minor_formatter(NullFormatter())  # the minor labels of a short log axis collide
     handles = [
         Line2D([], [], color=EXACT_COLOR, lw=0.9, label="exact (non-smooth model)"),
-        Line2D([], [], color=REGULARIZED_COLOR, lw=2.4, label=f"regularized (HBM, eta = {regularized.attrs.get('eta', '?')})"),
+        Line2D(
+            [],
+            [],
+            color=REGULARIZED_COLOR,
+            lw=2.4,
+            label=f"regularized (HBM, eta = {regularized.attrs.get('eta', '?')})",
+        ),
         Line2D([], [], color="0.3", lw=1.2, label="stable"),
         Line2D([], [], color="0.3", lw=1.2, ls="--", label="unstable"),
     ]
@@ -97,8 +117,10 @@ def stability_figure(exact: xr.Dataset, regularized: xr.Dataset, comparison: xr.
     axes[0].legend(handles=handles, fontsize=7, loc="lower right")
     title = "Floquet stability of NNM1: exact vs regularized"
     if comparison is not None:
-        title += (f" (same verdict at {comparison.attrs['agreeing_orbits']} of {comparison.attrs['compared_orbits']} "
-                  "regularized orbits compared at equal energy)")
+        title += (
+            f" (same verdict at {comparison.attrs['agreeing_orbits']} of {comparison.attrs['compared_orbits']} "
+            "regularized orbits compared at equal energy)"
+        )
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig

@@ -29,7 +29,6 @@ import numpy as np
 import xarray as xr
 from matplotlib import transforms
 
-
 __all__ = [
     "pareto_front",
     "error_vs_runtime_figure",
@@ -96,7 +95,15 @@ def _sweep_panel(ax, ds: xr.Dataset, key: str, summary: str, ylabel: str, time_v
                 ax.annotate(f"{H}", (time[i, j], y), textcoords="offset points", xytext=(3, 2), fontsize=6, color=color)
             elif not converged[i, j] and np.isfinite(time[i, j]):
                 ax.plot(time[i, j], 0.97, "x", color=color, ms=6, transform=top, clip_on=False)
-                ax.annotate(f"{H}", (time[i, j], 0.97), xycoords=top, textcoords="offset points", xytext=(3, -8), fontsize=6, color=color)
+                ax.annotate(
+                    f"{H}",
+                    (time[i, j], 0.97),
+                    xycoords=top,
+                    textcoords="offset points",
+                    xytext=(3, -8),
+                    fontsize=6,
+                    color=color,
+                )
     # room above the data for the crosses of the settings that did not converge
     shown = np.concatenate([full[compared], partial[converged & ~compared]])
     shown = shown[np.isfinite(shown) & (shown > 0)]
@@ -119,7 +126,14 @@ def error_vs_runtime_figure(ds: xr.Dataset):
         if name not in ds.variables:
             raise ValueError(f"the error_vs_runtime dataset lacks the variable {name!r}")
     fig, axes = plt.subplots(1, 3, figsize=(13.5, 4.4), constrained_layout=True)
-    _sweep_panel(axes[0], ds, "relative_frequency_difference", "frequency_error", "largest |relative frequency error|", "cpu_time")
+    _sweep_panel(
+        axes[0],
+        ds,
+        "relative_frequency_difference",
+        "frequency_error",
+        "largest |relative frequency error|",
+        "cpu_time",
+    )
     _sweep_panel(axes[1], ds, "max_x_difference", "x_error", "largest |x error| over the orbit", "cpu_time")
     axes[0].set_title("(a) frequency (labels: H; dashed: regularization part)", fontsize=8)
     axes[1].set_title("(b) displacement x (x: not resolved; hollow: partial range)", fontsize=8)
@@ -133,20 +147,34 @@ def error_vs_runtime_figure(ds: xr.Dataset):
         ax.plot(time[ok, j], residual[ok, j], markers[j % len(markers)] + "-", ms=4, lw=0.8, label=f"tol {tol:g}")
         for i, order in enumerate(orders):
             if ok[i]:
-                ax.annotate(f"N{order}", (time[i, j], residual[i, j]), textcoords="offset points", xytext=(3, 2), fontsize=6)
+                ax.annotate(
+                    f"N{order}", (time[i, j], residual[i, j]), textcoords="offset points", xytext=(3, 2), fontsize=6
+                )
             elif np.isfinite(time[i, j]):
-                ax.plot(time[i, j], 0.97, "x", color="k", transform=transforms.blended_transform_factory(ax.transData, ax.transAxes))
+                ax.plot(
+                    time[i, j],
+                    0.97,
+                    "x",
+                    color="k",
+                    transform=transforms.blended_transform_factory(ax.transData, ax.transAxes),
+                )
     ok = conv & np.isfinite(residual)
     if ok.any():
         ax.set_ylim(residual[ok].min() / 3.0, residual[ok].max() * 30.0)
     front = pareto_front(np.where(ok, time, np.nan).ravel(), np.where(ok, residual, np.nan).ravel())
     if front.size:
-        ax.plot(time.ravel()[front], residual.ravel()[front], "o", mfc="none", mec="k", ms=9, mew=0.8, label="Pareto front")
+        ax.plot(
+            time.ravel()[front], residual.ravel()[front], "o", mfc="none", mec="k", ms=9, mew=0.8, label="Pareto front"
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("run time (CPU s of the job, 1 BLAS thread)")
     ax.set_ylabel("frequency error of the worst stored point vs the HBM curve")
-    ax.set_title(f"(c) ANM order N and tolerance (H = {ds.attrs.get('anm_sweep_harmonics', '?')}, eta = {ds.attrs.get('anm_sweep_eta', '?')})", fontsize=8)
+    ax.set_title(
+        f"(c) ANM order N and tolerance (H = {ds.attrs.get('anm_sweep_harmonics', '?')}, eta = "
+        f"{ds.attrs.get('anm_sweep_eta', '?')})",
+        fontsize=8,
+    )
     ax.legend(fontsize=7, loc="best")
     return fig
 
@@ -206,7 +234,13 @@ def stiff_cases_figure(ds: xr.Dataset):
         ax.plot(alphas, err, "o-", color=_ETA_COLORS[(j + 1) % len(_ETA_COLORS)], label=f"eta = {eta:g}")
         for i, a in enumerate(alphas):
             if not ds["converged"].values[i, j]:
-                ax.plot(a, 0.97, "x", color=_ETA_COLORS[(j + 1) % len(_ETA_COLORS)], transform=transforms.blended_transform_factory(ax.transData, ax.transAxes))
+                ax.plot(
+                    a,
+                    0.97,
+                    "x",
+                    color=_ETA_COLORS[(j + 1) % len(_ETA_COLORS)],
+                    transform=transforms.blended_transform_factory(ax.transData, ax.transAxes),
+                )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("alpha")
@@ -221,13 +255,28 @@ def stiff_cases_figure(ds: xr.Dataset):
         per = ds["energy_periodicity_error"].values[:, k]
         freq = np.abs(ds["energy_hbm_frequency_difference"].values[:, k])
         ax.plot(energies, per, "s-", color=_ETA_COLORS[k], label=f"alpha = {a:g}: exact orbit, periodicity error")
-        ax.plot(energies, freq, "o--", color=_ETA_COLORS[k], mfc="none", label=f"alpha = {a:g}: |HBM - exact| / exact frequency")
+        ax.plot(
+            energies,
+            freq,
+            "o--",
+            color=_ETA_COLORS[k],
+            mfc="none",
+            label=f"alpha = {a:g}: |HBM - exact| / exact frequency",
+        )
         for e, kind in zip(energies, ds["energy_kind"].values[:, k]):
             if kind == "none":
-                ax.plot(e, 0.97 - 0.05 * k, "x", color=_ETA_COLORS[k], transform=transforms.blended_transform_factory(ax.transData, ax.transAxes))
+                ax.plot(
+                    e,
+                    0.97 - 0.05 * k,
+                    "x",
+                    color=_ETA_COLORS[k],
+                    transform=transforms.blended_transform_factory(ax.transData, ax.transAxes),
+                )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("energy")
-    ax.set_title(f"(d) extreme energies (eta = {ds.attrs.get('energy_sweep_eta', '?')}; x: no two-impact orbit)", fontsize=8)
+    ax.set_title(
+        f"(d) extreme energies (eta = {ds.attrs.get('energy_sweep_eta', '?')}; x: no two-impact orbit)", fontsize=8
+    )
     ax.legend(fontsize=6)
     return fig

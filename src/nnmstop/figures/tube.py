@@ -48,15 +48,24 @@ def _frequency_energy(fig, data, spec):
     for ax, name in zip(axes, names):
         ds = data[name]
         color = REGULARIZED if name == "nnm1" else "tab:green"
-        _line_segments(ax, ds.energy.values, ds.frequency.values, ds.stable.values, color,
-                       f"{name.upper()} regularized (H = {ds.attrs['harmonics']})")
+        _line_segments(
+            ax,
+            ds.energy.values,
+            ds.frequency.values,
+            ds.stable.values,
+            color,
+            f"{name.upper()} regularized (H = {ds.attrs['harmonics']})",
+        )
         if ds.branch_point_energy.size:
             ax.plot(ds.branch_point_energy.values, ds.branch_point_frequency.values, "kx", ms=6, label="branch point")
         if ds.fold_energy.size:
-            ax.plot(ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=5, label="energy fold")
+            ax.plot(
+                ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=5, label="energy fold"
+            )
         ax.axhline(ds.attrs["linear_frequency_fe"], color="0.4", lw=0.8, ls=":", label="linear, finite elements")
-        ax.axhline(ds.attrs["linear_frequency_euler_bernoulli"], color="0.4", lw=0.8, ls="-.",
-                   label="linear, Euler-Bernoulli")
+        ax.axhline(
+            ds.attrs["linear_frequency_euler_bernoulli"], color="0.4", lw=0.8, ls="-.", label="linear, Euler-Bernoulli"
+        )
         if name == "nnm1" and "exact" in data:
             exact = data["exact"]
             ax.plot(exact.energy.values, exact.frequency.values, color=EXACT, lw=1.2, label="NNM1 exact (non-smooth)")
@@ -80,9 +89,10 @@ def _deflection(ds, q, s):
     from nnmstop.models.beam import beam_deflection
 
     labels = [str(v) for v in ds.dof_label.values]
-    nodes = [int(label.lstrip("wtheta")) for label in labels]
-    shape = SimpleNamespace(dof_labels=labels, dof_nodes=nodes, node_coordinates=ds.node_coordinate.values,
-                            n_dofs=len(labels))
+    nodes = [int(label.removeprefix("w").removeprefix("theta")) for label in labels]
+    shape = SimpleNamespace(
+        dof_labels=labels, dof_nodes=nodes, node_coordinates=ds.node_coordinate.values, n_dofs=len(labels)
+    )
     return beam_deflection(shape, q, s)
 
 
@@ -182,8 +192,13 @@ def draw_study_figure(cases: list, spec: dict, pdf_path, png_path) -> None:
         factor, gap = float(ds.attrs["study_stiffness_factor"]), float(ds.attrs["study_gap_m"])
         color = plt.cm.viridis(factors.index(factor) / max(1, len(factors) - 1))
         hz = ds.frequency.values * float(ds.attrs["angular_frequency_unit_rad_per_s"])
-        ax.plot(ds.x_max.values * gap * 1e3, hz, color=color, ls=styles[gaps.index(gap) % len(styles)],
-                label=f"k = {factor:g} x 3EI/a^3, gap = {gap * 1e3:g} mm")
+        ax.plot(
+            ds.x_max.values * gap * 1e3,
+            hz,
+            color=color,
+            ls=styles[gaps.index(gap) % len(styles)],
+            label=f"k = {factor:g} x 3EI/a^3, gap = {gap * 1e3:g} mm",
+        )
     ax.set_xscale("log")
     ax.set_xlabel("largest displacement at the plate (mm)")
     ax.set_ylabel("frequency (Hz)")

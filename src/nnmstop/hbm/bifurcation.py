@@ -178,8 +178,15 @@ def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
     ContinuationError
         If the relative residual does not reach ``tol``.
     """
-    result = newton_solve(system.residual, lambda V: _LeastNorm(system.jacobian(V)), U, tol=tol, max_iter=max_iter,
-                          criterion="residual", norm=relative_of_residual)
+    result = newton_solve(
+        system.residual,
+        lambda V: _LeastNorm(system.jacobian(V)),
+        U,
+        tol=tol,
+        max_iter=max_iter,
+        criterion="residual",
+        norm=relative_of_residual,
+    )
     if result.converged:
         return result.y
     raise ContinuationError(
@@ -316,8 +323,14 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
     sides = {}
     for sign in (-1.0, 1.0):
         U1 = switch_branch(system, point, sign * switch_step)
-        sides[sign] = continue_branch(system, U1, sign * point.bifurcated, as_stepper(method), stop,
-                                      label=f"{label} ({'+' if sign > 0 else '-'} side)")
+        sides[sign] = continue_branch(
+            system,
+            U1,
+            sign * point.bifurcated,
+            as_stepper(method),
+            stop,
+            label=f"{label} ({'+' if sign > 0 else '-'} side)",
+        )
     minus, plus = sides[-1.0], sides[1.0]
     # The sign of point.bifurcated comes from an SVD (round-off decides it): store the curve from its
     # high-energy end, so that it runs the same way on every machine.
@@ -331,9 +344,9 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
     for U, step, diag in zip(plus.points, plus.step, plus.diagnostics):
         merged.add(U, step, diag)
     # the flags keep marking the same orbits (where each side's continuation saw the sign change)
-    merged.branch_points = [n_minus] + [n_minus - 1 - i for i in minus.branch_points] + [
-        n_minus + 1 + i for i in plus.branch_points
-    ]
+    merged.branch_points = (
+        [n_minus] + [n_minus - 1 - i for i in minus.branch_points] + [n_minus + 1 + i for i in plus.branch_points]
+    )
     for field in dataclasses.fields(merged.stats):
         setattr(merged.stats, field.name, getattr(minus.stats, field.name) + getattr(plus.stats, field.name))
     merged.end_reason = f"- side: {minus.end_reason}; + side: {plus.end_reason}"
@@ -386,8 +399,12 @@ def locate_flagged_branch_points(system, points, steps, flagged, method=None) ->
         U_star, _ = locate_branch_point(system, points[start], points[i], method)
         point = bifurcation_tangents(system, U_star, points[i] - points[start])
         n, breaking = classify_branch_point(system, point)
-        logger.info("branch point at energy %.6g, frequency %.6g Hz: %s", system.diagnostics(U_star)["energy"],
-                    system.frequency_hz(U_star), branch_point_kind(n, breaking))
+        logger.info(
+            "branch point at energy %.6g, frequency %.6g Hz: %s",
+            system.diagnostics(U_star)["energy"],
+            system.frequency_hz(U_star),
+            branch_point_kind(n, breaking),
+        )
         out.append((int(i), point, n, breaking))
     return out
 

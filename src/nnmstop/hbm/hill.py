@@ -288,7 +288,7 @@ def _hill_operator(system, U, harmonics, linearization, even, halfwave=False):
     a = contact_stiffness_series(system, U, linearization, _grid_size(system.H, Hp))
     m = 2 * Hp + 1
     T = fourier.multiplication_matrix(a, Hp, even, halfwave)
-    d2 = -np.r_[0.0, np.arange(1, Hp + 1), np.arange(1, Hp + 1)] ** 2
+    d2 = -(np.r_[0.0, np.arange(1, Hp + 1), np.arange(1, Hp + 1)] ** 2)
     K = stiffness_matrix(p)
     eye = np.eye(m)
     Kt = np.empty((2 * m, 2 * m))
@@ -390,7 +390,12 @@ def _solve_companion(op, tol):
         idx[[2, 3]] = idx[[3, 2]]
         s, mu = s[[0, 1, 3, 2]], mu[[0, 1, 3, 2]]
     return _result(
-        op, tol, "companion", mu, s, kappa[idx] - np.round(kappa[idx]),
+        op,
+        tol,
+        "companion",
+        mu,
+        s,
+        kappa[idx] - np.round(kappa[idx]),
         trivial_deviation=float(np.max(np.abs(mu[:2] - 1.0))),
         pairing_error=float(abs(mu[2] * mu[3] - 1.0)),
         tail_fraction=float(tail[idx[2]]),
@@ -461,8 +466,16 @@ def _solve_reversible(op, tol, halfwave):
     mu = np.exp(2 * np.pi * exps)
     mu[:2] = 1.0
     return _result(
-        op, tol, "reversible", mu, exps, np.array([0.0, 0.0, kap, -kap]),
-        trivial_deviation=0.0, pairing_error=0.0, tail_fraction=float(tail[j]), halfwave=halfwave,
+        op,
+        tol,
+        "reversible",
+        mu,
+        exps,
+        np.array([0.0, 0.0, kap, -kap]),
+        trivial_deviation=0.0,
+        pairing_error=0.0,
+        tail_fraction=float(tail[j]),
+        halfwave=halfwave,
     )
 
 

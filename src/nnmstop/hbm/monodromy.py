@@ -119,7 +119,7 @@ class MonodromySettings:
             )
 
     @classmethod
-    def from_config(cls, stability: dict) -> "MonodromySettings":
+    def from_config(cls, stability: dict) -> MonodromySettings:
         """Settings from the (validated) ``stability`` section of the config."""
         keys = (
             "steps", "max_steps", "trace_tol", "resolution_factor",

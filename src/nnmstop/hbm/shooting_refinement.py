@@ -19,8 +19,8 @@ import numpy as np
 # Butcher tableau of the 8th-order Dormand-Prince scheme (Hairer, Norsett & Wanner, Solving ODEs I, II.5).
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
-from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, regularized_contact_potential
 from nnmstop.checks.shooting import orbit_initial_state
+from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, regularized_contact_potential
 
 __all__ = ["RefinedStability", "quarter_period_flow", "step_phases", "shoot", "refined_stability", "shooting_stability"]
 
@@ -279,7 +279,18 @@ def refined_stability(
     start = np.array([state[:2] for state, _ in initial])
     period = np.array([T for _, T in initial])
     return shooting_stability(
-        system.params, start, period, values, slopes, steps, max_steps, tol, resolution_factor, max_change, floor, max_iter
+        system.params,
+        start,
+        period,
+        values,
+        slopes,
+        steps,
+        max_steps,
+        tol,
+        resolution_factor,
+        max_change,
+        floor,
+        max_iter,
     )
 
 

@@ -43,8 +43,15 @@ def structure_start_point(system: HarmonicBalanceSystem, mode: int, amplitude: f
     return U0, direction
 
 
-def continue_structure_nnm(system: HarmonicBalanceSystem, mode: int, start_amplitude: float, energy_max: float,
-                           max_truncation: float, settings: ANMSettings, label: str = "NNM") -> Branch:
+def continue_structure_nnm(
+    system: HarmonicBalanceSystem,
+    mode: int,
+    start_amplitude: float,
+    energy_max: float,
+    max_truncation: float,
+    settings: ANMSettings,
+    label: str = "NNM",
+) -> Branch:
     """Follow NNM ``mode`` of ``system``'s structure from small amplitude up to ``energy_max``.
 
     The branch ends at the first point above ``energy_max``, or, keeping the points before it,
@@ -59,7 +66,8 @@ def continue_structure_nnm(system: HarmonicBalanceSystem, mode: int, start_ampli
 
     def stop(U, diagnostics):
         if diagnostics["truncation"] > max_truncation:
-            return f"truncation {diagnostics['truncation']:.3g} above {max_truncation:g} at E = {diagnostics['energy']:.6g}"
+            return f"truncation {diagnostics['truncation']:.3g} above {max_truncation:g} at E = "
+            f"{diagnostics['energy']:.6g}"
         if diagnostics["energy"] > energy_max:
             return f"energy above {energy_max:g}"
         return ""
@@ -81,9 +89,15 @@ def _per_stop_impacts(system: HarmonicBalanceSystem, U) -> np.ndarray:
     return np.array([impacts_per_period(x_i) for x_i in x], dtype=np.int32)
 
 
-def structure_branch_dataset(system: HarmonicBalanceSystem, branch: Branch, settings: ANMSettings,
-                             stability: StructureStability, attrs: dict | None = None,
-                             dof_labels=None, node_coordinates=None) -> xr.Dataset:
+def structure_branch_dataset(
+    system: HarmonicBalanceSystem,
+    branch: Branch,
+    settings: ANMSettings,
+    stability: StructureStability,
+    attrs: dict | None = None,
+    dof_labels=None,
+    node_coordinates=None,
+) -> xr.Dataset:
     """Labelled dataset of a branch of :func:`continue_structure_nnm`.
 
     Variables on ``point``: ``omega_squared``, ``energy``, ``frequency``, ``period``, ``x_max`` (largest
@@ -118,24 +132,92 @@ def structure_branch_dataset(system: HarmonicBalanceSystem, branch: Branch, sett
     branch_point = np.zeros(len(U), dtype=bool)
     branch_point[branch.branch_points] = True
     data = {
-        "q_cos": (("point", "dof", "harmonic"), q_cos, {"long_name": "cosine Fourier coefficients of the degrees of freedom", **one}),
-        "q_sin": (("point", "dof", "harmonic"), q_sin, {"long_name": "sine Fourier coefficients of the degrees of freedom", **one}),
-        "f_cos": (("point", "stop", "harmonic"), f_cos, {"long_name": "cosine Fourier coefficients of the regularized stop forces", **one}),
-        "f_sin": (("point", "stop", "harmonic"), f_sin, {"long_name": "sine Fourier coefficients of the regularized stop forces", **one}),
-        "omega_squared": ("point", lam, {"long_name": "squared angular frequency (unknown lambda of the HBM system)", **one}),
+        "q_cos": (
+            ("point", "dof", "harmonic"),
+            q_cos,
+            {"long_name": "cosine Fourier coefficients of the degrees of freedom", **one},
+        ),
+        "q_sin": (
+            ("point", "dof", "harmonic"),
+            q_sin,
+            {"long_name": "sine Fourier coefficients of the degrees of freedom", **one},
+        ),
+        "f_cos": (
+            ("point", "stop", "harmonic"),
+            f_cos,
+            {"long_name": "cosine Fourier coefficients of the regularized stop forces", **one},
+        ),
+        "f_sin": (
+            ("point", "stop", "harmonic"),
+            f_sin,
+            {"long_name": "sine Fourier coefficients of the regularized stop forces", **one},
+        ),
+        "omega_squared": (
+            "point",
+            lam,
+            {"long_name": "squared angular frequency (unknown lambda of the HBM system)", **one},
+        ),
         "unfolding": ("point", nu, {"long_name": "unfolding parameter nu (zero on periodic orbits)", **one}),
-        "energy": ("point", energy, {"long_name": "total energy of the regularized model, mean over the period", **one}),
-        "frequency": ("point", col("frequency"), {"long_name": "frequency omega/(2 pi) in Hz of the nondimensional time", "units": "Hz"}),
-        "period": ("point", 2 * np.pi / np.sqrt(lam), {"long_name": "period of the orbit in nondimensional time", **one}),
+        "energy": (
+            "point",
+            energy,
+            {"long_name": "total energy of the regularized model, mean over the period", **one},
+        ),
+        "frequency": (
+            "point",
+            col("frequency"),
+            {"long_name": "frequency omega/(2 pi) in Hz of the nondimensional time", "units": "Hz"},
+        ),
+        "period": (
+            "point",
+            2 * np.pi / np.sqrt(lam),
+            {"long_name": "period of the orbit in nondimensional time", **one},
+        ),
         "x_max": ("point", col("x_max"), {"long_name": "largest displacement at the first stop over its gap", **one}),
-        "impacts_per_period": ("point", col("impacts_per_period").astype(np.int32), {"long_name": "excursions beyond the gaps per period, all stops", **one}),
-        "stop_impacts": (("point", "stop"), np.array([_per_stop_impacts(system, u) for u in U]), {"long_name": "excursions beyond the gap per period at each stop", **one}),
-        "algebraic_residual": ("point", np.array([relative_residual(system, p) for p in U]), {"long_name": "norm of the HBM residual relative to the norm of the unknowns", **one}),
-        "time_residual": ("point", col("time_residual"), {"long_name": "largest residual in time of the equations of the stop degrees of freedom relative to the largest restoring force", **one}),
-        "truncation": ("point", col("truncation"), {"long_name": "share of the mean square of x'' or f carried by the top tenth of the harmonics", **one}),
-        "step": ("point", np.asarray(branch.step, dtype=np.int32), {"long_name": "index of the ANM step that produced the point", **one}),
-        "branch_point": flag_variable("point", branch_point, "1 where a simple branch point (sign change of det [J; t^T]) lies within the ANM step that ends at this point", "regular branch_point"),
-        "energy_fold": flag_variable("point", energy_folds(energy), "1 where the energy has a local extremum along the branch", "regular fold"),
+        "impacts_per_period": (
+            "point",
+            col("impacts_per_period").astype(np.int32),
+            {"long_name": "excursions beyond the gaps per period, all stops", **one},
+        ),
+        "stop_impacts": (
+            ("point", "stop"),
+            np.array([_per_stop_impacts(system, u) for u in U]),
+            {"long_name": "excursions beyond the gap per period at each stop", **one},
+        ),
+        "algebraic_residual": (
+            "point",
+            np.array([relative_residual(system, p) for p in U]),
+            {"long_name": "norm of the HBM residual relative to the norm of the unknowns", **one},
+        ),
+        "time_residual": (
+            "point",
+            col("time_residual"),
+            {
+                "long_name": "largest residual in time of the equations of the stop degrees of freedom relative "
+                "to the largest restoring force",
+                **one,
+            },
+        ),
+        "truncation": (
+            "point",
+            col("truncation"),
+            {"long_name": "share of the mean square of x'' or f carried by the top tenth of the harmonics", **one},
+        ),
+        "step": (
+            "point",
+            np.asarray(branch.step, dtype=np.int32),
+            {"long_name": "index of the ANM step that produced the point", **one},
+        ),
+        "branch_point": flag_variable(
+            "point",
+            branch_point,
+            "1 where a simple branch point (sign change of det [J; t^T]) lies within the ANM step that ends at "
+            "this point",
+            "regular branch_point",
+        ),
+        "energy_fold": flag_variable(
+            "point", energy_folds(energy), "1 where the energy has a local extremum along the branch", "regular fold"
+        ),
     }
     located, unlocated = [], []
     for i in branch.branch_points:
@@ -148,8 +230,13 @@ def structure_branch_dataset(system: HarmonicBalanceSystem, branch: Branch, sett
     data.update(located_branch_point_variables(system, located))
     data.update(located_fold_variables(U, energy, col("frequency")))
     data.update(stability.data_vars())
-    coords = {"point": np.arange(len(U)), "dof": np.arange(system.n_dofs), "stop": np.arange(system.n_stops),
-              "harmonic": np.arange(H + 1), "multiplier": np.arange(stability.multipliers.shape[1])}
+    coords = {
+        "point": np.arange(len(U)),
+        "dof": np.arange(system.n_dofs),
+        "stop": np.arange(system.n_stops),
+        "harmonic": np.arange(H + 1),
+        "multiplier": np.arange(stability.multipliers.shape[1]),
+    }
     ds = xr.Dataset(data, coords=coords)
     ds["point"].attrs = {"long_name": "index of the point along the branch", **one}
     ds["dof"].attrs = {"long_name": "index of the degree of freedom", **one}
@@ -157,15 +244,34 @@ def structure_branch_dataset(system: HarmonicBalanceSystem, branch: Branch, sett
     ds["harmonic"].attrs = {"long_name": "harmonic number k (0 is the mean)", **one}
     ds["multiplier"].attrs = {"long_name": "index of the Floquet multiplier, by decreasing modulus", **one}
     if dof_labels is not None:
-        ds["dof_label"] = ("dof", np.array(dof_labels, dtype=str), {"long_name": "degree of freedom: w<node> displacement over gap, theta<node> rotation over gap/length", **one})
+        ds["dof_label"] = (
+            "dof",
+            np.array(dof_labels, dtype=str),
+            {
+                "long_name": "degree of freedom: w<node> displacement over gap, theta<node> rotation over gap/length",
+                **one,
+            },
+        )
     if node_coordinates is not None:
         ds = ds.assign_coords(node=np.arange(len(node_coordinates)))
         ds["node"].attrs = {"long_name": "index of the finite-element node", **one}
-        ds["node_coordinate"] = ("node", np.asarray(node_coordinates, float), {"long_name": "position of the node along the tube over its length", **one})
+        ds["node_coordinate"] = (
+            "node",
+            np.asarray(node_coordinates, float),
+            {"long_name": "position of the node along the tube over its length", **one},
+        )
     stats = branch.stats
-    ds.attrs = {**(attrs or {}), "harmonics": H, "time_samples": system.M, "basis": system.basis,
-                "order": settings.order, "tolerance": settings.tolerance, "pade": int(settings.pade),
-                "end_reason": branch.end_reason, "anm_steps": stats.steps, "factorizations": stats.factorizations,
-                "unlocated_branch_points": len(unlocated)}
+    ds.attrs = {
+        **(attrs or {}),
+        "harmonics": H,
+        "time_samples": system.M,
+        "basis": system.basis,
+        "order": settings.order,
+        "tolerance": settings.tolerance,
+        "pade": int(settings.pade),
+        "end_reason": branch.end_reason,
+        "anm_steps": stats.steps,
+        "factorizations": stats.factorizations,
+        "unlocated_branch_points": len(unlocated),
+    }
     return ds
-

@@ -47,8 +47,11 @@ def orbit_multipliers(system, U, steps: int) -> np.ndarray:
     k = np.arange(H + 1)
     full = system.to_full(Q[list(system.stop_dofs)])
     cos_k, sin_k = np.cos(phases[..., None] * k[1:]), np.sin(phases[..., None] * k[1:])
-    q_stop = full[:, None, None, 0] + np.einsum("sk,ngk->sng", full[:, 1 : H + 1], cos_k) \
+    q_stop = (
+        full[:, None, None, 0]
+        + np.einsum("sk,ngk->sng", full[:, 1 : H + 1], cos_k)
         + np.einsum("sk,ngk->sng", full[:, H + 1 :], sin_k)
+    )
     x = q_stop / np.asarray(system.gaps)[:, None, None]
     kc = _contact_stiffness(system, x.reshape(len(system.stop_dofs), -1)).reshape(x.shape)
     A0 = np.zeros((2 * N, 2 * N))
@@ -92,12 +95,47 @@ class StructureStability:
         one = {"units": "1"}
         dims = ("point", "multiplier")
         return {
-            "multiplier_real": (dims, self.multipliers.real, {"long_name": "real part of the Floquet multipliers", **one}),
-            "multiplier_imag": (dims, self.multipliers.imag, {"long_name": "imaginary part of the Floquet multipliers", **one}),
-            "max_multiplier": ("point", self.max_multiplier, {"long_name": "largest modulus of the Floquet multipliers", **one}),
-            "stable": ("point", self.stable.astype(np.int8), {"long_name": "1 where the orbit is stable (largest multiplier modulus within the tolerance of 1)", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "unstable stable", **one, "tolerance": self.tolerance}),
-            "stability_error": ("point", self.error, {"long_name": "change of the largest multiplier modulus when the Magnus steps are doubled", **one}),
-            "stability_resolved": ("point", self.resolved.astype(np.int8), {"long_name": "1 where the verdict's margin exceeds twice the integration error", "flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "unresolved resolved", **one}),
+            "multiplier_real": (
+                dims,
+                self.multipliers.real,
+                {"long_name": "real part of the Floquet multipliers", **one},
+            ),
+            "multiplier_imag": (
+                dims,
+                self.multipliers.imag,
+                {"long_name": "imaginary part of the Floquet multipliers", **one},
+            ),
+            "max_multiplier": (
+                "point",
+                self.max_multiplier,
+                {"long_name": "largest modulus of the Floquet multipliers", **one},
+            ),
+            "stable": (
+                "point",
+                self.stable.astype(np.int8),
+                {
+                    "long_name": "1 where the orbit is stable (largest multiplier modulus within the tolerance of 1)",
+                    "flag_values": np.array([0, 1], dtype=np.int8),
+                    "flag_meanings": "unstable stable",
+                    **one,
+                    "tolerance": self.tolerance,
+                },
+            ),
+            "stability_error": (
+                "point",
+                self.error,
+                {"long_name": "change of the largest multiplier modulus when the Magnus steps are doubled", **one},
+            ),
+            "stability_resolved": (
+                "point",
+                self.resolved.astype(np.int8),
+                {
+                    "long_name": "1 where the verdict's margin exceeds twice the integration error",
+                    "flag_values": np.array([0, 1], dtype=np.int8),
+                    "flag_meanings": "unresolved resolved",
+                    **one,
+                },
+            ),
         }
 
 

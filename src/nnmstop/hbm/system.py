@@ -53,8 +53,9 @@ def _paper_parameters(structure: Structure):
         return None
     mass, stiffness = _dense(structure.mass), _dense(structure.stiffness)
     try:
-        params = ModelParameters(alpha=float(stop.stiffness), beta=float(stiffness[1, 1]),
-                                 delta=float(mass[1, 1]), eta=float(stop.eta))
+        params = ModelParameters(
+            alpha=float(stop.stiffness), beta=float(stiffness[1, 1]), delta=float(mass[1, 1]), eta=float(stop.eta)
+        )
     except (TypeError, ValueError):
         return None
     paper = two_dof_structure(params)
@@ -96,11 +97,15 @@ class HarmonicBalanceSystem:
     BASES = ("cosine", "full")
     LINEAR_ALGEBRA = ("auto", "dense", "sparse")
 
-    def __init__(self, structure, harmonics: int, time_samples: int = 0, basis: str = "cosine",
-                 linear_algebra: str = "auto"):
+    def __init__(
+        self, structure, harmonics: int, time_samples: int = 0, basis: str = "cosine", linear_algebra: str = "auto"
+    ):
         if not isinstance(structure, Structure):
-            hint = "; for the paper's oscillator pass two_dof_structure(params)" if isinstance(
-                structure, ModelParameters) else ""
+            hint = (
+                "; for the paper's oscillator pass two_dof_structure(params)"
+                if isinstance(structure, ModelParameters)
+                else ""
+            )
             raise TypeError(f"structure must be a Structure, got {type(structure).__name__}{hint}")
         if not isinstance(harmonics, (int, np.integer)) or isinstance(harmonics, bool) or harmonics < 1:
             raise ValueError(f"harmonics must be an integer >= 1, got {harmonics!r}")
@@ -290,8 +295,9 @@ class HarmonicBalanceSystem:
         groups = []
         # linear blocks of each DOF pair (i, j): diag(M_ij lam d2 + K_ij) (+ M_ij nu D1)
         pi, pj, m_ij, k_ij = self._pair_rows, self._pair_cols, self._pair_mass, self._pair_stiffness
-        groups.append((pi[:, None] * nc + diagonal, pj[:, None] * nc + diagonal,
-                       (m_ij * lam)[:, None] * self._d2 + k_ij[:, None]))
+        groups.append(
+            (pi[:, None] * nc + diagonal, pj[:, None] * nc + diagonal, (m_ij * lam)[:, None] * self._d2 + k_ij[:, None])
+        )
         if self.full:
             inertial = m_ij != 0.0
             pi, pj, mn = pi[inertial], pj[inertial], m_ij[inertial] * nu
@@ -309,8 +315,12 @@ class HarmonicBalanceSystem:
             Mz, Mf, Mg = (self.multiplication_matrix(c) for c in (Z[i], F[i], G[i]))
             groups.append((q_i + diagonal, f_i + diagonal, np.full(nc, gap)))
             groups.append((f_i + diagonal, q_i + diagonal, np.full(nc, -eta / gap)))
-            for row, col, block in ((f_i, f_i, eye - Mz), (f_i, z_i, -Mf), (z_i, q_i, (2.0 / gap) * Mg),
-                                    (z_i, f_i, -2.0 / alpha * Mg)):
+            for row, col, block in (
+                (f_i, f_i, eye - Mz),
+                (f_i, z_i, -Mf),
+                (z_i, q_i, (2.0 / gap) * Mg),
+                (z_i, f_i, -2.0 / alpha * Mg),
+            ):
                 groups.append((row + full_block[0], col + full_block[1], block.ravel()))
             groups.append((z_i + diagonal, z_i + diagonal, np.ones(nc)))
         q_rows = np.arange(N * nc)
@@ -371,17 +381,16 @@ class HarmonicBalanceSystem:
         harmonic = np.concatenate([[0], np.arange(1, H + 1), np.arange(1, H + 1)])[:nc]
         # per harmonic, DOF by DOF, its cosine and sine together (nu M couples them DOF-wise):
         # block-banded with the mesh's bandwidth
-        interior = np.concatenate([(free[:, None] * nc + np.flatnonzero(harmonic == h)).ravel()
-                                   for h in range(H + 1)])
+        interior = np.concatenate([(free[:, None] * nc + np.flatnonzero(harmonic == h)).ravel() for h in range(H + 1)])
         stop_blocks = (self.stop_dofs[:, None] * nc + np.arange(nc)).ravel()
         rest = np.arange(N * nc, self.n_unknowns)
         return np.concatenate([interior, stop_blocks, rest])
 
-    def series_cache(self, order: int) -> "SeriesCache":
+    def series_cache(self, order: int) -> SeriesCache:
         """Empty :class:`SeriesCache` for the terms ``U_0 .. U_order`` of one ANM series."""
         return SeriesCache(self, order)
 
-    def series_products(self, series, p: int, cache: "SeriesCache | None" = None):
+    def series_products(self, series, p: int, cache: SeriesCache | None = None):
         """``sum_{r=1}^{p-1} Q(U_r, U_{p-r})``: the right-hand side of ANM order ``p``.
 
         Parameters
@@ -481,8 +490,9 @@ class HarmonicBalanceSystem:
         """
         Q, F, Z, lam, _ = self._fields(U)
         omega = np.sqrt(lam)
-        fields = self.to_time(np.concatenate([self.to_full(Q), omega * self.derivative(Q), self.to_full(F),
-                                              self.to_full(Z)]), samples)
+        fields = self.to_time(
+            np.concatenate([self.to_full(Q), omega * self.derivative(Q), self.to_full(F), self.to_full(Z)]), samples
+        )
         N, s = self.n_dofs, self.n_stops
         q, qdot, f, z = np.split(fields, [N, 2 * N, 2 * N + s])
         t = np.arange(samples) * (2 * np.pi / omega) / samples
@@ -571,7 +581,6 @@ class HarmonicBalanceSystem:
         top = max(2, int(np.ceil(share * H)))
         total = power.sum()
         return float(power[-top:].sum() / total) if total > 0 else 0.0
-
 
 
 def impacts_per_period(x_samples) -> int:

@@ -76,8 +76,9 @@ class BeamStop:
                 f">= stiffness={self.stiffness!r}"
             )
         if (self.node is None) == (self.position is None):
-            raise ValueError(f"give a stop either a node or a position, got node={self.node!r}, "
-                             f"position={self.position!r}")
+            raise ValueError(
+                f"give a stop either a node or a position, got node={self.node!r}, position={self.position!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -107,14 +108,19 @@ class Beam:
     def __post_init__(self):
         for name in ("length", "bending_stiffness", "mass_per_length"):
             object.__setattr__(self, name, _positive(name, getattr(self, name)))
-        if isinstance(self.n_elements, bool) or not isinstance(self.n_elements, (int, np.integer)) \
-                or self.n_elements < 1:
+        if (
+            isinstance(self.n_elements, bool)
+            or not isinstance(self.n_elements, (int, np.integer))
+            or self.n_elements < 1
+        ):
             raise ValueError(f"n_elements must be an integer >= 1, got {self.n_elements!r}")
         object.__setattr__(self, "n_elements", int(self.n_elements))
         for side in ("left", "right"):
             if getattr(self, side) not in BOUNDARY_CONDITIONS:
-                raise ValueError(f"{side} boundary condition must be one of {sorted(BOUNDARY_CONDITIONS)}, "
-                                 f"got {getattr(self, side)!r}")
+                raise ValueError(
+                    f"{side} boundary condition must be one of {sorted(BOUNDARY_CONDITIONS)}, "
+                    f"got {getattr(self, side)!r}"
+                )
         stops = tuple(self.stops)
         if not stops:
             raise ValueError("a beam needs at least one stop, got none")
@@ -135,8 +141,11 @@ class Beam:
     def node_of(self, stop: BeamStop) -> int:
         """Node index of ``stop``; a position off the mesh is a ValueError naming it."""
         if stop.node is not None:
-            if isinstance(stop.node, bool) or not isinstance(stop.node, (int, np.integer)) \
-                    or not 0 <= stop.node <= self.n_elements:
+            if (
+                isinstance(stop.node, bool)
+                or not isinstance(stop.node, (int, np.integer))
+                or not 0 <= stop.node <= self.n_elements
+            ):
                 raise ValueError(f"stop node must be an integer in [0, {self.n_elements}], got {stop.node!r}")
             return int(stop.node)
         position = stop.position
@@ -157,7 +166,7 @@ class Beam:
         return tuple(self.node_of(s) for s in self.stops)
 
     @classmethod
-    def from_parameters(cls, parameters: dict) -> "Beam":
+    def from_parameters(cls, parameters: dict) -> Beam:
         """Build from a dict shaped like :func:`default_tube_parameters` (missing or unknown keys are named)."""
         keys = ("length", "bending_stiffness", "mass_per_length", "n_elements", "left", "right", "stops")
         missing = [k for k in keys if k not in parameters]
@@ -177,18 +186,31 @@ def element_matrices(h: float, bending_stiffness: float, mass_per_length: float)
 
     Local degrees of freedom ``(w_1, theta_1, w_2, theta_2)``.
     """
-    k = bending_stiffness / h**3 * np.array([
-        [12.0, 6 * h, -12.0, 6 * h],
-        [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-        [-12.0, -6 * h, 12.0, -6 * h],
-        [6 * h, 2 * h * h, -6 * h, 4 * h * h],
-    ])
-    m = mass_per_length * h / 420.0 * np.array([
-        [156.0, 22 * h, 54.0, -13 * h],
-        [22 * h, 4 * h * h, 13 * h, -3 * h * h],
-        [54.0, 13 * h, 156.0, -22 * h],
-        [-13 * h, -3 * h * h, -22 * h, 4 * h * h],
-    ])
+    k = (
+        bending_stiffness
+        / h**3
+        * np.array(
+            [
+                [12.0, 6 * h, -12.0, 6 * h],
+                [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+                [-12.0, -6 * h, 12.0, -6 * h],
+                [6 * h, 2 * h * h, -6 * h, 4 * h * h],
+            ]
+        )
+    )
+    m = (
+        mass_per_length
+        * h
+        / 420.0
+        * np.array(
+            [
+                [156.0, 22 * h, 54.0, -13 * h],
+                [22 * h, 4 * h * h, 13 * h, -3 * h * h],
+                [54.0, 13 * h, 156.0, -22 * h],
+                [-13 * h, -3 * h * h, -22 * h, 4 * h * h],
+            ]
+        )
+    )
     return k, m
 
 
@@ -261,12 +283,14 @@ def beam_structure(beam: Beam) -> Structure:
     position = {int(d): i for i, d in enumerate(kept)}
     stops = []
     for stop, node in zip(beam.stops, beam.stop_nodes):
-        stops.append(Stop(
-            dof=position[2 * node],
-            gap=stop.gap / scales["length"],
-            stiffness=stop.stiffness / scales["stiffness"],
-            eta=stop.eta / scales["stiffness"],
-        ))
+        stops.append(
+            Stop(
+                dof=position[2 * node],
+                gap=stop.gap / scales["length"],
+                stiffness=stop.stiffness / scales["stiffness"],
+                eta=stop.eta / scales["stiffness"],
+            )
+        )
     labels = tuple(("w" if d % 2 == 0 else "theta") + str(d // 2) for d in kept)
     return Structure(
         mass=unit_m * scales["first_eigenvalue_unit_beam"],
@@ -310,11 +334,11 @@ def beam_deflection(structure: Structure, q, s) -> np.ndarray:
     element = np.clip(np.searchsorted(nodes, s, side="right") - 1, 0, len(nodes) - 2)
     h = nodes[element + 1] - nodes[element]
     xi = (s - nodes[element]) / h
-    shape = np.stack([1 - 3 * xi**2 + 2 * xi**3, h * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3,
-                      h * (xi**3 - xi**2)])
+    shape = np.stack(
+        [1 - 3 * xi**2 + 2 * xi**3, h * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, h * (xi**3 - xi**2)]
+    )
     left, right = nodal[..., element, :], nodal[..., element + 1, :]
-    return (shape[0] * left[..., 0] + shape[1] * left[..., 1] + shape[2] * right[..., 0]
-            + shape[3] * right[..., 1])
+    return shape[0] * left[..., 0] + shape[1] * left[..., 1] + shape[2] * right[..., 0] + shape[3] * right[..., 1]
 
 
 # --------------------------------------------------------------------------- analytical frequencies
@@ -349,8 +373,9 @@ def rigid_body_modes(left_bc: str, right_bc: str) -> int:
     return _CHARACTERISTIC[frozenset([left_bc, right_bc])][2]
 
 
-def euler_bernoulli_frequencies(left_bc: str, right_bc: str, n_modes: int, length: float, EI: float,
-                                rhoA: float) -> np.ndarray:
+def euler_bernoulli_frequencies(
+    left_bc: str, right_bc: str, n_modes: int, length: float, EI: float, rhoA: float
+) -> np.ndarray:
     """Angular frequencies of the continuous Euler-Bernoulli beam, from the characteristic equations.
 
     ``omega_n = (beta_n L)**2 sqrt(EI / (rhoA L**4))`` with ``beta_n L`` the n-th positive root of
@@ -381,8 +406,7 @@ def euler_bernoulli_frequencies(left_bc: str, right_bc: str, n_modes: int, lengt
     if fun is None:
         roots = n * np.pi
     else:
-        roots = np.array([scipy.optimize.brentq(fun, *bracket(k), xtol=1e-15, rtol=4 * np.finfo(float).eps)
-                          for k in n])
+        roots = np.array([scipy.optimize.brentq(fun, *bracket(k), xtol=1e-15, rtol=4 * np.finfo(float).eps) for k in n])
     return roots**2 * np.sqrt(EI / (rhoA * length**4))
 
 
@@ -396,8 +420,12 @@ def mode_frequencies(beam: Beam, n_modes: int) -> dict:
     rigid = rigid_body_modes(beam.left, beam.right)
     structure = beam_structure(beam)
     fe = linear_frequencies(structure, rigid + n_modes)[rigid:]
-    exact = euler_bernoulli_frequencies(beam.left, beam.right, n_modes, beam.length, beam.bending_stiffness,
-                                        beam.mass_per_length) / beam_scales(beam)["angular_frequency"]
+    exact = (
+        euler_bernoulli_frequencies(
+            beam.left, beam.right, n_modes, beam.length, beam.bending_stiffness, beam.mass_per_length
+        )
+        / beam_scales(beam)["angular_frequency"]
+    )
     return {"fe": fe / (2 * np.pi), "euler_bernoulli": exact / (2 * np.pi)}
 
 

@@ -111,7 +111,7 @@ class ModelParameters:
         return self.eta / self.alpha
 
     @classmethod
-    def from_config(cls, model_config: dict) -> "ModelParameters":
+    def from_config(cls, model_config: dict) -> ModelParameters:
         """Build from the ``model:`` section of the configuration."""
         return cls(**{k: float(model_config[k]) for k in ("alpha", "beta", "delta", "eta")})
 
@@ -277,13 +277,7 @@ def total_energy(x, u, xdot, udot, params: ModelParameters, model: str = "regula
         potential = regularized_contact_potential(x, params)
     else:
         raise ValueError(f"model must be 'piecewise' or 'regularized', got {model!r}")
-    return (
-        0.5 * xdot**2
-        + 0.5 * params.delta * udot**2
-        + 0.5 * x**2
-        + 0.5 * params.beta * (x - u) ** 2
-        + potential
-    )
+    return 0.5 * xdot**2 + 0.5 * params.delta * udot**2 + 0.5 * x**2 + 0.5 * params.beta * (x - u) ** 2 + potential
 
 
 def mass_matrix(params: ModelParameters) -> np.ndarray:

@@ -25,10 +25,9 @@ import xarray as xr
 
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.problem import TwoImpactProblem
-from nnmstop.tasks.hbm import system_from_config
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.two_dof import ModelParameters
 from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.two_dof import ModelParameters
 from nnmstop.study.runs import (
     ERROR_KEYS,
     case_config,
@@ -39,6 +38,7 @@ from nnmstop.study.runs import (
     string_variable,
     variable,
 )
+from nnmstop.tasks.hbm import system_from_config
 
 __all__ = [
     "study_settings",

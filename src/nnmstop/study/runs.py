@@ -25,10 +25,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import xarray as xr
 
-from nnmstop.continuation.anm import ANMSettings, continue_anm
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.stages import TruncationGuard, stage_criterion, stage_dataset, start_point
-from nnmstop.tasks.hbm import branch_settings, system_from_config
 from nnmstop.compare.matching import (
     EnergyMatcher,
     exact_increasing_arm,
@@ -37,8 +33,12 @@ from nnmstop.compare.matching import (
     regularized_orbit_on_phase,
 )
 from nnmstop.config import validate_config
+from nnmstop.continuation.anm import ANMSettings, continue_anm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, UnresolvedBranchError, newton_correct
+from nnmstop.hbm.dataset import dataset_unknowns
+from nnmstop.hbm.stages import TruncationGuard, stage_criterion, stage_dataset, start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.tasks.hbm import branch_settings, system_from_config
 
 __all__ = [
     "FILL_VALUE",
@@ -70,8 +70,6 @@ ERROR_KEYS = (
     "max_force_difference",
     "force_max_exact",
 )
-
-
 
 
 # --------------------------------------------------------------------------- configuration
@@ -359,8 +357,14 @@ def match_energies(
             values[key][i] = diff[key]
         orbits[i] = pair.regularized
     return MatchedErrors(
-        energies, values, orbits, matcher.system, failure,
-        t_exact / n_exact if n_exact else np.nan, t_reg / n_reg if n_reg else np.nan, matcher.energy_range,
+        energies,
+        values,
+        orbits,
+        matcher.system,
+        failure,
+        t_exact / n_exact if n_exact else np.nan,
+        t_reg / n_reg if n_reg else np.nan,
+        matcher.energy_range,
     )
 
 
@@ -381,8 +385,11 @@ def hbm_orbit_differences(
     b, shift_b = regularized_orbit_on_phase(reference_system, U_reference, phase)
     fa, fb = float(system.frequency_hz(U)), float(reference_system.frequency_hz(U_reference))
     largest = largest_differences(
-        a, b, lambda local: regularized_orbit_on_phase(system, U, local, shift_a)[0],
-        lambda local: regularized_orbit_on_phase(reference_system, U_reference, local, shift_b)[0], ("x", "u", "f"),
+        a,
+        b,
+        lambda local: regularized_orbit_on_phase(system, U, local, shift_a)[0],
+        lambda local: regularized_orbit_on_phase(reference_system, U_reference, local, shift_b)[0],
+        ("x", "u", "f"),
     )
     return {
         "relative_frequency_difference": (fa - fb) / fb,

@@ -23,16 +23,15 @@ import numpy as np
 import scipy.optimize
 import xarray as xr
 
-from nnmstop.hbm.stages import start_point
-from nnmstop.tasks.hbm import system_from_config
+from nnmstop.checks.time_integration import integrate_nonsmooth
 from nnmstop.compare.matching import exact_increasing_arm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
 from nnmstop.exact.dataset import two_impact_dataset
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem, first_grazing_orbit, high_energy_orbit
+from nnmstop.hbm.stages import start_point
 from nnmstop.models.two_dof import ModelParameters, linear_modes, stiffness_matrix
-from nnmstop.checks.time_integration import integrate_nonsmooth
 from nnmstop.study.error_runtime import study_settings
 from nnmstop.study.runs import (
     case_config,
@@ -41,6 +40,7 @@ from nnmstop.study.runs import (
     string_variable,
     variable,
 )
+from nnmstop.tasks.hbm import system_from_config
 
 __all__ = [
     "stiff_case_parameters",

@@ -34,11 +34,14 @@ def bundle(config: dict, inputs: dict, outputs: dict) -> Path:
     from nnmstop.bundle import build_bundle
 
     return build_bundle(
-        config, datasets=_as_list(inputs["datasets"]), figures=_as_list(inputs["figures"]),
-        manifest=inputs["manifest"], environment_lock=inputs["environment_lock"],
-        workflow_files=_as_list(inputs["workflow_files"]), output=outputs["bundle"],
+        config,
+        datasets=_as_list(inputs["datasets"]),
+        figures=_as_list(inputs["figures"]),
+        manifest=inputs["manifest"],
+        environment_lock=inputs["environment_lock"],
+        workflow_files=_as_list(inputs["workflow_files"]),
+        output=outputs["bundle"],
     )
-
 
 
 #: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).

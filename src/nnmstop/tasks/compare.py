@@ -79,7 +79,11 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
         )
     marked = {label: spec["points"][label] for label in ("a", "b")}
     ds = comparison_dataset(
-        exact, branch, count=spec["energy_count"], marked=marked, phase_samples=spec["phase_samples"],
+        exact,
+        branch,
+        count=spec["energy_count"],
+        marked=marked,
+        phase_samples=spec["phase_samples"],
         end_margin=spec["end_margin"],
     )
     p = ds.attrs
@@ -90,18 +94,26 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
         "force over the period on the phase t/T aligned at the maximum of x, and both orbits."
     )
     path = write_dataset(
-        ds, output_path, title="NNM1: exact non-smooth vs regularized orbits at matched energies",
-        summary=summary, keywords="exact solution, regularization, comparison",
+        ds,
+        output_path,
+        title="NNM1: exact non-smooth vs regularized orbits at matched energies",
+        summary=summary,
+        keywords="exact solution, regularization, comparison",
         metadata=config.get("metadata"),
     )
     for label in ("a", "b"):
         i = int(np.flatnonzero(ds["marked"].values == ("ab".index(label) + 1))[0])
         logger.info(
             "point %s) E = %.6g: frequency %.8f (exact) vs %.8f Hz (regularized), relative difference %+.3e; "
-            "max |dx| = %.3e, |du| = %.3e, |df| = %.3e", label, float(ds["energy"][i]),
-            float(ds["frequency_exact"][i]), float(ds["frequency_regularized"][i]),
-            float(ds["relative_frequency_difference"][i]), float(ds["max_x_difference"][i]),
-            float(ds["max_u_difference"][i]), float(ds["max_force_difference"][i]),
+            "max |dx| = %.3e, |du| = %.3e, |df| = %.3e",
+            label,
+            float(ds["energy"][i]),
+            float(ds["frequency_exact"][i]),
+            float(ds["frequency_regularized"][i]),
+            float(ds["relative_frequency_difference"][i]),
+            float(ds["max_x_difference"][i]),
+            float(ds["max_u_difference"][i]),
+            float(ds["max_force_difference"][i]),
         )
     return path
 
@@ -189,8 +201,11 @@ def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Pat
     if "table" in outputs:
         write_table(regime_table(ds), outputs["table"])
     logger.info(
-        "wrote %s: %d regimes, %d of %d regularized orbits compared", path, ds.sizes["regime"],
-        ds.attrs["matched_points"], ds.attrs["regularized_points"],
+        "wrote %s: %d regimes, %d of %d regularized orbits compared",
+        path,
+        ds.sizes["regime"],
+        ds.attrs["matched_points"],
+        ds.attrs["regularized_points"],
     )
     return path
 
@@ -208,7 +223,8 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
     ds = stability_comparison_dataset(exact, regularized)
     ds.attrs.update({key: float(config["model"][key]) for key in ("alpha", "beta", "delta", "eta")})
     path = write_dataset(
-        ds, outputs["dataset"],
+        ds,
+        outputs["dataset"],
         title="Exact vs regularized NNM1: Floquet stability per impact regime",
         summary=(
             "Agreement of the stability verdicts of the exact NNM1 (non-smooth model, monodromy from the linear "
@@ -219,8 +235,13 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
         metadata=config.get("metadata"),
     )
     write_table(stability_table(ds), outputs["table"])
-    logger.info("wrote %s: %d regimes, %d of %d compared orbits agree", path, ds.sizes["regime"],
-                ds.attrs["agreeing_orbits"], ds.attrs["compared_orbits"])
+    logger.info(
+        "wrote %s: %d regimes, %d of %d compared orbits agree",
+        path,
+        ds.sizes["regime"],
+        ds.attrs["agreeing_orbits"],
+        ds.attrs["compared_orbits"],
+    )
     return path
 
 
@@ -242,7 +263,6 @@ def main(argv=None) -> None:
         print(table.iloc[:, 12:].to_string())
         print(ds[[v for v in ds.data_vars if v.startswith("change_")]].to_dataframe().to_string())
     print(f"{ds.attrs['agreeing_orbits']} of {ds.attrs['compared_orbits']} compared orbits agree")
-
 
 
 # --------------------------------------------------------------------------- the rules' tasks

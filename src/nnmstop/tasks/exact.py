@@ -55,8 +55,11 @@ def build_two_impact_dataset(config: dict, output_path: str | Path) -> Path:
         f"orbit. The family ends because {family.end_reason}."
     )
     path = write_dataset(
-        ds, output_path, title="NNM1 of the non-smooth system: two impacts per period (exact)",
-        summary=summary, keywords="exact solution, piecewise linear",
+        ds,
+        output_path,
+        title="NNM1 of the non-smooth system: two impacts per period (exact)",
+        summary=summary,
+        keywords="exact solution, piecewise linear",
         metadata=config.get("metadata"),
     )
     logger.info("wrote %s (%d orbits)", path, len(family))
@@ -116,8 +119,11 @@ def build_multi_impact_dataset(config: dict, two_impact_path: str | Path, output
         f"The branch ends: {ds.attrs['end_reason']}."
     )
     path = write_dataset(
-        ds, output_path, title="NNM1 of the non-smooth system: all impact regimes (exact)",
-        summary=summary, keywords="exact solution, piecewise linear, grazing bifurcation",
+        ds,
+        output_path,
+        title="NNM1 of the non-smooth system: all impact regimes (exact)",
+        summary=summary,
+        keywords="exact solution, piecewise linear, grazing bifurcation",
         metadata=config.get("metadata"),
     )
     logger.info("wrote %s (%d orbits, %d segments)", path, ds.sizes["point"], ds.attrs["segments"])

@@ -10,7 +10,6 @@ PDF and its PNG side by side. Paths come from the rules (``workflow/rules/*.smk`
 from __future__ import annotations
 
 import functools
-
 from pathlib import Path
 
 import numpy as np
@@ -18,9 +17,9 @@ import xarray as xr
 
 from nnmstop.figures import exact_vs_regularized as comparison_figures
 from nnmstop.figures import frequency_energy as fep
-from nnmstop.figures.common import save_figure
 from nnmstop.figures import regime_errors as regime_error_drawing
 from nnmstop.figures import stability as stability_drawing
+from nnmstop.figures.common import save_figure
 from nnmstop.figures.study import error_vs_runtime_figure, stiff_cases_figure
 from nnmstop.hbm.stages import combine_stages
 
@@ -231,7 +230,9 @@ def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, 
     figures = config.get("figures", {})
     dpi = int(figures.get("png_dpi", 150))
     zoom = figures.get("extra_stability", {}).get("zoom_energy", stability_drawing.ZOOM_ENERGY)
-    fig = stability_drawing.stability_figure(_read(inputs["exact"]), _read(inputs["nnm1"]), _read(inputs["dataset"]), zoom_energy=zoom)
+    fig = stability_drawing.stability_figure(
+        _read(inputs["exact"]), _read(inputs["nnm1"]), _read(inputs["dataset"]), zoom_energy=zoom
+    )
     return save_figure(fig, pdf_path, png_dpi=dpi)
 
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import xarray as xr
 
-from nnmstop.models.structure import two_dof_structure
 from nnmstop.continuation.anm import ANMSettings
 from nnmstop.hbm.dataset import summarize_bifurcated
 from nnmstop.hbm.monodromy import MonodromySettings
@@ -29,6 +28,7 @@ from nnmstop.hbm.stages import (
     continue_stage,
 )
 from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.netcdf import write_dataset
 
@@ -173,7 +173,6 @@ def main(argv=None) -> None:
 
 #: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
 TASKS = {f.__name__: f for f in (hbm_stage, hbm_bifurcated, hbm_branch)}
-
 
 
 if __name__ == "__main__":

@@ -40,9 +40,19 @@ TASK_INDEX = {
     "hbm": ("hbm_stage", "hbm_bifurcated", "hbm_branch"),
     "compare": ("compare_nnm1", "compare_regimes", "compare_stability"),
     "figures": ("regime_error_figure", "stability_figure", *(f"paper_fig{n:02d}" for n in range(2, 12))),
-    "study": ("study_error_case", "study_anm_case", "study_reference", "study_exact_cost", "study_error_vs_runtime",
-              "study_error_vs_runtime_figure", "study_stiff_exact", "study_stiff_branch", "study_stiff_energy",
-              "study_stiff_cases", "study_stiff_cases_figure"),
+    "study": (
+        "study_error_case",
+        "study_anm_case",
+        "study_reference",
+        "study_exact_cost",
+        "study_error_vs_runtime",
+        "study_error_vs_runtime_figure",
+        "study_stiff_exact",
+        "study_stiff_branch",
+        "study_stiff_energy",
+        "study_stiff_cases",
+        "study_stiff_cases_figure",
+    ),
     "manifest": ("dataset_manifest",),
     "bundle": ("bundle",),
     "verify": ("verify", "update_reference"),
@@ -155,8 +165,12 @@ def main(argv=None) -> None:
     parser.add_argument("--branch")
     parser.add_argument("--stage")
     parser.add_argument("--bifurcation", help="name under bifurcations (task hbm_bifurcated)")
-    parser.add_argument("--wildcard", action="append", metavar="KEY=VALUE",
-                        help="any other wildcard of the task's rule, e.g. --wildcard harmonics=100 (repeatable)")
+    parser.add_argument(
+        "--wildcard",
+        action="append",
+        metavar="KEY=VALUE",
+        help="any other wildcard of the task's rule, e.g. --wildcard harmonics=100 (repeatable)",
+    )
     args = parser.parse_args(argv)
     wildcards = {k: getattr(args, k) for k in ("branch", "stage", "bifurcation") if getattr(args, k) is not None}
     for key, value in _pairs(args.wildcard).items():

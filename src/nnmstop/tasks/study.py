@@ -51,10 +51,17 @@ def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, or
     order = None if order is None else int(order)
     tolerance = None if tolerance is None else float(tolerance)
     ds = error_runtime.error_case_dataset(config, exact, int(harmonics), float(eta), order, tolerance)
-    logger.info("converged %s, compared %s, runtime %.3f s; %s", bool(ds["converged"]), bool(ds["compared"]),
-                float(ds["runtime"]), str(ds["failure"].values) or "no failure")
+    logger.info(
+        "converged %s, compared %s, runtime %.3f s; %s",
+        bool(ds["converged"]),
+        bool(ds["compared"]),
+        float(ds["runtime"]),
+        str(ds["failure"].values) or "no failure",
+    )
     return write_dataset(
-        ds, output_path, title="Study case: regularized NNM1 stage 1 against the exact orbits, timed",
+        ds,
+        output_path,
+        title="Study case: regularized NNM1 stage 1 against the exact orbits, timed",
         summary="One setting of the error-against-run-time study (measurement; not part of the paper's figures).",
         keywords="study, run time",
         metadata=config.get("metadata"),
@@ -65,7 +72,9 @@ def build_reference(config: dict, inputs: dict, output_path, eta) -> Path:
     """The large-H reference orbits of one ``eta`` (input ``exact``)."""
     ds = error_runtime.reference_dataset(config, _read(inputs["exact"]), float(eta))
     return write_dataset(
-        ds, output_path, title="Study reference: regularized NNM1 orbits with many harmonics at the study energies",
+        ds,
+        output_path,
+        title="Study reference: regularized NNM1 orbits with many harmonics at the study energies",
         summary="Large-H reference of the error-against-run-time study (measurement; not part of the paper's figures).",
         keywords="study, reference",
         metadata=config.get("metadata"),
@@ -75,8 +84,11 @@ def build_reference(config: dict, inputs: dict, output_path, eta) -> Path:
 def build_exact_cost(config: dict, inputs: dict, output_path) -> Path:
     """The exact solver's cost per orbit."""
     return write_dataset(
-        error_runtime.exact_cost_dataset(config), output_path, title="Study: cost of the exact two-impact solver",
-        summary="Run time per orbit of the closed-form exact solver (measurement).", keywords="study, run time",
+        error_runtime.exact_cost_dataset(config),
+        output_path,
+        title="Study: cost of the exact two-impact solver",
+        summary="Run time per orbit of the closed-form exact solver (measurement).",
+        keywords="study, run time",
         metadata=config.get("metadata"),
     )
 
@@ -85,11 +97,16 @@ def build_error_vs_runtime(config: dict, inputs: dict, output_path) -> Path:
     """Gather the sweep: inputs ``cases``, ``anm_cases``, ``references`` (in the order of
     :func:`~nnmstop.study.error_runtime.sweep_cases`) and ``exact_cost``."""
     ds = error_runtime.gather_error_vs_runtime(
-        config, _read_all(inputs["cases"]), _read_all(inputs["anm_cases"]), _read_all(inputs["references"]),
+        config,
+        _read_all(inputs["cases"]),
+        _read_all(inputs["anm_cases"]),
+        _read_all(inputs["references"]),
         _read(inputs["exact_cost"]),
     )
     return write_dataset(
-        ds, output_path, title="Error against run time of the regularized NNM1 (HBM + ANM) on its two-impact range",
+        ds,
+        output_path,
+        title="Error against run time of the regularized NNM1 (HBM + ANM) on its two-impact range",
         summary=(
             "Errors of the regularized NNM1 against the exact non-smooth orbits at matched energies, split into "
             "regularization and truncation parts, with measured run times and factorization counts, over the number "
@@ -108,7 +125,9 @@ def build_stiff_exact(config: dict, inputs: dict, output_path, alpha, beta, delt
     """Exact family and checks of one ``(alpha, beta, delta)``."""
     ds = stiff_cases.stiff_exact_dataset(config, float(alpha), float(beta), float(delta))
     return write_dataset(
-        ds, output_path, title="Study (stiff cases): exact two-impact NNM1 family with exactness checks",
+        ds,
+        output_path,
+        title="Study (stiff cases): exact two-impact NNM1 family with exactness checks",
         summary="Exact family, residuals, periodicity by event-located integration (measurement of the study).",
         keywords="study, stiff cases",
         metadata=config.get("metadata"),
@@ -119,10 +138,16 @@ def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, del
     """Harmonics ladder of one stiff case against its exact family (input ``exact``)."""
     exact = _read(inputs["exact"])
     out = stiff_cases.stiff_branch_dataset(config, exact, float(alpha), float(beta), float(delta), float(eta))
-    logger.info("converged %s with H = %d; %s", bool(out["converged"]), int(out["harmonics"]),
-                str(out["failure"].values) or "compared")
+    logger.info(
+        "converged %s with H = %d; %s",
+        bool(out["converged"]),
+        int(out["harmonics"]),
+        str(out["failure"].values) or "compared",
+    )
     return write_dataset(
-        out, output_path, title="Study (stiff cases): regularized NNM1 stage 1, harmonics needed and error",
+        out,
+        output_path,
+        title="Study (stiff cases): regularized NNM1 stage 1, harmonics needed and error",
         summary="Harmonics ladder of a guarded continuation against the exact family (measurement of the study).",
         keywords="study, stiff cases",
         metadata=config.get("metadata"),
@@ -132,7 +157,8 @@ def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, del
 def build_stiff_energy(config: dict, inputs: dict, output_path, alpha) -> Path:
     """The energy sweep of one ``alpha``."""
     return write_dataset(
-        stiff_cases.energy_sweep_dataset(config, float(alpha)), output_path,
+        stiff_cases.energy_sweep_dataset(config, float(alpha)),
+        output_path,
         title="Study (stiff cases): exact solver and HBM at energies from 1e-6 to 1e6",
         summary="Exact orbits and their periodicity by integration, and HBM orbits, at extreme energies (study).",
         keywords="study, stiff cases",
@@ -147,10 +173,12 @@ def build_stiff_cases(config: dict, inputs: dict, output_path) -> Path:
         config, _read_all(inputs["exact"]), _read_all(inputs["branches"]), _read_all(inputs["energy"])
     )
     return write_dataset(
-        ds, output_path,
+        ds,
+        output_path,
         title="Stiff and extreme cases: exactness of the exact solver, convergence of the continuation, errors",
         summary=(
-            "For stiff stops (alpha up to 1e4), sharp regularizations (eta down to 1e-3), extreme energies (1e-6 to 1e6) "
+            "For stiff stops (alpha up to 1e4), sharp regularizations (eta down to 1e-3), extreme energies "
+            "(1e-6 to 1e6) "
             "and stiffness and mass ratios from 0.01 to 100: residuals and periodicity of the exact orbits, the "
             "harmonics and steps the continuation needs (or why it cannot), and its distance to the exact orbits."
         ),
@@ -223,4 +251,19 @@ def study_stiff_cases_figure(config, inputs, outputs):
 
 
 #: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
-TASKS = {f.__name__: f for f in (study_error_case, study_anm_case, study_reference, study_exact_cost, study_error_vs_runtime, study_error_vs_runtime_figure, study_stiff_exact, study_stiff_branch, study_stiff_energy, study_stiff_cases, study_stiff_cases_figure)}
+TASKS = {
+    f.__name__: f
+    for f in (
+        study_error_case,
+        study_anm_case,
+        study_reference,
+        study_exact_cost,
+        study_error_vs_runtime,
+        study_error_vs_runtime_figure,
+        study_stiff_exact,
+        study_stiff_branch,
+        study_stiff_energy,
+        study_stiff_cases,
+        study_stiff_cases_figure,
+    )
+}

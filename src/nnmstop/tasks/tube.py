@@ -35,15 +35,21 @@ def _structure_attrs(beam, structure) -> dict:
     scales = beam_scales(beam)
     stop = structure.stops[0]
     return {
-        "length_m": beam.length, "bending_stiffness_N_m2": beam.bending_stiffness,
-        "mass_per_length_kg_per_m": beam.mass_per_length, "elements": beam.n_elements,
-        "left_end": beam.left, "right_end": beam.right, "dofs": structure.n_dofs,
+        "length_m": beam.length,
+        "bending_stiffness_N_m2": beam.bending_stiffness,
+        "mass_per_length_kg_per_m": beam.mass_per_length,
+        "elements": beam.n_elements,
+        "left_end": beam.left,
+        "right_end": beam.right,
+        "dofs": structure.n_dofs,
         "stop_nodes": np.array(beam.stop_nodes, dtype=np.int32),
         "stop_gap_m": np.array([s.gap for s in beam.stops]),
         "stop_stiffness_N_per_m": np.array([s.stiffness for s in beam.stops]),
         "stop_eta_N_per_m": np.array([s.eta for s in beam.stops]),
-        "alpha": float(stop.stiffness), "eta": float(stop.eta),
-        "length_unit_m": scales["length"], "angular_frequency_unit_rad_per_s": scales["angular_frequency"],
+        "alpha": float(stop.stiffness),
+        "eta": float(stop.eta),
+        "length_unit_m": scales["length"],
+        "angular_frequency_unit_rad_per_s": scales["angular_frequency"],
     }
 
 
@@ -72,21 +78,44 @@ def tube_exact(config, inputs, outputs):
     ds = xr.Dataset(
         {
             "energy": ("orbit", family.energy, {"long_name": "total energy of the non-smooth model", **one}),
-            "frequency": ("orbit", family.frequency, {"long_name": "frequency 1/T in Hz of the nondimensional time", "units": "Hz"}),
-            "contact_time": ("orbit", family.contact_time, {"long_name": "contact duration of the quarter period", **one}),
+            "frequency": (
+                "orbit",
+                family.frequency,
+                {"long_name": "frequency 1/T in Hz of the nondimensional time", "units": "Hz"},
+            ),
+            "contact_time": (
+                "orbit",
+                family.contact_time,
+                {"long_name": "contact duration of the quarter period", **one},
+            ),
             "x_max": ("orbit", family.x_max, {"long_name": "largest displacement at the stop over its gap", **one}),
-            "initial_velocity": (("orbit", "dof"), family.initial_velocity, {"long_name": "velocities at q = 0 (start of the orbit)", **one}),
+            "initial_velocity": (
+                ("orbit", "dof"),
+                family.initial_velocity,
+                {"long_name": "velocities at q = 0 (start of the orbit)", **one},
+            ),
         },
-        coords={"orbit": ("orbit", np.arange(len(family)), {"long_name": "index of the orbit along the family", **one}),
-                "dof": ("dof", np.arange(structure.n_dofs), {"long_name": "index of the degree of freedom", **one})},
+        coords={
+            "orbit": ("orbit", np.arange(len(family)), {"long_name": "index of the orbit along the family", **one}),
+            "dof": ("dof", np.arange(structure.n_dofs), {"long_name": "index of the degree of freedom", **one}),
+        },
     )
-    ds.attrs = {**_structure_attrs(beam, structure), **_mode_attrs(beam, 1), "start": family.start,
-                "end_reason": family.end_reason}
-    write_dataset(ds, outputs["dataset"], title="Exact NNM1 of the finite-element tube with a bilateral stop",
-                  summary="Exact periodic orbits of the non-smooth (piecewise-linear) finite-element tube with one "
-                          "impact on each side of its stop per period, from the grazing orbit of its first linear "
-                          f"mode; closed-form phases (matrix exponentials). The family ends because {family.end_reason}.",
-                  keywords=KEYWORDS, metadata=config.get("metadata"))
+    ds.attrs = {
+        **_structure_attrs(beam, structure),
+        **_mode_attrs(beam, 1),
+        "start": family.start,
+        "end_reason": family.end_reason,
+    }
+    write_dataset(
+        ds,
+        outputs["dataset"],
+        title="Exact NNM1 of the finite-element tube with a bilateral stop",
+        summary="Exact periodic orbits of the non-smooth (piecewise-linear) finite-element tube with one "
+        "impact on each side of its stop per period, from the grazing orbit of its first linear "
+        f"mode; closed-form phases (matrix exponentials). The family ends because {family.end_reason}.",
+        keywords=KEYWORDS,
+        metadata=config.get("metadata"),
+    )
 
 
 def run_tube_branch(tube: dict, anm: dict, mode: int, start_amplitude: float, energy_max: float, label: str):
@@ -101,13 +130,22 @@ def run_tube_branch(tube: dict, anm: dict, mode: int, start_amplitude: float, en
     structure = beam_structure(beam)
     system = HarmonicBalanceSystem(structure, tube["harmonics"])
     settings = ANMSettings.from_config({**anm, "max_steps": tube["max_steps"]}, points_per_step=tube["points_per_step"])
-    branch = continue_structure_nnm(system, mode, start_amplitude, energy_max, tube["max_truncation"], settings,
-                                    label=label)
-    stability = structure_stability(system, np.array(branch.points), steps=tube["stability"]["steps"],
-                                    tolerance=tube["stability"]["tolerance"])
+    branch = continue_structure_nnm(
+        system, mode, start_amplitude, energy_max, tube["max_truncation"], settings, label=label
+    )
+    stability = structure_stability(
+        system, np.array(branch.points), steps=tube["stability"]["steps"], tolerance=tube["stability"]["tolerance"]
+    )
     attrs = {**_structure_attrs(beam, structure), **_mode_attrs(beam, mode), "branch": label}
-    ds = structure_branch_dataset(system, branch, settings, stability, attrs, dof_labels=structure.dof_labels,
-                                  node_coordinates=structure.node_coordinates)
+    ds = structure_branch_dataset(
+        system,
+        branch,
+        settings,
+        stability,
+        attrs,
+        dof_labels=structure.dof_labels,
+        node_coordinates=structure.node_coordinates,
+    )
     return ds
 
 
@@ -116,11 +154,16 @@ def tube_branch(config, inputs, outputs, branch: str):
     tube = config["tube"]
     spec = tube["branches"][branch]
     ds = run_tube_branch(tube, config["anm"], spec["mode"], spec["start_amplitude"], spec["energy_max"], branch)
-    write_dataset(ds, outputs["dataset"], title=f"Regularized {branch.upper()} of the finite-element tube",
-                  summary=f"Periodic orbits of the regularized finite-element tube along its {branch.upper()}, by the "
-                          f"harmonic balance method (H = {tube['harmonics']}) and the asymptotic numerical method, "
-                          f"with Floquet multipliers. End: {ds.attrs['end_reason']}.",
-                  keywords=KEYWORDS, metadata=config.get("metadata"))
+    write_dataset(
+        ds,
+        outputs["dataset"],
+        title=f"Regularized {branch.upper()} of the finite-element tube",
+        summary=f"Periodic orbits of the regularized finite-element tube along its {branch.upper()}, by the "
+        f"harmonic balance method (H = {tube['harmonics']}) and the asymptotic numerical method, "
+        f"with Floquet multipliers. End: {ds.attrs['end_reason']}.",
+        keywords=KEYWORDS,
+        metadata=config.get("metadata"),
+    )
 
 
 def tube_compare(config, inputs, outputs):
@@ -129,13 +172,23 @@ def tube_compare(config, inputs, outputs):
 
     exact = xr.load_dataset(inputs["exact"])
     regularized = xr.load_dataset(inputs["nnm1"])
-    ds = compare_at_energies(exact.energy.values, exact.frequency.values, regularized.energy.values,
-                             regularized.frequency.values, config["tube"]["compare_count"])
+    ds = compare_at_energies(
+        exact.energy.values,
+        exact.frequency.values,
+        regularized.energy.values,
+        regularized.frequency.values,
+        config["tube"]["compare_count"],
+    )
     ds.attrs = {k: v for k, v in regularized.attrs.items() if k in ("alpha", "eta", "harmonics", "elements")}
-    write_dataset(ds, outputs["dataset"], title="Exact against regularized NNM1 of the finite-element tube",
-                  summary="Frequencies of the exact non-smooth and the regularized NNM1 of the tube where each branch "
-                          "first reaches log-spaced energies of their common range.",
-                  keywords=KEYWORDS, metadata=config.get("metadata"))
+    write_dataset(
+        ds,
+        outputs["dataset"],
+        title="Exact against regularized NNM1 of the finite-element tube",
+        summary="Frequencies of the exact non-smooth and the regularized NNM1 of the tube where each branch "
+        "first reaches log-spaced energies of their common range.",
+        keywords=KEYWORDS,
+        metadata=config.get("metadata"),
+    )
 
 
 def study_case_config(tube: dict, gap: float, factor: float) -> dict:
@@ -155,17 +208,27 @@ def tube_study_case(config, inputs, outputs, gap, factor):
     nnm1 = tube["branches"]["nnm1"]
     ds = run_tube_branch(tube, config["anm"], 1, nnm1["start_amplitude"], tube["study"]["energy_max"], "nnm1")
     ds.attrs.update(study_gap_m=float(gap), study_stiffness_factor=float(factor))
-    write_dataset(ds, outputs["dataset"], title=f"Tube NNM1, gap {gap} m, stop stiffness factor {factor}",
-                  summary="One case of the tube's parameter study over gap and stop stiffness.",
-                  keywords=KEYWORDS, metadata=config.get("metadata"))
+    write_dataset(
+        ds,
+        outputs["dataset"],
+        title=f"Tube NNM1, gap {gap} m, stop stiffness factor {factor}",
+        summary="One case of the tube's parameter study over gap and stop stiffness.",
+        keywords=KEYWORDS,
+        metadata=config.get("metadata"),
+    )
 
 
 def tube_figure(config, inputs, outputs, figure: str):
     """``paper_figures/tube_<name>.{pdf,png}`` from the tube datasets."""
     from nnmstop.figures.tube import draw_tube_figure
 
-    draw_tube_figure(figure, {k: xr.load_dataset(v) for k, v in inputs.items()}, config["tube"]["figures"],
-                     outputs["pdf"], outputs["png"])
+    draw_tube_figure(
+        figure,
+        {k: xr.load_dataset(v) for k, v in inputs.items()},
+        config["tube"]["figures"],
+        outputs["pdf"],
+        outputs["png"],
+    )
 
 
 def tube_study(config, inputs, outputs):

@@ -53,6 +53,5 @@ def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
     logger.info("reference regenerated in %s", folder)
 
 
-
 #: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
 TASKS = {f.__name__: f for f in (verify, update_reference)}
