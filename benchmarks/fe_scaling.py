@@ -47,8 +47,8 @@ def structure_of(dofs: int):
     import numpy as np
     import scipy.sparse as sp
 
-    from nnmstop.models.two_dof import ModelParameters
     from nnmstop.models.structure import Stop, Structure, two_dof_structure
+    from nnmstop.models.two_dof import ModelParameters
 
     if dofs == 2:
         return two_dof_structure(ModelParameters())
@@ -118,14 +118,20 @@ def run_case(method: str, dofs: int, harmonics: int, repeat: int) -> dict:
             best = sample
         del lu
     return {
-        "method": method, "dofs": dofs, "harmonics": harmonics, "unknowns": system.n_unknowns, **best,
-        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "base_mb": rss_before / 1024,
+        "method": method,
+        "dofs": dofs,
+        "harmonics": harmonics,
+        "unknowns": system.n_unknowns,
+        **best,
+        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "base_mb": rss_before / 1024,
     }
 
 
 def in_subprocess(method, dofs, harmonics, repeat, threads) -> dict:
-    env = dict(os.environ, OPENBLAS_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads),
-               MKL_NUM_THREADS=str(threads))
+    env = dict(
+        os.environ, OPENBLAS_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads), MKL_NUM_THREADS=str(threads)
+    )
     command = [sys.executable, __file__, "--case", method, str(dofs), str(harmonics), "--repeat", str(repeat)]
     done = subprocess.run(command, env=env, capture_output=True, text=True)
     if done.returncode != 0:
@@ -136,8 +142,11 @@ def in_subprocess(method, dofs, harmonics, repeat, threads) -> dict:
 def fitted_exponent(rows, harmonics, lo=50, hi=400) -> float:
     import numpy as np
 
-    points = sorted((r["dofs"], r["step"]) for r in rows
-                    if r["method"] == "sparse" and r["harmonics"] == harmonics and lo <= r["dofs"] <= hi)
+    points = sorted(
+        (r["dofs"], r["step"])
+        for r in rows
+        if r["method"] == "sparse" and r["harmonics"] == harmonics and lo <= r["dofs"] <= hi
+    )
     n, cost = np.log(np.array(points)).T
     return float(np.polyfit(n, cost, 1)[0])
 
@@ -147,8 +156,12 @@ def main(argv=None):
     parser.add_argument("--dofs", type=int, nargs="+", default=[50, 100, 200, 400])
     parser.add_argument("--harmonics", type=int, nargs="+", default=[50, 100])
     parser.add_argument("--repeat", type=int, default=2)
-    parser.add_argument("--dense-max-unknowns", type=int, default=21000,
-                        help="largest dense case measured (41k unknowns, 400 DOF at H = 100, need 13 GB and ~25 min)")
+    parser.add_argument(
+        "--dense-max-unknowns",
+        type=int,
+        default=21000,
+        help="largest dense case measured (41k unknowns, 400 DOF at H = 100, need 13 GB and ~25 min)",
+    )
     parser.add_argument("--colamd-max-dofs", type=int, default=400)
     parser.add_argument("--blas-threads", type=int, default=1)
     parser.add_argument("--output", type=Path, default=Path(__file__).with_name("fe_scaling.md"))
@@ -170,8 +183,11 @@ def main(argv=None):
                 repeat = 1 if method == "dense" and unknowns > 5000 else args.repeat
                 row = in_subprocess(method, dofs, harmonics, repeat, args.blas_threads)
                 rows.append(row)
-                print(f"{method:14s} N={dofs:4d} H={harmonics:3d} n={row['unknowns']:6d} step {row['step']:9.3f} s "
-                      f"factor {row['factor']:9.3f} s peak {row['peak_mb']:8.0f} MB", flush=True)
+                print(
+                    f"{method:14s} N={dofs:4d} H={harmonics:3d} n={row['unknowns']:6d} step {row['step']:9.3f} s "
+                    f"factor {row['factor']:9.3f} s peak {row['peak_mb']:8.0f} MB",
+                    flush=True,
+                )
     top = max(args.harmonics)
     exponent = fitted_exponent(rows, top)
     largest = max(args.dofs)
@@ -187,8 +203,10 @@ def main(argv=None):
         base = max(measured, key=lambda r: r["unknowns"])
         dense_step = base["factor"] * (sparse_top["unknowns"] / base["unknowns"]) ** 3
         speedup = dense_step / sparse_top["step"]
-        how = (f"dense factorization alone, extrapolated by n**3 from {base['dofs']} DOF, H = {base['harmonics']}; "
-               "not measured")
+        how = (
+            f"dense factorization alone, extrapolated by n**3 from {base['dofs']} DOF, H = {base['harmonics']}; "
+            "not measured"
+        )
     lines = [
         "# Cost of one ANM step against the number of DOF (`python benchmarks/fe_scaling.py`)",
         "",
@@ -201,14 +219,22 @@ def main(argv=None):
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
-        lines.append(f"| {r['method']} | {r['dofs']} | {r['harmonics']} | {r['unknowns']} | {r['step']:.4g} | "
-                     f"{r['factor']:.4g} | {r['products']:.3g} | {r['solves']:.3g} | {r['peak_mb']:.0f} |")
+        lines.append(
+            f"| {r['method']} | {r['dofs']} | {r['harmonics']} | {r['unknowns']} | {r['step']:.4g} | "
+            f"{r['factor']:.4g} | {r['products']:.3g} | {r['solves']:.3g} | {r['peak_mb']:.0f} |"
+        )
     exponents = ", ".join(f"H = {h}: {fitted_exponent(rows, h):.2f}" for h in args.harmonics)
-    lines += ["", f"Fitted exponent of the sparse cost per step, 50-{largest} DOF: {exponents}.",
-              f"Load average (1 min) at the start and end of the run: {load_start:.1f}, {os.getloadavg()[0]:.1f} "
-              f"on {os.cpu_count()} CPUs: on a shared machine absolute times stretch, the side-by-side ratios hold.", ""]
-    summary = (f"exponent of sparse cost per step (50-{largest} DOF, H = {top}): {exponent:.2f}; "
-               f"speed-up over dense LU at {largest} DOF, H = {top}: {speedup:.0f}x ({how})")
+    lines += [
+        "",
+        f"Fitted exponent of the sparse cost per step, 50-{largest} DOF: {exponents}.",
+        f"Load average (1 min) at the start and end of the run: {load_start:.1f}, {os.getloadavg()[0]:.1f} "
+        f"on {os.cpu_count()} CPUs: on a shared machine absolute times stretch, the side-by-side ratios hold.",
+        "",
+    ]
+    summary = (
+        f"exponent of sparse cost per step (50-{largest} DOF, H = {top}): {exponent:.2f}; "
+        f"speed-up over dense LU at {largest} DOF, H = {top}: {speedup:.0f}x ({how})"
+    )
     lines.append(summary)
     args.output.write_text("\n".join(lines) + "\n")
     print(summary)
