@@ -2,6 +2,10 @@
 # workflow's files is named here once; a rule names its outputs with these helpers and its
 # inputs with `rules.<rule>.output.<name>`, so a path is written in one place only.
 
+from nnmstop.study.error_runtime import sweep_cases
+from nnmstop.study.runs import format_number
+from nnmstop.study.stiff_cases import stiff_case_parameters
+
 
 def results(path):
     """A dataset or table under results/."""
@@ -137,3 +141,61 @@ def paper_datasets():
 def paper_figure_files():
     """Figs 2-11 of the paper, PDF and PNG of each."""
     return [path for n in range(2, 12) for path in getattr(rules, f"paper_fig{n:02d}").output]
+
+
+# --------------------------------------------------------------------------- study
+
+
+def study_case_files():
+    """Files of the error-against-run-time jobs, by kind, in the order the gather expects."""
+    cases, n = sweep_cases(config), format_number
+    return {
+        "cases": [results(f"study/cases/H{H}_eta{n(eta)}.nc") for H, eta in cases["cases"]],
+        "anm_cases": [results(f"study/cases/anm_N{order}_tol{n(tol)}.nc") for order, tol in cases["anm_cases"]],
+        "references": [results(f"study/cases/reference_eta{n(eta)}.nc") for eta in cases["references"]],
+        "exact_cost": results("study/cases/exact_cost.nc"),
+    }
+
+
+def stiff_case_files():
+    """Files of the stiff-case jobs, by kind, in the order the gather expects."""
+    cases, n = stiff_case_parameters(config), format_number
+    return {
+        "exact": [results(f"study/stiff/exact_a{n(a)}_b{n(b)}_d{n(d)}.nc") for a, b, d in cases["exact"]],
+        "branches": [results(f"study/stiff/nnm1_a{n(a)}_b{n(b)}_d{n(d)}_e{n(e)}.nc") for a, b, d, e in cases["branches"]],
+        "energy": [results(f"study/stiff/energy_a{n(a)}.nc") for a in cases["energy"]],
+    }
+
+
+# --------------------------------------------------------------------------- finite-element tube
+
+
+# Datasets each tube figure draws (the keys are the figure task's named inputs).
+TUBE_FIGURE_INPUTS = {
+    "frequency_energy": ["nnm1", "nnm2", "exact"],
+    "shapes": ["nnm1"],
+    "contact_force": ["nnm1"],
+    "exact_vs_regularized": ["nnm1", "exact", "comparison"],
+}
+
+
+def tube_file(name):
+    """A dataset of the tube under results/tube/."""
+    return results(f"tube/{name}.nc")
+
+
+TUBE_DATASETS = {"nnm1": tube_file("nnm1"), "nnm2": tube_file("nnm2"), "exact": tube_file("exact_nnm1"),
+                 "comparison": tube_file("nnm1_exact_vs_regularized")}
+
+
+def tube_study_files():
+    """One dataset per (gap, stop stiffness factor) of `tube.study`."""
+    study = config["tube"]["study"]
+    return [tube_file(f"study/gap{g:g}_k{k:g}") for g in study["gaps"] for k in study["stiffness_factors"]]
+
+
+def tube_branch_config(wildcards):
+    """The tube section with only the rule's own branch (a branch reruns when its entry changes)."""
+    tube = {key: value for key, value in config["tube"].items() if key not in ("branches", "figures", "study", "exact", "compare_count")}
+    tube["branches"] = {wildcards.branch: config["tube"]["branches"][wildcards.branch]}
+    return {"tube": tube, "anm": config["anm"], "metadata": config.get("metadata", {})}

@@ -9,32 +9,6 @@
 #   snakemake --profile profiles/slurm study
 
 
-from nnmstop.study.error_runtime import sweep_cases
-from nnmstop.study.runs import format_number
-from nnmstop.study.stiff_cases import stiff_case_parameters
-
-
-def study_case_files():
-    """Files of the error-against-run-time jobs, by kind, in the order the gather expects."""
-    cases, n = sweep_cases(config), format_number
-    return {
-        "cases": [results(f"study/cases/H{H}_eta{n(eta)}.nc") for H, eta in cases["cases"]],
-        "anm_cases": [results(f"study/cases/anm_N{order}_tol{n(tol)}.nc") for order, tol in cases["anm_cases"]],
-        "references": [results(f"study/cases/reference_eta{n(eta)}.nc") for eta in cases["references"]],
-        "exact_cost": results("study/cases/exact_cost.nc"),
-    }
-
-
-def stiff_case_files():
-    """Files of the stiff-case jobs, by kind, in the order the gather expects."""
-    cases, n = stiff_case_parameters(config), format_number
-    return {
-        "exact": [results(f"study/stiff/exact_a{n(a)}_b{n(b)}_d{n(d)}.nc") for a, b, d in cases["exact"]],
-        "branches": [results(f"study/stiff/nnm1_a{n(a)}_b{n(b)}_d{n(d)}_e{n(e)}.nc") for a, b, d, e in cases["branches"]],
-        "energy": [results(f"study/stiff/energy_a{n(a)}.nc") for a in cases["energy"]],
-    }
-
-
 STUDY_CASES = study_case_files() if "study" in config else {"cases": [], "anm_cases": [], "references": [], "exact_cost": []}
 STIFF_CASES = stiff_case_files() if "study" in config else {"exact": [], "branches": [], "energy": []}
 STUDY_NUMBER = r"[0-9][0-9.e-]*"

@@ -2,37 +2,6 @@
 # computed by the same harmonic-balance + ANM engine. `snakemake --cores 2 tube` builds all of it;
 # a figure asked for alone builds only the datasets it draws. Tasks: nnmstop.tasks.tube.
 
-# Datasets each tube figure draws (the keys are the figure task's named inputs).
-TUBE_FIGURE_INPUTS = {
-    "frequency_energy": ["nnm1", "nnm2", "exact"],
-    "shapes": ["nnm1"],
-    "contact_force": ["nnm1"],
-    "exact_vs_regularized": ["nnm1", "exact", "comparison"],
-}
-
-
-def tube_file(name):
-    """A dataset of the tube under results/tube/."""
-    return results(f"tube/{name}.nc")
-
-
-TUBE_DATASETS = {"nnm1": tube_file("nnm1"), "nnm2": tube_file("nnm2"), "exact": tube_file("exact_nnm1"),
-                 "comparison": tube_file("nnm1_exact_vs_regularized")}
-
-
-def tube_study_files():
-    """One dataset per (gap, stop stiffness factor) of `tube.study`."""
-    study = config["tube"]["study"]
-    return [tube_file(f"study/gap{g:g}_k{k:g}") for g in study["gaps"] for k in study["stiffness_factors"]]
-
-
-def tube_branch_config(wildcards):
-    """The tube section with only the rule's own branch (a branch reruns when its entry changes)."""
-    tube = {key: value for key, value in config["tube"].items() if key not in ("branches", "figures", "study", "exact", "compare_count")}
-    tube["branches"] = {wildcards.branch: config["tube"]["branches"][wildcards.branch]}
-    return {"tube": tube, "anm": config["anm"], "metadata": config.get("metadata", {})}
-
-
 rule tube_exact:
     """Exact NNM1 of the non-smooth tube (one impact per stop side per period)."""
     output:
@@ -43,6 +12,8 @@ rule tube_exact:
         benchmarks("tube_exact_nnm1.tsv")
     params:
         config=task_config("metadata", tube=["structure", "exact"]),
+    conda:
+        "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
 
@@ -59,6 +30,8 @@ rule tube_branch:
         benchmarks("tube_{branch}.tsv")
     params:
         config=tube_branch_config,
+    conda:
+        "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
 
@@ -76,6 +49,8 @@ rule tube_compare:
         benchmarks("tube_compare.tsv")
     params:
         config=task_config("metadata", tube=["compare_count"]),
+    conda:
+        "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
 
@@ -95,6 +70,8 @@ rule tube_figure:
         benchmarks("tube_figure_{figure}.tsv")
     params:
         config=task_config(tube=["figures"]),
+    conda:
+        "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
 
@@ -109,6 +86,8 @@ rule tube_study_case:
         benchmarks("tube_study_gap{gap}_k{factor}.tsv")
     params:
         config=task_config("anm", "metadata", "tube"),
+    conda:
+        "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
 
@@ -126,6 +105,8 @@ rule tube_study:
         benchmarks("tube_study.tsv")
     params:
         config=task_config(tube=["figures"]),
+    conda:
+        "../envs/nnmstop.yaml"
     script:
         "../scripts/run_task.py"
 
