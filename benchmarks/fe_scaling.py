@@ -16,8 +16,9 @@ One ANM step is the engine's own (``nnmstop.continuation.anm.ANMStepper.step`` w
 of config/config.yaml: anm section, the tube's points per step): one factorization of the
 bordered Jacobian ``[J; t^T]``, the series products and back-substitutions of orders 1..order,
 step length, Padé approximant, end (and interior) points with their residual checks. The point
-is NNM1 at half the gap, corrected by Newton to the continuation's threshold, with its true tangent (both prepared with the
-sparse solver, untimed); the cost does not depend much on where on the branch the step is.
+is NNM1 at half the gap, corrected by Newton to the continuation's threshold, with its true
+tangent (both prepared with the sparse solver, untimed); the cost hardly depends on where on
+the branch the step is.
 Methods, each case in its own subprocess with one BLAS thread (peak resident memory
 ``ru_maxrss`` of that child, interpreter included):
 
