@@ -28,7 +28,7 @@ logger = logging.getLogger("nnmstop.hbm.structure_branch")
 __all__ = ["structure_start_point", "continue_structure_nnm", "structure_branch_dataset"]
 
 
-def structure_start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float):
+def structure_start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float, tol: float = 1e-12):
     """A point of NNM ``mode`` at small amplitude and the direction of growing amplitude.
 
     The linear mode of the regularized structure, with the first stop's coordinate
@@ -39,7 +39,7 @@ def structure_start_point(system: HarmonicBalanceSystem, mode: int, amplitude: f
     U0 = system.linear_mode_guess(mode, amplitude)
     direction = np.zeros(system.n_unknowns)
     direction[system.phase_dof * system.nc + 1] = 1.0
-    U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=1e-12)
+    U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=tol)
     return U0, direction
 
 
@@ -62,7 +62,9 @@ def continue_structure_nnm(
         raise ValueError(f"energy_max must be > 0, got {energy_max!r}")
     if not 0 < max_truncation < 1:
         raise ValueError(f"max_truncation must lie in (0, 1), got {max_truncation!r}")
-    U0, direction = structure_start_point(system, mode, start_amplitude)
+    # the start needs the accuracy the continuation asks of every point (its Newton threshold): on fine meshes
+    # the round-off floor of the residual (stiffness spread ~ N**4) lies above a fixed 1e-12
+    U0, direction = structure_start_point(system, mode, start_amplitude, tol=settings.newton_threshold)
 
     def stop(U, diagnostics):
         if diagnostics["truncation"] > max_truncation:
