@@ -14,11 +14,12 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
+
+from snakemake_cli import snakemake_command as cli_command
 
 REPO = Path(__file__).resolve().parents[1]
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
@@ -60,18 +61,7 @@ def cluster_partition() -> str:
 
 
 def snakemake_command(workdir: Path, *args: str) -> list[str]:
-    return [
-        sys.executable,
-        "-m",
-        "snakemake",
-        "-s",
-        str(REPO / "Snakefile"),
-        "--directory",
-        str(workdir),
-        "--configfile",
-        str(SMALL_CONFIG),
-        *args,
-    ]
+    return cli_command(workdir, SMALL_CONFIG, *args)
 
 
 def run_under_timeout(cmd: list[str], timeout: float) -> subprocess.CompletedProcess:

@@ -9,8 +9,6 @@ build would (one frequency moved), and the verifier must tell the two apart.
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -19,6 +17,7 @@ import yaml
 
 from nnmstop.tasks.manifest import dataset_manifest
 from nnmstop.verify import file_verdicts, main, update_reference, verify
+from snakemake_cli import run_snakemake
 
 REPO = Path(__file__).resolve().parents[1]
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
@@ -27,21 +26,7 @@ TARGETS = ["results/exact/nnm1_two_impacts.nc", "results/hbm/nnm1.nc"]
 
 def _build(workdir: Path, config: Path) -> Path:
     """Build TARGETS with the workflow and write their manifest; return the results directory."""
-    cmd = [
-        sys.executable,
-        "-m",
-        "snakemake",
-        "-s",
-        str(REPO / "Snakefile"),
-        "--directory",
-        str(workdir),
-        "--configfile",
-        str(config),
-        "--cores",
-        "2",
-        *TARGETS,
-    ]
-    result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    result = run_snakemake(workdir, config, "--cores", "2", *TARGETS, check=False)
     assert result.returncode == 0, result.stderr[-3000:]
     datasets = sorted(str(p.relative_to(workdir)) for p in (workdir / "results").rglob("*.nc"))
     dataset_manifest(

@@ -23,6 +23,7 @@ import yaml
 
 from nnmstop.models.two_dof import ModelParameters, linear_modes
 from nnmstop.netcdf import check_labelled
+from snakemake_cli import run_snakemake
 
 REPO = Path(__file__).resolve().parents[1]
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
@@ -40,22 +41,7 @@ ACDD = (
 
 
 def snakemake(workdir: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess:
-    cmd = [
-        sys.executable,
-        "-m",
-        "snakemake",
-        "-s",
-        str(REPO / "Snakefile"),
-        "--directory",
-        str(workdir),
-        "--configfile",
-        str(SMALL_CONFIG),
-        *args,
-    ]
-    result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-    if check and result.returncode != 0:
-        raise AssertionError(f"{' '.join(cmd)} failed:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}")
-    return result
+    return run_snakemake(workdir, SMALL_CONFIG, *args, check=check)
 
 
 def planned_rules(workdir: Path, target: str) -> set[str]:

@@ -3,35 +3,20 @@
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import xarray as xr
 
 from nnmstop.netcdf import check_labelled
+from snakemake_cli import run_snakemake
 
 REPO = Path(__file__).resolve().parents[2]
 TUBE_CONFIG = REPO / "tests" / "data" / "small_tube_config.yaml"
 
 
 def snakemake(workdir: Path, *args: str) -> str:
-    cmd = [
-        sys.executable,
-        "-m",
-        "snakemake",
-        "-s",
-        str(REPO / "Snakefile"),
-        "--directory",
-        str(workdir),
-        "--configfile",
-        str(TUBE_CONFIG),
-        *args,
-    ]
-    result = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
-    assert result.returncode == 0, f"{' '.join(cmd)}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
-    return result.stdout
+    return run_snakemake(workdir, TUBE_CONFIG, *args, timeout=900).stdout
 
 
 @pytest.fixture(scope="module")

@@ -41,6 +41,22 @@ def _line_segments(ax, x, y, stable, color, label):
         ax.plot(x[a:b], y[a:b], color=color, lw=1.2, ls="-" if stable[a] else "--", label=label if k == 0 else None)
 
 
+def _impact_labels(ax, ds):
+    """The number of impacts per period (all stops) written where it changes along the branch."""
+    impacts = ds.impacts_per_period.values
+    starts = [0, *np.flatnonzero(np.diff(impacts)) + 1]
+    for i in starts:
+        ax.annotate(
+            f"{int(impacts[i])}",
+            (ds.energy.values[i], ds.frequency.values[i]),
+            xytext=(0, 6),
+            textcoords="offset points",
+            fontsize=7,
+            ha="center",
+            color="0.25",
+        )
+
+
 def _frequency_energy(fig, data, spec):
     """One panel per NNM (their frequencies differ by a factor of about six), the exact NNM1 on the first."""
     names = [name for name in ("nnm1", "nnm2") if name in data]
@@ -56,6 +72,7 @@ def _frequency_energy(fig, data, spec):
             color,
             f"{name.upper()} regularized (H = {ds.attrs['harmonics']})",
         )
+        _impact_labels(ax, ds)
         if ds.branch_point_energy.size:
             ax.plot(ds.branch_point_energy.values, ds.branch_point_frequency.values, "kx", ms=6, label="branch point")
         if ds.fold_energy.size:
@@ -71,7 +88,7 @@ def _frequency_energy(fig, data, spec):
             ax.plot(exact.energy.values, exact.frequency.values, color=EXACT, lw=1.2, label="NNM1 exact (non-smooth)")
         ax.set_xscale("log")
         ax.set_xlabel("energy (nondimensional)")
-        ax.set_title(f"{name.upper()}: dashed where unstable", fontsize=9)
+        ax.set_title(f"{name.upper()}: dashed where unstable; numbers: impacts per period", fontsize=9)
         ax.legend(fontsize=7, loc="best")
     axes[0].set_ylabel("frequency (Hz of the nondimensional time)")
     fig.suptitle("Tube with a support plate: frequency-energy plots", fontsize=10)
