@@ -15,20 +15,7 @@ datasets; ``docs/methods/continuation.md``).
 * :func:`switch_branch` steps onto the other curve, :func:`continue_bifurcated_branch` follows it both ways;
 * :func:`classify_branch_point`, :func:`locate_flagged_branch_points`: what crosses at each flagged step.
 
-Branch switching, after Keller's algebraic bifurcation equation:
-
-1. :func:`locate_branch_point` recomputes the path of the step across the sign change
-   with the continuation method that took it and bisects the sign along that path.
-2. :func:`bifurcation_tangents`: with ``phi_1, phi_2`` a basis of the null plane of
-   ``J(U*)`` and ``psi`` its left null vector, the tangents ``tau = a phi_1 + b phi_2``
-   of the curves through ``U*`` solve the quadratic
-   ``psi^T S''(U*)[tau, tau] = 0``. The system is exactly quadratic (the recast,
-   Eq. 12), so ``S''`` is the bilinear form ``2 Q`` that the ANM already evaluates
-   (:func:`quadratic_form`). One root is the incoming tangent;
-   the other is the tangent of the bifurcated curve, not in general orthogonal to it.
-3. :func:`switch_branch` steps along that tangent and corrects by Newton in the
-   hyperplane orthogonal to it; the continuation driver then follows the bifurcated
-   curve both ways (:func:`continue_bifurcated_branch`).
+Method notes (the bifurcation equation, switching): ``docs/methods/hbm.md``.
 """
 
 from __future__ import annotations

@@ -16,32 +16,8 @@ Two contact laws are provided:
 
       f (f - alpha (x - 1)) (f - alpha (x + 1)) = -eta alpha**2 x.
 
-The regularized law is evaluated through an exact rational parametrization of the
-cubic, which is what makes it accurate and overflow-free for tiny and huge ``|x|``.
-Let ``g = f/alpha - x`` (the internal variable of the quadratic recast (11):
-``z = g**2``), ``eps = eta/alpha`` and ``c = 1 - eps``. Eliminating ``f`` from (11)
-gives::
-
-    x(g) = -g - eps * g / (c - g**2),        f(g) = -eta * g / (c - g**2).
-
-On ``-sqrt(c) < g < sqrt(c)`` the map ``g -> x`` is strictly decreasing from
-``+inf`` to ``-inf`` (``dx/dg = -1 - eps (c + g**2)/(c - g**2)**2 < 0``), so every
-``x`` has exactly one ``g`` there; this is the branch through the origin
-(``f ~ eta x``). The two other roots of the cubic have ``|g| > sqrt(c)`` and lie on
-either side (``g < -1`` and ``sqrt(c) < g < 1`` for ``x > 0``), so the admissible
-root is always the middle one of three real roots, for every ``x != 0`` and every
-``0 < eta < alpha``. For ``eta >= alpha`` (``c <= 0``) the construction breaks
-down and :class:`ModelParameters` rejects it.
-
-With ``y = -g`` (same sign as ``x``) and ``s = c - y**2 > 0`` the force, its slope
-and its potential ``P(x) = int_0^x f`` are::
-
-    f  = eta * y / s = alpha * (x - y)
-    f' = eta (c + y**2) / (s**2 + eps (c + y**2))
-    P  = f**2 / (2 alpha) - (eta / 2) * log(s / c)
-
-The potential follows from ``P = int f dx = int f d(f/alpha - g)`` and
-``int f dg = (eta/2) log((c - g**2)/c)``.
+The regularized law is evaluated through an exact rational parametrization of the cubic
+(overflow-free for tiny and huge ``|x|``); its derivation is in ``docs/methods/contact_law.md``.
 """
 
 from __future__ import annotations
