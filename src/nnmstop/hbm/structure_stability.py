@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
+from nnmstop import fourier
+from nnmstop.fourier import PhaseSynthesis
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
 
 __all__ = ["StructureStability", "orbit_multipliers", "structure_stability"]
@@ -30,12 +32,24 @@ def _contact_stiffness(system, x):
     return out
 
 
-def orbit_multipliers(system, U, steps: int) -> np.ndarray:
-    """Floquet multipliers of the HBM orbit ``U`` (2N, by decreasing modulus), ``steps`` Magnus steps."""
+def _constant_part(system):
+    """``A0`` of ``A(t) = A0 - sum_i k_i(t) [0; M^-1 e_i] e_i^T`` and the columns ``M^-1 e_i``: one per structure."""
     N = system.n_dofs
-    mass = system.structure.dense_matrices()[0]
-    stiffness = system.structure.dense_matrices()[1]
+    mass, stiffness = system.structure.dense_matrices()
     m_inv = np.linalg.inv(mass)
+    A0 = np.zeros((2 * N, 2 * N))
+    A0[:N, N:] = np.eye(N)
+    A0[N:, :N] = -m_inv @ stiffness
+    return A0, m_inv[:, list(system.stop_dofs)]
+
+
+def orbit_multipliers(system, U, steps: int, constant_part=None) -> np.ndarray:
+    """Floquet multipliers of the HBM orbit ``U`` (2N, by decreasing modulus), ``steps`` Magnus steps.
+
+    ``constant_part``: :func:`_constant_part` of the system when the caller already has it.
+    """
+    N = system.n_dofs
+    A0, columns = constant_part if constant_part is not None else _constant_part(system)
     blocks = system.split(U)
     Q = np.stack(blocks[:N])
     omega = float(np.sqrt(blocks[-2]))
@@ -43,21 +57,10 @@ def orbit_multipliers(system, U, steps: int) -> np.ndarray:
     h = period / steps
     # stop coordinates at the two Gauss points of every step, from the Fourier series
     phases = omega * h * (np.arange(steps)[:, None] + np.array(_GAUSS)[None, :])
-    H = system.H
-    k = np.arange(H + 1)
-    full = system.to_full(Q[list(system.stop_dofs)])
-    cos_k, sin_k = np.cos(phases[..., None] * k[1:]), np.sin(phases[..., None] * k[1:])
-    q_stop = (
-        full[:, None, None, 0]
-        + np.einsum("sk,ngk->sng", full[:, 1 : H + 1], cos_k)
-        + np.einsum("sk,ngk->sng", full[:, H + 1 :], sin_k)
-    )
+    cos, sin = fourier.to_cos_sin(Q[list(system.stop_dofs)], system.H)
+    q_stop = PhaseSynthesis(phases.ravel(), system.H).values(cos.T, sin.T).T.reshape((-1, *phases.shape))
     x = q_stop / np.asarray(system.gaps)[:, None, None]
     kc = _contact_stiffness(system, x.reshape(len(system.stop_dofs), -1)).reshape(x.shape)
-    A0 = np.zeros((2 * N, 2 * N))
-    A0[:N, N:] = np.eye(N)
-    A0[N:, :N] = -m_inv @ stiffness
-    columns = m_inv[:, list(system.stop_dofs)]  # M^-1 e_i
     phi = np.eye(2 * N)
     for n in range(steps):
         A1, A2 = A0.copy(), A0.copy()
@@ -152,9 +155,10 @@ def structure_stability(system, U_array, steps: int = 256, tolerance: float = 1e
     if not tolerance > 0:
         raise ValueError(f"tolerance must be > 0, got {tolerance!r}")
     mu, error = [], []
+    constant_part = _constant_part(system)
     for U in np.atleast_2d(U_array):
-        coarse = orbit_multipliers(system, U, steps)
-        fine = orbit_multipliers(system, U, 2 * steps)
+        coarse = orbit_multipliers(system, U, steps, constant_part)
+        fine = orbit_multipliers(system, U, 2 * steps, constant_part)
         mu.append(fine)
         error.append(abs(abs(fine[0]) - abs(coarse[0])))
     return StructureStability(np.array(mu), np.array(error), tolerance)

@@ -21,7 +21,7 @@ from nnmstop.compare.dataset import comparison_dataset
 from nnmstop.compare.matching import PARAMETER_KEYS
 from nnmstop.compare.regimes import regime_error_dataset, regime_table
 from nnmstop.compare.stability import stability_comparison_dataset, stability_table
-from nnmstop.netcdf import write_dataset
+from nnmstop.netcdf import read_dataset, write_dataset
 
 __all__ = [
     "build_comparison_dataset",
@@ -33,12 +33,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-
-def _read(path) -> xr.Dataset:
-    """A NetCDF dataset loaded into memory, the file closed."""
-    with xr.open_dataset(path) as ds:
-        return ds.load()
 
 
 def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
@@ -64,7 +58,7 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
         if key not in inputs:
             raise ValueError(f"the comparison needs the input {key!r}, got {sorted(inputs)}")
     spec = config["compare"]
-    exact, branch = _read(inputs["exact"]), _read(inputs["nnm1"])
+    exact, branch = read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"])
     for key in PARAMETER_KEYS:
         ds = branch if key == "eta" else exact
         if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-12, atol=0):
@@ -151,7 +145,7 @@ def read_exact_and_regularized(config: dict, inputs: dict) -> tuple[xr.Dataset, 
     for key in ("exact", "nnm1"):
         if key not in inputs:
             raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
-    exact, regularized = _read(inputs["exact"]), _read(inputs["nnm1"])
+    exact, regularized = read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"])
     for key in ("alpha", "beta", "delta", "eta"):
         for ds in (exact, regularized) if key != "eta" else (regularized,):
             if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-14, atol=0):
@@ -256,7 +250,7 @@ def main(argv=None) -> None:
     parser.add_argument("exact", help="exact branch, e.g. results/exact/nnm1.nc")
     parser.add_argument("regularized", help="regularized branch, e.g. results/hbm/nnm1.nc")
     args = parser.parse_args(argv)
-    ds = stability_comparison_dataset(_read(args.exact), _read(args.regularized))
+    ds = stability_comparison_dataset(read_dataset(args.exact), read_dataset(args.regularized))
     with pd.option_context("display.width", 250, "display.max_columns", 40, "display.max_colwidth", 60):
         table = stability_table(ds)
         print(table.iloc[:, :12].to_string())

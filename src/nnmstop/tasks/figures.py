@@ -22,6 +22,7 @@ from nnmstop.figures import stability as stability_drawing
 from nnmstop.figures.common import save_figure
 from nnmstop.figures.study import error_vs_runtime_figure, stiff_cases_figure
 from nnmstop.hbm.stages import combine_stages
+from nnmstop.netcdf import read_dataset
 
 __all__ = [
     "figure_config",
@@ -34,12 +35,6 @@ __all__ = [
     "build_error_vs_runtime_figure",
     "build_stiff_cases_figure",
 ]
-
-
-def _read(path) -> xr.Dataset:
-    """A NetCDF dataset loaded into memory, the file closed."""
-    with xr.open_dataset(path) as ds:
-        return ds.load()
 
 
 def _as_list(value) -> list:
@@ -164,7 +159,7 @@ def build_exact_vs_regularized_figure(name: str, config: dict, inputs: dict, out
     png_dpi = int(config["compare"]["png_dpi"])
     pdf = _pdf_and_png(name, outputs)
     needed = ("exact", "nnm1", "comparison") if name == "fig02" else ("comparison",)
-    data = {key: _read(_need(name, inputs, key)) for key in needed}
+    data = {key: read_dataset(_need(name, inputs, key)) for key in needed}
     if name == "fig02":
         return comparison_figures.figure_02(data["exact"], data["nnm1"], data["comparison"], pdf, png_dpi)
     builder = comparison_figures.figure_03 if name == "fig03" else comparison_figures.figure_04
@@ -191,32 +186,34 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
     png_dpi = int(config["figures"].get("png_dpi", 150))
     pdf = _pdf_and_png(name, outputs)
     if name == "fig05":
-        return fep.figure_05(_read(_need(name, inputs, "nnm1")), _read(_need(name, inputs, "nnm2")), spec, pdf, png_dpi)
+        return fep.figure_05(
+            read_dataset(_need(name, inputs, "nnm1")), read_dataset(_need(name, inputs, "nnm2")), spec, pdf, png_dpi
+        )
     if name == "fig06":
-        return fep.figure_06(_read(_need(name, inputs, "nnm2")), spec, pdf, png_dpi)
-    stages = [_read(p) for p in _as_list(_need(name, inputs, "nnm1_stages"))]
+        return fep.figure_06(read_dataset(_need(name, inputs, "nnm2")), spec, pdf, png_dpi)
+    stages = [read_dataset(p) for p in _as_list(_need(name, inputs, "nnm1_stages"))]
     nnm1 = combine_nnm1_stages(stages, name, spec.get("nnm1_stages"))
     # optional overlay of the exact multi-impact NNM1 (figures.overlay_exact)
-    exact = _read(inputs["exact"]) if inputs.get("exact") else None
+    exact = read_dataset(inputs["exact"]) if inputs.get("exact") else None
     if name in ("fig07", "fig11"):
         builder = fep.figure_07 if name == "fig07" else fep.figure_11
         return builder(nnm1, spec, pdf, png_dpi, exact=exact)
     builder = {"fig08": fep.figure_08, "fig09": fep.figure_09, "fig10": fep.figure_10}[name]
     # branches switched at branch points (figures.<name>.bifurcated), one input file each
     wanted = spec.get("bifurcated", [])
-    bifurcated = [_read(p) for p in _as_list(_need(name, inputs, "bifurcated"))] if wanted else []
+    bifurcated = [read_dataset(p) for p in _as_list(_need(name, inputs, "bifurcated"))] if wanted else []
     if len(bifurcated) != len(wanted):
         raise ValueError(
             f"{name}: figures.{name}.bifurcated lists {wanted}, the inputs hold {len(bifurcated)} datasets"
         )
-    nnm2 = _read(_need(name, inputs, "nnm2"))
+    nnm2 = read_dataset(_need(name, inputs, "nnm2"))
     return builder(nnm1, nnm2, spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated)
 
 
 def build_regime_error_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
     """Extra figure of the regime errors: ``pdf_path`` and its PNG (resolution ``figures.png_dpi``)."""
     dpi = int(config.get("figures", {}).get("png_dpi", 150))
-    return save_figure(regime_error_drawing.regime_error_figure(_read(dataset_path)), pdf_path, png_dpi=dpi)
+    return save_figure(regime_error_drawing.regime_error_figure(read_dataset(dataset_path)), pdf_path, png_dpi=dpi)
 
 
 def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, Path]:
@@ -231,20 +228,20 @@ def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, 
     dpi = int(figures.get("png_dpi", 150))
     zoom = figures.get("extra_stability", {}).get("zoom_energy", stability_drawing.ZOOM_ENERGY)
     fig = stability_drawing.stability_figure(
-        _read(inputs["exact"]), _read(inputs["nnm1"]), _read(inputs["dataset"]), zoom_energy=zoom
+        read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"]), read_dataset(inputs["dataset"]), zoom_energy=zoom
     )
     return save_figure(fig, pdf_path, png_dpi=dpi)
 
 
 def build_error_vs_runtime_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
     """The study's error-against-run-time figure and its PNG (resolution ``study.png_dpi``)."""
-    fig = error_vs_runtime_figure(_read(dataset_path))
+    fig = error_vs_runtime_figure(read_dataset(dataset_path))
     return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]))
 
 
 def build_stiff_cases_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
     """The study's stiff-cases figure and its PNG (resolution ``study.png_dpi``)."""
-    fig = stiff_cases_figure(_read(dataset_path))
+    fig = stiff_cases_figure(read_dataset(dataset_path))
     return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]))
 
 

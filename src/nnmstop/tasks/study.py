@@ -13,9 +13,7 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import xarray as xr
-
-from nnmstop.netcdf import write_dataset
+from nnmstop.netcdf import read_dataset, write_dataset
 from nnmstop.study import error_runtime, stiff_cases
 
 __all__ = [
@@ -32,14 +30,8 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 
-def _read(path) -> xr.Dataset:
-    """A NetCDF dataset loaded into memory, the file closed."""
-    with xr.open_dataset(path) as ds:
-        return ds.load()
-
-
 def _read_all(paths) -> list:
-    return [_read(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
+    return [read_dataset(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
 
 
 # --------------------------------------------------------------------------- error against run time
@@ -47,7 +39,7 @@ def _read_all(paths) -> list:
 
 def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, order=None, tolerance=None) -> Path:
     """One sweep setting (input ``exact``: the exact two-impact family), written to ``output_path``."""
-    exact = _read(inputs["exact"])
+    exact = read_dataset(inputs["exact"])
     order = None if order is None else int(order)
     tolerance = None if tolerance is None else float(tolerance)
     ds = error_runtime.error_case_dataset(config, exact, int(harmonics), float(eta), order, tolerance)
@@ -70,7 +62,7 @@ def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, or
 
 def build_reference(config: dict, inputs: dict, output_path, eta) -> Path:
     """The large-H reference orbits of one ``eta`` (input ``exact``)."""
-    ds = error_runtime.reference_dataset(config, _read(inputs["exact"]), float(eta))
+    ds = error_runtime.reference_dataset(config, read_dataset(inputs["exact"]), float(eta))
     return write_dataset(
         ds,
         output_path,
@@ -101,7 +93,7 @@ def build_error_vs_runtime(config: dict, inputs: dict, output_path) -> Path:
         _read_all(inputs["cases"]),
         _read_all(inputs["anm_cases"]),
         _read_all(inputs["references"]),
-        _read(inputs["exact_cost"]),
+        read_dataset(inputs["exact_cost"]),
     )
     return write_dataset(
         ds,
@@ -136,7 +128,7 @@ def build_stiff_exact(config: dict, inputs: dict, output_path, alpha, beta, delt
 
 def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, delta, eta) -> Path:
     """Harmonics ladder of one stiff case against its exact family (input ``exact``)."""
-    exact = _read(inputs["exact"])
+    exact = read_dataset(inputs["exact"])
     out = stiff_cases.stiff_branch_dataset(config, exact, float(alpha), float(beta), float(delta), float(eta))
     logger.info(
         "converged %s with H = %d; %s",

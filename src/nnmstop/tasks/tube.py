@@ -15,7 +15,7 @@ import logging
 import numpy as np
 import xarray as xr
 
-from nnmstop.netcdf import write_dataset
+from nnmstop.netcdf import read_dataset, write_dataset
 
 logger = logging.getLogger("nnmstop.tasks.tube")
 
@@ -170,8 +170,8 @@ def tube_compare(config, inputs, outputs):
     """Exact against regularized NNM1 of the tube at matched energies."""
     from nnmstop.compare.structure_branches import compare_at_energies
 
-    exact = xr.load_dataset(inputs["exact"])
-    regularized = xr.load_dataset(inputs["nnm1"])
+    exact = read_dataset(inputs["exact"])
+    regularized = read_dataset(inputs["nnm1"])
     ds = compare_at_energies(
         exact.energy.values,
         exact.frequency.values,
@@ -224,7 +224,7 @@ def tube_figure(config, inputs, outputs, figure: str):
 
     draw_tube_figure(
         figure,
-        {k: xr.load_dataset(v) for k, v in inputs.items()},
+        {k: read_dataset(v) for k, v in inputs.items()},
         config["tube"]["figures"],
         outputs["pdf"],
         outputs["png"],
@@ -235,7 +235,7 @@ def tube_study(config, inputs, outputs):
     """``paper_figures/tube_study.{pdf,png}``: NNM1 backbones (physical units) over gap and stop stiffness."""
     from nnmstop.figures.tube import draw_study_figure
 
-    cases = [xr.load_dataset(path) for path in inputs["cases"]]
+    cases = [read_dataset(path) for path in inputs["cases"]]
     draw_study_figure(cases, config["tube"]["figures"], outputs["pdf"], outputs["png"])
 
 
