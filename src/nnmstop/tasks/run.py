@@ -27,7 +27,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "run_task", "main"]
+__all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "run_task", "run_request", "main"]
 
 logger = logging.getLogger("nnmstop.tasks.run")
 
@@ -140,6 +140,19 @@ def run_task(name: str, config: dict, inputs=None, outputs=None, log: str | None
     except Exception:
         logger.exception("task %s failed", name)
         raise
+
+
+def run_request(request: dict) -> None:
+    """:func:`run_task` from a request (``name``, ``config``, ``inputs``, ``outputs``, ``log``,
+    ``wildcards``), as :func:`nnmstop.tasks.worker.plain_request` makes it from a Snakemake job."""
+    run_task(
+        request["name"],
+        request["config"],
+        request["inputs"],
+        request["outputs"],
+        request["log"],
+        **request["wildcards"],
+    )
 
 
 def _pairs(values):
