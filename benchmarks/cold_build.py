@@ -4,7 +4,8 @@ Extracts a committed tree (HEAD by default) into a fresh temporary directory (no
 ``results/``, no ``.snakemake/``), runs ``snakemake --cores N`` there (the default
 target: every figure, dataset and the manifest) with ``PYTHONPATH`` set to that
 tree's ``src`` (the package of that commit, not the installed one), and reads the
-per-job ``benchmark:`` files to report each rule's wall time.
+per-job ``benchmark:`` files to report each rule's wall time (and the CPU time of jobs run by
+the warm worker from their logs).
 
 ``--compare A B`` builds both refs in the same run, alternately ``--repeat`` times
 (A, B, A, B, ...), and reports the best wall time of each side by side with the
@@ -51,6 +52,8 @@ def rule_of(benchmark_file: Path) -> str:
         return "hbm_stage"
     if re.fullmatch(r"hbm_nnm\d", stem):
         return "hbm_branch"
+    if stem.startswith("hbm_bifurcated_"):
+        return "hbm_bifurcated"
     return stem
 
 
@@ -72,6 +75,12 @@ def cold_build(ref: str, cores: int, keep: bool):
             entry[0] += 1
             entry[1] += float(table["s"].iloc[0])
             entry[2] += float(table["cpu_time"].iloc[0])
+        # A job run by the warm worker (nnmstop.tasks.worker) does its work in a fork of the worker,
+        # outside the job's process tree that Snakemake's benchmark measures: its CPU time is in its log.
+        worker_line = r"task (\w+) ran in the warm worker: [0-9.]+ s wall, ([0-9.]+) s CPU"
+        for log in sorted((workdir / "logs").rglob("*.log")):
+            for task, cpu in re.findall(worker_line, log.read_text()):
+                per_rule[task][2] += float(cpu)
         # Stability time of the hbm_stage jobs, from their logs (commits that log it).
         stability = 0.0
         for log in sorted((workdir / "logs" / "hbm").glob("nnm*_stage*.log")):

@@ -22,6 +22,12 @@ def logs(path):
     return f"logs/{path}"
 
 
+# The longest chains of the build (the exact family and its comparison; the HBM stages one after
+# the other, then the branches switched from them) start first: with two cores, the figure jobs
+# then fill the gaps instead of delaying the chains (Snakemake runs higher `priority:` first).
+CRITICAL_PATH = 10
+
+
 def benchmarks(path):
     """The run time and memory of a job (Snakemake `benchmark:`), under benchmarks/runs/."""
     return f"benchmarks/runs/{path}"

@@ -13,6 +13,7 @@ rule compare_nnm1:
         nnm1=stage_file("nnm1", 1),
     output:
         dataset=results("compare/nnm1_exact_vs_regularized.nc"),
+    priority: CRITICAL_PATH
     log:
         logs("compare/nnm1_exact_vs_regularized.log"),
     benchmark:

@@ -25,6 +25,7 @@ rule exact_nnm1:
         two_impacts=rules.exact_two_impacts.output.dataset,
     output:
         dataset=results("exact/nnm1.nc"),
+    priority: CRITICAL_PATH
     log:
         logs("exact_nnm1.log"),
     benchmark:

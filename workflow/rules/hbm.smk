@@ -14,6 +14,7 @@ rule hbm_stage:
     wildcard_constraints:
         branch="nnm[12]",
         stage=r"\d+",
+    priority: CRITICAL_PATH
     log:
         logs("hbm/{branch}_stage{stage}.log"),
     benchmark:
@@ -34,6 +35,7 @@ rule hbm_bifurcated:
         dataset=results("hbm/bifurcated/{bifurcation}.nc"),
     wildcard_constraints:
         bifurcation="[a-z0-9_]+",
+    priority: CRITICAL_PATH
     log:
         logs("hbm/bifurcated_{bifurcation}.log"),
     benchmark:
@@ -58,6 +60,7 @@ rule hbm_branch:
         dataset=results("hbm/{branch}.nc"),
     wildcard_constraints:
         branch="nnm[12]",
+    priority: CRITICAL_PATH
     log:
         logs("hbm/{branch}.log"),
     benchmark:

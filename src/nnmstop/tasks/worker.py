@@ -94,8 +94,10 @@ def worker_key(environ=None) -> str:
 
 
 def socket_path(key: str) -> Path:
-    """The worker's socket: in a directory of the user's own under the temporary directory."""
-    directory = Path(tempfile.gettempdir()) / f"nnmstop-worker-{os.getuid()}"
+    """The worker's socket: in ``NNMSTOP_WORKER_DIR``, by default a directory of the user's own under
+    the temporary directory (a Unix socket's path has at most 107 characters)."""
+    default = Path(tempfile.gettempdir()) / f"nnmstop-worker-{os.getuid()}"
+    directory = Path(os.environ.get("NNMSTOP_WORKER_DIR", default))
     directory.mkdir(mode=0o700, exist_ok=True)
     return directory / f"{key}.sock"
 
