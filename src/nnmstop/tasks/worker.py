@@ -20,14 +20,12 @@ from __future__ import annotations
 
 import argparse
 import errno
-import fcntl
 import hashlib
 import importlib
 import importlib.util
 import logging
 import os
 import pickle
-import resource
 import signal
 import socket
 import struct
@@ -109,6 +107,8 @@ def worker_enabled(config: dict | None, environ=None) -> bool:
     environ = os.environ if environ is None else environ
     if environ.get("NNMSTOP_WARM_WORKER", "1") == "0" or "SLURM_JOB_ID" in environ:
         return False
+    if not (hasattr(os, "fork") and hasattr(socket, "AF_UNIX")):
+        return False  # no fork or Unix sockets (Windows): jobs run in-process
     return bool(((config or {}).get("execution") or {}).get("warm_worker", True))
 
 
@@ -264,6 +264,8 @@ def _run_request(connection: socket.socket) -> int:
         status = 0
     except Exception:  # run_task logged it
         status = 1
+    import resource  # Unix only, like the worker
+
     usage = resource.getrusage(resource.RUSAGE_SELF)
     logging.getLogger("nnmstop.tasks.worker").info(
         "task %s ran in the warm worker: %.2f s wall, %.2f s CPU, %.0f MB peak resident",
@@ -288,6 +290,8 @@ def _reap(children: set) -> None:
 def serve(path: Path, idle: float) -> None:
     """Import the task modules, then fork a child per job connecting to ``path``, until ``idle``
     seconds pass with no task running. One worker per socket: a second one exits at once."""
+    import fcntl  # Unix only, like the worker
+
     lock = open(f"{path}.lock", "w")
     try:
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
