@@ -64,15 +64,41 @@ def _frequency_energy(fig, data, spec):
     for ax, name in zip(axes, names):
         ds = data[name]
         color = REGULARIZED if name == "nnm1" else "tab:green"
-        _line_segments(
-            ax,
-            ds.energy.values,
-            ds.frequency.values,
-            ds.stable.values,
-            color,
-            f"{name.upper()} regularized (H = {ds.attrs['harmonics']})",
-        )
+        # segments of a branch continued over resonance tongues are separate curves (no line across a tongue)
+        segment = ds.segment.values if "segment" in ds else np.zeros(ds.sizes["point"], dtype=int)
+        for k in np.unique(segment):
+            part = segment == k
+            _line_segments(
+                ax,
+                ds.energy.values[part],
+                ds.frequency.values[part],
+                ds.stable.values[part],
+                color,
+                f"{name.upper()} regularized (H = {ds.attrs['harmonics']})" if k == segment[0] else None,
+            )
         _impact_labels(ax, ds)
+        if "passed_resonance_frequency" in ds and ds.passed_resonance_frequency.size:
+            ax.plot(
+                ds.passed_resonance_energy.values,
+                ds.passed_resonance_frequency.values,
+                "v",
+                color="tab:purple",
+                ms=6,
+                label="internal resonance passed (tongue)",
+            )
+            for energy, frequency, n in zip(
+                ds.passed_resonance_energy.values,
+                ds.passed_resonance_frequency.values,
+                ds.passed_resonance_harmonic.values,
+            ):
+                ax.annotate(
+                    f"{int(n)}:1",
+                    (energy, frequency),
+                    xytext=(6, -10),
+                    textcoords="offset points",
+                    fontsize=7,
+                    color="tab:purple",
+                )
         if ds.branch_point_energy.size:
             ax.plot(ds.branch_point_energy.values, ds.branch_point_frequency.values, "kx", ms=6, label="branch point")
         if ds.fold_energy.size:

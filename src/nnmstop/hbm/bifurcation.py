@@ -176,15 +176,14 @@ def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30, refere
     Each update is the least-norm solution of ``J dU = -S`` with the singular values
     below ``1e-12`` of the largest cut off, so the iteration stays well defined at and
     near a branch point, where the bordered matrices of the continuation are singular.
-    A sparse system (``linear_algebra == "sparse"``) takes instead the update orthogonal to
-    the null plane of ``J(U)`` near a branch point (:class:`_DeflatedNewton`): the same
-    update where ``J`` has that plane as null space, without a dense SVD.
+    A sparse system (``linear_algebra == "sparse"``) solves instead with the sparse LU of
+    ``[J; t^T]``, ``t`` the unit null vector of ``J`` at the iterate: the least-norm update
+    itself wherever no singular value is cut off, without a dense SVD.
 
     Parameters
     ----------
     reference : ndarray, optional
-        A direction of the branch near ``U`` (sparse systems: the border of the null-plane
-        computation; the first unit vector's complement when None).
+        A direction of the branch near ``U``, which orients the null vectors of sparse systems.
 
     Raises
     ------
@@ -192,10 +191,12 @@ def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30, refere
         If the relative residual does not reach ``tol``.
     """
     if _is_sparse(system):
-        plane, psi, _ = _null_plane(system, U, reference)
+        direction = np.ones(system.n_unknowns) if reference is None else np.asarray(reference, float)
 
         def update(V):
-            return _DeflatedNewton(system.jacobian(V, sparse=True), plane, psi)
+            # the least-norm update is the one orthogonal to the null vector of J(V): the tangent there
+            tangent, _ = unit_tangent(system, V, direction, singular_tol=None)
+            return _InHyperplane(factorize_bordered(system, V, tangent, singular_tol=None))
     else:
 
         def update(V):
@@ -228,21 +229,14 @@ class _LeastNorm:
         return np.linalg.lstsq(self.J, rhs, rcond=1e-12)[0]
 
 
-class _DeflatedNewton:
-    """Solutions of ``J x = rhs`` orthogonal to a plane, the residual's component along ``psi`` dropped.
+class _InHyperplane:
+    """Solutions of ``J x = rhs`` with ``<t, x> = 0`` from the factors of ``[J; t^T]``."""
 
-    The extended matrix ``[[J, psi], [P, 0]]`` (``P`` the two rows of the plane) is regular
-    at a simple branch point whose null plane of ``J`` is close to ``P`` and left null vector
-    close to ``psi`` (sparse LU).
-    """
-
-    def __init__(self, J, plane, psi):
-        n = J.shape[0]
-        extended = sp.bmat([[J, sp.csr_matrix(psi[:, None])], [sp.csr_matrix(plane), None]], format="csc")
-        self.lu, self.n = splu(extended), n
+    def __init__(self, factors):
+        self.factors = factors
 
     def solve(self, rhs):
-        return self.lu.solve(np.concatenate([rhs, np.zeros(2)]))[: self.n + 1]
+        return self.factors.solve(np.append(rhs, 0.0))
 
 
 def _is_sparse(system) -> bool:
