@@ -127,3 +127,18 @@ def test_sparse_null_plane_matches_the_dense_svd(tube_through_resonance):
     assert abs(abs(dense.bifurcated @ sparse_point.bifurcated) - 1.0) < 1e-6
     assert abs(abs(dense.incoming @ sparse_point.incoming) - 1.0) < 1e-6
     assert dense.singular_ratio < 1e-6 and sparse_point.singular_ratio < 1e-6
+
+
+@pytest.mark.parametrize(
+    ("keyword", "value", "named"),
+    [
+        ("pass_resonances", -1, "pass_resonances"),
+        ("pass_resonances", 1.5, "pass_resonances"),
+        ("resonance_margin", 0.0, "resonance_margin"),
+        ("resonance_margin", 0.5, "resonance_margin"),
+    ],
+)
+def test_bad_resonance_settings_are_named(keyword, value, named):
+    system = HarmonicBalanceSystem(_coarse_tube(), 4)
+    with pytest.raises(ValueError, match=named):
+        continue_structure_nnm(system, 1, 0.1, 10.0, 1e-2, ANMSettings(), **{keyword: value})

@@ -126,8 +126,10 @@ def _follow(system, U, direction, energy_max, max_truncation, settings, label, s
 
     def stop(U, diagnostics):
         if diagnostics["truncation"] > max_truncation:
-            return f"truncation {diagnostics['truncation']:.3g} above {max_truncation:g} at E = "
-            f"{diagnostics['energy']:.6g}"
+            return (
+                f"truncation {diagnostics['truncation']:.3g} above {max_truncation:g} at E = "
+                f"{diagnostics['energy']:.6g}"
+            )
         if diagnostics["energy"] > energy_max:
             return f"energy above {energy_max:g}"
         frequency = diagnostics["frequency"]
