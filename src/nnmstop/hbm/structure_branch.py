@@ -1,7 +1,8 @@
 """NNM branches of a structure with stops (a finite-element tube, or any :class:`Structure`).
 
 Map: :func:`continue_structure_nnm` starts from a linear mode at small amplitude and follows the
-regularized NNM by the ANM until an energy limit or the truncation limit;
+regularized NNM by the ANM until an energy limit or the truncation limit, optionally passing the
+first internal resonance tongues it meets (segments; ``docs/methods/tube_resonance.md``);
 :func:`structure_branch_dataset` assembles the labelled dataset (Fourier coefficients of every
 degree of freedom and stop force, energy, frequency, impacts per stop, residuals, located branch
 points and folds, Floquet stability). The paper's 2-DOF branches keep their own stages and datasets
@@ -27,7 +28,7 @@ from nnmstop.netcdf import flag_variable
 
 logger = logging.getLogger("nnmstop.hbm.structure_branch")
 
-__all__ = ["structure_start_point", "continue_structure_nnm", "structure_branch_dataset"]
+__all__ = ["PassedResonance", "structure_start_point", "continue_structure_nnm", "structure_branch_dataset"]
 
 
 def structure_start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float, tol: float = 1e-12):
