@@ -57,6 +57,26 @@ def _impact_labels(ax, ds):
         )
 
 
+def _resonance_inset(ax, ds, segment, color):
+    """Zoom on the first tongue passed: the segments before and after it, their frequency maximum and fold."""
+    f_tongue = float(ds.passed_resonance_frequency.values[0])
+    after = segment == 1
+    e_lo = 0.97 * float(ds.energy.values[after].min())
+    e_hi = float(ds.energy.values[after].max())
+    f_hi = float(ds.frequency.values[after].max())
+    inset = ax.inset_axes([0.3, 0.2, 0.33, 0.3])
+    for k in (0, 1):
+        part = segment == k
+        inset.plot(ds.energy.values[part], ds.frequency.values[part], ".-", color=color, ms=2, lw=0.8)
+    inset.plot(ds.passed_resonance_energy.values[:1], [f_tongue], "v", color="tab:purple", ms=5)
+    if ds.fold_energy.size:
+        inset.plot(ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=4)
+    inset.set_xlim(e_lo, e_hi)
+    inset.set_ylim(f_tongue - 0.25 * (f_hi - f_tongue), f_hi)
+    inset.tick_params(labelsize=6)
+    inset.set_title("over the tongue (segments 0 and 1)", fontsize=6)
+
+
 def _frequency_energy(fig, data, spec):
     """One panel per NNM (their frequencies differ by a factor of about six), the exact NNM1 on the first."""
     names = [name for name in ("nnm1", "nnm2") if name in data]
@@ -99,6 +119,7 @@ def _frequency_energy(fig, data, spec):
                     fontsize=7,
                     color="tab:purple",
                 )
+            _resonance_inset(ax, ds, segment, color)
         if ds.branch_point_energy.size:
             ax.plot(ds.branch_point_energy.values, ds.branch_point_frequency.values, "kx", ms=6, label="branch point")
         if ds.fold_energy.size:
