@@ -11,7 +11,13 @@ import numpy as np
 import pytest
 
 from nnmstop.continuation.anm import ANMSettings, ANMStepper, continue_anm
-from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct, relative_residual
+from nnmstop.continuation.core import (
+    ContinuationError,
+    ContinuationStats,
+    newton_correct,
+    relative_residual,
+    unit_tangent,
+)
 from nnmstop.continuation.corrected_path import CorrectedPath
 from nnmstop.continuation.driver import continue_branch
 from nnmstop.continuation.linear import BorderedFactorization
@@ -219,3 +225,31 @@ def test_both_steppers_locate_the_same_3to1_branch_point(nnm1_through_3to1):
     E_anm, E_pal = (system.diagnostics(U)["energy"] for U in (U_anm, U_pal))
     assert abs(E_anm - E_pal) <= 2.0 * bound / scale * E_anm
     assert relative_residual(system, U_pal) <= 1e-9 and relative_residual(system, U_anm) <= 1e-9
+
+
+def test_location_from_a_step_end_off_the_series_matches_pseudo_arclength(nnm1_through_3to1):
+    """A flagged ANM step whose end does not lie on the recomputed series (as after a Newton correction that
+    moved it) is located on the step's own path up to its own end: the same 3:1 branch point as pseudo-arclength.
+
+    The end passed is the point stored after the step (on the branch, beyond the series' end), so the
+    recomputed series does not reach it and the strict path check refuses it.
+    """
+    system, runs = nnm1_through_3to1
+    located = {}
+    for name, branch in runs.items():
+        found = locate_flagged_branch_points(system, branch.points, branch.step, branch.branch_points, METHODS[name])
+        i = next(i for i, _, n, _ in found if n == 3)
+        located[name] = (i, next(point for _, point, n, _ in found if n == 3))
+    branch = runs["ANM"]
+    i, _ = located["ANM"]
+    start = branch.step.index(branch.step[i]) - 1
+    U_a, U_off = branch.points[start], branch.points[i + 1]
+    tangent, _ = unit_tangent(system, U_a, U_off - U_a)
+    with pytest.raises(ValueError, match="not on the ANM step"):
+        METHODS["ANM"].stepper().path_through(system, U_a, tangent, U_off, ContinuationStats())
+    U_star, _ = locate_branch_point(system, U_a, U_off, METHODS["ANM"])
+    U_pal = located["pseudo-arclength"][1].U
+    chord = np.linalg.norm(branch.points[i] - U_a)  # the series is the branch to its tolerance relative to the step
+    bound = 2.0 * (ANMSettings().tolerance * chord + 1e-9 * np.linalg.norm(U_pal))
+    assert np.linalg.norm(U_star - U_pal) <= bound
+    assert relative_residual(system, U_star) <= 1e-9

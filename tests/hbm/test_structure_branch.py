@@ -7,20 +7,27 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from nnmstop.continuation.anm import ANMSettings
+from nnmstop.continuation.core import relative_residual
+from nnmstop.hbm.bifurcation import locate_flagged_branch_points
 from nnmstop.hbm.structure_branch import continue_structure_nnm
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.beam import Beam, beam_structure, default_tube_parameters
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force
 
 
-@pytest.fixture(scope="module")
-def tube_branch():
-    """A 5-element tube (plate at 0.6 L, 3 x the static stiffness there), NNM1 up to several impacts per stop."""
+def _coarse_tube():
+    """A 5-element tube (plate at 0.6 L, 3 x the static stiffness there)."""
     parameters = default_tube_parameters()
     parameters["n_elements"] = 5
     stiffness = 3.0 * 3.0 * parameters["bending_stiffness"] / 0.6**3
     parameters["stops"][0].update(stiffness=stiffness, eta=stiffness / 300.0)
-    structure = beam_structure(Beam.from_parameters(parameters))
+    return beam_structure(Beam.from_parameters(parameters))
+
+
+@pytest.fixture(scope="module")
+def tube_branch():
+    """The coarse tube's NNM1 up to several impacts per stop."""
+    structure = _coarse_tube()
     system = HarmonicBalanceSystem(structure, 40)
     branch = continue_structure_nnm(system, 1, 0.1, 20.0, 1e-3, ANMSettings(max_steps=400), "tube nnm1")
     return structure, system, branch
@@ -66,3 +73,72 @@ def test_hbm_orbits_of_the_tube_are_periodic_in_time(tube_branch):
         checked_impacts.append(diagnostics["impacts_per_period"])
     assert max(checked_impacts) >= 4  # several impacts per stop were checked, not only the one-impact regime
     assert 2 in checked_impacts
+
+
+@pytest.fixture(scope="module")
+def tube_through_resonance():
+    """The coarse tube at H = 40, NNM1 over its first internal resonance tongue (17:1 with the third mode, at
+    E = 8.9) up to E = 10, below the next one."""
+    structure = _coarse_tube()
+    system = HarmonicBalanceSystem(structure, 40)
+    settings = ANMSettings(max_steps=400, points_per_step=2)
+    branch = continue_structure_nnm(system, 1, 0.1, 10.0, 1e-2, settings, "tube nnm1", pass_resonances=1)
+    return structure, system, settings, branch
+
+
+def test_nnm1_passes_its_first_internal_resonance_onto_the_backbone_beyond(tube_through_resonance):
+    """The backbone bends into the tongue where n times its frequency is the third mode's; beyond it the
+    frequency and the energy rise above the tongue's again, every point on the branch and periodic in time."""
+    structure, system, settings, branch = tube_through_resonance
+    (resonance,) = branch.resonances
+    # independent: the linear frequencies of the regularized tube. The third mode's amplitude is small at the
+    # tongue's foot, so its frequency there is close to the linear one: the harmonic of NNM1 that locks to it is
+    # the nearest integer to their ratio, and odd (NNM1's orbits are half-wave symmetric: odd harmonics only)
+    f3 = system.linear_modes()[0][2] / (2 * np.pi)
+    assert resonance.harmonic == round(f3 / resonance.frequency)
+    assert resonance.harmonic % 2 == 1
+    segment = np.array(branch.segment)
+    beyond = np.flatnonzero(segment == 1)
+    energy = np.array([d["energy"] for d in branch.diagnostics])
+    frequency = np.array([d["frequency"] for d in branch.diagnostics])
+    # segment 1 starts at its energy fold at the tongue and climbs above it in frequency and energy
+    assert np.all(frequency[beyond] > resonance.frequency)
+    assert energy[beyond[-1]] > 10.0 > resonance.energy
+    assert frequency[beyond[-1]] > 1.02 * resonance.frequency
+    assert all(relative_residual(system, branch.points[i]) <= settings.newton_threshold for i in beyond)
+    # the orbit furthest beyond the tongue closes under DOP853 within its time residual (see above)
+    i = beyond[-1]
+    defect = _period_defect(structure, system, branch.points[i])
+    assert defect < np.pi * branch.diagnostics[i]["time_residual"] + 1e-8, (energy[i], defect)
+
+
+def test_sparse_null_plane_matches_the_dense_svd(tube_through_resonance):
+    """The branch point of the tube's NNM1 located and resolved with the sparse LU (inverse iterations) and with
+    the dense SVD of the same Jacobian: same point, same pair of tangents.
+
+    Not every flagged step holds a simple branch point (singular ratio of order 1 where none is); the one with
+    the smallest ratio by the dense SVD is compared."""
+    structure, system, settings, branch = tube_through_resonance
+    sparse = HarmonicBalanceSystem(structure, system.H, linear_algebra="sparse")
+    located = locate_flagged_branch_points(system, branch.points, branch.step, branch.branch_points, settings)
+    flagged, dense, _, _ = min(located, key=lambda item: item[1].singular_ratio)
+    sparse_point = locate_flagged_branch_points(sparse, branch.points, branch.step, [flagged], settings)[0][1]
+    assert np.linalg.norm(dense.U - sparse_point.U) <= 1e-7 * np.linalg.norm(dense.U)
+    assert abs(abs(dense.bifurcated @ sparse_point.bifurcated) - 1.0) < 1e-6
+    assert abs(abs(dense.incoming @ sparse_point.incoming) - 1.0) < 1e-6
+    assert dense.singular_ratio < 1e-6 and sparse_point.singular_ratio < 1e-6
+
+
+@pytest.mark.parametrize(
+    ("keyword", "value", "named"),
+    [
+        ("pass_resonances", -1, "pass_resonances"),
+        ("pass_resonances", 1.5, "pass_resonances"),
+        ("resonance_margin", 0.0, "resonance_margin"),
+        ("resonance_margin", 0.5, "resonance_margin"),
+    ],
+)
+def test_bad_resonance_settings_are_named(keyword, value, named):
+    system = HarmonicBalanceSystem(_coarse_tube(), 4)
+    with pytest.raises(ValueError, match=named):
+        continue_structure_nnm(system, 1, 0.1, 10.0, 1e-2, ANMSettings(), **{keyword: value})

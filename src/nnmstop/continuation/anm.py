@@ -343,12 +343,14 @@ class ANMStepper(Stepper):
             yield U_j, t_j
         yield result.U_end, result.t_end
 
-    def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats):
+    def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats, strict: bool = True):
         """The ANM step from ``U_a`` recomputed; ``U_b``'s parameter is that of the nearest point of its path.
 
         The path is the series (or its Padé approximant, as the continuation used it), the branch
         to the series' accuracy all along the step, geometric tail removed so that it runs through
-        a branch point on the branch being followed.
+        a branch point on the branch being followed. With ``strict=False``, a ``U_b`` off the path
+        (a step end that Newton moved, e.g. onto the other curve past a branch point) gives the path
+        up to its own end instead of a ValueError.
         """
         step = anm_step(system, U_a, tangent_a, self.settings, stats)
         path, a_max = step.path, step.a_max
@@ -364,6 +366,9 @@ class ANMStepper(Stepper):
                 break
         gap = np.linalg.norm(path(a_end) - U_b)
         if not (a_end > 0 and gap <= 1e-3 * np.linalg.norm(chord)):
+            if not strict:
+                logger.info("U_b is %.3g off the recomputed ANM step: its own end (a = %.6g) is taken", gap, a_max)
+                return path, a_max
             raise ValueError(
                 f"U_b is not on the ANM step from U_a (distance {gap:.3g} to it, chord {np.linalg.norm(chord):.3g}): "
                 "pass the two ends of one continuation step"

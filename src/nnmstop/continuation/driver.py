@@ -113,11 +113,13 @@ class Stepper:
         """One step from ``U`` along the unit ``tangent``; raises ContinuationError or LinAlgError on failure."""
         raise NotImplementedError
 
-    def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats) -> tuple[Path, float]:
+    def path_through(
+        self, system, U_a, tangent_a, U_b, stats: ContinuationStats, strict: bool = True
+    ) -> tuple[Path, float]:
         """The path of this method's step from ``U_a`` (unit tangent ``tangent_a``) that ends at ``U_b``.
 
         Returns the path and the parameter of ``U_b`` on it; raises ValueError when ``U_b`` is
-        not on it.
+        not on it, or with ``strict=False`` returns the path up to the step's own end then.
         """
         raise NotImplementedError
 

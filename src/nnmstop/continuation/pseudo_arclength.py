@@ -289,8 +289,8 @@ class PseudoArclengthStepper(Stepper):
             end_sign=factors.determinant_sign(),
         )
 
-    def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats):
-        """The corrected path from ``U_a`` through ``U_b`` (:class:`CorrectedPath`)."""
+    def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats, strict: bool = True):
+        """The corrected path from ``U_a`` through ``U_b`` (:class:`CorrectedPath`; it ends at ``U_b``)."""
         path = CorrectedPath(system, U_a, tangent_a, U_b)
         return path, path.length
 

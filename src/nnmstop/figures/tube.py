@@ -57,6 +57,26 @@ def _impact_labels(ax, ds):
         )
 
 
+def _resonance_inset(ax, ds, segment, color):
+    """Zoom on the first tongue passed: the segments before and after it, their frequency maximum and fold."""
+    f_tongue = float(ds.passed_resonance_frequency.values[0])
+    after = segment == 1
+    e_lo = 0.97 * float(ds.energy.values[after].min())
+    e_hi = float(ds.energy.values[after].max())
+    f_hi = float(ds.frequency.values[after].max())
+    inset = ax.inset_axes([0.3, 0.2, 0.33, 0.3])
+    for k in (0, 1):
+        part = segment == k
+        inset.plot(ds.energy.values[part], ds.frequency.values[part], ".-", color=color, ms=2, lw=0.8)
+    inset.plot(ds.passed_resonance_energy.values[:1], [f_tongue], "v", color="tab:purple", ms=5)
+    if ds.fold_energy.size:
+        inset.plot(ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=4)
+    inset.set_xlim(e_lo, e_hi)
+    inset.set_ylim(f_tongue - 0.25 * (f_hi - f_tongue), f_hi)
+    inset.tick_params(labelsize=6)
+    inset.set_title("over the tongue (segments 0 and 1)", fontsize=6)
+
+
 def _frequency_energy(fig, data, spec):
     """One panel per NNM (their frequencies differ by a factor of about six), the exact NNM1 on the first."""
     names = [name for name in ("nnm1", "nnm2") if name in data]
@@ -64,15 +84,42 @@ def _frequency_energy(fig, data, spec):
     for ax, name in zip(axes, names):
         ds = data[name]
         color = REGULARIZED if name == "nnm1" else "tab:green"
-        _line_segments(
-            ax,
-            ds.energy.values,
-            ds.frequency.values,
-            ds.stable.values,
-            color,
-            f"{name.upper()} regularized (H = {ds.attrs['harmonics']})",
-        )
+        # segments of a branch continued over resonance tongues are separate curves (no line across a tongue)
+        segment = ds.segment.values if "segment" in ds else np.zeros(ds.sizes["point"], dtype=int)
+        for k in np.unique(segment):
+            part = segment == k
+            _line_segments(
+                ax,
+                ds.energy.values[part],
+                ds.frequency.values[part],
+                ds.stable.values[part],
+                color,
+                f"{name.upper()} regularized (H = {ds.attrs['harmonics']})" if k == segment[0] else None,
+            )
         _impact_labels(ax, ds)
+        if "passed_resonance_frequency" in ds and ds.passed_resonance_frequency.size:
+            ax.plot(
+                ds.passed_resonance_energy.values,
+                ds.passed_resonance_frequency.values,
+                "v",
+                color="tab:purple",
+                ms=6,
+                label="internal resonance passed (tongue)",
+            )
+            for energy, frequency, n in zip(
+                ds.passed_resonance_energy.values,
+                ds.passed_resonance_frequency.values,
+                ds.passed_resonance_harmonic.values,
+            ):
+                ax.annotate(
+                    f"{int(n)}:1",
+                    (energy, frequency),
+                    xytext=(6, -10),
+                    textcoords="offset points",
+                    fontsize=7,
+                    color="tab:purple",
+                )
+            _resonance_inset(ax, ds, segment, color)
         if ds.branch_point_energy.size:
             ax.plot(ds.branch_point_energy.values, ds.branch_point_frequency.values, "kx", ms=6, label="branch point")
         if ds.fold_energy.size:

@@ -25,6 +25,8 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
 
 from nnmstop.continuation.anm import ANMSettings
 from nnmstop.continuation.core import (
@@ -35,6 +37,7 @@ from nnmstop.continuation.core import (
     relative_of_residual,
     unit_tangent,
 )
+from nnmstop.continuation.corrected_path import CorrectedPath
 from nnmstop.continuation.driver import as_stepper, continue_branch, path_border
 from nnmstop.continuation.linear import factorize_bordered
 from nnmstop.continuation.newton import bisect_sign_change, newton_solve
@@ -140,34 +143,68 @@ def locate_branch_point(system, U_a, U_b, method=None, tol: float = 1e-12, newto
     if not np.linalg.norm(chord) > 0:
         raise ValueError("locate_branch_point needs two distinct points")
     t_a, _ = unit_tangent(system, U_a, chord, singular_tol=None)
-    path, a_end = stepper.path_through(system, U_a, t_a, U_b, ContinuationStats())
+    # U_b may have been Newton-corrected off the recomputed step (the ANM's end residual near a branch
+    # point): the step's own path up to its own end, then the corrected path from U_a to U_b
+    path, a_end = stepper.path_through(system, U_a, t_a, U_b, ContinuationStats(), strict=False)
+    bracket = _sign_change_on(system, path, a_end, tol)
+    if bracket is None and not np.allclose(path(a_end), U_b, rtol=0.0, atol=1e-3 * np.linalg.norm(chord)):
+        path = CorrectedPath(system, U_a, t_a, U_b)
+        a_end = path.length
+        bracket = _sign_change_on(system, path, a_end, tol)
+    if bracket is None:
+        raise ValueError("no branch point between the two points: det [J; t^T] has the same sign at both")
+    a_star = bracket.midpoint
+    border = path_border(path, a_star)
+    return project_onto_branch(system, path(a_star), tol=newton_tol, reference=border), border
+
+
+def _sign_change_on(system, path, a_end: float, tol: float):
+    """Bisection bracket of the sign change of ``det [J(U(a)); b(a)^T]`` on ``[0, a_end]``, None when there is none."""
 
     def sign(a):
         return factorize_bordered(system, path(a), path_border(path, a), singular_tol=None).determinant_sign()
 
     try:
-        bracket = bisect_sign_change(sign, 0.0, a_end, tol=tol * a_end)
-    except ValueError as err:
-        raise ValueError("no branch point between the two points: det [J; t^T] has the same sign at both") from err
-    a_star = bracket.midpoint
-    return project_onto_branch(system, path(a_star), tol=newton_tol), path_border(path, a_star)
+        return bisect_sign_change(sign, 0.0, a_end, tol=tol * a_end)
+    except ValueError:
+        return None
 
 
-def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30):
+def project_onto_branch(system, U, tol: float = 1e-9, max_iter: int = 30, reference=None):
     """Nearest-point Newton (Moore-Penrose) iterations on ``S(U) = 0``.
 
     Each update is the least-norm solution of ``J dU = -S`` with the singular values
     below ``1e-12`` of the largest cut off, so the iteration stays well defined at and
     near a branch point, where the bordered matrices of the continuation are singular.
+    A sparse system (``linear_algebra == "sparse"``) solves instead with the sparse LU of
+    ``[J; t^T]``, ``t`` the unit null vector of ``J`` at the iterate: the least-norm update
+    itself wherever no singular value is cut off, without a dense SVD.
+
+    Parameters
+    ----------
+    reference : ndarray, optional
+        A direction of the branch near ``U``, which orients the null vectors of sparse systems.
 
     Raises
     ------
     ContinuationError
         If the relative residual does not reach ``tol``.
     """
+    if _is_sparse(system):
+        direction = np.ones(system.n_unknowns) if reference is None else np.asarray(reference, float)
+
+        def update(V):
+            # the least-norm update is the one orthogonal to the null vector of J(V): the tangent there
+            tangent, _ = unit_tangent(system, V, direction, singular_tol=None)
+            return _InHyperplane(factorize_bordered(system, V, tangent, singular_tol=None))
+    else:
+
+        def update(V):
+            return _LeastNorm(system.jacobian(V))
+
     result = newton_solve(
         system.residual,
-        lambda V: _LeastNorm(system.jacobian(V)),
+        update,
         U,
         tol=tol,
         max_iter=max_iter,
@@ -192,12 +229,75 @@ class _LeastNorm:
         return np.linalg.lstsq(self.J, rhs, rcond=1e-12)[0]
 
 
-def _null_plane(system, U):
-    """Right null plane (2 x n+1), left null vector and singular ratio of ``J(U)``."""
+class _InHyperplane:
+    """Solutions of ``J x = rhs`` with ``<t, x> = 0`` from the factors of ``[J; t^T]``."""
+
+    def __init__(self, factors):
+        self.factors = factors
+
+    def solve(self, rhs):
+        return self.factors.solve(np.append(rhs, 0.0))
+
+
+def _is_sparse(system) -> bool:
+    return getattr(system, "linear_algebra", "dense") == "sparse"
+
+
+def _null_plane(system, U, reference=None):
+    """Right null plane (2 x n+1), left null vector and singular ratio of ``J(U)``.
+
+    Dense systems: SVD of ``J``. Sparse systems (:func:`_sparse_null_plane`): inverse
+    iterations with the sparse LU of ``[J; r^T]``, ``r`` the unit ``reference``.
+    """
+    if _is_sparse(system):
+        return _sparse_null_plane(system, U, reference)
     u, sing, vt = np.linalg.svd(system.jacobian(U))
     # J is n x (n+1): vt[-1] spans its generic null space; vt[-2] belongs to the smallest
     # singular value sing[-1], which vanishes at a branch point.
     return vt[-2:], u[:, -1], float(sing[-1] / sing[-2])
+
+
+def _sparse_null_plane(system, U, reference, iterations: int = 3):
+    """Null plane, left null vector and singular ratio of a sparse ``J(U)`` near a simple branch point.
+
+    With ``r`` a unit direction, ``B = [J; r^T]`` is singular exactly when ``J`` has a null
+    vector orthogonal to ``r``, which a simple branch point always has. Inverse iterations
+    with the LU of ``B`` give that vector ``v`` (and ``B^T``'s, whose first ``n`` entries are
+    the left null vector of ``J``); the solution of ``B w = e_{n+1}`` with its ``v`` part
+    removed is the null vector along ``r``. The ratio is the smallest singular value of
+    ``B`` (``|B v|``) over the second smallest, estimated by inverse iterations on
+    ``(B^T B)^{-1}`` deflated of ``v``.
+    """
+    J = system.jacobian(U, sparse=True)
+    n = J.shape[0]
+    r = np.zeros(n + 1) if reference is None else np.asarray(reference, float)
+    if reference is None:
+        r[0] = 1.0
+    r = r / np.linalg.norm(r)
+    B = sp.vstack([J, sp.csr_matrix(r[None, :])], format="csc")
+    lu = splu(B)
+    # deterministic starts (byte-reproducible datasets)
+    start = np.cos(np.arange(n + 1) * 0.7071 + 0.3)
+    v, w = start / np.linalg.norm(start), start / np.linalg.norm(start)
+    for _ in range(iterations):
+        v = lu.solve(v)
+        v /= np.linalg.norm(v)
+        w = lu.solve(w, trans="T")
+        w /= np.linalg.norm(w)
+    e = np.zeros(n + 1)
+    e[-1] = 1.0
+    along = lu.solve(e)
+    along -= (along @ v) * v
+    along /= np.linalg.norm(along)
+    psi = w[:n] / np.linalg.norm(w[:n])
+    smallest = float(np.linalg.norm(B @ v))
+    y = start - (start @ v) * v
+    for _ in range(8):
+        y = lu.solve(lu.solve(y, trans="T"))
+        y -= (y @ v) * v
+        y /= np.linalg.norm(y)
+    second = float(np.linalg.norm(B @ y))
+    return np.vstack([along, v]), psi, smallest / second
 
 
 def bifurcation_tangents(system, U_star, reference):
@@ -225,7 +325,7 @@ def bifurcation_tangents(system, U_star, reference):
         If the bifurcation equation has no two distinct real roots (not a simple
         branch point).
     """
-    plane, psi, ratio = _null_plane(system, U_star)
+    plane, psi, ratio = _null_plane(system, U_star, reference)
     p1, p2 = plane
     c11 = psi @ quadratic_form(system, p1, p1)
     c12 = psi @ quadratic_form(system, p1, p2)

@@ -118,8 +118,14 @@ def tube_exact(config, inputs, outputs):
     )
 
 
-def run_tube_branch(tube: dict, anm: dict, mode: int, start_amplitude: float, energy_max: float, label: str):
-    """System, continued branch and its dataset for one NNM of the tube section ``tube``."""
+def run_tube_branch(
+    tube: dict, anm: dict, mode: int, start_amplitude: float, energy_max: float, label: str, pass_resonances: int = 0
+):
+    """System, continued branch and its dataset for one NNM of the tube section ``tube``.
+
+    ``pass_resonances``: internal resonance tongues the backbone is continued over
+    (:func:`nnmstop.hbm.structure_branch.continue_structure_nnm`).
+    """
     from nnmstop.continuation.anm import ANMSettings
     from nnmstop.hbm.structure_branch import continue_structure_nnm, structure_branch_dataset
     from nnmstop.hbm.structure_stability import structure_stability
@@ -131,7 +137,14 @@ def run_tube_branch(tube: dict, anm: dict, mode: int, start_amplitude: float, en
     system = HarmonicBalanceSystem(structure, tube["harmonics"])
     settings = ANMSettings.from_config({**anm, "max_steps": tube["max_steps"]}, points_per_step=tube["points_per_step"])
     branch = continue_structure_nnm(
-        system, mode, start_amplitude, energy_max, tube["max_truncation"], settings, label=label
+        system,
+        mode,
+        start_amplitude,
+        energy_max,
+        tube["max_truncation"],
+        settings,
+        label=label,
+        pass_resonances=pass_resonances,
     )
     stability = structure_stability(
         system, np.array(branch.points), steps=tube["stability"]["steps"], tolerance=tube["stability"]["tolerance"]
@@ -153,7 +166,15 @@ def tube_branch(config, inputs, outputs, branch: str):
     """A regularized NNM of the tube (``tube.branches.<branch>``) by HBM + ANM."""
     tube = config["tube"]
     spec = tube["branches"][branch]
-    ds = run_tube_branch(tube, config["anm"], spec["mode"], spec["start_amplitude"], spec["energy_max"], branch)
+    ds = run_tube_branch(
+        tube,
+        config["anm"],
+        spec["mode"],
+        spec["start_amplitude"],
+        spec["energy_max"],
+        branch,
+        pass_resonances=spec.get("pass_resonances", 0),
+    )
     write_dataset(
         ds,
         outputs["dataset"],
