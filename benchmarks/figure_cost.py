@@ -115,7 +115,7 @@ def report(refs: list[str], figures: list[str], best: dict, outputs: list[Path],
     total_cells = " | ".join(f"**{totals[r][0]:.2f}** | **{totals[r][1]:.2f}**" for r in refs)
     lines.append(f"| all ten | {total_cells} | **{totals[refs[-1]][0] / totals[refs[0]][0]:.2f}** | | |")
     imports = " | ".join(f"{min(best[r, n]['imports'] for n in figures):.2f} | " for r in refs)
-    lines.append(f"| imports (CPU, fewest of one job; not in the totals) | {imports} | | |")
+    lines.append(f"| imports of one job (CPU, not in the totals) | {imports} | | |")
     return "\n".join(lines)
 
 

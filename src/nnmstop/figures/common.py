@@ -127,7 +127,7 @@ def save_figure(fig, pdf_path, png_dpi: int = 150) -> tuple[Path, Path]:
     if engine is not None:
         fig.set_dpi(png_dpi)  # text measured as the PNG draws it
         engine.execute(fig)
-        fig.set_layout_engine("none")
+        fig.set_layout_engine(None)  # None, not "none": savefig then skips its draw without output
     for path, meta, kwargs in (
         (pdf_path, {"CreationDate": None, "ModDate": None, "Creator": None, "Producer": None}, {}),
         (png_path, {"Software": None}, {"dpi": png_dpi}),
