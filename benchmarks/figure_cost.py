@@ -5,8 +5,9 @@ one fresh Python process with that tree's ``src`` on ``PYTHONPATH``, as a Snakem
 the figure tasks and reads the tree's configuration (timed apart, the "imports" row), then runs the
 task ``paper_figNN`` once on the datasets of ``--results`` (CPU and wall time), writing the PDF and
 PNG. The refs alternate figure by figure, ``--repeat`` times; the best time of each is kept. The
-figures of every ref are compared with those of the first: share of PNG pixels that differ, and
-whether the PDF is byte-identical. The named inputs mirror the rules of workflow/rules/figures.smk.
+figures of the last ref are compared with those of the first: how far the axes moved in each format,
+the share of PNG pixels that differ, whether the PDF is byte-identical; and in each ref, how far apart
+the PDF and the PNG of one figure are laid out. The named inputs mirror the rules of workflow/rules/figures.smk.
 
 Usage::
 
@@ -59,23 +60,38 @@ def rule_inputs(name: str, config: dict, results: Path) -> dict:
 
 
 def worker(name: str, tree: Path, results: Path, outputs: Path) -> None:
-    """In a fresh process: import the tree's figure tasks, then run ``paper_<name>``; print the times as JSON."""
+    """In a fresh process: import the tree's figure tasks, then run ``paper_<name>``; print JSON.
+
+    The JSON holds the times and the layout each format was saved with: the position of every
+    axes (points from the lower left corner of the figure), keyed by the saved file's suffix.
+    """
 
     def load():
+        from matplotlib.figure import Figure
+
         from nnmstop.config import load_config
         from nnmstop.tasks.figures import TASKS
 
-        return TASKS, load_config(tree / "config" / "config.yaml")
+        return Figure, TASKS, load_config(tree / "config" / "config.yaml")
 
-    (tasks, config), import_cpu, _ = timed(load)
+    (figure_class, tasks, config), import_cpu, _ = timed(load)
+    layouts = {}
+    savefig = figure_class.savefig
+
+    def recording_savefig(fig, path, **kwargs):
+        savefig(fig, path, **kwargs)
+        size = np.tile(fig.get_size_inches() * 72.0, 2)
+        layouts[Path(path).suffix.lstrip(".")] = [list(np.array(ax.get_position().bounds) * size) for ax in fig.axes]
+
+    figure_class.savefig = recording_savefig
     task = tasks[f"paper_{name}"]
     files = {"pdf": str(outputs / f"{name}.pdf"), "png": str(outputs / f"{name}.png")}
     _, cpu, wall = timed(lambda: task(config, rule_inputs(name, config, results), files))
-    print(json.dumps({"imports": import_cpu, "cpu": cpu, "wall": wall}))
+    print(json.dumps({"imports": import_cpu, "cpu": cpu, "wall": wall, "layouts": layouts}))
 
 
 def measure(name: str, tree: Path, results: Path, outputs: Path) -> dict:
-    """Times of one figure task in a fresh process of the extracted tree ``tree``."""
+    """Times and layouts of one figure task in a fresh process of the extracted tree ``tree``."""
     env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     command = [sys.executable, __file__, "--worker", name, "--tree", str(tree), "--results", str(results)]
     run = subprocess.run([*command, "--out", str(outputs)], env=env, capture_output=True, text=True, cwd=tree)
@@ -90,13 +106,20 @@ def differing_pixels(png_a: Path, png_b: Path) -> float:
     return 1.0 if a.shape != b.shape else float(np.mean(np.any(a != b, axis=2)))
 
 
+def largest_shift(a: list, b: list) -> float:
+    """Largest difference (points) between two layouts of the same axes; inf if they hold different axes."""
+    a, b = np.asarray(a), np.asarray(b)
+    return float(np.abs(a - b).max()) if a.shape == b.shape else float("inf")
+
+
 def report(refs: list[str], figures: list[str], best: dict, outputs: list[Path], repeat: int) -> str:
+    first, last = refs[0], refs[-1]
     head = " | ".join(f"`{r}` CPU (s) | `{r}` wall (s)" for r in refs)
     lines = [
         f"Figure tasks after their imports, fresh process per run, best of {repeat} (CPU and wall time):",
         "",
-        f"| figure | {head} | CPU ratio `{refs[-1]}` / `{refs[0]}` | PNG pixels differing | PDF identical |",
-        "|---|" + "---:|" * (2 * len(refs) + 1) + "---:|---:|",
+        f"| figure | {head} | CPU ratio `{last}` / `{first}` |",
+        "|---|" + "---:|" * (2 * len(refs) + 1),
     ]
     totals = {r: [0.0, 0.0] for r in refs}
     for name in figures:
@@ -106,18 +129,30 @@ def report(refs: list[str], figures: list[str], best: dict, outputs: list[Path],
             totals[r][0] += cpu
             totals[r][1] += wall
             cells.append(f"{cpu:.2f} | {wall:.2f}")
-        ratio = best[refs[-1], name]["cpu"] / best[refs[0], name]["cpu"]
+        lines.append(f"| {name} | {' | '.join(cells)} | {best[last, name]['cpu'] / best[first, name]['cpu']:.2f} |")
+    total_cells = " | ".join(f"**{totals[r][0]:.2f}** | **{totals[r][1]:.2f}**" for r in refs)
+    lines.append(f"| all {len(figures)} | {total_cells} | **{totals[last][0] / totals[first][0]:.2f}** |")
+    imports = " | ".join(f"{min(best[r, n]['imports'] for n in figures):.2f} | " for r in refs)
+    lines.append(f"| imports of one job (CPU, not in the totals) | {imports} |")
+    lines += [
+        "",
+        f"The figures of `{last}` against those of `{first}`: largest move of an axes (points) in the PDF and",
+        "the PNG, share of PNG pixels that differ, byte-identical PDF; and how far apart the PDF and PNG of",
+        "one figure are laid out, in each ref:",
+        "",
+        f"| figure | axes moved, PDF (pt) | axes moved, PNG (pt) | PNG pixels differing | PDF identical "
+        f"| PDF vs PNG layout, `{first}` (pt) | PDF vs PNG layout, `{last}` (pt) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for name in figures:
+        old, new = best[first, name]["layouts"], best[last, name]["layouts"]
         pixels = differing_pixels(outputs[0] / f"{name}.png", outputs[-1] / f"{name}.png")
         same_pdf = (outputs[0] / f"{name}.pdf").read_bytes() == (outputs[-1] / f"{name}.pdf").read_bytes()
         lines.append(
-            f"| {name} | {' | '.join(cells)} | {ratio:.2f} | {100 * pixels:.1f} % | {'yes' if same_pdf else 'no'} |"
+            f"| {name} | {largest_shift(old['pdf'], new['pdf']):.2f} | {largest_shift(old['png'], new['png']):.2f} "
+            f"| {100 * pixels:.1f} % | {'yes' if same_pdf else 'no'} | {largest_shift(old['pdf'], old['png']):.2f} "
+            f"| {largest_shift(new['pdf'], new['png']):.2f} |"
         )
-    total_cells = " | ".join(f"**{totals[r][0]:.2f}** | **{totals[r][1]:.2f}**" for r in refs)
-    lines.append(f"| all ten | {total_cells} | **{totals[refs[-1]][0] / totals[refs[0]][0]:.2f}** | | |")
-    imports = " | ".join(f"{min(best[r, n]['imports'] for n in figures):.2f} | " for r in refs)
-    lines.append(f"| imports of one job (CPU, not in the totals) | {imports} | | | |")
-    lines.append("")
-    lines.append("PNG pixels differing and PDF identical: the figures of the last ref against those of the first.")
     return "\n".join(lines)
 
 
@@ -153,7 +188,8 @@ def main(argv=None) -> int:
                 for ref, tree, out in zip(args.compare, trees, outputs):
                     times = measure(name, tree, results, out)
                     kept = best.setdefault((ref, name), times)
-                    best[ref, name] = {key: min(kept[key], times[key]) for key in times}
+                    best[ref, name] = {key: min(kept[key], times[key]) for key in ("imports", "cpu", "wall")}
+                    best[ref, name]["layouts"] = times["layouts"]
         return emit_report(report(args.compare, args.figures, best, outputs, args.repeat), args.output)
 
 
