@@ -19,6 +19,12 @@ __all__ = ["TUBE_FIGURES", "draw_tube_figure", "point_at_energy"]
 
 REGULARIZED, EXACT = "tab:blue", "tab:red"
 
+#: A located point whose Jacobian's smallest singular value is below this fraction of the second
+#: smallest is drawn as a branch point. A determinant sign change across a jump of the continuation
+#: between two close curves leaves a located point with a ratio of order one, a branch point a small
+#: one (how small depends on how well the bisection and projection resolve it).
+SIMPLE_BRANCH_POINT_RATIO = 1e-2
+
 
 def point_at_energy(energy, target: float) -> int:
     """Index of the stored point nearest (in log energy) to where the branch first reaches ``target``."""
@@ -121,7 +127,25 @@ def _frequency_energy(fig, data, spec):
                 )
             _resonance_inset(ax, ds, segment, color)
         if ds.branch_point_energy.size:
-            ax.plot(ds.branch_point_energy.values, ds.branch_point_frequency.values, "kx", ms=6, label="branch point")
+            # a flagged step where the continuation jumped between two close curves changes the sign of
+            # det [J; t^T] without a branch point: its located point has a singular ratio of order one
+            simple = ds.branch_point_singular_ratio.values < SIMPLE_BRANCH_POINT_RATIO
+            ax.plot(
+                ds.branch_point_energy.values[simple],
+                ds.branch_point_frequency.values[simple],
+                "kx",
+                ms=6,
+                label="branch point",
+            )
+            if not simple.all():
+                ax.plot(
+                    ds.branch_point_energy.values[~simple],
+                    ds.branch_point_frequency.values[~simple],
+                    "+",
+                    color="0.5",
+                    ms=6,
+                    label="sign change of det [J; t] without a branch point",
+                )
         if ds.fold_energy.size:
             ax.plot(
                 ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=5, label="energy fold"

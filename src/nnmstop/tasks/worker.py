@@ -51,6 +51,7 @@ WARM_MODULES = (
     "xarray",
     "netCDF4",
     "matplotlib.pyplot",
+    "matplotlib.backends.backend_pdf",
     "nnmstop.tasks.exact",
     "nnmstop.tasks.hbm",
     "nnmstop.tasks.compare",
