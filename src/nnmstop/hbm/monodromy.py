@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.floquet import multipliers_from_invariant
+from nnmstop.floquet import multipliers_from_invariant, transition_matrix
 from nnmstop.hbm.hill import is_halfwave_symmetric, is_reversible
 from nnmstop.hbm.shooting_refinement import refined_stability
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
@@ -201,17 +201,6 @@ def variational_step_matrices(stiffness_nodes, step, params: ModelParameters):
     h = np.broadcast_to(np.asarray(step, dtype=float), k_mean.shape)[..., None, None]
     omega = h * (A0 + k_mean[..., None, None] * E) + (np.sqrt(3.0) / 12.0) * h**2 * k_diff[..., None, None] * C
     return _expm_batch(omega)
-
-
-def transition_matrix(step_matrices):
-    """Ordered product ``M_{n-1} ... M_1 M_0`` along axis -3, pairwise (a tree of batched products)."""
-    mats = np.asarray(step_matrices)
-    while mats.shape[-3] > 1:
-        if mats.shape[-3] % 2:
-            pad = np.broadcast_to(np.eye(4), mats.shape[:-3] + (1, 4, 4))
-            mats = np.concatenate([mats, pad], axis=-3)
-        mats = np.matmul(mats[..., 1::2, :, :], mats[..., 0::2, :, :])
-    return mats[..., 0, :, :]
 
 
 def _displacement_at_nodes(x_full, H: int, steps: int, halfwave: bool):
