@@ -41,27 +41,39 @@ _WIDTH_FACTOR = 2.0
 _CHUNK_STEPS = 2**13
 
 
-def _state_rhs(w, params: ModelParameters, out):
-    """Right-hand side of (7) for ``n`` orbits; ``w``, ``out``: (4, n).
+class _StateRhs:
+    """Right-hand side of (7) for ``n`` orbits: ``rhs(w, out)``, ``w``, ``out``: (4, n).
 
     Row 0 is the branch coordinate ``y = x - f/alpha`` instead of ``x``: ``x``, ``f`` and
     ``f'(x)`` are rational in ``y`` (``nnmstop.models.two_dof``; the same force as the root of the
-    cubic), so no cubic is solved per evaluation. Few, whole-array operations: the cost per
-    evaluation is mostly numpy's per-call overhead.
+    cubic), so no cubic is solved per evaluation. The linear part (everything but ``dy/dt`` and
+    the contact force ``f = alpha (x - y)``) is one matrix product with ``(x, u, xdot, udot)``.
+    Evaluated 12 times a step, one step at a time: its cost is numpy's per-call overhead, hence
+    few calls and preallocated buffers.
     """
-    b, d, eta, eps = params.beta, params.delta, params.eta, params.eps
-    c = 1.0 - eps
-    y = w[0]
-    y2 = y * y
-    # c - y**2 >= eps y / (|x| - y): relative rounding error about 1e-16 |x| / eps, below 1e-11 here
-    s = c - y2
-    g = eps / s
-    x = y + g * y
-    out[0] = w[2] / (1.0 + g * (c + y2) / s)
-    out[1] = w[3]
-    out[2] = (b * w[1] - eta * y / s) - (1.0 + b) * x
-    out[3] = (b / d) * (x - w[1])
-    return out
+
+    def __init__(self, params: ModelParameters, n: int):
+        b, d = params.beta, params.delta
+        self.c = 1.0 - params.eps
+        self.eps, self.alpha = params.eps, params.alpha
+        # d(x, u, xdot, udot)/dt without the contact force, rows 1-3 (row 0 is set apart).
+        self.linear = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], [-(1.0 + b), b, 0.0, 0.0], [b / d, -b / d, 0.0, 0.0]])
+        self.state = np.empty((4, n))  # (x, u, xdot, udot)
+
+    def __call__(self, w, out):
+        y = w[0]
+        y2 = y * y
+        # c - y**2 >= eps y / (|x| - y): relative rounding error about 1e-16 |x| / eps, below 1e-11 here
+        s = self.c - y2
+        g = self.eps / s
+        gy = g * y  # f / alpha = x - y
+        state = self.state
+        np.add(y, gy, out=state[0])
+        state[1:] = w[1:]
+        np.dot(self.linear, state, out=out)
+        out[2] -= self.alpha * gy
+        np.divide(w[2], 1.0 + g * (self.c + y2) / s, out=out[0])  # dx/dt = xdot and dx/dy
+        return out
 
 
 def _variational_rhs(Z, y, params: ModelParameters, out):
@@ -149,15 +161,23 @@ def quarter_period_flow(params: ModelParameters, start, period, phases):
     K = np.empty((_STAGES, 4 * n))
     flat = K.reshape(_STAGES, 4, n)
     stage_y = np.empty((_STAGES, n, N))  # branch coordinate at every stage, for the step maps
+    rhs = _StateRhs(params, n)
+    stage_sums = [(_A[i, :i], K[:i]) for i in range(1, _STAGES)]
+    increment = np.empty(4 * n)
+    stage = increment.reshape(4, n)
     for j in range(N):
         h = steps[:, j]
         stage_y[0, :, j] = w[0]
-        _state_rhs(w, params, flat[0])
-        for i in range(1, _STAGES):
-            stage = w + h * (_A[i, :i] @ K[:i]).reshape(4, n)
+        rhs(w, flat[0])
+        for i, (a, k) in enumerate(stage_sums, start=1):
+            np.dot(a, k, out=increment)
+            stage *= h
+            stage += w
             stage_y[i, :, j] = stage[0]
-            _state_rhs(stage, params, flat[i])
-        w = w + h * (_B @ K).reshape(4, n)
+            rhs(stage, flat[i])
+        np.dot(_B, K, out=increment)
+        stage *= h
+        w = w + stage
     maps = _step_maps(params, stage_y.reshape(_STAGES, n * N), steps.reshape(n * N))
     Q = transition_matrix(maps.reshape(n, N, 4, 4))
     eps = params.eps
