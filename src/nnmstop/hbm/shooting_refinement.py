@@ -46,19 +46,20 @@ class _StateRhs:
 
     Row 0 is the branch coordinate ``y = x - f/alpha`` instead of ``x``: ``x``, ``f`` and
     ``f'(x)`` are rational in ``y`` (``nnmstop.models.two_dof``; the same force as the root of the
-    cubic), so no cubic is solved per evaluation. The linear part (everything but ``dy/dt`` and
-    the contact force ``f = alpha (x - y)``) is one matrix product with ``(x, u, xdot, udot)``.
+    cubic), so no cubic is solved per evaluation. The linear part is one matrix product with
+    ``w``, corrected by ``x - y = f/alpha`` where it acts on ``x``; ``dy/dt`` is set apart.
     Evaluated 12 times a step, one step at a time: its cost is numpy's per-call overhead, hence
-    few calls and preallocated buffers.
+    few calls.
     """
 
-    def __init__(self, params: ModelParameters, n: int):
+    def __init__(self, params: ModelParameters):
         b, d = params.beta, params.delta
         self.c = 1.0 - params.eps
-        self.eps, self.alpha = params.eps, params.alpha
+        self.eps = params.eps
         # d(x, u, xdot, udot)/dt without the contact force, rows 1-3 (row 0 is set apart).
         self.linear = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], [-(1.0 + b), b, 0.0, 0.0], [b / d, -b / d, 0.0, 0.0]])
-        self.state = np.empty((4, n))  # (x, u, xdot, udot)
+        # Rows xdot, udot: coefficients of x (linear part) and of -f = -alpha (x - y) on x - y.
+        self.on_x_minus_y = np.array([-(1.0 + b) - params.alpha, b / d])[:, None]
 
     def __call__(self, w, out):
         y = w[0]
@@ -66,12 +67,8 @@ class _StateRhs:
         # c - y**2 >= eps y / (|x| - y): relative rounding error about 1e-16 |x| / eps, below 1e-11 here
         s = self.c - y2
         g = self.eps / s
-        gy = g * y  # f / alpha = x - y
-        state = self.state
-        np.add(y, gy, out=state[0])
-        state[1:] = w[1:]
-        np.dot(self.linear, state, out=out)
-        out[2] -= self.alpha * gy
+        np.dot(self.linear, w, out=out)
+        out[2:] += self.on_x_minus_y * (g * y)  # x - y = g y
         np.divide(w[2], 1.0 + g * (self.c + y2) / s, out=out[0])  # dx/dt = xdot and dx/dy
         return out
 
@@ -160,25 +157,24 @@ def quarter_period_flow(params: ModelParameters, start, period, phases):
     N = steps.shape[1]
     K = np.empty((_STAGES, 4 * n))
     flat = K.reshape(_STAGES, 4, n)
-    stage_y = np.empty((_STAGES, n, N))  # branch coordinate at every stage, for the step maps
-    rhs = _StateRhs(params, n)
-    stage_sums = [(_A[i, :i], K[:i]) for i in range(1, _STAGES)]
+    stages = np.empty((_STAGES, 4, n))  # stage states of one step
+    stage_y = np.empty((N, _STAGES, n))  # their branch coordinate, all steps, for the step maps
+    rhs = _StateRhs(params)
+    stage_sums = [(_A[i, :i], K[:i], stages[i], stages[i].reshape(4 * n)) for i in range(1, _STAGES)]
     increment = np.empty(4 * n)
-    stage = increment.reshape(4, n)
     for j in range(N):
         h = steps[:, j]
-        stage_y[0, :, j] = w[0]
+        stages[0] = w
         rhs(w, flat[0])
-        for i, (a, k) in enumerate(stage_sums, start=1):
-            np.dot(a, k, out=increment)
+        for i, (a, k, stage, stage_flat) in enumerate(stage_sums, start=1):
+            np.dot(a, k, out=stage_flat)
             stage *= h
             stage += w
-            stage_y[i, :, j] = stage[0]
             rhs(stage, flat[i])
+        stage_y[j] = stages[:, 0]
         np.dot(_B, K, out=increment)
-        stage *= h
-        w = w + stage
-    maps = _step_maps(params, stage_y.reshape(_STAGES, n * N), steps.reshape(n * N))
+        w = w + h * increment.reshape(4, n)
+    maps = _step_maps(params, np.ascontiguousarray(stage_y.transpose(1, 2, 0)).reshape(_STAGES, n * N), steps.reshape(n * N))
     Q = transition_matrix(maps.reshape(n, N, 4, 4))
     eps = params.eps
     s = (np.sqrt(1.0 - eps) - np.abs(w[0])) * (np.sqrt(1.0 - eps) + np.abs(w[0]))
