@@ -57,7 +57,9 @@ class _StateRhs:
         self.c = 1.0 - params.eps
         self.eps = params.eps
         # d(x, u, xdot, udot)/dt without the contact force, rows 1-3 (row 0 is set apart).
-        self.linear = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], [-(1.0 + b), b, 0.0, 0.0], [b / d, -b / d, 0.0, 0.0]])
+        self.linear = np.array(
+            [[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], [-(1.0 + b), b, 0.0, 0.0], [b / d, -b / d, 0.0, 0.0]]
+        )
         # Rows xdot, udot: coefficients of x (linear part) and of -f = -alpha (x - y) on x - y.
         self.on_x_minus_y = np.array([-(1.0 + b) - params.alpha, b / d])[:, None]
 
@@ -174,7 +176,9 @@ def quarter_period_flow(params: ModelParameters, start, period, phases):
         stage_y[j] = stages[:, 0]
         np.dot(_B, K, out=increment)
         w = w + h * increment.reshape(4, n)
-    maps = _step_maps(params, np.ascontiguousarray(stage_y.transpose(1, 2, 0)).reshape(_STAGES, n * N), steps.reshape(n * N))
+    maps = _step_maps(
+        params, np.ascontiguousarray(stage_y.transpose(1, 2, 0)).reshape(_STAGES, n * N), steps.reshape(n * N)
+    )
     Q = transition_matrix(maps.reshape(n, N, 4, 4))
     eps = params.eps
     s = (np.sqrt(1.0 - eps) - np.abs(w[0])) * (np.sqrt(1.0 - eps) + np.abs(w[0]))
