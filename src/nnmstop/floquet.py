@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["multipliers_from_invariant"]
+__all__ = ["multipliers_from_invariant", "transition_matrix"]
 
 
 def multipliers_from_invariant(s):
@@ -38,3 +38,19 @@ def multipliers_from_invariant(s):
     out[..., 2] = np.where(elliptic, 0.5 * s + 1j * root, big)
     out[..., 3] = np.where(elliptic, 0.5 * s - 1j * root, 1.0 / np.where(elliptic, 1.0, big))
     return out
+
+
+def transition_matrix(step_matrices):
+    """Ordered product ``M_{n-1} ... M_1 M_0`` along axis -3, pairwise (a tree of batched products).
+
+    The monodromy (or a part of it) from the step maps of a one-step integrator; used by
+    :mod:`nnmstop.hbm.monodromy` (Magnus steps) and :mod:`nnmstop.hbm.shooting_refinement`
+    (Runge-Kutta steps).
+    """
+    mats = np.asarray(step_matrices)
+    while mats.shape[-3] > 1:
+        if mats.shape[-3] % 2:
+            pad = np.broadcast_to(np.eye(mats.shape[-1]), mats.shape[:-3] + (1,) + mats.shape[-2:])
+            mats = np.concatenate([mats, pad], axis=-3)
+        mats = np.matmul(mats[..., 1::2, :, :], mats[..., 0::2, :, :])
+    return mats[..., 0, :, :]

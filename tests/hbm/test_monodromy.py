@@ -299,3 +299,18 @@ def test_refined_multipliers_tend_to_the_exact_ones_as_eta_vanishes():
     # First order: the error falls by about 10 per decade of eta (between orders 0.7 and 1.3).
     assert all(0.05 < later / earlier < 0.2 for earlier, later in zip(errors, errors[1:]))
     assert errors[-1] < 1e-3
+
+
+def test_orbits_spared_the_step_doubling_keep_their_orbit_error_verdict(system, nnm1):
+    # Orbits whose s, anywhere within its integration error, is within F x time_residual are not
+    # integrated with more steps: the verdict is the orbit's (reason 2) whatever the steps. Checked
+    # against an integration with 16 times the steps, with the refinement off to see the HBM verdicts.
+    settings = MonodromySettings(steps=128, max_steps=4096, refine=False)
+    coarse = branch_monodromy(system, nnm1, settings)
+    F = settings.resolution_factor
+    spared = (coarse.steps == 2 * settings.steps) & (coarse.margin <= F * coarse.integration_error)
+    spared &= coarse.integration_error > coarse.orbit_error
+    assert spared.any()  # one orbit of this small branch (the ten-impact orbits of H = 100: 57)
+    assert np.all(coarse.reason[spared] == 2)
+    fine = branch_monodromy(system, nnm1[spared], dataclasses.replace(settings, steps=2048))
+    assert np.all(fine.reason == 2)

@@ -35,6 +35,7 @@ __all__ = [
     "hill_matrix",
     "is_reversible",
     "is_halfwave_symmetric",
+    "halfwave_symmetric",
     "floquet",
     "check_unknowns",
     "check_tolerance",
@@ -232,12 +233,17 @@ def is_halfwave_symmetric(system, U) -> bool:
     ``z`` even ones); continued branches keep it up to round-off drift (about
     ``2e-10`` along the H = 100 NNM1 branch).
     """
-    U = check_unknowns(system, U)
-    x, u = (system.to_full(c) for c in system.split(U)[:2])
+    return bool(halfwave_symmetric(system, check_unknowns(system, U)[None])[0])
+
+
+def halfwave_symmetric(system, U_array) -> np.ndarray:
+    """:func:`is_halfwave_symmetric` for each row of ``U_array`` (shape (n, n_unknowns), checked by the caller)."""
+    x, u = (system.to_full(c) for c in system.split(np.asarray(U_array, dtype=float))[:2])
     H = system.H
     even = np.r_[0, np.arange(2, H + 1, 2), H + np.arange(2, H + 1, 2)]
-    scale = max(np.max(np.abs(x)), np.max(np.abs(u)), 1e-300)
-    return bool(max(np.max(np.abs(x[even])), np.max(np.abs(u[even]))) <= HALFWAVE_TOL * scale)
+    scale = np.maximum(np.maximum(np.abs(x).max(axis=-1), np.abs(u).max(axis=-1)), 1e-300)
+    even_max = np.maximum(np.abs(x[:, even]).max(axis=-1), np.abs(u[:, even]).max(axis=-1))
+    return even_max <= HALFWAVE_TOL * scale
 
 
 @dataclass

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.floquet import multipliers_from_invariant
-from nnmstop.hbm.hill import is_halfwave_symmetric, is_reversible
+from nnmstop.floquet import multipliers_from_invariant, transition_matrix
+from nnmstop.hbm.hill import halfwave_symmetric, is_reversible
 from nnmstop.hbm.shooting_refinement import refined_stability
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
 from nnmstop.netcdf import flag_variable
@@ -131,48 +131,42 @@ class MonodromySettings:
 # --------------------------------------------------------------------------- integrator
 
 
-def _system_matrices(params: ModelParameters):
-    """``A0`` and ``E`` of ``A(t) = A0 + k(t) E`` for the state ``(x, u, xdot, udot)``, and ``[E, A0]``."""
-    b, d = params.beta, params.delta
-    A0 = np.array(
-        [
-            [0.0, 0.0, 1.0, 0.0],
-            [0.0, 0.0, 0.0, 1.0],
-            [-(1.0 + b), b, 0.0, 0.0],
-            [b / d, -b / d, 0.0, 0.0],
-        ]
-    )
-    E = np.zeros((4, 4))
-    E[2, 0] = -1.0
-    return A0, E, E @ A0 - A0 @ E
-
-
-def _expm_batch(omega):
+def _expm_batch(omega, norm=None):
     """``exp`` of a stack of 4x4 matrices: Taylor polynomial of degree 15 after scaling.
 
     One scaling for the whole stack (the steps have similar norms) brings the norms
     to <= 1/2, where the truncation error ``(1/2)**16 / 16!`` is below round-off; the
     polynomial is evaluated by Paterson-Stockmeyer (powers 2-4, then Horner in
-    ``X**4``: six batched products instead of fifteen), then squared back.
+    ``X**4``: six batched products instead of fifteen), then squared back. ``norm``:
+    the largest row sum of ``|omega|`` over the stack, if known (computed otherwise).
+    Products go into preallocated arrays: the stacks are large and the cost is memory traffic.
     """
-    norm = float(np.max(np.abs(omega).sum(axis=-1))) if omega.size else 0.0
+    if norm is None:
+        norm = float(np.max(np.abs(omega).sum(axis=-1))) if omega.size else 0.0
     squarings = max(0, int(np.ceil(np.log2(norm / 0.5)))) if norm > 0 else 0
-    X = omega / 2.0**squarings
-    X2 = np.matmul(X, X)
-    powers = np.stack([X, X2, np.matmul(X2, X)])  # X, X**2, X**3
-    X4 = np.matmul(X2, X2)
+    powers = np.empty((3,) + omega.shape)  # X, X**2, X**3
+    X = np.divide(omega, 2.0**squarings, out=powers[0]) if squarings else omega
+    np.matmul(X, X, out=powers[1])
+    np.matmul(powers[1], X, out=powers[2])
+    if not squarings:
+        powers[0] = X
+    X4 = np.matmul(powers[1], powers[1])
     inv_fact = 1.0 / np.cumprod(np.r_[1.0, np.arange(1.0, 16.0)])
     # sum_j X**j / j! = B0 + X4 (B1 + X4 (B2 + X4 B3)), B_m = sum_{i<4} X**i / (4m+i)!:
     # the four blocks in one matrix product of the coefficients with the stacked powers.
     coefficients = inv_fact.reshape(4, 4)
-    blocks = np.tensordot(coefficients[:, 1:], powers, axes=(1, 0))
-    diagonal = np.arange(4)
-    blocks[..., diagonal, diagonal] += coefficients[:, 0].reshape((4,) + (1,) * (blocks.ndim - 2))
+    blocks = np.dot(coefficients[:, 1:], powers.reshape(3, -1)).reshape((4,) + omega.shape)
+    diagonal = blocks.reshape(4, -1, 16)[:, :, ::5]  # the diagonals (a view)
+    diagonal += coefficients[:, 0, None, None]
     result = blocks[3]
+    product = np.empty_like(result)
     for m in (2, 1, 0):
-        result = blocks[m] + np.matmul(X4, result)
+        np.matmul(X4, result, out=product)
+        product += blocks[m]
+        result, product = product, result
     for _ in range(squarings):
-        result = np.matmul(result, result)
+        np.matmul(result, result, out=product)
+        result, product = product, result
     return result
 
 
@@ -184,7 +178,7 @@ def variational_step_matrices(stiffness_nodes, step, params: ModelParameters):
     stiffness_nodes : ndarray, shape (..., n, 2)
         ``k = f'(x)`` at the two Gauss-Legendre nodes of each of ``n`` steps.
     step : float or ndarray
-        Step length in time (broadcast against ``stiffness_nodes.shape[:-1]``, e.g.
+        Step length in time, > 0 (broadcast against ``stiffness_nodes.shape[:-1]``, e.g.
         one per orbit as shape ``(n_orbits, 1)``).
     params : ModelParameters
 
@@ -192,26 +186,33 @@ def variational_step_matrices(stiffness_nodes, step, params: ModelParameters):
     -------
     ndarray, shape (..., n, 4, 4)
         ``exp(Omega_j)``, ``Omega_j = h A(k_mean) + sqrt(3)/12 h**2 (k_2 - k_1) [E, A0]``
-        (the commutator ``[A_2, A_1]`` of the two node matrices reduces to that term).
+        (the commutator ``[A_2, A_1]`` of the two node matrices reduces to that term,
+        ``[E, A0] = diag(1, 0, -1, 0)``). ``Omega_j`` is filled entry by entry: eight
+        non-zero entries of sixteen.
     """
-    A0, E, C = _system_matrices(params)
+    b, d = params.beta, params.delta
     k = np.asarray(stiffness_nodes, dtype=float)
     k_mean = 0.5 * (k[..., 0] + k[..., 1])
     k_diff = k[..., 1] - k[..., 0]
-    h = np.broadcast_to(np.asarray(step, dtype=float), k_mean.shape)[..., None, None]
-    omega = h * (A0 + k_mean[..., None, None] * E) + (np.sqrt(3.0) / 12.0) * h**2 * k_diff[..., None, None] * C
-    return _expm_batch(omega)
-
-
-def transition_matrix(step_matrices):
-    """Ordered product ``M_{n-1} ... M_1 M_0`` along axis -3, pairwise (a tree of batched products)."""
-    mats = np.asarray(step_matrices)
-    while mats.shape[-3] > 1:
-        if mats.shape[-3] % 2:
-            pad = np.broadcast_to(np.eye(4), mats.shape[:-3] + (1, 4, 4))
-            mats = np.concatenate([mats, pad], axis=-3)
-        mats = np.matmul(mats[..., 1::2, :, :], mats[..., 0::2, :, :])
-    return mats[..., 0, :, :]
+    h = np.broadcast_to(np.asarray(step, dtype=float), k_mean.shape)
+    gamma = (np.sqrt(3.0) / 12.0) * h**2 * k_diff
+    omega = np.zeros(k_mean.shape + (4, 4))
+    omega[..., 0, 0] = gamma
+    omega[..., 0, 2] = h
+    omega[..., 1, 3] = h
+    omega[..., 2, 0] = h * (-(1.0 + b) - k_mean)
+    omega[..., 2, 1] = h * b
+    omega[..., 2, 2] = -gamma
+    omega[..., 3, 0] = h * (b / d)
+    omega[..., 3, 1] = h * (-b / d)
+    # Largest row sum of |Omega| (the rows' non-zero entries), for the scaling of the exponential.
+    norm = 0.0
+    if omega.size:
+        abs_gamma = np.abs(gamma)
+        for row_sum in (abs_gamma + h, np.abs(omega[..., 2, 0]) + np.abs(omega[..., 2, 1]) + abs_gamma,
+                        np.abs(omega[..., 3, 0]) + np.abs(omega[..., 3, 1])):
+            norm = max(norm, float(np.max(row_sum)))
+    return _expm_batch(omega, norm)
 
 
 def _displacement_at_nodes(x_full, H: int, steps: int, halfwave: bool):
@@ -271,12 +272,12 @@ def trace_invariants(matrices):
 
 def _orbit_arrays(system, U_array):
     """Full-layout ``x`` coefficients, ``omega`` and half-wave symmetry of each orbit."""
-    x = np.stack([system.to_full(system.split(U)[0]) for U in U_array])
-    omega = np.sqrt(np.array([system.split(U)[4] for U in U_array], dtype=float))
+    parts = system.split(U_array)
+    x = system.to_full(parts[0])
+    omega = np.sqrt(np.asarray(parts[4], dtype=float))
     if not np.all(omega > 0):
         raise ValueError("omega**2 must be > 0 on every orbit")
-    halfwave = np.array([is_halfwave_symmetric(system, U) for U in U_array], dtype=bool)
-    return x, omega, halfwave
+    return x, omega, halfwave_symmetric(system, U_array)
 
 
 def _invariant_with_steps(system, x, omega, halfwave: bool, steps: int):
@@ -514,9 +515,12 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
                 s[todo], dev[todo], steps[todo] = fine, fine_dev, 2 * N
                 err[todo] = np.abs(fine - coarse)
                 # More steps where the integration error could decide the verdict and exceeds
-                # the orbit's own error (beyond that they cannot make the verdict better).
+                # the orbit's own error (beyond that they cannot make the verdict better), unless
+                # s within its error bound stays within F x the orbit's residual: reason 2 (and the
+                # refinement) whatever the steps.
                 margin = _margin(fine, hw)
                 undecided = (margin <= F * err[todo]) & (err[todo] > np.maximum(time_residual[todo], fine_dev))
+                undecided &= margin + err[todo] > F * time_residual[todo]
                 if 2 * N >= settings.max_steps:
                     break
                 todo, coarse, N = todo[undecided], fine[undecided], 2 * N

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
 from nnmstop.checks.shooting import orbit_initial_state
+from nnmstop.floquet import transition_matrix
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, regularized_contact_potential
 
 __all__ = ["RefinedStability", "quarter_period_flow", "step_phases", "shoot", "refined_stability", "shooting_stability"]
@@ -36,39 +37,102 @@ _GRID_SAMPLES = 2048
 # of the refined NNM1 and 5:1 orbits (errors 100 to 1000 times smaller than with 1 and w; method notes).
 _UNIFORM_DENSITY = 6.0
 _WIDTH_FACTOR = 2.0
+# Steps per chunk of the vectorized step maps (12 stages x 16 entries x 8 bytes each: 12 MB).
+_CHUNK_STEPS = 2**13
 
 
-def _rhs(w, params: ModelParameters, out):
-    """Right-hand side of (7) and of its variational equation; ``w``, ``out``: (20, n) for ``n`` orbits.
+class _StateRhs:
+    """Right-hand side of (7) for ``n`` orbits: ``rhs(w, out)``, ``w``, ``out``: (4, n).
 
     Row 0 is the branch coordinate ``y = x - f/alpha`` instead of ``x``: ``x``, ``f`` and
     ``f'(x)`` are rational in ``y`` (``nnmstop.models.two_dof``; the same force as the root of the
-    cubic), so no cubic is solved per evaluation. Rows 4-19: the fundamental matrix in the
-    coordinates ``(x, u, xdot, udot)``, row-major. Few, whole-array operations: the cost per
-    evaluation is mostly numpy's per-call overhead.
+    cubic), so no cubic is solved per evaluation. The linear part is one matrix product with
+    ``w``, corrected by ``x - y = f/alpha`` where it acts on ``x``; ``dy/dt`` is set apart.
+    Evaluated 12 times a step, one step at a time: its cost is numpy's per-call overhead, hence
+    few calls.
+    """
+
+    def __init__(self, params: ModelParameters):
+        b, d = params.beta, params.delta
+        self.c = 1.0 - params.eps
+        self.eps = params.eps
+        # d(x, u, xdot, udot)/dt without the contact force, rows 1-3 (row 0 is set apart).
+        self.linear = np.array(
+            [[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], [-(1.0 + b), b, 0.0, 0.0], [b / d, -b / d, 0.0, 0.0]]
+        )
+        # Rows xdot, udot: coefficients of x (linear part) and of -f = -alpha (x - y) on x - y.
+        self.on_x_minus_y = np.array([-(1.0 + b) - params.alpha, b / d])[:, None]
+
+    def __call__(self, w, out):
+        y = w[0]
+        y2 = y * y
+        # c - y**2 >= eps y / (|x| - y): relative rounding error about 1e-16 |x| / eps, below 1e-11 here
+        s = self.c - y2
+        g = self.eps / s
+        np.dot(self.linear, w, out=out)
+        out[2:] += self.on_x_minus_y * (g * y)  # x - y = g y
+        np.divide(w[2], 1.0 + g * (self.c + y2) / s, out=out[0])  # dx/dt = xdot and dx/dy
+        return out
+
+
+def _variational_rhs(Z, y, params: ModelParameters, out):
+    """``A(y) Z`` for many 4x4 matrices ``Z`` (rows of ``Z``, ``out``: the 16 entries, row-major).
+
+    ``A(y)`` is the linearization of (7) at the branch coordinate ``y``:
+    ``-(1 + beta + f'(x)) Z_x + beta Z_u`` in the ``xdot`` row, ``f'`` rational in ``y``.
     """
     b, d, eta, eps = params.beta, params.delta, params.eta, params.eps
     c = 1.0 - eps
-    y = w[0]
     y2 = y * y
-    # c - y**2 >= eps y / (|x| - y): relative rounding error about 1e-16 |x| / eps, below 1e-11 here
     s = c - y2
     q = c + y2
-    g = eps / s
-    x = y + g * y
-    out[0] = w[2] / (1.0 + g * q / s)
-    out[1] = w[3]
-    out[2] = (b * w[1] - eta * y / s) - (1.0 + b) * x
-    out[3] = (b / d) * (x - w[1])
-    out[4:12] = w[12:20]  # d(Phi rows x, u)/dt = Phi rows xdot, udot
-    diff = (b / d) * (w[4:8] - w[8:12])
-    out[12:16] = -(1.0 + eta * q / (s * s + eps * q)) * w[4:8] - d * diff  # -(1 + beta + f'(x)) Phi_x + beta Phi_u
-    out[16:20] = diff
+    out[0:8] = Z[8:16]  # d(rows x, u)/dt = rows xdot, udot
+    diff = (b / d) * (Z[0:4] - Z[4:8])
+    out[8:12] = -(1.0 + eta * q / (s * s + eps * q)) * Z[0:4] - d * diff  # -(1 + f'(x)) Z_x - beta (Z_x - Z_u)
+    out[12:16] = diff
     return out
+
+
+def _step_maps(params: ModelParameters, stage_y, steps):
+    """Runge-Kutta step maps ``Phi_{j+1} = R_j Phi_j`` of the variational equation, all steps at once.
+
+    The variational equation is linear and its coefficient depends only on the state, so the
+    scheme applied to ``Phi`` with the stage states of the state integration (``stage_y``) is the
+    linear map ``R_j = I + h_j sum_i b_i M_i``, ``M_i = A(y_i) (I + h_j sum_{l<i} a_il M_l)``:
+    the same scheme as on the augmented system, vectorized over the steps instead of looping.
+
+    Parameters
+    ----------
+    stage_y : ndarray, shape (stages, m)
+        Branch coordinate at the stages of ``m`` steps (flattened over orbits and steps).
+    steps : ndarray, shape (m,)
+
+    Returns
+    -------
+    ndarray, shape (m, 4, 4)
+    """
+    m = steps.shape[0]
+    maps = np.empty((m, 4, 4))
+    identity = np.eye(4).reshape(16, 1)
+    for lo in range(0, m, _CHUNK_STEPS):
+        sl = slice(lo, min(lo + _CHUNK_STEPS, m))
+        h = steps[sl]
+        k = h.shape[0]
+        M = np.empty((_STAGES, 16, k))
+        flat = M.reshape(_STAGES, 16 * k)
+        _variational_rhs(np.broadcast_to(identity, (16, k)), stage_y[0, sl], params, M[0])
+        for i in range(1, _STAGES):
+            _variational_rhs(identity + h * (_A[i, :i] @ flat[:i]).reshape(16, k), stage_y[i, sl], params, M[i])
+        maps[sl] = (identity + h * (_B @ flat).reshape(16, k)).T.reshape(k, 4, 4)
+    return maps
 
 
 def quarter_period_flow(params: ModelParameters, start, period, phases):
     """State and fundamental matrix of (7) a quarter period after a start at rest, many orbits at once.
+
+    The state is integrated step by step, all orbits as columns of one array; the fundamental
+    matrix by the same scheme afterwards, as the ordered product of the step maps
+    (:func:`_step_maps`), vectorized over the steps.
 
     Parameters
     ----------
@@ -88,23 +152,38 @@ def quarter_period_flow(params: ModelParameters, start, period, phases):
     """
     start = np.asarray(start, dtype=float)
     n = len(start)
-    w = np.zeros((20, n))
+    w = np.zeros((4, n))
     w[0] = start[:, 0] - regularized_contact_force(start[:, 0], params) / params.alpha
     w[1] = start[:, 1]
-    w[4:] = np.eye(4).reshape(16, 1)
     steps = np.diff(phases, axis=1) * (np.asarray(period, dtype=float) / (2.0 * np.pi))[:, None]
-    K = np.empty((_STAGES, 20 * n))
-    flat = K.reshape(_STAGES, 20, n)
-    for j in range(steps.shape[1]):
+    N = steps.shape[1]
+    K = np.empty((_STAGES, 4 * n))
+    flat = K.reshape(_STAGES, 4, n)
+    stages = np.empty((_STAGES, 4, n))  # stage states of one step
+    stage_y = np.empty((N, _STAGES, n))  # their branch coordinate, all steps, for the step maps
+    rhs = _StateRhs(params)
+    stage_sums = [(_A[i, :i], K[:i], stages[i], stages[i].reshape(4 * n)) for i in range(1, _STAGES)]
+    increment = np.empty(4 * n)
+    for j in range(N):
         h = steps[:, j]
-        _rhs(w, params, flat[0])
-        for i in range(1, _STAGES):
-            _rhs(w + h * (_A[i, :i] @ K[:i]).reshape(20, n), params, flat[i])
-        w = w + h * (_B @ K).reshape(20, n)
+        stages[0] = w
+        rhs(w, flat[0])
+        for i, (a, k, stage, stage_flat) in enumerate(stage_sums, start=1):
+            np.dot(a, k, out=stage_flat)
+            stage *= h
+            stage += w
+            rhs(stage, flat[i])
+        stage_y[j] = stages[:, 0]
+        np.dot(_B, K, out=increment)
+        w = w + h * increment.reshape(4, n)
+    maps = _step_maps(
+        params, np.ascontiguousarray(stage_y.transpose(1, 2, 0)).reshape(_STAGES, n * N), steps.reshape(n * N)
+    )
+    Q = transition_matrix(maps.reshape(n, N, 4, 4))
     eps = params.eps
     s = (np.sqrt(1.0 - eps) - np.abs(w[0])) * (np.sqrt(1.0 - eps) + np.abs(w[0]))
     state = np.stack([w[0] + eps * w[0] / s, w[1], w[2], w[3]], axis=1)
-    return state, np.moveaxis(w[4:].reshape(4, 4, n), 2, 0)
+    return state, Q
 
 
 def step_phases(x_phase, x_slope_phase, steps: int, width: float):
