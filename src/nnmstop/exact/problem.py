@@ -99,7 +99,7 @@ class SequenceProblem:
                 f"unknowns of {self.sequence!r} are (xdot0, udot0, {self._time_names()}), "
                 f"expected shape ({self.n_unknowns},), got {y.shape}"
             )
-        if not np.all(np.isfinite(y)):
+        if not np.isfinite(y).all():
             raise ValueError(f"unknowns must be finite, got {y}")
         return y
 
