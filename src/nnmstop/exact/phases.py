@@ -10,6 +10,7 @@ builds the whole period from it. Method notes: ``docs/methods/exact.md``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -84,6 +85,7 @@ class LinearPhase:
         # which are kept as the same numpy calls, so every result has the bits of the array path.
         object.__setattr__(self, "_modes_t", modes.T)
         object.__setattr__(self, "_omega_floats", tuple(self.omega.tolist()))
+        object.__setattr__(self, "_omega_max", float(self.omega.max()))
 
     @classmethod
     def free_flight(cls, params: ModelParameters) -> LinearPhase:
@@ -175,6 +177,22 @@ class LinearPhase:
         out[2:, :2] = blocks[2]
         return out
 
+    def transitions(self, t) -> np.ndarray:
+        """Transition matrices at the times ``t`` (1-D array), shape ``(len(t), 4, 4)``.
+
+        The numbers of :meth:`transition` at each time, in stacked products.
+        """
+        t = np.asarray(t, dtype=float)
+        wt = np.multiply.outer(t, self.omega)
+        s = np.sin(wt)
+        diagonals = np.stack((np.cos(wt), s / self.omega, -self.omega * s), axis=1)
+        blocks = self.modes @ (diagonals[..., None] * self.projection)
+        out = np.empty((t.size, 4, 4))
+        out[:, :2, :2] = out[:, 2:, 2:] = blocks[:, 0]
+        out[:, :2, 2:] = blocks[:, 1]
+        out[:, 2:, :2] = blocks[:, 2]
+        return out
+
     def field(self, z) -> np.ndarray:
         """Time derivative ``(xdot, udot, xddot, uddot)`` of the state ``z`` (last axis)."""
         z = np.asarray(z, dtype=float)
@@ -208,10 +226,11 @@ def interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period
     """
     if not duration > 0:
         return np.empty(0), np.empty((0, 4))
-    n = samples_per_period * max(1, int(np.ceil(duration * phase.omega.max() / (2 * np.pi)))) + 1
+    n = samples_per_period * max(1, math.ceil(duration * phase._omega_max / (2 * np.pi))) + 1
     t = np.linspace(0.0, duration, n)
     xdot = phase.velocities(z0, t)
-    changes = np.flatnonzero(np.sign(xdot[:-1]) * np.sign(xdot[1:]) < 0)
+    signs = np.sign(xdot)
+    changes = np.flatnonzero(signs[:-1] * signs[1:] < 0)
     times = list(t[1:-1][xdot[1:-1] == 0.0])
     if changes.size:
         velocity = phase.velocity_function(z0)
