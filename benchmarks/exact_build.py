@@ -9,8 +9,8 @@ the configuration of their own commit. It also says whether the two commits wrot
 data (``nnmstop.verify.data_digest``). With ``--nnm1-stage1`` (a regularized NNM1 stage-1
 dataset, e.g. ``results/hbm/stages/nnm1_stage1.nc`` of a build) the task ``compare_nnm1`` is
 timed too, on that file and the tree's own two-impact family. Each time includes the task's
-interpreter and import start-up, about 1-2 s (the import line of the table: ``python -c
-"import nnmstop.tasks.run"`` in the tree, the best of the same runs).
+interpreter and import start-up, about 1-2 s (the ``start-up`` line of the table: ``python -m
+nnmstop.tasks.run --help``, which imports every task module as each task does, in the tree).
 
 Usage::
 
@@ -53,14 +53,14 @@ def tasks(nnm1_stage1: Path | None) -> tuple:
 
 def _timed(command: list, tree: Path, env: dict) -> tuple:
     cpu0, wall0 = _children_cpu(), time.perf_counter()
-    subprocess.run(command, cwd=tree, env=env, check=True)
+    subprocess.run(command, cwd=tree, env=env, check=True, stdout=subprocess.DEVNULL)
     return time.perf_counter() - wall0, _children_cpu() - cpu0
 
 
 def run_tasks(tree: Path, nnm1_stage1: Path | None = None) -> dict:
-    """Run the tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``, and the ``import`` alone."""
+    """Run the tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``, and the ``start-up`` alone."""
     env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    times = {"import": _timed([sys.executable, "-c", "import nnmstop.tasks.run"], tree, env)}
+    times = {"start-up": _timed([sys.executable, "-m", "nnmstop.tasks.run", "--help"], tree, env)}
     for task, extra, output in tasks(nnm1_stage1):
         command = [sys.executable, "-m", "nnmstop.tasks.run", task, *extra, "--output", f"dataset={output}"]
         times[task] = _timed([*command, "--log", "task.log"], tree, env)
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
 
         print(f"| task | {a} wall [s] | {b} wall [s] | ratio | {a} CPU [s] | {b} CPU [s] | ratio | same data |")
         print("|---|---|---|---|---|---|---|---|")
-        for task, _, output in (("import", None, None), *tasks(args.nnm1_stage1)):
+        for task, _, output in (("start-up", None, None), *tasks(args.nnm1_stage1)):
             (wa, ca), (wb, cb) = best[a][task], best[b][task]
             same = "" if output is None else data_digest(trees[a] / output) == data_digest(trees[b] / output)
             print(f"| {task} | {wa:.1f} | {wb:.1f} | {wb / wa:.2f} | {ca:.1f} | {cb:.1f} | {cb / ca:.2f} | {same} |")
