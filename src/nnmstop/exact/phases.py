@@ -86,6 +86,8 @@ class LinearPhase:
         object.__setattr__(self, "_modes_t", modes.T)
         object.__setattr__(self, "_omega_floats", tuple(self.omega.tolist()))
         object.__setattr__(self, "_omega_max", float(self.omega.max()))
+        object.__setattr__(self, "_q_eq_floats", tuple(self.q_eq.tolist()))
+        object.__setattr__(self, "_projection_floats", tuple(map(tuple, self.projection.tolist())))
 
     @classmethod
     def free_flight(cls, params: ModelParameters) -> LinearPhase:
@@ -132,10 +134,9 @@ class LinearPhase:
         w0, w1 = self._omega_floats
         eta = np.array((a0 * c0 + (b0 / w0) * s0, a1 * c1 + (b1 / w1) * s1))
         eta_dot = np.array((-(a0 * w0) * s0 + b0 * c0, -(a1 * w1) * s1 + b1 * c1))
-        out = np.empty(4)
-        out[:2] = self.q_eq + eta @ self._modes_t
-        out[2:] = eta_dot @ self._modes_t
-        return out
+        x, u = (eta @ self._modes_t).tolist()
+        q0, q1 = self._q_eq_floats
+        return np.array((q0 + x, q1 + u, *(eta_dot @ self._modes_t).tolist()))
 
     def velocity_function(self, z0):
         """``t -> xdot(t)`` from ``z0`` for a scalar ``t``: the bits of ``state(z0, t)[2]``, cheaper."""
@@ -169,13 +170,13 @@ class LinearPhase:
         w0, w1 = self._omega_floats
         # the three distinct 2 x 2 blocks Phi diag(.) Phi^T M in one stacked product (the same numbers
         # as three products): cos, sin / omega and -omega sin of each mode
-        diagonals = np.array(((c0, c1), (s0 / w0, s1 / w1), (-w0 * s0, -w1 * s1)))
-        blocks = self.modes @ (diagonals[:, :, None] * self.projection)
-        out = np.empty((4, 4))
-        out[:2, :2] = out[2:, 2:] = blocks[0]
-        out[:2, 2:] = blocks[1]
-        out[2:, :2] = blocks[2]
-        return out
+        (p00, p01), (p10, p11) = self._projection_floats
+        scaled = [
+            ((d0 * p00, d0 * p01), (d1 * p10, d1 * p11))
+            for d0, d1 in ((c0, c1), (s0 / w0, s1 / w1), (-w0 * s0, -w1 * s1))
+        ]
+        (c, s, m) = (self.modes @ np.array(scaled)).tolist()
+        return np.array((c[0] + s[0], c[1] + s[1], m[0] + c[0], m[1] + c[1]))
 
     def transitions(self, t) -> np.ndarray:
         """Transition matrices at the times ``t`` (1-D array), shape ``(len(t), 4, 4)``.
