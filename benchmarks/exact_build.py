@@ -6,11 +6,15 @@ tree's ``src``, alternately ``--repeat`` times (A, B, A, B, ...), and reports th
 and CPU (user + system) time of each task with the ratio B/A. The CPU time is the steadier
 figure on a shared machine; the wall time is what the build waits for. Both trees read
 the configuration of their own commit. It also says whether the two commits wrote the same
-data (``nnmstop.verify.data_digest``).
+data (``nnmstop.verify.data_digest``). With ``--nnm1-stage1`` (a regularized NNM1 stage-1
+dataset, e.g. ``results/hbm/stages/nnm1_stage1.nc`` of a build) the task ``compare_nnm1`` is
+timed too, on that file and the tree's own two-impact family. Each time includes the task's
+interpreter and import start-up, about 1-2 s (the ``start-up`` line of the table: ``python -m
+nnmstop.tasks.run --help``, which imports every task module as each task does, in the tree).
 
 Usage::
 
-    python benchmarks/exact_build.py --compare main HEAD [--repeat 2]
+    python benchmarks/exact_build.py --compare main HEAD [--repeat 2] [--nnm1-stage1 PATH]
 """
 
 from __future__ import annotations
@@ -39,29 +43,27 @@ def _children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def run_tasks(tree: Path) -> dict:
-    """Run the exact tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``."""
+def tasks(nnm1_stage1: Path | None) -> tuple:
+    """``(task, extra arguments, output)`` of the timed tasks, ``compare_nnm1`` when a stage-1 file is given."""
+    if nnm1_stage1 is None:
+        return TASKS
+    compare = ["--input", "exact=two_impacts.nc", "--input", f"nnm1={nnm1_stage1.resolve()}"]
+    return (*TASKS, ("compare_nnm1", compare, "compare.nc"))
+
+
+def _timed(command: list, tree: Path, env: dict) -> tuple:
+    cpu0, wall0 = _children_cpu(), time.perf_counter()
+    subprocess.run(command, cwd=tree, env=env, check=True, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - wall0, _children_cpu() - cpu0
+
+
+def run_tasks(tree: Path, nnm1_stage1: Path | None = None) -> dict:
+    """Run the tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``, and the ``start-up`` alone."""
     env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    times = {}
-    for task, extra, output in TASKS:
-        cpu0, wall0 = _children_cpu(), time.perf_counter()
-        subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "nnmstop.tasks.run",
-                task,
-                *extra,
-                "--output",
-                f"dataset={output}",
-                "--log",
-                "task.log",
-            ],
-            cwd=tree,
-            env=env,
-            check=True,
-        )
-        times[task] = (time.perf_counter() - wall0, _children_cpu() - cpu0)
+    times = {"start-up": _timed([sys.executable, "-m", "nnmstop.tasks.run", "--help"], tree, env)}
+    for task, extra, output in tasks(nnm1_stage1):
+        command = [sys.executable, "-m", "nnmstop.tasks.run", task, *extra, "--output", f"dataset={output}"]
+        times[task] = _timed([*command, "--log", "task.log"], tree, env)
     return times
 
 
@@ -69,9 +71,12 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--compare", nargs=2, metavar=("A", "B"), default=("main", "HEAD"))
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--nnm1-stage1", type=Path, default=None, help="time compare_nnm1 on this stage-1 dataset")
     args = parser.parse_args(argv)
     if args.repeat < 1:
         raise ValueError(f"--repeat must be >= 1, got {args.repeat}")
+    if args.nnm1_stage1 is not None and not args.nnm1_stage1.is_file():
+        raise ValueError(f"--nnm1-stage1 {args.nnm1_stage1} is not a file")
     trees = {}
     try:
         for ref in args.compare:
@@ -80,7 +85,7 @@ def main(argv=None) -> int:
         best = {ref: {} for ref in args.compare}
         for _ in range(args.repeat):
             for ref in args.compare:
-                for task, (wall, cpu) in run_tasks(trees[ref]).items():
+                for task, (wall, cpu) in run_tasks(trees[ref], args.nnm1_stage1).items():
                     old = best[ref].get(task, (float("inf"), float("inf")))
                     best[ref][task] = (min(old[0], wall), min(old[1], cpu))
         a, b = args.compare
@@ -88,9 +93,9 @@ def main(argv=None) -> int:
 
         print(f"| task | {a} wall [s] | {b} wall [s] | ratio | {a} CPU [s] | {b} CPU [s] | ratio | same data |")
         print("|---|---|---|---|---|---|---|---|")
-        for task, _, output in TASKS:
+        for task, _, output in (("start-up", None, None), *tasks(args.nnm1_stage1)):
             (wa, ca), (wb, cb) = best[a][task], best[b][task]
-            same = data_digest(trees[a] / output) == data_digest(trees[b] / output)
+            same = "" if output is None else data_digest(trees[a] / output) == data_digest(trees[b] / output)
             print(f"| {task} | {wa:.1f} | {wb:.1f} | {wb / wa:.2f} | {ca:.1f} | {cb:.1f} | {cb / ca:.2f} | {same} |")
     finally:
         for tree in trees.values():

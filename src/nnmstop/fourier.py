@@ -189,18 +189,28 @@ class PhaseSynthesis:
         return self.cos @ (self.k * sin) - self.sin @ (self.k * cos)
 
 
-def fields_at_phases(theta, omega: float, series: dict, velocities=("x", "u")) -> dict:
+def fields_at_phases(theta, omega: float, series: dict, velocities=("x", "u"), synthesis=None) -> dict:
     """Several fields of one orbit at the phases ``theta = omega t``.
 
     ``series`` maps each field name to its cos/sin pair over harmonics ``0..H``; the result
     has each field and, for the names in ``velocities``, its time derivative ``<name>dot``
-    (``omega d/dtheta``).
+    (``omega d/dtheta``). ``synthesis``: ``PhaseSynthesis(theta, H)`` when the caller keeps it
+    (it depends only on the phases and ``H``; several orbits on the same phases share it).
     """
     pairs = {name: (np.asarray(c), np.asarray(s)) for name, (c, s) in series.items()}
     harmonics = {c.shape[-1] - 1 for c, _ in pairs.values()}
     if len(harmonics) != 1:
         raise ValueError(f"all fields must have the same number of harmonics, got {sorted(harmonics)}")
-    at = PhaseSynthesis(theta, harmonics.pop())
+    H = harmonics.pop()
+    if synthesis is None:
+        at = PhaseSynthesis(theta, H)
+    elif synthesis.cos.shape != (np.size(theta), H + 1):
+        raise ValueError(
+            f"the synthesis is for {synthesis.cos.shape[0]} phases and {synthesis.cos.shape[1] - 1} harmonics, "
+            f"the fields have {np.size(theta)} phases and {H} harmonics"
+        )
+    else:
+        at = synthesis
     out = {}
     for name, (c, s) in pairs.items():
         out[name] = at.values(c, s)

@@ -90,9 +90,10 @@ def comparison_dataset(
     energies, marks = comparison_energies(matcher, count, marked)
     system = matcher.system
     rows, orbits = [], []
+    synthesis_cache = {}  # the phase grid's synthesis, shared by all the pairs
     for energy in energies:
         pair = matcher.match(energy)
-        diff = orbit_differences(pair, system, phase_samples)
+        diff = orbit_differences(pair, system, phase_samples, synthesis_cache)
         rows.append((pair, diff))
         orbits.append(pair.regularized)
         logger.info(

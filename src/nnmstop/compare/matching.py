@@ -387,11 +387,15 @@ class EnergyMatcher:
 # --------------------------------------------------------------------------- orbit differences
 
 
-def regularized_orbit_on_phase(system: HarmonicBalanceSystem, U, phase, shift: float | None = None):
+def regularized_orbit_on_phase(
+    system: HarmonicBalanceSystem, U, phase, shift: float | None = None, synthesis_cache: dict | None = None
+):
     """HBM orbit ``U`` on ``phase = t/T``, origin on the symmetry axis where x is maximum.
 
     Returns the fields (``x, u, xdot, udot, f``) and the applied shift (0 or 0.5 period;
-    found here unless given).
+    found here unless given). ``synthesis_cache``: a dict that keeps the synthesis on these phases
+    (:class:`nnmstop.fourier.PhaseSynthesis`, keyed by the phases and the shift) for the next
+    orbit on the same phases, such as the comparison grid of every matched pair.
     """
     x, u, f, _, lam, _ = system.split(U)
     omega = float(np.sqrt(lam))
@@ -400,7 +404,14 @@ def regularized_orbit_on_phase(system: HarmonicBalanceSystem, U, phase, shift: f
     if shift is None:
         ends = fourier.PhaseSynthesis(np.array([0.0, np.pi]), system.H).values(*series["x"])
         shift = 0.5 if ends[1] > ends[0] else 0.0
-    return fourier.fields_at_phases(2.0 * np.pi * (np.asarray(phase) + shift), omega, series), shift
+    theta = 2.0 * np.pi * (np.asarray(phase) + shift)
+    synthesis = None
+    if synthesis_cache is not None:
+        key = (theta.tobytes(), system.H)
+        synthesis = synthesis_cache.get(key)
+        if synthesis is None:
+            synthesis = synthesis_cache[key] = fourier.PhaseSynthesis(theta, system.H)
+    return fourier.fields_at_phases(theta, omega, series, synthesis=synthesis), shift
 
 
 def largest_differences(first: dict, second: dict, first_on, second_on, keys) -> dict:
@@ -413,17 +424,25 @@ def largest_differences(first: dict, second: dict, first_on, second_on, keys) ->
     """
     n = next(iter(first.values())).size
     phase = np.arange(n) / n
-    out = {}
+    out, refined = {}, {}
     for key in keys:
         diff = np.abs(first[key] - second[key])
         j = int(np.argmax(diff))
-        local = phase[j] + np.linspace(-1.0, 1.0, 513) / n
-        fine = np.abs(first_on(local)[key] - second_on(local)[key])
+        if j not in refined:  # fields that peak at the same grid phase share the fine grid
+            local = phase[j] + np.linspace(-1.0, 1.0, 513) / n
+            refined[j] = (first_on(local), second_on(local))
+        first_fine, second_fine = refined[j]
+        fine = np.abs(first_fine[key] - second_fine[key])
         out[key] = float(max(diff[j], fine.max()))
     return out
 
 
-def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, phase_samples: int = 4096) -> dict:
+def orbit_differences(
+    matched: MatchedOrbits,
+    system: HarmonicBalanceSystem,
+    phase_samples: int = 4096,
+    synthesis_cache: dict | None = None,
+) -> dict:
     """Frequency and largest orbit differences of a matched pair (see the module docstring).
 
     Parameters
@@ -433,6 +452,9 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
         The system of the regularized orbit (``EnergyMatcher.system``).
     phase_samples : int
         Equally spaced phases ``t/T`` per period (>= 64).
+    synthesis_cache : dict, optional
+        Keeps the synthesis of the regularized orbits on those phases from one matched pair to the next
+        (:func:`regularized_orbit_on_phase`); the same numbers, computed once per comparison.
 
     Returns
     -------
@@ -453,12 +475,12 @@ def orbit_differences(matched: MatchedOrbits, system: HarmonicBalanceSystem, pha
     phase = np.arange(n) / n
     ex = exact_on(phase)
 
-    def regularized_on(phase, shift=None):
-        fields, shift = regularized_orbit_on_phase(system, matched.regularized, phase, shift)
+    def regularized_on(phase, shift=None, cache=None):
+        fields, shift = regularized_orbit_on_phase(system, matched.regularized, phase, shift, cache)
         fields["force"] = fields.pop("f")
         return fields, shift
 
-    reg, shift = regularized_on(phase)
+    reg, shift = regularized_on(phase, cache=synthesis_cache)
     frequency_exact = 1.0 / period_exact
     frequency_reg = float(system.frequency_hz(matched.regularized))
     # the origin must be the global maximum of x on both orbits

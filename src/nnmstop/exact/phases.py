@@ -10,6 +10,7 @@ builds the whole period from it. Method notes: ``docs/methods/exact.md``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -79,6 +80,14 @@ class LinearPhase:
         object.__setattr__(self, "projection", modes.T @ self.mass)
         diagonal = np.diag(self.mass)
         object.__setattr__(self, "_mass_diagonal", diagonal if np.all(self.mass == np.diag(diagonal)) else None)
+        # Scalar-time states and the transition matrices are called some 10^5 times per branch: their
+        # constants are formed once. The scalar path works on Python floats between the matrix products,
+        # which are kept as the same numpy calls, so every result has the bits of the array path.
+        object.__setattr__(self, "_modes_t", modes.T)
+        object.__setattr__(self, "_omega_floats", tuple(self.omega.tolist()))
+        object.__setattr__(self, "_omega_max", float(self.omega.max()))
+        object.__setattr__(self, "_q_eq_floats", tuple(self.q_eq.tolist()))
+        object.__setattr__(self, "_projection_floats", tuple(map(tuple, self.projection.tolist())))
 
     @classmethod
     def free_flight(cls, params: ModelParameters) -> LinearPhase:
@@ -96,11 +105,12 @@ class LinearPhase:
         Returns an array of shape ``np.shape(t) + (4,)``.
         """
         z0 = np.asarray(z0, dtype=float)
-        omega, modes_t = self.omega, self.modes.T
+        if isinstance(t, float):  # switch states, root finding: the same numbers, fewer numpy calls
+            return self._state_at(z0, t)
+        omega, modes_t = self.omega, self._modes_t
         a = self.projection @ (z0[:2] - self.q_eq)
         b = self.projection @ z0[2:]
-        # a scalar time (switch states, root finding) skips the outer product: the same numbers
-        wt = t * omega if isinstance(t, float) else np.multiply.outer(np.asarray(t, dtype=float), omega)
+        wt = np.multiply.outer(np.asarray(t, dtype=float), omega)
         c, s = np.cos(wt), np.sin(wt)
         eta = a * c + (b / omega) * s
         eta_dot = -(a * omega) * s + b * c
@@ -109,14 +119,79 @@ class LinearPhase:
         out[..., 2:] = eta_dot @ modes_t
         return out
 
+    def _coefficients(self, z0) -> tuple:
+        """Modal coordinates ``a = Phi^T M (q(0) - q_eq)`` and ``b = Phi^T M qdot(0)`` as Python floats."""
+        a = self.projection @ (z0[:2] - self.q_eq)
+        b = self.projection @ z0[2:]
+        return a.tolist(), b.tolist()
+
+    def _state_at(self, z0: np.ndarray, t: float) -> np.ndarray:
+        """:meth:`state` at one time: the elementwise operations of the array path on Python floats."""
+        (a0, a1), (b0, b1) = self._coefficients(z0)
+        wt = t * self.omega
+        c0, c1 = np.cos(wt).tolist()
+        s0, s1 = np.sin(wt).tolist()
+        w0, w1 = self._omega_floats
+        eta = np.array((a0 * c0 + (b0 / w0) * s0, a1 * c1 + (b1 / w1) * s1))
+        eta_dot = np.array((-(a0 * w0) * s0 + b0 * c0, -(a1 * w1) * s1 + b1 * c1))
+        x, u = (eta @ self._modes_t).tolist()
+        q0, q1 = self._q_eq_floats
+        return np.array((q0 + x, q1 + u, *(eta_dot @ self._modes_t).tolist()))
+
+    def velocity_function(self, z0):
+        """``t -> xdot(t)`` from ``z0`` for a scalar ``t``: the bits of ``state(z0, t)[2]``, cheaper."""
+        (a0, a1), (b0, b1) = self._coefficients(np.asarray(z0, dtype=float))
+        w0, w1 = self._omega_floats
+        na0, na1 = -(a0 * w0), -(a1 * w1)
+        omega, modes_t = self.omega, self._modes_t
+
+        def velocity(t):
+            wt = t * omega
+            c0, c1 = np.cos(wt).tolist()
+            s0, s1 = np.sin(wt).tolist()
+            return float((np.array((na0 * s0 + b0 * c0, na1 * s1 + b1 * c1)) @ modes_t)[0])
+
+        return velocity
+
+    def velocities(self, z0, t: np.ndarray) -> np.ndarray:
+        """Velocity of x at the times ``t`` (1-D array): column 2 of :meth:`state`, bit for bit."""
+        z0 = np.asarray(z0, dtype=float)
+        a = self.projection @ (z0[:2] - self.q_eq)
+        b = self.projection @ z0[2:]
+        wt = np.multiply.outer(t, self.omega)
+        eta_dot = -(a * self.omega) * np.sin(wt) + b * np.cos(wt)
+        return (eta_dot @ self._modes_t)[:, 0]
+
     def transition(self, t: float) -> np.ndarray:
         """Transition matrix ``d z(t) / d z(0)`` (4 x 4), exact."""
-        c, s = np.cos(self.omega * t), np.sin(self.omega * t)
-        proj, phi = self.projection, self.modes
-        out = np.empty((4, 4))
-        out[:2, :2] = out[2:, 2:] = phi @ (c[:, None] * proj)
-        out[:2, 2:] = phi @ ((s / self.omega)[:, None] * proj)
-        out[2:, :2] = phi @ ((-self.omega * s)[:, None] * proj)
+        wt = self.omega * t
+        c0, c1 = np.cos(wt).tolist()
+        s0, s1 = np.sin(wt).tolist()
+        w0, w1 = self._omega_floats
+        # the three distinct 2 x 2 blocks Phi diag(.) Phi^T M in one stacked product (the same numbers
+        # as three products): cos, sin / omega and -omega sin of each mode
+        (p00, p01), (p10, p11) = self._projection_floats
+        scaled = [
+            ((d0 * p00, d0 * p01), (d1 * p10, d1 * p11))
+            for d0, d1 in ((c0, c1), (s0 / w0, s1 / w1), (-w0 * s0, -w1 * s1))
+        ]
+        (c, s, m) = (self.modes @ np.array(scaled)).tolist()
+        return np.array((c[0] + s[0], c[1] + s[1], m[0] + c[0], m[1] + c[1]))
+
+    def transitions(self, t) -> np.ndarray:
+        """Transition matrices at the times ``t`` (1-D array), shape ``(len(t), 4, 4)``.
+
+        The numbers of :meth:`transition` at each time, in stacked products.
+        """
+        t = np.asarray(t, dtype=float)
+        wt = np.multiply.outer(t, self.omega)
+        s = np.sin(wt)
+        diagonals = np.stack((np.cos(wt), s / self.omega, -self.omega * s), axis=1)
+        blocks = self.modes @ (diagonals[..., None] * self.projection)
+        out = np.empty((t.size, 4, 4))
+        out[:, :2, :2] = out[:, 2:, 2:] = blocks[:, 0]
+        out[:, :2, 2:] = blocks[:, 1]
+        out[:, 2:, :2] = blocks[:, 2]
         return out
 
     def field(self, z) -> np.ndarray:
@@ -152,17 +227,14 @@ def interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period
     """
     if not duration > 0:
         return np.empty(0), np.empty((0, 4))
-    n = samples_per_period * max(1, int(np.ceil(duration * phase.omega.max() / (2 * np.pi)))) + 1
+    n = samples_per_period * max(1, math.ceil(duration * phase._omega_max / (2 * np.pi))) + 1
     t = np.linspace(0.0, duration, n)
-    xdot = phase.state(z0, t)[:, 2]
-    changes = np.flatnonzero(np.sign(xdot[:-1]) * np.sign(xdot[1:]) < 0)
+    xdot = phase.velocities(z0, t)
+    signs = np.sign(xdot)
+    changes = np.flatnonzero(signs[:-1] * signs[1:] < 0)
     times = list(t[1:-1][xdot[1:-1] == 0.0])
     if changes.size:
-        z0 = np.asarray(z0, dtype=float)
-
-        def velocity(s):
-            return phase.state(z0, s)[2]
-
+        velocity = phase.velocity_function(z0)
         times.extend(scipy.optimize.brentq(velocity, t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF) for i in changes)
     # discard the end points themselves (they are not interior extrema)
     tol = 1e-12 * max(duration, 1.0)

@@ -87,15 +87,21 @@ def quarter_transitions(params: ModelParameters, sequence: str, durations, phase
     -------
     list of ndarray, shape (4, 4)
     """
+    durations = _checked_durations(sequence, durations, (len(sequence),))
+    phases = phases or _phases(params)
+    return [phases[kind].transition(d) for kind, d in zip(sequence, durations)]
+
+
+def _checked_durations(sequence, durations, shape) -> np.ndarray:
+    """``durations`` as a float array of ``shape`` (last axis: the phases of ``sequence``), finite and >= 0."""
     durations = np.asarray(durations, dtype=float)
     if not isinstance(sequence, str) or not sequence or set(sequence) - set("FRL"):
         raise ValueError(f"sequence must be a non-empty string of F, R, L; got {sequence!r}")
-    if durations.shape != (len(sequence),):
+    if durations.shape != shape:
         raise ValueError(f"need one duration per phase of {sequence!r}, got shape {durations.shape}")
     if not np.all(np.isfinite(durations)) or np.any(durations < 0):
         raise ValueError(f"phase durations must be finite and >= 0, got {durations}")
-    phases = phases or _phases(params)
-    return [phases[kind].transition(d) for kind, d in zip(sequence, durations)]
+    return durations
 
 
 def monodromy(
@@ -119,7 +125,10 @@ def monodromy(
 
 
 def _monodromy_from(mats: list, start: str) -> np.ndarray:
-    """``(B A)^2`` (``start="origin"``) or ``(A B)^2`` from the quarter-period transitions."""
+    """``(B A)^2`` (``start="origin"``) or ``(A B)^2`` from the quarter-period transitions.
+
+    ``mats`` may hold stacks of transition matrices (one per orbit, ``(..., 4, 4)``).
+    """
     order = mats + mats[::-1] if start == "origin" else mats[::-1] + mats
     half = np.eye(4)
     for e in order:
@@ -153,17 +162,26 @@ def multipliers_from_monodromy(m, m_similar=None) -> ExactMultipliers:
 
 
 def _trace_analysis(m, m_similar=None):
-    """``(s, 2 - |s|, tolerance on s, invariant mismatch)`` of :func:`multipliers_from_monodromy`."""
+    """``(s, 2 - |s|, tolerance on s, invariant mismatch)`` of :func:`multipliers_from_monodromy`.
+
+    ``m`` (and ``m_similar``) may be stacks ``(n, 4, 4)``; the four results are then arrays.
+    """
     m = np.asarray(m, dtype=float)
-    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+    if m.shape[-2:] != (4, 4) or m.ndim > 3 or not np.all(np.isfinite(m)):
         raise ValueError(f"the monodromy must be a finite 4 x 4 matrix, got shape {m.shape}")
     eps = np.finfo(float).eps
-    s = float(np.trace(m)) - 2.0
-    minors = 0.5 * (np.trace(m) ** 2 - np.trace(m @ m))
-    mismatch = abs(s - 0.5 * (minors - 2.0))
-    spread = 0.0 if m_similar is None else abs(float(np.trace(m_similar)) - 2.0 - s)
-    tol = TRACE_SAFETY * (spread + mismatch + 4.0 * eps * float(np.linalg.norm(m, 2)))
-    return s, 2.0 - abs(s), tol, float(mismatch)
+    trace = np.trace(m, axis1=-2, axis2=-1)
+    s = trace - 2.0
+    # squares by the scalar power (libm pow), as for one matrix: numpy's array square can differ by an ulp
+    trace_squared = np.reshape([value**2 for value in np.ravel(trace).tolist()], np.shape(trace))
+    minors = 0.5 * (trace_squared - np.trace(m @ m, axis1=-2, axis2=-1))
+    mismatch = np.abs(s - 0.5 * (minors - 2.0))
+    spread = 0.0 if m_similar is None else np.abs(np.trace(m_similar, axis1=-2, axis2=-1) - 2.0 - s)
+    norm_2 = np.linalg.svd(m, compute_uv=False).max(axis=-1)  # the spectral norm of each matrix
+    tol = TRACE_SAFETY * (spread + mismatch + 4.0 * eps * norm_2)
+    if m.ndim == 2:
+        return float(s), float(2.0 - abs(s)), float(tol), float(mismatch)
+    return s, 2.0 - np.abs(s), tol, mismatch
 
 
 def _trivial_distance(m):
@@ -199,16 +217,24 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
         the flag ``stable``, each with ``long_name`` and ``units``.
     """
     phases = _phases(params)
-    rows, origin = [], []
-    for seq, d in zip(sequences, durations):
-        mats = quarter_transitions(params, seq, d, phases)
-        origin.append(_monodromy_from(mats, "origin"))
-        rows.append(_trace_analysis(origin[-1], _monodromy_from(mats, "turning_point")))
-    if not rows:
+    sequences = list(sequences)
+    if not sequences:
         raise ValueError("no orbit to compute the multipliers of")
-    s, margin, tol, _ = (np.array(column) for column in zip(*rows))
+    if len(durations) != len(sequences):
+        raise ValueError(f"need the durations of each of the {len(sequences)} orbits, got {len(durations)}")
+    # The orbits of one phase sequence in stacked products: the numbers of exact_multipliers, orbit by orbit.
+    origin = np.empty((len(sequences), 4, 4))
+    s, margin, tol = (np.empty(len(sequences)) for _ in range(3))
+    by_sequence = {}
+    for index, seq in enumerate(sequences):
+        by_sequence.setdefault(seq, []).append(index)
+    for seq, rows in by_sequence.items():
+        d = _checked_durations(seq, [durations[i] for i in rows], (len(rows), len(seq)))
+        mats = [phases[kind].transitions(d[:, k]) for k, kind in enumerate(seq)]
+        origin[rows] = _monodromy_from(mats, "origin")
+        s[rows], margin[rows], tol[rows], _ = _trace_analysis(origin[rows], _monodromy_from(mats, "turning_point"))
     lam = multipliers_from_invariant(s)[:, 2]
-    trivial = _trivial_distance(np.array(origin))
+    trivial = _trivial_distance(origin)
     stable = margin >= -tol
 
     def var(values, long_name):
