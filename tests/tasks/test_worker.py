@@ -1,6 +1,7 @@
 """The warm worker runs a task as the job's own process would, and goes away when idle."""
 
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -86,3 +87,11 @@ def test_the_worker_is_off_under_slurm_or_when_configured_off():
     assert not worker_enabled({}, {"SLURM_JOB_ID": "12"})
     assert not worker_enabled({}, {"NNMSTOP_WARM_WORKER": "0"})
     assert not worker_enabled({"execution": {"warm_worker": False}}, {})
+
+
+def test_a_worker_that_cannot_start_hands_the_job_back_at_once(worker_dir, tmp_path, monkeypatch):
+    monkeypatch.setattr(sys, "executable", "/bin/false")  # the worker's interpreter exits with 1 at once
+    started = time.monotonic()
+    assert run_in_worker(two_impact_request(tmp_path), idle=2.0, start_timeout=60.0) is None
+    assert time.monotonic() - started < 30.0, "the job waited for a worker that had already failed"
+    assert not (tmp_path / "two_impacts.nc").exists()

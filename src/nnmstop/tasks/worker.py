@@ -148,7 +148,9 @@ def plain_request(rule: str, config, inputs, outputs, log, wildcards) -> dict:
     }
 
 
-def _connect(path: Path, wait: float) -> socket.socket | None:
+def _connect(path: Path, wait: float, starting=None) -> socket.socket | None:
+    """Connect to the worker at ``path`` within ``wait`` seconds; None if none answers or if the worker
+    being started (``starting``) failed (a worker that lost the race to another exits with 0)."""
     deadline = time.monotonic() + wait
     while True:
         client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -157,18 +159,19 @@ def _connect(path: Path, wait: float) -> socket.socket | None:
             return client
         except OSError:
             client.close()
-            if time.monotonic() >= deadline:
+            failed = starting is not None and starting.poll() not in (None, 0)
+            if failed or time.monotonic() >= deadline:
                 return None
             time.sleep(0.05)
 
 
-def _start_worker(path: Path, idle: float) -> None:
+def _start_worker(path: Path, idle: float) -> subprocess.Popen:
     """Start a worker for ``path`` in its own session, detached from the job's streams."""
     environ = dict(os.environ)
     if "PYTHONPATH" in environ:
         entries = environ["PYTHONPATH"].split(os.pathsep)
         environ["PYTHONPATH"] = os.pathsep.join(str(Path(entry).resolve()) for entry in entries)
-    subprocess.Popen(
+    return subprocess.Popen(
         [sys.executable, "-P", "-m", "nnmstop.tasks.worker", "--socket", str(path), "--idle", str(idle)],
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
@@ -190,8 +193,7 @@ def run_in_worker(request: dict, idle: float = 20.0, start_timeout: float = 120.
     path = socket_path(worker_key())
     client = _connect(path, 0.0)
     if client is None:
-        _start_worker(path, idle)
-        client = _connect(path, start_timeout)
+        client = _connect(path, start_timeout, starting=_start_worker(path, idle))
         if client is None:
             return None
     payload = pickle.dumps({**request, "cwd": os.getcwd(), "environ": dict(os.environ)})
