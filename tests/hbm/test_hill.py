@@ -6,15 +6,12 @@ HBM state, :func:`refine_orbit`) and their monodromy matrices, so the tolerances
 below measure the HBM orbit's error at H = 40, not Hill's.
 """
 
-import copy
-
 import numpy as np
 import pytest
 
 from fixed_energy import orbit_at_energy
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
 from nnmstop.compare.matching import regularized_monotone_part
-from nnmstop.config import load_config
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.hill import floquet, hill_matrix, is_halfwave_symmetric
 from nnmstop.hbm.stability import BranchHill, branch_hill
@@ -22,35 +19,23 @@ from nnmstop.hbm.stages import start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, linear_modes
-from nnmstop.tasks.hbm import build_stage, system_from_config
-
-H_BRANCH = 40
+from nnmstop.tasks.hbm import build_stage
 
 
 @pytest.fixture(scope="module")
-def config():
-    """Paper physics, H = 40; NNM1 up to the first orbit with four impacts, NNM2 up to energy 20."""
-    c = copy.deepcopy(load_config("config/config.yaml"))
-    c["hbm"]["harmonics"] = H_BRANCH
-    c["hbm"]["points_per_step"] = 1
-    c["branches"]["nnm1"]["stages"] = [
-        {"name": "one_impact_per_stop", "until": {"impacts_above": 2}},
-        {"name": "three_impacts_per_stop", "until": {"impacts_at_most": 4}},
-    ]
-    c["branches"]["nnm2"]["stages"] = [{"name": "to_energy_20", "until": {"energy_above": 20.0}}]
-    return c
+def config(h40_config):
+    return h40_config
 
 
 @pytest.fixture(scope="module")
-def system(config):
-    return system_from_config(config)
+def system(h40_system):
+    return h40_system
 
 
 @pytest.fixture(scope="module")
-def nnm1(config, system):
+def nnm1(h40_nnm1_stages, system):
     """NNM1: stage 1 (0 then 2 impacts per period) and stage 2 (6 impacts, down to the energy fold and back)."""
-    first = build_stage(config, "nnm1", 1)
-    second = build_stage(config, "nnm1", 2, first)
+    first, second = h40_nnm1_stages
     return first, dataset_unknowns(first, system), second, dataset_unknowns(second, system)
 
 
@@ -265,11 +250,11 @@ def test_perturbation_harmonics_converge(system, nnm1):
     first, U, _, _ = nnm1
     i = int(np.argmin(np.abs(first["energy"].values - 5.0)))
     base = floquet(system, U[i])
-    more = floquet(system, U[i], harmonics=2 * H_BRANCH)
-    fewer = floquet(system, U[i], harmonics=3 * H_BRANCH // 4)
+    more = floquet(system, U[i], harmonics=2 * system.H)
+    fewer = floquet(system, U[i], harmonics=3 * system.H // 4)
     assert pair_distance(more.multipliers[2:], base.multipliers[2:]) < 1e-4
     assert pair_distance(fewer.multipliers[2:], base.multipliers[2:]) < 1e-3
-    assert more.harmonics == 2 * H_BRANCH and fewer.harmonics == 30
+    assert more.harmonics == 2 * system.H and fewer.harmonics == 30
 
 
 def test_recast_linearization_agrees_at_low_energy(system, nnm1):
@@ -320,7 +305,7 @@ def test_branch_hill_layout(system, nnm1):
     assert isinstance(b, BranchHill)
     assert b.stable.shape == (5,) and b.stable.dtype == bool
     assert b.multipliers.shape == (5, 4) and np.iscomplexobj(b.multipliers)
-    assert b.seconds_per_point > 0 and b.harmonics == H_BRANCH and b.method == "reversible"
+    assert b.seconds_per_point > 0 and b.harmonics == system.H and b.method == "reversible"
     single = floquet(system, U[3])
     assert np.array_equal(b.multipliers[3], single.multipliers)
     data = b.data_vars()

@@ -29,35 +29,23 @@ from nnmstop.hbm.stability import branch_hill, orbit_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
-from nnmstop.tasks.hbm import build_stage, stability_settings, system_from_config
-
-H_BRANCH = 40
+from nnmstop.tasks.hbm import stability_settings
 
 
 @pytest.fixture(scope="module")
-def config():
-    """Paper physics, H = 40; NNM1 from no impact up to the first orbit with four impacts per period."""
-    c = copy.deepcopy(load_config("config/config.yaml"))
-    c["hbm"]["harmonics"] = H_BRANCH
-    c["hbm"]["points_per_step"] = 1
-    c["branches"]["nnm1"]["stages"] = [
-        {"name": "one_impact_per_stop", "until": {"impacts_above": 2}},
-        {"name": "three_impacts_per_stop", "until": {"impacts_at_most": 4}},
-    ]
-    return c
+def config(h40_config):
+    return h40_config
 
 
 @pytest.fixture(scope="module")
-def system(config):
-    return system_from_config(config)
+def system(h40_system):
+    return h40_system
 
 
 @pytest.fixture(scope="module")
-def nnm1(config, system):
+def nnm1(h40_nnm1_stages, system):
     """Unknowns of NNM1 stages 1 and 2 (0, 2 then 6 impacts per period, through an energy fold)."""
-    first = build_stage(config, "nnm1", 1)
-    second = build_stage(config, "nnm1", 2, first)
-    return np.concatenate([dataset_unknowns(first, system), dataset_unknowns(second, system)])
+    return np.concatenate([dataset_unknowns(ds, system) for ds in h40_nnm1_stages])
 
 
 @pytest.fixture(scope="module")
