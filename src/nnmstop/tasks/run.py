@@ -27,7 +27,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "run_task", "run_request", "main"]
+__all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "named_entries", "run_task", "run_request", "main"]
 
 logger = logging.getLogger("nnmstop.tasks.run")
 
@@ -122,7 +122,7 @@ def configure_logging(log_path: str | None) -> None:
     root.setLevel(logging.INFO)
 
 
-def _as_dict(named) -> dict:
+def named_entries(named) -> dict:
     """A Snakemake ``Namedlist`` (or a dict, or None) as a plain dict of its named entries."""
     return dict(named.items()) if hasattr(named, "items") else dict(named or {})
 
@@ -136,7 +136,7 @@ def run_task(name: str, config: dict, inputs=None, outputs=None, log: str | None
     task = find_task(name)
     configure_logging(log)
     try:
-        task(config, _as_dict(inputs), _as_dict(outputs), **wildcards)
+        task(config, named_entries(inputs), named_entries(outputs), **wildcards)
     except Exception:
         logger.exception("task %s failed", name)
         raise

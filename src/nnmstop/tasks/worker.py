@@ -36,6 +36,8 @@ import time
 from collections.abc import Mapping
 from pathlib import Path
 
+from nnmstop.tasks.run import named_entries
+
 __all__ = ["worker_key", "socket_path", "plain_request", "run_in_worker", "serve", "worker_enabled"]
 
 #: Environment variables that take effect when modules are imported: a worker serves jobs
@@ -129,11 +131,6 @@ def _plain(value):
     return value
 
 
-def _plain_named(named) -> dict:
-    """A Snakemake ``Namedlist`` (or a dict, or None) as a dict of its named entries, in built-in types."""
-    return {str(k): _plain(v) for k, v in (named.items() if named is not None else ())}
-
-
 def plain_request(rule: str, config, inputs, outputs, log, wildcards) -> dict:
     """The arguments of :func:`nnmstop.tasks.run.run_task` for a Snakemake job, in built-in types
     (so that the worker needs no Snakemake class to read them): named inputs and outputs, the first
@@ -141,10 +138,10 @@ def plain_request(rule: str, config, inputs, outputs, log, wildcards) -> dict:
     return {
         "name": str(rule),
         "config": _plain(config),
-        "inputs": _plain_named(inputs),
-        "outputs": _plain_named(outputs),
+        "inputs": _plain(named_entries(inputs)),
+        "outputs": _plain(named_entries(outputs)),
         "log": str(log[0]) if log else None,
-        "wildcards": _plain_named(wildcards),
+        "wildcards": _plain(named_entries(wildcards)),
     }
 
 
@@ -182,6 +179,17 @@ def _start_worker(path: Path, idle: float) -> subprocess.Popen:
     )
 
 
+def _receive_exactly(connection: socket.socket, size: int) -> bytes:
+    """``size`` bytes from ``connection``; ConnectionError if the other end closes before."""
+    data = bytearray()
+    while len(data) < size:
+        chunk = connection.recv(size - len(data))
+        if not chunk:
+            raise ConnectionError(f"connection closed after {len(data)} of {size} bytes")
+        data += chunk
+    return bytes(data)
+
+
 def run_in_worker(request: dict, idle: float = 20.0, start_timeout: float = 120.0) -> int | None:
     """Run a task request in the warm worker; its exit status, or None if no worker could be reached.
 
@@ -200,7 +208,6 @@ def run_in_worker(request: dict, idle: float = 20.0, start_timeout: float = 120.
     with client:
         socket.send_fds(client, [_HEADER.pack(len(payload))], [0, 1, 2])
         client.sendall(payload)
-        received = b""
         child = None
         previous = {}
 
@@ -211,35 +218,17 @@ def run_in_worker(request: dict, idle: float = 20.0, start_timeout: float = 120.
         for signum in (signal.SIGTERM, signal.SIGINT):
             previous[signum] = signal.signal(signum, forward)
         try:
-            while True:
-                chunk = client.recv(64)
-                if not chunk:
-                    break
-                received += chunk
-                while len(received) >= _STATUS.size:
-                    pid, status = _STATUS.unpack(received[: _STATUS.size])
-                    received = received[_STATUS.size :]
-                    child = pid
-                    if status >= 0:
-                        return status
+            child, _ = _STATUS.unpack(_receive_exactly(client, _STATUS.size))  # the task's pid, at its start
+            return _STATUS.unpack(_receive_exactly(client, _STATUS.size))[1]  # its exit status, at its end
+        except ConnectionError:
+            print(f"nnmstop warm worker: the task's process {child} ended without an exit status", file=sys.stderr)
+            return 1
         finally:
             for signum, handler in previous.items():
                 signal.signal(signum, handler)
-    print(f"nnmstop warm worker: the task's process {child} ended without an exit status", file=sys.stderr)
-    return 1
 
 
 # --- the worker's side ----------------------------------------------------------------------
-
-
-def _receive_exactly(connection: socket.socket, size: int) -> bytes:
-    data = bytearray()
-    while len(data) < size:
-        chunk = connection.recv(size - len(data))
-        if not chunk:
-            raise ConnectionError("the job closed its connection before its request was complete")
-        data += chunk
-    return bytes(data)
 
 
 def _run_request(connection: socket.socket) -> int:
