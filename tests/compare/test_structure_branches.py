@@ -26,3 +26,12 @@ def test_compare_at_energies_on_two_linear_branches():
 def test_disjoint_branches_are_an_error():
     with pytest.raises(ValueError, match="share no energy"):
         compare_at_energies([1.0, 2.0], [1.0, 1.0], [3.0, 4.0], [1.0, 1.0], 4)
+
+
+def test_first_crossing_never_brackets_across_segments():
+    energy = [1.0, 2.0, 5.0, 6.0]
+    values = [10.0, 20.0, 50.0, 60.0]
+    segment = [0, 0, 1, 1]
+    assert first_crossing(energy, values, 3.0) == pytest.approx(30.0)  # the line from 2 to 5 joins two curves
+    assert np.isnan(first_crossing(energy, values, 3.0, segment))
+    assert first_crossing(energy, values, 5.5, segment) == pytest.approx(55.0)

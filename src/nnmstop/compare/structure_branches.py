@@ -14,12 +14,17 @@ import xarray as xr
 __all__ = ["first_crossing", "compare_at_energies"]
 
 
-def first_crossing(energy, values, target: float) -> float:
-    """``values`` where the branch first reaches ``target`` energy, or NaN if it never does."""
+def first_crossing(energy, values, target: float, segment=None) -> float:
+    """``values`` where the branch first reaches ``target`` energy, or NaN if it never does.
+
+    ``segment`` (optional, per point) splits a branch continued over resonance tongues into its
+    curves: two consecutive points of different segments bracket nothing.
+    """
     energy, values = np.asarray(energy, float), np.asarray(values, float)
     below = energy[:-1] - target
     above = energy[1:] - target
-    hits = np.flatnonzero(below * above <= 0)
+    same_curve = True if segment is None else np.diff(np.asarray(segment)) == 0
+    hits = np.flatnonzero((below * above <= 0) & same_curve)
     if hits.size == 0:
         return float("nan")
     i = hits[0]
@@ -28,8 +33,10 @@ def first_crossing(energy, values, target: float) -> float:
     return float(values[i] + w * (values[i + 1] - values[i]))
 
 
-def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count: int) -> xr.Dataset:
+def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count: int, segment=None) -> xr.Dataset:
     """Frequencies of the exact and the regularized branch at ``count`` log-spaced common energies.
+
+    ``segment``: the regularized branch's segments (:func:`first_crossing`).
 
     The common range runs from the larger to the smaller of the two branches' lowest and highest
     energies, with 1 % kept from both ends. Raises ValueError when the branches share no energy.
@@ -43,7 +50,7 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
         )
     targets = np.geomspace(low * 1.01, high / 1.01, count)
     fe = np.array([first_crossing(exact_energy, exact_frequency, e) for e in targets])
-    fr = np.array([first_crossing(energy, frequency, e) for e in targets])
+    fr = np.array([first_crossing(energy, frequency, e, segment) for e in targets])
     keep = np.isfinite(fe) & np.isfinite(fr)
     one = {"units": "1"}
     return xr.Dataset(

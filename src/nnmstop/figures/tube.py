@@ -38,6 +38,12 @@ def point_at_energy(energy, target: float) -> int:
     return int(i)
 
 
+def branch_segments(ds) -> np.ndarray:
+    """Segment of every point of a branch dataset (0 throughout for a branch without tongues passed):
+    each segment is its own curve, never joined by a line across a tongue."""
+    return ds.segment.values if "segment" in ds else np.zeros(ds.sizes["point"], dtype=int)
+
+
 def _line_segments(ax, x, y, stable, color, label):
     """Stable parts solid, unstable dashed; one legend entry."""
     stable = np.asarray(stable, bool)
@@ -90,8 +96,7 @@ def _frequency_energy(fig, data, spec):
     for ax, name in zip(axes, names):
         ds = data[name]
         color = REGULARIZED if name == "nnm1" else "tab:green"
-        # segments of a branch continued over resonance tongues are separate curves (no line across a tongue)
-        segment = ds.segment.values if "segment" in ds else np.zeros(ds.sizes["point"], dtype=int)
+        segment = branch_segments(ds)
         for k in np.unique(segment):
             part = segment == k
             _line_segments(
@@ -229,7 +234,11 @@ def _exact_vs_regularized(fig, data, spec):
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     ax1.plot(data["exact"].energy.values, data["exact"].frequency.values, color=EXACT, label="exact (non-smooth)")
     nnm1 = data["nnm1"]
-    ax1.plot(nnm1.energy.values, nnm1.frequency.values, color=REGULARIZED, label="regularized")
+    segment = branch_segments(nnm1)
+    for k in np.unique(segment):
+        part = segment == k
+        label = "regularized" if k == segment[0] else None
+        ax1.plot(nnm1.energy.values[part], nnm1.frequency.values[part], color=REGULARIZED, label=label)
     ax1.set_xscale("log")
     ax1.set_ylabel("frequency (Hz)")
     ax1.legend(fontsize=8)

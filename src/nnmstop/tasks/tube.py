@@ -199,6 +199,7 @@ def tube_compare(config, inputs, outputs):
         regularized.energy.values,
         regularized.frequency.values,
         config["tube"]["compare_count"],
+        segment=regularized.segment.values if "segment" in regularized else None,
     )
     ds.attrs = {k: v for k, v in regularized.attrs.items() if k in ("alpha", "eta", "harmonics", "elements")}
     write_dataset(
