@@ -253,3 +253,18 @@ def test_location_from_a_step_end_off_the_series_matches_pseudo_arclength(nnm1_t
     bound = 2.0 * (ANMSettings().tolerance * chord + 1e-9 * np.linalg.norm(U_pal))
     assert np.linalg.norm(U_star - U_pal) <= bound
     assert relative_residual(system, U_star) <= 1e-9
+
+
+def test_sparse_null_plane_matches_the_dense_svd(nnm1_through_3to1):
+    """The 3:1 branch point located and resolved with the sparse LU (inverse iterations on the bordered
+    matrix) and with the dense SVD of the same Jacobian: same point, same pair of tangents."""
+    system, runs = nnm1_through_3to1
+    branch = runs["ANM"]
+    found = locate_flagged_branch_points(system, branch.points, branch.step, branch.branch_points, METHODS["ANM"])
+    flagged, dense = next((i, point) for i, point, n, _ in found if n == 3)
+    sparse = HarmonicBalanceSystem(system.structure, system.H, linear_algebra="sparse")
+    sparse_point = locate_flagged_branch_points(sparse, branch.points, branch.step, [flagged], METHODS["ANM"])[0][1]
+    assert np.linalg.norm(dense.U - sparse_point.U) <= 1e-7 * np.linalg.norm(dense.U)
+    assert abs(abs(dense.bifurcated @ sparse_point.bifurcated) - 1.0) < 1e-6
+    assert abs(abs(dense.incoming @ sparse_point.incoming) - 1.0) < 1e-6
+    assert dense.singular_ratio < 1e-6 and sparse_point.singular_ratio < 1e-6
