@@ -16,6 +16,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
 from nnmstop.config import ConfigError, load_config, validate_config
@@ -23,7 +24,13 @@ from nnmstop.exact.family import follow_two_impact_family as follow_family
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.exact.stability import exact_multipliers
 from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, trace_invariants
+from nnmstop.hbm.monodromy import (
+    MonodromySettings,
+    branch_monodromy,
+    orbit_monodromy,
+    trace_invariants,
+    variational_step_matrices,
+)
 from nnmstop.hbm.shooting_refinement import refined_stability, shooting_stability
 from nnmstop.hbm.stability import branch_hill, orbit_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
@@ -65,6 +72,26 @@ def test_linear_limit_matches_closed_form():
     assert r.halfwave[0]
     assert abs(r.invariant[0] - 2 * np.cos(w[1] * T)) < 1e-7
     assert r.stable[0] and r.resolved[0]
+
+
+@pytest.mark.parametrize("step", [0.01, 0.1, 0.6, 3.0])  # the two largest need 6 and 8 squarings
+def test_magnus_step_matrices_are_the_exponentials_of_their_generators(step):
+    """The step matrices (Cayley-Hamilton series) against scipy's expm (Pade) of the Magnus generator
+    h A(k_mean) + sqrt(3)/12 h**2 (k_2 - k_1) diag(1, 0, -1, 0), for unequal masses and stiffnesses."""
+    params = ModelParameters(alpha=30.0, beta=0.7, delta=2.5, eta=0.1)
+    rng = np.random.default_rng(3)
+    nodes = rng.uniform(params.eta, params.alpha, size=(3, 5, 2))
+    matrices = variational_step_matrices(nodes, step, params)
+    b, d = params.beta, params.delta
+    for k, matrix in zip(nodes.reshape(-1, 2), matrices.reshape(-1, 4, 4)):
+        stiffness = np.array([[1.0 + b + k.mean(), -b], [-b / d, b / d]])
+        generator = step * np.block([[np.zeros((2, 2)), np.eye(2)], [-stiffness, np.zeros((2, 2))]])
+        generator += np.sqrt(3.0) / 12.0 * step**2 * (k[1] - k[0]) * np.diag([1.0, 0.0, -1.0, 0.0])
+        expected = scipy.linalg.expm(generator)
+        # round-off of a series summed at norm <= 1/2 (a few ulps), doubled by each of the squarings
+        squarings = max(0, int(np.ceil(np.log2(np.abs(generator).sum(axis=1).max() / 0.5))))
+        tolerance = 2.0 ** (squarings + 4) * np.finfo(float).eps * np.abs(expected).max()
+        np.testing.assert_allclose(matrix, expected, rtol=0, atol=tolerance)
 
 
 def test_monodromy_is_symplectic(system, nnm1):

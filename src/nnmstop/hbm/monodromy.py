@@ -131,42 +131,51 @@ class MonodromySettings:
 # --------------------------------------------------------------------------- integrator
 
 
-def _expm_batch(omega, norm=None):
-    """``exp`` of a stack of 4x4 matrices: Taylor polynomial of degree 15 after scaling.
+def _product(a, b):
+    """Products of 4x4 matrices stored entry-first, ``a``, ``b``: (4, 4, m)."""
+    return np.einsum("ikm,kjm->ijm", a, b)
 
-    One scaling for the whole stack (the steps have similar norms) brings the norms
-    to <= 1/2, where the truncation error ``(1/2)**16 / 16!`` is below round-off; the
-    polynomial is evaluated by Paterson-Stockmeyer (powers 2-4, then Horner in
-    ``X**4``: six batched products instead of fifteen), then squared back. ``norm``:
-    the largest row sum of ``|omega|`` over the stack, if known (computed otherwise).
-    Products go into preallocated arrays: the stacks are large and the cost is memory traffic.
+
+def _hamiltonian_exp(omega, norm: float):
+    """``exp`` of 4x4 matrices with an even characteristic polynomial, stored entry-first (4, 4, m).
+
+    The Magnus matrices are Hamiltonian (for the mass-weighted symplectic form), so their
+    characteristic polynomial is ``l**4 + e2 l**2 + e4`` and, by Cayley-Hamilton,
+    ``X**4 = -e2 X**2 - e4 I``: every power is ``u I + v X**2`` or ``(u I + v X**2) X``
+    with scalar ``u, v`` from a two-term recurrence. The Taylor series of degree 15 after
+    scaling to norm <= 1/2 (truncation ``(1/2)**16 / 16!``, below round-off) is then
+    ``a I + b X**2 + (c I + d X**2) X``: two matrix products and scalar work, instead of
+    the seven matrix products of a matrix polynomial. ``norm``: the largest row sum of
+    ``|omega|`` over the stack. Storing the 16 entries first keeps each product a few
+    vector operations over the whole stack.
     """
-    if norm is None:
-        norm = float(np.max(np.abs(omega).sum(axis=-1))) if omega.size else 0.0
     squarings = max(0, int(np.ceil(np.log2(norm / 0.5)))) if norm > 0 else 0
-    powers = np.empty((3,) + omega.shape)  # X, X**2, X**3
-    X = np.divide(omega, 2.0**squarings, out=powers[0]) if squarings else omega
-    np.matmul(X, X, out=powers[1])
-    np.matmul(powers[1], X, out=powers[2])
-    if not squarings:
-        powers[0] = X
-    X4 = np.matmul(powers[1], powers[1])
-    inv_fact = 1.0 / np.cumprod(np.r_[1.0, np.arange(1.0, 16.0)])
-    # sum_j X**j / j! = B0 + X4 (B1 + X4 (B2 + X4 B3)), B_m = sum_{i<4} X**i / (4m+i)!:
-    # the four blocks in one matrix product of the coefficients with the stacked powers.
-    coefficients = inv_fact.reshape(4, 4)
-    blocks = np.dot(coefficients[:, 1:], powers.reshape(3, -1)).reshape((4,) + omega.shape)
-    diagonal = blocks.reshape(4, -1, 16)[:, :, ::5]  # the diagonals (a view)
-    diagonal += coefficients[:, 0, None, None]
-    result = blocks[3]
-    product = np.empty_like(result)
-    for m in (2, 1, 0):
-        np.matmul(X4, result, out=product)
-        product += blocks[m]
-        result, product = product, result
+    X = omega / 2.0**squarings if squarings else omega
+    X2 = _product(X, X)
+    p2 = X2[0, 0] + X2[1, 1] + X2[2, 2] + X2[3, 3]  # tr X**2 = -2 e2
+    p4 = np.einsum("ijm,jim->m", X2, X2)  # tr X**4 = 2 e2**2 - 4 e4 (Newton's identities, e1 = e3 = 0)
+    e2 = -0.5 * p2
+    e4 = 0.25 * (0.5 * p2 * p2 - p4)
+    u, v = np.ones_like(e2), np.zeros_like(e2)  # X**0 = u I + v X**2
+    a, b, c, d = np.ones_like(e2), np.zeros_like(e2), np.ones_like(e2), np.zeros_like(e2)
+    factorial = 1.0
+    for k in range(1, 8):
+        u, v = -e4 * v, u - e2 * v  # X**(2k) = X**(2k-2) X**2
+        factorial *= 2 * k - 1
+        factorial *= 2 * k
+        a += u / factorial
+        b += v / factorial
+        a_odd = 1.0 / (factorial * (2 * k + 1))
+        c += u * a_odd
+        d += v * a_odd
+    result = b * X2
+    result += _product(c * np.eye(4)[:, :, None] + d * X2, X)
+    result[0, 0] += a
+    result[1, 1] += a
+    result[2, 2] += a
+    result[3, 3] += a
     for _ in range(squarings):
-        np.matmul(result, result, out=product)
-        result, product = product, result
+        result = _product(result, result)
     return result
 
 
@@ -194,25 +203,21 @@ def variational_step_matrices(stiffness_nodes, step, params: ModelParameters):
     k = np.asarray(stiffness_nodes, dtype=float)
     k_mean = 0.5 * (k[..., 0] + k[..., 1])
     k_diff = k[..., 1] - k[..., 0]
-    h = np.broadcast_to(np.asarray(step, dtype=float), k_mean.shape)
-    gamma = (np.sqrt(3.0) / 12.0) * h**2 * k_diff
-    omega = np.zeros(k_mean.shape + (4, 4))
-    omega[..., 0, 0] = gamma
-    omega[..., 0, 2] = h
-    omega[..., 1, 3] = h
-    omega[..., 2, 0] = h * (-(1.0 + b) - k_mean)
-    omega[..., 2, 1] = h * b
-    omega[..., 2, 2] = -gamma
-    omega[..., 3, 0] = h * (b / d)
-    omega[..., 3, 1] = h * (-b / d)
+    h = np.broadcast_to(np.asarray(step, dtype=float), k_mean.shape).ravel()
+    gamma = (np.sqrt(3.0) / 12.0) * h**2 * k_diff.ravel()
+    omega = np.zeros((4, 4, h.size))
+    omega[0, 0] = gamma
+    omega[0, 2] = h
+    omega[1, 3] = h
+    omega[2, 0] = h * (-(1.0 + b) - k_mean.ravel())
+    omega[2, 1] = h * b
+    omega[2, 2] = -gamma
+    omega[3, 0] = h * (b / d)
+    omega[3, 1] = h * (-b / d)
     # Largest row sum of |Omega| (the rows' non-zero entries), for the scaling of the exponential.
-    norm = 0.0
-    if omega.size:
-        abs_gamma = np.abs(gamma)
-        for row_sum in (abs_gamma + h, np.abs(omega[..., 2, 0]) + np.abs(omega[..., 2, 1]) + abs_gamma,
-                        np.abs(omega[..., 3, 0]) + np.abs(omega[..., 3, 1])):
-            norm = max(norm, float(np.max(row_sum)))
-    return _expm_batch(omega, norm)
+    norm = float(np.abs(omega).sum(axis=1).max()) if h.size else 0.0
+    exponential = _hamiltonian_exp(omega, norm)
+    return np.ascontiguousarray(np.moveaxis(exponential, 2, 0)).reshape(k_mean.shape + (4, 4))
 
 
 def _displacement_at_nodes(x_full, H: int, steps: int, halfwave: bool):
