@@ -317,15 +317,28 @@ def test_refined_multipliers_tend_to_the_exact_ones_as_eta_vanishes():
 
 
 def test_orbits_spared_the_step_doubling_keep_their_orbit_error_verdict(system, nnm1):
-    # Orbits whose s, anywhere within its integration error, is within F x time_residual are not
-    # integrated with more steps: the verdict is the orbit's (reason 2) whatever the steps. Checked
-    # against an integration with 16 times the steps, with the refinement off to see the HBM verdicts.
-    settings = MonodromySettings(steps=128, max_steps=4096, refine=False)
-    coarse = branch_monodromy(system, nnm1, settings)
+    """An orbit whose s, anywhere within its integration error, stays within F x its time residual is not
+    integrated with more steps: its verdict is the orbit's (reason 2) whatever the steps.
+
+    Constructed case: at the coarsest step count, the orbits whose margin is below (F - 1) times their
+    integration error (near the energy fold and the contact changes, 64 steps are coarse there) get a time
+    residual between (margin + error) / F and the error, so that only the sparing rule stops their doubling.
+    An integration with 16 times the steps must then find reason 2 as well. Refinement off (HBM verdicts).
+    """
+    settings = MonodromySettings(steps=64, max_steps=4096, refine=False)
     F = settings.resolution_factor
-    spared = (coarse.steps == 2 * settings.steps) & (coarse.margin <= F * coarse.integration_error)
-    spared &= coarse.integration_error > coarse.orbit_error
-    assert spared.any()  # one orbit of this small branch (the ten-impact orbits of H = 100: 57)
-    assert np.all(coarse.reason[spared] == 2)
-    fine = branch_monodromy(system, nnm1[spared], dataclasses.replace(settings, steps=2048))
+    residual = np.array([system.diagnostics(U)["time_residual"] for U in nnm1])
+    first = branch_monodromy(system, nnm1, dataclasses.replace(settings, max_steps=128), time_residual=residual)
+    error = first.integration_error
+    chosen = (first.margin < (F - 1) * error) & (first.trivial_deviation < error)
+    assert chosen.sum() >= 2
+    residual[chosen] = 0.5 * ((first.margin[chosen] + error[chosen]) / F + error[chosen])
+    coarse = branch_monodromy(system, nnm1, settings, time_residual=residual)
+    # without the rule these would be doubled: margin within F x error, error above the orbit's error
+    assert np.all(coarse.margin[chosen] <= F * coarse.integration_error[chosen])
+    assert np.all(coarse.integration_error[chosen] > coarse.orbit_error[chosen])
+    assert np.all(coarse.steps[chosen] == 2 * settings.steps)
+    assert np.all(coarse.reason[chosen] == 2)
+    fine_settings = dataclasses.replace(settings, steps=1024)
+    fine = branch_monodromy(system, nnm1[chosen], fine_settings, time_residual=residual[chosen])
     assert np.all(fine.reason == 2)
