@@ -31,7 +31,7 @@ from nnmstop.hbm.monodromy import (
     trace_invariants,
     variational_step_matrices,
 )
-from nnmstop.hbm.shooting_refinement import refined_stability, shooting_stability
+from nnmstop.hbm.shooting_refinement import refined_stability, segment_flow, shooting_stability
 from nnmstop.hbm.stability import branch_hill, orbit_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
@@ -166,6 +166,23 @@ def refined(system, nnm1):
     return r
 
 
+def test_segment_flows_chain_into_the_whole_flow():
+    """The group property of the flow, which multiple shooting rests on: segments integrated one after the
+    other, each from the previous one's end, give the end state and fundamental matrix (the product of the
+    segments') of one trajectory over the whole grid, from a start in contact with non-zero velocities."""
+    params = ModelParameters()
+    start = np.array([[1.3, 0.6, 0.4, -0.8]])
+    period = np.array([6.0])
+    phases = np.linspace(0.0, 0.5 * np.pi, 65)[None]
+    whole_end, whole_Q = segment_flow(params, start, period, phases)
+    state, Q = start, np.eye(4)
+    for m in range(4):
+        state, Q_m = segment_flow(params, state, period, phases[:, 16 * m : 16 * (m + 1) + 1])
+        Q = Q_m[0] @ Q
+    np.testing.assert_allclose(state, whole_end, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(Q, whole_Q[0], rtol=1e-11, atol=1e-11 * np.abs(whole_Q).max())
+
+
 def test_refined_orbits_match_adaptive_integration(system, refined):
     """DOP853 over a whole period (an independent integrator, no symmetry used) from the refined start:
     the orbit closes, and the multipliers of its monodromy match, within the two integrators' errors."""
@@ -293,15 +310,19 @@ def test_refined_multipliers_tend_to_the_exact_ones_as_eta_vanishes():
     errors = []
     for eta in (1e-2, 1e-3, 1e-4):
         params = dataclasses.replace(base, eta=eta)
-        orbit = TwoImpactProblem(params).time_history(
-            y, y[3] + theta * period / (2 * np.pi)
-        )  # from the turning point, at rest
+        problem = TwoImpactProblem(params)
+
+        def states_at(phases, problem=problem):  # from the turning point (t = T1), at rest
+            at = problem.time_history(y, y[3] + phases * period / (2 * np.pi))
+            return np.stack([at.x, at.u, at.xdot, at.udot], axis=-1)
+
+        orbit = problem.time_history(y, y[3] + theta * period / (2 * np.pi))
         r = shooting_stability(
             params,
-            [[orbit.x[0], orbit.u[0]]],
             [period],
             orbit.x[None],
             (orbit.xdot * period / (2 * np.pi))[None],
+            states_at,
             s.refine_steps,
             s.refine_max_steps,
             s.refine_tol,

@@ -3,11 +3,12 @@
 Used by :func:`nnmstop.hbm.monodromy.branch_monodromy` where the HBM orbit's own error decides the
 verdict (``stability_reason = 2``): the orbit is refined into a periodic orbit of (7) to the
 accuracy of the integrator, and the Floquet invariant of the refined orbit resolves the margin test.
-All refined orbits are integrated together: one vectorized explicit Runge-Kutta scheme of order 8
-on a step grid that concentrates the steps where the contact stiffness changes, over a quarter
-period only (the NNMs are time-reversible and half-wave symmetric, so the quarter-period flow gives
-both the shooting conditions and the half-period monodromy). Method, conditions, error estimate and
-cost: ``docs/methods/monodromy.md``, section "Shooting refinement".
+The quarter period (the NNMs are time-reversible and half-wave symmetric, so the quarter-period flow
+gives both the shooting conditions and the half-period monodromy) is cut into segments started
+from the HBM orbit's states (multiple shooting); all segments of all refined orbits are integrated
+together by one vectorized explicit Runge-Kutta scheme of order 8, on a step grid that concentrates
+the steps where the contact stiffness changes. Method, conditions, error estimate and cost:
+``docs/methods/monodromy.md``, section "Shooting refinement".
 """
 
 from __future__ import annotations
@@ -19,11 +20,19 @@ import numpy as np
 # Butcher tableau of the 8th-order Dormand-Prince scheme (Hairer, Norsett & Wanner, Solving ODEs I, II.5).
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
-from nnmstop.checks.shooting import orbit_initial_state
+from nnmstop import fourier
 from nnmstop.floquet import transition_matrix
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, regularized_contact_potential
 
-__all__ = ["RefinedStability", "quarter_period_flow", "step_phases", "shoot", "refined_stability", "shooting_stability"]
+__all__ = [
+    "RefinedStability",
+    "segment_flow",
+    "segment_joints",
+    "step_phases",
+    "shoot",
+    "refined_stability",
+    "shooting_stability",
+]
 
 _STAGES = _dop853.N_STAGES
 _A = np.asarray(_dop853.A[:_STAGES, :_STAGES], dtype=float)
@@ -39,6 +48,9 @@ _UNIFORM_DENSITY = 6.0
 _WIDTH_FACTOR = 2.0
 # Steps per chunk of the vectorized step maps (12 stages x 16 entries x 8 bytes each: 12 MB).
 _CHUNK_STEPS = 2**13
+# Segments of the quarter period (multiple shooting): the sequential step loop, whose cost is
+# numpy's per-call overhead, is 8 times shorter over 8 times as many columns.
+_SEGMENTS = 8
 
 
 class _StateRhs:
@@ -127,34 +139,42 @@ def _step_maps(params: ModelParameters, stage_y, steps):
     return maps
 
 
-def quarter_period_flow(params: ModelParameters, start, period, phases):
-    """State and fundamental matrix of (7) a quarter period after a start at rest, many orbits at once.
+def segment_flow(params: ModelParameters, states, period, phases):
+    """State and fundamental matrix of (7) at the end of phase grids, many trajectories at once.
 
-    The state is integrated step by step, all orbits as columns of one array; the fundamental
-    matrix by the same scheme afterwards, as the ordered product of the step maps
-    (:func:`_step_maps`), vectorized over the steps.
+    The state is integrated step by step, all trajectories as columns of one array
+    (:func:`_integrate_states`); the fundamental matrix by the same scheme afterwards, as the
+    ordered product of the step maps (:func:`_step_maps`), vectorized over the steps.
 
     Parameters
     ----------
     params : ModelParameters
-    start : ndarray, shape (n, 2)
-        ``(x, u)`` at ``t = 0``; the velocities are zero.
-    period : ndarray, shape (n,)
-    phases : ndarray, shape (n, N + 1)
-        Step grid in the phase ``2 pi t / T``, from 0 to ``pi/2`` (:func:`step_phases`).
+    states : ndarray, shape (c, 4)
+        ``(x, u, xdot, udot)`` at ``phases[:, 0]``.
+    period : ndarray, shape (c,)
+        Period ``T`` of each trajectory's orbit: a phase step ``d theta`` lasts ``T d theta / (2 pi)``.
+    phases : ndarray, shape (c, K + 1)
+        Step grid in the phase ``2 pi t / T``.
 
     Returns
     -------
-    state : ndarray, shape (n, 4)
-        ``(x, u, xdot, udot)`` at ``t = T/4``.
-    Q : ndarray, shape (n, 4, 4)
-        Fundamental matrix ``Phi(T/4)``, ``Phi(0) = I``.
+    end : ndarray, shape (c, 4)
+        ``(x, u, xdot, udot)`` at ``phases[:, -1]``.
+    Q : ndarray, shape (c, 4, 4)
+        Fundamental matrix over the grid (identity at its start).
     """
-    start = np.asarray(start, dtype=float)
-    n = len(start)
-    w = np.zeros((4, n))
-    w[0] = start[:, 0] - regularized_contact_force(start[:, 0], params) / params.alpha
-    w[1] = start[:, 1]
+    end, stage_y, steps = _integrate_states(params, states, period, phases)
+    return end, _fundamental_matrices(params, stage_y, steps)
+
+
+def _integrate_states(params: ModelParameters, states, period, phases):
+    """The state part of :func:`segment_flow`: end states, and the branch coordinate at every stage
+    of every step (``stage_y``, shape (K, stages, c)) with the steps in time (c, K) for the matrices."""
+    states = np.asarray(states, dtype=float)
+    n = len(states)
+    w = np.empty((4, n))
+    w[0] = states[:, 0] - regularized_contact_force(states[:, 0], params) / params.alpha
+    w[1:] = states[:, 1:].T
     steps = np.diff(phases, axis=1) * (np.asarray(period, dtype=float) / (2.0 * np.pi))[:, None]
     N = steps.shape[1]
     K = np.empty((_STAGES, 4 * n))
@@ -176,30 +196,91 @@ def quarter_period_flow(params: ModelParameters, start, period, phases):
         stage_y[j] = stages[:, 0]
         np.dot(_B, K, out=increment)
         w = w + h * increment.reshape(4, n)
+    eps = params.eps
+    s = (np.sqrt(1.0 - eps) - np.abs(w[0])) * (np.sqrt(1.0 - eps) + np.abs(w[0]))
+    end = np.stack([w[0] + eps * w[0] / s, w[1], w[2], w[3]], axis=1)
+    return end, stage_y, steps
+
+
+def _fundamental_matrices(params: ModelParameters, stage_y, steps):
+    """The matrix part of :func:`segment_flow` from :func:`_integrate_states`'s ``stage_y`` and ``steps``."""
+    n, N = steps.shape
     maps = _step_maps(
         params, np.ascontiguousarray(stage_y.transpose(1, 2, 0)).reshape(_STAGES, n * N), steps.reshape(n * N)
     )
-    Q = transition_matrix(maps.reshape(n, N, 4, 4))
-    eps = params.eps
-    s = (np.sqrt(1.0 - eps) - np.abs(w[0])) * (np.sqrt(1.0 - eps) + np.abs(w[0]))
-    state = np.stack([w[0] + eps * w[0] / s, w[1], w[2], w[3]], axis=1)
-    return state, Q
+    return transition_matrix(maps.reshape(n, N, 4, 4))
 
 
-def step_phases(x_phase, x_slope_phase, steps: int, width: float):
+def _vector_field(params: ModelParameters, states):
+    """Right-hand side of (7) at the states ``(x, u, xdot, udot)`` (last axis)."""
+    x, u = states[..., 0], states[..., 1]
+    b, d = params.beta, params.delta
+    acceleration_x = -(1.0 + b) * x + b * u - regularized_contact_force(x, params)
+    return np.stack([states[..., 2], states[..., 3], acceleration_x, (b / d) * (x - u)], axis=-1)
+
+
+def _step_density(x_phase, x_slope_phase, width: float):
+    """Cumulative step density along the uniform phase samples (see :func:`step_phases`)."""
+    n = x_phase.shape[0]
+    density = _UNIFORM_DENSITY + np.abs(x_slope_phase) / (np.abs(np.abs(x_phase) - 1.0) + _WIDTH_FACTOR * width)
+    return np.concatenate([np.zeros((n, 1)), np.cumsum(0.5 * (density[:, 1:] + density[:, :-1]), axis=1)], axis=1)
+
+
+def segment_joints(x_phase, x_slope_phase, segments: int, width: float):
+    """Samples where the segments of the multiple shooting join: equal shares of the step density.
+
+    Each joint is the uniform sample nearest to ``m / segments`` of the cumulative step density
+    (:func:`step_phases`), so that the segments get equal step counts on a grid close to the
+    single-segment one, and the joint states are samples of the approximate orbit.
+
+    Parameters
+    ----------
+    x_phase, x_slope_phase : ndarray, shape (n, m + 1)
+        ``x`` and ``dx/dtheta`` of the (approximate) orbits on a uniform grid of ``[0, pi/2]``.
+    segments : int
+    width : float
+
+    Returns
+    -------
+    ndarray of int, shape (n, segments + 1)
+        Increasing sample indices from 0 to ``m``.
+    """
+    cumulative = _step_density(x_phase, x_slope_phase, width)
+    n, m1 = cumulative.shape
+    if m1 - 1 < segments:
+        raise ValueError(f"{m1 - 1} phase samples cannot hold {segments} segments")
+    targets = cumulative[:, -1:] * (np.arange(segments + 1) / segments)
+    joints = np.empty((n, segments + 1), dtype=int)
+    for i in range(n):
+        above = np.clip(np.searchsorted(cumulative[i], targets[i]), 1, m1 - 1)
+        nearer_below = targets[i] - cumulative[i, above - 1] < cumulative[i, above] - targets[i]
+        joints[i] = np.where(nearer_below, above - 1, above)
+    joints[:, 0], joints[:, -1] = 0, m1 - 1
+    # distinct joints (a segment of at least one sample), keeping the ends
+    for m in range(1, segments):
+        joints[:, m] = np.maximum(joints[:, m], joints[:, m - 1] + 1)
+    for m in range(segments - 1, 0, -1):
+        joints[:, m] = np.minimum(joints[:, m], joints[:, m + 1] - 1)
+    return joints
+
+
+def step_phases(x_phase, x_slope_phase, joints, steps: int, width: float):
     """Step grid in phase over a quarter period, dense where ``|x|`` crosses the stop.
 
     The grid equidistributes ``6 + |dx/dtheta| / (||x| - 1| + 2 width)``: nearly uniform away
     from the stops and, near them, a step proportional to the distance to the contact transition
     (where the stiffness goes from ``eta`` to ``alpha`` over about ``width`` in ``x``) divided by
     the speed, so that each passage costs a number of steps growing only with the logarithm of
-    the speed.
+    the speed. Each segment between two joints (:func:`segment_joints`) gets ``steps / segments``
+    steps and starts and ends on its joints' samples.
 
     Parameters
     ----------
     x_phase, x_slope_phase : ndarray, shape (n, m + 1)
         ``x`` and ``dx/dtheta`` of the (approximate) orbits on a uniform grid of ``[0, pi/2]``.
+    joints : ndarray of int, shape (n, segments + 1)
     steps : int
+        A multiple of the number of segments.
     width : float
 
     Returns
@@ -207,48 +288,86 @@ def step_phases(x_phase, x_slope_phase, steps: int, width: float):
     ndarray, shape (n, steps + 1)
     """
     n, m1 = x_phase.shape
+    segments = joints.shape[1] - 1
+    if steps % segments:
+        raise ValueError(f"steps must be a multiple of the {segments} segments, got {steps}")
+    per_segment = steps // segments
     theta = np.linspace(0.0, 0.5 * np.pi, m1)
-    density = _UNIFORM_DENSITY + np.abs(x_slope_phase) / (np.abs(np.abs(x_phase) - 1.0) + _WIDTH_FACTOR * width)
-    cumulative = np.concatenate([np.zeros((n, 1)), np.cumsum(0.5 * (density[:, 1:] + density[:, :-1]), axis=1)], axis=1)
+    cumulative = _step_density(x_phase, x_slope_phase, width)
+    at_joints = np.take_along_axis(cumulative, joints, axis=1)
+    fraction = np.arange(per_segment) / per_segment
+    targets = at_joints[:, :-1, None] + np.diff(at_joints, axis=1)[:, :, None] * fraction
+    targets = np.concatenate([targets.reshape(n, steps), at_joints[:, -1:]], axis=1)
     out = np.empty((n, steps + 1))
     for i in range(n):
-        out[i] = np.interp(np.linspace(0.0, cumulative[i, -1], steps + 1), cumulative[i], theta)
-    out[:, 0], out[:, -1] = 0.0, 0.5 * np.pi
+        out[i] = np.interp(targets[i], cumulative[i], theta)
+    out[:, ::per_segment] = theta[joints]
     return out
 
 
-def shoot(params: ModelParameters, start, period, phases, tol: float, max_iter: int):
-    """Newton's method on ``(x(0), u(0), T)`` for ``x(T/4) = u(T/4) = 0``, with minimum-norm updates.
+def shoot(params: ModelParameters, states, period, phases, tol: float, max_iter: int):
+    """Multiple shooting: Newton's method for ``x(T/4) = u(T/4) = 0`` with minimum-norm updates.
 
     A time-reversible, half-wave symmetric orbit starts at rest and passes through ``x = u = 0``
-    at ``T/4``. The orbits form a one-parameter family, so the two conditions leave one unknown
-    free: the minimum-norm update (unknowns ``x(0)``, ``u(0)``, ``T omega / 4`` of comparable
-    size) converges to a nearby orbit of the family without fixing ``x(0)``, ``T`` or the energy,
-    each of which is singular at some fold of the family.
+    at ``T/4``. The quarter period is cut into segments, each integrated from its own start
+    state (the joints), all side by side. The unknowns are ``x(0)``, ``u(0)``, ``T`` and the joint
+    states; the conditions are the two at ``T/4`` and continuity at the joints. The joints are
+    eliminated from the Newton system (condensing: the joint corrections follow from the start's
+    by the segments' fundamental matrices), which leaves the single-shooting system in
+    ``(x(0), u(0), omega T/4)`` with the joints' mismatches carried along. The orbits form a
+    one-parameter family, so its minimum-norm update (unknowns of comparable size) converges
+    to a nearby orbit of the family without fixing ``x(0)``, ``T`` or the energy, each of which
+    is singular at some fold.
+
+    Parameters
+    ----------
+    states : ndarray, shape (n, segments, 4)
+        Start states of the segments (the first at rest, ``(x0, u0, 0, 0)``).
+    period : ndarray, shape (n,)
+    phases : ndarray, shape (n, N + 1)
+        Step grid of the quarter period (:func:`step_phases`), ``N / segments`` steps a segment.
 
     Returns
     -------
-    start, period : ndarray
+    states, period : ndarray
         Corrected unknowns (the last iterate where not converged).
     residual : ndarray
-        ``max(|x(T/4)|, |u(T/4)|) / max(|x(0)|, |u(0)|)`` at the returned unknowns (at the last
-        finite iterate where the flow diverged; ``inf`` if none).
+        Closure relative to the amplitude ``max(|x0|, |u0|)``: the largest of ``|x|, |u|`` at
+        ``T/4`` and of the joints' mismatches (velocities divided by ``omega``), at the returned
+        unknowns (at the last finite iterate where the flow diverged; ``inf`` if none).
     converged : ndarray of bool
         ``residual <= tol`` within ``max_iter`` updates.
     Q : ndarray, shape (n, 4, 4)
-        ``Phi(T/4)`` at the returned unknowns.
+        ``Phi(T/4)``, the product of the segments' fundamental matrices, at the returned unknowns.
     """
-    start = np.array(start, dtype=float)
+    states = np.array(states, dtype=float)
     period = np.array(period, dtype=float)
-    n = len(start)
+    n, segments, _ = states.shape
+    per_segment = (phases.shape[1] - 1) // segments
+    segment_phases = np.stack([phases[:, m * per_segment : (m + 1) * per_segment + 1] for m in range(segments)], axis=1)
+    phase_span = (segment_phases[..., -1] - segment_phases[..., 0]) / (0.5 * np.pi)  # shares of T/4
     residual = np.full(n, np.inf)
     converged = np.zeros(n, dtype=bool)
     Q_all = np.full((n, 4, 4), np.nan)
     active = np.arange(n)
     for iteration in range(max_iter + 1):
-        state, Q = quarter_period_flow(params, start[active], period[active], phases[active])
-        r = state[:, :2]
-        closure = np.abs(r).max(axis=1) / np.maximum(np.abs(start[active]).max(axis=1), 1e-300)
+        a = len(active)
+        end, Qs = segment_flow(
+            params,
+            states[active].reshape(a * segments, 4),
+            np.repeat(period[active], segments),
+            segment_phases[active].reshape(a * segments, per_segment + 1),
+        )
+        end, Qs = end.reshape(a, segments, 4), Qs.reshape(a, segments, 4, 4)
+        omega = 2.0 * np.pi / period[active]
+        # mismatch of each segment's end: with the next joint, and with x = u = 0 for the last one
+        mismatch = end.copy()
+        mismatch[:, :-1] -= states[active, 1:]
+        scale = np.array([1.0, 1.0, 0.0, 0.0]) + np.array([0.0, 0.0, 1.0, 1.0]) / omega[:, None, None]
+        scaled = np.abs(mismatch * scale)
+        scaled[:, -1, 2:] = 0.0  # the velocities at T/4 are free
+        closure = scaled.max(axis=(1, 2)) / np.maximum(np.abs(states[active, 0, :2]).max(axis=1), 1e-300)
+        Q = transition_matrix(Qs)
         finite = np.isfinite(closure) & np.all(np.isfinite(Q), axis=(1, 2))
         # A diverged orbit (non-finite flow) keeps its last finite closure and is not updated further.
         residual[active[finite]] = closure[finite]
@@ -257,14 +376,25 @@ def shoot(params: ModelParameters, start, period, phases, tol: float, max_iter: 
         keep = ~converged[active] & finite
         if iteration == max_iter or not keep.any():
             break
-        active, r, Q, state = active[keep], r[keep], Q[keep], state[keep]
-        omega = 2.0 * np.pi / period[active]
-        # Columns d/dx0, d/du0 (start at rest: columns 0, 1 of Q), d/d(omega T/4) = velocity / omega.
-        J = np.concatenate([Q[:, :2, :2], state[:, 2:, None] / omega[:, None, None]], axis=2)
-        update = -np.einsum("nji,nj->ni", J, np.linalg.solve(J @ np.swapaxes(J, 1, 2), r[..., None])[..., 0])
-        start[active] += update[:, :2]
+        active, end, Qs, mismatch, omega = active[keep], end[keep], Qs[keep], mismatch[keep], omega[keep]
+        # d(segment end)/d(omega T/4): the segment lasts its share of T/4
+        dp = _vector_field(params, end) * (phase_span[active] / omega[:, None])[..., None]
+        # condensing: the last segment's end as a function of (dx0, du0, dp) and the joints' mismatches
+        A, b, c = Qs[:, 0, :, :2], dp[:, 0], mismatch[:, 0]
+        for m in range(1, segments):
+            A = Qs[:, m] @ A
+            b = np.einsum("nij,nj->ni", Qs[:, m], b) + dp[:, m]
+            c = np.einsum("nij,nj->ni", Qs[:, m], c) + mismatch[:, m]
+        J = np.concatenate([A[:, :2], b[:, :2, None]], axis=2)
+        update = -np.einsum("nji,nj->ni", J, np.linalg.solve(J @ np.swapaxes(J, 1, 2), c[:, :2, None])[..., 0])
+        correction = np.zeros((len(active), 4))
+        correction[:, :2] = update[:, :2]
+        states[active, 0] += correction
+        for m in range(segments - 1):
+            correction = mismatch[:, m] + np.einsum("nij,nj->ni", Qs[:, m], correction) + dp[:, m] * update[:, 2:3]
+            states[active, m + 1] += correction
         period[active] += 4.0 * update[:, 2] / omega
-    return start, period, residual, converged, Q_all
+    return states, period, residual, converged, Q_all
 
 
 def _half_period_invariant(Q):
@@ -284,10 +414,29 @@ def _half_period_invariant(Q):
 
 def _quarter_period_samples(system, U_array, samples: int):
     """``x`` and ``dx/dtheta`` of HBM orbits on ``samples + 1`` uniform phases of ``[0, pi/2]``."""
-    x = np.stack([system.to_full(system.split(U)[0]) for U in U_array])
+    x = system.to_full(system.split(np.asarray(U_array))[0])
     values = system.to_time(x, 4 * samples)[:, : samples + 1]
     slopes = system.to_time(system.derivative(x), 4 * samples)[:, : samples + 1]
     return values, slopes
+
+
+def _hbm_states_at(system, U_array):
+    """``states_at(theta)`` for :func:`shooting_stability`: ``(x, u, xdot, udot)`` of the HBM orbits
+    ``U_array`` at the phases ``theta`` (n, J), by direct synthesis of their series."""
+    parts = system.split(np.asarray(U_array))
+    omega = np.sqrt(np.asarray(parts[4], dtype=float))
+    series = [
+        {"x": fourier.to_cos_sin(x, system.H), "u": fourier.to_cos_sin(u, system.H)} for x, u in zip(parts[0], parts[1])
+    ]
+
+    def states_at(theta):
+        out = np.empty(np.shape(theta) + (4,))
+        for i, (phases, w, pairs) in enumerate(zip(theta, omega, series)):
+            fields = fourier.fields_at_phases(phases, float(w), pairs)
+            out[i] = np.stack([fields[name] for name in ("x", "u", "xdot", "udot")], axis=-1)
+        return out
+
+    return states_at, 2.0 * np.pi / omega
 
 
 @dataclass
@@ -353,16 +502,14 @@ def refined_stability(
     -------
     RefinedStability
     """
-    values, slopes = _quarter_period_samples(system, U_array, _GRID_SAMPLES)
-    initial = [orbit_initial_state(system, U) for U in U_array]
-    start = np.array([state[:2] for state, _ in initial])
-    period = np.array([T for _, T in initial])
+    x_phase, x_slope_phase = _quarter_period_samples(system, U_array, _GRID_SAMPLES)
+    states_at, period = _hbm_states_at(system, U_array)
     return shooting_stability(
         system.params,
-        start,
         period,
-        values,
-        slopes,
+        x_phase,
+        x_slope_phase,
+        states_at,
         steps,
         max_steps,
         tol,
@@ -375,10 +522,10 @@ def refined_stability(
 
 def shooting_stability(
     params: ModelParameters,
-    start,
     period,
     x_phase,
     x_slope_phase,
+    states_at,
     steps: int,
     max_steps: int,
     tol: float,
@@ -389,25 +536,29 @@ def shooting_stability(
 ):
     """Periodic orbits of (7) by shooting from approximate ones, and their Floquet invariant.
 
-    Newton's method (:func:`shoot`) with ``N = steps`` Runge-Kutta steps per quarter period, then
-    the invariant with ``2N`` steps at the corrected orbit, compared with the ``N``-step one. Where
-    ``|s - 2|`` (the distance to the type change of a half-wave symmetric orbit) is within
-    ``resolution_factor`` times that difference, ``N`` is doubled (shooting again from the
-    corrected orbit) up to ``max_steps``, unless that bound is already below ``floor`` (the
-    stability tolerance on ``s``: the pair sits at the type change within it, and more steps
+    Multiple shooting (:func:`shoot`) with ``N = steps`` Runge-Kutta steps per quarter period,
+    then the invariant with ``2N`` steps from the corrected start and joints, compared with the
+    ``N``-step one. Where ``|s - 2|`` (the distance to the type change of a half-wave symmetric
+    orbit) is within ``resolution_factor`` times that difference, ``N`` is doubled (shooting again
+    from the corrected orbit) up to ``max_steps``, unless that bound is already below ``floor``
+    (the stability tolerance on ``s``: the pair sits at the type change within it, and more steps
     cannot change the verdict by more).
 
     Parameters
     ----------
     params : ModelParameters
-    start : array_like, shape (n, 2)
-        Approximate ``(x, u)`` at ``t = 0`` (at rest) of time-reversible, half-wave symmetric orbits.
     period : array_like, shape (n,)
         Approximate periods.
     x_phase, x_slope_phase : ndarray, shape (n, m + 1)
-        Approximate ``x`` and ``dx/dtheta`` on a uniform grid of the phase ``[0, pi/2]``, for the
-        step grid (:func:`step_phases`).
+        Approximate ``x`` and ``dx/dtheta`` of time-reversible, half-wave symmetric orbits on a
+        uniform grid of the phase ``[0, pi/2]`` (``m >= 8``), for the step grid
+        (:func:`step_phases`) and the joints (:func:`segment_joints`).
+    states_at : callable
+        ``states_at(theta)``, ``theta`` of shape (n, J): the approximate orbits' states
+        ``(x, u, xdot, udot)``, shape (n, J, 4), at those phases: the start (at ``theta = 0``, at rest;
+        its velocities are taken as zero) and the joints' start states.
     steps, max_steps : int
+        Multiples of the number of segments (8).
     tol : float
         Shooting tolerance on the closure relative to the amplitude.
     resolution_factor : float
@@ -422,11 +573,18 @@ def shooting_stability(
     -------
     RefinedStability
     """
-    start = np.array(start, dtype=float)
     period = np.array(period, dtype=float)
-    n = len(start)
-    initial_start, initial_period, initial_energy = start.copy(), period.copy(), _energy_at_rest(start, params)
+    x_phase, x_slope_phase = np.asarray(x_phase, dtype=float), np.asarray(x_slope_phase, dtype=float)
+    n = len(period)
     width = np.sqrt(2.0 * params.eps)  # width in x of the contact transition
+    joints = segment_joints(x_phase, x_slope_phase, _SEGMENTS, width)
+    theta = np.linspace(0.0, 0.5 * np.pi, x_phase.shape[1])
+    states = np.array(states_at(theta[joints[:, :-1]]), dtype=float)
+    if states.shape != (n, _SEGMENTS, 4):
+        raise ValueError(f"states_at must return shape {(n, _SEGMENTS, 4)}, got {states.shape}")
+    states[:, 0, 2:] = 0.0
+    initial_start, initial_period = states[:, 0, :2].copy(), period.copy()
+    initial_energy = _energy_at_rest(initial_start, params)
     s = np.zeros(n)
     err = np.full(n, np.inf)
     used = np.zeros(n, dtype=int)
@@ -435,15 +593,18 @@ def shooting_stability(
     todo = np.arange(n)
     N = steps
     while len(todo):
-        phases = step_phases(x_phase[todo], x_slope_phase[todo], N, width)
-        z, T, res, conv, Q = shoot(params, start[todo], period[todo], phases, tol, max_iter)
-        start[todo], period[todo], residual[todo], converged[todo] = z, T, res, conv
+        phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], N, width)
+        z, T, res, conv, Q = shoot(params, states[todo], period[todo], phases, tol, max_iter)
+        states[todo], period[todo], residual[todo], converged[todo] = z, T, res, conv
         ok = todo[conv]
         if not len(ok):
             break
         coarse = _half_period_invariant(Q[conv])
-        fine_phases = step_phases(x_phase[ok], x_slope_phase[ok], 2 * N, width)
-        _, Q_fine = quarter_period_flow(params, start[ok], period[ok], fine_phases)
+        # the fine invariant from one trajectory over the quarter period, started at the converged
+        # start: integrated anew at 2N steps everywhere (joints restarted from the N-step orbit would
+        # keep its integration error there and hide it from the estimate)
+        fine_phases = step_phases(x_phase[ok], x_slope_phase[ok], joints[ok], 2 * N, width)
+        _, Q_fine = segment_flow(params, states[ok, 0] * [1.0, 1.0, 0.0, 0.0], period[ok], fine_phases)
         s[ok] = _half_period_invariant(Q_fine)
         err[ok] = np.abs(s[ok] - coarse)
         used[ok] = 2 * N
@@ -452,6 +613,7 @@ def shooting_stability(
         bound = resolution_factor * err[ok]
         todo = ok[(np.abs(s[ok] - 2.0) <= bound) & (bound > floor)]
         N *= 2
+    start = states[:, 0, :2]
     amplitude = np.abs(initial_start).max(axis=1)
     change = np.maximum(np.abs(start - initial_start).max(axis=1) / amplitude, np.abs(period / initial_period - 1.0))
     converged &= change <= max_change
