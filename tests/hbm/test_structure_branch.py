@@ -7,7 +7,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from nnmstop.continuation.anm import ANMSettings
-from nnmstop.continuation.core import relative_residual
+from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
+from nnmstop.continuation.newton import bisect_sign_change
 from nnmstop.hbm.structure_branch import continue_structure_nnm
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.beam import Beam, beam_structure, default_tube_parameters
@@ -23,13 +24,48 @@ def _coarse_tube():
     return beam_structure(Beam.from_parameters(parameters))
 
 
+#: Truncation indicator up to which an orbit counts as resolved by the H = 40 harmonics of the checks below.
+RESOLVED = 1e-3
+
+
 @pytest.fixture(scope="module")
 def tube_branch():
-    """The coarse tube's NNM1 up to several impacts per stop."""
+    """The coarse tube's NNM1 at H = 40 from rest up the first side of its 17:1 internal resonance tongue.
+
+    The backbone bends smoothly into the tongue (docs/methods/tube_resonance.md), where the third mode's 17th
+    harmonic grows at an almost locked frequency until the stop node crosses the gap several times per half
+    period. The other curve there (the backbone beyond) passes within a few 1e-5 Hz: with the default step
+    tolerance 1e-8 a long Pade step may end past the gap and be corrected onto it, depending on round-off.
+    A step tolerance of 1e-10 keeps the step ends on the curve they follow (measured: the branch climbs the
+    tongue for H = 36, 40, 44, start amplitudes 0.05-0.4 and series orders 15-25 alike; at 1e-8 some jump).
+    The truncation guard is loose on purpose: the branch ends above E = 20, past the last resolved orbit.
+    """
     structure = _coarse_tube()
     system = HarmonicBalanceSystem(structure, 40)
-    branch = continue_structure_nnm(system, 1, 0.1, 20.0, 1e-3, ANMSettings(max_steps=400), "tube nnm1")
-    return structure, system, branch
+    settings = ANMSettings(max_steps=400, tolerance=1e-10)
+    branch = continue_structure_nnm(system, 1, 0.1, 20.0, 0.1, settings, "tube nnm1")
+    return structure, system, settings, branch
+
+
+def _last_resolved_orbit(system, settings, branch):
+    """The orbit of ``branch`` whose truncation indicator is :data:`RESOLVED`, located on the curve.
+
+    Bisection on the chord between the stored points that bracket it, every guess corrected by Newton onto
+    the branch in the hyperplane orthogonal to the chord: a point of the curve, wherever the steps ended.
+    Returns the orbit on the resolved side and its diagnostics.
+    """
+    truncation = np.array([d["truncation"] for d in branch.diagnostics])
+    beyond = np.flatnonzero(truncation > RESOLVED)
+    assert beyond.size and beyond[0] > 0, f"the branch does not cross truncation {RESOLVED:g} ({branch.end_reason})"
+    a, b = branch.points[beyond[0] - 1], branch.points[beyond[0]]
+    chord = b - a
+
+    def orbit(s):
+        U, _ = newton_correct(system, a + s * chord, chord, ContinuationStats(), tol=settings.newton_threshold)
+        return U, system.diagnostics(U)
+
+    located = bisect_sign_change(orbit, 0.0, 1.0, tol=1e-3, side=lambda value: value[1]["truncation"] > RESOLVED)
+    return located.value_lo
 
 
 def _period_defect(structure, system, U):
@@ -58,20 +94,24 @@ def test_hbm_orbits_of_the_tube_are_periodic_in_time(tube_branch):
     The HBM orbit satisfies the equations of motion up to its time residual r (relative to the largest
     restoring force at the stop); the state after one period then misses the start by a quantity of the order
     of r: the bound pi r (and an integrator floor of 1e-8) follows the engine's own periodicity test.
+    Checked: the most energetic resolved orbit of each impact count, the hardest to close; for the highest
+    count, the orbit where the truncation indicator reaches its limit, located on the curve (not a step end):
+    up the tongue it has several impacts per stop, which the test asserts. Beyond that resolution the defect is
+    not bounded by pi r with the same constant (measured in docs/methods/tube_resonance.md), so it is not asserted.
     """
-    structure, system, branch = tube_branch
-    # one orbit of each impact count along the branch, the most energetic of each (hardest to close)
+    structure, system, settings, branch = tube_branch
     chosen = {}
     for U, diagnostics in zip(branch.points, branch.diagnostics):
-        if diagnostics is not None:
+        if diagnostics["truncation"] <= RESOLVED:
             chosen[diagnostics["impacts_per_period"]] = (U, diagnostics)
-    checked_impacts = []
+    U, diagnostics = _last_resolved_orbit(system, settings, branch)
+    assert relative_residual(system, U) <= settings.newton_threshold
+    assert diagnostics["impacts_per_period"] >= 4  # several impacts per stop, not only the one-impact regime
+    chosen[diagnostics["impacts_per_period"]] = (U, diagnostics)
+    assert 2 in chosen  # and the regime of one impact on each side of the gap per period
     for U, diagnostics in chosen.values():
         defect = _period_defect(structure, system, U)
         assert defect < np.pi * diagnostics["time_residual"] + 1e-8, (diagnostics["energy"], defect)
-        checked_impacts.append(diagnostics["impacts_per_period"])
-    assert max(checked_impacts) >= 4  # several impacts per stop were checked, not only the one-impact regime
-    assert 2 in checked_impacts
 
 
 @pytest.fixture(scope="module")
