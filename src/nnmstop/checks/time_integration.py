@@ -8,7 +8,7 @@ construction against a different method.
   the integration in the new linear phase at each of them, so that the integrator never
   steps across the kink of the contact law.
 * :func:`integrate_regularized`: Eq. (7) with the smooth regularized contact force
-  :func:`nnmstop.models.two_dof.regularized_contact_force`.
+  (:func:`nnmstop.models.two_dof.regularized_vector_field`).
 
 Both take the state ``z = (x, u, xdot, udot)`` at ``t_eval[0]`` and return it at every
 requested time.
@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_contact_force
+from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_vector_field
 
 __all__ = ["Trajectory", "integrate_nonsmooth", "integrate_regularized"]
 
@@ -198,12 +198,9 @@ def integrate_regularized(params: ModelParameters, z0, t_eval, rtol: float = 1e-
     Trajectory
     """
     z0, t_eval = _check_inputs(z0, t_eval)
-    b, d = params.beta, params.delta
 
     def rhs(_t, z):
-        x, u, xd, ud = z
-        f = float(regularized_contact_force(x, params))
-        return [xd, ud, -(1.0 + b) * x + b * u - f, b * (x - u) / d]
+        return regularized_vector_field(z, params)
 
     if t_eval.size == 1:
         return Trajectory(t_eval, z0[None, :].copy(), np.empty(0))

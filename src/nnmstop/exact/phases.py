@@ -108,8 +108,7 @@ class LinearPhase:
         if isinstance(t, float):  # switch states, root finding: the same numbers, fewer numpy calls
             return self._state_at(z0, t)
         omega, modes_t = self.omega, self._modes_t
-        a = self.projection @ (z0[:2] - self.q_eq)
-        b = self.projection @ z0[2:]
+        a, b = self._modal_start(z0)
         wt = np.multiply.outer(np.asarray(t, dtype=float), omega)
         c, s = np.cos(wt), np.sin(wt)
         eta = a * c + (b / omega) * s
@@ -119,10 +118,13 @@ class LinearPhase:
         out[..., 2:] = eta_dot @ modes_t
         return out
 
+    def _modal_start(self, z0) -> tuple[np.ndarray, np.ndarray]:
+        """Modal coordinates ``a = Phi^T M (q(0) - q_eq)`` and ``b = Phi^T M qdot(0)`` of the start ``z0``."""
+        return self.projection @ (z0[:2] - self.q_eq), self.projection @ z0[2:]
+
     def _coefficients(self, z0) -> tuple:
-        """Modal coordinates ``a = Phi^T M (q(0) - q_eq)`` and ``b = Phi^T M qdot(0)`` as Python floats."""
-        a = self.projection @ (z0[:2] - self.q_eq)
-        b = self.projection @ z0[2:]
+        """:meth:`_modal_start` as Python floats."""
+        a, b = self._modal_start(z0)
         return a.tolist(), b.tolist()
 
     def _state_at(self, z0: np.ndarray, t: float) -> np.ndarray:
@@ -155,9 +157,7 @@ class LinearPhase:
 
     def velocities(self, z0, t: np.ndarray) -> np.ndarray:
         """Velocity of x at the times ``t`` (1-D array): column 2 of :meth:`state`, bit for bit."""
-        z0 = np.asarray(z0, dtype=float)
-        a = self.projection @ (z0[:2] - self.q_eq)
-        b = self.projection @ z0[2:]
+        a, b = self._modal_start(np.asarray(z0, dtype=float))
         wt = np.multiply.outer(t, self.omega)
         eta_dot = -(a * self.omega) * np.sin(wt) + b * np.cos(wt)
         return (eta_dot @ self._modes_t)[:, 0]

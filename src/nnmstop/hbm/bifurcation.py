@@ -278,7 +278,7 @@ def _sparse_null_plane(system, U, reference, iterations: int = 3):
     lu = splu(B)
     # deterministic starts (byte-reproducible datasets)
     start = np.cos(np.arange(n + 1) * 0.7071 + 0.3)
-    v, w = start / np.linalg.norm(start), start / np.linalg.norm(start)
+    v = w = start / np.linalg.norm(start)
     for _ in range(iterations):
         v = lu.solve(v)
         v /= np.linalg.norm(v)

@@ -165,9 +165,9 @@ def _hamiltonian_exp(omega, norm: float):
         factorial *= 2 * k
         a += u / factorial
         b += v / factorial
-        a_odd = 1.0 / (factorial * (2 * k + 1))
-        c += u * a_odd
-        d += v * a_odd
+        odd_factor = 1.0 / (factorial * (2 * k + 1))  # 1 / (2k + 1)!
+        c += u * odd_factor
+        d += v * odd_factor
     result = b * X2
     result += _product(c * np.eye(4)[:, :, None] + d * X2, X)
     result[0, 0] += a
@@ -214,7 +214,7 @@ def variational_step_matrices(stiffness_nodes, step, params: ModelParameters):
     omega[2, 2] = -gamma
     omega[3, 0] = h * (b / d)
     omega[3, 1] = h * (-b / d)
-    # Largest row sum of |Omega| (the rows' non-zero entries), for the scaling of the exponential.
+    # Largest row sum of |Omega|, for the scaling of the exponential.
     norm = float(np.abs(omega).sum(axis=1).max()) if h.size else 0.0
     exponential = _hamiltonian_exp(omega, norm)
     return np.ascontiguousarray(np.moveaxis(exponential, 2, 0)).reshape(k_mean.shape + (4, 4))

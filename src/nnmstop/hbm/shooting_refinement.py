@@ -22,7 +22,12 @@ from scipy.integrate._ivp import dop853_coefficients as _dop853
 
 from nnmstop import fourier
 from nnmstop.floquet import transition_matrix
-from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, regularized_contact_potential
+from nnmstop.models.two_dof import (
+    ModelParameters,
+    regularized_contact_force,
+    regularized_contact_potential,
+    regularized_vector_field,
+)
 
 __all__ = [
     "RefinedStability",
@@ -142,9 +147,9 @@ def _step_maps(params: ModelParameters, stage_y, steps):
 def segment_flow(params: ModelParameters, states, period, phases):
     """State and fundamental matrix of (7) at the end of phase grids, many trajectories at once.
 
-    The state is integrated step by step, all trajectories as columns of one array
-    (:func:`_integrate_states`); the fundamental matrix by the same scheme afterwards, as the
-    ordered product of the step maps (:func:`_step_maps`), vectorized over the steps.
+    The state is integrated step by step, all trajectories as columns of one array, keeping the
+    branch coordinate of every stage; the fundamental matrix by the same scheme afterwards, as
+    the ordered product of the step maps (:func:`_step_maps`), vectorized over the steps.
 
     Parameters
     ----------
@@ -163,13 +168,6 @@ def segment_flow(params: ModelParameters, states, period, phases):
     Q : ndarray, shape (c, 4, 4)
         Fundamental matrix over the grid (identity at its start).
     """
-    end, stage_y, steps = _integrate_states(params, states, period, phases)
-    return end, _fundamental_matrices(params, stage_y, steps)
-
-
-def _integrate_states(params: ModelParameters, states, period, phases):
-    """The state part of :func:`segment_flow`: end states, and the branch coordinate at every stage
-    of every step (``stage_y``, shape (K, stages, c)) with the steps in time (c, K) for the matrices."""
     states = np.asarray(states, dtype=float)
     n = len(states)
     w = np.empty((4, n))
@@ -196,27 +194,13 @@ def _integrate_states(params: ModelParameters, states, period, phases):
         stage_y[j] = stages[:, 0]
         np.dot(_B, K, out=increment)
         w = w + h * increment.reshape(4, n)
-    eps = params.eps
-    s = (np.sqrt(1.0 - eps) - np.abs(w[0])) * (np.sqrt(1.0 - eps) + np.abs(w[0]))
-    end = np.stack([w[0] + eps * w[0] / s, w[1], w[2], w[3]], axis=1)
-    return end, stage_y, steps
-
-
-def _fundamental_matrices(params: ModelParameters, stage_y, steps):
-    """The matrix part of :func:`segment_flow` from :func:`_integrate_states`'s ``stage_y`` and ``steps``."""
-    n, N = steps.shape
     maps = _step_maps(
         params, np.ascontiguousarray(stage_y.transpose(1, 2, 0)).reshape(_STAGES, n * N), steps.reshape(n * N)
     )
-    return transition_matrix(maps.reshape(n, N, 4, 4))
-
-
-def _vector_field(params: ModelParameters, states):
-    """Right-hand side of (7) at the states ``(x, u, xdot, udot)`` (last axis)."""
-    x, u = states[..., 0], states[..., 1]
-    b, d = params.beta, params.delta
-    acceleration_x = -(1.0 + b) * x + b * u - regularized_contact_force(x, params)
-    return np.stack([states[..., 2], states[..., 3], acceleration_x, (b / d) * (x - u)], axis=-1)
+    eps = params.eps
+    s = (np.sqrt(1.0 - eps) - np.abs(w[0])) * (np.sqrt(1.0 - eps) + np.abs(w[0]))
+    end = np.stack([w[0] + eps * w[0] / s, w[1], w[2], w[3]], axis=1)
+    return end, transition_matrix(maps.reshape(n, N, 4, 4))
 
 
 def _step_density(x_phase, x_slope_phase, width: float):
@@ -378,7 +362,7 @@ def shoot(params: ModelParameters, states, period, phases, tol: float, max_iter:
             break
         active, end, Qs, mismatch, omega = active[keep], end[keep], Qs[keep], mismatch[keep], omega[keep]
         # d(segment end)/d(omega T/4): the segment lasts its share of T/4
-        dp = _vector_field(params, end) * (phase_span[active] / omega[:, None])[..., None]
+        dp = regularized_vector_field(end, params) * (phase_span[active] / omega[:, None])[..., None]
         # condensing: the last segment's end as a function of (dx0, du0, dp) and the joints' mismatches
         A, b, c = Qs[:, 0, :, :2], dp[:, 0], mismatch[:, 0]
         for m in range(1, segments):

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
+from nnmstop import fourier
 from nnmstop.continuation.anm import ANMSettings, continue_anm
 from nnmstop.continuation.core import Branch, ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.bifurcation import locate_flagged_branch_points
@@ -153,10 +154,7 @@ def _follow(system, U, direction, energy_max, max_truncation, settings, label, s
 
 def _amplitudes(system: HarmonicBalanceSystem, U) -> np.ndarray:
     """Root-sum-square over the degrees of freedom of the amplitude of each harmonic 0..H."""
-    Q = np.stack(system.split(U)[: system.n_dofs])
-    full = system.to_full(Q)
-    H = system.H
-    cos, sin = full[:, : H + 1], np.concatenate([np.zeros((len(Q), 1)), full[:, H + 1 :]], axis=1)
+    cos, sin = fourier.to_cos_sin(np.stack(system.split(U)[: system.n_dofs]), system.H)
     return np.sqrt(np.sum(cos**2 + sin**2, axis=0))
 
 
@@ -257,9 +255,10 @@ def _joined(segments) -> Branch:
         offset += max(segment.step) + 1
         for field in dataclasses.fields(joined.stats):
             setattr(joined.stats, field.name, getattr(joined.stats, field.name) + getattr(segment.stats, field.name))
-    joined.end_reason = "; ".join(f"segment {k}: {segment.end_reason}" for k, segment in enumerate(segments))
     if len(segments) == 1:
         joined.end_reason = segments[0].end_reason
+    else:
+        joined.end_reason = "; ".join(f"segment {k}: {segment.end_reason}" for k, segment in enumerate(segments))
     joined.end_tangent = segments[-1].end_tangent
     return joined
 

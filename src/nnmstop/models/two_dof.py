@@ -34,6 +34,7 @@ __all__ = [
     "regularized_contact_stiffness",
     "regularized_contact_potential",
     "regularized_force_and_potential",
+    "regularized_vector_field",
     "total_energy",
     "mass_matrix",
     "stiffness_matrix",
@@ -211,6 +212,22 @@ def regularized_contact_stiffness(x, params: ModelParameters):
     return params.eta * q / (s * s + params.eps * q)
 
 
+def regularized_vector_field(states, params: ModelParameters):
+    """Right-hand side of the regularized equations (7) at the states ``(x, u, xdot, udot)`` (last axis).
+
+    Examples
+    --------
+    >>> p = ModelParameters(alpha=30.0, beta=1.0, delta=1.0, eta=0.1)
+    >>> regularized_vector_field([0.0, 1.0, 2.0, 3.0], p).tolist()  # at x = 0 the stop exerts no force
+    [2.0, 3.0, 1.0, -1.0]
+    """
+    states = np.asarray(states, dtype=float)
+    x, u = states[..., 0], states[..., 1]
+    b, d = params.beta, params.delta
+    acceleration_x = -(1.0 + b) * x + b * u - regularized_contact_force(x, params)
+    return np.stack([states[..., 2], states[..., 3], acceleration_x, (b / d) * (x - u)], axis=-1)
+
+
 def regularized_contact_potential(x, params: ModelParameters):
     """Potential ``P(x) = int_0^x f(s) ds`` of the regularized force, in closed form.
 
@@ -290,7 +307,7 @@ def linear_modes(params: ModelParameters, limit: str = "no_contact"):
     Examples
     --------
     >>> omega, _ = linear_modes(ModelParameters(), "no_contact")
-    >>> [round(w, 3) for w in omega]
+    >>> [round(float(w), 3) for w in omega]
     [0.618, 1.618]
     """
     added = {"no_contact": 0.0, "regularized": params.eta, "gap_zero": params.alpha}

@@ -74,6 +74,11 @@ def _source_digest(package: Path) -> str:
     return digest.hexdigest()
 
 
+def _absolute_path_list(value: str) -> str:
+    """A ``PYTHONPATH``-like list with every entry made absolute (the worker runs from another directory)."""
+    return os.pathsep.join(str(Path(entry).resolve()) for entry in value.split(os.pathsep))
+
+
 def worker_key(environ=None) -> str:
     """Identity of the worker that may run a job with environment ``environ`` (``os.environ`` by default).
 
@@ -86,9 +91,7 @@ def worker_key(environ=None) -> str:
     package = Path(importlib.util.find_spec("nnmstop").origin).parent
     variables = {k: v for k, v in environ.items() if k.startswith(IMPORT_VARIABLES)}
     if "PYTHONPATH" in variables:
-        variables["PYTHONPATH"] = os.pathsep.join(
-            str(Path(p).resolve()) for p in variables["PYTHONPATH"].split(os.pathsep)
-        )
+        variables["PYTHONPATH"] = _absolute_path_list(variables["PYTHONPATH"])
     identity = [sys.executable, sys.version, str(package), _source_digest(package), sorted(variables.items())]
     # the worker is started with that absolute PYTHONPATH (_start_worker), from another directory
     return hashlib.sha256(repr(identity).encode()).hexdigest()[:24]
@@ -166,8 +169,7 @@ def _start_worker(path: Path, idle: float) -> subprocess.Popen:
     """Start a worker for ``path`` in its own session, detached from the job's streams."""
     environ = dict(os.environ)
     if "PYTHONPATH" in environ:
-        entries = environ["PYTHONPATH"].split(os.pathsep)
-        environ["PYTHONPATH"] = os.pathsep.join(str(Path(entry).resolve()) for entry in entries)
+        environ["PYTHONPATH"] = _absolute_path_list(environ["PYTHONPATH"])
     return subprocess.Popen(
         [sys.executable, "-P", "-m", "nnmstop.tasks.worker", "--socket", str(path), "--idle", str(idle)],
         stdin=subprocess.DEVNULL,
