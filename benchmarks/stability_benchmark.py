@@ -6,7 +6,9 @@ Reads the orbits of built branch datasets (default: ``results/hbm/nnm1.nc``,
 and times on the same points, alternately, Hill's method
 (:func:`nnmstop.hbm.stability.branch_hill`) and the monodromy
 (:func:`nnmstop.hbm.monodromy.branch_monodromy`, settings from ``config/config.yaml``).
-Also reports how many verdicts each resolves and whether they agree where both do.
+Also reports how many verdicts each resolves and whether they agree where both do, and lists
+each point where they differ (energy, Hill's largest multiplier, the monodromy's invariant
+``s = mu + 1/mu``, its reason code and whether the orbit was refined, the orbit's time residual).
 
 Usage::
 
@@ -58,16 +60,26 @@ def main(argv=None) -> int:
         "monodromy | verdicts differ where both resolved |",
         "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
+    differences = []
     for path, system, U, residual in branch_orbits(args.datasets, config, args.stride):
         hill, t_hill = best_time(lambda: branch_hill(system, U), args.repeat)  # noqa: B023 (called at once)
         mono, t_mono = best_time(lambda: branch_monodromy(system, U, settings, time_residual=residual), args.repeat)  # noqa: B023 (called at once)
         both = hill.resolved & mono.resolved
-        differ = int(np.sum(hill.stable[both] != mono.stable[both]))
+        differing = np.flatnonzero(both & (hill.stable != mono.stable))
         n = len(U)
         lines.append(
             f"| {path.name} | {n} | {1e3 * t_hill / n:.1f} | {1e3 * t_mono / n:.1f} | {t_hill / t_mono:.1f}x | "
-            f"{int(hill.resolved.sum())} | {int(mono.resolved.sum())} | {differ} |"
+            f"{int(hill.resolved.sum())} | {int(mono.resolved.sum())} | {differing.size} |"
         )
+        for i in differing:
+            differences.append(
+                f"- {path.name}: E = {system.diagnostics(U[i])['energy']:.6g}, Hill max |mu| = "
+                f"{hill.max_multiplier[i]:.4g} ({'stable' if hill.stable[i] else 'unstable'}), monodromy "
+                f"s = {mono.invariant[i]:.6g} ({'stable' if mono.stable[i] else 'unstable'}, reason "
+                f"{int(mono.reason[i])}, refined {'yes' if mono.refined[i] else 'no'}), time residual {residual[i]:.2g}"
+            )
+    if differences:
+        lines += ["", "Verdicts that differ where both methods resolve:", *differences]
     return emit_report("\n".join(lines), args.output)
 
 
