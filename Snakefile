@@ -6,7 +6,7 @@ import os
 from snakemake.utils import min_version
 
 from nnmstop.config import validate_config
-from nnmstop.numerics import numerics_env
+from nnmstop.pipeline.numerics import numerics_env
 
 min_version("9.0")
 
@@ -16,7 +16,7 @@ configfile: "config/config.yaml"
 
 validate_config(config)
 
-# Pinned numerics for every job (nnmstop.numerics.numerics_env, docs/reproducibility.md):
+# Pinned numerics for every job (nnmstop.pipeline.numerics.numerics_env, docs/reproducibility.md):
 # one BLAS thread (jobs run side by side; threads oversubscribe the cores) and one
 # OpenBLAS kernel family and numpy SIMD level per CPU family, overriding the user's
 # shell, so that machines of one family build byte-identical datasets. Jobs are
@@ -26,7 +26,7 @@ os.environ.update(numerics_env(pin_kernels=config.get("numerics", {}).get("pin_k
 
 # Rule files in the order of the data flow; a rule refers to the outputs of the rules it reads
 # (rules.<rule>.output), so a file comes after those it reads from. Each rule runs the task of
-# its name in nnmstop.tasks.<rule file> (nnmstop.tasks.run).
+# its name in nnmstop.tasks.<rule file> (nnmstop.pipeline.run).
 include: "workflow/rules/common.smk"
 include: "workflow/rules/exact.smk"
 include: "workflow/rules/hbm.smk"

@@ -75,7 +75,7 @@ def cold_build(ref: str, cores: int, keep: bool):
             entry[0] += 1
             entry[1] += float(table["s"].iloc[0])
             entry[2] += float(table["cpu_time"].iloc[0])
-        # A job run by the warm worker (nnmstop.tasks.worker) does its work in a fork of the worker,
+        # A job run by the warm worker (nnmstop.pipeline.worker) does its work in a fork of the worker,
         # outside the job's process tree that Snakemake's benchmark measures: its CPU time is in its log.
         worker_line = r"task (\w+) ran in the warm worker: [0-9.]+ s wall, ([0-9.]+) s CPU"
         for log in sorted((workdir / "logs").rglob("*.log")):

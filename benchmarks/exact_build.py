@@ -1,16 +1,16 @@
 """Time the exact-orbit tasks (``exact_two_impacts``, ``exact_nnm1``) of two commits side by side.
 
 Extracts each committed tree into a fresh temporary directory (as ``cold_build.py`` does),
-runs the two tasks through ``python -m nnmstop.tasks.run`` with ``PYTHONPATH`` set to that
+runs the two tasks through ``python -m nnmstop.pipeline.run`` with ``PYTHONPATH`` set to that
 tree's ``src``, alternately ``--repeat`` times (A, B, A, B, ...), and reports the best wall
 and CPU (user + system) time of each task with the ratio B/A. The CPU time is the steadier
 figure on a shared machine; the wall time is what the build waits for. Both trees read
 the configuration of their own commit. It also says whether the two commits wrote the same
-data (``nnmstop.verify.data_digest``). With ``--nnm1-stage1`` (a regularized NNM1 stage-1
+data (``nnmstop.pipeline.verify.data_digest``). With ``--nnm1-stage1`` (a regularized NNM1 stage-1
 dataset, e.g. ``results/hbm/stages/nnm1_stage1.nc`` of a build) the task ``compare_nnm1`` is
 timed too, on that file and the tree's own two-impact family. Each time includes the task's
 interpreter and import start-up, about 1-2 s (the ``start-up`` line of the table: ``python -m
-nnmstop.tasks.run --help``, which imports every task module as each task does, in the tree).
+nnmstop.pipeline.run --help``, which imports every task module as each task does, in the tree).
 
 Usage::
 
@@ -60,9 +60,9 @@ def _timed(command: list, tree: Path, env: dict) -> tuple:
 def run_tasks(tree: Path, nnm1_stage1: Path | None = None) -> dict:
     """Run the tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``, and the ``start-up`` alone."""
     env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    times = {"start-up": _timed([sys.executable, "-m", "nnmstop.tasks.run", "--help"], tree, env)}
+    times = {"start-up": _timed([sys.executable, "-m", "nnmstop.pipeline.run", "--help"], tree, env)}
     for task, extra, output in tasks(nnm1_stage1):
-        command = [sys.executable, "-m", "nnmstop.tasks.run", task, *extra, "--output", f"dataset={output}"]
+        command = [sys.executable, "-m", "nnmstop.pipeline.run", task, *extra, "--output", f"dataset={output}"]
         times[task] = _timed([*command, "--log", "task.log"], tree, env)
     return times
 
@@ -89,7 +89,7 @@ def main(argv=None) -> int:
                     old = best[ref].get(task, (float("inf"), float("inf")))
                     best[ref][task] = (min(old[0], wall), min(old[1], cpu))
         a, b = args.compare
-        from nnmstop.verify import data_digest
+        from nnmstop.pipeline.verify import data_digest
 
         print(f"| task | {a} wall [s] | {b} wall [s] | ratio | {a} CPU [s] | {b} CPU [s] | ratio | same data |")
         print("|---|---|---|---|---|---|---|---|")

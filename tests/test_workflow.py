@@ -227,7 +227,7 @@ def test_workflow_lint_is_clean():
 
 def test_datasets_pass_the_cf_and_acdd_checkers(built):
     """Every dataset passes cf:1.10 and acdd:1.3 but for the README's documented exclusions."""
-    from nnmstop.compliance import checker_findings
+    from nnmstop.pipeline.compliance import checker_findings
 
     datasets = sorted((built / "results").rglob("*.nc"))
     assert len(datasets) >= 10
@@ -243,7 +243,7 @@ def test_datasets_pass_the_cf_and_acdd_checkers(built):
 
 def test_the_checker_reports_what_breaks_cf(built, tmp_path):
     """A unit UDUNITS does not know and a missing ACDD attribute are reported, not excluded."""
-    from nnmstop.compliance import checker_findings
+    from nnmstop.pipeline.compliance import checker_findings
 
     with xr.open_dataset(built / "results/exact/nnm1_two_impacts.nc") as ds:
         broken = ds.load()
@@ -265,7 +265,7 @@ def bundle(built):
 def test_bundle_describes_the_run_and_every_file(built, bundle, tmp_path):
     from rocrate.rocrate import ROCrate
 
-    from nnmstop.bundle import verify_bundle
+    from nnmstop.pipeline.bundle import verify_bundle
 
     with zipfile.ZipFile(bundle) as archive:
         names = archive.namelist()
@@ -301,7 +301,7 @@ def test_bundle_describes_the_run_and_every_file(built, bundle, tmp_path):
 
 
 def test_bundle_check_fails_on_missing_or_altered_file(bundle, tmp_path):
-    from nnmstop.bundle import verify_bundle
+    from nnmstop.pipeline.bundle import verify_bundle
 
     broken = tmp_path / "broken.zip"
     with zipfile.ZipFile(bundle) as source, zipfile.ZipFile(broken, "w") as target:

@@ -81,7 +81,7 @@ def _git(*args: str) -> str | None:
 
 
 #: Global attributes that name the git commit and its date: they change with every commit even
-#: when no number does (``nnmstop.verify`` leaves them out of its "identical data" digest).
+#: when no number does (``nnmstop.pipeline.verify`` leaves them out of its "identical data" digest).
 PROVENANCE_ATTRIBUTES = ("source", "history", "date_created")
 
 

@@ -25,9 +25,9 @@ from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.figures import exact_vs_regularized as fig
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
+from nnmstop.pipeline.run import run_task
 from nnmstop.tasks.figures import build_exact_vs_regularized_figure
 from nnmstop.tasks.hbm import build_stage
-from nnmstop.tasks.run import run_task
 
 H = 30
 PNG_DPI = 60

@@ -17,9 +17,9 @@ from nnmstop.figures import frequency_energy as fe
 from nnmstop.figures.modal_lines import LabelSpec, energy_crossings, label_specs, select_point
 from nnmstop.hbm.stages import combine_stages
 from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.pipeline.run import run_task
 from nnmstop.tasks.figures import combine_nnm1_stages
 from nnmstop.tasks.hbm import build_stage
-from nnmstop.tasks.run import run_task
 
 PNG_DPI = 60  # small PNGs keep the tests fast; the pipeline uses figures.png_dpi
 

@@ -12,8 +12,8 @@ from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.stages import combine_stages
 from nnmstop.models.two_dof import ModelParameters, linear_modes
 from nnmstop.netcdf import check_labelled
+from nnmstop.pipeline.run import run_task
 from nnmstop.tasks.hbm import build_stage, system_from_config
-from nnmstop.tasks.run import run_task
 
 
 @pytest.fixture(scope="module")

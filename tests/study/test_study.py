@@ -307,7 +307,7 @@ def test_dry_run_refuses_a_bad_study_section(repo_root, tmp_path, override, expe
 
 def test_numerical_failure_mid_branch_names_step_and_energy_and_leaves_no_dataset(config, tmp_path, monkeypatch):
     import nnmstop.continuation.anm as anm
-    from nnmstop.tasks.run import run_task
+    from nnmstop.pipeline.run import run_task
 
     real_step = anm.anm_step
     calls = {"n": 0}

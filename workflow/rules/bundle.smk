@@ -1,4 +1,4 @@
-# Result bundle to share and cite (nnmstop.bundle): one deterministic zip under dist/ with the
+# Result bundle to share and cite (nnmstop.pipeline.bundle): one deterministic zip under dist/ with the
 # datasets, figures, manifest, configuration, environment.lock, CITATION.cff and an RO-Crate.
 # Task: nnmstop.tasks.bundle.
 #

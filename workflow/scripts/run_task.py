@@ -1,16 +1,16 @@
-"""The script of every rule: runs the task named like the rule (:mod:`nnmstop.tasks.run`).
+"""The script of every rule: runs the task named like the rule (:mod:`nnmstop.pipeline.run`).
 
 The task, the function ``snakemake.rule`` of the task module of the rule's file, receives the
 configuration sections of the rule's ``params.config``, the rule's named inputs and outputs,
-its log file and its wildcards. It runs in a fork of the warm worker (:mod:`nnmstop.tasks.worker`,
+its log file and its wildcards. It runs in a fork of the warm worker (:mod:`nnmstop.pipeline.worker`,
 ``execution`` in the configuration) when one can be reached, else in this process. To run a task
-standalone for debugging, use ``python -m nnmstop.tasks.run TASK ...`` (see
-``python -m nnmstop.tasks.run --help``).
+standalone for debugging, use ``python -m nnmstop.pipeline.run TASK ...`` (see
+``python -m nnmstop.pipeline.run --help``).
 """
 
 import sys
 
-from nnmstop.tasks.worker import plain_request, run_in_worker, worker_enabled
+from nnmstop.pipeline.worker import plain_request, run_in_worker, worker_enabled
 
 smk = globals()["snakemake"]
 request = plain_request(smk.rule, smk.params.config, smk.input, smk.output, smk.log, smk.wildcards)
@@ -19,6 +19,6 @@ if worker_enabled(smk.config):
     if status is not None:
         sys.exit(status)
 
-from nnmstop.tasks.run import run_request  # noqa: E402  (only when no worker ran the task)
+from nnmstop.pipeline.run import run_request  # noqa: E402  (only when no worker ran the task)
 
 run_request(request)

@@ -2,7 +2,7 @@
 
 One deterministic zip archive (``dist/nnmstop-results.zip``) with the datasets, figures,
 manifest, configuration, ``environment.lock``, the workflow files, ``CITATION.cff`` and an
-RO-Crate that describes the run; the work is done by :func:`nnmstop.bundle.build_bundle`.
+RO-Crate that describes the run; the work is done by :func:`nnmstop.pipeline.bundle.build_bundle`.
 The task gets the whole configuration: the bundle stores it as ``config/config.yaml``.
 """
 
@@ -31,7 +31,7 @@ def bundle(config: dict, inputs: dict, outputs: dict) -> Path:
     outputs : dict
         ``bundle``: the zip archive to write.
     """
-    from nnmstop.bundle import build_bundle
+    from nnmstop.pipeline.bundle import build_bundle
 
     return build_bundle(
         config,
@@ -44,5 +44,5 @@ def bundle(config: dict, inputs: dict, outputs: dict) -> Path:
     )
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {f.__name__: f for f in (bundle,)}

@@ -277,7 +277,7 @@ def compare_stability(config, inputs, outputs):
     build_stability_comparison(config, inputs, outputs)
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {f.__name__: f for f in (compare_nnm1, compare_regimes, compare_stability)}
 
 

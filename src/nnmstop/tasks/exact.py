@@ -2,7 +2,7 @@
 
 ``exact_two_impacts`` (:func:`build_two_impact_dataset`, ``results/exact/nnm1_two_impacts.nc``)
 and ``exact_nnm1`` (:func:`build_multi_impact_dataset`, ``results/exact/nnm1.nc``), called
-through :mod:`nnmstop.tasks.run`. The numerics live in :mod:`nnmstop.exact`.
+through :mod:`nnmstop.pipeline.run`. The numerics live in :mod:`nnmstop.exact`.
 """
 
 from __future__ import annotations
@@ -143,5 +143,5 @@ def exact_nnm1(config, inputs, outputs):
     build_multi_impact_dataset(config, inputs["two_impacts"], outputs["dataset"])
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {f.__name__: f for f in (exact_two_impacts, exact_nnm1)}

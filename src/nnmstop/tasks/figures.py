@@ -269,7 +269,7 @@ def paper_figure(name: str, config, inputs, outputs):
     build_figure(name, config, inputs, outputs)
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {
     **{f.__name__: f for f in (regime_error_figure, stability_figure)},
     # one task per paper figure, named as the rules call them: paper_fig02 ... paper_fig11

@@ -4,7 +4,7 @@ The only place of the HBM side that reads the configuration dict and writes file
 configuration becomes the settings of :mod:`nnmstop.hbm.stages` (:func:`branch_settings`,
 :func:`branch_spec`, :func:`bifurcation_spec`); :func:`build_stage` and :func:`build_bifurcated`
 return the datasets in memory (tests and studies use them); the tasks ``hbm_stage``,
-``hbm_bifurcated`` and ``hbm_branch`` (dispatched by :mod:`nnmstop.tasks.run`) read their inputs
+``hbm_bifurcated`` and ``hbm_branch`` (dispatched by :mod:`nnmstop.pipeline.run`) read their inputs
 and write their outputs; the configured paths come from the workflow's rules, never from the library.
 Command line: ``python -m nnmstop.tasks.hbm summary BIFURCATED.nc [NNM2.nc]``
 prints :func:`nnmstop.hbm.dataset.summarize_bifurcated`.
@@ -171,7 +171,7 @@ def main(argv=None) -> None:
     print(summarize_bifurcated(_load(args.bifurcated), _load(args.nnm2) if args.nnm2 else None))
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {f.__name__: f for f in (hbm_stage, hbm_bifurcated, hbm_branch)}
 
 

@@ -40,5 +40,5 @@ def dataset_manifest(config: dict, inputs: dict, outputs: dict) -> Path:
     return out
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {f.__name__: f for f in (dataset_manifest,)}

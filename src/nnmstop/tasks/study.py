@@ -242,7 +242,7 @@ def study_stiff_cases_figure(config, inputs, outputs):
     build_stiff_cases_figure(config, inputs["dataset"], outputs["pdf"])
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {
     f.__name__: f
     for f in (

@@ -261,5 +261,5 @@ def tube_study(config, inputs, outputs):
     draw_study_figure(cases, config["tube"]["figures"], outputs["pdf"], outputs["png"])
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {f.__name__: f for f in (tube_exact, tube_branch, tube_compare, tube_figure, tube_study_case, tube_study)}

@@ -1,7 +1,7 @@
 """Tasks of ``workflow/rules/verify.smk``: a build against the committed reference.
 
 ``verify`` compares the results folder of the build (the folder of its manifest) with
-``reference/`` by :func:`nnmstop.verify.verify` and fails when a file is discrepant;
+``reference/`` by :func:`nnmstop.pipeline.verify.verify` and fails when a file is discrepant;
 ``update_reference`` regenerates ``reference/`` from the build, for a change meant to move
 the physics. Both rules have no output, so they run whenever they are asked for; the table
 goes to the console and to the rule's log (docs/reproducibility.md).
@@ -16,7 +16,7 @@ __all__ = ["REFERENCE", "verify", "update_reference"]
 
 logger = logging.getLogger("nnmstop.tasks.verify")
 
-#: The committed reference build, relative to the working directory (as ``python -m nnmstop.verify``).
+#: The committed reference build, relative to the working directory (as ``python -m nnmstop.pipeline.verify``).
 REFERENCE = "reference"
 
 
@@ -32,8 +32,8 @@ def verify(config: dict, inputs: dict, outputs: dict) -> None:
     RuntimeError
         If a file is discrepant (the table says which and by how much).
     """
-    from nnmstop.verify import file_verdicts, format_table
-    from nnmstop.verify import verify as compare_with_reference
+    from nnmstop.pipeline.verify import file_verdicts, format_table
+    from nnmstop.pipeline.verify import verify as compare_with_reference
 
     rows = compare_with_reference(_results_folder(inputs), REFERENCE)
     table = format_table(rows)
@@ -46,12 +46,12 @@ def verify(config: dict, inputs: dict, outputs: dict) -> None:
 
 def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
     """Regenerate :data:`REFERENCE` from the build whose manifest is ``inputs["manifest"]``."""
-    from nnmstop.verify import update_reference as regenerate
+    from nnmstop.pipeline.verify import update_reference as regenerate
 
     folder = regenerate(_results_folder(inputs), REFERENCE)
     print(f"reference regenerated in {folder}")
     logger.info("reference regenerated in %s", folder)
 
 
-#: The tasks of this module's rule file, by rule name (nnmstop.tasks.run).
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
 TASKS = {f.__name__: f for f in (verify, update_reference)}

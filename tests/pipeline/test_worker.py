@@ -10,10 +10,10 @@ import pytest
 import xarray as xr
 
 from nnmstop.config import load_config
-from nnmstop.tasks.run import run_request
-from nnmstop.tasks.worker import run_in_worker, socket_path, worker_enabled, worker_key
+from nnmstop.pipeline.run import run_request
+from nnmstop.pipeline.worker import run_in_worker, socket_path, worker_enabled, worker_key
 
-SMALL_CONFIG = Path(__file__).resolve().parents[1] / "data" / "small_config.yaml"
+SMALL_CONFIG = Path(__file__).resolve().parents[2] / "tests" / "data" / "small_config.yaml"
 
 
 @pytest.fixture

@@ -7,7 +7,7 @@ which imports the task modules once and listens on a Unix socket. Each job
 (``workflow/scripts/run_task.py``, :func:`run_in_worker`) connects and hands over its
 request, its working directory, environment and standard streams; the worker forks a
 child, a copy of the freshly imported interpreter in which no task has run, and the child
-runs the task exactly as the job would have (:func:`nnmstop.tasks.run.run_task`) and sends
+runs the task exactly as the job would have (:func:`nnmstop.pipeline.run.run_task`) and sends
 back its exit status. The job waits for it and exits with it: Snakemake sees the same job.
 
 A worker serves one interpreter, one package source (by content hash) and one set of the
@@ -36,7 +36,7 @@ import time
 from collections.abc import Mapping
 from pathlib import Path
 
-from nnmstop.tasks.run import named_entries
+from nnmstop.pipeline.run import named_entries
 
 __all__ = ["worker_key", "socket_path", "plain_request", "run_in_worker", "serve", "worker_enabled"]
 
@@ -135,7 +135,7 @@ def _plain(value):
 
 
 def plain_request(rule: str, config, inputs, outputs, log, wildcards) -> dict:
-    """The arguments of :func:`nnmstop.tasks.run.run_task` for a Snakemake job, in built-in types
+    """The arguments of :func:`nnmstop.pipeline.run.run_task` for a Snakemake job, in built-in types
     (so that the worker needs no Snakemake class to read them): named inputs and outputs, the first
     log file or None, the wildcards."""
     return {
@@ -171,7 +171,7 @@ def _start_worker(path: Path, idle: float) -> subprocess.Popen:
     if "PYTHONPATH" in environ:
         environ["PYTHONPATH"] = _absolute_path_list(environ["PYTHONPATH"])
     return subprocess.Popen(
-        [sys.executable, "-P", "-m", "nnmstop.tasks.worker", "--socket", str(path), "--idle", str(idle)],
+        [sys.executable, "-P", "-m", "nnmstop.pipeline.worker", "--socket", str(path), "--idle", str(idle)],
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -195,7 +195,7 @@ def _receive_exactly(connection: socket.socket, size: int) -> bytes:
 def run_in_worker(request: dict, idle: float = 20.0, start_timeout: float = 120.0) -> int | None:
     """Run a task request in the warm worker; its exit status, or None if no worker could be reached.
 
-    ``request`` holds the arguments of :func:`nnmstop.tasks.run.run_task` (``name``,
+    ``request`` holds the arguments of :func:`nnmstop.pipeline.run.run_task` (``name``,
     ``config``, ``inputs``, ``outputs``, ``log``, ``wildcards``). A worker is started if none
     serves this job's :func:`worker_key`. SIGTERM and SIGINT received while waiting are passed
     on to the task's process.
@@ -250,7 +250,7 @@ def _run_request(connection: socket.socket) -> int:
     os.environ.update(request["environ"])
     connection.sendall(_STATUS.pack(os.getpid(), -1))
 
-    from nnmstop.tasks.run import run_request
+    from nnmstop.pipeline.run import run_request
 
     started = time.perf_counter()
     try:
@@ -261,7 +261,7 @@ def _run_request(connection: socket.socket) -> int:
     import resource  # Unix only, like the worker
 
     usage = resource.getrusage(resource.RUSAGE_SELF)
-    logging.getLogger("nnmstop.tasks.worker").info(
+    logging.getLogger("nnmstop.pipeline.worker").info(
         "task %s ran in the warm worker: %.2f s wall, %.2f s CPU, %.0f MB peak resident",
         request["name"],
         time.perf_counter() - started,
@@ -339,8 +339,8 @@ def serve(path: Path, idle: float) -> None:
 
 
 def main(argv=None) -> None:
-    """``python -m nnmstop.tasks.worker --socket PATH --idle SECONDS``: run a worker (jobs start it)."""
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.tasks.worker", description=main.__doc__)
+    """``python -m nnmstop.pipeline.worker --socket PATH --idle SECONDS``: run a worker (jobs start it)."""
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.pipeline.worker", description=main.__doc__)
     parser.add_argument("--socket", required=True, type=Path)
     parser.add_argument("--idle", type=float, default=20.0)
     args = parser.parse_args(argv)

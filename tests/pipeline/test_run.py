@@ -1,11 +1,11 @@
-"""The task dispatcher and its command line (nnmstop.tasks.run)."""
+"""The task dispatcher and its command line (nnmstop.pipeline.run)."""
 
 import importlib
 import re
 
 import pytest
 
-from nnmstop.tasks import run as pipeline
+from nnmstop.pipeline import run as pipeline
 
 
 def test_command_line_passes_named_files_and_wildcards(monkeypatch, repo_root, tmp_path):
@@ -72,8 +72,8 @@ def test_every_rule_runs_the_task_of_its_name_from_the_module_of_its_rule_file(r
         for rule in script_rules(rule_file):
             module = pipeline.task_module(rule)
             covered.add(rule)
-            # tasks whose bodies still wait in nnmstop.tasks.run for their module (issue 12)
-            assert module in (f"nnmstop.tasks.{rule_file.stem}", "nnmstop.tasks.run"), (rule, module)
+            # tasks whose bodies still wait in nnmstop.pipeline.run for their module (issue 12)
+            assert module in (f"nnmstop.tasks.{rule_file.stem}", "nnmstop.pipeline.run"), (rule, module)
             assert callable(pipeline.find_task(rule))
     assert len(covered) > 30
     assert {f.stem for f in rule_files if script_rules(f)} == set(pipeline.TASK_MODULES)

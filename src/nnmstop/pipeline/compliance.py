@@ -10,7 +10,7 @@ do not apply to these data:
 * ACDD's geospatial (``geospatial_*``) and time-coverage (``time_coverage_*``)
   attributes: the data have no position on Earth and no calendar time.
 
-Command line: ``python -m nnmstop.compliance results/**/*.nc`` prints every remaining
+Command line: ``python -m nnmstop.pipeline.compliance results/**/*.nc`` prints every remaining
 finding and exits with status 1 if there is one.
 """
 
@@ -87,7 +87,7 @@ def main(argv=None) -> int:
     """Print the findings of every file named on the command line; status 1 if any."""
     paths = sys.argv[1:] if argv is None else argv
     if not paths:
-        print("usage: python -m nnmstop.compliance DATASET.nc [...]", file=sys.stderr)
+        print("usage: python -m nnmstop.pipeline.compliance DATASET.nc [...]", file=sys.stderr)
         return 2
     failed = 0
     for path in paths:

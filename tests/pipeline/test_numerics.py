@@ -1,4 +1,4 @@
-"""The pinned-numerics policy (nnmstop.numerics): kernels a CPU can run, names numpy accepts."""
+"""The pinned-numerics policy (nnmstop.pipeline.numerics): kernels a CPU can run, names numpy accepts."""
 
 from __future__ import annotations
 
@@ -6,7 +6,13 @@ import os
 import subprocess
 import sys
 
-from nnmstop.numerics import OPENBLAS_KERNELS, cpu_flags, numerics_env, numpy_disabled_features, openblas_coretype
+from nnmstop.pipeline.numerics import (
+    OPENBLAS_KERNELS,
+    cpu_flags,
+    numerics_env,
+    numpy_disabled_features,
+    openblas_coretype,
+)
 
 # Instruction sets each OpenBLAS kernel family executes (OpenBLAS kernel/x86_64 sources).
 NEEDS = {"Haswell": {"avx2", "fma", "avx", "sse3"}, "Sandybridge": {"avx", "sse3"}, "Prescott": {"sse3"}}

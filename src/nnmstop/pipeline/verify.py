@@ -8,8 +8,8 @@ notes are in docs/reproducibility.md.
 
 Usage::
 
-    python -m nnmstop.verify RESULTS_DIR [--reference reference]
-    python -m nnmstop.verify --update-reference RESULTS_DIR [--reference reference]
+    python -m nnmstop.pipeline.verify RESULTS_DIR [--reference reference]
+    python -m nnmstop.pipeline.verify --update-reference RESULTS_DIR [--reference reference]
 """
 
 from __future__ import annotations
@@ -483,7 +483,7 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
     reference = Path(reference_dir)
     if not (reference / "MANIFEST.sha256").is_file():
         raise ValueError(f"no reference manifest {reference / 'MANIFEST.sha256'}: regenerate it with "
-                         f"`python -m nnmstop.verify --update-reference RESULTS_DIR --reference {reference}`")
+                         f"`python -m nnmstop.pipeline.verify --update-reference RESULTS_DIR --reference {reference}`")
     tolerances = json.loads((reference / "tolerances.json").read_text())
     data_digests = {line.split("  ")[1]: line.split("  ")[0] for line in (reference / "DATA.sha256").read_text().splitlines()}
     located_ref = _read_csv(reference / "located.csv") if (reference / "located.csv").stat().st_size else {}
@@ -559,7 +559,7 @@ def format_table(rows: list[Row]) -> str:
 
 def main(argv=None) -> int:
     """Command line: verify a build, or regenerate the reference from one."""
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.verify", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.pipeline.verify", description=__doc__.split("\n\n")[0])
     parser.add_argument("results", help="results directory of a build (e.g. results)")
     parser.add_argument("--reference", default="reference", help="reference directory (default: reference)")
     parser.add_argument("--update-reference", action="store_true", help="regenerate the reference from this build")

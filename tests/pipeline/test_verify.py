@@ -1,4 +1,4 @@
-"""The verifier (nnmstop.verify) on a small build: identity, curves, missing files.
+"""The verifier (nnmstop.pipeline.verify) on a small build: identity, curves, missing files.
 
 A small build (tests/data/small_config.yaml: H = 16, short ranges) of the exact two-impact
 family and of NNM1 (four stages) is the reference. Copies of it are altered the way a
@@ -15,11 +15,11 @@ import pytest
 import xarray as xr
 import yaml
 
+from nnmstop.pipeline.verify import file_verdicts, main, update_reference, verify
 from nnmstop.tasks.manifest import dataset_manifest
-from nnmstop.verify import file_verdicts, main, update_reference, verify
 from snakemake_cli import run_snakemake
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
 TARGETS = ["results/exact/nnm1_two_impacts.nc", "results/hbm/nnm1.nc"]
 

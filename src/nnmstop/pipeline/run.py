@@ -7,7 +7,7 @@ the configuration sections its rule passes as ``params.config`` (a rule reruns w
 change), its named inputs and outputs (paths) and the rule's wildcards. A task module lists its
 tasks in its ``TASKS`` table. The same task runs standalone for debugging, with the whole configuration::
 
-    python -m nnmstop.tasks.run hbm_stage --branch nnm1 --stage 2 \\
+    python -m nnmstop.pipeline.run hbm_stage --branch nnm1 --stage 2 \\
         --input previous=results/hbm/stages/nnm1_stage1.nc \\
         --output dataset=/tmp/nnm1_stage2.nc
 
@@ -29,11 +29,11 @@ from pathlib import Path
 
 __all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "named_entries", "run_task", "run_request", "main"]
 
-logger = logging.getLogger("nnmstop.tasks.run")
+logger = logging.getLogger("nnmstop.pipeline.run")
 
 #: The tasks of each task module, one module per rule file (``workflow/rules/<name>.smk`` ->
 #: ``nnmstop.tasks.<name>``). A job imports only the module of its task (the figure modules pull in
-#: matplotlib, the others need not); tests/test_pipeline.py checks this index against the modules'
+#: matplotlib, the others need not); tests/pipeline/test_run.py checks this index against the modules'
 #: ``TASKS`` tables and the rule files.
 TASK_INDEX = {
     "exact": ("exact_two_impacts", "exact_nnm1"),
@@ -144,7 +144,7 @@ def run_task(name: str, config: dict, inputs=None, outputs=None, log: str | None
 
 def run_request(request: dict) -> None:
     """:func:`run_task` from a request (``name``, ``config``, ``inputs``, ``outputs``, ``log``,
-    ``wildcards``), as :func:`nnmstop.tasks.worker.plain_request` makes it from a Snakemake job."""
+    ``wildcards``), as :func:`nnmstop.pipeline.worker.plain_request` makes it from a Snakemake job."""
     run_task(
         request["name"],
         request["config"],
@@ -166,10 +166,10 @@ def _pairs(values):
 
 
 def main(argv=None) -> None:
-    """Command line: ``python -m nnmstop.tasks.run TASK [options]``."""
+    """Command line: ``python -m nnmstop.pipeline.run TASK [options]``."""
     from nnmstop.config import load_config
 
-    parser = argparse.ArgumentParser(prog="python -m nnmstop.tasks.run", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m nnmstop.pipeline.run", description=__doc__.splitlines()[0])
     parser.add_argument("task", choices=sorted(task_table()))
     parser.add_argument("--config", default="config/config.yaml")
     parser.add_argument("--input", action="append", metavar="KEY=PATH", help="named input (repeatable)")
