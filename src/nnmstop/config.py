@@ -57,12 +57,6 @@ def validate_config(config: dict) -> dict:
             "(the regularized force has no admissible branch otherwise)"
         )
     for name, spec in config.get("bifurcations", {}).items():
-        stages = len(config["branches"][spec["parent"]]["stages"])
-        if spec["stage"] > stages:
-            raise ConfigError(
-                f"config key 'bifurcations.{name}.stage': {spec['stage']} exceeds the {stages} stages of "
-                f"branch {spec['parent']!r}"
-            )
         low, high = spec["energy_range"]
         if not low < high:
             raise ConfigError(
@@ -85,25 +79,42 @@ def validate_config(config: dict) -> dict:
                 f"config key 'figures.{figure}.bifurcated': {unknown} not among the configured bifurcations "
                 f"{sorted(config.get('bifurcations', {}))}"
             )
+    if "structure" in config:
+        _check_structure(config["structure"], config["branches"], "structure")
     if "tube" in config:
-        _check_tube(config["tube"])
+        _check_structure({"kind": "beam", "beam": config["tube"]["structure"]}, config["tube"]["branches"], "tube")
     return config
 
 
-def _check_tube(tube: dict) -> None:
-    """The tube's structure must make a beam (stops on nodes, eta below the stop stiffness, ...)."""
-    from nnmstop.models.beam import Beam
+def _check_structure(section: dict, branches: dict, key: str) -> None:
+    """The structure must build (stops on the model, symmetric matrices, ...), be held, and have the branches' modes."""
+    import copy
 
+    from nnmstop.models.structure import check_grounded
+
+    kind = section["kind"]
+    where = f"{key}.structure" if key == "tube" else f"structure.{kind}"
     try:
-        beam = Beam.from_parameters(tube["structure"])
+        if kind == "two_dof":
+            return
+        if kind == "beam":
+            from nnmstop.models.beam import Beam, beam_structure
+
+            structure = beam_structure(Beam.from_parameters(copy.deepcopy(section["beam"])))
+        else:
+            from nnmstop.models.matrices import matrix_structure
+
+            spec = section["matrices"]
+            structure = matrix_structure(spec["mass"], spec["stiffness"], spec["stops"], spec.get("dof_labels"))
+        check_grounded(structure, kind)
     except (TypeError, ValueError) as err:
-        raise ConfigError(f"config key 'tube.structure': {err}") from None
-    for name, spec in tube["branches"].items():
-        dofs = 2 * (beam.n_elements + 1)
-        if spec["mode"] > dofs:
+        raise ConfigError(f"config key '{where}': {err}") from None
+    for name, spec in branches.items():
+        if spec["mode"] > structure.n_dofs:
+            branch_key = f"tube.branches.{name}.mode" if key == "tube" else f"branches.{name}.mode"
             raise ConfigError(
-                f"config key 'tube.branches.{name}.mode': {spec['mode']} exceeds the {dofs} degrees of "
-                "freedom of the mesh"
+                f"config key '{branch_key}': {spec['mode']} exceeds the {structure.n_dofs} degrees of freedom "
+                f"of the {kind}"
             )
 
 

@@ -66,7 +66,7 @@ def comparison(exact_family, stage1):
 
 def _hbm_unknowns(ds, point, system):
     """HBM unknown vector of a comparison point, rebuilt from its stored coefficients."""
-    parts = [ds[f"{s}_cos"].values[point] for s in ("x", "u", "f", "z")]
+    parts = [ds[f"{s}_cos"].values[point, j] for s, count in (("q", 2), ("f", 1), ("z", 1)) for j in range(count)]
     return np.concatenate([p[: system.nc] for p in parts] + [[ds["omega_squared"].values[point]]])
 
 

@@ -120,10 +120,10 @@ def test_nan_in_a_dataset_is_refused_with_its_name(nnm1_stages, nnm2, specs, tmp
     with pytest.raises(ValueError, match=r"fig06.*NNM2.*'energy'.*NaN.*point 4"):
         fe.figure_06(bad, specs["fig06"], tmp_path / "fig06.pdf", PNG_DPI)
     stage = nnm1_stages[0].copy(deep=True)
-    stage["x_cos"].values[2, 3] = np.inf
-    with pytest.raises(ValueError, match=r"fig07.*NNM1 stage 1.*'x_cos'"):
+    stage["q_cos"].values[2, 0, 3] = np.inf
+    with pytest.raises(ValueError, match=r"fig07.*NNM1 stage 1.*'q_cos'"):
         fe.figure_07(stage, specs["fig07"], tmp_path / "fig07.pdf", PNG_DPI)
-    with pytest.raises(ValueError, match=r"fig07.*NNM1 stage 1.*'x_cos'"):
+    with pytest.raises(ValueError, match=r"fig07.*NNM1 stage 1.*'q_cos'"):
         combine_nnm1_stages([stage], "fig07", [1])
     assert not (tmp_path / "fig06.pdf").exists() and not (tmp_path / "fig07.pdf").exists()
 

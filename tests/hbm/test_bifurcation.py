@@ -17,9 +17,10 @@ from nnmstop.hbm.bifurcation import (
     switch_branch,
 )
 from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.stages import start_point
+from nnmstop.hbm.stages import combine_stages, start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
+from nnmstop.netcdf import check_labelled
 from nnmstop.tasks.hbm import build_bifurcated, build_stage, system_from_config
 
 
@@ -101,7 +102,7 @@ def resonance_config(repo_root):
         {"name": "resonance_3to1", "until": {"impacts_at_most": 4}},  # two per stop: past the branch point
     ]
     config["bifurcations"] = {
-        "nnm1_3to1": {"parent": "nnm1", "stage": 2, "resonance": 3, "energy_range": [3.0, 30.0], "switch_step": 1e-3}
+        "nnm1_3to1": {"parent": "nnm1", "resonance": 3, "energy_range": [3.0, 30.0], "switch_step": 1e-3}
     }
     return validate_config(config)
 
@@ -110,8 +111,10 @@ def resonance_config(repo_root):
 def bifurcated(resonance_config):
     stage1 = build_stage(resonance_config, "nnm1", 1)
     stage2 = build_stage(resonance_config, "nnm1", 2, stage1)
+    nnm1 = combine_stages([stage1, stage2])
     stage2.attrs["previous_stage"] = stage1  # kept for the combination test (never written)
-    return stage2, build_bifurcated(resonance_config, "nnm1_3to1", stage2)
+    stage2.attrs["whole_branch"] = nnm1
+    return stage2, build_bifurcated(resonance_config, "nnm1_3to1", nnm1)
 
 
 def test_bifurcated_branch_is_nnm2_read_over_three_periods(resonance_config, bifurcated):
@@ -159,12 +162,15 @@ def test_bifurcated_orbits_solve_the_balanced_equations(resonance_config, bifurc
     assert max(relative_residual(system, u) for u in U[::10]) < 1e-7
 
 
-def test_resonance_without_branch_point_is_refused(resonance_config, bifurcated):
+def test_resonance_without_branch_point_gives_an_empty_dataset_that_says_so(resonance_config, bifurcated):
     stage2, _ = bifurcated
     config = copy.deepcopy(resonance_config)
     config["bifurcations"]["nnm1_3to1"]["resonance"] = 5
-    with pytest.raises(ValueError, match="no branch point of the 5:1 resonance"):
-        build_bifurcated(config, "nnm1_3to1", stage2)
+    ds = build_bifurcated(config, "nnm1_3to1", stage2.attrs["whole_branch"])
+    assert ds.sizes["point"] == 0 and ds.attrs["skipped"] == 1
+    assert "no branch point of the 5:1 resonance" in ds.attrs["end_reason"]
+    assert "3:1 resonance" in ds.attrs["end_reason"]  # names what the branch has instead
+    check_labelled(ds)
 
 
 def test_config_checks_of_bifurcations(resonance_config):
@@ -220,7 +226,7 @@ def test_combined_stages_keep_the_located_points(bifurcated):
     stage2, _ = bifurcated
     stage1 = stage2.attrs["previous_stage"]
     plain = stage2.copy()
-    plain.attrs = {k: v for k, v in stage2.attrs.items() if k != "previous_stage"}
+    plain.attrs = {k: v for k, v in stage2.attrs.items() if k not in ("previous_stage", "whole_branch")}
     both = combine_stages([stage1, plain])
     assert (
         both.sizes["located_branch_point"]

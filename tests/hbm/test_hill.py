@@ -17,7 +17,7 @@ from nnmstop.hbm.hill import floquet, hill_matrix, is_halfwave_symmetric
 from nnmstop.hbm.stability import BranchHill, branch_hill
 from nnmstop.hbm.stages import start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.structure import two_dof_parameters, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, linear_modes
 from nnmstop.tasks.hbm import build_stage
 
@@ -48,8 +48,8 @@ def nnm2(config, system):
 def reference_multipliers(system, U):
     """Non-trivial multiplier pair of the exact orbit of (7) through the HBM orbit's x(0)."""
     state, period = orbit_initial_state(system, U)
-    state, period = refine_orbit(system.params, state, period)
-    mono = monodromy(system.params, state, period)
+    state, period = refine_orbit(two_dof_parameters(system.structure), state, period)
+    mono = monodromy(two_dof_parameters(system.structure), state, period)
     mu = mono.multipliers
     nontrivial = mu[np.argsort(np.abs(mu - 1.0))[2:]]
     return nontrivial[np.argsort(-np.abs(nontrivial))], mono

@@ -34,7 +34,7 @@ from nnmstop.hbm.monodromy import (
 from nnmstop.hbm.shooting_refinement import refined_stability, segment_flow, shooting_stability
 from nnmstop.hbm.stability import branch_hill, orbit_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.structure import two_dof_parameters, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.tasks.hbm import stability_settings
 
@@ -98,8 +98,8 @@ def test_monodromy_is_symplectic(system, nnm1):
     """The flow of M y'' + (K + k(t) E) y = 0 preserves the symplectic form: M^T J M = J, det M = 1."""
     J = np.block(
         [
-            [np.zeros((2, 2)), np.diag([1.0, system.params.delta])],
-            [-np.diag([1.0, system.params.delta]), np.zeros((2, 2))],
+            [np.zeros((2, 2)), np.diag([1.0, two_dof_parameters(system.structure).delta])],
+            [-np.diag([1.0, two_dof_parameters(system.structure).delta]), np.zeros((2, 2))],
         ]
     )
     for U in nnm1[:: max(1, len(nnm1) // 6)]:
@@ -194,8 +194,8 @@ def test_refined_orbits_match_adaptive_integration(system, refined):
     ]
     for i in picks:
         z = np.r_[refined.start[i], 0.0, 0.0]
-        coarse = monodromy(system.params, z, refined.period[i], rtol=1e-12, atol=1e-12)
-        fine = monodromy(system.params, z, refined.period[i], rtol=1e-13, atol=1e-13)
+        coarse = monodromy(two_dof_parameters(system.structure), z, refined.period[i], rtol=1e-12, atol=1e-12)
+        fine = monodromy(two_dof_parameters(system.structure), z, refined.period[i], rtol=1e-13, atol=1e-13)
         assert fine.closure < 1e-8
         # Trivial pair at +1 on a periodic orbit: s = tr M - 2 (reference error from its two tolerances).
         s_coarse, s_fine = np.trace(coarse.matrix) - 2.0, np.trace(fine.matrix) - 2.0
@@ -213,14 +213,14 @@ def test_unstable_refined_orbit_perturbation_grows_like_its_multiplier(system, r
     assert mu > 1.05  # growth measurable in a few periods
     z0 = np.r_[refined.start[i], 0.0, 0.0]
     T = refined.period[i]
-    ref = monodromy(system.params, z0, T)
+    ref = monodromy(two_dof_parameters(system.structure), z0, T)
     w, V = np.linalg.eig(ref.matrix)
     v = V[:, np.argmax(np.abs(w))].real
     delta = 1e-6 * np.abs(z0).max()
     z = z0 + delta * v / np.linalg.norm(v)
     periods = 6
     for _ in range(periods):
-        z = monodromy(system.params, z, T).final_state
+        z = monodromy(two_dof_parameters(system.structure), z, T).final_state
     growth = np.linalg.norm(z - z0) / delta
     assert abs(np.log(growth) / periods - np.log(mu)) < 0.02 * np.log(mu) + 1e-3
 
@@ -237,8 +237,8 @@ def test_matches_integrated_monodromy_of_refined_orbits(system, nnm1, verdicts):
     ]
     for i in picks:
         z0, T = orbit_initial_state(system, nnm1[i])
-        z, T = refine_orbit(system.params, z0, T)
-        ref = monodromy(system.params, z, T)
+        z, T = refine_orbit(two_dof_parameters(system.structure), z0, T)
+        ref = monodromy(two_dof_parameters(system.structure), z, T)
         s_ref, dev_ref = trace_invariants(ref.matrix)
         assert dev_ref < 1e-6  # exact orbit: trivial pair at +1
         # The HBM orbit differs from the exact one by its error: s moves by about its time residual.

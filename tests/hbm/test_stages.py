@@ -11,7 +11,7 @@ from nnmstop.continuation.core import ContinuationError, ContinuationStats, newt
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.stages import combine_stages
 from nnmstop.models.two_dof import ModelParameters, linear_modes
-from nnmstop.netcdf import check_labelled
+from nnmstop.netcdf import check_labelled, read_dataset, write_dataset
 from nnmstop.pipeline.run import run_task
 from nnmstop.tasks.hbm import build_stage, system_from_config
 
@@ -118,3 +118,67 @@ def test_failed_stage_names_step_and_energy_and_leaves_no_dataset(small_config, 
 def test_stage_number_out_of_range_is_rejected(small_config):
     with pytest.raises(ValueError, match="stage must be in 1..2"):
         build_stage(small_config, "nnm1", 3)
+
+
+@pytest.fixture(scope="module")
+def bounded_stages(small_config):
+    """A stage whose condition (more than 40 impacts per period) never comes below its energy bound 3."""
+    config = copy.deepcopy(small_config)
+    config["branches"]["nnm1"]["stages"] = [
+        {"name": "never", "until": {"impacts_above": 40}, "energy_max": 3.0},
+        {"name": "after", "until": {"energy_above": 20.0}},
+    ]
+    first = build_stage(config, "nnm1", 1)
+    return config, first, build_stage(config, "nnm1", 2, first)
+
+
+def test_a_stage_whose_condition_never_comes_ends_at_its_bound_and_the_next_is_skipped(bounded_stages, tmp_path):
+    config, first, second = bounded_stages
+    energy = first["energy"].values
+    assert energy[-1] > 3.0 and np.all(energy[:-1] <= 3.0)  # ended at the first point above the bound
+    assert first.attrs["stage_condition_met"] == 0
+    assert (
+        "bound 3" in first.attrs["end_reason"] and first.attrs["stage_condition"] == "more than 40 impacts per period"
+    )
+    # the stage after it holds no orbit and says why, naming the stage and its condition
+    assert second.sizes["point"] == 0 and second.attrs["skipped"] == 1
+    assert "stage 1 (never) ended without its condition (more than 40 impacts per period)" in second.attrs["end_reason"]
+    check_labelled(second)
+    path = write_dataset(second, tmp_path / "skipped.nc", title="t", summary="s")
+    with xr.open_dataset(path) as back:
+        assert back.sizes["point"] == 0 and "skipped" in back.attrs["end_reason"]
+    both = combine_stages([first, second])
+    assert both.sizes["point"] == first.sizes["point"]
+    assert list(both.attrs["skipped_stages"]) == [2] and "never" in both.attrs["skip_reason"]
+
+
+def test_a_skipped_stage_skips_the_stages_after_it(bounded_stages):
+    config, _, second = bounded_stages
+    config = copy.deepcopy(config)
+    config["branches"]["nnm1"]["stages"].append({"name": "third", "until": {"energy_above": 40.0}})
+    third = build_stage(config, "nnm1", 3, second)
+    assert third.sizes["point"] == 0 and third.attrs["end_reason"] == second.attrs["end_reason"]
+
+
+def test_unresolved_orbits_end_the_stage_with_the_reason(small_config):
+    """Past the truncation limit the stage ends at its last resolved orbit (the unresolved one dropped)."""
+    config = copy.deepcopy(small_config)
+    config["hbm"]["max_truncation"] = 1e-4  # H = 24 resolves the stop only to about this at E = 20
+    config["branches"]["nnm1"]["stages"] = [{"name": "up", "until": {"energy_above": 20.0}}]
+    ds = build_stage(config, "nnm1", 1)
+    assert ds.attrs["stage_condition_met"] == 0 and ds.attrs["end_reason"].startswith("unresolved: truncation")
+    assert float(ds["truncation"].max()) <= 1e-4 < 20.0  # every stored orbit resolved
+    assert ds["energy"].values[-1] < 20.0
+
+
+def test_a_corrupted_start_orbit_is_named_with_its_file(small_config, nnm1_stages, tmp_path):
+    first, _ = nnm1_stages
+    path = write_dataset(first, tmp_path / "nnm1_stage1.nc", title="t", summary="s")
+    corrupted = read_dataset(path)
+    corrupted["q_cos"].values[-1, 0, 3] *= 1.0 + 1e-3  # one harmonic of the last orbit off
+    with pytest.raises(ValueError, match=r"nnm1_stage1\.nc.*not a point of the branch"):
+        build_stage(small_config, "nnm1", 2, corrupted)
+    other = read_dataset(path)
+    other.attrs["branch"] = "nnm2"
+    with pytest.raises(ValueError, match=r"nnm1_stage1\.nc.*branch 'nnm2'"):
+        build_stage(small_config, "nnm1", 2, other)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nnmstop.hbm.monodromy import orbit_monodromy
-from nnmstop.hbm.structure_branch import structure_start_point
+from nnmstop.hbm.stages import start_point
 from nnmstop.hbm.structure_stability import orbit_multipliers, structure_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.beam import Beam, beam_structure, default_tube_parameters
@@ -17,7 +17,7 @@ from nnmstop.models.two_dof import ModelParameters
 def test_two_dof_multipliers_match_the_two_dof_monodromy():
     """The generic 2N Magnus integration against the 4x4 monodromy of the paper's oscillator (another integrator)."""
     system = HarmonicBalanceSystem(two_dof_structure(ModelParameters()), 20)
-    U, _ = structure_start_point(system, 1, 0.5)
+    U, _ = start_point(system, 1, 0.5, tol=1e-12)
     generic = orbit_multipliers(system, U, 256)
     reference = np.linalg.eigvals(orbit_monodromy(system, U))
     # compare as sets: sort both by angle then modulus; the trivial pair sits at +1 within the Jordan splitting
@@ -31,7 +31,7 @@ def test_near_rest_multipliers_are_the_linear_rotations():
     parameters["n_elements"] = 5  # the plate at 0.6 L on a node
     structure = beam_structure(Beam.from_parameters(parameters))
     system = HarmonicBalanceSystem(structure, 8)
-    U, _ = structure_start_point(system, 1, 1e-3)
+    U, _ = start_point(system, 1, 1e-3, tol=1e-12)
     stability = structure_stability(system, [U], steps=64)
     omega, _ = system.linear_modes()
     period = 2 * np.pi / np.sqrt(system.split(U)[-2])
@@ -45,6 +45,6 @@ def test_near_rest_multipliers_are_the_linear_rotations():
 @pytest.mark.parametrize("bad", [{"steps": 2}, {"tolerance": 0.0}])
 def test_bad_settings_are_named(bad):
     system = HarmonicBalanceSystem(two_dof_structure(ModelParameters()), 4)
-    U, _ = structure_start_point(system, 1, 0.2)
+    U, _ = start_point(system, 1, 0.2, tol=1e-12)
     with pytest.raises(ValueError, match=next(iter(bad))):
         structure_stability(system, [U], **bad)

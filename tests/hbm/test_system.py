@@ -295,8 +295,9 @@ def time_domain(request):
     U = branch.points[-1]
     diag = system.diagnostics(U)
     history = system.time_history(U, 1024)
-    y0 = np.array([history[k][0] for k in ("x", "u", "xdot", "udot")])
-    scale = np.array([np.max(np.abs(history[k])) for k in ("x", "u", "xdot", "udot")])
+    states = np.concatenate([history["q"], history["qdot"]])  # x, u, xdot, udot
+    y0 = states[:, 0]
+    scale = np.max(np.abs(states), axis=1)
     T_hbm = 1.0 / diag["frequency"]
 
     yT, stm = _flow(y0, T_hbm, with_stm=True)

@@ -5,6 +5,7 @@
 from nnmstop.study.error_runtime import sweep_cases
 from nnmstop.study.runs import format_number
 from nnmstop.study.stiff_cases import stiff_case_parameters
+from nnmstop.tasks.tube import tube_config
 
 
 def results(path):
@@ -87,14 +88,9 @@ def branch_stages(wildcards):
 
 
 def bifurcation_parent(wildcards):
-    """The stage dataset of the parent branch that holds the branch point."""
+    """The whole parent branch, on which the branch point of the resonance is looked for."""
     spec = config["bifurcations"][wildcards.bifurcation]
-    return {"parent": stage_file(spec["parent"], spec["stage"])}
-
-
-def bifurcation_branches(wildcards):
-    """`branches` part of the configuration that a switched branch reads: its parent's."""
-    return [config["bifurcations"][wildcards.bifurcation]["parent"]]
+    return {"parent": branch_file(spec["parent"])}
 
 
 # --------------------------------------------------------------------------- figures
@@ -200,8 +196,27 @@ def tube_study_files():
     return [tube_file(f"study/gap{g:g}_k{k:g}") for g in study["gaps"] for k in study["stiffness_factors"]]
 
 
-def tube_branch_config(wildcards):
-    """The tube section with only the rule's own branch (a branch reruns when its entry changes)."""
-    tube = {key: value for key, value in config["tube"].items() if key not in ("branches", "figures", "study", "exact", "compare_count")}
-    tube["branches"] = {wildcards.branch: config["tube"]["branches"][wildcards.branch]}
-    return {"tube": tube, "anm": config["anm"], "metadata": config.get("metadata", {})}
+def tube_stage_files(branch):
+    """The stage datasets of a tube branch, in order (rule tube_stage)."""
+    count = len(config["tube"]["branches"][branch]["stages"])
+    return [results(f"tube/stages/{branch}_stage{k}.nc") for k in range(1, count + 1)]
+
+
+def tube_previous_stage(wildcards):
+    """Stage k > 1 of a tube branch starts from the dataset of stage k - 1."""
+    stage = int(wildcards.stage)
+    return {"previous": tube_stage_files(wildcards.branch)[stage - 2]} if stage > 1 else {}
+
+
+def tube_task_config(*sections, branches=False):
+    """`params: config=...` of a tube rule: the `tube` section in the shape of the top-level configuration
+    (nnmstop.tasks.tube.tube_config), only `sections` of it, and with `branches` only the rule's own branch."""
+
+    def config_of_job(wildcards):
+        shaped = tube_config(config)
+        sliced = {name: shaped[name] for name in sections}
+        if branches:
+            sliced["branches"] = {wildcards.branch: shaped["branches"][wildcards.branch]}
+        return sliced
+
+    return config_of_job

@@ -2,7 +2,7 @@
 # stage k starts from the last point of stage k-1, so a figure that needs only the
 # low-energy part of a branch builds only the first stages. Tasks: nnmstop.tasks.hbm.
 
-HBM_SECTIONS = ("model", "hbm", "anm", "stability", "metadata")
+HBM_SECTIONS = ("model", "structure", "hbm", "anm", "stability", "metadata")
 
 
 rule hbm_stage:
@@ -41,11 +41,7 @@ rule hbm_bifurcated:
     benchmark:
         benchmarks("hbm_bifurcated_{bifurcation}.tsv")
     params:
-        config=task_config(
-            *HBM_SECTIONS,
-            bifurcations=lambda wildcards: [wildcards.bifurcation],
-            branches=bifurcation_branches,
-        ),
+        config=task_config(*HBM_SECTIONS, bifurcations=lambda wildcards: [wildcards.bifurcation]),
     conda:
         "../envs/nnmstop.yaml"
     script:

@@ -1,6 +1,49 @@
-# The paper's next step (issue 14): NNMs of a finite-element tube with bilateral elastic stops,
-# computed by the same harmonic-balance + ANM engine. `snakemake --cores 2 tube` builds all of it;
-# a figure asked for alone builds only the datasets it draws. Tasks: nnmstop.tasks.tube.
+# The paper's next step (issue 14): NNMs of a finite-element tube with bilateral elastic stops. The tube
+# is a structure like any other: its rules run the tasks of the default structure (nnmstop.tasks.hbm and
+# nnmstop.tasks.structure) on the `tube` section, passed in the shape of the top-level configuration
+# (tube_task_config). `snakemake --cores 2 tube` builds all of it; a figure asked for alone builds only
+# the datasets it draws. Tasks: nnmstop.tasks.tube.
+
+rule tube_stage:
+    """One continuation stage of a regularized NNM of the tube (`tube.branches.<branch>.stages`)."""
+    input:
+        unpack(tube_previous_stage),
+    output:
+        dataset=results("tube/stages/{branch}_stage{stage}.nc"),
+    wildcard_constraints:
+        branch="nnm[0-9]+",
+        stage=r"\d+",
+    log:
+        logs("tube/{branch}_stage{stage}.log"),
+    benchmark:
+        benchmarks("tube_{branch}_stage{stage}.tsv")
+    params:
+        config=tube_task_config("structure", "hbm", "anm", "stability", "metadata", branches=True),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule tube_branch:
+    """A regularized NNM of the tube: its stages joined."""
+    input:
+        stages=lambda wildcards: tube_stage_files(wildcards.branch),
+    output:
+        dataset=results("tube/{branch}.nc"),
+    wildcard_constraints:
+        branch="nnm[0-9]+",
+    log:
+        logs("tube/{branch}.log"),
+    benchmark:
+        benchmarks("tube_{branch}.tsv")
+    params:
+        config=tube_task_config("metadata"),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
 
 rule tube_exact:
     """Exact NNM1 of the non-smooth tube (one impact per stop side per period)."""
@@ -11,25 +54,7 @@ rule tube_exact:
     benchmark:
         benchmarks("tube_exact_nnm1.tsv")
     params:
-        config=task_config("metadata", tube=["structure", "exact"]),
-    conda:
-        "../envs/nnmstop.yaml"
-    script:
-        "../scripts/run_task.py"
-
-
-rule tube_branch:
-    """A regularized NNM of the tube by HBM + ANM (`tube.branches.<branch>`)."""
-    output:
-        dataset=results("tube/{branch}.nc"),
-    wildcard_constraints:
-        branch="nnm[0-9]+",
-    log:
-        logs("tube/{branch}.log"),
-    benchmark:
-        benchmarks("tube_{branch}.tsv")
-    params:
-        config=tube_branch_config,
+        config=tube_task_config("structure", "exact", "metadata"),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -48,7 +73,7 @@ rule tube_compare:
     benchmark:
         benchmarks("tube_compare.tsv")
     params:
-        config=task_config("metadata", tube=["compare_count"]),
+        config=tube_task_config("structure", "compare_count", "metadata"),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -69,7 +94,7 @@ rule tube_figure:
     benchmark:
         benchmarks("tube_figure_{figure}.tsv")
     params:
-        config=task_config(tube=["figures"]),
+        config=tube_task_config("figures"),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -85,7 +110,7 @@ rule tube_study_case:
     benchmark:
         benchmarks("tube_study_gap{gap}_k{factor}.tsv")
     params:
-        config=task_config("anm", "metadata", "tube"),
+        config=task_config("anm", "metadata", tube=["structure", "hbm", "anm", "stability", "branches", "exact", "compare_count", "figures", "study"]),
     conda:
         "../envs/nnmstop.yaml"
     script:

@@ -19,8 +19,8 @@ import logging
 import numpy as np
 import xarray as xr
 
-from nnmstop import fourier
 from nnmstop.compare.matching import EnergyMatcher, orbit_differences
+from nnmstop.hbm.dataset import ORBIT_COEFFICIENTS, orbit_variables
 
 __all__ = ["comparison_energies", "comparison_dataset"]
 
@@ -195,24 +195,23 @@ def comparison_dataset(
     )
     # the regularized orbits, in the layout of the branch datasets (for nnmstop.figures.common.orbit)
     H = system.H
-    U = np.array(orbits)
-    x, u, f, z, lam, _ = system.split(U)
-    fields = ((x, "x", "x"), (u, "u", "u"), (f, "regularized contact force f", "f"), (z, "internal variable z", "z"))
-    for c, name, symbol in fields:
-        parts = dict(zip(("cos", "sin"), fourier.to_cos_sin(c, H)))
-        for kind, values in parts.items():
-            word = {"cos": "cosine", "sin": "sine"}[kind]
-            attrs = {"long_name": f"regularized orbit: {word} Fourier coefficients of {name}", "units": one}
-            data[f"{symbol}_{kind}"] = (("point", "harmonic"), values, attrs)
-    data["omega_squared"] = col(lam, "regularized orbit: squared angular frequency")
+    orbit_data = orbit_variables(system, np.array(orbits))
+    data.update({name: orbit_data[name] for name in ORBIT_COEFFICIENTS})
     coords = {
         "point": ("point", np.arange(n), {"long_name": "index of the compared energy", "units": one}),
         "harmonic": ("harmonic", np.arange(H + 1), {"long_name": "harmonic number k (0 is the mean)", "units": one}),
+        "dof": ("dof", np.arange(system.n_dofs), {"long_name": "index of the degree of freedom", "units": one}),
+        "dof_label": (
+            "dof",
+            np.array(system.structure.dof_labels, dtype=str),
+            {"long_name": "name of the degree of freedom", "units": one},
+        ),
+        "stop": ("stop", np.arange(system.n_stops), {"long_name": "index of the stop", "units": one}),
         "energy": col(energies, "matched total energy of the exact and regularized orbits"),
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = {
-        **system.params.as_attrs(),
+        **system.structure.attributes,
         "harmonics": H,
         "time_samples": system.M,
         "basis": system.basis,

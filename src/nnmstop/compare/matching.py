@@ -29,7 +29,7 @@ from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.structure import two_dof_parameters, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
 
 __all__ = [
@@ -138,7 +138,7 @@ class EnergyOperator:
         self.dsynth = fourier.to_time(fourier.derivative(eye, system.H), system.H, self.m).T  # d/dtheta of each
 
     def __call__(self, U, gradient: bool = False):
-        s, p = self.system, self.system.params
+        s, p = self.system, two_dof_parameters(self.system.structure, "the energy of a 2-DOF orbit")
         x, u, _, _, lam, _ = s.split(U)
         omega = np.sqrt(lam)
         xs, us = self.synth @ x, self.synth @ u
@@ -149,7 +149,7 @@ class EnergyOperator:
         grad = np.zeros(s.n_unknowns)
         force_x = xs + p.beta * (xs - us) + regularized_contact_force(xs, p)  # dV/dx
         grad[s.slices["x"]] = (self.synth.T @ force_x + omega * (self.dsynth.T @ xd)) / self.m
-        grad[s.slices["u"]] = (self.synth.T @ (p.beta * (us - xs)) + p.delta * omega * (self.dsynth.T @ ud)) / self.m
+        grad[s.slices["q1"]] = (self.synth.T @ (p.beta * (us - xs)) + p.delta * omega * (self.dsynth.T @ ud)) / self.m
         grad[s.i_lam] = np.mean(0.5 * xd**2 + 0.5 * p.delta * ud**2) / lam  # kinetic energy ~ lam
         return energy, grad
 
@@ -247,7 +247,7 @@ class EnergyMatcher:
                     f"branch ({branch.attrs.get(key)!r})"
                 )
         self.system = system_from_dataset(branch)
-        self.params = self.system.params
+        self.params = two_dof_parameters(self.system.structure, "the comparison with the exact two-impact family")
         self.problem = TwoImpactProblem(self.params)
         self._energy_op = EnergyOperator(self.system)
         self.end_margin = float(end_margin)
@@ -463,7 +463,7 @@ def orbit_differences(
     """
     if int(phase_samples) != phase_samples or phase_samples < 64:
         raise ValueError(f"phase_samples must be an integer >= 64, got {phase_samples!r}")
-    params = system.params
+    params = two_dof_parameters(system.structure, "the comparison with the exact two-impact family")
     y = matched.exact
     n = int(phase_samples)
     period_exact = 4.0 * y[3]

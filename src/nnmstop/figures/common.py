@@ -25,6 +25,7 @@ __all__ = [
     "plot_branch",
     "stability_legend_handles",
     "orbit",
+    "orbit_series",
     "save_figure",
 ]
 
@@ -56,17 +57,29 @@ def frequency_energy_axes(ax, title: str | None = None):
     return ax
 
 
+def orbit_series(p: xr.Dataset) -> dict:
+    """Cos/sin pairs of one point of a branch (or comparison) dataset, by degree-of-freedom label, and ``f``.
+
+    ``p`` is one point (``ds.isel(point=i)``); ``f`` is the force of the first stop.
+    """
+    labels = [str(label) for label in p["dof_label"].values]
+    series = {label: (p["q_cos"].values[j], p["q_sin"].values[j]) for j, label in enumerate(labels)}
+    series["f"] = (p["f_cos"].values[0], p["f_sin"].values[0])
+    return series
+
+
 def orbit(ds: xr.Dataset, point: int, samples: int = 512) -> dict:
     """Time history of one period of HBM point ``point`` of a branch dataset.
 
-    Evaluates the Fourier series of Eq. (13) on ``samples`` instants; returns ``t``
-    and ``x, u, xdot, udot, f`` (velocities by differentiating the series).
+    Evaluates the Fourier series of Eq. (13) on ``samples`` instants; returns ``t``, each degree of
+    freedom by its label and its velocity (``x, u, xdot, udot`` for the paper's oscillator; velocities by
+    differentiating the series) and ``f``, the force of the first stop.
     """
     p = ds.isel(point=point)
     omega = float(np.sqrt(p["omega_squared"]))
     t = np.arange(samples + 1) * (2 * np.pi / omega) / samples
-    series = {symbol: (p[f"{symbol}_cos"].values, p[f"{symbol}_sin"].values) for symbol in ("x", "u", "f")}
-    return {"t": t, **fields_at_phases(omega * t, omega, series)}
+    series = orbit_series(p)
+    return {"t": t, **fields_at_phases(omega * t, omega, series, velocities=tuple(series)[:-1])}
 
 
 STABILITY_LINESTYLES = {"stable": "-", "unstable": "--", "unresolved": ":"}

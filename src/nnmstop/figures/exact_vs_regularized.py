@@ -30,7 +30,7 @@ import xarray as xr
 
 from nnmstop.compare.matching import MAX_IMPACTS
 from nnmstop.exact.problem import TwoImpactProblem
-from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, save_figure
+from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, orbit_series, save_figure
 from nnmstop.fourier import fields_at_phases
 from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
 
@@ -130,7 +130,7 @@ def aligned_orbits(comparison: xr.Dataset, point: int, phase) -> tuple[dict, dic
     exact = {"x": h.x, "u": h.u, "xdot": h.xdot, "udot": h.udot, "f": h.force}
     omega = float(np.sqrt(p["omega_squared"]))
     theta = 2.0 * np.pi * (phase + float(p["regularized_origin_shift"]))
-    series = {symbol: (p[f"{symbol}_cos"].values, p[f"{symbol}_sin"].values) for symbol in ("x", "u", "f")}
+    series = {key: value for key, value in orbit_series(p).items() if key in ("x", "u", "f")}
     return exact, fields_at_phases(theta, omega, series)
 
 
@@ -335,12 +335,11 @@ _ORBIT_VARS = (
     "exact_tau1",
     "exact_T1",
     "omega_squared",
-    "x_cos",
-    "x_sin",
-    "u_cos",
-    "u_sin",
+    "q_cos",
+    "q_sin",
     "f_cos",
     "f_sin",
+    "dof_label",
     "regularized_origin_shift",
     "frequency_exact",
     "frequency_regularized",

@@ -378,17 +378,17 @@ def switch_branch(system, point: BranchPoint, step: float, tol: float = 1e-11):
 
 
 def subharmonic_share(system, U, n: int) -> float:
-    """Share of the mean square of ``x`` and ``u`` in harmonics that are not multiples of ``n``.
+    """Share of the mean square of the degrees of freedom in harmonics that are not multiples of ``n``.
 
     Zero for an orbit of period ``T / n`` (an orbit of frequency ``n`` times that of
     the unknown ``lam``), which is what NNM1 crosses at an ``n:1`` internal resonance.
     """
-    x, u = system.split(U)[:2]
+    dofs = system.split(U)[: system.n_dofs]
     k = np.arange(system.nc) % system.nfull  # index in the kept layout
     harmonic = np.where(k <= system.H, k, k - system.H)
     off = (harmonic % n) != 0
-    total = np.sum(x[1:] ** 2) + np.sum(u[1:] ** 2)
-    return float((np.sum(x[off] ** 2) + np.sum(u[off] ** 2)) / total) if total > 0 else 0.0
+    total = sum(np.sum(q[1:] ** 2) for q in dofs)
+    return float(sum(np.sum(q[off] ** 2) for q in dofs) / total) if total > 0 else 0.0
 
 
 def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_step: float, label: str = "bifurcated"):

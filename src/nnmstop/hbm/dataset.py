@@ -1,16 +1,21 @@
-"""Assembly of the labelled dataset of a regularized branch (a stage, a whole branch, a bifurcated branch).
+"""Assembly of the labelled dataset of a regularized branch, for any structure: the generic branch schema.
 
 Numbers come in computed (:mod:`nnmstop.hbm.stages` runs the continuation, locates branch points,
 computes stability); this module only names and describes them. Dimensions ``point`` (along the
-branch) and ``harmonic`` (0..H); ``x_cos(point, harmonic)``, ``x_sin`` and likewise ``u``, ``f``, ``z``:
-the Fourier coefficients of Eq. (13) (``x_cos[:, 0]`` the mean; sine coefficients zero in the cosine
-basis); ``omega_squared`` and ``unfolding``; ``energy``, ``frequency``, ``period``, ``x_max``, ``u_max``,
-``impacts_per_period``, ``algebraic_residual``, ``time_residual``, ``force_error``, ``energy_spread``,
-``truncation``, ``step``, ``stage``; flags ``branch_point`` and ``energy_fold``; the located branch points
-(dimension ``located_branch_point``) and energy folds (``located_fold``); the Floquet verdicts
-(:mod:`nnmstop.hbm.stability`): ``stable``, ``multiplier_real``/``multiplier_imag(point, multiplier)``,
-``max_multiplier``, ``stability_orbit_residual``, ``stability_resolved``. Bifurcated branches add
-``subharmonic_share`` and attributes describing their branch point (:func:`bifurcated_dataset`).
+branch), ``dof`` (coordinate ``dof_label``: ``x``, ``u`` for the paper's oscillator), ``stop``,
+``harmonic`` (0..H) and ``mode`` (the linear limits). Fourier coefficients ``q_cos``/``q_sin(point,
+dof, harmonic)`` and ``f_cos``/``f_sin``, ``z_cos``/``z_sin(point, stop, harmonic)`` (``[..., 0]`` the
+mean; sine coefficients zero in the cosine basis); ``omega_squared``, ``unfolding``, ``energy``,
+``frequency``, ``period``, ``x_max`` (first stop), ``q_max(point, dof)``, ``impacts_per_period``,
+``stop_impacts(point, stop)``, residuals, ``truncation``, ``step``, ``stage``, ``segment``; flags
+``branch_point`` and ``energy_fold``; the located branch points (dimension ``located_branch_point``),
+energy folds (``located_fold``) and resonance tongues passed (``passed_resonance``); the Floquet
+verdicts (:func:`nnmstop.hbm.stability.orbit_stability`); the structure's stops (``stop_dof``,
+``stop_gap``, ``stop_stiffness``, ``stop_eta``) and linear limits (``no_contact_frequency``,
+``regularized_frequency``, ``gap_zero_frequency(mode)``, ``gap_zero_shape(dof, mode)``). Global
+attributes: the structure's own (``Structure.attributes``: the paper's ``alpha``, ``beta``, ``delta``,
+``eta``), the branch, the settings and how the stage ended. A skipped stage is a dataset with no point
+that says why (:func:`skipped_stage_dataset`). Layout reference: ``docs/datasets.md``.
 """
 
 from __future__ import annotations
@@ -20,221 +25,244 @@ import xarray as xr
 
 from nnmstop import fourier
 from nnmstop.continuation.core import Branch, ContinuationError, relative_residual
-from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import limit_modes
 from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "BRANCH_POINT_DIM",
     "FOLD_DIM",
+    "RESONANCE_DIM",
+    "ORBIT_COEFFICIENTS",
+    "orbit_variables",
+    "VARIABLES",
     "branch_dataset",
+    "skipped_stage_dataset",
     "bifurcated_dataset",
     "summarize_bifurcated",
     "located_branch_point_variables",
     "located_fold_variables",
+    "segment_fold_variables",
+    "passed_resonance_variables",
     "energy_folds",
     "dataset_unknowns",
     "coefficient_vectors",
+    "is_skipped",
 ]
 
+#: The variables that hold an orbit: the Fourier coefficients of every field and the squared angular frequency.
+ORBIT_COEFFICIENTS = ("q_cos", "q_sin", "f_cos", "f_sin", "z_cos", "z_sin", "omega_squared")
 
-def branch_dataset(system, branch: Branch, stage: int, located, stability, continuation, labels: dict) -> xr.Dataset:
-    """Labelled dataset of a continued branch (variables in the module docstring).
+BRANCH_POINT_DIM = "located_branch_point"
+FOLD_DIM = "located_fold"
+RESONANCE_DIM = "passed_resonance"
 
-    Parameters
-    ----------
-    system : HarmonicBalanceSystem
-    branch : Branch
-        The continued points, their steps, diagnostics (computed here where None) and flags.
-    stage : int
-        Stage number stored in the ``stage`` variable.
-    located : list of (int, BranchPoint, int, bool)
-        Located branch points (:func:`nnmstop.hbm.bifurcation.locate_flagged_branch_points`).
-    stability : object with ``data_vars()``
-        Floquet verdicts of the points (:func:`nnmstop.hbm.stability.orbit_stability`).
-    continuation : ANMSettings
-        Settings of the continuation, recorded as attributes.
-    labels : dict
-        Global attributes naming the branch: ``branch`` (required), and e.g. ``mode`` and ``stages``.
+#: Long name and units of every variable this module writes (flags and stability come with their own).
+VARIABLES = {
+    "q_cos": ("cosine Fourier coefficients of the degrees of freedom", "1"),
+    "q_sin": ("sine Fourier coefficients of the degrees of freedom", "1"),
+    "f_cos": ("cosine Fourier coefficients of the regularized stop forces (force over gap)", "1"),
+    "f_sin": ("sine Fourier coefficients of the regularized stop forces (force over gap)", "1"),
+    "z_cos": ("cosine Fourier coefficients of the internal variables z = (f/alpha - x)^2 of the stops", "1"),
+    "z_sin": ("sine Fourier coefficients of the internal variables z = (f/alpha - x)^2 of the stops", "1"),
+    "omega_squared": ("squared angular frequency (unknown lambda of the HBM system)", "1"),
+    "unfolding": ("unfolding parameter nu (fictitious damping times omega; zero on periodic orbits)", "1"),
+    "energy": ("total energy of the regularized model (contact potentials included), mean over the period", "1"),
+    "frequency": ("frequency omega/(2 pi) in Hz of the nondimensional time", "Hz"),
+    "period": ("period of the orbit in nondimensional time", "1"),
+    "x_max": ("largest coordinate of the first stop (displacement over its gap) over the period", "1"),
+    "q_max": ("largest value of each degree of freedom over the period", "1"),
+    "impacts_per_period": ("number of excursions beyond the gaps per period, all stops", "1"),
+    "stop_impacts": ("number of excursions beyond the gap per period at each stop", "1"),
+    "algebraic_residual": (
+        "norm of the residual of the HBM algebraic system relative to the norm of the unknowns",
+        "1",
+    ),
+    "time_residual": (
+        "largest residual in time of the equations of the stop degrees of freedom (true cubic root for f) relative "
+        "to the largest restoring force",
+        "1",
+    ),
+    "force_error": (
+        "largest difference between the HBM stop force and the cubic root f(x(t)), relative to max |f|",
+        "1",
+    ),
+    "energy_spread": ("relative variation of the total energy over the period (zero for an exact orbit)", "1"),
+    "truncation": ("share of the mean square of x'' or f carried by the top tenth of the harmonics (largest)", "1"),
+    "step": ("index of the ANM step that produced the point", "1"),
+    "stage": ("continuation stage of the point", "1"),
+    "segment": (
+        "segment of the stage: 0 from its start, k > 0 the backbone beyond the k-th internal resonance tongue passed "
+        "(see passed_resonance_*)",
+        "1",
+    ),
+    "branch_point_energy": ("energy of the located branch point", "1"),
+    "branch_point_frequency": ("frequency of the located branch point", "Hz"),
+    "branch_point_resonance": (
+        "n where the orbit at the branch point has period T/n (n:1 internal resonance), else 0",
+        "1",
+    ),
+    "branch_point_tangent_angle": ("angle between the tangents of the two curves at the branch point", "degree"),
+    "branch_point_singular_ratio": (
+        "smallest over second-smallest singular value of J at the located point (zero at an exact branch point)",
+        "1",
+    ),
+    "branch_point_flagged_point": ("index of the point that ends the ANM step holding the branch point", "1"),
+    "fold_energy": (
+        "energy at the fold (local extremum along the branch), parabola through the three nearest points",
+        "1",
+    ),
+    "fold_frequency": ("frequency at the fold, same parabola", "Hz"),
+    "fold_point": ("index of the point of extremal energy", "1"),
+    "passed_resonance_frequency": (
+        "frequency maximum where the backbone bent into the internal resonance tongue",
+        "Hz",
+    ),
+    "passed_resonance_energy": ("energy at that frequency maximum", "1"),
+    "passed_resonance_harmonic": ("harmonic that grew most into the tongue (n of the n:1 internal resonance)", "1"),
+    "passed_resonance_landing_frequency": (
+        "frequency where the predictor over the tongue landed on the backbone beyond it",
+        "Hz",
+    ),
+    "stop_dof": ("index of the degree of freedom that meets the stop", "1"),
+    "stop_gap": ("gap of the stop (nondimensional)", "1"),
+    "stop_stiffness": ("stiffness alpha of the stop (nondimensional)", "1"),
+    "stop_eta": ("regularization stiffness eta of the stop (nondimensional)", "1"),
+    "no_contact_frequency": ("frequency of the linear mode with no contact (every gap infinite)", "Hz"),
+    "regularized_frequency": ("frequency of the linear mode of the regularized structure near rest", "Hz"),
+    "gap_zero_frequency": ("frequency of the linear mode with every stop always engaged (gap 0)", "Hz"),
+    "gap_zero_shape": ("shape of the gap-0 linear mode (mass-normalized)", "1"),
+    "dof_label": ("name of the degree of freedom", "1"),
+    "node_coordinate": ("position of the finite-element node over the length of the structure", "1"),
+    "subharmonic_share": (
+        "share of the mean square of the degrees of freedom in harmonics that are not multiples of the resonance n "
+        "(zero for an orbit of period T/n)",
+        "1",
+    ),
+}
 
-    Raises
-    ------
-    ContinuationError
-        If an energy along the branch is not finite (no dataset is returned).
-    """
-    branch_name = labels["branch"]
-    H = system.H
-    U = np.array(branch.points)
-    diags = [d if d is not None else system.diagnostics(u) for u, d in zip(U, branch.diagnostics)]
-    steps, end_reason, stats = branch.step, branch.end_reason, branch.stats
-    if not all(np.isfinite(d["energy"]) for d in diags):
-        raise ContinuationError(f"{branch_name} stage {stage}: non-finite energy in the branch")
-    x, u, f, z, lam, nu = system.split(U)
-    coords = {"point": np.arange(len(U)), "harmonic": np.arange(H + 1)}
+_COORDINATES = {
+    "point": "index of the point along the branch",
+    "dof": "index of the degree of freedom",
+    "stop": "index of the stop",
+    "harmonic": "harmonic number k (0 is the mean)",
+    "mode": "index of the linear mode (1 is the lowest)",
+    "node": "index of the finite-element node",
+}
 
-    def series(c, name, symbol):
-        cos, sin = fourier.to_cos_sin(c, H)
-        return {
-            f"{symbol}_cos": (
-                ("point", "harmonic"),
-                cos,
-                {"long_name": f"cosine Fourier coefficients of {name}", "units": "1"},
-            ),
-            f"{symbol}_sin": (
-                ("point", "harmonic"),
-                sin,
-                {"long_name": f"sine Fourier coefficients of {name}", "units": "1"},
-            ),
-        }
 
-    def col(key):
-        return np.array([d[key] for d in diags])
+def _var(name: str, dims, values, **extra) -> tuple:
+    long_name, units = VARIABLES[name]
+    return dims, values, {"long_name": long_name, "units": units, **extra}
 
-    data = {}
-    for c, name, symbol in (
-        (x, "x (first mass)", "x"),
-        (u, "u (second mass)", "u"),
-        (f, "regularized contact force f", "f"),
-        (z, "internal variable z = (f/alpha - x)^2", "z"),
-    ):
-        data.update(series(c, name, symbol))
-    omega = np.sqrt(lam)
-    data.update(
-        {
-            "omega_squared": (
-                "point",
-                lam,
-                {"long_name": "squared angular frequency (unknown lambda of the HBM system)", "units": "1"},
-            ),
-            "unfolding": (
-                "point",
-                nu,
-                {
-                    "long_name": "unfolding parameter nu (fictitious damping times omega; zero on periodic orbits)",
-                    "units": "1",
-                },
-            ),
-            "energy": (
-                "point",
-                col("energy"),
-                {
-                    "long_name": "total energy of the regularized model (contact potential included), mean over the "
-                    "period",
-                    "units": "1",
-                },
-            ),
-            "frequency": (
-                "point",
-                col("frequency"),
-                {"long_name": "frequency omega/(2 pi) in Hz of the nondimensional time", "units": "Hz"},
-            ),
-            "period": (
-                "point",
-                2 * np.pi / omega,
-                {"long_name": "period of the orbit in nondimensional time", "units": "1"},
-            ),
-            "x_max": (
-                "point",
-                col("x_max"),
-                {"long_name": "largest displacement of the first mass over the period", "units": "1"},
-            ),
-            "u_max": (
-                "point",
-                col("u_max"),
-                {"long_name": "largest displacement of the second mass over the period", "units": "1"},
-            ),
-            "impacts_per_period": (
-                "point",
-                col("impacts_per_period").astype(np.int32),
-                {"long_name": "number of excursions of x beyond the stops (|x| > 1) per period", "units": "1"},
-            ),
-            "algebraic_residual": (
-                "point",
-                np.array([relative_residual(system, p) for p in U]),
-                {
-                    "long_name": "norm of the residual of the HBM algebraic system relative to the norm of the "
-                    "unknowns",
-                    "units": "1",
-                },
-            ),
-            "time_residual": (
-                "point",
-                col("time_residual"),
-                {
-                    "long_name": "largest residual in time of the regularized equation of x (true cubic root for f) "
-                    "relative to the largest restoring force",
-                    "units": "1",
-                },
-            ),
-            "force_error": (
-                "point",
-                col("force_error"),
-                {
-                    "long_name": "largest difference between the HBM contact force and the cubic root f(x(t)), "
-                    "relative to max |f|",
-                    "units": "1",
-                },
-            ),
-            "energy_spread": (
-                "point",
-                col("energy_spread"),
-                {
-                    "long_name": "relative variation of the total energy over the period (zero for an exact orbit)",
-                    "units": "1",
-                },
-            ),
-            "truncation": (
-                "point",
-                col("truncation"),
-                {
-                    "long_name": "share of the mean square of x'' or f carried by the top tenth of the harmonics "
-                    "(larger of the two)",
-                    "units": "1",
-                },
-            ),
-            "step": (
-                "point",
-                np.asarray(steps, dtype=np.int32),
-                {"long_name": "index of the ANM step that produced the point", "units": "1"},
-            ),
-            "stage": (
-                "point",
-                np.full(len(U), stage, dtype=np.int32),
-                {"long_name": "continuation stage of the point", "units": "1"},
-            ),
-        }
-    )
-    branch_point = np.zeros(len(U), dtype=bool)
-    branch_point[branch.branch_points] = True
-    fold = energy_folds(col("energy"))
-    data.update(
-        {
-            "branch_point": flag_variable(
-                "point",
-                branch_point,
-                "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM "
-                "step that ends at this point",
-                "regular branch_point",
-            ),
-            "energy_fold": flag_variable(
-                "point", fold, "1 where the energy has a local extremum along the branch (energy fold)", "regular fold"
-            ),
-        }
-    )
-    data.update(located_branch_point_variables(system, located))
-    data.update(stability.data_vars())
-    coords["multiplier"] = np.arange(stability.multipliers.shape[1])
-    ds = xr.Dataset(data, coords=coords)
-    ds = ds.assign(located_fold_variables(coefficient_vectors(ds), col("energy"), col("frequency")))
-    ds["point"].attrs = {"long_name": "index of the point along the branch", "units": "1"}
-    ds["multiplier"].attrs = {
-        "long_name": "index of the Floquet multiplier: 0, 1 trivial pair; 2, 3 non-trivial pair",
-        "units": "1",
+
+def orbit_variables(system, U: np.ndarray) -> dict:
+    """Fourier coefficients (:data:`ORBIT_COEFFICIENTS`), omega^2, nu and the period of the points ``U``."""
+    blocks = system.split(U)
+    N, s, H = system.n_dofs, system.n_stops, system.H
+    pairs = {
+        "q": np.stack(blocks[:N], axis=1) if len(U) else np.zeros((0, N, system.nc)),
+        "f": np.stack(blocks[N : N + s], axis=1) if len(U) else np.zeros((0, s, system.nc)),
+        "z": np.stack(blocks[N + s : N + 2 * s], axis=1) if len(U) else np.zeros((0, s, system.nc)),
     }
-    ds["harmonic"].attrs = {"long_name": "harmonic number k (0 is the mean)", "units": "1"}
-    ds.attrs = {
-        **system.params.as_attrs(),
+    data = {}
+    for symbol, where in (("q", "dof"), ("f", "stop"), ("z", "stop")):
+        cos, sin = fourier.to_cos_sin(pairs[symbol], H)
+        dims = ("point", where, "harmonic")
+        data[f"{symbol}_cos"], data[f"{symbol}_sin"] = (
+            _var(f"{symbol}_cos", dims, cos),
+            _var(f"{symbol}_sin", dims, sin),
+        )
+    lam, nu = blocks[-2], blocks[-1]
+    data["omega_squared"] = _var("omega_squared", "point", lam)
+    data["unfolding"] = _var("unfolding", "point", nu)
+    data["period"] = _var("period", "point", 2 * np.pi / np.sqrt(lam))
+    return data
+
+
+def _diagnostic_variables(system, U: np.ndarray, diagnostics: list) -> dict:
+    """Energy, frequency, amplitudes, impacts and error indicators of every point."""
+
+    def col(key, dtype=float, shape=()):
+        return np.array([d[key] for d in diagnostics], dtype=dtype).reshape((len(diagnostics),) + shape)
+
+    data = {name: _var(name, "point", col(name)) for name in ("energy", "frequency", "x_max")}
+    data["q_max"] = _var("q_max", ("point", "dof"), col("q_max", shape=(system.n_dofs,)))
+    data["impacts_per_period"] = _var("impacts_per_period", "point", col("impacts_per_period", np.int32))
+    data["stop_impacts"] = _var("stop_impacts", ("point", "stop"), col("stop_impacts", np.int32, (system.n_stops,)))
+    data["algebraic_residual"] = _var(
+        "algebraic_residual", "point", np.array([relative_residual(system, p) for p in U], dtype=float)
+    )
+    for name in ("time_residual", "force_error", "energy_spread", "truncation"):
+        data[name] = _var(name, "point", col(name))
+    return data
+
+
+def _path_variables(branch: Branch, stage: int, energy: np.ndarray) -> dict:
+    """Step, stage, segment and the branch-point and energy-fold flags of every point."""
+    n = len(branch.points)
+    segment = getattr(branch, "segment", None)
+    segment = np.zeros(n, dtype=np.int32) if segment is None else np.asarray(segment, dtype=np.int32)
+    flagged = np.zeros(n, dtype=bool)
+    flagged[branch.branch_points] = True
+    folds = np.zeros(n, dtype=bool)
+    for k in np.unique(segment):
+        folds[segment == k] = energy_folds(energy[segment == k])
+    return {
+        "step": _var("step", "point", np.asarray(branch.step, dtype=np.int32)),
+        "stage": _var("stage", "point", np.full(n, stage, dtype=np.int32)),
+        "segment": _var("segment", "point", segment),
+        "branch_point": flag_variable(
+            "point",
+            flagged,
+            "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM "
+            "step that ends at this point",
+            "regular branch_point",
+        ),
+        "energy_fold": flag_variable(
+            "point",
+            folds,
+            "1 where the energy has a local extremum along the branch (within its segment)",
+            "regular fold",
+        ),
+    }
+
+
+def _structure_variables(system) -> tuple[dict, dict]:
+    """Variables and coordinates describing the structure: its stops, linear limits, labels and mesh."""
+    structure = system.structure
+    stops = structure.stops
+    data = {
+        "stop_dof": _var("stop_dof", "stop", np.array(structure.stop_dofs, dtype=np.int32)),
+        "stop_gap": _var("stop_gap", "stop", np.array([s.gap for s in stops])),
+        "stop_stiffness": _var("stop_stiffness", "stop", np.array([s.stiffness for s in stops])),
+        "stop_eta": _var("stop_eta", "stop", np.array([s.eta for s in stops])),
+    }
+    for limit in ("no_contact", "regularized"):
+        data[f"{limit}_frequency"] = _var(f"{limit}_frequency", "mode", limit_modes(structure, limit)[0] / (2 * np.pi))
+    omega, shapes = limit_modes(structure, "gap_zero")
+    data["gap_zero_frequency"] = _var("gap_zero_frequency", "mode", omega / (2 * np.pi))
+    data["gap_zero_shape"] = _var("gap_zero_shape", ("dof", "mode"), shapes)
+    coords = {
+        "dof": np.arange(structure.n_dofs),
+        "stop": np.arange(len(stops)),
+        "harmonic": np.arange(system.H + 1),
+        "mode": np.arange(1, len(omega) + 1),
+        "dof_label": _var("dof_label", "dof", np.array(structure.dof_labels, dtype=str)),
+    }
+    if structure.node_coordinates is not None:
+        coords["node"] = np.arange(len(structure.node_coordinates))
+        data["node_coordinate"] = _var("node_coordinate", "node", np.asarray(structure.node_coordinates, float))
+    return data, coords
+
+
+def _attributes(system, branch: Branch, continuation, labels: dict, unlocated: int) -> dict:
+    stats = branch.stats
+    return {
+        **system.structure.attributes,
+        "dofs": system.n_dofs,
+        "stops": system.n_stops,
         **labels,
-        "harmonics": H,
+        "harmonics": system.H,
         "time_samples": system.M,
         "basis": system.basis,
         "order": continuation.order,
@@ -242,15 +270,105 @@ def branch_dataset(system, branch: Branch, stage: int, located, stability, conti
         "newton_threshold": continuation.newton_threshold,
         "pade": int(continuation.pade),
         "pade_steps": stats.pade_steps,
-        "end_reason": end_reason,
+        "end_reason": branch.end_reason,
         "anm_steps": stats.steps,
         "factorizations": stats.factorizations,
+        "unlocated_branch_points": int(unlocated),
+        "passed_resonances": len(getattr(branch, "resonances", [])),
+    }
+
+
+def branch_dataset(
+    system, branch: Branch, stage: int, located, stability, continuation, labels: dict, unlocated: int = 0
+) -> xr.Dataset:
+    """Labelled dataset of a continued branch (variables in the module docstring).
+
+    Parameters
+    ----------
+    system : HarmonicBalanceSystem
+    branch : Branch
+        The continued points, their steps, diagnostics (computed here where None), flags, and
+        optionally ``segment`` (segment of every point) and ``resonances`` (tongues passed).
+    stage : int
+        Stage number stored in the ``stage`` variable.
+    located : list of (int, BranchPoint, int, bool)
+        Located branch points (:func:`nnmstop.hbm.bifurcation.locate_flagged_branch_points`).
+    stability : object with ``data_vars()`` and ``multipliers``
+        Floquet verdicts of the points (:func:`nnmstop.hbm.stability.orbit_stability`).
+    continuation : ANMSettings
+        Settings of the continuation, recorded as attributes.
+    labels : dict
+        Global attributes naming the branch: ``branch`` (required), and e.g. ``mode``, ``stages``, how the
+        stage ended.
+    unlocated : int
+        Flagged steps whose branch point could not be located (recorded as an attribute).
+
+    Raises
+    ------
+    ContinuationError
+        If an energy along the branch is not finite (no dataset is returned).
+    """
+    U = np.array(branch.points)
+    diagnostics = [d if d is not None else system.diagnostics(u) for u, d in zip(U, branch.diagnostics)]
+    if not all(np.isfinite(d["energy"]) for d in diagnostics):
+        raise ContinuationError(f"{labels['branch']} stage {stage}: non-finite energy in the branch")
+    data = orbit_variables(system, U)
+    data.update(_diagnostic_variables(system, U, diagnostics))
+    energy = data["energy"][1]
+    data.update(_path_variables(branch, stage, energy))
+    data.update(located_branch_point_variables(system, located))
+    data.update(segment_fold_variables(coefficient_vectors(data), energy, data["frequency"][1], data["segment"][1]))
+    data.update(passed_resonance_variables(getattr(branch, "resonances", [])))
+    data.update(stability.data_vars())
+    structure_data, coords = _structure_variables(system)
+    data.update(structure_data)
+    coords.update(point=np.arange(len(U)), multiplier=np.arange(stability.multipliers.shape[1]))
+    ds = xr.Dataset(data, coords=coords)
+    for name, text in _COORDINATES.items():
+        if name in ds.coords:
+            ds[name].attrs = {"long_name": text, "units": "1"}
+    ds["multiplier"].attrs = {"long_name": "index of the Floquet multiplier", "units": "1"}
+    ds.attrs = _attributes(system, branch, continuation, labels, unlocated)
+    return ds
+
+
+def skipped_stage_dataset(system, stage: int, labels: dict, reason: str) -> xr.Dataset:
+    """The dataset of a stage that was not continued: no point, the structure, the settings and ``reason``.
+
+    A stage is skipped when the stage before it ended without its condition (at its energy bound, or
+    where the harmonics stopped resolving the orbits): the scene it was meant for does not exist on this
+    branch. Its attributes ``skipped = 1`` and ``end_reason`` say so; readers find ``point`` of length 0.
+    """
+    empty = Branch()
+    empty.end_reason = reason
+    data = orbit_variables(system, np.zeros((0, system.n_unknowns)))
+    data.update(_path_variables(empty, stage, np.zeros(0)))
+    data.update(energy=_var("energy", "point", np.zeros(0)), frequency=_var("frequency", "point", np.zeros(0)))
+    data.update(impacts_per_period=_var("impacts_per_period", "point", np.zeros(0, dtype=np.int32)))
+    structure_data, coords = _structure_variables(system)
+    data.update(structure_data)
+    coords["point"] = np.arange(0)
+    ds = xr.Dataset(data, coords=coords)
+    for name, text in _COORDINATES.items():
+        if name in ds.coords:
+            ds[name].attrs = {"long_name": text, "units": "1"}
+    ds.attrs = {
+        **system.structure.attributes,
+        "dofs": system.n_dofs,
+        "stops": system.n_stops,
+        **labels,
+        "harmonics": system.H,
+        "skipped": 1,
+        "skipped_stage": int(stage),
+        "stage_condition_met": 0,
+        "end_reason": reason,
     }
     return ds
 
 
-BRANCH_POINT_DIM = "located_branch_point"
-FOLD_DIM = "located_fold"
+def is_skipped(ds: xr.Dataset) -> bool:
+    """Whether ``ds`` is the dataset of a skipped stage (:func:`skipped_stage_dataset`) or holds no point."""
+    return bool(int(ds.attrs.get("skipped", 0))) or ds.sizes.get("point", 0) == 0
 
 
 def located_branch_point_variables(system, located) -> dict:
@@ -258,23 +376,10 @@ def located_branch_point_variables(system, located) -> dict:
     dim = (BRANCH_POINT_DIM,)
     diags = [system.diagnostics(point.U) for _, point, _, _ in located]
     return {
-        "branch_point_energy": (
-            dim,
-            np.array([d["energy"] for d in diags], dtype=float),
-            {"long_name": "energy of the located branch point", "units": "1"},
-        ),
-        "branch_point_frequency": (
-            dim,
-            np.array([d["frequency"] for d in diags], dtype=float),
-            {"long_name": "frequency of the located branch point", "units": "Hz"},
-        ),
-        "branch_point_resonance": (
-            dim,
-            np.array([n for _, _, n, _ in located], dtype=np.int32),
-            {
-                "long_name": "n where the orbit at the branch point has period T/n (n:1 internal resonance), else 0",
-                "units": "1",
-            },
+        "branch_point_energy": _var("branch_point_energy", dim, np.array([d["energy"] for d in diags], float)),
+        "branch_point_frequency": _var("branch_point_frequency", dim, np.array([d["frequency"] for d in diags], float)),
+        "branch_point_resonance": _var(
+            "branch_point_resonance", dim, np.array([n for _, _, n, _ in located], dtype=np.int32)
         ),
         "branch_point_symmetry_breaking": flag_variable(
             dim,
@@ -282,37 +387,27 @@ def located_branch_point_variables(system, located) -> dict:
             "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))",
             "no yes",
         ),
-        "branch_point_tangent_angle": (
-            dim,
-            np.array([p.angle for _, p, _, _ in located], dtype=float),
-            {"long_name": "angle between the tangents of the two curves at the branch point", "units": "degree"},
+        "branch_point_tangent_angle": _var(
+            "branch_point_tangent_angle", dim, np.array([p.angle for _, p, _, _ in located], dtype=float)
         ),
-        "branch_point_singular_ratio": (
-            dim,
-            np.array([p.singular_ratio for _, p, _, _ in located], dtype=float),
-            {
-                "long_name": "smallest over second-smallest singular value of J at the located point (zero at an exact "
-                "branch point)",
-                "units": "1",
-            },
+        "branch_point_singular_ratio": _var(
+            "branch_point_singular_ratio", dim, np.array([p.singular_ratio for _, p, _, _ in located], dtype=float)
         ),
-        "branch_point_flagged_point": (
-            dim,
-            np.array([i for i, _, _, _ in located], dtype=np.int32),
-            {"long_name": "index of the point that ends the ANM step holding the branch point", "units": "1"},
+        "branch_point_flagged_point": _var(
+            "branch_point_flagged_point", dim, np.array([i for i, _, _, _ in located], dtype=np.int32)
         ),
     }
 
 
 def located_fold_variables(U, energy, frequency) -> dict:
-    """Dataset variables (dimension ``located_fold``) of the energy folds of a branch.
+    """Dataset variables (dimension ``located_fold``) of the energy folds of one curve.
 
-    Each local extremum of the energy along the branch is refined by the parabola
-    through it and its two neighbours in the arclength of the unknowns; the
-    frequency is read on the parabola through the same three points.
+    Each local extremum of the energy along the curve is refined by the parabola through it and its
+    two neighbours in the arclength of the unknowns; the frequency is read on the parabola through the
+    same three points.
     """
     U, energy, frequency = np.asarray(U, float), np.asarray(energy, float), np.asarray(frequency, float)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(U, axis=0), axis=1))])
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(U, axis=0), axis=1))]) if len(U) else U[:, 0]
     index, e_fold, f_fold = [], [], []
     for i in np.flatnonzero(energy_folds(energy)):
         ds_, e_, f_ = s[i - 1 : i + 2] - s[i], energy[i - 1 : i + 2], frequency[i - 1 : i + 2]
@@ -324,24 +419,46 @@ def located_fold_variables(U, energy, frequency) -> dict:
         f_fold.append(float(np.polyval(cf, vertex)))
     dim = (FOLD_DIM,)
     return {
-        "fold_energy": (
-            dim,
-            np.array(e_fold, dtype=float),
-            {
-                "long_name": "energy at the fold (local extremum along the branch), parabola through the three nearest "
-                "points",
-                "units": "1",
-            },
+        "fold_energy": _var("fold_energy", dim, np.array(e_fold, dtype=float)),
+        "fold_frequency": _var("fold_frequency", dim, np.array(f_fold, dtype=float)),
+        "fold_point": _var("fold_point", dim, np.array(index, dtype=np.int32)),
+    }
+
+
+def segment_fold_variables(U, energy, frequency, segment) -> dict:
+    """:func:`located_fold_variables` of each segment (curves apart), point indices of the whole branch."""
+    segment = np.asarray(segment)
+    parts = []
+    for k in np.unique(segment) if segment.size else [0]:
+        index = np.flatnonzero(segment == k)
+        part = located_fold_variables(np.asarray(U)[index], np.asarray(energy)[index], np.asarray(frequency)[index])
+        dims, values, attrs = part["fold_point"]
+        part["fold_point"] = (dims, (values + (index[0] if index.size else 0)).astype(np.int32), attrs)
+        parts.append(part)
+    return {
+        name: (dims, np.concatenate([part[name][1] for part in parts]).astype(values.dtype), attrs)
+        for name, (dims, values, attrs) in parts[0].items()
+    }
+
+
+def passed_resonance_variables(resonances) -> dict:
+    """Dataset variables (dimension ``passed_resonance``) of the tongues passed.
+
+    ``resonances``: :class:`~nnmstop.hbm.tongues.PassedResonance` instances.
+    """
+    dim = (RESONANCE_DIM,)
+    return {
+        "passed_resonance_frequency": _var(
+            "passed_resonance_frequency", dim, np.array([r.frequency for r in resonances], dtype=float)
         ),
-        "fold_frequency": (
-            dim,
-            np.array(f_fold, dtype=float),
-            {"long_name": "frequency at the fold, same parabola", "units": "Hz"},
+        "passed_resonance_energy": _var(
+            "passed_resonance_energy", dim, np.array([r.energy for r in resonances], float)
         ),
-        "fold_point": (
-            dim,
-            np.array(index, dtype=np.int32),
-            {"long_name": "index of the point of extremal energy", "units": "1"},
+        "passed_resonance_harmonic": _var(
+            "passed_resonance_harmonic", dim, np.array([r.harmonic for r in resonances], dtype=np.int32)
+        ),
+        "passed_resonance_landing_frequency": _var(
+            "passed_resonance_landing_frequency", dim, np.array([r.landing_frequency for r in resonances], float)
         ),
     }
 
@@ -355,25 +472,48 @@ def energy_folds(energy) -> np.ndarray:
     return fold
 
 
-def dataset_unknowns(ds: xr.Dataset, system: HarmonicBalanceSystem) -> np.ndarray:
-    """Unknown vectors of every point of a branch dataset, for ``system``'s layout."""
-    H = system.H
-    if ds.sizes["harmonic"] != H + 1:
-        raise ValueError(f"dataset has {ds.sizes['harmonic'] - 1} harmonics, the system {H}")
+def dataset_unknowns(ds: xr.Dataset, system) -> np.ndarray:
+    """Unknown vectors of every point of a branch dataset, for ``system``'s layout.
+
+    Raises
+    ------
+    ValueError
+        If the dataset's harmonics, degrees of freedom or stops are not the system's.
+    """
+    if ds.sizes["harmonic"] != system.H + 1:
+        raise ValueError(f"dataset has {ds.sizes['harmonic'] - 1} harmonics, the system {system.H}")
+    if ds.sizes["dof"] != system.n_dofs or ds.sizes["stop"] != system.n_stops:
+        raise ValueError(
+            f"dataset has {ds.sizes['dof']} degrees of freedom and {ds.sizes['stop']} stop(s), the system "
+            f"{system.n_dofs} and {system.n_stops}"
+        )
     parts = []
-    for symbol in ("x", "u", "f", "z"):
+    for symbol, count in (("q", system.n_dofs), ("f", system.n_stops), ("z", system.n_stops)):
         full = fourier.from_cos_sin(ds[f"{symbol}_cos"].values, ds[f"{symbol}_sin"].values)
-        parts.append(full[:, : system.nc])
+        parts += [full[:, j, : system.nc] for j in range(count)]
     tail = [ds["omega_squared"].values[:, None]]
     if system.full:
         tail.append(ds["unfolding"].values[:, None])
     return np.concatenate(parts + tail, axis=1)
 
 
-def coefficient_vectors(ds: xr.Dataset) -> np.ndarray:
-    """The unknowns of every point as stored (all coefficients and omega^2), for arclengths."""
-    parts = [ds[f"{s}_{kind}"].values for s in ("x", "u", "f", "z") for kind in ("cos", "sin")]
-    return np.concatenate(parts + [ds["omega_squared"].values[:, None]], axis=1)
+def coefficient_vectors(ds) -> np.ndarray:
+    """The unknowns of every point as stored (all coefficients and omega^2), for arclengths.
+
+    ``ds`` is a branch dataset or the mapping of its variables ``name -> (dims, values, attrs)``.
+    Each field's cosine then sine coefficients, field after field (degrees of freedom, stop forces, ``z``).
+    """
+
+    def values(name):
+        item = ds[name]
+        return item[1] if isinstance(item, tuple) else item.values
+
+    parts = []
+    for symbol in ("q", "f", "z"):
+        cos, sin = values(f"{symbol}_cos"), values(f"{symbol}_sin")
+        for j in range(cos.shape[1]):
+            parts += [cos[:, j], sin[:, j]]
+    return np.concatenate(parts + [values("omega_squared")[:, None]], axis=1)
 
 
 def bifurcated_dataset(
@@ -388,15 +528,7 @@ def bifurcated_dataset(
     degrees, ``singular_ratio``).
     """
     n = int(resonance)
-    ds["subharmonic_share"] = (
-        "point",
-        np.asarray(subharmonic_share, dtype=float),
-        {
-            "long_name": f"share of the mean square of x and u in harmonics that are not multiples of {n} "
-            f"(zero for an orbit of period T/{n})",
-            "units": "1",
-        },
-    )
+    ds["subharmonic_share"] = _var("subharmonic_share", "point", np.asarray(subharmonic_share, dtype=float))
     ds["stage"].attrs["long_name"] = "stage of the parent branch from whose branch point the branch was switched"
     ds["step"].attrs["long_name"] = (
         "index of the ANM step that produced the point (negative on the side followed backwards)"
@@ -416,6 +548,8 @@ def summarize_bifurcated(ds, nnm2=None) -> str:
     ``n f`` on the bifurcated branch from the NNM2 frequency at the same energy
     (NNM2 interpolated linearly in ``ln E``; its energy must increase along the branch).
     """
+    if is_skipped(ds):
+        return f"branch {ds.attrs['branch']}: no point ({ds.attrs.get('end_reason', 'skipped')})"
     n = int(ds.attrs["resonance"])
     e, f = ds["energy"].values, ds["frequency"].values
     resolved = ds["stability_resolved"] == 1

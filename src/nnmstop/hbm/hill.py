@@ -23,6 +23,7 @@ import numpy as np
 from scipy.linalg import eig
 
 from nnmstop import fourier
+from nnmstop.models.structure import two_dof_parameters
 from nnmstop.models.two_dof import regularized_contact_stiffness, stiffness_matrix
 
 __all__ = [
@@ -198,7 +199,7 @@ def contact_stiffness_series(system, U, linearization: str = "model", samples: i
     n = _grid_size(system.H, system.H) if samples is None else samples
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < system.nfull:
         raise ValueError(f"samples must be an integer >= 2H+1 = {system.nfull}, got {samples!r}")
-    p = system.params
+    p = two_dof_parameters(system.structure, "Hill's method")
     x, _, f, z, _, _ = system.split(U)
     if linearization == "model":
         return regularized_contact_stiffness(system.to_time(x, int(n)), p)
@@ -289,7 +290,7 @@ def _orbit_velocity(system, U, H):
 def _hill_operator(system, U, harmonics, linearization, even, halfwave=False):
     U = check_unknowns(system, U)
     Hp = check_harmonics(harmonics, system.H)
-    p = system.params
+    p = two_dof_parameters(system.structure, "Hill's method")
     lam = float(system.split(U)[4])
     a = contact_stiffness_series(system, U, linearization, _grid_size(system.H, Hp))
     m = 2 * Hp + 1

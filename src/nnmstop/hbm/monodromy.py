@@ -20,6 +20,7 @@ import numpy as np
 from nnmstop.floquet import multipliers_from_invariant, transition_matrix
 from nnmstop.hbm.hill import halfwave_symmetric, is_reversible
 from nnmstop.hbm.shooting_refinement import refined_stability
+from nnmstop.models.structure import two_dof_parameters
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
 from nnmstop.netcdf import flag_variable
 
@@ -294,7 +295,7 @@ def _invariant_with_steps(system, x, omega, halfwave: bool, steps: int):
     ``s = s_N**2 - 2``. Only half a period is integrated and a multiplier near -1
     (``s_N`` near 0) costs no accuracy.
     """
-    params = system.params
+    params = two_dof_parameters(system.structure, "the 2-DOF monodromy")
     span = np.pi if halfwave else 2 * np.pi
     s_all = np.empty(len(x))
     dev_all = np.empty(len(x))
@@ -605,6 +606,7 @@ def orbit_monodromy(system, U, steps: int = 1024):
     """
     x, omega, _ = _orbit_arrays(system, np.asarray(U, dtype=float)[None])
     nodes = _displacement_at_nodes(x, system.H, steps, False)
-    k = regularized_contact_stiffness(nodes, system.params)
-    mats = variational_step_matrices(k, 2 * np.pi / steps / omega[0], system.params)
+    params = two_dof_parameters(system.structure, "the 2-DOF monodromy")
+    k = regularized_contact_stiffness(nodes, params)
+    mats = variational_step_matrices(k, 2 * np.pi / steps / omega[0], params)
     return transition_matrix(mats)[0]

@@ -22,6 +22,7 @@ from scipy.integrate._ivp import dop853_coefficients as _dop853
 
 from nnmstop import fourier
 from nnmstop.floquet import transition_matrix
+from nnmstop.models.structure import two_dof_parameters
 from nnmstop.models.two_dof import (
     ModelParameters,
     regularized_contact_force,
@@ -489,7 +490,7 @@ def refined_stability(
     x_phase, x_slope_phase = _quarter_period_samples(system, U_array, _GRID_SAMPLES)
     states_at, period = _hbm_states_at(system, U_array)
     return shooting_stability(
-        system.params,
+        two_dof_parameters(system.structure, "the shooting refinement"),
         period,
         x_phase,
         x_slope_phase,

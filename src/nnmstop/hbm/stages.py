@@ -1,14 +1,17 @@
-"""Staged continuation of the regularized NNM branches, and branches switched at their branch points.
+"""The one staged continuation of the regularized NNM branches of any structure, and branches switched from them.
 
-A branch (NNM1 or NNM2) starts from its linear mode near rest and is continued in *stages*: each
-stage starts from the last point of the previous one and ends at the first point that meets its
-``until`` criterion (:func:`stage_criterion`), so a figure that needs only the low-energy part of a
-branch needs only the first stages; :func:`combine_stages` joins them. :func:`continue_stage` runs one
-stage: continuation guarded against orbits the harmonics cannot resolve (:class:`TruncationGuard`),
-location of the flagged branch points (:mod:`nnmstop.hbm.bifurcation`), Floquet stability
-(:mod:`nnmstop.hbm.stability`), then dataset assembly (:mod:`nnmstop.hbm.dataset`).
-:func:`bifurcated_branch` follows the curve that crosses a stage at the branch point of an ``n:1``
-internal resonance. Everything here takes parameters and arrays (:class:`BranchSettings`,
+A branch starts from its linear mode near rest (:func:`start_point`) and is continued in *stages*:
+each stage starts from the last point of the previous one and ends at the first point that meets its
+condition (:func:`nnmstop.hbm.criteria.stage_condition`), so a figure that needs only the low-energy
+part of a branch needs only the first stages. A stage whose condition never comes ends at its energy
+bound, or where the harmonics stop resolving the orbits (:class:`~nnmstop.hbm.criteria.TruncationGuard`),
+with the reason stored; the stages after it are skipped with that reason
+(:func:`nnmstop.hbm.dataset.skipped_stage_dataset`). A stage may pass internal resonance tongues
+(:mod:`nnmstop.hbm.tongues`). :func:`continue_stage` runs one stage: continuation, location of the
+flagged branch points (:mod:`nnmstop.hbm.bifurcation`), Floquet stability, then the dataset
+(:mod:`nnmstop.hbm.dataset`); :func:`combine_stages` joins the stages; :func:`bifurcated_branch`
+follows the curve that crosses a branch at the branch point of an ``n:1`` internal resonance, wherever
+the branch has one. Everything here takes a system, settings and datasets (:class:`BranchSettings`,
 :class:`BranchSpec`, :class:`BifurcationSpec`); :mod:`nnmstop.tasks.hbm` builds them from the
 configuration. Method notes: ``docs/methods/hbm.md``.
 """
@@ -17,19 +20,26 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 import xarray as xr
 
 from nnmstop.continuation.anm import ANMSettings, continue_anm
-from nnmstop.continuation.core import Branch, ContinuationStats, UnresolvedBranchError, newton_correct
+from nnmstop.continuation.core import Branch, ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.bifurcation import (
     branch_point_kind,
     continue_bifurcated_branch,
     locate_flagged_branch_points,
     subharmonic_share,
+)
+from nnmstop.hbm.criteria import (
+    CRITERIA,
+    StageStop,
+    TongueWatch,
+    TruncationGuard,
+    describe_condition,
+    stage_condition,
 )
 from nnmstop.hbm.dataset import (
     BRANCH_POINT_DIM,
@@ -39,21 +49,28 @@ from nnmstop.hbm.dataset import (
     coefficient_vectors,
     dataset_unknowns,
     energy_folds,
-    located_fold_variables,
+    is_skipped,
+    segment_fold_variables,
+    skipped_stage_dataset,
 )
 from nnmstop.hbm.stability import StabilitySettings, orbit_stability
+from nnmstop.hbm.structure_stability import structure_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.hbm.tongues import joined_segments, over_the_tongue
+from nnmstop.models.structure import check_grounded
 
 __all__ = [
     "CRITERIA",
     "BranchSettings",
+    "MagnusStability",
     "StageSpec",
     "BranchSpec",
     "BifurcationSpec",
     "start_point",
     "stage_criterion",
     "TruncationGuard",
+    "follow_stage",
+    "checked_start",
     "continue_stage",
     "stage_dataset",
     "combine_stages",
@@ -62,7 +79,17 @@ __all__ = [
 
 logger = logging.getLogger("nnmstop.hbm.stages")
 
-CRITERIA = ("energy_above", "impacts_above", "impacts_at_most", "frequency_within_gap_zero")
+
+@dataclass(frozen=True)
+class MagnusStability:
+    """Multipliers by fourth-order Magnus steps over a period (``structure_stability``).
+
+    The stability of structures other than the paper's oscillator until
+    :func:`nnmstop.hbm.stability.orbit_stability` takes any structure.
+    """
+
+    steps: int = 128
+    tolerance: float = 1e-4
 
 
 @dataclass(frozen=True)
@@ -75,36 +102,70 @@ class BranchSettings:
         Settings of the ANM continuation (``points_per_step`` included).
     max_truncation : float
         Largest truncation indicator accepted along a branch (:class:`TruncationGuard`), in (0, 1).
-    stability : StabilitySettings
+    stability : StabilitySettings or MagnusStability
         How the Floquet verdicts are computed.
+    start_tolerance : float
+        Relative residual to which the start point is corrected (:func:`start_point`).
+    truncation_setting : str
+        Configuration key of ``max_truncation``, for messages.
     """
 
     continuation: ANMSettings
     max_truncation: float
-    stability: StabilitySettings = field(default_factory=StabilitySettings)
+    stability: StabilitySettings | MagnusStability = field(default_factory=StabilitySettings)
+    start_tolerance: float = 1e-13
+    truncation_setting: str = "hbm.max_truncation"
 
 
 @dataclass(frozen=True)
 class StageSpec:
-    """One stage: its name and its ``until`` criterion (one key of :data:`CRITERIA` and its value)."""
+    """One stage: its name, its ``until`` condition (one key of :data:`CRITERIA` and its value), its bound.
+
+    ``energy_max``: the stage ends at the first point above this energy if its condition has not come
+    (None: the branch's ``energy_max``); ``pass_resonances``: internal resonance tongues the stage passes
+    (:mod:`nnmstop.hbm.tongues`).
+    """
 
     name: str
     until: dict
+    energy_max: float | None = None
+    pass_resonances: int = 0
+
+    def __post_init__(self):
+        describe_condition(self.until)  # refuses an unknown condition
+        if not (isinstance(self.pass_resonances, (int, np.integer)) and self.pass_resonances >= 0):
+            raise ValueError(
+                f"stage {self.name!r}: pass_resonances must be an integer >= 0, got {self.pass_resonances!r}"
+            )
 
 
 @dataclass(frozen=True)
 class BranchSpec:
-    """A regularized NNM branch: name, mode index, start amplitude ``x_c^1`` and its stages."""
+    """A regularized NNM branch: name, mode index, start amplitude ``x_c^1``, stages and their default bound.
+
+    ``energy_max`` bounds every stage that gives no bound of its own; ``resonance_margin`` (relative
+    frequency) is how far beyond a tongue the backbone is taken up again (:mod:`nnmstop.hbm.tongues`).
+    """
 
     name: str
     mode: int
     start_amplitude: float
     stages: tuple[StageSpec, ...]
+    energy_max: float = 1.5e5
+    resonance_margin: float = 1e-3
+
+    def __post_init__(self):
+        if not (np.isfinite(self.energy_max) and self.energy_max > 0):
+            raise ValueError(f"branch {self.name!r}: energy_max must be finite and > 0, got {self.energy_max!r}")
+        if not 0 < self.resonance_margin < 0.1:
+            raise ValueError(
+                f"branch {self.name!r}: resonance_margin must lie in (0, 0.1), got {self.resonance_margin!r}"
+            )
 
 
 @dataclass(frozen=True)
 class BifurcationSpec:
-    """A branch switched at the ``n:1`` branch point of stage ``stage`` of branch ``parent``.
+    """The branch switched at the first ``n:1`` branch point of branch ``parent``, wherever it lies.
 
     ``energy_range`` bounds the energy along the switched curve, ``switch_step`` is the first step
     along its tangent relative to ``|U*|`` (:func:`nnmstop.hbm.bifurcation.switch_branch`).
@@ -113,89 +174,60 @@ class BifurcationSpec:
     name: str
     parent: str
     resonance: int
-    stage: int
     energy_range: tuple[float, float]
     switch_step: float
 
 
-def start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float):
+def start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float, tol: float = 1e-13):
     """A point of NNM ``mode`` at small amplitude, and the direction of growing amplitude.
 
-    The linear mode of the regularized system (``x = amplitude cos(theta)``) is
-    corrected by Newton with the amplitude ``x_c^1`` held fixed.
+    The linear mode of the regularized system (the first stop's coordinate ``x = amplitude cos(theta)``)
+    is corrected by Newton, to the relative residual ``tol``, with the amplitude ``x_c^1`` held fixed.
     """
     if not (np.isfinite(amplitude) and 0 < amplitude < 1):
         raise ValueError(f"start amplitude must lie in (0, 1) (inside the gap), got {amplitude!r}")
     U0 = system.linear_mode_guess(mode, amplitude)
     direction = np.zeros(system.n_unknowns)
     direction[system.slices["x"].start + 1] = 1.0
-    U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=1e-13)
+    U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=tol)
     return U0, direction
 
 
-def stage_criterion(until: dict, params: ModelParameters, mode: int):
-    """Stop criterion ``stop(U, diagnostics) -> reason`` from a stage's ``until`` mapping.
+def stage_criterion(until: dict, system, mode: int):
+    """A stage's condition as a stop criterion ``stop(U, diagnostics) -> reason`` on ``system``.
 
-    ``frequency_within_gap_zero: r`` stops within the relative distance ``r`` of the
-    gap-0 linear mode of the same index ``mode`` as the branch.
+    See :func:`nnmstop.hbm.criteria.stage_condition` for the conditions.
     """
-    if len(until) != 1 or next(iter(until)) not in CRITERIA:
-        raise ValueError(f"a stage's 'until' must hold exactly one of {CRITERIA}, got {until!r}")
-    ((kind, value),) = until.items()
-    if kind == "energy_above":
-        return lambda U, d: f"energy above {value:g}" if d["energy"] > value else ""
-    if kind == "impacts_above":
-        return lambda U, d: f"more than {value} impacts per period" if d["impacts_per_period"] > value else ""
-    if kind == "impacts_at_most":
-        return lambda U, d: f"at most {value} impacts per period" if d["impacts_per_period"] <= value else ""
-    limit = linear_modes(params, "gap_zero")[0][mode - 1] / (2 * np.pi)
-
-    def near_gap_zero(U, d):
-        gap = abs(d["frequency"] - limit) / limit
-        return f"frequency within {value:g} of the gap-0 linear mode {mode} ({limit:.6g} Hz)" if gap <= value else ""
-
-    return near_gap_zero
+    condition = stage_condition(until, system.structure, mode)
+    return lambda U, d: condition(U, d, system)
 
 
-@dataclass
-class TruncationGuard:
-    """Stop criterion wrapper that refuses orbits the harmonics do not resolve.
+def _branch_stability(system, U, settings, time_residual):
+    started = time.perf_counter()
+    if isinstance(settings, MagnusStability):
+        stability = structure_stability(system, U, steps=settings.steps, tolerance=settings.tolerance)
+    else:
+        stability = orbit_stability(system, U, settings, time_residual=time_residual)
+    # Wall time in the log only (datasets stay byte-reproducible); benchmarks/cold_build.py reads it.
+    method = getattr(settings, "method", "magnus")
+    logger.info("stability of %d points in %.2f s (%s)", len(U), time.perf_counter() - started, method)
+    return stability
 
-    Called like a stop criterion ``(U, diagnostics) -> reason``: raises
-    :class:`~nnmstop.continuation.core.UnresolvedBranchError`, naming the energy, the
-    truncation indicator (``diagnostics["truncation"]``, see
-    :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.truncation`) and ``H``, when the indicator
-    exceeds ``limit``; otherwise defers to ``inner``. A continuation so guarded never
-    returns a branch whose orbits its harmonics cannot represent. ``largest`` keeps the
-    largest indicator seen; ``setting`` is the configuration key of ``limit``, for the
-    message.
+
+def _locate(system, U, branch: Branch, continuation) -> tuple[list, int]:
+    """The flagged branch points located one by one; those that cannot be are counted, not fatal.
+
+    Not every flagged step holds a simple branch point: where the continuation jumped between two close
+    curves the determinant changes sign without one, and the least-norm Newton finds no point there.
     """
-
-    system: HarmonicBalanceSystem
-    inner: Callable
-    limit: float
-    label: str = "NNM1"
-    setting: str = "hbm.max_truncation"
-    largest: float = 0.0
-    points: int = 0
-
-    def __post_init__(self):
-        if not (np.isfinite(self.limit) and 0.0 < self.limit < 1.0):
-            raise ValueError(f"{self.setting} must be a number in (0, 1), got {self.limit!r}")
-
-    def __call__(self, U, diag) -> str:
-        self.points += 1
-        level = float(diag["truncation"])
-        self.largest = max(self.largest, level)
-        if level > self.limit:
-            p = self.system.params
-            raise UnresolvedBranchError(
-                f"{self.label}: truncation indicator {level:.4g} > {self.setting} = {self.limit:g} at energy "
-                f"{diag['energy']:.6g} (frequency {diag['frequency']:.6g} Hz, point {self.points - 1}): H = "
-                f"{self.system.H} harmonics do not resolve the stop (alpha = {p.alpha:g}, eta = {p.eta:g}); "
-                "more harmonics or a larger eta are needed"
-            )
-        return self.inner(U, diag)
+    located, unlocated = [], 0
+    for i in branch.branch_points:
+        try:
+            located += locate_flagged_branch_points(system, U, branch.step, [i], continuation)
+        except (ValueError, ContinuationError) as err:
+            logger.warning("branch point flagged at point %d not located: %s", i, err)
+            unlocated += 1
+    return located, unlocated
 
 
 def stage_dataset(
@@ -209,23 +241,116 @@ def stage_dataset(
     """
     U = np.array(branch.points)
     branch.diagnostics = [d if d is not None else system.diagnostics(u) for u, d in zip(U, branch.diagnostics)]
+    unlocated = 0
     if located is None:
-        located = locate_flagged_branch_points(system, U, branch.step, branch.branch_points, settings.continuation)
-    started = time.perf_counter()
+        located, unlocated = _locate(system, U, branch, settings.continuation)
     time_residual = np.array([d["time_residual"] for d in branch.diagnostics])
-    stability = orbit_stability(system, U, settings.stability, time_residual=time_residual)
-    # Wall time in the log only (datasets stay byte-reproducible); benchmarks/cold_build.py reads it.
-    logger.info(
-        "stability of %d points in %.2f s (%s)", len(U), time.perf_counter() - started, settings.stability.method
-    )
-    return branch_dataset(system, branch, stage, located, stability, settings.continuation, labels)
+    stability = _branch_stability(system, U, settings.stability, time_residual)
+    return branch_dataset(system, branch, stage, located, stability, settings.continuation, labels, unlocated)
+
+
+def _follow(system, U, direction, stop: StageStop, settings: BranchSettings, label: str) -> Branch:
+    """One segment of a stage; a point the harmonics do not resolve ends it and is dropped."""
+    branch = continue_anm(system, U, direction, stop, settings.continuation, label=label)
+    if stop.ended_by == "truncation":
+        for key in ("points", "step", "diagnostics"):
+            del getattr(branch, key)[-1:]
+        branch.branch_points = [i for i in branch.branch_points if i < len(branch.points)]
+    return branch
+
+
+def follow_stage(system, settings: BranchSettings, spec: BranchSpec, stage: int = 1, start=None) -> Branch:
+    """The continued stage ``stage`` of ``spec``: its segments over the tongues it passes, joined.
+
+    ``start``: the start point and direction ``(U0, direction)``; by default the start point of the branch
+    (:func:`start_point`). The returned branch has ``segment`` (of every point), ``resonances`` (the tongues
+    passed, :class:`~nnmstop.hbm.tongues.PassedResonance`) and ``ended_by`` (``"condition"``, ``"bound"``
+    or ``"truncation"``: the unresolved point is dropped).
+    """
+    if start is None:
+        check_grounded(system.structure, f"branch {spec.name}")
+        start = start_point(system, spec.mode, spec.start_amplitude, settings.start_tolerance)
+    U0, direction = start
+    current = spec.stages[stage - 1]
+    label = f"{spec.name} stage {stage} ({current.name})"
+    bound = spec.energy_max if current.energy_max is None else current.energy_max
+    condition = stage_condition(current.until, system.structure, spec.mode)
+    segments, resonances, ended_by = [], [], ""
+    for k in range(current.pass_resonances + 1):
+        tongue = TongueWatch() if k < current.pass_resonances else None
+        stop = StageStop(system, condition, bound, settings.max_truncation, label, tongue, settings.truncation_setting)
+        name = label if current.pass_resonances == 0 else f"{label} segment {k}"
+        segments.append(_follow(system, U0, direction, stop, settings, name))
+        ended_by = stop.ended_by
+        if ended_by != "tongue":
+            break
+        resonance, U0, direction = over_the_tongue(
+            system, segments[-1], settings.continuation, spec.resonance_margin, name
+        )
+        resonances.append(resonance)
+    branch = joined_segments(segments)
+    branch.resonances = resonances
+    branch.ended_by = ended_by
+    return branch
+
+
+def _previous_end(previous: xr.Dataset | None, spec: BranchSpec, stage: int) -> str:
+    """Why stage ``stage`` is skipped (the stage before it ended without its condition), or ""."""
+    if previous is None:
+        raise ValueError(f"stage {stage} of {spec.name!r} needs the dataset of stage {stage - 1}")
+    if is_skipped(previous):
+        return str(previous.attrs["end_reason"])
+    if not int(previous.attrs.get("stage_condition_met", 1)):
+        before = spec.stages[stage - 2]
+        return (
+            f"skipped: stage {stage - 1} ({before.name}) ended without its condition "
+            f"({describe_condition(before.until)}): {previous.attrs['end_reason']}"
+        )
+    return ""
+
+
+def checked_start(previous: xr.Dataset, system, spec: BranchSpec, stage: int, threshold: float):
+    """The start of stage ``stage``: the last point of ``previous`` and the direction of its last secant.
+
+    The start orbit is checked against what ``previous`` stores: it must be a point of the branch, its
+    residual recomputed within ten times the larger of the stored one and ``threshold``.
+
+    Raises
+    ------
+    ValueError
+        Naming the file of ``previous`` (a corrupted or foreign file), the residuals, or the mismatch.
+    """
+    source = previous.encoding.get("source", f"the dataset of {spec.name} stage {stage - 1}")
+    held = np.unique(previous["stage"].values)
+    if previous.attrs.get("branch") != spec.name or list(held) != [stage - 1]:
+        raise ValueError(
+            f"{source}: stage {stage} of {spec.name} starts from stage {stage - 1} of {spec.name}, this file holds "
+            f"branch {previous.attrs.get('branch')!r} stage(s) {list(held)}"
+        )
+    if previous.sizes["point"] < 2:
+        raise ValueError(f"{source}: stage {stage - 1} holds {previous.sizes['point']} point(s), no direction to go on")
+    try:
+        points = dataset_unknowns(previous.isel(point=slice(-2, None)), system)
+    except ValueError as err:
+        raise ValueError(f"{source}: {err}") from None
+    residual = relative_residual(system, points[-1])
+    stored = float(previous["algebraic_residual"].values[-1])
+    if not (np.all(np.isfinite(points)) and residual <= 10 * max(stored, threshold)):
+        raise ValueError(
+            f"{source}: its last orbit, the start of stage {stage} of {spec.name}, is not a point of the branch: "
+            f"residual {residual:.3g} recomputed, {stored:.3g} stored (a corrupted file, or one made with other "
+            "settings); rebuild it"
+        )
+    return points[-1], points[-1] - points[-2]
 
 
 def continue_stage(system, settings: BranchSettings, spec: BranchSpec, stage: int, previous=None) -> xr.Dataset:
     """Continue stage ``stage`` (1-based) of the branch ``spec`` and return its dataset.
 
-    Stage 1 starts from the linear mode; stage ``k > 1`` starts from the last point of
-    ``previous`` (the dataset of stage ``k - 1``), in the direction of its last secant.
+    Stage 1 starts from the linear mode; stage ``k > 1`` starts from the last point of ``previous``
+    (the dataset of stage ``k - 1``), in the direction of its last secant, or is skipped (a dataset with
+    no point saying why) when stage ``k - 1`` ended without its condition. The dataset's attributes
+    ``stage_name``, ``stage_condition``, ``stage_condition_met`` and ``end_reason`` say how it ended.
 
     Raises
     ------
@@ -234,111 +359,173 @@ def continue_stage(system, settings: BranchSettings, spec: BranchSpec, stage: in
     """
     if not 1 <= stage <= len(spec.stages):
         raise ValueError(f"stage must be in 1..{len(spec.stages)} for branch {spec.name!r}, got {stage!r}")
-    if stage == 1:
-        U0, direction = start_point(system, spec.mode, spec.start_amplitude)
-    else:
-        if previous is None:
-            raise ValueError(f"stage {stage} of {spec.name!r} needs the dataset of stage {stage - 1}")
-        points = dataset_unknowns(previous, system)
-        U0, direction = points[-1], points[-1] - points[-2]
     current = spec.stages[stage - 1]
-    label = f"{spec.name} stage {stage} ({current.name})"
-    stop = TruncationGuard(
-        system, stage_criterion(current.until, system.params, spec.mode), settings.max_truncation, label
-    )
-    branch = continue_anm(system, U0, direction, stop, settings.continuation, label=label)
-    labels = {"branch": spec.name, "mode": int(spec.mode), "stages": len(spec.stages)}
+    labels = {
+        "branch": spec.name,
+        "mode": int(spec.mode),
+        "stages": len(spec.stages),
+        "stage_name": current.name,
+        "stage_condition": describe_condition(current.until),
+    }
+    start = None
+    if stage > 1:
+        skipped = _previous_end(previous, spec, stage)
+        if skipped:
+            logger.info("%s stage %d (%s) %s", spec.name, stage, current.name, skipped)
+            return skipped_stage_dataset(system, stage, labels, skipped)
+        start = checked_start(previous, system, spec, stage, settings.continuation.newton_threshold)
+    branch = follow_stage(system, settings, spec, stage, start)
+    labels["stage_condition_met"] = int(branch.ended_by == "condition")
     return stage_dataset(system, branch, stage, settings, labels)
 
 
-def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
-    """Concatenate the stage datasets of a branch (the repeated start points dropped)."""
-    if not stages:
-        raise ValueError("combine_stages needs at least one stage dataset")
-    located = [v for v in stages[0].data_vars if BRANCH_POINT_DIM in stages[0][v].dims]
-    folds = [v for v in stages[0].data_vars if FOLD_DIM in stages[0][v].dims]
-    parts = [stages[0]] + [ds.isel(point=slice(1, None)) for ds in stages[1:]]
-    parts = [ds.drop_vars(located + folds) for ds in parts]
-    out = xr.concat(parts, dim="point", data_vars="all", coords="minimal", combine_attrs="override")
-    if located:
-        # point indices of each stage shift by the points of the stages before it (start points dropped)
-        offsets = np.cumsum([0] + [ds.sizes["point"] - 1 for ds in stages[:-1]])
-        pieces = []
-        for ds, offset in zip(stages, offsets):
-            piece = ds[located]
-            piece["branch_point_flagged_point"] = piece["branch_point_flagged_point"] + offset
-            pieces.append(piece)
-        table = xr.concat(pieces, dim=BRANCH_POINT_DIM, combine_attrs="override")
-        for v in located:
-            table[v].attrs = stages[0][v].attrs
-            out[v] = table[v]
-    out = out.assign_coords(point=np.arange(out.sizes["point"]))
-    out["point"].attrs = stages[0]["point"].attrs
-    # folds at the junction of two stages are only visible on the combined branch
-    out["energy_fold"].values[:] = energy_folds(out["energy"].values).astype(np.int8)
-    if folds:
-        out = out.assign(
-            located_fold_variables(coefficient_vectors(out), out["energy"].values, out["frequency"].values)
-        )
-    out.attrs["end_reason"] = stages[-1].attrs["end_reason"]
-    out.attrs["anm_steps"] = int(sum(ds.attrs["anm_steps"] for ds in stages))
-    out.attrs["factorizations"] = int(sum(ds.attrs["factorizations"] for ds in stages))
-    out.attrs["pade_steps"] = int(sum(ds.attrs.get("pade_steps", 0) for ds in stages))
+def _combined_segments(stages: list[xr.Dataset]) -> list[np.ndarray]:
+    """Segment numbers of each stage's points on the joined branch (a stage continues the last segment)."""
+    out, offset = [], 0
+    for ds in stages:
+        segment = ds["segment"].values + offset
+        out.append(segment)
+        offset = int(segment[-1])
     return out
 
 
-def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, parent_stage: xr.Dataset) -> xr.Dataset:
+def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
+    """Concatenate the stage datasets of a branch (the repeated start points dropped, skipped stages left out).
+
+    Raises
+    ------
+    ValueError
+        If no stage holds a point.
+    """
+    if not stages:
+        raise ValueError("combine_stages needs at least one stage dataset")
+    held = [ds for ds in stages if not is_skipped(ds)]
+    if not held:
+        raise ValueError("combine_stages: every stage dataset is empty (skipped)")
+    held = [
+        ds.assign(segment=(ds["segment"].dims, s, ds["segment"].attrs)) for ds, s in zip(held, _combined_segments(held))
+    ]
+    located = [v for v in held[0].data_vars if BRANCH_POINT_DIM in held[0][v].dims]
+    folds = [v for v in held[0].data_vars if FOLD_DIM in held[0][v].dims]
+    parts = [held[0]] + [ds.isel(point=slice(1, None)) for ds in held[1:]]
+    parts = [ds.drop_vars(located + folds) for ds in parts]
+    per_point = [v for v in parts[0].data_vars if "point" in parts[0][v].dims]
+    out = xr.concat(parts, dim="point", data_vars=per_point, coords="minimal", combine_attrs="override")
+    # point indices of each stage shift by the points of the stages before it (start points dropped)
+    offsets = np.cumsum([0] + [ds.sizes["point"] - 1 for ds in held[:-1]])
+    pieces = []
+    for ds, offset in zip(held, offsets):
+        piece = ds[located]
+        piece["branch_point_flagged_point"] = piece["branch_point_flagged_point"] + offset
+        pieces.append(piece)
+    table = xr.concat(pieces, dim=BRANCH_POINT_DIM, combine_attrs="override")
+    for v in located:
+        table[v].attrs = held[0][v].attrs
+        out[v] = table[v]
+    out = out.assign_coords(point=np.arange(out.sizes["point"]))
+    out["point"].attrs = held[0]["point"].attrs
+    # folds at the junction of two stages are only visible on the combined branch
+    segment = out["segment"].values
+    out["energy_fold"].values[:] = np.concatenate(
+        [energy_folds(out["energy"].values[segment == k]) for k in np.unique(segment)]
+    ).astype(np.int8)
+    out = out.assign(
+        segment_fold_variables(coefficient_vectors(out), out["energy"].values, out["frequency"].values, segment)
+    )
+    return _combined_attributes(out, stages, held)
+
+
+def _combined_attributes(out: xr.Dataset, stages: list[xr.Dataset], held: list[xr.Dataset]) -> xr.Dataset:
+    """The joined branch's attributes: how its last continued stage ended, which stages were skipped and why."""
+    out.attrs["end_reason"] = held[-1].attrs["end_reason"]
+    skipped = [int(ds.attrs["skipped_stage"]) for ds in stages if is_skipped(ds) and "skipped_stage" in ds.attrs]
+    if skipped:
+        out.attrs["skipped_stages"] = np.array(skipped, dtype=np.int32)
+        out.attrs["skip_reason"] = str(next(ds for ds in stages if is_skipped(ds)).attrs["end_reason"])
+    for key in ("anm_steps", "factorizations", "pade_steps", "unlocated_branch_points", "passed_resonances"):
+        out.attrs[key] = int(sum(int(ds.attrs.get(key, 0)) for ds in held))
+    for key in ("stage_name", "stage_condition", "stage_condition_met"):
+        out.attrs.pop(key, None)
+    return out
+
+
+def _parent_stage_rows(parent: xr.Dataset, flagged: int) -> tuple[xr.Dataset, int]:
+    """The rows of the stage holding point ``flagged``, as that stage continued them (its start point first).
+
+    On a joined branch a stage's start point is the last point of the stage before it; its step index is
+    set back to 0, as in the stage's own dataset, so that the step holding ``flagged`` starts where it did.
+    """
+    stage = parent["stage"].values
+    rows = np.flatnonzero(stage == stage[flagged])
+    first = int(rows[0]) - 1 if rows[0] > 0 else 0
+    part = parent.isel(point=slice(first, int(rows[-1]) + 1))
+    steps = part["step"].values.copy()
+    steps[0] = 0 if first < rows[0] else steps[0]
+    return part.assign(step=(part["step"].dims, steps, part["step"].attrs)), flagged - first
+
+
+def _resonance_point(system, settings: BranchSettings, spec: BifurcationSpec, parent: xr.Dataset):
+    """The located ``n:1`` branch point of ``parent`` and the stage holding it, or the reason there is none."""
+    resonance = parent["branch_point_resonance"].values if "branch_point_resonance" in parent else np.zeros(0)
+    match = np.flatnonzero(resonance == spec.resonance)
+    if match.size == 0:
+        found = (
+            [
+                f"energy {e:.6g} ({branch_point_kind(int(m), bool(b))})"
+                for e, m, b in zip(
+                    parent["branch_point_energy"].values, resonance, parent["branch_point_symmetry_breaking"].values
+                )
+            ]
+            if resonance.size
+            else []
+        )
+        reason = (
+            f"no branch point of the {spec.resonance}:1 resonance (orbit of period T/{spec.resonance}) on "
+            f"{spec.parent.upper()}; located: " + ("; ".join(found) if found else "none")
+        )
+        return None, None, reason
+    flagged = int(parent["branch_point_flagged_point"].values[match[0]])
+    rows, index = _parent_stage_rows(parent, flagged)
+    ((_, point, _, _),) = locate_flagged_branch_points(
+        system, dataset_unknowns(rows, system), rows["step"].values, [index], settings.continuation
+    )
+    return point, int(parent["stage"].values[flagged]), ""
+
+
+def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, parent: xr.Dataset) -> xr.Dataset:
     """Dataset of the branch that bifurcates from a regularized branch at an ``n:1`` resonance.
 
-    ``parent_stage`` is the dataset of stage ``spec.stage`` of ``spec.parent``; its branch points were
-    located and classified when it was built (``branch_point_resonance``). The one of the
-    ``spec.resonance:1`` resonance is located again (for ``U*``) and the other curve through it is
-    followed both ways by the ANM until its energy leaves ``spec.energy_range``
-    (:func:`nnmstop.hbm.bifurcation.continue_bifurcated_branch`).
+    ``parent`` is the whole branch ``spec.parent`` (its stages joined); its branch points were located
+    and classified when its stages were built (``branch_point_resonance``). The first one of the
+    ``spec.resonance:1`` resonance is located again (for ``U*``) on the steps of its stage, and the other
+    curve through it is followed both ways by the ANM until its energy leaves ``spec.energy_range``
+    (:func:`nnmstop.hbm.bifurcation.continue_bifurcated_branch`). Where the parent has no such branch
+    point the dataset holds no point and says so (``skipped``, ``end_reason``).
 
     The dataset has the layout of a branch dataset, ordered along the curve through the branch point
     (``branch_point`` flags it), plus what :func:`nnmstop.hbm.dataset.bifurcated_dataset` adds.
     """
-    parent, n = spec.parent, spec.resonance
-    stages_in = np.unique(parent_stage["stage"].values) if "stage" in parent_stage else []
-    if parent_stage.attrs.get("branch") != parent or list(stages_in) != [spec.stage]:
+    if parent.attrs.get("branch") != spec.parent or "stage" not in parent:
         raise ValueError(
-            f"bifurcations.{spec.name}: expected the dataset of {parent} stage {spec.stage}, got branch "
-            f"{parent_stage.attrs.get('branch')!r} stage(s) {list(stages_in)}"
+            f"bifurcations.{spec.name}: expected the branch dataset of {spec.parent}, got branch "
+            f"{parent.attrs.get('branch')!r}"
         )
-    if "branch_point_resonance" not in parent_stage:
-        raise ValueError(
-            f"bifurcations.{spec.name}: the {parent} stage dataset has no located branch points; rebuild it"
-        )
-    resonance = parent_stage["branch_point_resonance"].values
-    match = np.flatnonzero(resonance == n)
-    if match.size == 0:
-        found = [
-            f"energy {e:.6g} ({branch_point_kind(int(m), bool(b))})"
-            for e, m, b in zip(
-                parent_stage["branch_point_energy"].values,
-                resonance,
-                parent_stage["branch_point_symmetry_breaking"].values,
-            )
-        ]
-        raise ValueError(
-            f"no branch point of the {n}:1 resonance (orbit of period T/{n}) among the flagged steps of "
-            f"{parent} stage {spec.stage}; found: " + ("; ".join(found) if found else "none")
-        )
-    flagged = [int(parent_stage["branch_point_flagged_point"].values[match[0]])]
-    ((_, point, _, _),) = locate_flagged_branch_points(
-        system, dataset_unknowns(parent_stage, system), parent_stage["step"].values, flagged, settings.continuation
-    )
+    n = spec.resonance
+    point, stage, reason = _resonance_point(system, settings, spec, parent)
+    labels = {"branch": spec.name, "parent_branch": spec.parent, "resonance": n, "switch_step": spec.switch_step}
+    if point is None:
+        logger.info("bifurcations.%s: %s", spec.name, reason)
+        return skipped_stage_dataset(system, 0, labels, reason)
     low, high = spec.energy_range
-    label = f"{spec.name} (bifurcated from {parent} at the {n}:1 resonance)"
+    label = f"{spec.name} (bifurcated from {spec.parent} at the {n}:1 resonance)"
 
     def out_of_range(U, d):
         return f"energy left [{low:g}, {high:g}]" if not low <= d["energy"] <= high else ""
 
-    stop = TruncationGuard(system, out_of_range, settings.max_truncation, label)
+    stop = TruncationGuard(system, out_of_range, settings.max_truncation, label, settings.truncation_setting)
     branch = continue_bifurcated_branch(system, point, stop, settings.continuation, spec.switch_step, label)
     ds = stage_dataset(
-        system, branch, spec.stage, settings, {"branch": parent}, located=[(branch.branch_points[0], point, n, False)]
+        system, branch, stage, settings, {"branch": spec.parent}, located=[(branch.branch_points[0], point, n, False)]
     )
     diag = system.diagnostics(point.U)
     described = {
@@ -348,4 +535,4 @@ def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, p
         "singular_ratio": point.singular_ratio,
     }
     share = [subharmonic_share(system, U, n) for U in branch.points]
-    return bifurcated_dataset(ds, spec.name, parent, n, share, described, spec.switch_step)
+    return bifurcated_dataset(ds, spec.name, spec.parent, n, share, described, spec.switch_step)

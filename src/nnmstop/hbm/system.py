@@ -11,7 +11,8 @@ Every field is a truncated Fourier series in ``theta = omega t`` with coefficien
 ``U = [q_1..q_N, f_1..f_s, z_1..z_s, lam, nu]``, ``lam = omega**2``, ``nu`` the unfolding
 coefficient (fictitious damping ``mu M q'``, ``nu = mu omega``, zero on every periodic orbit);
 in the full basis a phase condition ``q_{d_1}'(0) = 0`` closes the system. For the paper's
-oscillator (:func:`nnmstop.models.structure.two_dof_structure`) ``U`` is ``[x, u, f, z, lam, nu]``.
+oscillator (:func:`nnmstop.models.structure.two_dof_structure`) ``U`` is ``[x, u, f, z, lam, nu]``;
+nothing here depends on which structure it is.
 Products are Galerkin projections computed alias-free on ``M > 3H`` samples per period.
 The method, the scaling of a stop with a gap other than 1, and the linear algebra (dense LU
 for small systems, sparse LU ordered by harmonic for large structures) are described in
@@ -28,7 +29,7 @@ from nnmstop import fourier
 from nnmstop.continuation.linear import BorderedFactorization
 from nnmstop.hbm.factorization import SparseBorderedLU
 from nnmstop.hbm.series_cache import SeriesCache
-from nnmstop.models.structure import Structure, two_dof_structure
+from nnmstop.models.structure import Structure
 from nnmstop.models.two_dof import ModelParameters, regularized_force_and_potential
 
 __all__ = ["HarmonicBalanceSystem", "SeriesCache", "DENSE_MAX_UNKNOWNS", "impacts_per_period"]
@@ -42,25 +43,6 @@ DENSE_MAX_UNKNOWNS = 1500
 
 def _dense(matrix) -> np.ndarray:
     return matrix.toarray() if sp.issparse(matrix) else np.asarray(matrix, dtype=float)
-
-
-def _paper_parameters(structure: Structure):
-    """The :class:`ModelParameters` of ``structure`` if it is the paper's oscillator, else None."""
-    if structure.n_dofs != 2 or len(structure.stops) != 1:
-        return None
-    stop = structure.stops[0]
-    if stop.dof != 0 or stop.gap != 1.0:
-        return None
-    mass, stiffness = _dense(structure.mass), _dense(structure.stiffness)
-    try:
-        params = ModelParameters(
-            alpha=float(stop.stiffness), beta=float(stiffness[1, 1]), delta=float(mass[1, 1]), eta=float(stop.eta)
-        )
-    except (TypeError, ValueError):
-        return None
-    paper = two_dof_structure(params)
-    same = np.array_equal(_dense(paper.mass), mass) and np.array_equal(_dense(paper.stiffness), stiffness)
-    return params if same else None
 
 
 class HarmonicBalanceSystem:
@@ -122,7 +104,6 @@ class HarmonicBalanceSystem:
                 f"products, got {time_samples!r}"
             )
         self.structure = structure
-        self._params = _paper_parameters(structure)
         self.basis = basis
         self.H = int(harmonics)
         self.M = int(time_samples)
@@ -136,13 +117,11 @@ class HarmonicBalanceSystem:
         self._set_structure(structure)
         N, s = self.n_dofs, self.n_stops
         names = [f"q{j}" for j in range(N)] + [f"f{i}" for i in range(s)] + [f"z{i}" for i in range(s)]
-        self.field_names = ("x", "u", "f", "z") if self._params is not None else tuple(names)
+        self.field_names = tuple(names)
         self.slices = {name: slice(i * nc, (i + 1) * nc) for i, name in enumerate(names)}
         # aliases: x, f, z of the first stop (x is the block of its degree of freedom; its
         # first cosine coefficient is the direction in which every branch starts)
         self.slices.update(x=self.slices[f"q{self.phase_dof}"], f=self.slices["f0"], z=self.slices["z0"])
-        if self._params is not None:
-            self.slices["u"] = self.slices["q1"]
         self.n_fields = N + 2 * s
         self.i_lam = self.n_fields * nc
         # The unfolding term and the phase condition exist only in the full basis: in the
@@ -188,16 +167,6 @@ class HarmonicBalanceSystem:
         self._pair_rows, self._pair_cols = pattern.row.astype(int), pattern.col.astype(int)
         self._pair_mass = np.asarray(self._mass[self._pair_rows, self._pair_cols]).ravel()
         self._pair_stiffness = np.asarray(self._stiffness[self._pair_rows, self._pair_cols]).ravel()
-
-    @property
-    def params(self) -> ModelParameters:
-        """The paper's parameters, for a system of the paper's oscillator only (AttributeError otherwise)."""
-        if self._params is None:
-            raise AttributeError(
-                f"params exist only for the paper's two-DOF oscillator; this structure has {self.n_dofs} "
-                f"degrees of freedom and {self.n_stops} stop(s)"
-            )
-        return self._params
 
     # ------------------------------------------------------------------ Fourier helpers
 
@@ -486,7 +455,7 @@ class HarmonicBalanceSystem:
 
         Returns a dict with ``t``, ``q`` and ``qdot`` (N, samples), and per stop its
         coordinate ``x`` and velocity ``xdot``, the force ``f`` and ``z`` (s, samples; a
-        single stop gives 1-D arrays). For the paper's oscillator also ``u`` and ``udot``.
+        single stop gives 1-D arrays).
         """
         Q, F, Z, lam, _ = self._fields(U)
         omega = np.sqrt(lam)
@@ -499,8 +468,6 @@ class HarmonicBalanceSystem:
         per_stop = {"x": self.stop_coordinates(q), "xdot": self.stop_coordinates(qdot), "f": f, "z": z}
         history = {"t": t, "q": q, "qdot": qdot}
         history.update({key: value[0] if s == 1 else value for key, value in per_stop.items()})
-        if self._params is not None:
-            history.update(u=q[1], udot=qdot[1])
         return history
 
     def energy_samples(self, q, qdot):
@@ -528,9 +495,9 @@ class HarmonicBalanceSystem:
         ``time_residual`` (largest residual of the equations of motion of the stop DOFs in
         time, with the true root of the cubic for each contact force, relative to the largest
         restoring force there), ``force_error`` (largest ``|f_HBM - f(x)|`` relative to ``max |f|``),
-        ``impacts_per_period`` (summed over the stops), ``x_max`` (largest coordinate of the
-        first stop), ``q_max`` (largest ``|q|``; for the paper's oscillator ``u_max``, the
-        largest ``u``) and ``truncation`` (:meth:`truncation`).
+        ``impacts_per_period`` (summed over the stops) and ``stop_impacts`` (per stop), ``x_max``
+        (largest coordinate of the first stop), ``q_max`` (largest value of each degree of freedom,
+        length N) and ``truncation`` (:meth:`truncation`).
         """
         m = samples or max(16 * self.H, 512)
         h = self.time_history(U, m)
@@ -546,21 +513,19 @@ class HarmonicBalanceSystem:
         f_hbm = np.reshape(h["f"], f_true.shape)
         force_error = float(np.max(np.abs(f_hbm - f_true)) / max(float(np.max(np.abs(f_true))), 1e-300))
         x = np.reshape(h["x"], f_true.shape)
-        out = {
+        stop_impacts = [impacts_per_period(x_i) for x_i in x]
+        return {
             "energy": energy,
             "energy_spread": float((energy_t.max() - energy_t.min()) / energy),
             "frequency": float(self.frequency_hz(U)),
             "time_residual": float(np.max(np.abs(eq_residual)) / scale),
             "force_error": force_error,
-            "impacts_per_period": sum(impacts_per_period(x_i) for x_i in x),
+            "impacts_per_period": sum(stop_impacts),
+            "stop_impacts": stop_impacts,
             "x_max": float(x[0].max()),
+            "q_max": q.max(axis=1),
+            "truncation": self.truncation(U),
         }
-        if self._params is not None:
-            out["u_max"] = float(q[1].max())
-        else:
-            out["q_max"] = float(np.abs(q).max())
-        out["truncation"] = self.truncation(U)
-        return out
 
     def truncation(self, U) -> float:
         """Truncation indicator of an orbit: :meth:`truncation_indicator` of the stop DOFs' ``q''`` and of ``f``.

@@ -299,7 +299,38 @@ def beam_structure(beam: Beam) -> Structure:
         dof_labels=labels,
         node_coordinates=beam.node_coordinates / beam.length,
         dof_nodes=tuple(int(d) // 2 for d in kept),
+        attributes=beam_attributes(beam, scales, stops[0]),
     )
+
+
+#: Analytical (Euler-Bernoulli) linear frequencies recorded in a beam's attributes.
+EULER_BERNOULLI_MODES = 10
+
+
+def beam_attributes(beam: Beam, scales: dict, first_stop: Stop) -> dict:
+    """Global attributes describing a beam: its physical data, stops and the units of its nondimensional model."""
+    return {
+        "structure": "beam",
+        "length_m": beam.length,
+        "bending_stiffness_N_m2": beam.bending_stiffness,
+        "mass_per_length_kg_per_m": beam.mass_per_length,
+        "elements": beam.n_elements,
+        "left_end": beam.left,
+        "right_end": beam.right,
+        "stop_nodes": np.array(beam.stop_nodes, dtype=np.int32),
+        "stop_gap_m": np.array([s.gap for s in beam.stops]),
+        "stop_stiffness_N_per_m": np.array([s.stiffness for s in beam.stops]),
+        "stop_eta_N_per_m": np.array([s.eta for s in beam.stops]),
+        "alpha": float(first_stop.stiffness),
+        "eta": float(first_stop.eta),
+        "length_unit_m": scales["length"],
+        "angular_frequency_unit_rad_per_s": scales["angular_frequency"],
+        # the continuous beam's linear frequencies, rigid-body modes left out, in Hz of the nondimensional time
+        "euler_bernoulli_frequency": euler_bernoulli_frequencies(
+            beam.left, beam.right, EULER_BERNOULLI_MODES, beam.length, beam.bending_stiffness, beam.mass_per_length
+        )
+        / (2 * np.pi * scales["angular_frequency"]),
+    }
 
 
 def beam_deflection(structure: Structure, q, s) -> np.ndarray:

@@ -5,7 +5,12 @@ A :class:`Structure` describes ``M q'' + K q + sum_s e_s f_s(q[dof_s]) = 0`` in 
 (:class:`Stop`), each acting on one degree of freedom with its gap, stiffness ``alpha`` and regularization
 ``eta``. The paper's oscillator is :func:`two_dof_structure`; a finite-element beam is built by
 :mod:`nnmstop.models.beam`. :func:`normal_modes` solves the generalized eigenproblem of the linear
-(no-contact) structure, densely for small models and by shift-invert Lanczos for large sparse ones.
+(no-contact) structure, densely for small models and by shift-invert Lanczos for large sparse ones;
+:func:`limit_modes` the linear limits of any structure (no contact, regularized near rest, gap 0).
+A structure carries ``attributes``: what describes it in a dataset's global attributes (the paper's
+``alpha``, ``beta``, ``delta``, ``eta``; a beam's length and units; the files of a user's matrices).
+Physics that exists only for the paper's oscillator takes a structure through
+:func:`two_dof_parameters`, which says clearly which structures it does not support.
 """
 
 from __future__ import annotations
@@ -19,7 +24,20 @@ import scipy.sparse.linalg
 
 from nnmstop.models.two_dof import ModelParameters, mass_matrix, stiffness_matrix
 
-__all__ = ["Stop", "Structure", "two_dof_structure", "generalized_modes", "normal_modes", "linear_frequencies"]
+__all__ = [
+    "Stop",
+    "Structure",
+    "two_dof_structure",
+    "two_dof_parameters",
+    "generalized_modes",
+    "normal_modes",
+    "linear_frequencies",
+    "LINEAR_LIMITS",
+    "limit_stiffness",
+    "limit_modes",
+    "check_matrix",
+    "check_grounded",
+]
 
 #: Relative asymmetry ``max|A - A^T| / max|A|`` accepted as round-off.
 SYMMETRY_TOLERANCE = 1e-12
@@ -127,6 +145,42 @@ def _check_positive_definite(name: str, matrix) -> None:
         raise ValueError(f"{name} must be positive definite (its Cholesky factorization fails)") from None
 
 
+def check_matrix(name: str, matrix, positive_definite: bool = False):
+    """``matrix`` as float CSR or dense, checked square, finite, symmetric and, if asked, positive definite.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` and what is wrong.
+    """
+    matrix = _square_matrix(name, matrix)
+    if positive_definite:
+        _check_positive_definite(name, matrix)
+    return matrix
+
+
+def check_grounded(structure: Structure, where: str = "the structure") -> None:
+    """Refuse a structure that can move as a rigid body without touching a stop.
+
+    Its regularized linear limit near rest, ``K + sum_s eta_s e_s e_s^T`` (:func:`limit_stiffness`), must be
+    positive definite: otherwise a zero-frequency mode (e.g. a beam free at both ends) leaves the NNMs
+    undefined and every Newton solve singular.
+
+    Raises
+    ------
+    ValueError
+        Naming ``where``.
+    """
+    try:
+        _check_positive_definite("K + sum eta e e^T", limit_stiffness(structure, "regularized"))
+    except ValueError:
+        raise ValueError(
+            f"{where}: the stiffness near rest (K plus each stop's eta on its degree of freedom) is singular or "
+            "not positive definite: the structure can move as a rigid body without touching a stop (a beam free "
+            "at both ends, an unsupported chain); support it (a clamped or pinned end, a grounding spring)"
+        ) from None
+
+
 @dataclass(frozen=True, eq=False)
 class Structure:
     """Mass, stiffness and stops of ``M q'' + K q + sum_s e_s f_s(q[dof_s]) = 0`` (nondimensional).
@@ -143,6 +197,20 @@ class Structure:
         Coordinates of the mesh nodes (finite-element models), for datasets.
     dof_nodes : sequence of int, optional
         Node index of each degree of freedom (``N`` of them), into ``node_coordinates``.
+    attributes : mapping, optional
+        What describes the structure in a dataset's global attributes (names to numbers, strings or
+        1-D arrays): ``structure`` names its kind (``"two_dof"``, ``"beam"``, ``"matrices"``), and e.g.
+        the paper's ``alpha``, ``beta``, ``delta``, ``eta``. Nothing in the engines reads them.
+
+    Examples
+    --------
+    The 3-DOF grounded chain with one stop on its first mass:
+
+    >>> import numpy as np
+    >>> chain = Structure(np.eye(3), [[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]],
+    ...                   [Stop(dof=0, gap=1.0, stiffness=30.0, eta=0.1)])
+    >>> chain.n_dofs, chain.stop_dofs, chain.dof_labels
+    (3, (0,), ('q0', 'q1', 'q2'))
     """
 
     mass: object
@@ -151,6 +219,7 @@ class Structure:
     dof_labels: tuple | None = None
     node_coordinates: np.ndarray | None = None
     dof_nodes: tuple | None = None
+    attributes: dict | None = None
 
     def __post_init__(self):
         mass = _square_matrix("mass", self.mass)
@@ -173,11 +242,11 @@ class Structure:
         if len(set(dofs)) != len(dofs):
             raise ValueError(f"stops must act on distinct degrees of freedom, got dofs {dofs}")
         object.__setattr__(self, "stops", stops)
-        if self.dof_labels is not None:
-            labels = tuple(str(s) for s in self.dof_labels)
-            if len(labels) != n:
-                raise ValueError(f"dof_labels must name the {n} degrees of freedom, got {len(labels)} labels")
-            object.__setattr__(self, "dof_labels", labels)
+        labels = tuple(f"q{j}" for j in range(n)) if self.dof_labels is None else tuple(map(str, self.dof_labels))
+        if len(labels) != n or len(set(labels)) != n:
+            raise ValueError(f"dof_labels must give the {n} degrees of freedom distinct names, got {labels}")
+        object.__setattr__(self, "dof_labels", labels)
+        object.__setattr__(self, "attributes", dict(self.attributes or {}))
         if self.node_coordinates is not None:
             coords = np.array(self.node_coordinates, dtype=float)
             if coords.ndim != 1 or not np.all(np.isfinite(coords)):
@@ -211,14 +280,59 @@ class Structure:
         return tuple(a.toarray() if scipy.sparse.issparse(a) else a.copy() for a in (self.mass, self.stiffness))
 
 
-def two_dof_structure(params: ModelParameters) -> Structure:
+def two_dof_structure(params: ModelParameters | None = None) -> Structure:
     """The paper's oscillator (Eqs. 3-4) as a :class:`Structure`.
 
     ``q = (x, u)``, ``M = diag(1, delta)``, ``K = [[1 + beta, -beta], [-beta, beta]]`` and one stop on ``x``
-    with gap 1, stiffness ``alpha`` and regularization ``eta``.
+    with gap 1, stiffness ``alpha`` and regularization ``eta``. ``params`` defaults to the paper's values
+    (alpha = 30, beta = 1, delta = 1, eta = 0.1); they become the structure's ``attributes``.
+
+    Examples
+    --------
+    >>> s = two_dof_structure(ModelParameters(alpha=10.0))
+    >>> s.dof_labels, s.stops[0].stiffness, s.attributes["structure"]
+    (('x', 'u'), 10.0, 'two_dof')
     """
+    params = ModelParameters() if params is None else params
     stop = Stop(dof=0, gap=1.0, stiffness=params.alpha, eta=params.eta)
-    return Structure(mass_matrix(params), stiffness_matrix(params), (stop,), dof_labels=("x", "u"))
+    attributes = {"structure": "two_dof", **params.as_attrs()}
+    return Structure(
+        mass_matrix(params), stiffness_matrix(params), (stop,), dof_labels=("x", "u"), attributes=attributes
+    )
+
+
+def _dense(matrix) -> np.ndarray:
+    return matrix.toarray() if scipy.sparse.issparse(matrix) else np.asarray(matrix, dtype=float)
+
+
+def two_dof_parameters(structure: Structure, purpose: str = "this method") -> ModelParameters:
+    """The :class:`ModelParameters` of a structure that is the paper's oscillator, for 2-DOF-only physics.
+
+    The closed-form exact multi-impact family and the comparisons built on it exist only for the
+    oscillator of :func:`two_dof_structure`: two degrees of freedom, ``M = diag(1, delta)``,
+    ``K = [[1 + beta, -beta], [-beta, beta]]``, one stop on the first with gap 1.
+
+    Raises
+    ------
+    ValueError
+        Naming ``purpose`` and what the structure has instead.
+    """
+    if not isinstance(structure, Structure):
+        raise TypeError(f"structure must be a Structure, got {type(structure).__name__}")
+    stop = structure.stops[0]
+    shape = f"{structure.n_dofs} degrees of freedom and {len(structure.stops)} stop(s)"
+    if structure.n_dofs == 2 and len(structure.stops) == 1 and stop.dof == 0 and stop.gap == 1.0:
+        mass, stiffness = _dense(structure.mass), _dense(structure.stiffness)
+        beta, delta = float(stiffness[1, 1]), float(mass[1, 1])
+        if beta > 0 and delta > 0:
+            params = ModelParameters(alpha=stop.stiffness, beta=beta, delta=delta, eta=stop.eta)
+            if np.array_equal(mass, mass_matrix(params)) and np.array_equal(stiffness, stiffness_matrix(params)):
+                return params
+        shape += " whose matrices are not those of the paper's oscillator"
+    raise ValueError(
+        f"{purpose} exists only for the paper's 2-DOF oscillator (two_dof_structure: M = diag(1, delta), "
+        f"K = [[1 + beta, -beta], [-beta, beta]], one stop on x with gap 1); this structure has {shape}"
+    )
 
 
 def generalized_modes(mass, stiffness, n_modes: int):
@@ -266,11 +380,70 @@ def generalized_modes(mass, stiffness, n_modes: int):
     return np.sqrt(np.maximum(lam, 0.0)), shapes
 
 
-def normal_modes(structure: Structure, n_modes: int):
-    """The ``n_modes`` lowest linear (no-contact) modes of ``structure``, see :func:`generalized_modes`."""
-    return generalized_modes(structure.mass, structure.stiffness, n_modes)
+def _mode_count(structure: Structure, n_modes) -> int:
+    if n_modes is not None:
+        return n_modes
+    # every mode of a model solved densely; a large sparse model would need them all dense
+    return structure.n_dofs if structure.n_dofs <= DENSE_EIGEN_LIMIT else min(6, structure.n_dofs)
 
 
-def linear_frequencies(structure: Structure, n_modes: int) -> np.ndarray:
-    """Angular frequencies (rad per unit time) of the ``n_modes`` lowest linear modes, see :func:`normal_modes`."""
+def normal_modes(structure: Structure, n_modes: int | None = None):
+    """The ``n_modes`` lowest linear (no-contact) modes of ``structure``, see :func:`generalized_modes`.
+
+    ``n_modes`` defaults to every mode up to :data:`DENSE_EIGEN_LIMIT` degrees of freedom, the six
+    lowest above.
+
+    Examples
+    --------
+    >>> omega, shapes = normal_modes(two_dof_structure())
+    >>> [round(float(w), 3) for w in omega], shapes.shape
+    ([0.618, 1.618], (2, 2))
+    """
+    return generalized_modes(structure.mass, structure.stiffness, _mode_count(structure, n_modes))
+
+
+def linear_frequencies(structure: Structure, n_modes: int | None = None) -> np.ndarray:
+    """Angular frequencies (rad per unit time) of the lowest linear modes, see :func:`normal_modes`."""
     return normal_modes(structure, n_modes)[0]
+
+
+#: The linear limits of a structure with stops (:func:`limit_modes`).
+LINEAR_LIMITS = ("no_contact", "regularized", "gap_zero")
+
+
+def limit_stiffness(structure: Structure, limit: str):
+    """Stiffness matrix of a linear limit of ``structure`` (same storage as ``structure.stiffness``).
+
+    ``"no_contact"``: ``K`` (every gap infinite); ``"regularized"``: ``K + sum_s eta_s e_s e_s^T``, the
+    regularized structure near rest (each stop's force is ``eta_s q`` there); ``"gap_zero"``:
+    ``K + sum_s alpha_s e_s e_s^T``, every stop always engaged (the force of a stop is
+    ``alpha_s (q - gap_s sgn q)``, of slope ``alpha_s`` whatever the gap).
+    """
+    if limit not in LINEAR_LIMITS:
+        raise ValueError(f"limit must be one of {LINEAR_LIMITS}, got {limit!r}")
+    added = {
+        "no_contact": [0.0 for _ in structure.stops],
+        "regularized": [stop.eta for stop in structure.stops],
+        "gap_zero": [stop.stiffness for stop in structure.stops],
+    }[limit]
+    dofs = list(structure.stop_dofs)
+    diagonal = scipy.sparse.csr_matrix((added, (dofs, dofs)), shape=structure.stiffness.shape)
+    if scipy.sparse.issparse(structure.stiffness):
+        return (structure.stiffness + diagonal).tocsr()
+    return structure.stiffness + diagonal.toarray()
+
+
+def limit_modes(structure: Structure, limit: str = "no_contact", n_modes: int | None = None):
+    """Angular frequencies and mass-normalized shapes of a linear limit of ``structure``.
+
+    See :func:`limit_stiffness` for the limits and :func:`normal_modes` for ``n_modes``.
+
+    Examples
+    --------
+    The paper's gap-0 modes (stop always engaged), 0.984 and 5.660 rad:
+
+    >>> omega, _ = limit_modes(two_dof_structure(), "gap_zero")
+    >>> [round(float(w), 3) for w in omega]
+    [0.984, 5.66]
+    """
+    return generalized_modes(structure.mass, limit_stiffness(structure, limit), _mode_count(structure, n_modes))

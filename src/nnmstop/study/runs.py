@@ -181,7 +181,7 @@ def run_stage_one(
     system = system_from_config(config)
     spec = config["branches"]["nnm1"]
     until = spec["stages"][0]["until"]
-    inner = stage_criterion(until, system.params, spec["mode"])
+    inner = stage_criterion(until, system, spec["mode"])
     if energy_limit is not None:
         stage_end, limit = inner, float(energy_limit)
 

@@ -1,38 +1,46 @@
 """Tasks of the regularized branches (``workflow/rules`` HBM rules): configuration in, datasets out.
 
-The only place of the HBM side that reads the configuration dict and writes files. The
-configuration becomes the settings of :mod:`nnmstop.hbm.stages` (:func:`branch_settings`,
-:func:`branch_spec`, :func:`bifurcation_spec`); :func:`build_stage` and :func:`build_bifurcated`
-return the datasets in memory (tests and studies use them); the tasks ``hbm_stage``,
-``hbm_bifurcated`` and ``hbm_branch`` (dispatched by :mod:`nnmstop.pipeline.run`) read their inputs
-and write their outputs; the configured paths come from the workflow's rules, never from the library.
+The only place of the HBM side that reads the configuration dict and writes files, for any structure:
+the ``structure`` section (:func:`structure_from_config`: the paper's oscillator with the parameters of
+``model``, a finite-element beam, or matrices from files) and the sections ``hbm``, ``anm``,
+``stability``, ``branches``, ``bifurcations`` become the inputs of :mod:`nnmstop.hbm.stages`
+(:func:`system_from_config`, :func:`branch_settings`, :func:`branch_spec`, :func:`bifurcation_spec`).
+The tube (:mod:`nnmstop.tasks.tube`) runs these same tasks on its own section. :func:`build_stage`
+and :func:`build_bifurcated` return the datasets in memory (tests and studies use them); the tasks
+``hbm_stage``, ``hbm_bifurcated`` and ``hbm_branch`` (dispatched by :mod:`nnmstop.pipeline.run`) read
+their inputs and write their outputs; the paths come from the workflow's rules.
 Command line: ``python -m nnmstop.tasks.hbm summary BIFURCATED.nc [NNM2.nc]``
 prints :func:`nnmstop.hbm.dataset.summarize_bifurcated`.
 """
 
 from __future__ import annotations
 
+import copy
+
 import xarray as xr
 
 from nnmstop.continuation.anm import ANMSettings
-from nnmstop.hbm.dataset import summarize_bifurcated
+from nnmstop.hbm.dataset import is_skipped, summarize_bifurcated
 from nnmstop.hbm.monodromy import MonodromySettings
 from nnmstop.hbm.stability import StabilitySettings
 from nnmstop.hbm.stages import (
     BifurcationSpec,
     BranchSettings,
     BranchSpec,
+    MagnusStability,
     StageSpec,
     bifurcated_branch,
     combine_stages,
     continue_stage,
 )
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.structure import Structure, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
-from nnmstop.netcdf import write_dataset
+from nnmstop.netcdf import read_dataset, write_dataset
 
 __all__ = [
+    "STRUCTURE_KINDS",
+    "structure_from_config",
     "system_from_config",
     "branch_settings",
     "stability_settings",
@@ -46,45 +54,86 @@ __all__ = [
     "main",
 ]
 
+#: Kinds of the ``structure`` section.
+STRUCTURE_KINDS = ("two_dof", "beam", "matrices")
+
+
+def structure_from_config(config: dict, eta: float | None = None) -> Structure:
+    """The structure of the configuration's ``structure`` section (the paper's oscillator without one).
+
+    ``kind: two_dof`` (default) is the oscillator of ``model`` (``eta`` replaces ``model.eta`` when
+    given); ``kind: beam`` the finite-element beam of ``structure.beam``
+    (:func:`nnmstop.models.beam.beam_structure`); ``kind: matrices`` the matrices of
+    ``structure.matrices`` (:func:`nnmstop.models.matrices.matrix_structure`).
+    """
+    section = config.get("structure", {"kind": "two_dof"})
+    kind = section.get("kind", "two_dof")
+    if kind not in STRUCTURE_KINDS:
+        raise ValueError(f"structure.kind must be one of {STRUCTURE_KINDS}, got {kind!r}")
+    if eta is not None and kind != "two_dof":
+        raise ValueError(f"eta can be replaced only on the paper's oscillator (structure.kind two_dof), not {kind}")
+    if kind == "two_dof":
+        model = dict(config["model"], **({} if eta is None else {"eta": eta}))
+        return two_dof_structure(ModelParameters.from_config(model))
+    if kind == "beam":
+        from nnmstop.models.beam import Beam, beam_structure
+
+        return beam_structure(Beam.from_parameters(copy.deepcopy(section["beam"])))
+    from nnmstop.models.matrices import matrix_structure
+
+    spec = section["matrices"]
+    return matrix_structure(spec["mass"], spec["stiffness"], spec["stops"], spec.get("dof_labels"))
+
 
 def system_from_config(config: dict, harmonics: int | None = None, eta: float | None = None) -> HarmonicBalanceSystem:
-    """The HBM system of the configuration (optionally with other ``H`` or ``eta``)."""
-    model = dict(config["model"])
-    if eta is not None:
-        model["eta"] = eta
-    params = ModelParameters.from_config(model)
+    """The HBM system of the configuration (optionally with other ``H`` or, on the 2-DOF, ``eta``)."""
     H = config["hbm"]["harmonics"] if harmonics is None else harmonics
-    return HarmonicBalanceSystem(two_dof_structure(params), H, time_samples=config["hbm"]["time_samples"])
+    return HarmonicBalanceSystem(
+        structure_from_config(config, eta), H, time_samples=config["hbm"].get("time_samples", 0)
+    )
 
 
-def stability_settings(config: dict) -> StabilitySettings:
+def stability_settings(config: dict) -> StabilitySettings | MagnusStability:
     """Stability settings from the ``stability`` section (the monodromy method when it is absent)."""
     spec = config.get("stability", {"method": "monodromy"})
+    if spec.get("method") == "magnus":
+        return MagnusStability(steps=spec["steps"], tolerance=spec["tolerance"])
     hill = {"hill_tol": spec["hill_tol"]} if "hill_tol" in spec else {}
     return StabilitySettings(
         method=spec.get("method", "monodromy"), monodromy=MonodromySettings.from_config(spec), **hill
     )
 
 
-def branch_settings(config: dict) -> BranchSettings:
+def branch_settings(config: dict, setting: str = "hbm.max_truncation") -> BranchSettings:
     """Continuation, truncation and stability settings of the configuration."""
-    continuation = ANMSettings.from_config(config["anm"], points_per_step=config["hbm"].get("points_per_step", 1))
-    return BranchSettings(continuation, config["hbm"]["max_truncation"], stability_settings(config))
+    hbm = config["hbm"]
+    continuation = ANMSettings.from_config(config["anm"], points_per_step=hbm.get("points_per_step", 1))
+    start = {"start_tolerance": hbm["start_tolerance"]} if "start_tolerance" in hbm else {}
+    return BranchSettings(
+        continuation, hbm["max_truncation"], stability_settings(config), truncation_setting=setting, **start
+    )
 
 
 def branch_spec(config: dict, name: str) -> BranchSpec:
     """The branch ``branches.<name>`` of the configuration."""
     spec = config["branches"][name]
-    stages = tuple(StageSpec(stage["name"], dict(stage["until"])) for stage in spec["stages"])
-    return BranchSpec(name, int(spec["mode"]), spec["start_amplitude"], stages)
+    stages = tuple(
+        StageSpec(
+            stage["name"],
+            dict(stage["until"]),
+            energy_max=stage.get("energy_max"),
+            pass_resonances=int(stage.get("pass_resonances", 0)),
+        )
+        for stage in spec["stages"]
+    )
+    bound = {"energy_max": float(spec["energy_max"])} if "energy_max" in spec else {}
+    return BranchSpec(name, int(spec["mode"]), spec["start_amplitude"], stages, **bound)
 
 
 def bifurcation_spec(config: dict, name: str) -> BifurcationSpec:
     """The switched branch ``bifurcations.<name>`` of the configuration."""
     spec = config["bifurcations"][name]
-    return BifurcationSpec(
-        name, spec["parent"], spec["resonance"], spec["stage"], tuple(spec["energy_range"]), spec["switch_step"]
-    )
+    return BifurcationSpec(name, spec["parent"], spec["resonance"], tuple(spec["energy_range"]), spec["switch_step"])
 
 
 def build_stage(config: dict, branch: str, stage: int, previous: xr.Dataset | None = None) -> xr.Dataset:
@@ -94,10 +143,10 @@ def build_stage(config: dict, branch: str, stage: int, previous: xr.Dataset | No
     )
 
 
-def build_bifurcated(config: dict, name: str, parent_stage: xr.Dataset) -> xr.Dataset:
-    """Dataset of the switched branch ``bifurcations.<name>`` from the dataset of its parent stage."""
+def build_bifurcated(config: dict, name: str, parent: xr.Dataset) -> xr.Dataset:
+    """Dataset of the switched branch ``bifurcations.<name>`` from the whole branch of its parent."""
     return bifurcated_branch(
-        system_from_config(config), branch_settings(config), bifurcation_spec(config, name), parent_stage
+        system_from_config(config), branch_settings(config), bifurcation_spec(config, name), parent
     )
 
 
@@ -106,55 +155,71 @@ def _load(path) -> xr.Dataset:
         return ds.load()
 
 
-def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
-    """One stage of a regularized NNM branch (HBM + ANM)."""
+def _write(ds: xr.Dataset, path, title: str, summary: str, config: dict, keywords: str = "") -> None:
+    write_dataset(ds, path, title=title, summary=summary, keywords=keywords, metadata=config.get("metadata"))
+
+
+def hbm_stage(config, inputs, outputs, branch: str, stage: str | int, keywords: str = ""):
+    """One stage of a regularized NNM branch (HBM + ANM); a skipped stage's dataset says why it is empty."""
     stage = int(stage)
-    previous = _load(inputs["previous"]) if stage > 1 else None
+    previous = read_dataset(inputs["previous"]) if stage > 1 else None
     ds = build_stage(config, branch, stage, previous)
     name = config["branches"][branch]["stages"][stage - 1]["name"]
-    write_dataset(
-        ds,
-        outputs["dataset"],
-        title=f"Regularized {branch.upper()}, stage {stage} ({name}): HBM-ANM continuation",
-        summary=(
-            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
-            f"{branch.upper()}, stage {stage} ({name}), computed by harmonic balance with "
-            f"{ds.attrs['harmonics']} harmonics and the asymptotic numerical method."
-        ),
-        metadata=config.get("metadata"),
-    )
+    what = _structure_words(ds)
+    if is_skipped(ds):
+        title = f"Regularized {branch.upper()}, stage {stage} ({name}): skipped"
+        summary = f"No orbit: this stage of {branch.upper()} of {what} was not continued. {ds.attrs['end_reason']}."
+    else:
+        title = f"Regularized {branch.upper()}, stage {stage} ({name}): HBM-ANM continuation"
+        summary = (
+            f"Periodic orbits of {what} along {branch.upper()}, stage {stage} ({name}), computed by harmonic "
+            f"balance with {ds.attrs['harmonics']} harmonics and the asymptotic numerical method. "
+            f"End: {ds.attrs['end_reason']}."
+        )
+    _write(ds, outputs["dataset"], title, summary, config, keywords)
 
 
-def hbm_bifurcated(config, inputs, outputs, bifurcation: str):
+def _structure_words(ds: xr.Dataset) -> str:
+    """Words for the structure of a branch dataset, in titles and summaries."""
+    kind = ds.attrs.get("structure", "matrices")
+    if kind == "two_dof":
+        return "the regularized 2-DOF oscillator with a bilateral elastic stop"
+    noun = "finite-element beam" if kind == "beam" else "structure"
+    return f"the regularized {int(ds.attrs['dofs'])}-DOF {noun} with {int(ds.attrs['stops'])} bilateral elastic stop(s)"
+
+
+def hbm_bifurcated(config, inputs, outputs, bifurcation: str, keywords: str = ""):
     """The branch switched at a branch point of a regularized branch (``bifurcations.<name>``)."""
-    ds = build_bifurcated(config, bifurcation, _load(inputs["parent"]))
+    ds = build_bifurcated(config, bifurcation, read_dataset(inputs["parent"]))
     n, parent_name = ds.attrs["resonance"], ds.attrs["parent_branch"].upper()
-    write_dataset(
-        ds,
-        outputs["dataset"],
-        title=f"Branch bifurcating from regularized {parent_name} at the {n}:1 internal resonance ({bifurcation})",
-        summary=(
-            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop on the curve "
-            f"that crosses {parent_name} at its {n}:1 branch point (orbits of period T/{n}), reached by branch "
-            f"switching and continued both ways by harmonic balance with {ds.attrs['harmonics']} harmonics "
-            f"and the asymptotic numerical method."
-        ),
-        metadata=config.get("metadata"),
+    title = f"Branch bifurcating from regularized {parent_name} at the {n}:1 internal resonance ({bifurcation})"
+    if is_skipped(ds):
+        summary = f"No orbit: {ds.attrs['end_reason']}."
+    else:
+        summary = (
+            f"Periodic orbits of {_structure_words(ds)} on the curve that crosses {parent_name} at its {n}:1 branch "
+            f"point (orbits of period T/{n}), reached by branch switching and continued both ways by harmonic "
+            f"balance with {ds.attrs['harmonics']} harmonics and the asymptotic numerical method."
+        )
+    _write(ds, outputs["dataset"], title, summary, config, keywords)
+
+
+def hbm_branch(config, inputs, outputs, branch: str, keywords: str = ""):
+    """Concatenate the stages of a branch into one dataset (skipped stages left out, named in its attributes)."""
+    combined = combine_stages([read_dataset(path) for path in inputs["stages"]])
+    summary = (
+        f"Periodic orbits of {_structure_words(combined)} along {branch.upper()}, from its linear mode to the end "
+        f"of the last continued stage ({combined.attrs['end_reason']})."
     )
-
-
-def hbm_branch(config, inputs, outputs, branch: str):
-    """Concatenate the stages of a branch into one dataset."""
-    combined = combine_stages([_load(path) for path in inputs["stages"]])
-    write_dataset(
+    if "skip_reason" in combined.attrs:
+        summary += f" Stages not continued: {combined.attrs['skip_reason']}."
+    _write(
         combined,
         outputs["dataset"],
-        title=f"Regularized {branch.upper()}: HBM-ANM continuation, whole branch",
-        summary=(
-            f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
-            f"{branch.upper()}, from its linear mode to the end of the last continuation stage."
-        ),
-        metadata=config.get("metadata"),
+        f"Regularized {branch.upper()}: HBM-ANM continuation, whole branch",
+        summary,
+        config,
+        keywords,
     )
 
 

@@ -1,9 +1,10 @@
-"""Figures of the finite-element tube (``paper_figures/tube_*``), drawn from its datasets only.
+"""Frequency-energy figures of any structure (``paper_figures/tube_*`` for the tube), drawn from its datasets only.
 
-``frequency_energy``: NNM1 and NNM2 (regularized, stable solid, unstable dashed, branch points and
-folds marked), the exact NNM1, the linear frequencies (FE and Euler-Bernoulli); ``shapes``: deformed
-shapes over half a period at the configured energies; ``contact_force``: the stop force over a period
-at those energies; ``exact_vs_regularized``: the relative frequency difference at matched energies.
+``frequency_energy``: the regularized NNMs (stable solid, unstable dashed, branch points, folds and
+resonance tongues passed marked), the exact NNM1, the linear frequencies (no contact; for a beam also
+Euler-Bernoulli); ``shapes`` (finite-element beams): deformed shapes over half a period at the configured
+energies; ``contact_force``: the stop force over a period at those energies; ``exact_vs_regularized``:
+the relative frequency difference at matched energies.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 from nnmstop import fourier
 from nnmstop.figures.common import save_figure
 
-__all__ = ["TUBE_FIGURES", "draw_tube_figure", "point_at_energy"]
+__all__ = ["STRUCTURE_FIGURES", "draw_structure_figure", "draw_study_figure", "point_at_energy", "branch_segments"]
 
 REGULARIZED, EXACT = "tab:blue", "tab:red"
 
@@ -41,7 +42,7 @@ def point_at_energy(energy, target: float) -> int:
 def branch_segments(ds) -> np.ndarray:
     """Segment of every point of a branch dataset (0 throughout for a branch without tongues passed):
     each segment is its own curve, never joined by a line across a tongue."""
-    return ds.segment.values if "segment" in ds else np.zeros(ds.sizes["point"], dtype=int)
+    return ds.segment.values
 
 
 def _line_segments(ax, x, y, stable, color, label):
@@ -91,7 +92,7 @@ def _resonance_inset(ax, ds, segment, color):
 
 def _frequency_energy(fig, data, spec):
     """One panel per NNM (their frequencies differ by a factor of about six), the exact NNM1 on the first."""
-    names = [name for name in ("nnm1", "nnm2") if name in data]
+    names = sorted(name for name in data if name.startswith("nnm"))
     axes = fig.subplots(1, len(names), squeeze=False)[0]
     for ax, name in zip(axes, names):
         ds = data[name]
@@ -155,10 +156,12 @@ def _frequency_energy(fig, data, spec):
             ax.plot(
                 ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=5, label="energy fold"
             )
-        ax.axhline(ds.attrs["linear_frequency_fe"], color="0.4", lw=0.8, ls=":", label="linear, finite elements")
-        ax.axhline(
-            ds.attrs["linear_frequency_euler_bernoulli"], color="0.4", lw=0.8, ls="-.", label="linear, Euler-Bernoulli"
-        )
+        mode = int(ds.attrs["mode"])
+        linear = float(ds.no_contact_frequency.sel(mode=mode))
+        ax.axhline(linear, color="0.4", lw=0.8, ls=":", label="linear, no contact")
+        if "euler_bernoulli_frequency" in ds.attrs and mode <= np.size(ds.attrs["euler_bernoulli_frequency"]):
+            analytical = float(np.atleast_1d(ds.attrs["euler_bernoulli_frequency"])[mode - 1])
+            ax.axhline(analytical, color="0.4", lw=0.8, ls="-.", label="linear, Euler-Bernoulli")
         if name == "nnm1" and "exact" in data:
             exact = data["exact"]
             ax.plot(exact.energy.values, exact.frequency.values, color=EXACT, lw=1.2, label="NNM1 exact (non-smooth)")
@@ -167,7 +170,7 @@ def _frequency_energy(fig, data, spec):
         ax.set_title(f"{name.upper()}: dashed where unstable; numbers: impacts per period", fontsize=9)
         ax.legend(fontsize=7, loc="best")
     axes[0].set_ylabel("frequency (Hz of the nondimensional time)")
-    fig.suptitle("Tube with a support plate: frequency-energy plots", fontsize=10)
+    fig.suptitle(f"{_structure_name(data[names[0]])}: frequency-energy plots", fontsize=10)
 
 
 def _orbit_samples(ds, i: int, samples: int):
@@ -211,7 +214,9 @@ def _shapes(fig, data, spec):
         ax.set_title(f"E = {ds.energy.values[i]:.3g}, {int(ds.impacts_per_period.values[i])} impacts/T", fontsize=9)
         ax.set_xlabel("w / gap")
     axes[0].set_ylabel("s / L (foot at 0)")
-    fig.suptitle("Tube NNM1: deformed shapes over half a period (plate: black bars at +-gap)", fontsize=10)
+    fig.suptitle(
+        f"{_structure_name(ds)}, NNM1: deformed shapes over half a period (stop: black bars at +-gap)", fontsize=10
+    )
 
 
 def _contact_force(fig, data, spec):
@@ -225,7 +230,7 @@ def _contact_force(fig, data, spec):
         ax.plot(t, f[0], lw=1.0, label=f"E = {ds.energy.values[i]:.3g}")
     ax.set_xlabel("t / T")
     ax.set_ylabel("regularized stop force f (nondimensional)")
-    ax.set_title("Tube NNM1: contact force at the plate over one period", fontsize=10)
+    ax.set_title(f"{_structure_name(ds)}, NNM1: force of the first stop over one period", fontsize=10)
     ax.legend(fontsize=8)
 
 
@@ -246,10 +251,10 @@ def _exact_vs_regularized(fig, data, spec):
     ax2.set_yscale("log")
     ax2.set_xlabel("energy (nondimensional)")
     ax2.set_ylabel("|f_reg - f_exact| / f_exact")
-    fig.suptitle("Tube NNM1: exact against regularized at matched energies", fontsize=10)
+    fig.suptitle(f"{_structure_name(nnm1)}, NNM1: exact against regularized at matched energies", fontsize=10)
 
 
-TUBE_FIGURES = {
+STRUCTURE_FIGURES = {
     "frequency_energy": (_frequency_energy, (11.0, 4.8)),
     "shapes": (_shapes, (10.0, 4.5)),
     "contact_force": (_contact_force, (7.0, 4.0)),
@@ -257,28 +262,32 @@ TUBE_FIGURES = {
 }
 
 
-def draw_tube_figure(name: str, data: dict, spec: dict, pdf_path, png_path) -> None:
-    """Draw tube figure ``name`` from the datasets ``data`` (keys nnm1, nnm2, exact, comparison as needed)."""
-    import matplotlib
+def _structure_name(ds) -> str:
+    kind = ds.attrs.get("structure", "matrices")
+    if kind == "beam":
+        return f"Beam with {int(ds.attrs['stops'])} stop(s) ({int(ds.attrs['dofs'])} DOF)"
+    return f"{int(ds.attrs['dofs'])}-DOF structure with {int(ds.attrs['stops'])} stop(s)"
 
-    matplotlib.use("Agg")
+
+def draw_structure_figure(name: str, data: dict, spec: dict, pdf_path) -> None:
+    """Draw figure ``name`` from the datasets ``data`` (keys nnm1, nnm2, exact, comparison as needed)."""
     import matplotlib.pyplot as plt
 
-    if name not in TUBE_FIGURES:
-        raise ValueError(f"tube figure must be one of {sorted(TUBE_FIGURES)}, got {name!r}")
-    draw, size = TUBE_FIGURES[name]
+    if name not in STRUCTURE_FIGURES:
+        raise ValueError(f"structure figure must be one of {sorted(STRUCTURE_FIGURES)}, got {name!r}")
+    draw, size = STRUCTURE_FIGURES[name]
     fig = plt.figure(figsize=size)
-    draw(fig, data, spec)
-    fig.tight_layout()
+    try:
+        draw(fig, data, spec)
+        fig.tight_layout()
+    except Exception:
+        plt.close(fig)
+        raise
     save_figure(fig, pdf_path, spec["png_dpi"])
-    plt.close(fig)
 
 
-def draw_study_figure(cases: list, spec: dict, pdf_path, png_path) -> None:
+def draw_study_figure(cases: list, spec: dict, pdf_path) -> None:
     """NNM1 backbones of the study cases: physical frequency against the largest displacement at the plate."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.0, 5.0))
@@ -303,4 +312,3 @@ def draw_study_figure(cases: list, spec: dict, pdf_path, png_path) -> None:
     ax.legend(fontsize=7)
     fig.tight_layout()
     save_figure(fig, pdf_path, spec["png_dpi"])
-    plt.close(fig)

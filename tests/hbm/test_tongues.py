@@ -1,4 +1,4 @@
-"""NNM1 of a finite-element tube by the generic engine, checked in the time domain."""
+"""NNM1 of a finite-element tube by the one staged continuation, over its resonance tongue, checked in time."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 from nnmstop.continuation.anm import ANMSettings
 from nnmstop.continuation.core import ContinuationStats, newton_correct, relative_residual
 from nnmstop.continuation.newton import bisect_sign_change
-from nnmstop.hbm.structure_branch import continue_structure_nnm
+from nnmstop.hbm.stages import BranchSettings, BranchSpec, StageSpec, follow_stage
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.beam import Beam, beam_structure, default_tube_parameters
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force
@@ -43,8 +43,15 @@ def tube_branch():
     structure = _coarse_tube()
     system = HarmonicBalanceSystem(structure, 40)
     settings = ANMSettings(max_steps=400, tolerance=1e-10)
-    branch = continue_structure_nnm(system, 1, 0.1, 20.0, 0.1, settings, "tube nnm1")
+    branch = follow_stage(system, *_stage(settings, 0.1, 20.0))
     return structure, system, settings, branch
+
+
+def _stage(continuation, max_truncation, energy_max, pass_resonances=0):
+    """Settings and spec of NNM1 from amplitude 0.1 to ``energy_max``, the start corrected to the Newton threshold."""
+    settings = BranchSettings(continuation, max_truncation, start_tolerance=continuation.newton_threshold)
+    stage = StageSpec("up", {"energy_above": energy_max}, pass_resonances=pass_resonances)
+    return settings, BranchSpec("nnm1", 1, 0.1, (stage,))
 
 
 def _last_resolved_orbit(system, settings, branch):
@@ -121,7 +128,7 @@ def tube_through_resonance():
     structure = _coarse_tube()
     system = HarmonicBalanceSystem(structure, 40)
     settings = ANMSettings(max_steps=400, points_per_step=2)
-    branch = continue_structure_nnm(system, 1, 0.1, 10.0, 1e-2, settings, "tube nnm1", pass_resonances=1)
+    branch = follow_stage(system, *_stage(settings, 1e-2, 10.0, pass_resonances=1))
     return structure, system, settings, branch
 
 
@@ -153,16 +160,14 @@ def test_nnm1_passes_its_first_internal_resonance_onto_the_backbone_beyond(tube_
     assert defect < np.pi * branch.diagnostics[i]["time_residual"] + 1e-8, (energy[i], defect)
 
 
-@pytest.mark.parametrize(
-    ("keyword", "value", "named"),
-    [
-        ("pass_resonances", -1, "pass_resonances"),
-        ("pass_resonances", 1.5, "pass_resonances"),
-        ("resonance_margin", 0.0, "resonance_margin"),
-        ("resonance_margin", 0.5, "resonance_margin"),
-    ],
-)
-def test_bad_resonance_settings_are_named(keyword, value, named):
-    system = HarmonicBalanceSystem(_coarse_tube(), 4)
+@pytest.mark.parametrize(("value", "named"), [(-1, "pass_resonances"), (1.5, "pass_resonances")])
+def test_bad_tongue_counts_are_named(value, named):
     with pytest.raises(ValueError, match=named):
-        continue_structure_nnm(system, 1, 0.1, 10.0, 1e-2, ANMSettings(), **{keyword: value})
+        StageSpec("up", {"energy_above": 10.0}, pass_resonances=value)
+
+
+@pytest.mark.parametrize("value", [0.0, 0.5])
+def test_bad_resonance_margins_are_named(value):
+    stage = StageSpec("up", {"energy_above": 10.0})
+    with pytest.raises(ValueError, match="resonance_margin"):
+        BranchSpec("nnm1", 1, 0.1, (stage,), resonance_margin=value)
