@@ -266,7 +266,10 @@ def test_task_writes_a_labelled_dataset_and_refuses_stale_inputs(tmp_path, exact
         for name, var in {**ds.coords, **ds.data_vars}.items():
             assert "long_name" in var.attrs and "units" in var.attrs, name
         assert {"alpha", "beta", "delta", "eta", "harmonics", "Conventions"} <= set(ds.attrs)
-        assert ds.attrs["point_a_energy"] == MARKED["a"]
+        # a) at its fraction of the compared range, in log energy (the scene follows the data)
+        low, high, r = ds.attrs["energy_range_min"], ds.attrs["energy_range_max"], 0.013
+        assert config["compare"]["points"]["a"] == {"energy_fraction": r}
+        assert ds.attrs["point_a_energy"] == pytest.approx(low ** (1 - r) * high**r, rel=1e-12)
     stale = copy.deepcopy(config)
     stale["model"]["eta"] = 0.05
     with pytest.raises(ValueError, match="model.eta = 0.05"):
@@ -322,3 +325,23 @@ def test_fig02_needs_no_nnm2_and_no_later_nnm1_stage(repo_root):
     assert "results/hbm/stages/nnm1_stage1.nc" in text
     assert "nnm2" not in text
     assert "nnm1_stage2" not in text and "results/hbm/nnm1.nc" not in text
+
+
+def test_branches_that_share_no_energy_give_a_comparison_that_says_so(exact_family, stage1, tmp_path):
+    """A regularized branch that ends below grazing (few harmonics, say) has nothing to compare: the comparison
+    holds no point and names the energy ranges; Figs 2-4 are drawn and say why there are no a) and b)."""
+    from nnmstop.compare.dataset import empty_comparison_dataset
+    from nnmstop.netcdf import check_labelled
+
+    below = stage1.isel(point=stage1["energy"].values < 0.5 * float(exact_family["energy"].min()))
+    assert compare.comparison_gap(exact_family, stage1) == ""
+    reason = compare.comparison_gap(exact_family, below)
+    assert reason.startswith("the energy ranges do not overlap")
+    empty = empty_comparison_dataset(below, reason)
+    check_labelled(empty)
+    assert empty.sizes["point"] == 0 and empty.attrs["alpha"] == stage1.attrs["alpha"]
+    from PIL import Image
+
+    for name, args in (("fig02", (exact_family, below, empty)), ("fig03", (empty,)), ("fig04", (empty,))):
+        pdf, png = getattr(fig, f"figure_{name[3:]}")(*args, tmp_path / f"{name}.pdf", PNG_DPI)
+        assert "do not overlap" in Image.open(png).info["Description"]

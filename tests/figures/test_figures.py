@@ -14,7 +14,7 @@ import pytest
 
 from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.figures import frequency_energy as fe
-from nnmstop.figures.modal_lines import LabelSpec, energy_crossings, label_specs, select_point
+from nnmstop.figures.modal_lines import LabelSpec, energy_crossings, label_specs, locate_label, select_point
 from nnmstop.hbm.stages import combine_stages
 from nnmstop.models.two_dof import ModelParameters, linear_modes
 from nnmstop.pipeline.run import run_task
@@ -128,23 +128,51 @@ def test_nan_in_a_dataset_is_refused_with_its_name(nnm1_stages, nnm2, specs, tmp
     assert not (tmp_path / "fig06.pdf").exists() and not (tmp_path / "fig07.pdf").exists()
 
 
-def test_label_energy_outside_the_data_is_refused(nnm1_stages, nnm2, specs, tmp_path):
+def _description(pdf_path) -> str:
+    """What a figure says it shows and could not (its PNG's Description text)."""
+    from PIL import Image
+
+    return Image.open(pdf_path.with_suffix(".png")).info["Description"]
+
+
+def test_a_label_whose_feature_is_missing_is_named_not_drawn(nnm1_stages, nnm2, specs, tmp_path):
     spec = copy.deepcopy(specs["fig06"])
     spec["labels"].append({"label": "f", "energy": 1.0e9})
-    with pytest.raises(ValueError, match=r"label f\).*1e\+09 is outside the energy range"):
-        fe.figure_06(nnm2, spec, tmp_path / "fig06.pdf", PNG_DPI)
+    pdf, _ = fe.figure_06(nnm2, spec, tmp_path / "fig06.pdf", PNG_DPI)
+    text = _description(pdf)
+    assert "not on this branch: f) at energy 1e+09" in text and "outside the energy range" in text
     spec = copy.deepcopy(specs["fig08"])
     spec["labels"][0]["energy"] = float(nnm1_stages[0]["energy"].values[1])  # a stage-1 energy asked of stage 2
-    with pytest.raises(ValueError, match=r"label d\).*outside the energy range .* of stage 2"):
-        fe.figure_08(combine_stages(nnm1_stages[:2]), nnm2, spec, tmp_path / "fig08.pdf", PNG_DPI)
-    assert not list(tmp_path.iterdir())
+    spec["labels"].append({"label": "g", "branch_point": 7})
+    pdf, _ = fe.figure_08(combine_stages(nnm1_stages[:2]), nnm2, spec, tmp_path / "fig08.pdf", PNG_DPI)
+    text = _description(pdf)
+    assert "d) at energy" in text and "of stage 2" in text
+    assert "g) at the 7:1 branch point (no 7:1 branch point located on this branch)" in text
+    assert "e) at energy" not in text  # the label that exists is drawn, not named
 
 
-def test_label_of_a_stage_not_read_is_refused(nnm1_stages, nnm2, specs, tmp_path):
+def test_a_label_of_a_stage_not_read_is_named(nnm1_stages, nnm2, specs, tmp_path):
     spec = copy.deepcopy(specs["fig11"])
     spec["labels"][0]["stage"] = 2
-    with pytest.raises(ValueError, match=r"no stage 2 \(stages held: 4\)"):
-        fe.figure_11(nnm1_stages[3], spec, tmp_path / "fig11.pdf", PNG_DPI)
+    pdf, _ = fe.figure_11(nnm1_stages[3], spec, tmp_path / "fig11.pdf", PNG_DPI)
+    assert "no orbit of stage 2 (stages with orbits: 4)" in _description(pdf)
+
+
+def test_skipped_stages_and_missing_switched_branches_are_named(small_config, nnm1_stages, nnm2, specs, tmp_path):
+    """A figure whose stages were not continued is still drawn, and says why; so is a switch without branch point."""
+    from nnmstop.hbm.dataset import skipped_stage_dataset
+    from nnmstop.tasks.hbm import system_from_config
+
+    system = system_from_config(small_config)
+    labels = {"branch": "nnm1", "stage_name": "high_energy"}
+    skipped = skipped_stage_dataset(system, 4, labels, "skipped: stage 3 (x) ended without its condition (y): z")
+    none = skipped_stage_dataset(system, 0, {"branch": "nnm1_5to1", "parent_branch": "nnm1", "resonance": 5}, "none")
+    spec = dict(specs["fig11"], nnm1_stages=[4])
+    pdf, _ = fe.figure_11(skipped, spec, tmp_path / "fig11.pdf", PNG_DPI, stages=[skipped])
+    text = _description(pdf)
+    assert "stage 4 (high_energy) not continued" in text
+    pdf, _ = fe.figure_09(nnm1_stages[2], nnm2, specs["fig09"], tmp_path / "fig09.pdf", PNG_DPI, bifurcated=[none])
+    assert "no branch switched at a 5:1 branch point (none located)" in _description(pdf)
 
 
 def test_stages_other_than_configured_or_not_consecutive_are_refused(nnm1_stages, nnm2, specs, tmp_path):
@@ -160,14 +188,14 @@ def test_swapped_branches_and_mixed_models_are_refused(nnm1_stages, nnm2, specs,
         fe.figure_06(nnm1_stages[0], specs["fig06"], tmp_path / "fig06.pdf", PNG_DPI)
     other = nnm2.copy()
     other.attrs = {**nnm2.attrs, "alpha": 50.0}
-    with pytest.raises(ValueError, match="different models"):
+    with pytest.raises(ValueError, match="different structures: alpha"):
         fe.figure_08(combine_stages(nnm1_stages[:2]), other, specs["fig08"], tmp_path / "fig08.pdf", PNG_DPI)
 
 
-def test_label_outside_the_plotted_window_is_refused(nnm2, specs, tmp_path):
+def test_a_label_outside_the_configured_window_is_named(nnm2, specs, tmp_path):
     spec = dict(specs["fig06"], energy_range=[float(nnm2["energy"].values[10]), 1.0e3])
-    with pytest.raises(ValueError, match=r"label a\) lies at energy .* outside the plotted energy_range"):
-        fe.figure_06(nnm2, spec, tmp_path / "fig06.pdf", PNG_DPI)
+    pdf, _ = fe.figure_06(nnm2, spec, tmp_path / "fig06.pdf", PNG_DPI)
+    assert "a) at energy" in _description(pdf) and "outside the configured energy_range" in _description(pdf)
 
 
 def test_energy_crossings_follow_the_branch_and_its_turning_points():
@@ -181,36 +209,61 @@ def test_energy_crossings_follow_the_branch_and_its_turning_points():
     assert energy_crossings(energy, allowed, 3.0) == [2, 6]
 
 
-def test_select_point_honours_stage_impacts_and_occurrence():
-    # A constructed branch, so that how often an energy is met does not hang on where a
-    # continuation happened to store its points: stage 1 rises to a fold at E = 16,
-    # stage 2 turns back down to E = 4 and rises again past it.
+def _constructed_branch():
+    """A branch whose features are known: stage 1 rises to a fold at E = 16, stage 2 turns back down to
+    E = 3 (its energy minimum) and rises again; impact regimes 0, 2, 4; a located 3:1 branch point at E = 7."""
     import xarray as xr
 
     energy = np.array([1.0, 2.0, 4.0, 8.0, 16.0, 8.0, 4.0, 3.0, 6.0, 12.0, 24.0])
-    stage = np.array([1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2])
-    impacts = np.array([0, 0, 2, 2, 2, 2, 2, 4, 4, 4, 4])
-    branch = xr.Dataset(
+    frequency = 0.1 + 0.01 * np.arange(energy.size)
+    return xr.Dataset(
         {
             "energy": ("point", energy),
-            "frequency": ("point", 0.1 + 0.01 * np.arange(energy.size)),
-            "stage": ("point", stage),
-            "impacts_per_period": ("point", impacts),
+            "frequency": ("point", frequency),
+            "stage": ("point", np.array([1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2])),
+            "impacts_per_period": ("point", np.array([0, 0, 2, 2, 2, 2, 2, 4, 4, 4, 4])),
+            "branch_point_energy": ("located_branch_point", [7.0]),
+            "branch_point_frequency": ("located_branch_point", [float(frequency[5])]),
+            "branch_point_resonance": ("located_branch_point", [3]),
         },
         coords={"point": np.arange(energy.size)},
     )
+
+
+def test_select_point_honours_stage_impacts_and_occurrence():
+    # A constructed branch, so that how often an energy is met does not hang on where a
+    # continuation happened to store its points.
+    branch = _constructed_branch()
     # E = 5 is met on the way up (nearest point E = 4), down (E = 4) and up again (E = 6)
-    assert select_point(branch, LabelSpec("c", 5.0), "test") == 2
-    assert select_point(branch, LabelSpec("c", 5.0, occurrence=2), "test") == 6
-    assert select_point(branch, LabelSpec("c", 5.0, occurrence=3), "test") == 8
-    assert select_point(branch, LabelSpec("c", 5.0, stage=2), "test") == 6
-    assert select_point(branch, LabelSpec("c", 5.0, stage=2, impacts=4), "test") == 8
-    with pytest.raises(ValueError, match="no point of stage 1 with 4 impacts/period"):
-        select_point(branch, LabelSpec("c", 5.0, stage=1, impacts=4), "test")
-    with pytest.raises(ValueError, match=r"met 1 time\(s\).*point 8 \(E = 6\).*fewer than occurrence 2"):
-        select_point(branch, LabelSpec("c", 5.0, stage=2, impacts=4, occurrence=2), "test")
-    with pytest.raises(ValueError, match=r"energy 30 is outside the energy range \[3, 24\] of stage 2 with 4 impacts"):
-        select_point(branch, LabelSpec("c", 30.0, stage=2, impacts=4), "test")
+    assert select_point(branch, LabelSpec("c", "energy", 5.0), "test") == 2
+    assert select_point(branch, LabelSpec("c", "energy", 5.0, occurrence=2), "test") == 6
+    assert select_point(branch, LabelSpec("c", "energy", 5.0, occurrence=3), "test") == 8
+    assert select_point(branch, LabelSpec("c", "energy", 5.0, occurrence=-1), "test") == 8
+    assert select_point(branch, LabelSpec("c", "energy", 5.0, stage=2), "test") == 6
+    assert select_point(branch, LabelSpec("c", "energy", 5.0, stage=2, impacts=4), "test") == 8
+    with pytest.raises(ValueError, match="no orbit of stage 1 with 4 impacts/period"):
+        select_point(branch, LabelSpec("c", "energy", 5.0, stage=1, impacts=4), "test")
+    with pytest.raises(ValueError, match=r"met 1 time\(s\).*point 8 \(E = 6\).*fewer than 2"):
+        select_point(branch, LabelSpec("c", "energy", 5.0, stage=2, impacts=4, occurrence=2), "test")
+    with pytest.raises(ValueError, match=r"energy 30 outside the energy range \[3, 24\] of stage 2 with 4 impacts"):
+        select_point(branch, LabelSpec("c", "energy", 30.0, stage=2, impacts=4), "test")
+
+
+def test_labels_follow_the_features_of_the_branch():
+    """Each anchor lands on the feature it names, whatever the energies of the branch."""
+    branch = _constructed_branch()
+    at = {"x": lambda anchor, value, **scope: locate_label(branch, LabelSpec("x", anchor, value, **scope)).point}
+    assert at["x"]("branch_point", 3) == 5  # the stored point nearest to the located branch point
+    assert at["x"]("regime_start", 2) == 2 and at["x"]("regime_start", 4) == 7
+    assert at["x"]("energy_minimum", 1, stage=2) == 7 and at["x"]("energy_minimum", 1, impacts=2) == 2
+    # the fraction of the scope's range in log energy: 0.25 of stage 2's [3, 24] is 3 * 8**0.25 = 5.05, first met
+    # between E = 8 and 4 (nearest: 4), then between 3 and 6 (nearest: 6)
+    assert at["x"]("energy_fraction", 0.25, stage=2) == 6
+    assert at["x"]("energy_fraction", 0.25, stage=2, occurrence=-1) == 8
+    assert at["x"]("energy_fraction", 1.0) == 10
+    missing = locate_label(branch, LabelSpec("x", "branch_point", 5.0))
+    assert missing.point is None and missing.missing == "no 5:1 branch point located on this branch"
+    assert locate_label(branch, LabelSpec("x", "regime_start", 6.0)).missing == "no orbit with 6 impacts per period"
 
 
 def test_label_specs_refuse_duplicates_and_bad_values():
@@ -218,13 +271,17 @@ def test_label_specs_refuse_duplicates_and_bad_values():
         label_specs([{"label": "a", "energy": 1.0}, {"label": "a", "energy": 2.0}])
     with pytest.raises(ValueError, match="energy must be finite"):
         label_specs([{"label": "a", "energy": float("nan")}])
+    with pytest.raises(ValueError, match="exactly one of"):
+        label_specs([{"label": "a", "energy": 1.0, "branch_point": 3}])
+    with pytest.raises(ValueError, match="energy_fraction must lie in"):
+        label_specs([{"label": "a", "energy_fraction": 1.5}])
 
 
-def test_gap_zero_lines_come_from_the_dataset_parameters(nnm2):
-    params = fe.model_parameters(nnm2)
-    assert params == ModelParameters(**{k: float(nnm2.attrs[k]) for k in ("alpha", "beta", "delta", "eta")})
+def test_gap_zero_lines_come_from_the_dataset(nnm2):
+    """The gap-0 frequencies stored with the branch are those of the paper's closed form, alpha added on x."""
+    params = ModelParameters(**{k: float(nnm2.attrs[k]) for k in ("alpha", "beta", "delta", "eta")})
     expected = linear_modes(params, "gap_zero")[0] / (2 * np.pi)
-    np.testing.assert_allclose(fe.gap_zero_frequencies(params), expected, rtol=1e-14)
+    np.testing.assert_allclose(fe.gap_zero_frequencies(nnm2), expected, rtol=1e-12)
 
 
 def test_pipeline_task_draws_fig06_from_the_nnm2_file_alone(small_config, nnm2, specs, tmp_path):

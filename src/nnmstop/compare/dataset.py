@@ -22,7 +22,7 @@ import xarray as xr
 from nnmstop.compare.matching import EnergyMatcher, orbit_differences
 from nnmstop.hbm.dataset import ORBIT_COEFFICIENTS, orbit_variables
 
-__all__ = ["comparison_energies", "comparison_dataset"]
+__all__ = ["comparison_energies", "comparison_dataset", "empty_comparison_dataset"]
 
 logger = logging.getLogger("nnmstop.compare.dataset")
 
@@ -36,7 +36,8 @@ def comparison_energies(matcher: EnergyMatcher, count: int, marked: dict | None 
     count : int
         Number of log-spaced energies spanning :attr:`EnergyMatcher.energy_range` (>= 2).
     marked : dict, optional
-        Label -> energy (for example ``{"a": 0.72, "b": 20.0}``), each inside the range.
+        Label -> energy (for example ``{"a": 0.72, "b": 20.0}``) or ``{"energy_fraction": r}`` (the energy at
+        the fraction ``r`` of the range, in log energy), each inside the range.
 
     Returns
     -------
@@ -48,7 +49,15 @@ def comparison_energies(matcher: EnergyMatcher, count: int, marked: dict | None 
     if int(count) != count or count < 2:
         raise ValueError(f"the number of compared energies must be an integer >= 2, got {count!r}")
     marked = dict(marked or {})
-    values = {label: matcher.check_energy(e) for label, e in marked.items()}
+    low, high = matcher.energy_range
+    # a point is an energy, or a fraction of the common range in log energy (a scene that follows the data)
+    at = {
+        label: e
+        if not isinstance(e, dict)
+        else float(low ** (1.0 - e["energy_fraction"]) * high ** e["energy_fraction"])
+        for label, e in marked.items()
+    }
+    values = {label: matcher.check_energy(e) for label, e in at.items()}
     grid = np.geomspace(*matcher.energy_range, int(count))
     energies = np.unique(np.concatenate([grid, list(values.values())]))
     marks = {label: int(np.flatnonzero(energies == e)[0]) for label, e in values.items()}
@@ -121,7 +130,7 @@ def comparison_dataset(
         return [d[key] for _, d in rows]
 
     y = np.array(pairs("exact"))
-    aligned = "over the period, on the phase t/T aligned at the maximum of x"
+    aligned = "over the period, on the phase t/T aligned at the turning point in contact"
     not_used = "(error that interpolation alone would add; not present in this comparison)"
     from_diffs = (
         ("frequency_exact", "frequency 1/T of the exact (non-smooth) orbit", hz),
@@ -143,8 +152,8 @@ def comparison_dataset(
         ("force_max_exact", "maximum of the piecewise-linear contact force over the exact orbit", one),
         (
             "regularized_origin_shift",
-            "shift of the time origin of the HBM cosine series, in periods, that puts the maximum of x at t = 0 "
-            "(0: x is maximum at t = 0; 0.5: x is minimum at t = 0)",
+            "shift of the time origin of the HBM cosine series, in periods, that puts its turning point in contact "
+            "at t = 0 (0: it is at t = 0; 0.5: at t = T/2)",
             one,
         ),
     )
@@ -233,3 +242,47 @@ def comparison_dataset(
         **{f"point_{label}_energy": float(energies[i]) for label, i in marks.items()},
     }
     return ds
+
+
+def empty_comparison_dataset(branch: xr.Dataset, reason: str) -> xr.Dataset:
+    """The comparison when there is none: no point, the structure of ``branch`` and ``reason`` (``end_reason``).
+
+    The exact family and the regularized NNM1 share no energy where both are compared (their monotone parts
+    do not overlap, for example where few harmonics stop the regularized branch before grazing): Figs 2-4 say
+    so instead of drawing orbits.
+    """
+    one = "1"
+    empty = np.zeros(0)
+    data = {
+        "frequency_exact": (
+            "point",
+            empty,
+            {"long_name": "frequency 1/T of the exact (non-smooth) orbit", "units": "Hz"},
+        ),
+        "frequency_regularized": (
+            "point",
+            empty,
+            {"long_name": "frequency omega/(2 pi) of the regularized HBM orbit", "units": "Hz"},
+        ),
+        "marked": (
+            "point",
+            np.zeros(0, dtype=np.int8),
+            {
+                "long_name": "labelled point of the paper's Figs 2-4 (0: not labelled)",
+                "units": one,
+                "flag_values": np.arange(1, dtype=np.int8),
+                "flag_meanings": "none",
+            },
+        ),
+    }
+    coords = {
+        "point": ("point", np.arange(0), {"long_name": "index of the compared energy", "units": one}),
+        "energy": (
+            "point",
+            empty,
+            {"long_name": "matched total energy of the exact and regularized orbits", "units": one},
+        ),
+    }
+    keep = ("structure", "alpha", "beta", "delta", "eta", "dofs", "stops", "harmonics", "time_samples", "basis")
+    attrs = {key: branch.attrs[key] for key in keep if key in branch.attrs}
+    return xr.Dataset(data, coords=coords, attrs={**attrs, "skipped": 1, "end_reason": reason})

@@ -123,8 +123,11 @@ def stability_legend_handles(drawn: set, color="0.3", lw: float = 1.2) -> list:
     ]
 
 
-def save_figure(fig, pdf_path, png_dpi: int = 150) -> tuple[Path, Path]:
+def save_figure(fig, pdf_path, png_dpi: int = 150, description: str | None = None) -> tuple[Path, Path]:
     """Save ``fig`` as PDF and PNG (same stem), byte-reproducibly, and close it.
+
+    ``description``: what the figure shows and what it could not (its title text), stored in the files
+    (PDF ``Subject``, PNG text chunk ``Description``) so that a reader or a test finds it without the picture.
 
     No creation date, creator or software tags: two runs give identical files. The
     figure's layout engine (constrained layout) runs once, on the PNG's renderer, and is
@@ -136,14 +139,18 @@ def save_figure(fig, pdf_path, png_dpi: int = 150) -> tuple[Path, Path]:
     png_path = pdf_path.with_suffix(".png")
     pdf_path.parent.mkdir(parents=True, exist_ok=True)
     os.environ.setdefault("SOURCE_DATE_EPOCH", "0")
+
+    def text(key):
+        return {key: description} if description else {}
+
     engine = fig.get_layout_engine()
     if engine is not None:
         fig.set_dpi(png_dpi)  # text measured as the PNG draws it
         engine.execute(fig)
         fig.set_layout_engine(None)  # None, not "none": savefig then skips its draw without output
     for path, meta, kwargs in (
-        (pdf_path, {"CreationDate": None, "ModDate": None, "Creator": None, "Producer": None}, {}),
-        (png_path, {"Software": None}, {"dpi": png_dpi}),
+        (pdf_path, {"CreationDate": None, "ModDate": None, "Creator": None, "Producer": None, **text("Subject")}, {}),
+        (png_path, {"Software": None, **text("Description")}, {"dpi": png_dpi}),
     ):
         tmp = path.with_name(path.stem + ".tmp" + path.suffix)
         fig.savefig(tmp, metadata=meta, **kwargs)

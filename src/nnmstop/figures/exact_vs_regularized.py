@@ -158,13 +158,114 @@ def _regularized_range(stage1: xr.Dataset) -> int:
     return int(above[0]) if above.size else impacts.size
 
 
+def _fig02_curves(axis, curves: dict, comparison: xr.Dataset, marks: dict, lw: float = 1.3) -> None:
+    """The non-smooth NNM1 (linear mode to grazing, then the exact family), the regularized one, a) and b)."""
+    e_ex, f_ex, e_reg, f_reg = curves["e_ex"], curves["f_ex"], curves["e_reg"], curves["f_reg"]
+    axis.axhline(curves["f_gap0"], **GAP_ZERO_STYLE)
+    axis.plot([curves["e_lo"], e_ex[0]], [curves["f_lin"]] * 2, color=EXACT_COLOR, lw=lw, zorder=3)
+    axis.plot(e_ex, f_ex, color=EXACT_COLOR, lw=lw, zorder=3)
+    axis.plot(e_reg, f_reg, color=REGULARIZED_COLOR, lw=2.0 * lw, zorder=2)  # wider: visible under red
+    end = {"ms": 5, "mfc": "white", "mew": 1.3, "ls": "none", "zorder": 6}
+    axis.plot([e_ex[0]], [f_ex[0]], marker="o", mec=EXACT_COLOR, **end)
+    axis.plot([e_ex[-1]], [f_ex[-1]], marker="s", mec=EXACT_COLOR, **end)
+    axis.plot([e_reg[-1]], [f_reg[-1]], marker="s", mec=REGULARIZED_COLOR, **end)
+    for i in marks.values():
+        e = float(comparison["energy"].values[i])
+        for key, colour in (("frequency_exact", EXACT_COLOR), ("frequency_regularized", REGULARIZED_COLOR)):
+            f = float(comparison[key].values[i])
+            axis.plot([e], [f], marker="o", ms=4.5, color=colour, mec="black", mew=0.6, ls="none", zorder=7)
+
+
+def _fig02_annotations(ax, curves: dict, comparison: xr.Dataset, marks: dict) -> None:
+    """Letters a) and b), and what ends each curve."""
+    for label, i in marks.items():
+        e, f = float(comparison["energy"].values[i]), float(comparison["frequency_regularized"].values[i])
+        ax.annotate(
+            f"{label})", xy=(e, f), xytext=(-14, 12), textcoords="offset points", fontsize=10, fontweight="bold",
+            ha="center", va="center", zorder=8,
+            arrowprops={"arrowstyle": "-", "lw": 0.6, "color": "black", "shrinkA": 0, "shrinkB": 3},
+        )  # fmt: skip
+    ax.annotate(
+        "gap-0 first linear mode (stop always engaged)", xy=(curves["e_lo"], curves["f_gap0"]), xytext=(4, -3),
+        textcoords="offset points", fontsize=7.5, color="0.3", ha="left", va="top",
+    )  # fmt: skip
+    for text, (e, f), colour, offset, ha in (
+        (
+            "end of the exact family:\nx reaches the other stop\nbetween the impacts",
+            (curves["e_ex"][-1], curves["f_ex"][-1]),
+            EXACT_COLOR,
+            (0, -62),
+            "center",
+        ),
+        (
+            "regularized: last orbit with\none impact per stop",
+            (curves["e_reg"][-1], curves["f_reg"][-1]),
+            REGULARIZED_COLOR,
+            (-6, -20),
+            "right",
+        ),
+    ):
+        ax.annotate(
+            text, xy=(e, f), xytext=offset, textcoords="offset points", fontsize=7.5, ha=ha, va="top", color=colour,
+            arrowprops={"arrowstyle": "-", "lw": 0.6, "color": colour, "shrinkB": 4},
+        )  # fmt: skip
+
+
+def _fig02_inset(ax, curves: dict, comparison: xr.Dataset, marks: dict) -> None:
+    """The grazing neighbourhood: the energy fold of the exact family, and point a)."""
+    e_ex, f_ex, e_reg, f_reg = curves["e_ex"], curves["f_ex"], curves["e_reg"], curves["f_reg"]
+    ia = ax.inset_axes([0.655, 0.07, 0.33, 0.36])
+    _fig02_curves(ia, curves, comparison, marks, lw=1.2)
+    i_a = marks["a"]
+    e_a = float(comparison["energy"].values[i_a])
+    fold = int(np.argmin(e_ex))
+    win_e = (min(e_ex[fold], e_a) / 1.2, max(e_ex[0], e_a) * 1.25)
+    ia.set_xscale("log")
+    ia.set_xlim(*win_e)
+    inside = lambda e: (e >= win_e[0]) & (e <= win_e[1])  # noqa: E731
+    f_win = np.concatenate([f_ex[inside(e_ex)], f_reg[inside(e_reg)], [curves["f_lin"]]])
+    fpad = 0.08 * (f_win.max() - f_win.min())
+    ia.set_ylim(f_win.min() - fpad, f_win.max() + fpad)
+    ia.tick_params(labelsize=6.5)
+    ia.minorticks_off()
+    ticks = [t for t in np.geomspace(win_e[0], win_e[1], 4)[1:-1]]
+    ia.set_xticks(ticks)
+    ia.set_xticklabels([f"{t:.2g}" for t in ticks])
+    ia.annotate(
+        "grazing", xy=(e_ex[0], f_ex[0]), xytext=(5, 4), textcoords="offset points", fontsize=7, color=EXACT_COLOR
+    )
+    ia.annotate(
+        "energy fold", xy=(e_ex[fold], f_ex[fold]), xytext=(-3, 12), textcoords="offset points", fontsize=7,
+        color=EXACT_COLOR, ha="right", arrowprops={"arrowstyle": "-", "lw": 0.5, "color": EXACT_COLOR, "shrinkB": 2},
+    )  # fmt: skip
+    f_a = float(comparison["frequency_regularized"].values[i_a])
+    ia.annotate("a)", xy=(e_a, f_a), xytext=(-10, 8), textcoords="offset points", fontsize=8, fontweight="bold")
+    ax.indicate_inset_zoom(ia, edgecolor="0.4", lw=0.6)
+
+
+def _fig02_data(exact: xr.Dataset, stage1: xr.Dataset, params: ModelParameters) -> dict:
+    n_reg = _regularized_range(stage1)
+    curves = {
+        "e_reg": stage1["energy"].values[:n_reg],
+        "f_reg": stage1["frequency"].values[:n_reg],
+        "e_ex": exact["energy"].values,
+        "f_ex": exact["frequency"].values,
+        "f_lin": linear_modes(params, "no_contact")[0][0] / (2 * np.pi),
+        "f_gap0": linear_modes(params, "gap_zero")[0][0] / (2 * np.pi),
+    }
+    curves["e_lo"] = 0.5 * min(curves["e_reg"][0], curves["e_ex"].min())
+    curves["e_hi"] = 1.6 * max(curves["e_reg"][-1], curves["e_ex"].max())
+    return curves
+
+
 def figure_02(exact: xr.Dataset, stage1: xr.Dataset, comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
     """Fig 2: FEP of NNM1, non-smooth (red) vs regularized (blue), with a) and b).
 
     Parameters
     ----------
     exact, stage1, comparison : xarray.Dataset
-        Exact two-impact family, regularized NNM1 stage 1, comparison at matched energies.
+        Exact two-impact family, regularized NNM1 stage 1, comparison at matched energies (with no point
+        when the two share no energy: then the curves are drawn without a) and b), and the title says why).
     pdf_path : str or Path
         The PDF; the PNG is written beside it.
     png_dpi : int
@@ -174,145 +275,19 @@ def figure_02(exact: xr.Dataset, stage1: xr.Dataset, comparison: xr.Dataset, pdf
     _check(stage1, where + " (NNM1 stage 1)", ("energy", "frequency", "impacts_per_period"))
     _check(comparison, where + " (comparison)", ("frequency_exact", "frequency_regularized"))
     params = _parameters(exact, stage1, comparison, where=where)
-    marks = marked_points(comparison, where)
-
-    n_reg = _regularized_range(stage1)
-    e_reg = stage1["energy"].values[:n_reg]
-    f_reg = stage1["frequency"].values[:n_reg]
-    e_ex = exact["energy"].values
-    f_ex = exact["frequency"].values
-    f_lin = linear_modes(params, "no_contact")[0][0] / (2 * np.pi)
-    f_gap0 = linear_modes(params, "gap_zero")[0][0] / (2 * np.pi)
-    e_lo = 0.5 * min(e_reg[0], e_ex.min())
-    e_hi = 1.6 * max(e_reg[-1], e_ex.max())
-
+    compared = not int(comparison.attrs.get("skipped", 0))
+    marks = marked_points(comparison, where) if compared else {}
+    curves = _fig02_data(exact, stage1, params)
     fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
     frequency_energy_axes(ax)
-
-    def draw(axis, lw=1.3):
-        axis.axhline(f_gap0, **GAP_ZERO_STYLE)
-        # non-smooth NNM1: the linear mode (no impact) up to grazing, then the exact family
-        axis.plot([e_lo, e_ex[0]], [f_lin, f_lin], color=EXACT_COLOR, lw=lw, zorder=3)
-        axis.plot(e_ex, f_ex, color=EXACT_COLOR, lw=lw, zorder=3)
-        axis.plot(e_reg, f_reg, color=REGULARIZED_COLOR, lw=2.0 * lw, zorder=2)  # wider: visible under red
-        axis.plot([e_ex[0]], [f_ex[0]], marker="o", ms=5, mfc="white", mec=EXACT_COLOR, mew=1.3, ls="none", zorder=6)
-        axis.plot([e_ex[-1]], [f_ex[-1]], marker="s", ms=5, mfc="white", mec=EXACT_COLOR, mew=1.3, ls="none", zorder=6)
-        axis.plot(
-            [e_reg[-1]], [f_reg[-1]], marker="s", ms=5, mfc="white", mec=REGULARIZED_COLOR, mew=1.3, ls="none", zorder=6
-        )
-        for i in marks.values():
-            e = float(comparison["energy"].values[i])
-            for key, colour in (("frequency_exact", EXACT_COLOR), ("frequency_regularized", REGULARIZED_COLOR)):
-                axis.plot(
-                    [e],
-                    [float(comparison[key].values[i])],
-                    marker="o",
-                    ms=4.5,
-                    color=colour,
-                    mec="black",
-                    mew=0.6,
-                    ls="none",
-                    zorder=7,
-                )
-
-    draw(ax)
-    ax.set_xlim(e_lo, e_hi)
-    f_all = np.concatenate([f_reg, f_ex, [f_lin, f_gap0]])
+    _fig02_curves(ax, curves, comparison, marks)
+    ax.set_xlim(curves["e_lo"], curves["e_hi"])
+    f_all = np.concatenate([curves["f_reg"], curves["f_ex"], [curves["f_lin"], curves["f_gap0"]]])
     pad = 0.04 * (f_all.max() - f_all.min())
     ax.set_ylim(f_all.min() - pad, f_all.max() + pad)
-    ax.annotate(
-        "gap-0 first linear mode (stop always engaged)",
-        xy=(e_lo, f_gap0),
-        xytext=(4, -3),
-        textcoords="offset points",
-        fontsize=7.5,
-        color="0.3",
-        ha="left",
-        va="top",
-    )
-
-    # labels a), b)
-    for label, i in marks.items():
-        e = float(comparison["energy"].values[i])
-        f = float(comparison["frequency_regularized"].values[i])
-        offset = (-14, 12)
-        ax.annotate(
-            f"{label})",
-            xy=(e, f),
-            xytext=offset,
-            textcoords="offset points",
-            fontsize=10,
-            fontweight="bold",
-            ha="center",
-            va="center",
-            zorder=8,
-            arrowprops={"arrowstyle": "-", "lw": 0.6, "color": "black", "shrinkA": 0, "shrinkB": 3},
-        )
-    ax.annotate(
-        "end of the exact family:\nx reaches the other stop\nbetween the impacts",
-        xy=(e_ex[-1], f_ex[-1]),
-        xytext=(0, -62),
-        textcoords="offset points",
-        fontsize=7.5,
-        ha="center",
-        va="top",
-        color=EXACT_COLOR,
-        arrowprops={"arrowstyle": "-", "lw": 0.6, "color": EXACT_COLOR, "shrinkB": 4},
-    )
-    ax.annotate(
-        "regularized: last orbit with\none impact per stop",
-        xy=(e_reg[-1], f_reg[-1]),
-        xytext=(-6, -20),
-        textcoords="offset points",
-        fontsize=7.5,
-        ha="right",
-        va="top",
-        color=REGULARIZED_COLOR,
-        arrowprops={"arrowstyle": "-", "lw": 0.6, "color": REGULARIZED_COLOR, "shrinkB": 4},
-    )
-
-    # inset: the grazing neighbourhood (energy fold of the exact family, point a)
-    ia = ax.inset_axes([0.655, 0.07, 0.33, 0.36])
-    draw(ia, lw=1.2)
-    i_a = marks["a"]
-    e_a = float(comparison["energy"].values[i_a])
-    fold = int(np.argmin(e_ex))
-    win_e = (min(e_ex[fold], e_a) / 1.2, max(e_ex[0], e_a) * 1.25)
-    ia.set_xscale("log")
-    ia.set_xlim(*win_e)
-    inside = lambda e: (e >= win_e[0]) & (e <= win_e[1])  # noqa: E731
-    f_win = np.concatenate([f_ex[inside(e_ex)], f_reg[inside(e_reg)], [f_lin]])
-    fpad = 0.08 * (f_win.max() - f_win.min())
-    ia.set_ylim(f_win.min() - fpad, f_win.max() + fpad)
-    ia.tick_params(labelsize=6.5)
-    ia.minorticks_off()
-    ticks = [0.6, 0.7, 0.8]
-    ia.set_xticks([t for t in ticks if win_e[0] < t < win_e[1]])
-    ia.set_xticklabels([f"{t:g}" for t in ticks if win_e[0] < t < win_e[1]])
-    ia.annotate(
-        "grazing", xy=(e_ex[0], f_ex[0]), xytext=(5, 4), textcoords="offset points", fontsize=7, color=EXACT_COLOR
-    )
-    ia.annotate(
-        "energy fold",
-        xy=(e_ex[fold], f_ex[fold]),
-        xytext=(-3, 12),
-        textcoords="offset points",
-        fontsize=7,
-        color=EXACT_COLOR,
-        ha="right",
-        arrowprops={"arrowstyle": "-", "lw": 0.5, "color": EXACT_COLOR, "shrinkB": 2},
-    )
-    ia.annotate(
-        "a)",
-        xy=(e_a, float(comparison["frequency_regularized"].values[i_a])),
-        xytext=(-10, 8),
-        textcoords="offset points",
-        fontsize=8,
-        fontweight="bold",
-        ha="center",
-    )
-    ax.indicate_inset_zoom(ia, edgecolor="0.4", lw=0.6)
-
+    _fig02_annotations(ax, curves, comparison, marks)
+    if compared:
+        _fig02_inset(ax, curves, comparison, marks)
     handles = [
         plt.Line2D([], [], color=EXACT_COLOR, lw=1.3, label="non-smooth (linear mode, then exact family)"),
         plt.Line2D([], [], color=REGULARIZED_COLOR, lw=2.6, label="regularized (HBM)"),
@@ -320,8 +295,27 @@ def figure_02(exact: xr.Dataset, stage1: xr.Dataset, comparison: xr.Dataset, pdf
         plt.Line2D([], [], marker="s", ms=5, mfc="white", mec="0.3", mew=1.3, ls="none", label="end of the range"),
     ]
     ax.legend(handles=handles, loc="center left", fontsize=7.5, framealpha=0.95)
-    ax.set_title(f"NNM1, non-smooth vs regularized   ({_parameter_text(params, comparison)})", fontsize=8.5)
-    return save_figure(fig, pdf_path, png_dpi)
+    title = f"NNM1, non-smooth vs regularized   ({_parameter_text(params, comparison)})"
+    if not compared:
+        title += f"\nno points a), b) compared: {comparison.attrs['end_reason']}"
+    ax.set_title(_wrapped(title, 100), fontsize=8.5)
+    return save_figure(fig, pdf_path, png_dpi, description=title)
+
+
+def _wrapped(text: str, width: int) -> str:
+    import textwrap
+
+    return "\n".join(textwrap.fill(line, width) for line in text.split("\n"))
+
+
+def _no_comparison(comparison: xr.Dataset, title: str, pdf_path, png_dpi: int):
+    """Figs 3 and 4 when the exact and regularized NNM1 share no energy: the reason, no orbit."""
+    fig, ax = plt.subplots(figsize=(6.6, 3.0), layout="constrained")
+    ax.set_axis_off()
+    reason = f"no orbits compared: {comparison.attrs['end_reason']}"
+    ax.text(0.5, 0.5, _wrapped(reason, 80), ha="center", va="center", fontsize=9, transform=ax.transAxes)
+    fig.suptitle(title, fontsize=8.5)
+    return save_figure(fig, pdf_path, png_dpi, description=f"{title}\n{reason}")
 
 
 # --------------------------------------------------------------------------- Figs 3 and 4
@@ -353,6 +347,10 @@ def _phase(samples: int = 2000, start: float = 0.0) -> np.ndarray:
 def figure_03(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
     """Fig 3: orbits at a) and b): (x, xdot), (u, udot) and (x, u); exact red, regularized blue."""
     where = "fig03"
+    if int(comparison.attrs.get("skipped", 0)):
+        params = _parameters(comparison, where=where)
+        title = f"NNM1 orbits at the same energy ({_parameter_text(params, comparison)})"
+        return _no_comparison(comparison, title, pdf_path, png_dpi)
     _check(comparison, where, _ORBIT_VARS)
     params = _parameters(comparison, where=where)
     marks = marked_points(comparison, where)
@@ -372,17 +370,21 @@ def figure_03(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
                 for stop in (-1.0, 1.0):
                     ax.axvline(stop, **STOP_STYLE)
     axes[1, 0].legend(handles=_legend_handles(), loc="center", fontsize=7, framealpha=0.9)
-    fig.suptitle(
+    title = (
         "NNM1 orbits at the same energy: x-phase plane, u-phase plane, modal line\n"
-        f"({_parameter_text(params, comparison)}; dotted: stops x = ±1)",
-        fontsize=8.5,
+        f"({_parameter_text(params, comparison)}; dotted: stops x = ±1)"
     )
-    return save_figure(fig, pdf_path, png_dpi)
+    fig.suptitle(title, fontsize=8.5)
+    return save_figure(fig, pdf_path, png_dpi, description=title)
 
 
 def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
     """Fig 4: contact force at a) and b): f over one period, and (x, f) vs the piecewise law."""
     where = "fig04"
+    if int(comparison.attrs.get("skipped", 0)):
+        params = _parameters(comparison, where=where)
+        title = f"NNM1 contact force at the same energy ({_parameter_text(params, comparison)})"
+        return _no_comparison(comparison, title, pdf_path, png_dpi)
     _check(comparison, where, _ORBIT_VARS)
     params = _parameters(comparison, where=where)
     marks = marked_points(comparison, where)
@@ -394,7 +396,7 @@ def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
         ax.plot(phase, reg["f"], **REG_LINE)
         ax.plot(phase, exact["f"], **EXACT_LINE)
         ax.set_xlim(phase[0], phase[-1])
-        ax.set_xlabel("t / T   (t = 0 at the maximum of x)")
+        ax.set_xlabel("t / T   (t = 0 at the turning point in contact)")
         ax.set_ylabel("contact force f")
         ax.set_title(_title(comparison, label, i), fontsize=8.5)
         ax = axes[1, col]
@@ -414,5 +416,6 @@ def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
         plt.Line2D([], [], **{**REG_LINE, "zorder": None}, label="regularized (HBM)"),
     ]
     axes[0, 0].legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.9)
-    fig.suptitle(f"NNM1 contact force at the same energy ({_parameter_text(params, comparison)})", fontsize=8.5)
-    return save_figure(fig, pdf_path, png_dpi)
+    title = f"NNM1 contact force at the same energy ({_parameter_text(params, comparison)})"
+    fig.suptitle(title, fontsize=8.5)
+    return save_figure(fig, pdf_path, png_dpi, description=title)

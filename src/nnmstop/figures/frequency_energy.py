@@ -1,10 +1,15 @@
-"""Figs 5-11 of the paper: frequency-energy plots of the regularized NNMs with modal lines.
+"""Figs 5-11 of the paper: frequency-energy plots of the regularized NNMs with modal lines, scenes from the data.
 
-Every figure is drawn from branch datasets (layout of :mod:`nnmstop.hbm.dataset`) and its
-``figures.<name>`` settings: energies, frequencies and impact counts of the points, and the
-modal lines of the labelled points from their Fourier coefficients; nothing is solved. NNM1 is
-blue, NNM2 green, the NNM2 curve divided by 5 red (as in the paper); frequencies in Hz of the
-nondimensional time, energies on a logarithmic axis.
+Every figure is drawn from branch datasets (the schema of :mod:`nnmstop.hbm.dataset`, any structure) and
+its ``figures.<name>`` settings, and nothing is solved. Its labelled points are placed by what the
+data hold (:mod:`nnmstop.figures.modal_lines`: branch points by resonance ``n``, changes of impact
+regime, energy minima, fractions of an energy range, or explicit energies), and its energy window by its
+focus stages and labels (:func:`energy_window`), so that the paper's scene at its parameters is an
+analogous scene at others. What does not exist for the parameters at hand (a label's feature, a stage
+that was not continued, a branch point to switch at) is said in the title and the figure is drawn
+anyway. NNM1 is blue, NNM2 green, the NNM2 curve divided by 5 red (as in the paper); frequencies in Hz
+of the nondimensional time, energies on a logarithmic axis; the dashed lines are the gap-0 linear modes
+(every stop engaged) stored in the datasets.
 
 * Fig 5: NNM1 and NNM2 over the whole energy range; Fig 6: NNM2 with modal lines a)-f).
 * Fig 7: NNM1 at low energy, a)-c); Fig 11: NNM1 at high energy, tending to the gap-0 mode.
@@ -12,10 +17,7 @@ nondimensional time, energies on a logarithmic axis.
   and the branch switched there (an NNM2 orbit read over ``3T`` (``5T``) has the fundamental
   frequency ``f2/3`` (``f2/5``) at the same energy, see the project NOTES).
 
-The dashed lines are the linear modes of the gap-0 system, from the model parameters stored in
-the datasets. Anything a figure cannot honour (a NaN, a label energy outside the data or the
-plotted window) raises a :class:`ValueError` naming it. Reading the files, joining the NNM1
-stages and the settings: :mod:`nnmstop.tasks.figures`.
+Reading the files, joining the NNM1 stages and the settings: :mod:`nnmstop.tasks.figures`.
 """
 
 from __future__ import annotations
@@ -39,15 +41,16 @@ from nnmstop.figures.common import (
     save_figure,
     stability_legend_handles,
 )
-from nnmstop.figures.modal_lines import LabelSpec, draw_modal_line, label_specs, mark_point, select_point
-from nnmstop.models.two_dof import ModelParameters, linear_modes
+from nnmstop.figures.modal_lines import draw_modal_line, label_specs, locate_label, mark_point, modal_line_dofs
 
 __all__ = [
     "PAPER_FIGURES",
     "dataset_name",
     "check_finite",
-    "model_parameters",
+    "check_same_structure",
     "gap_zero_frequencies",
+    "structure_line",
+    "energy_window",
     "figure_05",
     "figure_06",
     "figure_07",
@@ -68,7 +71,10 @@ BRANCH_POINT_STYLES = {
     "breaking": {"marker": "+", "ms": 7, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5},
     "fold": {"marker": "D", "ms": 3, "mew": 0.8, "mfc": "none", "color": "0.35", "ls": "none", "zorder": 4.5},
 }
-PARAMETER_KEYS = ("alpha", "beta", "delta", "eta")
+#: Global attributes (and stop variables) that must agree between the datasets of one figure.
+STRUCTURE_KEYS = ("structure", "alpha", "beta", "delta", "eta", "dofs", "stops")
+#: Relative widening of an automatic energy window on each side, in log energy.
+WINDOW_MARGIN = 0.1
 
 
 @dataclass(frozen=True)
@@ -89,28 +95,24 @@ PAPER_FIGURES = {
     ),
     "fig06": _FigureKind("nnm2", "Fig. 6: second NNM and its modal lines", gap_zero_modes=(2,), inset_gap_zero_mode=2),
     "fig07": _FigureKind("nnm1", "Fig. 7: first NNM at low energy"),
-    "fig08": _FigureKind(
-        "nnm1", "Fig. 8: first NNM, three then two impacts per stop, 3:1 internal resonance", 3, NNM2_COLOR
-    ),
+    "fig08": _FigureKind("nnm1", "Fig. 8: first NNM and the NNM2 curve at f2/3 (3:1 internal resonance)", 3),
     "fig09": _FigureKind(
-        "nnm1", "Fig. 9: first NNM, four then five impacts per stop, 5:1 internal resonance", 5, RESONANCE_COLOR
+        "nnm1", "Fig. 9: first NNM and the NNM2 curve at f2/5 (5:1 internal resonance)", 5, RESONANCE_COLOR
     ),
-    "fig10": _FigureKind(
-        "nnm1", "Fig. 10: first NNM after the 5:1 internal resonance, back to one impact per stop", 5, RESONANCE_COLOR
-    ),
+    "fig10": _FigureKind("nnm1", "Fig. 10: first NNM after the 5:1 internal resonance", 5, RESONANCE_COLOR),
     "fig11": _FigureKind(
-        "nnm1", "Fig. 11: first NNM at high energy, tending to the gap-0 first linear mode", inset_gap_zero_mode=1
+        "nnm1", "Fig. 11: first NNM at high energy, towards the gap-0 first linear mode", inset_gap_zero_mode=1
     ),
 }
 
 
-# --------------------------------------------------------------------------- configuration, checks
+# --------------------------------------------------------------------------- checks, structure
 
 
 def dataset_name(ds: xr.Dataset) -> str:
     """How messages name a branch dataset: branch, stage(s) and file when known."""
     branch = str(ds.attrs.get("branch", "dataset")).upper()
-    if "stage" in ds:
+    if "stage" in ds and ds["stage"].size:
         stages = np.unique(ds["stage"].values)
         text = f"{branch} stage{'s' if stages.size > 1 else ''} {', '.join(str(int(s)) for s in stages)}"
     else:
@@ -122,8 +124,7 @@ def dataset_name(ds: xr.Dataset) -> str:
 def check_finite(ds: xr.Dataset, where: str) -> None:
     """Raise ``ValueError`` if a numeric variable of ``ds`` holds NaN or infinite values.
 
-    The message names ``where`` (the figure), the dataset, the variable and the
-    first offending point.
+    The message names ``where`` (the figure), the dataset, the variable and the first offending point.
     """
     for name, var in {**ds.coords, **ds.data_vars}.items():
         if not np.issubdtype(var.dtype, np.number):
@@ -147,40 +148,52 @@ def _check_branch(ds: xr.Dataset, branch: str, where: str) -> None:
         raise ValueError(f"{where}: expected a dataset of branch {branch!r}, got branch {found!r} ({dataset_name(ds)})")
 
 
-def model_parameters(*datasets: xr.Dataset, where: str = "figure") -> ModelParameters:
-    """Model parameters stored in the datasets' attributes, checked to agree.
+def check_same_structure(*datasets: xr.Dataset, where: str = "figure") -> None:
+    """Refuse datasets of different structures (attributes :data:`STRUCTURE_KEYS` and the stops).
 
     Raises
     ------
     ValueError
-        If a dataset lacks a parameter or two datasets disagree.
+        Naming the dataset and what differs.
     """
-    values = None
-    for ds in datasets:
-        missing = [k for k in PARAMETER_KEYS if k not in ds.attrs]
-        if missing:
-            raise ValueError(f"{where}: dataset {dataset_name(ds)} lacks the model attribute(s) {missing}")
-        these = {k: float(ds.attrs[k]) for k in PARAMETER_KEYS}
-        if values is None:
-            values = these
-        elif these != values:
-            raise ValueError(f"{where}: datasets of different models: {values} and {these} ({dataset_name(ds)})")
-    return ModelParameters(**values)
+    first = datasets[0]
+    for ds in datasets[1:]:
+        for key in STRUCTURE_KEYS:
+            a, b = first.attrs.get(key), ds.attrs.get(key)
+            if str(a) != str(b):
+                raise ValueError(
+                    f"{where}: datasets of different structures: {key} = {a!r} in {dataset_name(first)}, {b!r} in "
+                    f"{dataset_name(ds)}"
+                )
+        for name in ("stop_dof", "stop_gap", "stop_stiffness", "stop_eta"):
+            if name in first and name in ds and not np.array_equal(first[name].values, ds[name].values):
+                raise ValueError(f"{where}: datasets of different structures: {name} differs in {dataset_name(ds)}")
 
 
-def gap_zero_frequencies(params: ModelParameters) -> np.ndarray:
-    """Frequencies (Hz) of the two linear modes of the gap-0 system (stop always engaged)."""
-    return linear_modes(params, "gap_zero")[0] / (2 * np.pi)
+def gap_zero_frequencies(ds: xr.Dataset) -> np.ndarray:
+    """Frequencies (Hz) of the linear modes with every stop always engaged, as stored in a branch dataset."""
+    return np.asarray(ds["gap_zero_frequency"].values, dtype=float)
 
 
-def _parameter_line(params: ModelParameters, ds: xr.Dataset) -> str:
-    text = f"α = {params.alpha:g}, β = {params.beta:g}, δ = {params.delta:g}, η = {params.eta:g}"
-    if "harmonics" in ds.attrs:
-        text += f", H = {int(ds.attrs['harmonics'])}"
+def structure_line(ds: xr.Dataset) -> str:
+    """The structure and ``H`` in a line: the paper's parameters, else the degrees of freedom and stops."""
+    a = ds.attrs
+    if a.get("structure") == "two_dof":
+        text = f"α = {a['alpha']:g}, β = {a['beta']:g}, δ = {a['delta']:g}, η = {a['eta']:g}"
+    else:
+        stops = "; ".join(
+            f"stop on {ds['dof_label'].values[d]}: gap {g:g}, α = {k:g}, η = {e:g}"
+            for d, g, k, e in zip(
+                ds["stop_dof"].values, ds["stop_gap"].values, ds["stop_stiffness"].values, ds["stop_eta"].values
+            )
+        )
+        text = f"{int(a.get('dofs', ds.sizes.get('dof', 0)))}-DOF {a.get('structure', 'structure')}; {stops}"
+    if "harmonics" in a:
+        text += f", H = {int(a['harmonics'])}"
     return text
 
 
-# --------------------------------------------------------------------------- drawing
+# --------------------------------------------------------------------------- windows and markers
 
 
 def _range(spec: dict, key: str, where: str):
@@ -193,26 +206,36 @@ def _range(spec: dict, key: str, where: str):
     return lo, hi
 
 
-def _bifurcation_markers(ax, ds: xr.Dataset) -> set:
-    """Mark the branch points and energy folds of ``ds``; return the kinds drawn.
+def energy_window(branch: xr.Dataset, spec: dict, points: list[int], where: str):
+    """The plotted energy range: ``energy_range`` if configured, else from the data.
 
-    Located values (``branch_point_*``, ``fold_*``) are used when the dataset has them,
-    the flagged points otherwise. Kinds: ``"resonance"`` (the orbit has period T/n),
-    ``"breaking"`` (symmetry-breaking crossing), ``"branch point"`` (flag only), ``"fold"``.
+    The points of the ``focus_stages`` (all points without them), their log-energy span widened by
+    :data:`WINDOW_MARGIN` on each side, and widened further to hold every labelled point. None when the
+    branch holds no point.
     """
+    explicit = _range(spec, "energy_range", where)
+    energy = branch["energy"].values
+    if explicit is not None or energy.size == 0:
+        return explicit
+    focus = spec.get("focus_stages")
+    inside = np.isin(branch["stage"].values, focus) if focus else np.ones(energy.size, dtype=bool)
+    chosen = np.concatenate([energy[inside] if inside.any() else energy, energy[list(points)]])
+    lo, hi = np.log(chosen.min()), np.log(chosen.max())
+    pad = WINDOW_MARGIN * max(hi - lo, np.log(2.0))
+    return float(np.exp(lo - pad)), float(np.exp(hi + pad))
+
+
+def _bifurcation_markers(ax, ds: xr.Dataset) -> set:
+    """Mark the branch points and energy folds of ``ds``; return the kinds drawn."""
     drawn = set()
-    if "branch_point_energy" in ds:
+    if ds.sizes.get("located_branch_point", 0):
         e, f = ds["branch_point_energy"].values, ds["branch_point_frequency"].values
         resonance = ds["branch_point_resonance"].values > 0
         for kind, mask in (("resonance", resonance), ("breaking", ~resonance)):
             if mask.any():
                 ax.plot(e[mask], f[mask], **BRANCH_POINT_STYLES[kind])
                 drawn.add(kind)
-    elif "branch_point" in ds and ds["branch_point"].values.any():
-        idx = np.flatnonzero(ds["branch_point"].values)
-        ax.plot(ds["energy"].values[idx], ds["frequency"].values[idx], **BRANCH_POINT_STYLES["branch point"])
-        drawn.add("branch point")
-    if "fold_energy" in ds and ds.sizes.get("located_fold", 0):
+    if ds.sizes.get("located_fold", 0):
         ax.plot(ds["fold_energy"].values, ds["fold_frequency"].values, **BRANCH_POINT_STYLES["fold"])
         drawn.add("fold")
     return drawn
@@ -249,44 +272,88 @@ def _auto_limits(ds_list, energy_range, levels=()):
     return float(f.min()) - 0.05 * span, float(f.max()) + 0.1 * span
 
 
-def _check_in_window(ds, point, spec: LabelSpec, energy_range, frequency_range, where):
-    e = float(ds["energy"].values[point])
-    f = float(ds["frequency"].values[point])
-    for value, window, what in ((e, energy_range, "energy"), (f, frequency_range, "frequency")):
-        if window is not None and not window[0] <= value <= window[1]:
-            raise ValueError(
-                f"{where}: label {spec.label}) lies at {what} {value:.6g}, outside the plotted "
-                f"{what}_range [{window[0]:g}, {window[1]:g}]"
-            )
+def _label_minor_decades(ax) -> None:
+    """Label some minor ticks of the energy axis when it spans fewer than two decades."""
+    ax.xaxis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
+    ax.tick_params(axis="x", which="minor", labelsize=7)
 
 
-def _draw_fep(
-    ax,
-    kind: _FigureKind,
-    branch: xr.Dataset,
-    nnm2: xr.Dataset | None,
-    params,
-    spec,
-    where,
-    branch_label,
-    exact: xr.Dataset | None = None,
-    bifurcated: list | None = None,
-):
-    """Frequency-energy plot of ``branch`` with its companions; returns the legend handles.
+# --------------------------------------------------------------------------- what the data say
 
-    ``exact``: optional exact NNM1 of the non-smooth system (results/exact/nnm1.nc),
-    drawn dotted in black (red is taken by the f2/5 curve) under the regularized branch.
-    ``bifurcated``: branches switched at branch points of ``branch``
-    (results/hbm/bifurcated/*.nc), drawn thin in black over the curve they should
-    follow (for the n:1 resonances, the NNM2 curve at f2/n), with their branch point.
-    """
-    color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
-    energy_range = _range(spec, "energy_range", where)
-    frequency_range = _range(spec, "frequency_range", where)
+
+def regime_sequence(ds: xr.Dataset, window=None) -> str:
+    """The impact regimes along the branch within the energy window, in order (``"0 → 2 → 6"``)."""
+    energy, impacts = ds["energy"].values, ds["impacts_per_period"].values
+    inside = np.ones(energy.size, dtype=bool) if window is None else (energy >= window[0]) & (energy <= window[1])
+    runs = [int(n) for i, n in enumerate(impacts) if inside[i] and (i == 0 or impacts[i - 1] != n or not inside[i - 1])]
+    collapsed = [n for i, n in enumerate(runs) if i == 0 or runs[i - 1] != n]
+    return " → ".join(map(str, collapsed))
+
+
+def _scene_line(branch: xr.Dataset, window, resonance: int | None) -> str:
+    """What the drawn part of the branch holds: its impact regimes and the located resonance."""
+    if branch.sizes["point"] == 0:
+        return ""
+    text = f"impacts per period along the drawn part: {regime_sequence(branch, window)}"
+    if resonance is not None:
+        match = np.flatnonzero(branch["branch_point_resonance"].values == resonance)
+        found = f"at E = {float(branch['branch_point_energy'].values[match[0]]):.4g}" if match.size else "none"
+        text += f"; {resonance}:1 branch point: {found}"
+    return text
+
+
+def _missing_notes(branch: xr.Dataset, stages: list[xr.Dataset], bifurcated: list, missing: list) -> list[str]:
+    """Lines saying what the figure could not show: stages not continued, branches not switched, labels."""
+    notes = []
+    for ds in stages:
+        name = f"stage {int(ds.attrs.get('skipped_stage', 0)) or _stage_number(ds)} ({ds.attrs.get('stage_name', '')})"
+        if int(ds.attrs.get("skipped", 0)):
+            notes.append(f"{name} not continued")
+        elif not int(ds.attrs.get("stage_condition_met", 1)):
+            why = _END_WORDS.get(ds.attrs.get("stage_end"), ds.attrs["end_reason"])
+            end = float(ds["energy"].values[-1])
+            notes.append(f"{name} ended at E = {end:.4g} before {ds.attrs['stage_condition']}: {why}")
+    for ds in bifurcated:
+        if int(ds.attrs.get("skipped", 0)):
+            notes.append(f"no branch switched at a {int(ds.attrs['resonance'])}:1 branch point (none located)")
+    if missing:
+        notes.append("not on this branch: " + "; ".join(_grouped(missing)))
+    return notes
+
+
+def _grouped(missing: list) -> list[str]:
+    """``(label, why)`` pairs as text, the labels that miss for one reason together."""
+    reasons: dict[str, list] = {}
+    for label, why in missing:
+        reasons.setdefault(why, []).append(label)
+    return [
+        f"{labels[0].describe()} ({why})" if len(labels) == 1 else f"{', '.join(s.label + ')' for s in labels)} ({why})"
+        for why, labels in reasons.items()
+    ]
+
+
+#: How the notes say why a stage ended before its condition (``stage_end`` of its dataset).
+_END_WORDS = {
+    "bound": "its energy bound was reached",
+    "truncation": "the harmonics no longer resolve the stop beyond it",
+}
+
+
+def _stage_number(ds: xr.Dataset) -> int:
+    return int(ds["stage"].values[0]) if ds["stage"].size else 0
+
+
+def _title(kind: _FigureKind, branch: xr.Dataset, scene: str, notes: list[str]) -> str:
+    lines = [kind.title, structure_line(branch)] + ([scene] if scene else []) + notes
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- drawing
+
+
+def _companions(ax, kind: _FigureKind, nnm2, exact, bifurcated) -> list:
+    """The exact NNM1, the NNM2 curve at f2/n and the switched branches; their legend handles."""
     handles = []
-    drawn = plot_branch(ax, branch, color, lw=1.2, zorder=3)
-    handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
-    handles.extend(stability_legend_handles(drawn, color=color))
     if exact is not None:
         ax.plot(
             exact["energy"].values, exact["frequency"].values, color=EXACT_OVERLAY_COLOR, lw=1.4, ls=":", zorder=2.5
@@ -298,46 +365,57 @@ def _draw_fep(
         n = kind.resonance
         ax.plot(nnm2["energy"].values, nnm2["frequency"].values / n, color=kind.resonance_color, lw=1.2, zorder=2)
         handles.append(Line2D([], [], color=kind.resonance_color, lw=1.2, label=f"NNM2 frequency / {n} (same energy)"))
-    for ds in bifurcated or []:
-        drawn_b = plot_branch(ax, ds, BIFURCATED_COLOR, lw=0.7, zorder=2.6)
-        handles.append(
-            Line2D(
-                [],
-                [],
-                color=BIFURCATED_COLOR,
-                lw=0.7,
-                label=f"branch switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)",
-            )
-        )
+    for ds in bifurcated:
+        if ds.sizes["point"] == 0:
+            continue
+        drawn = plot_branch(ax, ds, BIFURCATED_COLOR, lw=0.7, zorder=2.6)
+        label = f"branch switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)"
+        handles.append(Line2D([], [], color=BIFURCATED_COLOR, lw=0.7, label=label))
         shown = {h.get_label() for h in handles}
         handles.extend(
-            h for h in stability_legend_handles(drawn_b, color=BIFURCATED_COLOR, lw=0.7) if h.get_label() not in shown
+            h for h in stability_legend_handles(drawn, color=BIFURCATED_COLOR, lw=0.7) if h.get_label() not in shown
         )
-    gap_zero = gap_zero_frequencies(params)
-    levels = [float(gap_zero[mode - 1]) for mode in kind.gap_zero_modes]
-    if frequency_range is None:
-        frequency_range = _auto_limits([branch], energy_range, levels)
-    for mode, value in zip(kind.gap_zero_modes, levels):
+    return handles
+
+
+def _gap_zero_lines(ax, kind: _FigureKind, branch: xr.Dataset, frequency_range) -> list:
+    handles = []
+    gap_zero = gap_zero_frequencies(branch)
+    for mode in kind.gap_zero_modes:
+        value = float(gap_zero[mode - 1])
         if frequency_range is None or frequency_range[0] <= value <= frequency_range[1]:
             ax.axhline(value, zorder=1, **GAP_ZERO_STYLE)
             text = f"gap-0 linear mode {mode} ({value:.4f} Hz)"
             if kind.inset_gap_zero_mode == mode:
                 text += ";\nits modal line dashed in the insets"
             handles.append(Line2D([], [], label=text, **GAP_ZERO_STYLE))
+    return handles
+
+
+def _draw_fep(ax, kind: _FigureKind, branch, nnm2, spec, where, branch_label, window, exact=None, bifurcated=()):
+    """Frequency-energy plot of ``branch`` with its companions in the energy ``window``; legend handles, limits."""
+    color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
+    handles = []
+    if branch.sizes["point"]:
+        drawn = plot_branch(ax, branch, color, lw=1.2, zorder=3)
+        handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
+        handles.extend(stability_legend_handles(drawn, color=color))
+    handles.extend(_companions(ax, kind, nnm2, exact, list(bifurcated)))
+    frequency_range = _range(spec, "frequency_range", where)
+    if frequency_range is None and branch.sizes["point"]:
+        levels = gap_zero_frequencies(branch)[[m - 1 for m in kind.gap_zero_modes]]
+        frequency_range = _auto_limits([branch], window, levels)
+    if not branch.sizes["point"]:
+        ax.text(0.5, 0.5, f"no orbit of {branch_label}", transform=ax.transAxes, ha="center", va="center", fontsize=11)
+    handles.extend(_gap_zero_lines(ax, kind, branch, frequency_range))
     handles.extend(_bifurcation_legend(_bifurcation_markers(ax, branch)))
     frequency_energy_axes(ax)
     _label_minor_decades(ax)
-    if energy_range is not None:
-        ax.set_xlim(*energy_range)
+    if window is not None:
+        ax.set_xlim(*window)
     if frequency_range is not None:
         ax.set_ylim(*frequency_range)
-    return handles, energy_range, frequency_range
-
-
-def _label_minor_decades(ax) -> None:
-    """Label some minor ticks of the energy axis when it spans fewer than two decades."""
-    ax.xaxis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
-    ax.tick_params(axis="x", which="minor", labelsize=7)
+    return handles, frequency_range
 
 
 def _inset_grid(n: int) -> tuple[int, int]:
@@ -348,64 +426,107 @@ def _inset_grid(n: int) -> tuple[int, int]:
     return int(np.ceil(n / cols)), cols
 
 
-def _figure_with_modal_lines(
-    name: str,
-    branch: xr.Dataset,
-    spec: dict,
-    pdf_path,
-    nnm2=None,
-    png_dpi: int = 150,
-    branch_label=None,
-    exact=None,
-    bifurcated=None,
-):
-    """Frequency-energy plot of ``branch`` on top, the modal lines of its labels below."""
-    kind = PAPER_FIGURES[name]
-    where = name
-    bifurcated = list(bifurcated or [])
-    datasets = [branch] + [ds for ds in (nnm2, exact) if ds is not None] + bifurcated
-    for ds in datasets:
+def _checked(name: str, branch, nnm2, exact, bifurcated) -> None:
+    """The datasets of a figure: finite, of the right branches, of one structure."""
+    kind, where = PAPER_FIGURES[name], name
+    for ds in [branch] + [ds for ds in (nnm2, exact) if ds is not None] + bifurcated:
         check_finite(ds, where)
     _check_branch(branch, kind.branch, where)
     if kind.resonance is not None:
         if nnm2 is None:
             raise ValueError(f"{where}: the NNM2 dataset is needed for the f2/{kind.resonance} curve")
         _check_branch(nnm2, "nnm2", where)
-    params = model_parameters(*[ds for ds in datasets if ds is not exact], where=where)
+    check_same_structure(*[ds for ds in (branch, nnm2) if ds is not None], *bifurcated, where=where)
     for ds in bifurcated:
         if ds.attrs.get("parent_branch") != kind.branch or "resonance" not in ds.attrs:
             raise ValueError(f"{where}: {dataset_name(ds)} is not a branch bifurcated from {kind.branch.upper()}")
+
+
+def _placed_labels(name: str, branch: xr.Dataset, spec: dict):
+    """The labels that land on ``branch`` with their points, and notes on those that do not."""
     labels = label_specs(spec.get("labels"))
     if not labels:
-        raise ValueError(f"{where}: no labelled points configured (figures.{name}.labels)")
-    points = [select_point(branch, s, f"{where}, {dataset_name(branch)}") for s in labels]
+        raise ValueError(f"{name}: no labelled points configured (figures.{name}.labels)")
+    placed, missing = [], []
+    for label in labels:
+        place = locate_label(branch, label)
+        if place.point is None:
+            logger.info("%s: label %s not drawn: %s", name, label.describe(), place.missing)
+            missing.append((label, place.missing))
+        else:
+            e, f = float(branch["energy"].values[place.point]), float(branch["frequency"].values[place.point])
+            logger.info(
+                "%s: label %s -> point %d, energy %.6g, frequency %.6g Hz", name, label.describe(), place.point, e, f
+            )
+            placed.append((label, place.point))
+    return placed, missing
 
-    slope = None
-    if kind.inset_gap_zero_mode is not None:
-        slope = float(linear_modes(params, "gap_zero")[1][1, kind.inset_gap_zero_mode - 1])
-    if branch_label is None:
-        branch_label = kind.branch.upper()
+
+def _inside_window(branch, placed, missing, window):
+    """The placed labels inside an energy ``window`` set by the configuration; the others noted as missing."""
+    if window is None:
+        return placed
+    kept = []
+    for label, point in placed:
+        energy = float(branch["energy"].values[point])
+        if window[0] <= energy <= window[1]:
+            kept.append((label, point))
+        else:
+            missing.append((label, f"at E = {energy:.4g}, outside the configured energy_range"))
+    return kept
+
+
+def _inset_slope(kind: _FigureKind, branch: xr.Dataset) -> float | None:
+    """Slope of the gap-0 modal line in the plane of the insets, for the figures that draw it."""
+    if kind.inset_gap_zero_mode is None:
+        return None
+    a, b = modal_line_dofs(branch)
+    shape = branch["gap_zero_shape"].values[:, kind.inset_gap_zero_mode - 1]
+    return float(shape[b] / shape[a]) if shape[a] != 0 else None
+
+
+def _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, **extra):
+    """Frequency-energy plot of ``branch`` on top, the modal lines of its placed labels below.
+
+    ``extra``: ``branch_label``, ``exact``, ``bifurcated`` (switched branches) and ``stages`` (the stage
+    datasets read, skipped ones included, for the notes).
+    """
+    kind, where = PAPER_FIGURES[name], name
+    bifurcated = list(extra.get("bifurcated") or [])
+    exact = extra.get("exact")
+    _checked(name, branch, nnm2, exact, bifurcated)
+    placed, missing = _placed_labels(name, branch, spec) if branch.sizes["point"] else ([], [])
+    window = energy_window(branch, spec, [p for _, p in placed], where)
+    placed = _inside_window(branch, placed, missing, _range(spec, "energy_range", where))
     color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
-
-    rows, cols = _inset_grid(len(labels))
-    fig = plt.figure(figsize=(7.5, 4.0 + 2.3 * rows), layout="constrained")
+    rows, cols = _inset_grid(max(len(placed), 1))
+    fig = plt.figure(figsize=(7.5, 4.4 + 2.3 * rows), layout="constrained")
     try:
         fig.get_layout_engine().set(h_pad=0.06, w_pad=0.06, hspace=0.04, wspace=0.06)
         grid = fig.add_gridspec(1 + rows, cols, height_ratios=[4.0] + [2.3] * rows)
         ax = fig.add_subplot(grid[0, :])
-        handles, energy_range, frequency_range = _draw_fep(
-            ax, kind, branch, nnm2, params, spec, where, branch_label, exact, bifurcated
-        )
-        for i, (s, p) in enumerate(zip(labels, points)):
-            _check_in_window(branch, p, s, energy_range, frequency_range, where)
-            mark_point(ax, branch, p, s)
-            draw_modal_line(fig.add_subplot(grid[1 + i // cols, i % cols]), branch, p, s, color, reference_slope=slope)
-        ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=7.5, framealpha=0.9)
-        fig.suptitle(f"{kind.title}\n{_parameter_line(params, branch)}", fontsize=9.5, linespacing=1.4)
+        branch_label = extra.get("branch_label") or kind.branch.upper()
+        handles, _ = _draw_fep(ax, kind, branch, nnm2, spec, where, branch_label, window, exact, bifurcated)
+        slope = _inset_slope(kind, branch)
+        for i, (label, point) in enumerate(placed):
+            mark_point(ax, branch, point, label)
+            inset = fig.add_subplot(grid[1 + i // cols, i % cols])
+            draw_modal_line(inset, branch, point, label, color, reference_slope=slope)
+        if handles:
+            ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=7.5, framealpha=0.9)
+        notes = _missing_notes(branch, extra.get("stages") or [], bifurcated, missing)
+        title = _title(kind, branch, _scene_line(branch, window, kind.resonance), notes)
+        fig.suptitle(_wrapped(title), fontsize=8.5, linespacing=1.35)
     except Exception:
         plt.close(fig)
         raise
-    return save_figure(fig, pdf_path, png_dpi=png_dpi)
+    return save_figure(fig, pdf_path, png_dpi=png_dpi, description=title)
+
+
+def _wrapped(title: str, width: int = 118) -> str:
+    import textwrap
+
+    return "\n".join(textwrap.fill(line, width) for line in title.split("\n"))
 
 
 # --------------------------------------------------------------------------- the figures
@@ -419,8 +540,7 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
     nnm1, nnm2 : xarray.Dataset
         Whole-branch datasets.
     spec : dict
-        ``figures.fig05`` of the configuration (optional ``energy_range``,
-        ``frequency_range``, ``legend``).
+        ``figures.fig05`` of the configuration (optional ``energy_range``, ``frequency_range``, ``legend``).
     pdf_path : path-like
         The PDF to write; the PNG goes beside it.
 
@@ -434,32 +554,27 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
     for ds, branch in ((nnm1, "nnm1"), (nnm2, "nnm2")):
         check_finite(ds, where)
         _check_branch(ds, branch, where)
-    params = model_parameters(nnm1, nnm2, where=where)
+    check_same_structure(nnm1, nnm2, where=where)
     energy_range = _range(spec, "energy_range", where)
-    frequency_range = _range(spec, "frequency_range", where)
     fig, ax = plt.subplots(figsize=(7.5, 4.8), layout="constrained")
-    handles = []
-    drawn = set()
+    handles, drawn = [], set()
     for ds, color, label in ((nnm1, NNM1_COLOR, "NNM1"), (nnm2, NNM2_COLOR, "NNM2")):
         drawn |= plot_branch(ax, ds, color, lw=1.3, zorder=3)
         handles.append(Line2D([], [], color=color, lw=1.3, label=label))
     handles.extend(stability_legend_handles(drawn, lw=1.3))
-    gap_zero = gap_zero_frequencies(params)
-    for mode in kind.gap_zero_modes:
-        value = float(gap_zero[mode - 1])
+    gap_zero = gap_zero_frequencies(nnm1)[[m - 1 for m in kind.gap_zero_modes]]
+    for value in gap_zero:
         ax.axhline(value, zorder=1, **GAP_ZERO_STYLE)
     handles.append(Line2D([], [], label="gap-0 linear modes", **GAP_ZERO_STYLE))
     handles.extend(_bifurcation_legend(_bifurcation_markers(ax, nnm1) | _bifurcation_markers(ax, nnm2)))
     frequency_energy_axes(ax)
     if energy_range is not None:
         ax.set_xlim(*energy_range)
-    if frequency_range is None:
-        frequency_range = _auto_limits([nnm1, nnm2], energy_range, gap_zero)
+    frequency_range = _range(spec, "frequency_range", where) or _auto_limits([nnm1, nnm2], energy_range, gap_zero)
     ax.set_ylim(*frequency_range)
     # label the dashed lines at the right edge, just above them (the branches reach them from below)
     right = ax.get_xlim()[1]
-    for mode in kind.gap_zero_modes:
-        value = float(gap_zero[mode - 1])
+    for mode, value in zip(kind.gap_zero_modes, gap_zero):
         ax.annotate(
             f"gap-0 linear mode {mode}: {value:.4f} Hz",
             xy=(right, value),
@@ -471,8 +586,10 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
             ha="right",
         )
     ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=8, framealpha=0.9)
-    fig.suptitle(f"{kind.title}\n{_parameter_line(params, nnm1)}", fontsize=9.5, linespacing=1.4)
-    return save_figure(fig, pdf_path, png_dpi=png_dpi)
+    notes = [f"NNM1 {nnm1.attrs['skip_reason']}"] if "skip_reason" in nnm1.attrs else []
+    title = _title(kind, nnm1, "", notes)
+    fig.suptitle(_wrapped(title), fontsize=9.0, linespacing=1.4)
+    return save_figure(fig, pdf_path, png_dpi=png_dpi, description=title)
 
 
 def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
@@ -483,9 +600,11 @@ def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
     return _figure_with_modal_lines("fig06", nnm2, spec, pdf_path, png_dpi=png_dpi)
 
 
-def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None):
-    stages = np.unique(branch["stage"].values)
-    text = f"stage {stages[0]}" if stages.size == 1 else f"stages {stages[0]}-{stages[-1]}"
+def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None, stages=None):
+    held = np.unique(branch["stage"].values)
+    if held.size == 0:  # every stage read was skipped
+        held = [int(ds.attrs.get("skipped_stage", 0)) for ds in stages or [branch]]
+    text = f"stage {held[0]}" if len(held) == 1 else f"stages {held[0]}-{held[-1]}"
     return _figure_with_modal_lines(
         name,
         branch,
@@ -496,40 +615,33 @@ def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=Non
         branch_label=f"NNM1 ({text} of the continuation)",
         exact=exact,
         bifurcated=bifurcated,
+        stages=stages,
     )
 
 
-def figure_07(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
-    """Fig 7: NNM1 at low energy, modal lines a)-c) (no impact, one impact per stop,
-    secondary oscillation between impacts). ``nnm1``: the NNM1 stages read, joined
-    (``nnmstop.tasks.figures.combine_nnm1_stages``)."""
-    return _nnm1_figure("fig07", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact)
+def figure_07(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, stages=None):
+    """Fig 7: NNM1 at low energy, modal lines a)-c) (no impact, one impact per stop, secondary
+    oscillation between impacts). ``nnm1``: the NNM1 stages read, joined
+    (``nnmstop.tasks.figures.combine_nnm1_stages``); ``stages``: those datasets, for the notes."""
+    return _nnm1_figure("fig07", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact, stages=stages)
 
 
-def figure_08(
-    nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None
-):
-    """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; three then two impacts per stop and
-    the 3:1 internal resonance, modal lines d)-i)."""
-    return _nnm1_figure("fig08", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+def figure_08(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None):
+    """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; the 3:1 internal resonance and the branch switched there,
+    modal lines d)-i)."""
+    return _nnm1_figure("fig08", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages)
 
 
-def figure_09(
-    nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None
-):
-    """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; four then five impacts per stop and
-    the 5:1 internal resonance, modal lines j)-m)."""
-    return _nnm1_figure("fig09", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+def figure_09(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None):
+    """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; the 5:1 internal resonance, modal lines j)-m)."""
+    return _nnm1_figure("fig09", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages)
 
 
-def figure_10(
-    nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None
-):
-    """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance: impacts
-    without oscillation between the stops, back to one impact per stop, o)-q)."""
-    return _nnm1_figure("fig10", nnm1, spec, pdf_path, nnm2=nnm2, png_dpi=png_dpi, exact=exact, bifurcated=bifurcated)
+def figure_10(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None):
+    """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance, modal lines o)-q)."""
+    return _nnm1_figure("fig10", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages)
 
 
-def figure_11(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None):
+def figure_11(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, stages=None):
     """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dashed)."""
-    return _nnm1_figure("fig11", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact)
+    return _nnm1_figure("fig11", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact, stages=stages)

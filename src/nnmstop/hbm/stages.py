@@ -350,7 +350,8 @@ def continue_stage(system, settings: BranchSettings, spec: BranchSpec, stage: in
     Stage 1 starts from the linear mode; stage ``k > 1`` starts from the last point of ``previous``
     (the dataset of stage ``k - 1``), in the direction of its last secant, or is skipped (a dataset with
     no point saying why) when stage ``k - 1`` ended without its condition. The dataset's attributes
-    ``stage_name``, ``stage_condition``, ``stage_condition_met`` and ``end_reason`` say how it ended.
+    ``stage_name``, ``stage_condition``, ``stage_condition_met``, ``stage_end`` (``condition``, ``bound`` or
+    ``truncation``) and ``end_reason`` say how it ended.
 
     Raises
     ------
@@ -376,6 +377,7 @@ def continue_stage(system, settings: BranchSettings, spec: BranchSpec, stage: in
         start = checked_start(previous, system, spec, stage, settings.continuation.newton_threshold)
     branch = follow_stage(system, settings, spec, stage, start)
     labels["stage_condition_met"] = int(branch.ended_by == "condition")
+    labels["stage_end"] = branch.ended_by
     return stage_dataset(system, branch, stage, settings, labels)
 
 
@@ -444,7 +446,7 @@ def _combined_attributes(out: xr.Dataset, stages: list[xr.Dataset], held: list[x
         out.attrs["skip_reason"] = str(next(ds for ds in stages if is_skipped(ds)).attrs["end_reason"])
     for key in ("anm_steps", "factorizations", "pade_steps", "unlocated_branch_points", "passed_resonances"):
         out.attrs[key] = int(sum(int(ds.attrs.get(key, 0)) for ds in held))
-    for key in ("stage_name", "stage_condition", "stage_condition_met"):
+    for key in ("stage_name", "stage_condition", "stage_condition_met", "stage_end"):
         out.attrs.pop(key, None)
     return out
 
@@ -492,6 +494,21 @@ def _resonance_point(system, settings: BranchSettings, spec: BifurcationSpec, pa
     return point, int(parent["stage"].values[flagged]), ""
 
 
+def _resolved_ends(branch: Branch, limit: float) -> Branch:
+    """``branch`` without the end points (either side of a switched branch) that the harmonics do not resolve.
+
+    Each side of a switched curve ends where its energy leaves the range or at its first unresolved orbit
+    (:class:`TruncationGuard` with ``end_branch``): that orbit is dropped, as a stage drops it.
+    """
+    first = 1 if branch.diagnostics[0]["truncation"] > limit else 0
+    last = len(branch.points) - (1 if branch.diagnostics[-1]["truncation"] > limit else 0)
+    out = Branch(stats=branch.stats, end_reason=branch.end_reason, end_tangent=branch.end_tangent)
+    for U, step, diagnostics in zip(branch.points[first:last], branch.step[first:last], branch.diagnostics[first:last]):
+        out.add(U, step, diagnostics)
+    out.branch_points = [i - first for i in branch.branch_points if first <= i < last]
+    return out
+
+
 def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, parent: xr.Dataset) -> xr.Dataset:
     """Dataset of the branch that bifurcates from a regularized branch at an ``n:1`` resonance.
 
@@ -522,8 +539,13 @@ def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, p
     def out_of_range(U, d):
         return f"energy left [{low:g}, {high:g}]" if not low <= d["energy"] <= high else ""
 
-    stop = TruncationGuard(system, out_of_range, settings.max_truncation, label, settings.truncation_setting)
-    branch = continue_bifurcated_branch(system, point, stop, settings.continuation, spec.switch_step, label)
+    stop = TruncationGuard(
+        system, out_of_range, settings.max_truncation, label, settings.truncation_setting, end_branch=True
+    )
+    branch = _resolved_ends(
+        continue_bifurcated_branch(system, point, stop, settings.continuation, spec.switch_step, label),
+        settings.max_truncation,
+    )
     ds = stage_dataset(
         system, branch, stage, settings, {"branch": spec.parent}, located=[(branch.branch_points[0], point, n, False)]
     )

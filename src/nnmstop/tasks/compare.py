@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from nnmstop.compare.dataset import comparison_dataset
-from nnmstop.compare.matching import PARAMETER_KEYS
+from nnmstop.compare.dataset import comparison_dataset, empty_comparison_dataset
+from nnmstop.compare.matching import PARAMETER_KEYS, comparison_gap
 from nnmstop.compare.regimes import regime_error_dataset, regime_table
 from nnmstop.compare.stability import stability_comparison_dataset, stability_table
 from nnmstop.netcdf import read_dataset, write_dataset
@@ -72,21 +72,28 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
             f"{inputs['nnm1']} (stale dataset?)"
         )
     marked = {label: spec["points"][label] for label in ("a", "b")}
-    ds = comparison_dataset(
-        exact,
-        branch,
-        count=spec["energy_count"],
-        marked=marked,
-        phase_samples=spec["phase_samples"],
-        end_margin=spec["end_margin"],
-    )
+    gap = comparison_gap(exact, branch, spec["end_margin"])
+    if gap:
+        logger.info("no comparison: %s", gap)
+        ds = empty_comparison_dataset(branch, gap)
+    else:
+        ds = comparison_dataset(
+            exact,
+            branch,
+            count=spec["energy_count"],
+            marked=marked,
+            phase_samples=spec["phase_samples"],
+            end_margin=spec["end_margin"],
+        )
     p = ds.attrs
     summary = (
         "Exact (non-smooth) versus regularized (HBM, "
         f"H = {p['harmonics']}, eta = {p['eta']:g}) NNM1 at matched energies over the range with one impact per "
         "stop per period: frequencies and their difference, largest differences of x, u, velocities and contact "
-        "force over the period on the phase t/T aligned at the maximum of x, and both orbits."
+        "force over the period on the phase t/T aligned at the turning point in contact, and both orbits."
     )
+    if gap:
+        summary = f"No comparison of the exact and regularized NNM1: {gap}."
     path = write_dataset(
         ds,
         output_path,
@@ -95,7 +102,7 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
         keywords="exact solution, regularization, comparison",
         metadata=config.get("metadata"),
     )
-    for label in ("a", "b"):
+    for label in ("a", "b") if not gap else ():
         i = int(np.flatnonzero(ds["marked"].values == ("ab".index(label) + 1))[0])
         logger.info(
             "point %s) E = %.6g: frequency %.8f (exact) vs %.8f Hz (regularized), relative difference %+.3e; "

@@ -21,6 +21,7 @@ from nnmstop.figures import regime_errors as regime_error_drawing
 from nnmstop.figures import stability as stability_drawing
 from nnmstop.figures.common import save_figure
 from nnmstop.figures.study import error_vs_runtime_figure, stiff_cases_figure
+from nnmstop.hbm.dataset import is_skipped
 from nnmstop.hbm.stages import combine_stages
 from nnmstop.netcdf import read_dataset
 
@@ -96,22 +97,26 @@ def figure_nnm1_stages(config: dict, figure: str) -> list[int]:
 
 
 def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int] | None = None) -> xr.Dataset:
-    """Check and concatenate consecutive stage datasets of NNM1.
+    """Check and concatenate consecutive stage datasets of NNM1 (skipped stages left out).
 
     Parameters
     ----------
     stages : list of xarray.Dataset
-        Stage datasets in order (each holds a single ``stage`` value).
+        Stage datasets in order (each holds a single ``stage`` value, or none when skipped).
     where : str
         Figure name, for messages.
     expected : list of int, optional
         Stage numbers the datasets must hold, in order (from the configuration).
 
+    Returns
+    -------
+    xarray.Dataset
+        The joined stages; when every one was skipped, the first of them (no point; the figure says why).
+
     Raises
     ------
     ValueError
-        On NaN, a dataset of another branch, non-consecutive stages or stages
-        other than ``expected``.
+        On NaN, a dataset of another branch, non-consecutive stages or stages other than ``expected``.
     """
     if not stages:
         raise ValueError(f"{where}: no NNM1 stage dataset given")
@@ -123,8 +128,8 @@ def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int
             raise ValueError(
                 f"{where}: expected a dataset of branch 'nnm1', got branch {found!r} ({fep.dataset_name(ds)})"
             )
-        held = np.unique(ds["stage"].values)
-        if held.size != 1:
+        held = np.unique(ds["stage"].values) if not is_skipped(ds) else [ds.attrs.get("skipped_stage", 0)]
+        if len(held) != 1:
             raise ValueError(f"{where}: {fep.dataset_name(ds)} is not a single-stage dataset")
         numbers.append(int(held[0]))
     if expected is not None and numbers != list(expected):
@@ -133,6 +138,8 @@ def combine_nnm1_stages(stages: list[xr.Dataset], where: str, expected: list[int
         )
     if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
         raise ValueError(f"{where}: NNM1 stages must be consecutive to be joined, got {numbers}")
+    if all(is_skipped(ds) for ds in stages):
+        return stages[0]
     if len(stages) == 1:
         return stages[0]
     combined = combine_stages(stages)
@@ -197,7 +204,7 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
     exact = read_dataset(inputs["exact"]) if inputs.get("exact") else None
     if name in ("fig07", "fig11"):
         builder = fep.figure_07 if name == "fig07" else fep.figure_11
-        return builder(nnm1, spec, pdf, png_dpi, exact=exact)
+        return builder(nnm1, spec, pdf, png_dpi, exact=exact, stages=stages)
     builder = {"fig08": fep.figure_08, "fig09": fep.figure_09, "fig10": fep.figure_10}[name]
     # branches switched at branch points (figures.<name>.bifurcated), one input file each
     wanted = spec.get("bifurcated", [])
@@ -207,7 +214,7 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
             f"{name}: figures.{name}.bifurcated lists {wanted}, the inputs hold {len(bifurcated)} datasets"
         )
     nnm2 = read_dataset(_need(name, inputs, "nnm2"))
-    return builder(nnm1, nnm2, spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated)
+    return builder(nnm1, nnm2, spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated, stages=stages)
 
 
 def build_regime_error_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:

@@ -11,57 +11,11 @@ per stop side per period (:mod:`nnmstop.exact.ndof`, from the grazing orbit of t
 
 from __future__ import annotations
 
-import numpy as np
-import xarray as xr
-
+from nnmstop.api import exact_family_dataset
 from nnmstop.netcdf import read_dataset, write_dataset
 from nnmstop.tasks.hbm import structure_from_config
 
-__all__ = ["exact_family_dataset", "structure_exact", "structure_compare", "structure_figure", "study_figure"]
-
-
-def exact_family_dataset(structure, family) -> xr.Dataset:
-    """Labelled dataset of a one-stop exact family (:func:`nnmstop.exact.ndof.follow_one_stop_family`)."""
-    one = {"units": "1"}
-    ds = xr.Dataset(
-        {
-            "energy": ("orbit", family.energy, {"long_name": "total energy of the non-smooth model", **one}),
-            "frequency": (
-                "orbit",
-                family.frequency,
-                {"long_name": "frequency 1/T in Hz of the nondimensional time", "units": "Hz"},
-            ),
-            "contact_time": (
-                "orbit",
-                family.contact_time,
-                {"long_name": "contact duration of the quarter period", **one},
-            ),
-            "x_max": ("orbit", family.x_max, {"long_name": "largest displacement at the stop over its gap", **one}),
-            "initial_velocity": (
-                ("orbit", "dof"),
-                family.initial_velocity,
-                {"long_name": "velocities at q = 0 (start of the orbit)", **one},
-            ),
-        },
-        coords={
-            "orbit": ("orbit", np.arange(len(family)), {"long_name": "index of the orbit along the family", **one}),
-            "dof": ("dof", np.arange(structure.n_dofs), {"long_name": "index of the degree of freedom", **one}),
-            "dof_label": (
-                "dof",
-                np.array(structure.dof_labels, dtype=str),
-                {"long_name": "name of the degree of freedom", **one},
-            ),
-        },
-    )
-    ds.attrs = {
-        **structure.attributes,
-        "dofs": structure.n_dofs,
-        "stops": len(structure.stops),
-        "mode": 1,
-        "start": family.start,
-        "end_reason": family.end_reason,
-    }
-    return ds
+__all__ = ["structure_exact", "structure_compare", "structure_figure", "study_figure"]
 
 
 def structure_exact(config, inputs, outputs, keywords: str = ""):

@@ -1,0 +1,183 @@
+"""The few functions a user composes: continue an NNM, its stability, the exact one-impact family.
+
+They take a :class:`~nnmstop.models.structure.Structure` (the paper's oscillator is
+:func:`~nnmstop.models.structure.two_dof_structure`, a structure of one's own is built from matrices,
+:class:`~nnmstop.models.structure.Structure` or :func:`~nnmstop.models.matrices.matrix_structure`) and
+return labelled :class:`xarray.Dataset` objects in the schema of the pipeline's datasets
+(``docs/datasets.md``): the same engine as ``snakemake`` (:mod:`nnmstop.hbm.stages`), no configuration
+file. ``docs/structures.md`` says how to make a structure nondimensional.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from nnmstop.continuation.anm import ANMSettings
+from nnmstop.hbm.stages import BranchSettings, BranchSpec, MagnusStability, StageSpec, continue_stage
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.structure import Structure
+
+__all__ = ["continue_nnm", "stability", "exact_family", "exact_family_dataset"]
+
+#: Floquet multipliers of the API's branches: fourth-order Magnus steps over a period, any structure.
+DEFAULT_STABILITY = MagnusStability(steps=128, tolerance=1e-4)
+
+
+def continue_nnm(
+    structure: Structure,
+    mode: int = 1,
+    harmonics: int = 40,
+    energy_max: float = 100.0,
+    start_amplitude: float = 0.05,
+    until: dict | None = None,
+    max_truncation: float = 1e-3,
+    pass_resonances: int = 0,
+    continuation: ANMSettings | None = None,
+) -> xr.Dataset:
+    """Continue the regularized NNM ``mode`` of ``structure`` from its linear mode and return its dataset.
+
+    Harmonic balance with ``harmonics`` harmonics and the asymptotic numerical method, one stage from the
+    linear mode of the regularized structure near rest (the first stop's coordinate at
+    ``start_amplitude`` of its gap) until ``until`` (default: the first orbit above ``energy_max``),
+    ending anyway above ``energy_max`` or where the harmonics stop resolving the stop (truncation
+    indicator above ``max_truncation``); branch points located, folds, Floquet multipliers.
+
+    Parameters
+    ----------
+    structure : Structure
+    mode : int
+        Index of the linear mode the branch starts from (1 the lowest).
+    harmonics : int
+        ``H``.
+    energy_max : float
+        The branch ends at the first orbit above this energy.
+    start_amplitude : float
+        In ``(0, 1)``: amplitude of the first stop's coordinate (over its gap) at the start.
+    until : dict, optional
+        A stage condition (:data:`nnmstop.hbm.criteria.CRITERIA`), e.g. ``{"impacts_above": 2}``.
+    max_truncation : float
+        Largest truncation indicator of a stored orbit.
+    pass_resonances : int
+        Internal resonance tongues passed onto the backbone beyond (``docs/methods/tube_resonance.md``).
+    continuation : ANMSettings, optional
+        Series order, tolerance, Newton threshold, steps, points per step.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``energy``, ``frequency``, ``q_cos``/``q_sin(point, dof, harmonic)`` (coordinate ``dof_label``),
+        stop forces, impacts, residuals, located branch points and folds, multipliers; its attribute
+        ``end_reason`` says why it ended.
+
+    Examples
+    --------
+    NNM1 of the paper's oscillator up to its first orbit with impacts, few harmonics:
+
+    >>> from nnmstop import two_dof_structure, continue_nnm
+    >>> nnm1 = continue_nnm(two_dof_structure(), harmonics=20, until={"impacts_above": 0})
+    >>> round(float(nnm1.frequency[0]), 4), int(nnm1.impacts_per_period[-1]), nnm1.attrs["end_reason"]
+    (0.1018, 2, 'more than 0 impacts per period')
+    """
+    system = HarmonicBalanceSystem(structure, harmonics)
+    settings = BranchSettings(
+        continuation or ANMSettings(points_per_step=2),
+        max_truncation,
+        DEFAULT_STABILITY,
+        truncation_setting="max_truncation",
+    )
+    stage = StageSpec("api", until or {"energy_above": float(energy_max)}, pass_resonances=pass_resonances)
+    spec = BranchSpec(f"nnm{mode}", mode, start_amplitude, (stage,), energy_max=float(energy_max))
+    return continue_stage(system, settings, spec, 1)
+
+
+def stability(structure: Structure, branch: xr.Dataset, steps: int = 128, tolerance: float = 1e-4) -> xr.Dataset:
+    """Floquet multipliers of the orbits of a branch dataset of ``structure``, recomputed.
+
+    Fourth-order Magnus steps over a period of the variational equation (``steps`` and twice as many,
+    their difference the integration error); an orbit is stable when its largest multiplier modulus is
+    at most ``1 + tolerance``.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``multiplier_real``, ``multiplier_imag(point, multiplier)``, ``max_multiplier``, ``stable``,
+        ``stability_error``, ``stability_resolved``.
+
+    Examples
+    --------
+    >>> from nnmstop import two_dof_structure, continue_nnm, stability
+    >>> s = two_dof_structure()
+    >>> verdicts = stability(s, continue_nnm(s, harmonics=10, energy_max=0.05), steps=64)
+    >>> bool(verdicts.stable.all())  # NNM1 below grazing: linear, stable
+    True
+    """
+    from nnmstop.hbm.dataset import dataset_unknowns
+    from nnmstop.hbm.structure_stability import structure_stability
+
+    system = HarmonicBalanceSystem(structure, int(branch.attrs["harmonics"]), basis=str(branch.attrs["basis"]))
+    verdicts = structure_stability(system, dataset_unknowns(branch, system), steps=steps, tolerance=tolerance)
+    return xr.Dataset(verdicts.data_vars(), coords={"point": branch["point"].values})
+
+
+def exact_family_dataset(structure: Structure, family) -> xr.Dataset:
+    """Labelled dataset of a one-stop exact family (:func:`nnmstop.exact.ndof.follow_one_stop_family`)."""
+    one = {"units": "1"}
+    ds = xr.Dataset(
+        {
+            "energy": ("orbit", family.energy, {"long_name": "total energy of the non-smooth model", **one}),
+            "frequency": (
+                "orbit",
+                family.frequency,
+                {"long_name": "frequency 1/T in Hz of the nondimensional time", "units": "Hz"},
+            ),
+            "contact_time": (
+                "orbit",
+                family.contact_time,
+                {"long_name": "contact duration of the quarter period", **one},
+            ),
+            "x_max": ("orbit", family.x_max, {"long_name": "largest displacement at the stop over its gap", **one}),
+            "initial_velocity": (
+                ("orbit", "dof"),
+                family.initial_velocity,
+                {"long_name": "velocities at q = 0 (start of the orbit)", **one},
+            ),
+        },
+        coords={
+            "orbit": ("orbit", np.arange(len(family)), {"long_name": "index of the orbit along the family", **one}),
+            "dof": ("dof", np.arange(structure.n_dofs), {"long_name": "index of the degree of freedom", **one}),
+            "dof_label": (
+                "dof",
+                np.array(structure.dof_labels, dtype=str),
+                {"long_name": "name of the degree of freedom", **one},
+            ),
+        },
+    )
+    ds.attrs = {
+        **structure.attributes,
+        "dofs": structure.n_dofs,
+        "stops": len(structure.stops),
+        "mode": 1,
+        "start": family.start,
+        "end_reason": family.end_reason,
+    }
+    return ds
+
+
+def exact_family(structure: Structure, step: float = 0.02, max_points: int = 2000) -> xr.Dataset:
+    """The exact NNM1 of the non-smooth structure with one impact per stop side per period.
+
+    Closed-form phases (matrix exponentials of the 2N first-order system) from the grazing orbit of the
+    first linear mode, continued by pseudo-arclength until an assumption of the family fails (its
+    ``end_reason``); :mod:`nnmstop.exact.ndof`, ``docs/methods/exact_ndof.md``.
+
+    Examples
+    --------
+    >>> from nnmstop import two_dof_structure, exact_family
+    >>> family = exact_family(two_dof_structure(), step=0.1, max_points=20)
+    >>> round(float(family.frequency[0]), 4)  # the grazing orbit: the no-contact linear mode, 0.618 rad
+    0.0984
+    """
+    from nnmstop.exact.ndof import follow_one_stop_family
+
+    return exact_family_dataset(structure, follow_one_stop_family(structure, step=step, max_points=max_points))
