@@ -31,6 +31,7 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/exact.smk"
 include: "workflow/rules/hbm.smk"
 include: "workflow/rules/compare.smk"
+include: "workflow/rules/structure.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/study.smk"
 

@@ -50,7 +50,7 @@ def validate_config(config: dict) -> dict:
     if errors:
         first = errors[0]
         raise ConfigError(f"config key '{_key_path(first)}': {first.message}")
-    model = config["model"]
+    model = config.get("model", {"alpha": 1.0, "eta": 0.0})
     if model["eta"] >= model["alpha"]:
         raise ConfigError(
             f"config key 'model.eta': {model['eta']} must be smaller than model.alpha = {model['alpha']} "

@@ -239,8 +239,11 @@ def test_bad_attributes_and_values_are_refused(synthetic):
         regime_error_dataset(exact_ds, negative)
     far = regularized.copy(deep=True)
     far["energy"].values[:] = far["energy"].values * 1e3
-    with pytest.raises(ValueError, match="nothing to compare"):
-        regime_error_dataset(exact_ds, far)
+    empty = regime_error_dataset(exact_ds, far)  # no regime compared: said, not filled with NaN
+    assert (
+        empty.sizes["regime"] == 0 and empty.attrs["skipped"] == 1 and "nothing to compare" in empty.attrs["end_reason"]
+    )
+    assert empty.attrs["matched_points"] == 0 and empty.attrs["unmatched_points"] == far.sizes["point"]
 
 
 def test_pipeline_task_writes_the_dataset_and_its_table(synthetic, tmp_path):

@@ -53,6 +53,22 @@ def task_config(*sections, **parts):
     return config_of_job
 
 
+# --------------------------------------------------------------------------- the structure
+
+
+# The paper's oscillator (two_dof), a finite-element beam or matrices from files (config `structure`): the
+# default target is the paper's figures for the first, the structure's own figures for the others.
+STRUCTURE_KIND = config.get("structure", {}).get("kind", "two_dof")
+
+
+def structure_files(wildcards=None):
+    """The matrix files of a structure of one's own, as inputs of the rules that build it (an edit reruns them)."""
+    if STRUCTURE_KIND != "matrices":
+        return {}
+    spec = config["structure"]["matrices"]
+    return {"mass": spec["mass"], "stiffness": spec["stiffness"]}
+
+
 # --------------------------------------------------------------------------- regularized branches
 
 
@@ -77,9 +93,10 @@ def bifurcated_file(name):
 
 
 def previous_stage(wildcards):
-    """Stage k > 1 of a branch starts from the dataset of stage k - 1."""
+    """Stage k > 1 of a branch starts from the dataset of stage k - 1; the structure's files, if any."""
     stage = int(wildcards.stage)
-    return {"previous": stage_file(wildcards.branch, stage - 1)} if stage > 1 else {}
+    previous = {"previous": stage_file(wildcards.branch, stage - 1)} if stage > 1 else {}
+    return {**previous, **structure_files()}
 
 
 def branch_stages(wildcards):
@@ -88,9 +105,9 @@ def branch_stages(wildcards):
 
 
 def bifurcation_parent(wildcards):
-    """The whole parent branch, on which the branch point of the resonance is looked for."""
+    """The whole parent branch, on which the branch point of the resonance is looked for; the structure's files."""
     spec = config["bifurcations"][wildcards.bifurcation]
-    return {"parent": branch_file(spec["parent"])}
+    return {"parent": branch_file(spec["parent"]), **structure_files()}
 
 
 # --------------------------------------------------------------------------- figures
@@ -123,16 +140,17 @@ def exact_overlay(wildcards):
 
 
 def paper_datasets():
-    """Every dataset behind the paper's figures (the study's measurements are kept apart)."""
+    """Every dataset behind the figures of the default target (the study's measurements are kept apart)."""
     datasets = [
-        rules.exact_two_impacts.output.dataset,
         branch_file("nnm1"),
         branch_file("nnm2"),
-        rules.compare_nnm1.output.dataset,
         *stage_files("nnm1"),
         *stage_files("nnm2"),
         *[bifurcated_file(name) for name in config.get("bifurcations", {})],
     ]
+    if STRUCTURE_KIND != "two_dof":
+        return datasets + [STRUCTURE_DATASETS["exact"], STRUCTURE_DATASETS["comparison"]]
+    datasets += [rules.exact_two_impacts.output.dataset, rules.compare_nnm1.output.dataset]
     # The error per impact regime needs the exact multi-impact NNM1, whose settings section
     # (exact_multi) a configuration may leave out: then there is no such branch to compare.
     if "exact_multi" in config:
@@ -141,8 +159,14 @@ def paper_datasets():
 
 
 def paper_figure_files():
-    """Figs 2-11 of the paper, PDF and PNG of each."""
-    return [path for n in range(2, 12) for path in getattr(rules, f"paper_fig{n:02d}").output]
+    """The figures of the default target, PDF and PNG of each: the paper's Figs 2-11 for its oscillator; for
+    another structure the frequency-energy figures configured under `figures` and the structure's own."""
+    if STRUCTURE_KIND == "two_dof":
+        return [path for n in range(2, 12) for path in getattr(rules, f"paper_fig{n:02d}").output]
+    configured = [n for n in range(5, 12) if f"fig{n:02d}" in config.get("figures", {})]
+    paper = [path for n in configured for path in getattr(rules, f"paper_fig{n:02d}").output]
+    own = expand(rules.structure_figure.output, figure=structure_figure_inputs())
+    return paper + own
 
 
 # --------------------------------------------------------------------------- study
@@ -179,6 +203,11 @@ TUBE_FIGURE_INPUTS = {
     "contact_force": ["nnm1"],
     "exact_vs_regularized": ["nnm1", "exact", "comparison"],
 }
+
+
+def structure_figure_inputs():
+    """Datasets each structure figure of the default target draws (deformed shapes for beams only)."""
+    return {name: keys for name, keys in TUBE_FIGURE_INPUTS.items() if name != "shapes" or STRUCTURE_KIND == "beam"}
 
 
 def tube_file(name):

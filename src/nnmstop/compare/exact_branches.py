@@ -128,43 +128,47 @@ def compare_with_regularized(exact_ds: xr.Dataset, regularized_ds: xr.Dataset) -
     for block in matcher.get_matching_blocks():
         for i in range(block.size):
             cx, ax, bx = runs_x[block.a + i]
-            cr, ar, br = runs_r[block.b + i]
-            ex, fx = e_x[ax:bx], f_x[ax:bx]
-            er, fr = e_r[ar:br], f_r[ar:br]
-            f_exact = _exact_frequency_at(ex, fx, er, fr)
-            keep = np.isfinite(f_exact)
-            err = fr[keep] - f_exact[keep]
-            rel = err / f_exact[keep]
-            n = int(keep.sum())
-            worst = int(np.argmax(np.abs(err))) if n else 0
-            rows.append(
-                {
-                    "impacts": cx,
-                    "exact_sequence": "/".join(dict.fromkeys(seq_x[ax:bx])) if seq_x is not None else "",
-                    "exact_energy": (float(ex.min()), float(ex.max())),
-                    "regularized_energy": (float(er.min()), float(er.max())),
-                    "exact_frequency": (float(fx.min()), float(fx.max())),
-                    "regularized_frequency": (float(fr.min()), float(fr.max())),
-                    "matched": n,
-                    "max_abs_error": float(np.abs(err).max()) if n else np.nan,
-                    "energy_at_max": float(er[keep][worst]) if n else np.nan,
-                    "median_abs_error": float(np.median(np.abs(err))) if n else np.nan,
-                    "mean_error": float(err.mean()) if n else np.nan,
-                    "max_rel_error": float(np.abs(rel).max()) if n else np.nan,
-                    "exact_points": (ax, bx),
-                    "regularized_points": (ar, br),
-                    "unmatched": int(er.size - n),
-                    "points": {
-                        "index": np.arange(ar, br)[keep],
-                        "energy": er[keep],
-                        "frequency": fr[keep],
-                        "exact_frequency": f_exact[keep],
-                        "error": err,
-                        "rel_error": rel,
-                    },
-                }
-            )
+            _, ar, br = runs_r[block.b + i]
+            sequence = "/".join(dict.fromkeys(seq_x[ax:bx])) if seq_x is not None else ""
+            rows.append(_regime_row(cx, sequence, (ax, bx, e_x[ax:bx], f_x[ax:bx]), (ar, br, e_r[ar:br], f_r[ar:br])))
     return rows
+
+
+def _regime_row(impacts: int, sequence: str, exact: tuple, regularized: tuple) -> dict:
+    """The comparison of one paired regime (the row of :func:`compare_with_regularized`)."""
+    ax, bx, ex, fx = exact
+    ar, br, er, fr = regularized
+    f_exact = _exact_frequency_at(ex, fx, er, fr)
+    keep = np.isfinite(f_exact)
+    err = fr[keep] - f_exact[keep]
+    rel = err / f_exact[keep]
+    n = int(keep.sum())
+    worst = int(np.argmax(np.abs(err))) if n else 0
+    return {
+        "impacts": impacts,
+        "exact_sequence": sequence,
+        "exact_energy": (float(ex.min()), float(ex.max())),
+        "regularized_energy": (float(er.min()), float(er.max())),
+        "exact_frequency": (float(fx.min()), float(fx.max())),
+        "regularized_frequency": (float(fr.min()), float(fr.max())),
+        "matched": n,
+        "max_abs_error": float(np.abs(err).max()) if n else np.nan,
+        "energy_at_max": float(er[keep][worst]) if n else np.nan,
+        "median_abs_error": float(np.median(np.abs(err))) if n else np.nan,
+        "mean_error": float(err.mean()) if n else np.nan,
+        "max_rel_error": float(np.abs(rel).max()) if n else np.nan,
+        "exact_points": (ax, bx),
+        "regularized_points": (ar, br),
+        "unmatched": int(er.size - n),
+        "points": {
+            "index": np.arange(ar, br)[keep],
+            "energy": er[keep],
+            "frequency": fr[keep],
+            "exact_frequency": f_exact[keep],
+            "error": err,
+            "rel_error": rel,
+        },
+    }
 
 
 def format_comparison(rows: list) -> str:

@@ -149,8 +149,9 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
     Raises
     ------
     ValueError
-        If a dataset lacks a variable or attribute named above, the two disagree on
-        ``alpha``, ``beta`` or ``delta``, or no regularized orbit has an exact partner.
+        If a dataset lacks a variable or attribute named above or the two disagree on ``alpha``, ``beta``
+        or ``delta``. Where no regularized orbit has an exact partner the dataset has no regime and says so
+        (``skipped``, ``end_reason``).
 
     Examples
     --------
@@ -164,21 +165,38 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
     attrs = _attributes(exact, regularized)
     rows = compare_with_regularized(exact, regularized)
     compared = [row for row in rows if row["matched"] > 0]
+    data, coords = _regime_variables(compared)
+    if points:
+        point_data, point_coords = _point_variables(compared)
+        data.update(point_data)
+        coords.update(point_coords)
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs = {**attrs, **_count_attributes(exact, regularized, rows, compared), "method": METHOD}
     if not compared:
-        raise ValueError(
-            "no regularized orbit lies in the energy range of an exact orbit with the same number of impacts "
-            "per period: nothing to compare"
-        )
-    # A paired regime without any orbit in the exact energy range has no error to report: it is
-    # counted and named in the attributes rather than stored with NaN metrics.
-    no_overlap = [row for row in rows if row["matched"] == 0]
-    unpaired = _unpaired_runs(regularized, rows)
+        # no regularized orbit in the energy range of an exact regime of its impact count: nothing is compared,
+        # and the dataset says so instead of holding NaN metrics
+        ds.attrs.update(skipped=1, end_reason="no regularized orbit lies in the energy range of an exact orbit "
+                        "with the same number of impacts per period: nothing to compare")  # fmt: skip
+    return ds
 
+
+#: How the regimes are compared (global attribute ``method``).
+METHOD = (
+    "Both branches are cut into runs of equal impacts per period (runs of a single orbit dropped), "
+    "paired in branch order (longest common subsequence of the impact counts). At each regularized "
+    "orbit of a paired regime, the exact frequency is interpolated linearly in ln E on the pieces of the "
+    "exact regime monotone in energy that cover its energy, keeping the one of nearest frequency "
+    "(nnmstop.compare.exact_branches.compare_with_regularized, also: python -m "
+    "nnmstop.compare.exact_branches compare)."
+)
+
+
+def _regime_variables(compared: list) -> tuple[dict, dict]:
     data = {}
     for name, (key, long_name, units) in REGIME_VARIABLES.items():
         values = [row[key[0]][key[1]] if isinstance(key, tuple) else row[key] for row in compared]
         if name == "exact_sequence":
-            array = np.array(values, dtype=object)
+            array = np.array(values, dtype=object) if values else np.array([], dtype=str)
         else:
             array = np.array(values, dtype=np.int32 if name in _INTEGER_VARIABLES else float)
         data[name] = ("regime", array, {"long_name": long_name, "units": units})
@@ -189,26 +207,41 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
             {"long_name": "index of the pair of impact regimes, in branch order", "units": "1"},
         ),
     }
-    if points:
-        for name, (key, long_name, units) in POINT_VARIABLES.items():
-            values = np.concatenate([row["points"][key] for row in compared])
-            data[name] = (
-                "point",
-                values.astype(np.int32 if name == "regularized_index" else float),
-                {"long_name": long_name, "units": units},
-            )
-        data["point_regime"] = (
+    return data, coords
+
+
+def _point_variables(compared: list) -> tuple[dict, dict]:
+    data = {}
+    for name, (key, long_name, units) in POINT_VARIABLES.items():
+        values = np.concatenate([row["points"][key] for row in compared]) if compared else np.zeros(0)
+        data[name] = (
             "point",
-            np.concatenate([np.full(row["matched"], k, dtype=np.int32) for k, row in enumerate(compared)]),
-            {"long_name": "index of the regime (dimension regime) of the compared orbit", "units": "1"},
+            values.astype(np.int32 if name == "regularized_index" else float),
+            {"long_name": long_name, "units": units},
         )
-        n_points = int(data["point_regime"][1].size)
-        coords["point"] = (
+    regime = [np.full(row["matched"], k, dtype=np.int32) for k, row in enumerate(compared)]
+    data["point_regime"] = (
+        "point",
+        np.concatenate(regime) if regime else np.zeros(0, dtype=np.int32),
+        {"long_name": "index of the regime (dimension regime) of the compared orbit", "units": "1"},
+    )
+    n_points = int(data["point_regime"][1].size)
+    coords = {
+        "point": (
             "point",
             np.arange(n_points, dtype=np.int32),
             {"long_name": "index of the compared regularized orbit", "units": "1"},
         )
+    }
+    return data, coords
 
+
+def _count_attributes(exact: xr.Dataset, regularized: xr.Dataset, rows: list, compared: list) -> dict:
+    """Point counts, and the regularized regimes without a compared orbit (counted and named, not stored)."""
+    # A paired regime without any orbit in the exact energy range has no error to report: it is
+    # counted and named in the attributes rather than stored with NaN metrics.
+    no_overlap = [row for row in rows if row["matched"] == 0]
+    unpaired = _unpaired_runs(regularized, rows)
     n_regularized = int(regularized.sizes["point"])
     matched = int(sum(row["matched"] for row in compared))
     unpaired_text = [f"{c} impacts per period (regularized points {a}-{b - 1})" for c, a, b in unpaired]
@@ -217,9 +250,7 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
         f"{row['regularized_points'][1] - 1}; outside the energy range of the exact regime)"
         for row in no_overlap
     ]
-    ds = xr.Dataset(data, coords=coords)
-    ds.attrs = {
-        **attrs,
+    return {
         "exact_points": int(exact.sizes["point"]),
         "regularized_points": n_regularized,
         "matched_points": matched,
@@ -229,16 +260,7 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
             + sum(r["regularized_points"][1] - r["regularized_points"][0] for r in no_overlap)
         ),
         "unpaired_regimes": "; ".join(unpaired_text) if unpaired_text else "none",
-        "method": (
-            "Both branches are cut into runs of equal impacts per period (runs of a single orbit dropped), "
-            "paired in branch order (longest common subsequence of the impact counts). At each regularized "
-            "orbit of a paired regime, the exact frequency is interpolated linearly in ln E on the pieces of the "
-            "exact regime monotone in energy that cover its energy, keeping the one of nearest frequency "
-            "(nnmstop.compare.exact_branches.compare_with_regularized, also: python -m "
-            "nnmstop.compare.exact_branches compare)."
-        ),
     }
-    return ds
 
 
 def regime_table(ds: xr.Dataset) -> pd.DataFrame:

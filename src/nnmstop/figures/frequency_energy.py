@@ -175,6 +175,9 @@ def gap_zero_frequencies(ds: xr.Dataset) -> np.ndarray:
     return np.asarray(ds["gap_zero_frequency"].values, dtype=float)
 
 
+_KIND_WORDS = {"beam": "finite-element beam", "matrices": "structure from matrices"}
+
+
 def structure_line(ds: xr.Dataset) -> str:
     """The structure and ``H`` in a line: the paper's parameters, else the degrees of freedom and stops."""
     a = ds.attrs
@@ -187,7 +190,8 @@ def structure_line(ds: xr.Dataset) -> str:
                 ds["stop_dof"].values, ds["stop_gap"].values, ds["stop_stiffness"].values, ds["stop_eta"].values
             )
         )
-        text = f"{int(a.get('dofs', ds.sizes.get('dof', 0)))}-DOF {a.get('structure', 'structure')}; {stops}"
+        kind = _KIND_WORDS.get(a.get("structure"), "structure")
+        text = f"{int(a.get('dofs', ds.sizes.get('dof', 0)))}-DOF {kind}; {stops}"
     if "harmonics" in a:
         text += f", H = {int(a['harmonics'])}"
     return text

@@ -64,57 +64,11 @@ def stability_figure(
     axes = axes[0]
     drawn = set()
     for ax in axes:
-        frequency_energy_axes(ax)
-        for ds, color, marker in ((regularized, REGULARIZED_COLOR, "s"), (exact, EXACT_COLOR, "o")):
-            drawn |= plot_branch(
-                ax, ds, color, lw=0.9 if color == EXACT_COLOR else 2.4, zorder=4 if color == EXACT_COLOR else 3
-            )
-            changes = stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds))
-            if changes:
-                ax.plot(
-                    [c["energy"] for c in changes],
-                    [c["frequency"] for c in changes],
-                    marker,
-                    ms=6,
-                    mfc="none",
-                    mec=color,
-                    mew=1.3,
-                    ls="none",
-                    zorder=5,
-                )
+        drawn |= _branches_with_changes(ax, exact, regularized)
     axes[0].set_title("NNM1, whole branch", fontsize=9)
-    for ax, (lo, hi) in zip(axes[1:], zoom_energy):
-        ax.set_xlim(lo, hi)
-        window = np.concatenate(
-            [
-                ds["frequency"].values[(ds["energy"].values >= lo) & (ds["energy"].values <= hi)]
-                for ds in (exact, regularized)
-            ]
-        )
-        if window.size:
-            pad = 0.05 * (window.max() - window.min())
-            ax.set_ylim(window.min() - pad, window.max() + pad)
-        ax.set_title(f"zoom: energy {lo:g} to {hi:g}", fontsize=9)
-        ax.xaxis.set_minor_formatter(NullFormatter())  # the minor labels of a short log axis collide
-    handles = [
-        Line2D([], [], color=EXACT_COLOR, lw=0.9, label="exact (non-smooth model)"),
-        Line2D(
-            [],
-            [],
-            color=REGULARIZED_COLOR,
-            lw=2.4,
-            label=f"regularized (HBM, eta = {regularized.attrs.get('eta', '?')})",
-        ),
-        Line2D([], [], color="0.3", lw=1.2, label="stable"),
-        Line2D([], [], color="0.3", lw=1.2, ls="--", label="unstable"),
-    ]
-    if "unresolved" in drawn:
-        handles.append(Line2D([], [], color="0.3", lw=1.2, ls=":", label="regularized: no verdict"))
-    handles += [
-        Line2D([], [], marker="o", mfc="none", mec=EXACT_COLOR, ls="none", label="stability change, exact"),
-        Line2D([], [], marker="s", mfc="none", mec=REGULARIZED_COLOR, ls="none", label="stability change, regularized"),
-    ]
-    axes[0].legend(handles=handles, fontsize=7, loc="lower right")
+    for ax, window in zip(axes[1:], zoom_energy):
+        _zoom(ax, window, (exact, regularized))
+    axes[0].legend(handles=_legend(regularized, "unresolved" in drawn), fontsize=7, loc="lower right")
     title = "Floquet stability of NNM1: exact vs regularized"
     if comparison is not None:
         title += (
@@ -124,3 +78,46 @@ def stability_figure(
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def _branches_with_changes(ax, exact: xr.Dataset, regularized: xr.Dataset) -> set:
+    """Both branches, line style by verdict, their stability changes marked; the stability classes drawn."""
+    frequency_energy_axes(ax)
+    drawn = set()
+    for ds, color, marker in ((regularized, REGULARIZED_COLOR, "s"), (exact, EXACT_COLOR, "o")):
+        drawn |= plot_branch(
+            ax, ds, color, lw=0.9 if color == EXACT_COLOR else 2.4, zorder=4 if color == EXACT_COLOR else 3
+        )
+        changes = stability_changes(ds["energy"].values, ds["frequency"].values, verdicts(ds))
+        if changes:
+            e, f = [c["energy"] for c in changes], [c["frequency"] for c in changes]
+            ax.plot(e, f, marker, ms=6, mfc="none", mec=color, mew=1.3, ls="none", zorder=5)
+    return drawn
+
+
+def _zoom(ax, window, datasets) -> None:
+    lo, hi = window
+    ax.set_xlim(lo, hi)
+    inside = [ds["frequency"].values[(ds["energy"].values >= lo) & (ds["energy"].values <= hi)] for ds in datasets]
+    frequency = np.concatenate(inside)
+    if frequency.size:
+        pad = 0.05 * (frequency.max() - frequency.min())
+        ax.set_ylim(frequency.min() - pad, frequency.max() + pad)
+    ax.set_title(f"zoom: energy {lo:g} to {hi:g}", fontsize=9)
+    ax.xaxis.set_minor_formatter(NullFormatter())  # the minor labels of a short log axis collide
+
+
+def _legend(regularized: xr.Dataset, unresolved: bool) -> list:
+    eta = regularized.attrs.get("eta", "?")
+    handles = [
+        Line2D([], [], color=EXACT_COLOR, lw=0.9, label="exact (non-smooth model)"),
+        Line2D([], [], color=REGULARIZED_COLOR, lw=2.4, label=f"regularized (HBM, eta = {eta})"),
+        Line2D([], [], color="0.3", lw=1.2, label="stable"),
+        Line2D([], [], color="0.3", lw=1.2, ls="--", label="unstable"),
+    ]
+    if unresolved:
+        handles.append(Line2D([], [], color="0.3", lw=1.2, ls=":", label="regularized: no verdict"))
+    return handles + [
+        Line2D([], [], marker="o", mfc="none", mec=EXACT_COLOR, ls="none", label="stability change, exact"),
+        Line2D([], [], marker="s", mfc="none", mec=REGULARIZED_COLOR, ls="none", label="stability change, regularized"),
+    ]

@@ -45,6 +45,19 @@ def branch_segments(ds) -> np.ndarray:
     return ds.segment.values
 
 
+#: Where the shapes and contact forces are drawn when no energies are configured: fractions of NNM1's energy
+#: range (in log energy), a scene that follows the branch.
+ENERGY_FRACTIONS = (0.3, 0.6, 0.9)
+
+
+def _energies(ds, spec) -> list:
+    """The configured energies (``energies``), else those at :data:`ENERGY_FRACTIONS` of the branch's range."""
+    if spec.get("energies"):
+        return list(spec["energies"])
+    low, high = float(ds.energy.min()), float(ds.energy.max())
+    return [low ** (1 - r) * high**r for r in ENERGY_FRACTIONS]
+
+
 def _line_segments(ax, x, y, stable, color, label):
     """Stable parts solid, unstable dashed; one legend entry."""
     stable = np.asarray(stable, bool)
@@ -90,6 +103,41 @@ def _resonance_inset(ax, ds, segment, color):
     inset.set_title("over the tongue (segments 0 and 1)", fontsize=6)
 
 
+def _passed_resonances(ax, ds, segment, color) -> None:
+    """The tongues passed, marked with their n:1, and a zoom on the first."""
+    if not ds.passed_resonance_frequency.size:
+        return
+    energy, frequency = ds.passed_resonance_energy.values, ds.passed_resonance_frequency.values
+    ax.plot(energy, frequency, "v", color="tab:purple", ms=6, label="internal resonance passed (tongue)")
+    for e, f, n in zip(energy, frequency, ds.passed_resonance_harmonic.values):
+        ax.annotate(f"{int(n)}:1", (e, f), xytext=(6, -10), textcoords="offset points", fontsize=7, color="tab:purple")
+    _resonance_inset(ax, ds, segment, color)
+
+
+def _located_points(ax, ds) -> None:
+    """Branch points (a located point with a singular ratio of order one apart) and energy folds."""
+    if ds.branch_point_energy.size:
+        # a flagged step where the continuation jumped between two close curves changes the sign of
+        # det [J; t^T] without a branch point: its located point has a singular ratio of order one
+        simple = ds.branch_point_singular_ratio.values < SIMPLE_BRANCH_POINT_RATIO
+        e, f = ds.branch_point_energy.values, ds.branch_point_frequency.values
+        ax.plot(e[simple], f[simple], "kx", ms=6, label="branch point")
+        if not simple.all():
+            label = "sign change of det [J; t] without a branch point"
+            ax.plot(e[~simple], f[~simple], "+", color="0.5", ms=6, label=label)
+    if ds.fold_energy.size:
+        ax.plot(ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=5, label="energy fold")
+
+
+def _linear_lines(ax, ds) -> None:
+    """The branch's linear mode without contact (and the continuous beam's, for a beam)."""
+    mode = int(ds.attrs["mode"])
+    ax.axhline(float(ds.no_contact_frequency.sel(mode=mode)), color="0.4", lw=0.8, ls=":", label="linear, no contact")
+    if "euler_bernoulli_frequency" in ds.attrs and mode <= np.size(ds.attrs["euler_bernoulli_frequency"]):
+        analytical = float(np.atleast_1d(ds.attrs["euler_bernoulli_frequency"])[mode - 1])
+        ax.axhline(analytical, color="0.4", lw=0.8, ls="-.", label="linear, Euler-Bernoulli")
+
+
 def _frequency_energy(fig, data, spec):
     """One panel per NNM (their frequencies differ by a factor of about six), the exact NNM1 on the first."""
     names = sorted(name for name in data if name.startswith("nnm"))
@@ -100,68 +148,12 @@ def _frequency_energy(fig, data, spec):
         segment = branch_segments(ds)
         for k in np.unique(segment):
             part = segment == k
-            _line_segments(
-                ax,
-                ds.energy.values[part],
-                ds.frequency.values[part],
-                ds.stable.values[part],
-                color,
-                f"{name.upper()} regularized (H = {ds.attrs['harmonics']})" if k == segment[0] else None,
-            )
+            label = f"{name.upper()} regularized (H = {ds.attrs['harmonics']})" if k == segment[0] else None
+            _line_segments(ax, ds.energy.values[part], ds.frequency.values[part], ds.stable.values[part], color, label)
         _impact_labels(ax, ds)
-        if "passed_resonance_frequency" in ds and ds.passed_resonance_frequency.size:
-            ax.plot(
-                ds.passed_resonance_energy.values,
-                ds.passed_resonance_frequency.values,
-                "v",
-                color="tab:purple",
-                ms=6,
-                label="internal resonance passed (tongue)",
-            )
-            for energy, frequency, n in zip(
-                ds.passed_resonance_energy.values,
-                ds.passed_resonance_frequency.values,
-                ds.passed_resonance_harmonic.values,
-            ):
-                ax.annotate(
-                    f"{int(n)}:1",
-                    (energy, frequency),
-                    xytext=(6, -10),
-                    textcoords="offset points",
-                    fontsize=7,
-                    color="tab:purple",
-                )
-            _resonance_inset(ax, ds, segment, color)
-        if ds.branch_point_energy.size:
-            # a flagged step where the continuation jumped between two close curves changes the sign of
-            # det [J; t^T] without a branch point: its located point has a singular ratio of order one
-            simple = ds.branch_point_singular_ratio.values < SIMPLE_BRANCH_POINT_RATIO
-            ax.plot(
-                ds.branch_point_energy.values[simple],
-                ds.branch_point_frequency.values[simple],
-                "kx",
-                ms=6,
-                label="branch point",
-            )
-            if not simple.all():
-                ax.plot(
-                    ds.branch_point_energy.values[~simple],
-                    ds.branch_point_frequency.values[~simple],
-                    "+",
-                    color="0.5",
-                    ms=6,
-                    label="sign change of det [J; t] without a branch point",
-                )
-        if ds.fold_energy.size:
-            ax.plot(
-                ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=5, label="energy fold"
-            )
-        mode = int(ds.attrs["mode"])
-        linear = float(ds.no_contact_frequency.sel(mode=mode))
-        ax.axhline(linear, color="0.4", lw=0.8, ls=":", label="linear, no contact")
-        if "euler_bernoulli_frequency" in ds.attrs and mode <= np.size(ds.attrs["euler_bernoulli_frequency"]):
-            analytical = float(np.atleast_1d(ds.attrs["euler_bernoulli_frequency"])[mode - 1])
-            ax.axhline(analytical, color="0.4", lw=0.8, ls="-.", label="linear, Euler-Bernoulli")
+        _passed_resonances(ax, ds, segment, color)
+        _located_points(ax, ds)
+        _linear_lines(ax, ds)
         if name == "nnm1" and "exact" in data:
             exact = data["exact"]
             ax.plot(exact.energy.values, exact.frequency.values, color=EXACT, lw=1.2, label="NNM1 exact (non-smooth)")
@@ -194,12 +186,12 @@ def _deflection(ds, q, s):
 
 def _shapes(fig, data, spec):
     ds = data["nnm1"]
-    energies = spec["energies"]
+    energies = _energies(ds, spec)
     s = np.linspace(0.0, 1.0, 201)
     stop_node = int(np.atleast_1d(ds.attrs["stop_nodes"])[0])
     s_stop = float(ds.node_coordinate.values[stop_node])
     axes = fig.subplots(1, len(energies), sharey=False, squeeze=False)[0]
-    m = 2 * int(spec["shape_samples"] - 1)
+    m = 2 * int(spec.get("shape_samples", 9) - 1)
     for ax, target in zip(axes, energies):
         i = point_at_energy(ds.energy.values, target)
         q, _ = _orbit_samples(ds, i, max(m, 2 * int(ds.attrs["harmonics"]) + 2))
@@ -224,7 +216,7 @@ def _contact_force(fig, data, spec):
     ax = fig.add_subplot(111)
     samples = 8 * int(ds.attrs["harmonics"]) + 8
     t = np.arange(samples) / samples
-    for target in spec["energies"]:
+    for target in _energies(ds, spec):
         i = point_at_energy(ds.energy.values, target)
         _, f = _orbit_samples(ds, i, samples)
         ax.plot(t, f[0], lw=1.0, label=f"E = {ds.energy.values[i]:.3g}")

@@ -185,10 +185,21 @@ def stiff_cases_figure(ds: xr.Dataset):
         if name not in ds.variables:
             raise ValueError(f"the stiff_cases dataset lacks the variable {name!r}")
     fig, axes = plt.subplots(2, 2, figsize=(11.5, 8.0), constrained_layout=True)
-    alphas, etas = ds["alpha"].values, ds["eta"].values
+    _harmonics_needed(axes[0, 0], ds)
+    _exact_solver(axes[0, 1], ds)
+    _error_against_exact(axes[1, 0], ds)
+    _extreme_energies(axes[1, 1], ds)
+    return fig
 
-    # (a) harmonics needed on the alpha x eta grid
-    ax = axes[0, 0]
+
+def _at_top(ax):
+    """Transform of markers at a height in axes units above a data abscissa."""
+    return transforms.blended_transform_factory(ax.transData, ax.transAxes)
+
+
+def _harmonics_needed(ax, ds: xr.Dataset) -> None:
+    """(a) harmonics needed on the alpha x eta grid."""
+    alphas, etas = ds["alpha"].values, ds["eta"].values
     H = ds["harmonics"].values.astype(float)
     shown = np.where(ds["converged"].values, np.log2(np.where(H > 0, H, np.nan)), np.nan)
     ax.imshow(shown.T, origin="lower", cmap="viridis", aspect="auto", vmin=np.log2(16), vmax=np.log2(1024))
@@ -208,9 +219,10 @@ def stiff_cases_figure(ds: xr.Dataset):
     ax.grid(False)
     ax.set_title("(a) harmonics needed for NNM1 stage 1 (guarded continuation)", fontsize=8)
 
-    # (b) exactness of the exact solver
-    ax = axes[0, 1]
-    labels = [f"a={a:g}" for a in alphas]
+
+def _exact_solver(ax, ds: xr.Dataset) -> None:
+    """(b) exactness of the exact solver."""
+    labels = [f"a={a:g}" for a in ds["alpha"].values]
     res = list(ds["exact_relative_residual"].values)
     per = list(ds["exact_periodicity_error"].values)
     for b in ds["beta"].values:
@@ -227,20 +239,16 @@ def stiff_cases_figure(ds: xr.Dataset):
     ax.set_title("(b) exact solver: residuals and periodicity (dotted: machine epsilon)", fontsize=8)
     ax.legend(fontsize=7)
 
-    # (c) error against the exact orbits
-    ax = axes[1, 0]
-    for j, eta in enumerate(etas):
-        err = ds["frequency_error"].values[:, j]
-        ax.plot(alphas, err, "o-", color=_ETA_COLORS[(j + 1) % len(_ETA_COLORS)], label=f"eta = {eta:g}")
+
+def _error_against_exact(ax, ds: xr.Dataset) -> None:
+    """(c) error against the exact orbits."""
+    alphas = ds["alpha"].values
+    for j, eta in enumerate(ds["eta"].values):
+        color = _ETA_COLORS[(j + 1) % len(_ETA_COLORS)]
+        ax.plot(alphas, ds["frequency_error"].values[:, j], "o-", color=color, label=f"eta = {eta:g}")
         for i, a in enumerate(alphas):
             if not ds["converged"].values[i, j]:
-                ax.plot(
-                    a,
-                    0.97,
-                    "x",
-                    color=_ETA_COLORS[(j + 1) % len(_ETA_COLORS)],
-                    transform=transforms.blended_transform_factory(ax.transData, ax.transAxes),
-                )
+                ax.plot(a, 0.97, "x", color=color, transform=_at_top(ax))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("alpha")
@@ -248,30 +256,19 @@ def stiff_cases_figure(ds: xr.Dataset):
     ax.set_title("(c) regularized vs exact NNM1 with the H of (a) (x at the top: not resolved)", fontsize=8)
     ax.legend(fontsize=7)
 
-    # (d) extreme energies
-    ax = axes[1, 1]
+
+def _extreme_energies(ax, ds: xr.Dataset) -> None:
+    """(d) extreme energies."""
     energies = ds["energy"].values
     for k, a in enumerate(ds["energy_alpha"].values):
         per = ds["energy_periodicity_error"].values[:, k]
         freq = np.abs(ds["energy_hbm_frequency_difference"].values[:, k])
         ax.plot(energies, per, "s-", color=_ETA_COLORS[k], label=f"alpha = {a:g}: exact orbit, periodicity error")
-        ax.plot(
-            energies,
-            freq,
-            "o--",
-            color=_ETA_COLORS[k],
-            mfc="none",
-            label=f"alpha = {a:g}: |HBM - exact| / exact frequency",
-        )
+        label = f"alpha = {a:g}: |HBM - exact| / exact frequency"
+        ax.plot(energies, freq, "o--", color=_ETA_COLORS[k], mfc="none", label=label)
         for e, kind in zip(energies, ds["energy_kind"].values[:, k]):
             if kind == "none":
-                ax.plot(
-                    e,
-                    0.97 - 0.05 * k,
-                    "x",
-                    color=_ETA_COLORS[k],
-                    transform=transforms.blended_transform_factory(ax.transData, ax.transAxes),
-                )
+                ax.plot(e, 0.97 - 0.05 * k, "x", color=_ETA_COLORS[k], transform=_at_top(ax))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("energy")
@@ -279,4 +276,3 @@ def stiff_cases_figure(ds: xr.Dataset):
         f"(d) extreme energies (eta = {ds.attrs.get('energy_sweep_eta', '?')}; x: no two-impact orbit)", fontsize=8
     )
     ax.legend(fontsize=6)
-    return fig

@@ -39,6 +39,7 @@ TASK_INDEX = {
     "exact": ("exact_two_impacts", "exact_nnm1"),
     "hbm": ("hbm_stage", "hbm_bifurcated", "hbm_branch"),
     "compare": ("compare_nnm1", "compare_regimes", "compare_stability"),
+    "structure": ("structure_exact", "structure_compare", "structure_figure"),
     "figures": ("regime_error_figure", "stability_figure", *(f"paper_fig{n:02d}" for n in range(2, 12))),
     "study": (
         "study_error_case",

@@ -35,6 +35,24 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 
+def _checked_inputs(config: dict, inputs: dict):
+    """The exact family and NNM1 stage 1, refused when made with other parameters than the configuration's."""
+    exact, branch = read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"])
+    for key in PARAMETER_KEYS:
+        ds = branch if key == "eta" else exact
+        if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-12, atol=0):
+            raise ValueError(
+                f"model.{key} = {config['model'][key]!r} in the configuration but {ds.attrs[key]!r} in "
+                f"{inputs['nnm1'] if ds is branch else inputs['exact']} (stale dataset?)"
+            )
+    if int(branch.attrs["harmonics"]) != int(config["hbm"]["harmonics"]):
+        raise ValueError(
+            f"hbm.harmonics = {config['hbm']['harmonics']!r} in the configuration but {branch.attrs['harmonics']!r} in "
+            f"{inputs['nnm1']} (stale dataset?)"
+        )
+    return exact, branch
+
+
 def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
     """Task of rule ``compare_nnm1``: compare the exact family and regularized NNM1 stage 1; write NetCDF.
 
@@ -58,19 +76,7 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
         if key not in inputs:
             raise ValueError(f"the comparison needs the input {key!r}, got {sorted(inputs)}")
     spec = config["compare"]
-    exact, branch = read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"])
-    for key in PARAMETER_KEYS:
-        ds = branch if key == "eta" else exact
-        if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-12, atol=0):
-            raise ValueError(
-                f"model.{key} = {config['model'][key]!r} in the configuration but {ds.attrs[key]!r} in "
-                f"{inputs['nnm1'] if ds is branch else inputs['exact']} (stale dataset?)"
-            )
-    if int(branch.attrs["harmonics"]) != int(config["hbm"]["harmonics"]):
-        raise ValueError(
-            f"hbm.harmonics = {config['hbm']['harmonics']!r} in the configuration but {branch.attrs['harmonics']!r} in "
-            f"{inputs['nnm1']} (stale dataset?)"
-        )
+    exact, branch = _checked_inputs(config, inputs)
     marked = {label: spec["points"][label] for label in ("a", "b")}
     gap = comparison_gap(exact, branch, spec["end_margin"])
     if gap:

@@ -76,3 +76,7 @@ def study_figure(config, inputs, outputs):
 
     cases = [read_dataset(path) for path in inputs["cases"]]
     draw_study_figure(cases, config["tube"]["figures"], outputs["pdf"])
+
+
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
+TASKS = {f.__name__: f for f in (structure_exact, structure_compare, structure_figure)}
