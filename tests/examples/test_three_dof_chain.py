@@ -30,7 +30,7 @@ def built(tmp_path_factory):
     for name in ("mass.mtx", "stiffness.mtx"):
         shutil.copy(EXAMPLE / name, workdir / name)
     config = yaml.safe_load((EXAMPLE / "config.yaml").read_text())
-    config["hbm"].update(harmonics=16, max_truncation=1e-2, points_per_step=1)
+    config["hbm"].update(harmonics=24, max_truncation=1e-2, points_per_step=1)
     config["branches"]["nnm1"]["stages"][1]["until"] = {"energy_above": 5.0}
     config["branches"]["nnm2"]["stages"][0]["until"] = {"energy_above": 5.0}
     config["stability"]["steps"] = 64
@@ -63,8 +63,10 @@ def test_the_chain_branches_start_at_their_linear_modes(built):
     with xr.open_dataset(built / "results" / "exact" / "nnm1_one_impact.nc") as exact:
         assert float(exact.frequency[0]) == pytest.approx(2 * np.sin(np.pi / 14) / (2 * np.pi), rel=1e-9)
     with xr.open_dataset(built / "results" / "compare" / "nnm1_one_impact.nc") as comparison:
-        # the regularized law softens the impacts by eta / alpha: frequencies within a few per cent
-        assert comparison.sizes["energy"] >= 2 and float(np.abs(comparison.relative_difference).max()) < 0.05
+        # one impact per stop side: the regularized law (eta / alpha = 1/300) moves the frequency by a few per mil
+        # (the paper's oscillator: 2.8e-3 at most); near grazing and past the exact family's end the two branches
+        # are not the same orbits, hence the median
+        assert comparison.sizes["energy"] >= 4 and float(np.median(np.abs(comparison.relative_difference))) < 1e-2
 
 
 def test_the_quickstart_runs(tmp_path):
