@@ -1,0 +1,263 @@
+"""Datasets -> the explorer's data: the one module that knows the datasets' layout.
+
+A branch of the explorer is one dataset of a kind listed in :data:`KINDS` (``"regularized"``: an
+HBM branch, whole or switched; ``"exact"``: the exact NNM1 of the non-smooth model). Adding a kind
+of branch is one entry there: a function from the opened dataset to a :class:`Branch` record.
+Everything the page shows comes from the record: per-point columns with their CF ``long_name``
+and ``units``, the Fourier coefficients that the page synthesizes into orbits (float32, harmonics
+that vanish at float32 resolution over the whole branch dropped), the Floquet multipliers, the
+located branch points and folds, and the dataset's path and SHA-256.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["Branch", "ExplorerSettings", "KINDS", "read_manifest", "file_sha256", "extract_branch"]
+
+
+@dataclass(frozen=True)
+class ExplorerSettings:
+    """Settings of the explorer (configuration section ``explorer``).
+
+    Parameters
+    ----------
+    time_samples : int
+        Instants per period at which the page synthesizes an orbit.
+    exact_harmonics : int
+        Harmonics of the cosine series that represent an exact (non-smooth) orbit.
+    """
+
+    time_samples: int = 512
+    exact_harmonics: int = 64
+
+    def __post_init__(self):
+        for name in ("time_samples", "exact_harmonics"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 8:
+                raise ValueError(f"explorer.{name} must be an integer >= 8, got {value!r}")
+
+    @classmethod
+    def from_config(cls, section: dict | None) -> ExplorerSettings:
+        return cls(**(section or {}))
+
+
+@dataclass
+class Branch:
+    """What the page needs of one branch; arrays are numpy arrays indexed by point first."""
+
+    kind: str
+    columns: dict  # name -> array (numbers) or list of str (text), one entry per point
+    meta: dict  # name -> {"long_name", "units"[, "flag_values", "flag_meanings"]}
+    numbers: list  # names of the columns listed for a selected point, in order
+    piece: str  # column whose changes split the curve (stage, segment)
+    orbit: dict  # "harmonics", "omega", "fields": {name: cos coefficients (point, kept harmonic)}, "force"
+    multipliers: dict  # "real", "imag": (point, multiplier)
+    marks: dict = field(default_factory=dict)  # "branch_points"/"folds": {"energy", "frequency"}
+    attrs: dict = field(default_factory=dict)  # identification and model parameters
+
+
+def read_manifest(path) -> dict:
+    """``results/MANIFEST.sha256`` as ``{relative path: sha256}`` (``sha256sum`` format)."""
+    entries = {}
+    for number, line in enumerate(Path(path).read_text().splitlines(), start=1):
+        if not line.strip():
+            continue
+        digest, _, name = line.partition("  ")
+        if len(digest) != 64 or not name:
+            raise ValueError(f"{path}:{number}: not a sha256sum line: {line!r}")
+        entries[name.strip()] = digest
+    return entries
+
+
+def file_sha256(path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _meta(ds: xr.Dataset, name: str) -> dict:
+    attrs = ds[name].attrs
+    out = {"long_name": str(attrs.get("long_name", name)), "units": str(attrs.get("units", ""))}
+    if "flag_values" in attrs and "flag_meanings" in attrs:
+        out["flag_values"] = [int(v) for v in np.atleast_1d(attrs["flag_values"])]
+        out["flag_meanings"] = str(attrs["flag_meanings"]).split()
+    return out
+
+
+def _columns(ds: xr.Dataset, names) -> tuple[dict, dict]:
+    columns, meta = {}, {}
+    for name in names:
+        if name not in ds:
+            continue
+        values = ds[name].values
+        columns[name] = [str(v) for v in values] if values.dtype.kind in "US" else values
+        meta[name] = _meta(ds, name)
+    return columns, meta
+
+
+def _kept_harmonics(fields: dict) -> np.ndarray:
+    """Harmonics not zero at float32 resolution in some field: largest |coefficient| over the branch
+    above 2^-24 times the field's largest coefficient."""
+    keep = np.zeros(next(iter(fields.values())).shape[1], dtype=bool)
+    for coefficients in fields.values():
+        peak = np.abs(coefficients).max(axis=0)
+        keep |= peak > np.finfo(np.float32).eps / 2 * peak.max()
+    return np.flatnonzero(keep)
+
+
+def _orbit(fields: dict, omega, force: str, labels: dict) -> dict:
+    kept = _kept_harmonics(fields)
+    return {
+        "labels": labels,
+        "harmonics": kept.astype(np.int32),
+        "omega": np.asarray(omega, dtype=float),
+        "fields": {name: c[:, kept].astype(np.float32) for name, c in fields.items()},
+        "force": force,
+    }
+
+
+def _located(ds: xr.Dataset, energy: str, frequency: str) -> dict:
+    if energy not in ds:
+        return {"energy": np.empty(0), "frequency": np.empty(0)}
+    return {"energy": ds[energy].values, "frequency": ds[frequency].values}
+
+
+def _model(ds: xr.Dataset) -> dict:
+    model = {name: float(ds.attrs[name]) for name in ("alpha", "beta", "delta", "eta") if name in ds.attrs}
+    model["gap"] = 1.0  # the 2-DOF datasets are nondimensional with the gap as unit of length
+    return model
+
+
+_COEFFICIENTS = "cosine Fourier coefficients of "
+
+
+def _labels(ds: xr.Dataset, fields) -> dict:
+    """Axis labels of the orbit's fields from the coefficients' long names, and of the time."""
+    labels = {"t": f"t [{ds['period'].attrs.get('units', '')}]"}
+    for name in fields:
+        long_name = str(ds[f"{name}_cos"].attrs.get("long_name", name)) if f"{name}_cos" in ds else name
+        labels[name] = long_name.removeprefix(_COEFFICIENTS)
+    return labels
+
+
+REGULARIZED_NUMBERS = (
+    "energy", "frequency", "x_max", "u_max", "impacts_per_period", "algebraic_residual", "time_residual",
+    "truncation", "stable", "stability_reason", "max_multiplier", "stage",
+)  # fmt: skip
+
+
+def regularized_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
+    """An HBM branch dataset (``results/hbm/<branch>.nc``, ``results/hbm/bifurcated/<name>.nc``)."""
+    fields = {}
+    for name in ("x", "u", "f"):
+        if np.any(ds[f"{name}_sin"].values != 0.0):
+            raise ValueError(f"{ds.attrs.get('id')}: {name}_sin is not zero; the explorer reads cosine-basis branches")
+        fields[name] = ds[f"{name}_cos"].values
+    columns, meta = _columns(ds, REGULARIZED_NUMBERS)
+    return Branch(
+        kind="regularized",
+        columns=columns,
+        meta=meta,
+        numbers=list(columns),
+        piece="stage",
+        orbit=_orbit(fields, np.sqrt(ds["omega_squared"].values), "coefficients", _labels(ds, fields)),
+        multipliers={"real": ds["multiplier_real"].values, "imag": ds["multiplier_imag"].values},
+        marks={
+            "branch_points": _located(ds, "branch_point_energy", "branch_point_frequency"),
+            "folds": _located(ds, "fold_energy", "fold_frequency"),
+        },
+        attrs={"model": _model(ds)},
+    )
+
+
+EXACT_NUMBERS = (
+    "energy", "frequency", "x_max", "impacts_per_period", "phase_sequence", "residual", "validity_margin",
+    "stable", "multiplier_modulus", "segment",
+)  # fmt: skip
+
+
+def exact_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
+    """The exact NNM1 (``results/exact/nnm1.nc``): orbits rebuilt in closed form from the stored start
+    velocities and phase sequences (:mod:`nnmstop.explorer.exact_orbits`)."""
+    from nnmstop.exact.problem import SequenceProblem
+    from nnmstop.explorer.exact_orbits import orbit_coefficients, orbit_unknowns
+    from nnmstop.models.two_dof import ModelParameters
+
+    model = _model(ds)
+    params = ModelParameters(alpha=model["alpha"], beta=model["beta"], delta=model["delta"])
+    sequences = ds["phase_sequence"].values if "phase_sequence" in ds else np.full(ds.sizes["point"], "FR")
+    xdot0, udot0, period = (ds[name].values for name in ("xdot0", "udot0", "period"))
+    problems, x, u = {}, [], []
+    for sequence, a, b, T in zip(sequences, xdot0, udot0, period):
+        problem = problems.setdefault(str(sequence), SequenceProblem(params, str(sequence)))
+        series = orbit_coefficients(problem, orbit_unknowns(problem, a, b, T / 4.0), settings.exact_harmonics)
+        x.append(series["x"])
+        u.append(series["u"])
+    columns, meta = _columns(ds, EXACT_NUMBERS)
+    # the piecewise-linear force has no phase with multipliers stored one by one: the pair is (mu, 1/mu)
+    mu = ds["multiplier_real"].values + 1j * ds["multiplier_imag"].values
+    pair = np.stack([mu, 1.0 / mu], axis=1)
+    return Branch(
+        kind="exact",
+        columns=columns,
+        meta=meta,
+        numbers=list(columns),
+        piece="segment" if "segment" in ds else "",
+        orbit=_orbit(
+            {"x": np.array(x), "u": np.array(u)}, 2.0 * np.pi / period, "piecewise_law",
+            {**_labels(ds, ("x", "u")), "f": "contact force (piecewise-linear law)"},
+        ),
+        multipliers={"real": pair.real, "imag": pair.imag},
+        attrs={"model": model},
+    )
+
+
+#: Kinds of branch the explorer draws: the function that reads a dataset of that kind.
+KINDS: dict[str, Callable[[xr.Dataset, ExplorerSettings], Branch]] = {
+    "regularized": regularized_branch,
+    "exact": exact_branch,
+}
+
+
+def extract_branch(kind: str, path, manifest: dict, settings: ExplorerSettings, root=".") -> dict:
+    """The explorer's record of the dataset ``path`` (relative to ``root``) of kind ``kind``.
+
+    The record holds the dataset's path, SHA-256 and identification (``id``, ``title``, ``source``).
+    A dataset listed in ``manifest`` must have the listed SHA-256 (else the manifest is stale).
+    """
+    if kind not in KINDS:
+        raise ValueError(f"unknown kind of branch {kind!r}; known kinds: {sorted(KINDS)}")
+    path = Path(path)
+    digest = file_sha256(Path(root) / path)
+    listed = manifest.get(path.as_posix())
+    if listed is not None and listed != digest:
+        raise ValueError(f"{path}: SHA-256 {digest} differs from the manifest's {listed}; rebuild the manifest")
+    with xr.open_dataset(Path(root) / path) as ds:
+        ds.load()
+        branch = KINDS[kind](ds, settings)
+        identity = {name: str(ds.attrs.get(name, "")) for name in ("id", "title", "source")}
+    return {
+        "kind": branch.kind,
+        "path": path.as_posix(),
+        "sha256": digest,
+        "in_manifest": listed is not None,
+        **identity,
+        **branch.attrs,
+        "points": len(branch.columns["energy"]),
+        "columns": branch.columns,
+        "meta": branch.meta,
+        "numbers": branch.numbers,
+        "piece": branch.piece,
+        "orbit": branch.orbit,
+        "multipliers": branch.multipliers,
+        "marks": branch.marks,
+    }
