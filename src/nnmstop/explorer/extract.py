@@ -213,7 +213,9 @@ def exact_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
         numbers=list(columns),
         piece="segment" if "segment" in ds else "",
         orbit=_orbit(
-            {"x": np.array(x), "u": np.array(u)}, 2.0 * np.pi / period, "piecewise_law",
+            {"x": np.array(x), "u": np.array(u)},
+            2.0 * np.pi / period,
+            "piecewise_law",
             {**_labels(ds, ("x", "u")), "f": "contact force (piecewise-linear law)"},
         ),
         multipliers={"real": pair.real, "imag": pair.imag},

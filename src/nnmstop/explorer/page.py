@@ -41,7 +41,9 @@ def _packed(array: np.ndarray) -> dict:
     array = np.asarray(array)
     if array.dtype.kind == "b":
         array = array.astype(np.int8)
-    if array.dtype.kind in "iu" and (array.dtype.itemsize > 4 or (array.dtype.kind, array.dtype.itemsize) not in _TYPES):
+    if array.dtype.kind in "iu" and (
+        array.dtype.itemsize > 4 or (array.dtype.kind, array.dtype.itemsize) not in _TYPES
+    ):
         if array.size and (array.min() < -(2**31) or array.max() >= 2**31):
             raise ValueError("integer values beyond int32 cannot be packed")
         array = array.astype(np.int32)
@@ -76,7 +78,9 @@ def plotly_source() -> str:
     text = _package_text(PLOTLY["file"])
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
     if digest != PLOTLY["sha256"]:
-        raise ValueError(f"{PLOTLY['file']} has SHA-256 {digest}, not the pinned {PLOTLY['sha256']} (version {PLOTLY['version']})")
+        raise ValueError(
+            f"{PLOTLY['file']} has SHA-256 {digest}, not the pinned {PLOTLY['sha256']} (version {PLOTLY['version']})"
+        )
     return text
 
 

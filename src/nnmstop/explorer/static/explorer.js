@@ -397,5 +397,5 @@
     document.body.dataset.ready = "true";
   });
 
-  window.explorer = { state: state, branches: branches, select: select, orbitOf: orbitOf, partnerOf: partnerOf };
+  window.explorer = { state: state, branches: branches, samples: samples, select: select, orbitOf: orbitOf, partnerOf: partnerOf };
 })();
