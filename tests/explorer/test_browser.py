@@ -9,7 +9,6 @@ test's temporary folder).
 from __future__ import annotations
 
 import os
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -17,50 +16,20 @@ import pytest
 import xarray as xr
 
 from nnmstop import fourier
-
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-# The flags of the machine notes: no background traffic, no sandbox (root in CI), no GPU.
-ARGS = [
-    "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-    "--no-first-run", "--disable-sync", "--disable-quic",
-]  # fmt: skip
-
-
-def _missing() -> str | None:
-    if CHROMIUM is None:
-        return "no Chromium installed (Debian: apt-get install -y chromium)"
-    try:
-        import playwright.sync_api  # noqa: F401
-    except ImportError:
-        return "the Python playwright client is not installed (environment.lock)"
-    return None
+from nnmstop.explorer.browser import missing_browser, open_page
 
 
 @pytest.fixture(scope="module")
-def browser_page(small_build, tmp_path_factory):
+def browser_page(request):
     """The small build's explorer opened at 1280 x 800, with its console messages and requests."""
-    reason = _missing()
+    reason = missing_browser()
     if reason:
         if os.environ.get("NNMSTOP_REQUIRE_BROWSER") == "1":
             pytest.fail(f"NNMSTOP_REQUIRE_BROWSER=1 but {reason}")
         pytest.skip(reason)
-    from playwright.sync_api import sync_playwright
-
-    profile = tmp_path_factory.mktemp("chromium_profile")
-    with sync_playwright() as playwright:
-        context = playwright.chromium.launch_persistent_context(
-            str(profile), executable_path=CHROMIUM, args=ARGS, headless=True, viewport={"width": 1280, "height": 800}
-        )
-        page = context.new_page()
-        log = {"console": [], "requests": []}
-        page.on("console", lambda message: log["console"].append((message.type, message.text)))
-        page.on("pageerror", lambda error: log["console"].append(("pageerror", str(error))))
-        page.on("request", lambda request: log["requests"].append(request.url))
-        url = (small_build / "dist/explorer.html").resolve().as_uri()
-        page.goto(url)
-        page.wait_for_selector("body[data-ready=true]", timeout=60_000)
-        yield page, log, url
-        context.close()
+    small_build = request.getfixturevalue("small_build")  # built only where the browser can open it
+    with open_page(small_build / "dist/explorer.html") as opened:
+        yield opened
 
 
 def shown(page, name: str) -> tuple[str, float]:
@@ -97,7 +66,7 @@ def test_loads_offline_with_no_console_error(browser_page):
     assert [m for m in log["console"] if m[0] in ("error", "pageerror")] == []
     assert set(log["requests"]) == {url}  # the page itself, nothing fetched
     assert page.locator("#fep .scatterlayer .trace").count() > 5
-    assert page.evaluate("window.explorer.state.firstRender") > 0
+    assert page.evaluate("window.explorer.timings.ready") > 0
 
 
 def test_clicked_nnm1_point_shows_its_dataset_values(browser_page, small_build):

@@ -7,8 +7,10 @@
   "use strict";
   const S = window.Synthesis;
   const V = window.Views;
-  const started = performance.now();
+  // milliseconds since the navigation started (performance.now's origin): script start, data decoded, plot drawn, ready
+  const timings = { scriptStart: performance.now() };
   const data = S.unpackAll(JSON.parse(document.getElementById("explorer-data").textContent));
+  timings.dataDecoded = performance.now();
   const branches = data.branches;
   const samples = data.settings.time_samples;
   const state = { branch: 0, point: 0, shown: null, overlay: true, selectionTrace: 0, traceBranch: [] };
@@ -390,12 +392,13 @@
 
   describe();
   drawFrequencyEnergy().then(function () {
+    timings.frequencyEnergyDrawn = performance.now();
     wire();
     const start = Math.max(0, branches.findIndex(function (b) { return b.kind === "regularized"; }));
     select(start, Math.floor(branches[start].points / 4));
-    state.firstRender = performance.now() - started;
+    timings.ready = performance.now(); // first render: every view drawn for the first selected orbit
     document.body.dataset.ready = "true";
   });
 
-  window.explorer = { state: state, branches: branches, samples: samples, select: select, orbitOf: orbitOf, partnerOf: partnerOf };
+  window.explorer = { timings: timings, state: state, branches: branches, samples: samples, select: select, orbitOf: orbitOf, partnerOf: partnerOf };
 })();
