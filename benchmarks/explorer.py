@@ -6,8 +6,10 @@
 Opens the page ``--repeat`` times in headless Chromium (a fresh profile each time, so nothing is cached)
 at 1280 x 800 and reads the page's own clock (``window.explorer.timings``, milliseconds since the
 navigation started): script start (HTML and the inlined plotly.js parsed), data decoded, frequency-energy
-plot drawn, and ready (every view drawn for the first selected orbit: the first render). Reports the
-median and the best, the page's size by part, the commit, the machine and its load.
+plot drawn, and ready (every view drawn for the first selected orbit: the first render), and the CPU time
+the renderer spent until ready (Chromium's performance metrics; on a shared machine the wall times grow with
+the load, the CPU times hardly). Reports the median and the best, the page's size by part, the commit,
+the machine and its load.
 """
 
 from __future__ import annotations
@@ -26,16 +28,21 @@ from nnmstop.explorer.browser import find_chromium, open_page
 from timing import check_repeat, emit_report
 
 STEPS = ("scriptStart", "dataDecoded", "frequencyEnergyDrawn", "ready")
+# CPU time of the renderer's main thread and of the whole renderer process until ready: what the first
+# render costs, nearly independent of the other programs that share the machine (wall times are not)
+CPU = ("ThreadTime", "ProcessTime")
 
 
 def render_timings(page_path: Path, repeat: int) -> list[dict]:
     runs = []
     for _ in range(check_repeat(repeat)):
-        with open_page(page_path) as (page, log, _):
+        with open_page(page_path, metrics=True) as (page, log, _):
             errors = [m for m in log["console"] if m[0] in ("error", "pageerror")]
             if errors:
                 raise RuntimeError(f"the page logged errors: {errors}")
-            runs.append(page.evaluate("window.explorer.timings"))
+            run = page.evaluate("window.explorer.timings")
+            run.update({name: 1e3 * log["metrics"][name] for name in CPU})
+            runs.append(run)
     return runs
 
 
@@ -76,7 +83,10 @@ def report(page_path: Path, runs: list[dict]) -> str:
     ]
     for step in STEPS:
         values = [run[step] for run in runs]
-        lines.append(f"| {step} | {statistics.median(values):.0f} | {min(values):.0f} |")
+        lines.append(f"| {step} (wall) | {statistics.median(values):.0f} | {min(values):.0f} |")
+    for name, text in zip(CPU, ("main thread CPU until ready", "renderer process CPU until ready")):
+        values = [run[name] for run in runs]
+        lines.append(f"| {text} | {statistics.median(values):.0f} | {min(values):.0f} |")
     lines += ["", "Size by part:", "", "| part | bytes | share |", "|---|---:|---:|"]
     lines += [f"| {name} | {n} | {100 * n / size:.1f} % |" for name, n in size_parts(page_path)]
     return "\n".join(lines)

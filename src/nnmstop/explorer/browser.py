@@ -38,11 +38,13 @@ def missing_browser() -> str | None:
 
 
 @contextmanager
-def open_page(path, width: int = 1280, height: int = 800, timeout_ms: float = 60_000):
+def open_page(path, width: int = 1280, height: int = 800, timeout_ms: float = 60_000, metrics: bool = False):
     """Open the page ``path`` and wait until it has drawn its first orbit (``body[data-ready=true]``).
 
     Yields ``(page, log, url)``: the Playwright page, ``{"console": [(type, text)], "requests": [url]}``
-    (page errors count as console messages of type ``"pageerror"``) and the page's ``file://`` URL.
+    (page errors count as console messages of type ``"pageerror"``) and the page's ``file://`` URL. With
+    ``metrics``, ``log["metrics"]`` holds Chromium's performance metrics when the page was ready
+    (DevTools ``Performance.getMetrics``: ``ProcessTime`` and ``ThreadTime`` are the renderer's CPU seconds).
     """
     reason = missing_browser()
     if reason:
@@ -61,8 +63,13 @@ def open_page(path, width: int = 1280, height: int = 800, timeout_ms: float = 60
             page.on("console", lambda message: log["console"].append((message.type, message.text)))
             page.on("pageerror", lambda error: log["console"].append(("pageerror", str(error))))
             page.on("request", lambda request: log["requests"].append(request.url))
+            session = context.new_cdp_session(page) if metrics else None
+            if session:
+                session.send("Performance.enable", {"timeDomain": "threadTicks"})
             page.goto(url)
             page.wait_for_selector("body[data-ready=true]", timeout=timeout_ms)
+            if session:
+                log["metrics"] = {m["name"]: m["value"] for m in session.send("Performance.getMetrics")["metrics"]}
             yield page, log, url
         finally:
             context.close()

@@ -226,17 +226,15 @@
       multipliers.push(multipliersOf(partner.branch, partner.point));
     }
     const labels = labelsOf(b);
-    const views = [
-      ["plot-time", V.timeView(orbits, labels)],
-      ["plot-phase", V.phaseView(orbits, labels)],
-      ["plot-modal", V.modalView(orbits, labels, b.model.gap)],
-      ["plot-force-time", V.forceTimeView(orbits, labels)],
-      ["plot-force-x", V.forceDisplacementView(orbits, labels, b.model.alpha, b.model.gap)],
-      ["plot-multipliers", V.multiplierView(multipliers, "")],
-    ];
-    views.forEach(function (v) {
-      Plotly.react(v[0], v[1].data, v[1].layout, CONFIG);
-    });
+    const figure = V.compose([
+      V.timeView(orbits, labels),
+      V.phaseView(orbits, labels),
+      V.modalView(orbits, labels, b.model.gap),
+      V.forceTimeView(orbits, labels),
+      V.forceDisplacementView(orbits, labels, b.model.alpha, b.model.gap),
+      V.multiplierView(multipliers, ""), // sixth panel: its y axis is scale-anchored to x6
+    ]);
+    Plotly.react("orbit-plot", figure.data, figure.layout, CONFIG);
     return { orbit: orbit, partner: partner };
   }
 

@@ -1,6 +1,6 @@
 /*
- * nnmstop explorer: the views of one orbit (Plotly figures). Each function takes the orbits to draw
- * (the selected one first, then an overlaid one) and returns {data, layout} for Plotly.react.
+ * nnmstop explorer: the views of one orbit, drawn as the panels of one Plotly figure (compose). Each view
+ * function takes the orbits to draw (the selected one first, then an overlaid one) and returns a view.
  * An orbit: {label, t, x, u, xdot, udot, f, dash} with arrays over one closed period.
  */
 (function (root) {
@@ -10,20 +10,46 @@
   const U_COLOR = "#c4521b";
   const LAW_COLOR = "#777";
 
-  function layout(title, xTitle, yTitle, extra) {
-    return Object.assign(
-      {
-        title: { text: title, font: { size: 13 }, x: 0.02, xanchor: "left", y: 0.98 },
-        margin: { l: 54, r: 8, t: 26, b: 38 },
-        font: { size: 11 },
-        xaxis: { title: { text: xTitle, standoff: 4 }, zeroline: false, automargin: true },
-        yaxis: { title: { text: yTitle, standoff: 4 }, zeroline: false, automargin: true },
-        showlegend: false,
-        hovermode: "closest",
-        uirevision: title,
-      },
-      extra || {}
-    );
+  /** A view: its traces, title, axis titles and extra axis settings (the panel's axes are set by compose). */
+  function view(data, title, xTitle, yTitle, extra) {
+    return Object.assign({ data: data, title: title, xTitle: xTitle, yTitle: yTitle, xaxis: {}, yaxis: {}, shapes: [] }, extra || {});
+  }
+
+  /** The views as panels of one figure, two per row (one Plotly figure draws much faster than six). */
+  function compose(views) {
+    const rows = Math.ceil(views.length / 2);
+    const layout = {
+      margin: { l: 54, r: 8, t: 22, b: 38 }, font: { size: 11 }, showlegend: false, hovermode: "closest",
+      annotations: [], shapes: [], uirevision: "orbit",
+    };
+    const data = [];
+    views.forEach(function (v, n) {
+      const s = n === 0 ? "" : String(n + 1);
+      const col = n % 2;
+      const row = Math.floor(n / 2);
+      const top = 1 - row / rows - 0.045;
+      const bottom = 1 - (row + 1) / rows + 0.06;
+      layout["xaxis" + s] = Object.assign(
+        { domain: col === 0 ? [0, 0.44] : [0.56, 1], anchor: "y" + s, zeroline: false,
+          title: { text: v.xTitle, standoff: 2, font: { size: 11 } } },
+        v.xaxis
+      );
+      layout["yaxis" + s] = Object.assign(
+        { domain: [bottom, top], anchor: "x" + s, zeroline: false, title: { text: v.yTitle, standoff: 2, font: { size: 11 } } },
+        v.yaxis
+      );
+      layout.annotations.push({
+        text: v.title, xref: "x" + s + " domain", yref: "y" + s + " domain", x: 0, y: 1.01, xanchor: "left", yanchor: "bottom",
+        showarrow: false, font: { size: 13 },
+      });
+      v.shapes.forEach(function (shape) {
+        layout.shapes.push(Object.assign({}, shape, { xref: "x" + s, yref: "y" + s + " domain" }));
+      });
+      v.data.forEach(function (trace) {
+        data.push(Object.assign(trace, { xaxis: "x" + s, yaxis: "y" + s }));
+      });
+    });
+    return { data: data, layout: layout };
   }
 
   function line(x, y, name, color, dash, extra) {
@@ -44,7 +70,7 @@
       data.push(line(o.t, o.x, labels.x + suffix(o, i), X_COLOR, o.dash));
       data.push(line(o.t, o.u, labels.u + suffix(o, i), U_COLOR, o.dash));
     });
-    return { data: data, layout: layout("Time histories over one period", labels.t, labels.x + ", " + labels.u) };
+    return view(data, "Time histories over one period", labels.t, labels.x + ", " + labels.u);
   }
 
   function phaseView(orbits, labels) {
@@ -53,7 +79,7 @@
       data.push(line(o.x, o.xdot, "(" + labels.x + ", d" + labels.x + "/dt)" + suffix(o, i), X_COLOR, o.dash));
       data.push(line(o.u, o.udot, "(" + labels.u + ", d" + labels.u + "/dt)" + suffix(o, i), U_COLOR, o.dash));
     });
-    return { data: data, layout: layout("Phase portraits", "displacement", "velocity") };
+    return view(data, "Phase portraits", "displacement", "velocity");
   }
 
   function modalView(orbits, labels, gap) {
@@ -61,16 +87,16 @@
       return line(o.x, o.u, "modal line" + suffix(o, i), i === 0 ? X_COLOR : "#000", o.dash);
     });
     const stops = [-gap, gap].map(function (g) {
-      return { type: "line", xref: "x", yref: "paper", x0: g, x1: g, y0: 0, y1: 1, line: { color: LAW_COLOR, width: 1.5, dash: "dot" } };
+      return { type: "line", x0: g, x1: g, y0: 0, y1: 1, line: { color: LAW_COLOR, width: 1.5, dash: "dot" } };
     });
-    return { data: data, layout: layout("Modal line with the stops (dotted)", labels.x, labels.u, { shapes: stops }) };
+    return view(data, "Modal line with the stops (dotted)", labels.x, labels.u, { shapes: stops });
   }
 
   function forceTimeView(orbits, labels) {
     const data = orbits.map(function (o, i) {
       return line(o.t, o.f, labels.f + suffix(o, i), i === 0 ? X_COLOR : "#000", o.dash);
     });
-    return { data: data, layout: layout("Contact force over one period", labels.t, labels.f) };
+    return view(data, "Contact force over one period", labels.t, labels.f);
   }
 
   function forceDisplacementView(orbits, labels, alpha, gap) {
@@ -86,7 +112,7 @@
     orbits.forEach(function (o, i) {
       data.push(line(o.x, o.f, "orbit" + suffix(o, i), i === 0 ? X_COLOR : "#000", o.dash));
     });
-    return { data: data, layout: layout("Contact force against " + labels.x, labels.x, labels.f) };
+    return view(data, "Contact force against " + labels.x, labels.x, labels.f);
   }
 
   function multiplierView(multipliers, label) {
@@ -108,14 +134,11 @@
       m.real.concat(m.imag).forEach(function (v) { reach = Math.max(reach, Math.abs(v) * 1.08); });
     });
     reach = Math.min(reach, 50);
-    return {
-      data: data,
-      layout: layout("Floquet multipliers" + (label ? " " + label : ""), "real part", "imaginary part", {
-        xaxis: { range: [-reach, reach], zeroline: false, title: { text: "real part", standoff: 4 } },
-        yaxis: { range: [-reach, reach], scaleanchor: "x", zeroline: false, title: { text: "imaginary part", standoff: 4 } },
-      }),
-    };
+    return view(data, "Floquet multipliers" + (label ? " " + label : ""), "real part", "imaginary part", {
+      xaxis: { range: [-reach, reach] },
+      yaxis: { range: [-reach, reach], scaleanchor: "x6", constrain: "domain" },
+    });
   }
 
-  root.Views = { timeView, phaseView, modalView, forceTimeView, forceDisplacementView, multiplierView };
+  root.Views = { compose, timeView, phaseView, modalView, forceTimeView, forceDisplacementView, multiplierView };
 })(typeof self !== "undefined" ? self : this);
