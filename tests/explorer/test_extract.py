@@ -129,3 +129,36 @@ def test_the_page_is_self_contained(small_build):
         "results/hbm/nnm2.nc",
         "results/exact/nnm1.nc",
     }
+
+
+def generic_layout(ds: xr.Dataset, labels: list, columns: dict) -> xr.Dataset:
+    """The branch ``ds`` in the structure layout (q_cos over point, dof, harmonic; f_cos over point, stop, harmonic)."""
+    q = np.stack([ds[f"{name}_cos"].values if name else np.zeros_like(ds["x_cos"].values) for name in columns], axis=1)
+    out = ds.drop_vars([f"{n}_{p}" for n in ("x", "u", "f", "z") for p in ("cos", "sin")])
+    out["q_cos"] = (("point", "dof", "harmonic"), q, {"long_name": "cosine Fourier coefficients", "units": "1"})
+    out["q_sin"] = (("point", "dof", "harmonic"), np.zeros_like(q))
+    out["f_cos"] = (("point", "stop", "harmonic"), ds["f_cos"].values[:, None], {"units": "1"})
+    out["f_sin"] = (("point", "stop", "harmonic"), np.zeros_like(ds["f_cos"].values[:, None]))
+    out["dof_label"] = ("dof", np.array(labels))
+    return out
+
+
+def test_the_structure_layout_gives_the_same_orbits(small_build):
+    """A branch in the generic layout (labels x, u; or a beam's w<node>, theta<node> with its stop node) gives the
+    page the same coefficients as in the 2-DOF layout."""
+    from nnmstop.explorer.extract import regularized_branch
+
+    ds = xr.open_dataset(small_build / "results/hbm/nnm2.nc").load()
+    reference = regularized_branch(ds, SETTINGS).orbit
+    two_dof = generic_layout(ds, ["x", "u"], ["x", "u"])
+    beam = generic_layout(ds, ["w1", "theta1", "w2", "theta2", "w3"], ["u", "", "x", "", "u"])
+    beam.attrs["stop_nodes"] = "2"
+    for layout in (two_dof, beam):
+        orbit = regularized_branch(layout, SETTINGS).orbit
+        np.testing.assert_array_equal(orbit["harmonics"], reference["harmonics"])
+        for name in ("x", "u", "f"):
+            np.testing.assert_array_equal(orbit["fields"][name], reference["fields"][name])
+    assert regularized_branch(beam, SETTINGS).orbit["labels"]["x"] == "w2"
+    beam.attrs["stop_nodes"] = "7"
+    with pytest.raises(ValueError, match="first stop's degree of freedom"):
+        regularized_branch(beam, SETTINGS)

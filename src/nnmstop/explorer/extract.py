@@ -12,6 +12,7 @@ located branch points and folds, and the dataset's path and SHA-256.
 from __future__ import annotations
 
 import hashlib
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,12 +33,17 @@ class ExplorerSettings:
         Instants per period at which the page synthesizes an orbit.
     exact_harmonics : int
         Harmonics of the cosine series that represent an exact (non-smooth) orbit.
+    tube : bool
+        The workflow's rule also draws the finite-element tube's regularized branches (and builds them).
     """
 
     time_samples: int = 512
     exact_harmonics: int = 64
+    tube: bool = False
 
     def __post_init__(self):
+        if not isinstance(self.tube, bool):
+            raise ValueError(f"explorer.tube must be true or false, got {self.tube!r}")
         for name in ("time_samples", "exact_harmonics"):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 8:
@@ -140,36 +146,71 @@ def _model(ds: xr.Dataset) -> dict:
 _COEFFICIENTS = "cosine Fourier coefficients of "
 
 
-def _labels(ds: xr.Dataset, fields) -> dict:
-    """Axis labels of the orbit's fields from the coefficients' long names, and of the time."""
-    labels = {"t": f"t [{ds['period'].attrs.get('units', '')}]"}
-    for name in fields:
-        long_name = str(ds[f"{name}_cos"].attrs.get("long_name", name)) if f"{name}_cos" in ds else name
-        labels[name] = long_name.removeprefix(_COEFFICIENTS)
-    return labels
+def _time_label(ds: xr.Dataset) -> str:
+    return f"t [{ds['period'].attrs.get('units', '')}]"
 
 
-REGULARIZED_NUMBERS = (
-    "energy", "frequency", "x_max", "u_max", "impacts_per_period", "algebraic_residual", "time_residual",
-    "truncation", "stable", "stability_reason", "max_multiplier", "stage",
-)  # fmt: skip
-
-
-def regularized_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
-    """An HBM branch dataset (``results/hbm/<branch>.nc``, ``results/hbm/bifurcated/<name>.nc``)."""
-    fields = {}
+def _two_dof_fields(ds: xr.Dataset) -> tuple[dict, dict]:
+    """The 2-DOF layout (``x_cos``, ``u_cos``, ``f_cos`` over point, harmonic)."""
+    fields, labels = {}, {"t": _time_label(ds)}
     for name in ("x", "u", "f"):
         if np.any(ds[f"{name}_sin"].values != 0.0):
             raise ValueError(f"{ds.attrs.get('id')}: {name}_sin is not zero; the explorer reads cosine-basis branches")
         fields[name] = ds[f"{name}_cos"].values
+        labels[name] = str(ds[f"{name}_cos"].attrs.get("long_name", name)).removeprefix(_COEFFICIENTS)
+    return fields, labels
+
+
+def _shown_dofs(ds: xr.Dataset, labels: list) -> tuple[int, int]:
+    """The degrees of freedom drawn as x and u: the first stop's, and "u" or else the last translation."""
+    if "x" in labels and "u" in labels:
+        return labels.index("x"), labels.index("u")
+    node = int(np.atleast_1d(ds.attrs.get("stop_nodes", [-1]))[0])
+    if f"w{node}" not in labels:
+        raise ValueError(f"{ds.attrs.get('id')}: cannot tell the first stop's degree of freedom among {labels}")
+    translations = [i for i, label in enumerate(labels) if label.startswith("w")]
+    return labels.index(f"w{node}"), translations[-1]
+
+
+def _generic_fields(ds: xr.Dataset) -> tuple[dict, dict]:
+    """The structure layout (``q_cos`` over point, dof, harmonic with ``dof_label``; ``f_cos`` over point, stop,
+    harmonic): the first stop's degree of freedom as x, a second one as u, the first stop's force as f."""
+    if np.any(ds["q_sin"].values != 0.0) or np.any(ds["f_sin"].values != 0.0):
+        raise ValueError(f"{ds.attrs.get('id')}: q_sin or f_sin is not zero; the explorer reads cosine-basis branches")
+    labels = [str(v) for v in ds["dof_label"].values]
+    x, u = _shown_dofs(ds, labels)
+    fields = {"x": ds["q_cos"].values[:, x], "u": ds["q_cos"].values[:, u], "f": ds["f_cos"].values[:, 0]}
+    names = {"x": labels[x], "u": labels[u], "f": "force of the first stop"}
+    if "node_coordinate" in ds:  # where along the structure: the node of a w<node> label
+        where = {key: re.fullmatch(r"[a-z]+(\d+)", names[key]) for key in ("x", "u")}
+        for key, match in where.items():
+            if match and int(match.group(1)) < ds.sizes["node"]:
+                names[key] += f" at s/L = {float(ds['node_coordinate'][int(match.group(1))]):.3g}"
+    return fields, {"t": _time_label(ds), **names}
+
+
+def _branch_fields(ds: xr.Dataset) -> tuple[dict, dict]:
+    """Coefficients over (point, harmonic) of the fields x, u and f of a regularized branch, and their labels."""
+    return _generic_fields(ds) if "q_cos" in ds else _two_dof_fields(ds)
+
+
+REGULARIZED_NUMBERS = (
+    "energy", "frequency", "x_max", "u_max", "impacts_per_period", "algebraic_residual", "time_residual",
+    "truncation", "stable", "stability_reason", "max_multiplier", "stage", "segment",
+)  # fmt: skip
+
+
+def regularized_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
+    """An HBM branch: ``results/hbm/<branch>.nc``, ``results/hbm/bifurcated/<name>.nc``, ``results/tube/nnm<k>.nc``."""
+    fields, labels = _branch_fields(ds)
     columns, meta = _columns(ds, REGULARIZED_NUMBERS)
     return Branch(
         kind="regularized",
         columns=columns,
         meta=meta,
         numbers=list(columns),
-        piece="stage",
-        orbit=_orbit(fields, np.sqrt(ds["omega_squared"].values), "coefficients", _labels(ds, fields)),
+        piece="stage" if "stage" in ds else "segment" if "segment" in ds else "",
+        orbit=_orbit(fields, np.sqrt(ds["omega_squared"].values), "coefficients", labels),
         multipliers={"real": ds["multiplier_real"].values, "imag": ds["multiplier_imag"].values},
         marks={
             "branch_points": _located(ds, "branch_point_energy", "branch_point_frequency"),
@@ -216,7 +257,7 @@ def exact_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
             {"x": np.array(x), "u": np.array(u)},
             2.0 * np.pi / period,
             "piecewise_law",
-            {**_labels(ds, ("x", "u")), "f": "contact force (piecewise-linear law)"},
+            {"t": _time_label(ds), "x": "x", "u": "u", "f": "contact force (piecewise-linear law)"},
         ),
         multipliers={"real": pair.real, "imag": pair.imag},
         attrs={"model": model},

@@ -381,7 +381,7 @@
     });
     const model = branches[0].model;
     const parameters = Object.keys(model).filter(function (k) { return k !== "gap"; })
-      .map(function (k) { return k + " = " + model[k]; }).join(", ");
+      .map(function (k) { return k + " = " + format(model[k]); }).join(", ");
     document.getElementById("build-info").textContent =
       branches.length + " branches; " + parameters + "; " + (branches[0].source || "");
     document.getElementById("library-info").textContent =
