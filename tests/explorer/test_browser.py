@@ -17,6 +17,7 @@ import xarray as xr
 
 from nnmstop import fourier
 from nnmstop.explorer.browser import missing_browser, open_page
+from nnmstop.explorer.extract import file_sha256
 
 
 @pytest.fixture(scope="module")
@@ -80,6 +81,8 @@ def test_clicked_nnm1_point_shows_its_dataset_values(browser_page, small_build):
     i = state[1]
     assert abs(np.log(energy[i] / energy[target])) < 0.05  # the click landed on the target or a neighbour
 
+    assert page.locator("#value-dataset").inner_text() == "results/hbm/nnm1.nc"
+    assert page.locator("#value-sha256").inner_text() == file_sha256(small_build / "results/hbm/nnm1.nc")
     for name in ("energy", "frequency", "x_max"):
         text, value = shown(page, name)
         assert value == float(ds[name][i])

@@ -117,7 +117,8 @@
     return out;
   }
 
-  function curveTraces(b, bi, first, last, showLegend) {
+  /** Two traces per branch, stable solid and unstable dashed; a gap (null) between stages or segments. */
+  function curveTraces(b) {
     const E = column(b, "energy");
     const f = column(b, "frequency");
     const stable = column(b, "stable");
@@ -125,18 +126,28 @@
     const isStable = function (k) { return !stable || stable[k] === 1; };
     const solid = { x: [], y: [], customdata: [], text: [] };
     const dashed = { x: [], y: [], customdata: [], text: [] };
-    for (let k = first; k < last; k++) {
-      const text = impacts ? "impacts per period: " + impacts[k] : "";
-      const inDashed = !isStable(k) || (k > first && !isStable(k - 1)) || (k + 1 < last && !isStable(k + 1));
-      [[solid, isStable(k)], [dashed, inDashed]].forEach(function (pair) {
-        pair[0].x.push(pair[1] ? E[k] : null);
-        pair[0].y.push(pair[1] ? f[k] : null);
-        pair[0].customdata.push(k);
-        pair[0].text.push(text);
+    runs(b).forEach(function (run) {
+      const first = run[0];
+      const last = run[1];
+      for (let k = first; k < last; k++) {
+        const text = impacts ? "impacts per period: " + impacts[k] : "";
+        const inDashed = !isStable(k) || (k > first && !isStable(k - 1)) || (k + 1 < last && !isStable(k + 1));
+        [[solid, isStable(k)], [dashed, inDashed]].forEach(function (pair) {
+          pair[0].x.push(pair[1] ? E[k] : null);
+          pair[0].y.push(pair[1] ? f[k] : null);
+          pair[0].customdata.push(k);
+          pair[0].text.push(text);
+        });
+      }
+      [solid, dashed].forEach(function (trace) { // the next piece does not join this one
+        trace.x.push(null);
+        trace.y.push(null);
+        trace.customdata.push(null);
+        trace.text.push("");
       });
-    }
+    });
     const hover = b.label + "<br>point %{customdata}<br>E = %{x:.6g}<br>f = %{y:.6g} Hz<br>%{text}<extra></extra>";
-    return [[solid, "solid", showLegend], [dashed, "dash", false]].map(function (spec) {
+    return [[solid, "solid", true], [dashed, "dash", false]].map(function (spec) {
       return Object.assign(spec[0], {
         type: "scatter", mode: "lines", name: b.label + " (" + b.kind + ")", legendgroup: b.label, showlegend: spec[2],
         line: { color: b.color, width: 1.6, dash: spec[1] }, hovertemplate: hover, connectgaps: false,
@@ -179,11 +190,9 @@
     const traces = [];
     state.traceBranch = [];
     branches.forEach(function (b, bi) {
-      runs(b).forEach(function (run, r) {
-        curveTraces(b, bi, run[0], run[1], r === 0).forEach(function (t) {
-          traces.push(t);
-          state.traceBranch.push(bi);
-        });
+      curveTraces(b).forEach(function (t) {
+        traces.push(t);
+        state.traceBranch.push(bi);
       });
     });
     branches.forEach(function (b) {
@@ -259,6 +268,9 @@
     const tbody = document.querySelector("#numbers tbody");
     tbody.replaceChildren();
     row(tbody, "branch", b.label + " (" + b.kind + ")", b.title, "value-branch", bi, "identity");
+    row(tbody, "dataset", b.path, b.in_manifest ? "listed in " + data.manifest : "not in " + data.manifest, "value-dataset",
+      undefined, "identity");
+    row(tbody, "SHA-256", b.sha256, "SHA-256 of the dataset file", "value-sha256", undefined, "identity sha");
     row(tbody, "point", i + " of " + b.points, "index along the branch (0-based)", "value-point", i, "identity");
     b.numbers.forEach(function (name) {
       const meta = b.meta[name];
