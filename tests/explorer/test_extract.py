@@ -159,6 +159,16 @@ def test_the_structure_layout_gives_the_same_orbits(small_build):
         for name in ("x", "u", "f"):
             np.testing.assert_array_equal(orbit["fields"][name], reference["fields"][name])
     assert regularized_branch(beam, SETTINGS).orbit["labels"]["x"] == "w2"
+    chain = generic_layout(
+        ds, ["q0", "q1", "q2"], ["x", "", "u"]
+    )  # a user's structure: stop_dof names the first stop's
+    chain["stop_dof"] = ("stop", np.array([0], dtype=np.int32))
+    chain["stop_gap"] = ("stop", np.array([1.0]))
+    chain["stop_stiffness"] = ("stop", np.array([30.0]))
+    branch = regularized_branch(chain, SETTINGS)
+    for name in ("x", "u", "f"):
+        np.testing.assert_array_equal(branch.orbit["fields"][name], reference["fields"][name])
+    assert branch.attrs["model"]["alpha"] == 30.0 and branch.attrs["model"]["gap"] == 1.0
     beam.attrs["stop_nodes"] = "7"
     with pytest.raises(ValueError, match="first stop's degree of freedom"):
         regularized_branch(beam, SETTINGS)

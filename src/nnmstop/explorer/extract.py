@@ -138,8 +138,11 @@ def _located(ds: xr.Dataset, energy: str, frequency: str) -> dict:
 
 
 def _model(ds: xr.Dataset) -> dict:
+    """Model parameters of the page: the attributes alpha, beta, delta, eta; the first stop's gap and stiffness."""
     model = {name: float(ds.attrs[name]) for name in ("alpha", "beta", "delta", "eta") if name in ds.attrs}
-    model["gap"] = 1.0  # the 2-DOF datasets are nondimensional with the gap as unit of length
+    model["gap"] = float(ds["stop_gap"].values[0]) if "stop_gap" in ds else 1.0  # 2-DOF: the gap is the unit
+    if "stop_stiffness" in ds:
+        model["alpha"] = float(ds["stop_stiffness"].values[0])
     return model
 
 
@@ -162,14 +165,22 @@ def _two_dof_fields(ds: xr.Dataset) -> tuple[dict, dict]:
 
 
 def _shown_dofs(ds: xr.Dataset, labels: list) -> tuple[int, int]:
-    """The degrees of freedom drawn as x and u: the first stop's, and "u" or else the last translation."""
-    if "x" in labels and "u" in labels:
-        return labels.index("x"), labels.index("u")
-    node = int(np.atleast_1d(ds.attrs.get("stop_nodes", [-1]))[0])
-    if f"w{node}" not in labels:
-        raise ValueError(f"{ds.attrs.get('id')}: cannot tell the first stop's degree of freedom among {labels}")
-    translations = [i for i, label in enumerate(labels) if label.startswith("w")]
-    return labels.index(f"w{node}"), translations[-1]
+    """The degrees of freedom drawn as x and u: the first stop's (``stop_dof``, else the label ``x``, else
+    ``w<node>`` of the ``stop_nodes`` attribute), and ``u``, else the last translation ``w...``, else the last
+    other degree of freedom (the far end of a chain)."""
+    if "stop_dof" in ds:
+        x = int(ds["stop_dof"].values[0])
+    elif "x" in labels:
+        x = labels.index("x")
+    else:
+        node = int(np.atleast_1d(ds.attrs.get("stop_nodes", [-1]))[0])
+        if f"w{node}" not in labels:
+            raise ValueError(f"{ds.attrs.get('id')}: cannot tell the first stop's degree of freedom among {labels}")
+        x = labels.index(f"w{node}")
+    others = [i for i in range(len(labels)) if i != x]
+    translations = [i for i in others if labels[i].startswith("w")]
+    u = labels.index("u") if "u" in labels else (translations or others)[-1]
+    return x, u
 
 
 def _generic_fields(ds: xr.Dataset) -> tuple[dict, dict]:
