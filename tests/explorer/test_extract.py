@@ -169,6 +169,16 @@ def test_the_structure_layout_gives_the_same_orbits(small_build):
     for name in ("x", "u", "f"):
         np.testing.assert_array_equal(branch.orbit["fields"][name], reference["fields"][name])
     assert branch.attrs["model"]["alpha"] == 30.0 and branch.attrs["model"]["gap"] == 1.0
+    # sines (a phase shift phi: c_k cos(k phi), -c_k sin(k phi)) are carried where they are not zero
+    k = np.arange(ds.sizes["harmonic"])
+    shifted = chain.copy(deep=True)
+    shifted["q_sin"].values[:] = -shifted["q_cos"].values * np.sin(0.3 * k)
+    shifted["q_cos"].values[:] = shifted["q_cos"].values * np.cos(0.3 * k)
+    orbit = regularized_branch(shifted, SETTINGS).orbit
+    kept = orbit["harmonics"]
+    assert set(orbit["sines"]) == {"x", "u"}  # f has no sines here
+    np.testing.assert_array_equal(orbit["sines"]["x"], shifted["q_sin"].values[:, 0][:, kept].astype(np.float32))
+    np.testing.assert_array_equal(orbit["fields"]["u"], shifted["q_cos"].values[:, 2][:, kept].astype(np.float32))
     beam.attrs["stop_nodes"] = "7"
     with pytest.raises(ValueError, match="first stop's degree of freedom"):
         regularized_branch(beam, SETTINGS)

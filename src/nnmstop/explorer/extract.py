@@ -63,7 +63,9 @@ class Branch:
     meta: dict  # name -> {"long_name", "units"[, "flag_values", "flag_meanings"]}
     numbers: list  # names of the columns listed for a selected point, in order
     piece: str  # column whose changes split the curve (stage, segment)
-    orbit: dict  # "harmonics", "omega", "fields": {name: cos coefficients (point, kept harmonic)}, "force"
+    orbit: (
+        dict  # "harmonics", "omega", "fields"/"sines": {name: coefficients (point, kept harmonic)}, "force", "labels"
+    )
     multipliers: dict  # "real", "imag": (point, multiplier)
     marks: dict = field(default_factory=dict)  # "branch_points"/"folds": {"energy", "frequency"}
     attrs: dict = field(default_factory=dict)  # identification and model parameters
@@ -111,22 +113,24 @@ def _columns(ds: xr.Dataset, names) -> tuple[dict, dict]:
 
 
 def _kept_harmonics(fields: dict) -> np.ndarray:
-    """Harmonics not zero at float32 resolution in some field: largest |coefficient| over the branch
-    above 2^-24 times the field's largest coefficient."""
-    keep = np.zeros(next(iter(fields.values())).shape[1], dtype=bool)
-    for coefficients in fields.values():
-        peak = np.abs(coefficients).max(axis=0)
+    """Harmonics not zero at float32 resolution in some field: largest |coefficient| (cosine or sine) over
+    the branch above 2^-24 times the field's largest coefficient."""
+    keep = np.zeros(next(iter(fields.values()))[0].shape[1], dtype=bool)
+    for cos, sin in fields.values():
+        peak = np.maximum(np.abs(cos).max(axis=0), np.abs(sin).max(axis=0))
         keep |= peak > np.finfo(np.float32).eps / 2 * peak.max()
     return np.flatnonzero(keep)
 
 
 def _orbit(fields: dict, omega, force: str, labels: dict) -> dict:
+    """``fields``: name -> (cos, sin) over (point, harmonic); sines are carried only where some is not zero."""
     kept = _kept_harmonics(fields)
     return {
         "labels": labels,
         "harmonics": kept.astype(np.int32),
         "omega": np.asarray(omega, dtype=float),
-        "fields": {name: c[:, kept].astype(np.float32) for name, c in fields.items()},
+        "fields": {name: cos[:, kept].astype(np.float32) for name, (cos, _) in fields.items()},
+        "sines": {name: sin[:, kept].astype(np.float32) for name, (_, sin) in fields.items() if np.any(sin != 0.0)},
         "force": force,
     }
 
@@ -157,9 +161,7 @@ def _two_dof_fields(ds: xr.Dataset) -> tuple[dict, dict]:
     """The 2-DOF layout (``x_cos``, ``u_cos``, ``f_cos`` over point, harmonic)."""
     fields, labels = {}, {"t": _time_label(ds)}
     for name in ("x", "u", "f"):
-        if np.any(ds[f"{name}_sin"].values != 0.0):
-            raise ValueError(f"{ds.attrs.get('id')}: {name}_sin is not zero; the explorer reads cosine-basis branches")
-        fields[name] = ds[f"{name}_cos"].values
+        fields[name] = (ds[f"{name}_cos"].values, ds[f"{name}_sin"].values)
         labels[name] = str(ds[f"{name}_cos"].attrs.get("long_name", name)).removeprefix(_COEFFICIENTS)
     return fields, labels
 
@@ -186,11 +188,14 @@ def _shown_dofs(ds: xr.Dataset, labels: list) -> tuple[int, int]:
 def _generic_fields(ds: xr.Dataset) -> tuple[dict, dict]:
     """The structure layout (``q_cos`` over point, dof, harmonic with ``dof_label``; ``f_cos`` over point, stop,
     harmonic): the first stop's degree of freedom as x, a second one as u, the first stop's force as f."""
-    if np.any(ds["q_sin"].values != 0.0) or np.any(ds["f_sin"].values != 0.0):
-        raise ValueError(f"{ds.attrs.get('id')}: q_sin or f_sin is not zero; the explorer reads cosine-basis branches")
     labels = [str(v) for v in ds["dof_label"].values]
     x, u = _shown_dofs(ds, labels)
-    fields = {"x": ds["q_cos"].values[:, x], "u": ds["q_cos"].values[:, u], "f": ds["f_cos"].values[:, 0]}
+    q_cos, q_sin = ds["q_cos"].values, ds["q_sin"].values
+    fields = {
+        "x": (q_cos[:, x], q_sin[:, x]),
+        "u": (q_cos[:, u], q_sin[:, u]),
+        "f": (ds["f_cos"].values[:, 0], ds["f_sin"].values[:, 0]),
+    }
     names = {"x": labels[x], "u": labels[u], "f": "force of the first stop"}
     if "node_coordinate" in ds:  # where along the structure: the node of a w<node> label
         where = {key: re.fullmatch(r"[a-z]+(\d+)", names[key]) for key in ("x", "u")}
@@ -265,7 +270,7 @@ def exact_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
         numbers=list(columns),
         piece="segment" if "segment" in ds else "",
         orbit=_orbit(
-            {"x": np.array(x), "u": np.array(u)},
+            {name: (np.array(c), np.zeros_like(np.array(c))) for name, c in (("x", x), ("u", u))},
             2.0 * np.pi / period,
             "piecewise_law",
             {"t": _time_label(ds), "x": "x", "u": "u", "f": "contact force (piecewise-linear law)"},

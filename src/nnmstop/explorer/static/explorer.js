@@ -61,7 +61,8 @@
     const o = b.orbit;
     const omega = o.omega.data[i];
     const field = function (name) {
-      return S.synthesize(S.row(o.fields[name], i), null, o.harmonics.data, samples);
+      const sin = o.sines && o.sines[name] ? S.row(o.sines[name], i) : null;
+      return S.synthesize(S.row(o.fields[name], i), sin, o.harmonics.data, samples);
     };
     const x = field("x");
     const u = field("u");
