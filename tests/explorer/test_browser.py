@@ -128,3 +128,20 @@ def test_screenshot_at_1280_by_800(browser_page, tmp_path):
     page.screenshot(path=str(target))
     assert target.stat().st_size > 20_000
     assert [m for m in log["console"] if m[0] in ("error", "pageerror")] == []
+
+
+def test_overlay_pairs_the_same_nnm_at_the_same_energy(browser_page, small_build):
+    """A regularized NNM1 orbit with impacts is overlaid with an exact NNM1 orbit of as many impacts within 5 % in
+    energy; NNM2 has no exact counterpart, so none."""
+    page, _, _ = browser_page
+    nnm1, nnm2 = (branch_index(page, f"results/hbm/{name}.nc") for name in ("nnm1", "nnm2"))
+    exact = branch_index(page, "results/exact/nnm1.nc")
+    regular = xr.open_dataset(small_build / "results/hbm/nnm1.nc")
+    exact_ds = xr.open_dataset(small_build / "results/exact/nnm1.nc")
+    i = int(np.flatnonzero(regular["impacts_per_period"].values == 2)[-1])
+    partner = page.evaluate("([b, i]) => window.explorer.partnerOf(b, i)", [nnm1, i])
+    assert partner["branch"] == exact
+    j = partner["point"]
+    assert exact_ds["impacts_per_period"].values[j] == 2
+    assert abs(np.log(exact_ds["energy"].values[j] / regular["energy"].values[i])) <= 0.05
+    assert page.evaluate("b => window.explorer.partnerOf(b, 3)", nnm2) is None

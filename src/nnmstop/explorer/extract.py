@@ -68,7 +68,7 @@ class Branch:
     )
     multipliers: dict  # "real", "imag": (point, multiplier)
     marks: dict = field(default_factory=dict)  # "branch_points"/"folds": {"energy", "frequency"}
-    attrs: dict = field(default_factory=dict)  # identification and model parameters
+    attrs: dict = field(default_factory=dict)  # "model" parameters; "family": the NNM (nnm1, ...) it belongs to
 
 
 def read_manifest(path) -> dict:
@@ -232,7 +232,7 @@ def regularized_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
             "branch_points": _located(ds, "branch_point_energy", "branch_point_frequency"),
             "folds": _located(ds, "fold_energy", "fold_frequency"),
         },
-        attrs={"model": _model(ds)},
+        attrs={"model": _model(ds), "family": str(ds.attrs.get("branch", ds.attrs.get("id", "")))},
     )
 
 
@@ -276,7 +276,7 @@ def exact_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
             {"t": _time_label(ds), "x": "x", "u": "u", "f": "contact force (piecewise-linear law)"},
         ),
         multipliers={"real": pair.real, "imag": pair.imag},
-        attrs={"model": model},
+        attrs={"model": model, "family": "nnm1"},  # the exact family starts at the first mode's grazing orbit
     )
 
 

@@ -80,7 +80,8 @@
     return { real: Array.from(S.row(m.real, i)), imag: Array.from(S.row(m.imag, i)), label: branches[bi].label + " #" + i };
   }
 
-  /** The orbit of the other model with the same impacts per period nearest in energy (within 5 %) and frequency. */
+  /** The orbit of the other model's branch of the same NNM with the same impacts per period, nearest in energy
+   * (within 5 %) and frequency. */
   function partnerOf(bi, i) {
     const b = branches[bi];
     const energy = value(b, "energy", i);
@@ -88,7 +89,8 @@
     const impacts = value(b, "impacts_per_period", i);
     let best = null;
     branches.forEach(function (c, ci) {
-      if (c.kind === b.kind) return;
+      // the other model's branch of the same NNM of the same system
+      if (c.kind === b.kind || c.family !== b.family || c.model.alpha !== b.model.alpha || c.model.gap !== b.model.gap) return;
       const E = column(c, "energy");
       const f = column(c, "frequency");
       const n = column(c, "impacts_per_period");
@@ -284,7 +286,7 @@
       "value-x-max-synthesized", drawn.orbit.xMax);
     const p = drawn.partner;
     const text = p ? branches[p.branch].label + " #" + p.point + ", E = " + format(value(branches[p.branch], "energy", p.point))
-      : "none with as many impacts within 5 % in energy";
+      : "none (no orbit of the other model on this NNM with as many impacts within 5 % in energy)";
     row(tbody, "overlaid orbit (dotted)", state.overlay ? text : "off", "the other model's orbit nearest in energy", "value-partner");
     const key = "Solid: " + b.label + " #" + i + (p && state.overlay ? "; dotted: " + text : "") +
       ". Blue: " + labelsOf(b).x + ", orange: " + labelsOf(b).u + ".";
