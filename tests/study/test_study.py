@@ -70,7 +70,9 @@ def exact(config):
 def gathered(small, exact, tmp_path_factory):
     """Every small sweep file written through the pipeline builders, then gathered."""
     root = tmp_path_factory.mktemp("study")
-    exact_path = write_dataset(exact, root / "exact.nc", title="exact", summary="exact family")
+    exact_path = write_dataset(
+        exact, root / "exact.nc", title="exact", summary="exact family", kind="two_impact_family"
+    )
     inputs = {"exact": str(exact_path)}
     cases = er.sweep_cases(small)
     out = {kind: [] for kind in ("cases", "anm_cases", "references")}
