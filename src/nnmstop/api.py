@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from nnmstop.catalogue import describe
 from nnmstop.continuation.anm import ANMSettings
 from nnmstop.hbm.stages import BranchSettings, BranchSpec, MagnusStability, StageSpec, continue_stage
 from nnmstop.hbm.system import HarmonicBalanceSystem
@@ -121,36 +122,22 @@ def stability(structure: Structure, branch: xr.Dataset, steps: int = 128, tolera
 
 
 def exact_family_dataset(structure: Structure, family) -> xr.Dataset:
-    """Labelled dataset of a one-stop exact family (:func:`nnmstop.exact.ndof.follow_one_stop_family`)."""
-    one = {"units": "1"}
+    """Labelled dataset of a one-stop exact family (:func:`nnmstop.exact.ndof.follow_one_stop_family`).
+
+    Long names and units from the variable catalogue (kind ``one_impact_family``).
+    """
     ds = xr.Dataset(
         {
-            "energy": ("orbit", family.energy, {"long_name": "total energy of the non-smooth model", **one}),
-            "frequency": (
-                "orbit",
-                family.frequency,
-                {"long_name": "frequency 1/T in Hz of the nondimensional time", "units": "Hz"},
-            ),
-            "contact_time": (
-                "orbit",
-                family.contact_time,
-                {"long_name": "contact duration of the quarter period", **one},
-            ),
-            "x_max": ("orbit", family.x_max, {"long_name": "largest displacement at the stop over its gap", **one}),
-            "initial_velocity": (
-                ("orbit", "dof"),
-                family.initial_velocity,
-                {"long_name": "velocities at q = 0 (start of the orbit)", **one},
-            ),
+            "energy": ("orbit", family.energy),
+            "frequency": ("orbit", family.frequency),
+            "contact_time": ("orbit", family.contact_time),
+            "x_max": ("orbit", family.x_max),
+            "initial_velocity": (("orbit", "dof"), family.initial_velocity),
         },
         coords={
-            "orbit": ("orbit", np.arange(len(family)), {"long_name": "index of the orbit along the family", **one}),
-            "dof": ("dof", np.arange(structure.n_dofs), {"long_name": "index of the degree of freedom", **one}),
-            "dof_label": (
-                "dof",
-                np.array(structure.dof_labels, dtype=str),
-                {"long_name": "name of the degree of freedom", **one},
-            ),
+            "orbit": np.arange(len(family)),
+            "dof": np.arange(structure.n_dofs),
+            "dof_label": ("dof", np.array(structure.dof_labels, dtype=str)),
         },
     )
     ds.attrs = {
@@ -161,7 +148,7 @@ def exact_family_dataset(structure: Structure, family) -> xr.Dataset:
         "start": family.start,
         "end_reason": family.end_reason,
     }
-    return ds
+    return describe(ds, "one_impact_family")
 
 
 def exact_family(structure: Structure, step: float = 0.02, max_points: int = 2000) -> xr.Dataset:

@@ -144,7 +144,7 @@ def test_a_stage_whose_condition_never_comes_ends_at_its_bound_and_the_next_is_s
     assert second.sizes["point"] == 0 and second.attrs["skipped"] == 1
     assert "stage 1 (never) ended without its condition (more than 40 impacts per period)" in second.attrs["end_reason"]
     check_labelled(second)
-    path = write_dataset(second, tmp_path / "skipped.nc", title="t", summary="s")
+    path = write_dataset(second, tmp_path / "skipped.nc", title="t", summary="s", kind="skipped_branch")
     with xr.open_dataset(path) as back:
         assert back.sizes["point"] == 0 and "skipped" in back.attrs["end_reason"]
     both = combine_stages([first, second])
@@ -173,7 +173,7 @@ def test_unresolved_orbits_end_the_stage_with_the_reason(small_config):
 
 def test_a_corrupted_start_orbit_is_named_with_its_file(small_config, nnm1_stages, tmp_path):
     first, _ = nnm1_stages
-    path = write_dataset(first, tmp_path / "nnm1_stage1.nc", title="t", summary="s")
+    path = write_dataset(first, tmp_path / "nnm1_stage1.nc", title="t", summary="s", kind="nnm_branch")
     corrupted = read_dataset(path)
     corrupted["q_cos"].values[-1, 0, 3] *= 1.0 + 1e-3  # one harmonic of the last orbit off
     with pytest.raises(ValueError, match=r"nnm1_stage1\.nc.*not a point of the branch"):

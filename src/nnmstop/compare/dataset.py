@@ -19,6 +19,7 @@ import logging
 import numpy as np
 import xarray as xr
 
+from nnmstop.catalogue import describe
 from nnmstop.compare.matching import EnergyMatcher, orbit_differences
 from nnmstop.hbm.dataset import ORBIT_COEFFICIENTS, orbit_variables
 
@@ -121,7 +122,7 @@ def comparison_dataset(
         "alignment": ALIGNMENT,
         **{f"point_{label}_energy": float(energies[i]) for label, i in marks.items()},
     }
-    return ds
+    return describe(ds, "exact_vs_regularized")
 
 
 #: How the orbits are matched and aligned (global attributes of the comparison).
@@ -134,60 +135,34 @@ ALIGNMENT = (
     "phase t/T of each orbit, origin on the symmetry axis where both velocities vanish in contact with the stop "
     "x = +1 (exact: t = T1; HBM cosine series: t = 0 or T/2)"
 )
-_ALIGNED = "over the period, on the phase t/T aligned at the turning point in contact"
-_NOT_USED = "(error that interpolation alone would add; not present in this comparison)"
-#: Variables of each matched pair's differences: name, long name, units.
+#: Variables of each matched pair's differences (:func:`~nnmstop.compare.matching.orbit_differences`); long
+#: names and units in the variable catalogue (kind ``exact_vs_regularized``).
 DIFFERENCES = (
-    ("frequency_exact", "frequency 1/T of the exact (non-smooth) orbit", "Hz"),
-    ("frequency_regularized", "frequency omega/(2 pi) of the regularized HBM orbit", "Hz"),
-    ("frequency_difference", "frequency of the regularized orbit minus frequency of the exact orbit", "Hz"),
-    ("relative_frequency_difference", "frequency difference (regularized minus exact) over the exact one", "1"),
-    ("max_x_difference", f"largest |x_regularized - x_exact| {_ALIGNED}", "1"),
-    ("max_u_difference", f"largest |u_regularized - u_exact| {_ALIGNED}", "1"),
-    ("max_xdot_difference", f"largest |xdot_regularized - xdot_exact| {_ALIGNED}", "1"),
-    ("max_udot_difference", f"largest |udot_regularized - udot_exact| {_ALIGNED}", "1"),
-    (
-        "max_force_difference",
-        "largest |f_HBM - f_piecewise(x_exact)|: regularized contact force from its Fourier coefficients vs the "
-        f"piecewise-linear law (Eq. 4) evaluated on the exact orbit, {_ALIGNED}",
-        "1",
-    ),
-    ("x_max_exact", "maximum of x over the exact orbit", "1"),
-    ("u_max_exact", "maximum of |u| over the exact orbit", "1"),
-    ("force_max_exact", "maximum of the piecewise-linear contact force over the exact orbit", "1"),
-    (
-        "regularized_origin_shift",
-        "shift of the time origin of the HBM cosine series, in periods, that puts its turning point in contact "
-        "at t = 0 (0: it is at t = 0; 0.5: at t = T/2)",
-        "1",
-    ),
+    "frequency_exact",
+    "frequency_regularized",
+    "frequency_difference",
+    "relative_frequency_difference",
+    "max_x_difference",
+    "max_u_difference",
+    "max_xdot_difference",
+    "max_udot_difference",
+    "max_force_difference",
+    "x_max_exact",
+    "u_max_exact",
+    "force_max_exact",
+    "regularized_origin_shift",
 )
 #: Variables of each matched pair itself (attributes of :class:`~nnmstop.compare.matching.MatchedOrbits`).
 PAIRS = (
-    ("exact_energy", "total energy of the exact orbit (piecewise model), computed from its unknowns", "1"),
-    ("regularized_energy", "total energy of the regularized HBM orbit (regularized model), period mean", "1"),
-    ("exact_residual", "norm of the quarter-period equations of the exact orbit", "1"),
-    ("regularized_residual", "norm of the HBM residual relative to the norm of the unknowns", "1"),
-    (
-        "interpolation_coefficient_shift",
-        "largest difference between the matched HBM unknowns and their linear interpolation in energy between "
-        f"the neighbouring branch points {_NOT_USED}",
-        "1",
-    ),
-    (
-        "interpolation_frequency_shift",
-        "frequency of the linear interpolation between neighbouring branch points minus frequency of the matched "
-        f"HBM orbit {_NOT_USED}",
-        "Hz",
-    ),
+    "exact_energy",
+    "regularized_energy",
+    "exact_residual",
+    "regularized_residual",
+    "interpolation_coefficient_shift",
+    "interpolation_frequency_shift",
 )
 #: The exact orbit's unknowns, columns of ``MatchedOrbits.exact``.
-EXACT_UNKNOWNS = (
-    ("exact_xdot0", "exact orbit: velocity of x at x = u = 0"),
-    ("exact_udot0", "exact orbit: velocity of u at x = u = 0"),
-    ("exact_tau1", "exact orbit: free-flight duration tau1 of the quarter period"),
-    ("exact_T1", "exact orbit: quarter period T1 (the turning point, t = 0 of the aligned phase)"),
-)
+EXACT_UNKNOWNS = ("exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1")
 
 
 def _matched(matcher: EnergyMatcher, energy: float, phase_samples: int, synthesis_cache: dict):
@@ -208,53 +183,35 @@ def _matched(matcher: EnergyMatcher, energy: float, phase_samples: int, synthesi
     return pair, diff
 
 
-def _column(values, long_name: str, units: str = "1") -> tuple:
-    return ("point", np.asarray(values, dtype=float), {"long_name": long_name, "units": units})
+def _column(values) -> tuple:
+    return "point", np.asarray(values, dtype=float)
 
 
 def _difference_variables(rows, system) -> dict:
-    data = {name: _column([d[name] for _, d in rows], text, units) for name, text, units in DIFFERENCES}
-    data.update({name: _column([getattr(p, name) for p, _ in rows], text, units) for name, text, units in PAIRS})
-    data["regularized_energy_spread"] = _column(
-        [system.diagnostics(p.regularized)["energy_spread"] for p, _ in rows],
-        "relative variation over the period of the energy of the regularized HBM orbit (HBM truncation)",
-    )
+    data = {name: _column([d[name] for _, d in rows]) for name in DIFFERENCES}
+    data.update({name: _column([getattr(p, name) for p, _ in rows]) for name in PAIRS})
+    data["regularized_energy_spread"] = _column([system.diagnostics(p.regularized)["energy_spread"] for p, _ in rows])
     y = np.array([p.exact for p, _ in rows])
-    data.update({name: _column(y[:, j], text) for j, (name, text) in enumerate(EXACT_UNKNOWNS)})
+    data.update({name: _column(y[:, j]) for j, name in enumerate(EXACT_UNKNOWNS)})
     return data
 
 
 def _marked_variable(n: int, marks: dict) -> tuple:
+    """1 at the first labelled point, 2 at the second (the catalogue names them point_a, point_b)."""
     flags = np.zeros(n, dtype=np.int8)
-    labels = list(marks)
-    for j, label in enumerate(labels, start=1):
+    for j, label in enumerate(marks, start=1):
         flags[marks[label]] = j
-    attrs = {
-        "long_name": "labelled point of the paper's Figs 2-4 (0: not labelled)",
-        "units": "1",
-        "flag_values": np.arange(len(labels) + 1, dtype=np.int8),
-        "flag_meanings": " ".join(["none"] + [f"point_{label}" for label in labels]),
-    }
-    return "point", flags, attrs
+    return "point", flags
 
 
 def _coordinates(system, energies) -> dict:
-    one = "1"
     return {
-        "point": ("point", np.arange(len(energies)), {"long_name": "index of the compared energy", "units": one}),
-        "harmonic": (
-            "harmonic",
-            np.arange(system.H + 1),
-            {"long_name": "harmonic number k (0 is the mean)", "units": one},
-        ),
-        "dof": ("dof", np.arange(system.n_dofs), {"long_name": "index of the degree of freedom", "units": one}),
-        "dof_label": (
-            "dof",
-            np.array(system.structure.dof_labels, dtype=str),
-            {"long_name": "name of the degree of freedom", "units": one},
-        ),
-        "stop": ("stop", np.arange(system.n_stops), {"long_name": "index of the stop", "units": one}),
-        "energy": _column(energies, "matched total energy of the exact and regularized orbits"),
+        "point": np.arange(len(energies)),
+        "harmonic": np.arange(system.H + 1),
+        "dof": np.arange(system.n_dofs),
+        "dof_label": ("dof", np.array(system.structure.dof_labels, dtype=str)),
+        "stop": np.arange(system.n_stops),
+        "energy": _column(energies),
     }
 
 
@@ -263,40 +220,14 @@ def empty_comparison_dataset(branch: xr.Dataset, reason: str) -> xr.Dataset:
 
     The exact family and the regularized NNM1 share no energy where both are compared (their monotone parts
     do not overlap, for example where few harmonics stop the regularized branch before grazing): Figs 2-4 say
-    so instead of drawing orbits.
+    so instead of drawing orbits. Kind ``no_comparison`` of the variable catalogue.
     """
-    one = "1"
     empty = np.zeros(0)
-    data = {
-        "frequency_exact": (
-            "point",
-            empty,
-            {"long_name": "frequency 1/T of the exact (non-smooth) orbit", "units": "Hz"},
-        ),
-        "frequency_regularized": (
-            "point",
-            empty,
-            {"long_name": "frequency omega/(2 pi) of the regularized HBM orbit", "units": "Hz"},
-        ),
-        "marked": (
-            "point",
-            np.zeros(0, dtype=np.int8),
-            {
-                "long_name": "labelled point of the paper's Figs 2-4 (0: not labelled)",
-                "units": one,
-                "flag_values": np.arange(1, dtype=np.int8),
-                "flag_meanings": "none",
-            },
-        ),
-    }
-    coords = {
-        "point": ("point", np.arange(0), {"long_name": "index of the compared energy", "units": one}),
-        "energy": (
-            "point",
-            empty,
-            {"long_name": "matched total energy of the exact and regularized orbits", "units": one},
-        ),
-    }
+    data = {"frequency_exact": ("point", empty), "frequency_regularized": ("point", empty)}
+    data["marked"] = ("point", np.zeros(0, dtype=np.int8))
+    coords = {"point": np.arange(0), "energy": ("point", empty)}
     keep = ("structure", "alpha", "beta", "delta", "eta", "dofs", "stops", "harmonics", "time_samples", "basis")
     attrs = {key: branch.attrs[key] for key in keep if key in branch.attrs}
-    return xr.Dataset(data, coords=coords, attrs={**attrs, "skipped": 1, "end_reason": reason})
+    return describe(
+        xr.Dataset(data, coords=coords, attrs={**attrs, "skipped": 1, "end_reason": reason}), "no_comparison"
+    )

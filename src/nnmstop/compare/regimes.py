@@ -23,76 +23,47 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from nnmstop.catalogue import describe
 from nnmstop.compare.exact_branches import compare_with_regularized, impact_runs
 
 __all__ = ["REGIME_VARIABLES", "POINT_VARIABLES", "regime_error_dataset", "regime_table"]
 
 _EXACT_ATTRS = ("alpha", "beta", "delta")
 _REGULARIZED_ATTRS = ("alpha", "beta", "delta", "eta", "harmonics")
-_HZ = "Hz"
 
-#: Variables along ``regime``: name -> (key of a row of ``compare_with_regularized``, long_name, units).
+#: Variables along ``regime``: name -> key of a row of ``compare_with_regularized`` (long names and units in the
+#: variable catalogue, kind ``regime_errors``).
 #: A key ``(name, k)`` takes element ``k`` of a (min, max) range.
 REGIME_VARIABLES = {
-    "impacts_per_period": ("impacts", "number of excursions of x beyond the stops (|x| > 1) per period", "1"),
-    "exact_sequence": (
-        "exact_sequence",
-        "phase sequence(s) of the exact orbits of the regime (F free flight, R/L contact with the stop "
-        "x = 1 / x = -1, over the quarter period; see nnmstop.exact.sequences)",
-        "1",
-    ),
-    "exact_energy_min": (("exact_energy", 0), "lowest energy of the exact regime (non-smooth model)", "1"),
-    "exact_energy_max": (("exact_energy", 1), "highest energy of the exact regime (non-smooth model)", "1"),
-    "regularized_energy_min": (("regularized_energy", 0), "lowest energy of the regularized regime", "1"),
-    "regularized_energy_max": (("regularized_energy", 1), "highest energy of the regularized regime", "1"),
-    "exact_frequency_min": (("exact_frequency", 0), "lowest frequency of the exact regime", _HZ),
-    "exact_frequency_max": (("exact_frequency", 1), "highest frequency of the exact regime", _HZ),
-    "regularized_frequency_min": (("regularized_frequency", 0), "lowest frequency of the regularized regime", _HZ),
-    "regularized_frequency_max": (("regularized_frequency", 1), "highest frequency of the regularized regime", _HZ),
-    "n_matched": ("matched", "number of regularized orbits of the regime compared with the exact branch", "1"),
-    "n_unmatched": (
-        "unmatched",
-        "number of regularized orbits of the regime left out: energy outside every monotone piece of the exact regime",
-        "1",
-    ),
-    "max_abs_frequency_error": (
-        "max_abs_error",
-        "largest |regularized - exact frequency| over the compared orbits of the regime",
-        _HZ,
-    ),
-    "energy_at_max_error": ("energy_at_max", "regularized energy where max_abs_frequency_error occurs", "1"),
-    "median_abs_frequency_error": (
-        "median_abs_error",
-        "median of |regularized - exact frequency| over the compared orbits of the regime",
-        _HZ,
-    ),
-    "mean_frequency_error": (
-        "mean_error",
-        "mean of (regularized - exact frequency) over the compared orbits of the regime",
-        _HZ,
-    ),
-    "max_rel_frequency_error": (
-        "max_rel_error",
-        "largest |regularized - exact frequency| / exact frequency over the compared orbits of the regime",
-        "1",
-    ),
+    "impacts_per_period": "impacts",
+    "exact_sequence": "exact_sequence",
+    "exact_energy_min": ("exact_energy", 0),
+    "exact_energy_max": ("exact_energy", 1),
+    "regularized_energy_min": ("regularized_energy", 0),
+    "regularized_energy_max": ("regularized_energy", 1),
+    "exact_frequency_min": ("exact_frequency", 0),
+    "exact_frequency_max": ("exact_frequency", 1),
+    "regularized_frequency_min": ("regularized_frequency", 0),
+    "regularized_frequency_max": ("regularized_frequency", 1),
+    "n_matched": "matched",
+    "n_unmatched": "unmatched",
+    "max_abs_frequency_error": "max_abs_error",
+    "energy_at_max_error": "energy_at_max",
+    "median_abs_frequency_error": "median_abs_error",
+    "mean_frequency_error": "mean_error",
+    "max_rel_frequency_error": "max_rel_error",
 }
 
 _INTEGER_VARIABLES = ("impacts_per_period", "n_matched", "n_unmatched")
 
-#: Variables along ``point``: name -> (key of ``row["points"]``, long_name, units).
+#: Variables along ``point``: name -> key of ``row["points"]``.
 POINT_VARIABLES = {
-    "regularized_index": ("index", "index of the orbit in the regularized branch dataset (its dimension point)", "1"),
-    "energy": ("energy", "energy of the regularized orbit (the matched energy)", "1"),
-    "frequency": ("frequency", "frequency of the regularized orbit, Hz of the nondimensional time", _HZ),
-    "exact_frequency": (
-        "exact_frequency",
-        "frequency of the exact orbit at the same energy (linear interpolation in ln E on the exact regime; "
-        "of several exact orbits at that energy, the one of nearest frequency)",
-        _HZ,
-    ),
-    "frequency_error": ("error", "regularized minus exact frequency at the regularized energy", _HZ),
-    "relative_frequency_error": ("rel_error", "frequency_error / exact_frequency", "1"),
+    "regularized_index": "index",
+    "energy": "energy",
+    "frequency": "frequency",
+    "exact_frequency": "exact_frequency",
+    "frequency_error": "error",
+    "relative_frequency_error": "rel_error",
 }
 
 
@@ -172,6 +143,7 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
         coords.update(point_coords)
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = {**attrs, **_count_attributes(exact, regularized, rows, compared), "method": METHOD}
+    ds = describe(ds, "regime_errors")
     if not compared:
         # no regularized orbit in the energy range of an exact regime of its impact count: nothing is compared,
         # and the dataset says so instead of holding NaN metrics
@@ -193,18 +165,17 @@ METHOD = (
 
 def _regime_variables(compared: list) -> tuple[dict, dict]:
     data = {}
-    for name, (key, long_name, units) in REGIME_VARIABLES.items():
+    for name, key in REGIME_VARIABLES.items():
         values = [row[key[0]][key[1]] if isinstance(key, tuple) else row[key] for row in compared]
         if name == "exact_sequence":
             array = np.array(values, dtype=object) if values else np.array([], dtype=str)
         else:
             array = np.array(values, dtype=np.int32 if name in _INTEGER_VARIABLES else float)
-        data[name] = ("regime", array, {"long_name": long_name, "units": units})
+        data[name] = ("regime", array)
     coords = {
         "regime": (
             "regime",
             np.arange(len(compared), dtype=np.int32),
-            {"long_name": "index of the pair of impact regimes, in branch order", "units": "1"},
         ),
     }
     return data, coords
@@ -212,25 +183,22 @@ def _regime_variables(compared: list) -> tuple[dict, dict]:
 
 def _point_variables(compared: list) -> tuple[dict, dict]:
     data = {}
-    for name, (key, long_name, units) in POINT_VARIABLES.items():
+    for name, key in POINT_VARIABLES.items():
         values = np.concatenate([row["points"][key] for row in compared]) if compared else np.zeros(0)
         data[name] = (
             "point",
             values.astype(np.int32 if name == "regularized_index" else float),
-            {"long_name": long_name, "units": units},
         )
     regime = [np.full(row["matched"], k, dtype=np.int32) for k, row in enumerate(compared)]
     data["point_regime"] = (
         "point",
         np.concatenate(regime) if regime else np.zeros(0, dtype=np.int32),
-        {"long_name": "index of the regime (dimension regime) of the compared orbit", "units": "1"},
     )
     n_points = int(data["point_regime"][1].size)
     coords = {
         "point": (
             "point",
             np.arange(n_points, dtype=np.int32),
-            {"long_name": "index of the compared regularized orbit", "units": "1"},
         )
     }
     return data, coords

@@ -21,8 +21,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from nnmstop.catalogue import describe
 from nnmstop.compare.exact_branches import compare_with_regularized, monotone_pieces
-from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "REGIME_COLUMNS",
@@ -37,28 +37,25 @@ __all__ = [
 #: Verdict codes along a branch.
 UNSTABLE, STABLE, NO_VERDICT = 0, 1, -1
 
-#: Columns of the regime table: name -> (long_name, units).
-REGIME_COLUMNS = {
-    "impacts_per_period": ("number of excursions of x beyond the stops (|x| > 1) per period", "1"),
-    "exact_sequence": ("phase sequence(s) of the exact orbits of the regime (see nnmstop.exact.sequences)", "1"),
-    "n_compared": ("regularized orbits of the regime with a verdict on both sides at the same energy", "1"),
-    "n_agree": ("compared orbits where the exact and regularized verdicts agree", "1"),
-    "n_both_stable": ("compared orbits stable in both models", "1"),
-    "n_both_unstable": ("compared orbits unstable in both models", "1"),
-    "n_exact_stable_only": ("compared orbits stable in the exact model only", "1"),
-    "n_regularized_stable_only": ("compared orbits stable in the regularized model only", "1"),
-    "n_no_regularized_verdict": ("matched regularized orbits without a verdict (stability_resolved = 0)", "1"),
-    "n_at_exact_change": ("matched regularized orbits whose energy falls at an exact stability change", "1"),
-    "agreement": ("n_agree / n_compared (1 when nothing is compared)", "1"),
-    "disagreement_energies": (
-        "energy intervals (regularized energies, branch order) of consecutive compared orbits whose verdicts differ",
-        "1",
-    ),
-    "n_exact_changes": ("stability changes along the exact regime", "1"),
-    "n_regularized_changes": ("stability changes along the regularized regime (orbits without a verdict skipped)", "1"),
-    "exact_change_energies": ("energies of the exact stability changes (geometric mean of the bracketing orbits)", "1"),
-    "regularized_change_energies": ("energies of the regularized stability changes (same)", "1"),
-}
+#: Columns of the regime table (long names and units in the variable catalogue, kind ``stability_comparison``).
+REGIME_COLUMNS = (
+    "impacts_per_period",
+    "exact_sequence",
+    "n_compared",
+    "n_agree",
+    "n_both_stable",
+    "n_both_unstable",
+    "n_exact_stable_only",
+    "n_regularized_stable_only",
+    "n_no_regularized_verdict",
+    "n_at_exact_change",
+    "agreement",
+    "disagreement_energies",
+    "n_exact_changes",
+    "n_regularized_changes",
+    "exact_change_energies",
+    "regularized_change_energies",
+)
 
 _INTEGER = (
     "impacts_per_period",
@@ -232,50 +229,28 @@ def stability_comparison_dataset(exact_ds: xr.Dataset, regularized_ds: xr.Datase
     if not rows:
         raise ValueError("no impact regime is shared by the exact and regularized branches: nothing to compare")
     data = {}
-    for name, (long_name, units) in REGIME_COLUMNS.items():
+    for name in REGIME_COLUMNS:
         values = [r[name] for r in rows]
         if isinstance(values[0], str):
             array = np.array(values, dtype=object)
         else:
             array = np.array(values, dtype=np.int32 if name in _INTEGER else float)
-        data[name] = ("regime", array, {"long_name": long_name, "units": units})
+        data[name] = ("regime", array)
     change_vars = {
-        "change_regime": ("regime", "index of the regime (dimension regime) of the paired change", np.int32),
-        "change_exact_energy": ("exact_energy", "energy of the exact stability change", float),
-        "change_regularized_energy": ("regularized_energy", "energy of the regularized stability change", float),
-        "change_exact_frequency": ("exact_frequency", "frequency of the exact stability change", float),
-        "change_regularized_frequency": (
-            "regularized_frequency",
-            "frequency of the regularized stability change",
-            float,
-        ),
-        "change_energy_ratio": ("energy_ratio", "regularized over exact energy of the paired change", float),
+        "change_regime": ("regime", np.int32),
+        "change_exact_energy": ("exact_energy", float),
+        "change_regularized_energy": ("regularized_energy", float),
+        "change_exact_frequency": ("exact_frequency", float),
+        "change_regularized_frequency": ("regularized_frequency", float),
+        "change_energy_ratio": ("energy_ratio", float),
     }
-    for name, (key, long_name, dtype) in change_vars.items():
-        units = "Hz" if "frequency" in name else "1"
-        data[name] = (
-            "paired_change",
-            np.array([p[key] for p in pairs], dtype=dtype),
-            {"long_name": long_name, "units": units},
-        )
-    data["change_becomes_stable"] = flag_variable(
+    for name, (key, dtype) in change_vars.items():
+        data[name] = ("paired_change", np.array([p[key] for p in pairs], dtype=dtype))
+    data["change_becomes_stable"] = (
         "paired_change",
-        [p["becomes"] == "stable" for p in pairs],
-        "direction of the change in branch order",
-        "becomes_unstable becomes_stable",
+        np.array([p["becomes"] == "stable" for p in pairs], dtype=np.int8),
     )
-    coords = {
-        "regime": (
-            "regime",
-            np.arange(len(rows), dtype=np.int32),
-            {"long_name": "index of the pair of impact regimes, in branch order", "units": "1"},
-        ),
-        "paired_change": (
-            "paired_change",
-            np.arange(len(pairs), dtype=np.int32),
-            {"long_name": "index of the paired stability change", "units": "1"},
-        ),
-    }
+    coords = {"regime": np.arange(len(rows), dtype=np.int32), "paired_change": np.arange(len(pairs), dtype=np.int32)}
     ds = xr.Dataset(data, coords=coords)
     total = {k: int(sum(r[k] for r in rows)) for k in ("n_compared", "n_agree")}
     ds.attrs = {
@@ -292,7 +267,7 @@ def stability_comparison_dataset(exact_ds: xr.Dataset, regularized_ds: xr.Datase
             "the same number of changes going the same way in the regime (nnmstop.compare.stability)."
         ),
     }
-    return ds
+    return describe(ds, "stability_comparison")
 
 
 def stability_table(ds: xr.Dataset) -> pd.DataFrame:

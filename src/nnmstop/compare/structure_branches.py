@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from nnmstop.catalogue import describe
+
 __all__ = ["first_crossing", "compare_at_energies"]
 
 
@@ -52,24 +54,12 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
     fe = np.array([first_crossing(exact_energy, exact_frequency, e) for e in targets])
     fr = np.array([first_crossing(energy, frequency, e, segment) for e in targets])
     keep = np.isfinite(fe) & np.isfinite(fr)
-    one = {"units": "1"}
-    return xr.Dataset(
+    ds = xr.Dataset(
         {
-            "exact_frequency": (
-                "energy",
-                fe[keep],
-                {"long_name": "frequency of the exact non-smooth orbit", "units": "Hz"},
-            ),
-            "regularized_frequency": (
-                "energy",
-                fr[keep],
-                {"long_name": "frequency of the regularized HBM orbit", "units": "Hz"},
-            ),
-            "relative_difference": (
-                "energy",
-                (fr[keep] - fe[keep]) / fe[keep],
-                {"long_name": "(regularized - exact) / exact frequency", **one},
-            ),
+            "exact_frequency": ("energy", fe[keep]),
+            "regularized_frequency": ("energy", fr[keep]),
+            "relative_difference": ("energy", (fr[keep] - fe[keep]) / fe[keep]),
         },
-        coords={"energy": ("energy", targets[keep], {"long_name": "matched total energy", **one})},
+        coords={"energy": targets[keep]},
     )
+    return describe(ds, "one_impact_comparison")

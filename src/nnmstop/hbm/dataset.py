@@ -24,9 +24,9 @@ import numpy as np
 import xarray as xr
 
 from nnmstop import fourier
+from nnmstop.catalogue import describe
 from nnmstop.continuation.core import Branch, ContinuationError, relative_residual
 from nnmstop.models.structure import limit_modes
-from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "BRANCH_POINT_DIM",
@@ -34,7 +34,8 @@ __all__ = [
     "RESONANCE_DIM",
     "ORBIT_COEFFICIENTS",
     "orbit_variables",
-    "VARIABLES",
+    "branch_kind",
+    "labelled",
     "branch_dataset",
     "skipped_stage_dataset",
     "bifurcated_dataset",
@@ -56,103 +57,10 @@ BRANCH_POINT_DIM = "located_branch_point"
 FOLD_DIM = "located_fold"
 RESONANCE_DIM = "passed_resonance"
 
-#: Long name and units of every variable this module writes (flags and stability come with their own).
-VARIABLES = {
-    "q_cos": ("cosine Fourier coefficients of the degrees of freedom", "1"),
-    "q_sin": ("sine Fourier coefficients of the degrees of freedom", "1"),
-    "f_cos": ("cosine Fourier coefficients of the regularized stop forces (force over gap)", "1"),
-    "f_sin": ("sine Fourier coefficients of the regularized stop forces (force over gap)", "1"),
-    "z_cos": ("cosine Fourier coefficients of the internal variables z = (f/alpha - x)^2 of the stops", "1"),
-    "z_sin": ("sine Fourier coefficients of the internal variables z = (f/alpha - x)^2 of the stops", "1"),
-    "omega_squared": ("squared angular frequency (unknown lambda of the HBM system)", "1"),
-    "unfolding": ("unfolding parameter nu (fictitious damping times omega; zero on periodic orbits)", "1"),
-    "energy": ("total energy of the regularized model (contact potentials included), mean over the period", "1"),
-    "frequency": ("frequency omega/(2 pi) in Hz of the nondimensional time", "Hz"),
-    "period": ("period of the orbit in nondimensional time", "1"),
-    "x_max": ("largest coordinate of the first stop (displacement over its gap) over the period", "1"),
-    "q_max": ("largest value of each degree of freedom over the period", "1"),
-    "impacts_per_period": ("number of excursions beyond the gaps per period, all stops", "1"),
-    "stop_impacts": ("number of excursions beyond the gap per period at each stop", "1"),
-    "algebraic_residual": (
-        "norm of the residual of the HBM algebraic system relative to the norm of the unknowns",
-        "1",
-    ),
-    "time_residual": (
-        "largest residual in time of the equations of the stop degrees of freedom (true cubic root for f) relative "
-        "to the largest restoring force",
-        "1",
-    ),
-    "force_error": (
-        "largest difference between the HBM stop force and the cubic root f(x(t)), relative to max |f|",
-        "1",
-    ),
-    "energy_spread": ("relative variation of the total energy over the period (zero for an exact orbit)", "1"),
-    "truncation": ("share of the mean square of x'' or f carried by the top tenth of the harmonics (largest)", "1"),
-    "step": ("index of the ANM step that produced the point", "1"),
-    "stage": ("continuation stage of the point", "1"),
-    "segment": (
-        "segment of the stage: 0 from its start, k > 0 the backbone beyond the k-th internal resonance tongue passed "
-        "(see passed_resonance_*)",
-        "1",
-    ),
-    "branch_point_energy": ("energy of the located branch point", "1"),
-    "branch_point_frequency": ("frequency of the located branch point", "Hz"),
-    "branch_point_resonance": (
-        "n where the orbit at the branch point has period T/n (n:1 internal resonance), else 0",
-        "1",
-    ),
-    "branch_point_tangent_angle": ("angle between the tangents of the two curves at the branch point", "degree"),
-    "branch_point_singular_ratio": (
-        "smallest over second-smallest singular value of J at the located point (zero at an exact branch point)",
-        "1",
-    ),
-    "branch_point_flagged_point": ("index of the point that ends the ANM step holding the branch point", "1"),
-    "fold_energy": (
-        "energy at the fold (local extremum along the branch), parabola through the three nearest points",
-        "1",
-    ),
-    "fold_frequency": ("frequency at the fold, same parabola", "Hz"),
-    "fold_point": ("index of the point of extremal energy", "1"),
-    "passed_resonance_frequency": (
-        "frequency maximum where the backbone bent into the internal resonance tongue",
-        "Hz",
-    ),
-    "passed_resonance_energy": ("energy at that frequency maximum", "1"),
-    "passed_resonance_harmonic": ("harmonic that grew most into the tongue (n of the n:1 internal resonance)", "1"),
-    "passed_resonance_landing_frequency": (
-        "frequency where the predictor over the tongue landed on the backbone beyond it",
-        "Hz",
-    ),
-    "stop_dof": ("index of the degree of freedom that meets the stop", "1"),
-    "stop_gap": ("gap of the stop (nondimensional)", "1"),
-    "stop_stiffness": ("stiffness alpha of the stop (nondimensional)", "1"),
-    "stop_eta": ("regularization stiffness eta of the stop (nondimensional)", "1"),
-    "no_contact_frequency": ("frequency of the linear mode with no contact (every gap infinite)", "Hz"),
-    "regularized_frequency": ("frequency of the linear mode of the regularized structure near rest", "Hz"),
-    "gap_zero_frequency": ("frequency of the linear mode with every stop always engaged (gap 0)", "Hz"),
-    "gap_zero_shape": ("shape of the gap-0 linear mode (mass-normalized)", "1"),
-    "dof_label": ("name of the degree of freedom", "1"),
-    "node_coordinate": ("position of the finite-element node over the length of the structure", "1"),
-    "subharmonic_share": (
-        "share of the mean square of the degrees of freedom in harmonics that are not multiples of the resonance n "
-        "(zero for an orbit of period T/n)",
-        "1",
-    ),
-}
 
-_COORDINATES = {
-    "point": "index of the point along the branch",
-    "dof": "index of the degree of freedom",
-    "stop": "index of the stop",
-    "harmonic": "harmonic number k (0 is the mean)",
-    "mode": "index of the linear mode (1 is the lowest)",
-    "node": "index of the finite-element node",
-}
-
-
-def _var(name: str, dims, values, **extra) -> tuple:
-    long_name, units = VARIABLES[name]
-    return dims, values, {"long_name": long_name, "units": units, **extra}
+def _var(name: str, dims, values) -> tuple:
+    """A variable ``(dims, values)``; its long name, units and flags come from the catalogue (:func:`labelled`)."""
+    return dims, values
 
 
 def orbit_variables(system, U: np.ndarray) -> dict:
@@ -211,19 +119,8 @@ def _path_variables(branch: Branch, stage: int, energy: np.ndarray) -> dict:
         "step": _var("step", "point", np.asarray(branch.step, dtype=np.int32)),
         "stage": _var("stage", "point", np.full(n, stage, dtype=np.int32)),
         "segment": _var("segment", "point", segment),
-        "branch_point": flag_variable(
-            "point",
-            flagged,
-            "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM "
-            "step that ends at this point",
-            "regular branch_point",
-        ),
-        "energy_fold": flag_variable(
-            "point",
-            folds,
-            "1 where the energy has a local extremum along the branch (within its segment)",
-            "regular fold",
-        ),
+        "branch_point": _var("branch_point", "point", flagged.astype(np.int8)),
+        "energy_fold": _var("energy_fold", "point", folds.astype(np.int8)),
     }
 
 
@@ -247,7 +144,7 @@ def _structure_variables(system) -> tuple[dict, dict]:
         "stop": np.arange(len(stops)),
         "harmonic": np.arange(system.H + 1),
         "mode": np.arange(1, len(omega) + 1),
-        "dof_label": _var("dof_label", "dof", np.array(structure.dof_labels, dtype=str)),
+        "dof_label": ("dof", np.array(structure.dof_labels, dtype=str)),
     }
     if structure.node_coordinates is not None:
         coords["node"] = np.arange(len(structure.node_coordinates))
@@ -324,12 +221,8 @@ def branch_dataset(
     data.update(structure_data)
     coords.update(point=np.arange(len(U)), multiplier=np.arange(stability.multipliers.shape[1]))
     ds = xr.Dataset(data, coords=coords)
-    for name, text in _COORDINATES.items():
-        if name in ds.coords:
-            ds[name].attrs = {"long_name": text, "units": "1"}
-    ds["multiplier"].attrs = {"long_name": "index of the Floquet multiplier", "units": "1"}
     ds.attrs = _attributes(system, branch, continuation, labels, unlocated)
-    return ds
+    return labelled(ds)
 
 
 def skipped_stage_dataset(system, stage: int, labels: dict, reason: str) -> xr.Dataset:
@@ -349,9 +242,6 @@ def skipped_stage_dataset(system, stage: int, labels: dict, reason: str) -> xr.D
     data.update(structure_data)
     coords["point"] = np.arange(0)
     ds = xr.Dataset(data, coords=coords)
-    for name, text in _COORDINATES.items():
-        if name in ds.coords:
-            ds[name].attrs = {"long_name": text, "units": "1"}
     ds.attrs = {
         **system.structure.attributes,
         "dofs": system.n_dofs,
@@ -363,7 +253,19 @@ def skipped_stage_dataset(system, stage: int, labels: dict, reason: str) -> xr.D
         "stage_condition_met": 0,
         "end_reason": reason,
     }
-    return ds
+    return labelled(ds)
+
+
+def branch_kind(ds: xr.Dataset) -> str:
+    """The catalogue's kind of a branch dataset: ``skipped_branch``, ``switched_branch`` or ``nnm_branch``."""
+    if is_skipped(ds):
+        return "skipped_branch"
+    return "switched_branch" if "subharmonic_share" in ds else "nnm_branch"
+
+
+def labelled(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` with the long names, units and flags of its kind (:func:`branch_kind`) from the variable catalogue."""
+    return describe(ds, branch_kind(ds))
 
 
 def is_skipped(ds: xr.Dataset) -> bool:
@@ -381,11 +283,8 @@ def located_branch_point_variables(system, located) -> dict:
         "branch_point_resonance": _var(
             "branch_point_resonance", dim, np.array([n for _, _, n, _ in located], dtype=np.int32)
         ),
-        "branch_point_symmetry_breaking": flag_variable(
-            dim,
-            [b for _, _, _, b in located],
-            "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))",
-            "no yes",
+        "branch_point_symmetry_breaking": _var(
+            "branch_point_symmetry_breaking", dim, np.array([b for _, _, _, b in located], dtype=np.int8)
         ),
         "branch_point_tangent_angle": _var(
             "branch_point_tangent_angle", dim, np.array([p.angle for _, p, _, _ in located], dtype=float)
@@ -432,12 +331,12 @@ def segment_fold_variables(U, energy, frequency, segment) -> dict:
     for k in np.unique(segment) if segment.size else [0]:
         index = np.flatnonzero(segment == k)
         part = located_fold_variables(np.asarray(U)[index], np.asarray(energy)[index], np.asarray(frequency)[index])
-        dims, values, attrs = part["fold_point"]
-        part["fold_point"] = (dims, (values + (index[0] if index.size else 0)).astype(np.int32), attrs)
+        dims, values = part["fold_point"]
+        part["fold_point"] = (dims, (values + (index[0] if index.size else 0)).astype(np.int32))
         parts.append(part)
     return {
-        name: (dims, np.concatenate([part[name][1] for part in parts]).astype(values.dtype), attrs)
-        for name, (dims, values, attrs) in parts[0].items()
+        name: (dims, np.concatenate([part[name][1] for part in parts]).astype(values.dtype))
+        for name, (dims, values) in parts[0].items()
     }
 
 
@@ -529,16 +428,12 @@ def bifurcated_dataset(
     """
     n = int(resonance)
     ds["subharmonic_share"] = _var("subharmonic_share", "point", np.asarray(subharmonic_share, dtype=float))
-    ds["stage"].attrs["long_name"] = "stage of the parent branch from whose branch point the branch was switched"
-    ds["step"].attrs["long_name"] = (
-        "index of the ANM step that produced the point (negative on the side followed backwards)"
-    )
     for key in ("mode", "stages"):
         ds.attrs.pop(key, None)
     ds.attrs.update(
         {"branch": name, "parent_branch": parent, "resonance": n, **branch_point, "switch_step": switch_step}
     )
-    return ds
+    return labelled(ds)
 
 
 def summarize_bifurcated(ds, nnm2=None) -> str:

@@ -50,6 +50,7 @@ from nnmstop.hbm.dataset import (
     dataset_unknowns,
     energy_folds,
     is_skipped,
+    labelled,
     segment_fold_variables,
     skipped_stage_dataset,
 )
@@ -434,7 +435,7 @@ def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
     out = out.assign(
         segment_fold_variables(coefficient_vectors(out), out["energy"].values, out["frequency"].values, segment)
     )
-    return _combined_attributes(out, stages, held)
+    return labelled(_combined_attributes(out, stages, held))
 
 
 def _combined_attributes(out: xr.Dataset, stages: list[xr.Dataset], held: list[xr.Dataset]) -> xr.Dataset:

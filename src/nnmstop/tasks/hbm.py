@@ -1,10 +1,11 @@
 """Tasks of the regularized branches (``workflow/rules`` HBM rules): configuration in, datasets out.
 
 The only place of the HBM side that reads the configuration dict and writes files, for any structure:
-the ``structure`` section (:func:`structure_from_config`: the paper's oscillator with the parameters of
-``model``, a finite-element beam, or matrices from files) and the sections ``hbm``, ``anm``,
-``stability``, ``branches``, ``bifurcations`` become the inputs of :mod:`nnmstop.hbm.stages`
-(:func:`system_from_config`, :func:`branch_settings`, :func:`branch_spec`, :func:`bifurcation_spec`).
+the ``structure`` section (the paper's oscillator with the parameters of ``model``, a finite-element
+beam, or matrices from files) and the sections ``hbm``, ``anm``, ``stability``, ``branches``,
+``bifurcations`` become the inputs of :mod:`nnmstop.hbm.stages` through :mod:`nnmstop.settings`
+(``structure_from_config``, ``system_from_config``, ``branch_settings``, ``branch_spec``,
+``bifurcation_spec``, re-exported here for the callers that know them from this module).
 The tube (:mod:`nnmstop.tasks.tube`) runs these same tasks on its own section. :func:`build_stage`
 and :func:`build_bifurcated` return the datasets in memory (tests and studies use them); the tasks
 ``hbm_stage``, ``hbm_bifurcated`` and ``hbm_branch`` (dispatched by :mod:`nnmstop.pipeline.run`) read
@@ -15,37 +16,22 @@ prints :func:`nnmstop.hbm.dataset.summarize_bifurcated`.
 
 from __future__ import annotations
 
-import copy
-
 import xarray as xr
 
-from nnmstop.continuation.anm import ANMSettings
-from nnmstop.hbm.dataset import is_skipped, summarize_bifurcated
-from nnmstop.hbm.monodromy import MonodromySettings
-from nnmstop.hbm.stability import StabilitySettings
-from nnmstop.hbm.stages import (
-    BifurcationSpec,
-    BranchSettings,
-    BranchSpec,
-    MagnusStability,
-    StageSpec,
-    bifurcated_branch,
-    combine_stages,
-    continue_stage,
-)
-from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.structure import Structure, two_dof_structure
-from nnmstop.models.two_dof import ModelParameters
+from nnmstop.hbm.dataset import branch_kind, is_skipped, summarize_bifurcated
+from nnmstop.hbm.stages import bifurcated_branch, combine_stages, continue_stage
 from nnmstop.netcdf import read_dataset, write_dataset
+from nnmstop.settings import (  # noqa: F401 - re-exported: the HBM tasks' settings live in nnmstop.settings
+    STRUCTURE_KINDS,
+    bifurcation_spec,
+    branch_settings,
+    branch_spec,
+    stability_settings,
+    structure_from_config,
+    system_from_config,
+)
 
 __all__ = [
-    "STRUCTURE_KINDS",
-    "structure_from_config",
-    "system_from_config",
-    "branch_settings",
-    "stability_settings",
-    "branch_spec",
-    "bifurcation_spec",
     "build_stage",
     "build_bifurcated",
     "hbm_stage",
@@ -53,87 +39,6 @@ __all__ = [
     "hbm_branch",
     "main",
 ]
-
-#: Kinds of the ``structure`` section.
-STRUCTURE_KINDS = ("two_dof", "beam", "matrices")
-
-
-def structure_from_config(config: dict, eta: float | None = None) -> Structure:
-    """The structure of the configuration's ``structure`` section (the paper's oscillator without one).
-
-    ``kind: two_dof`` (default) is the oscillator of ``model`` (``eta`` replaces ``model.eta`` when
-    given); ``kind: beam`` the finite-element beam of ``structure.beam``
-    (:func:`nnmstop.models.beam.beam_structure`); ``kind: matrices`` the matrices of
-    ``structure.matrices`` (:func:`nnmstop.models.matrices.matrix_structure`).
-    """
-    section = config.get("structure", {"kind": "two_dof"})
-    kind = section.get("kind", "two_dof")
-    if kind not in STRUCTURE_KINDS:
-        raise ValueError(f"structure.kind must be one of {STRUCTURE_KINDS}, got {kind!r}")
-    if eta is not None and kind != "two_dof":
-        raise ValueError(f"eta can be replaced only on the paper's oscillator (structure.kind two_dof), not {kind}")
-    if kind == "two_dof":
-        model = dict(config["model"], **({} if eta is None else {"eta": eta}))
-        return two_dof_structure(ModelParameters.from_config(model))
-    if kind == "beam":
-        from nnmstop.models.beam import Beam, beam_structure
-
-        return beam_structure(Beam.from_parameters(copy.deepcopy(section["beam"])))
-    from nnmstop.models.matrices import matrix_structure
-
-    spec = section["matrices"]
-    return matrix_structure(spec["mass"], spec["stiffness"], spec["stops"], spec.get("dof_labels"))
-
-
-def system_from_config(config: dict, harmonics: int | None = None, eta: float | None = None) -> HarmonicBalanceSystem:
-    """The HBM system of the configuration (optionally with other ``H`` or, on the 2-DOF, ``eta``)."""
-    H = config["hbm"]["harmonics"] if harmonics is None else harmonics
-    return HarmonicBalanceSystem(
-        structure_from_config(config, eta), H, time_samples=config["hbm"].get("time_samples", 0)
-    )
-
-
-def stability_settings(config: dict) -> StabilitySettings | MagnusStability:
-    """Stability settings from the ``stability`` section (the monodromy method when it is absent)."""
-    spec = config.get("stability", {"method": "monodromy"})
-    if spec.get("method") == "magnus":
-        return MagnusStability(steps=spec["steps"], tolerance=spec["tolerance"])
-    hill = {"hill_tol": spec["hill_tol"]} if "hill_tol" in spec else {}
-    return StabilitySettings(
-        method=spec.get("method", "monodromy"), monodromy=MonodromySettings.from_config(spec), **hill
-    )
-
-
-def branch_settings(config: dict, setting: str = "hbm.max_truncation") -> BranchSettings:
-    """Continuation, truncation and stability settings of the configuration."""
-    hbm = config["hbm"]
-    continuation = ANMSettings.from_config(config["anm"], points_per_step=hbm.get("points_per_step", 1))
-    start = {"start_tolerance": hbm["start_tolerance"]} if "start_tolerance" in hbm else {}
-    return BranchSettings(
-        continuation, hbm["max_truncation"], stability_settings(config), truncation_setting=setting, **start
-    )
-
-
-def branch_spec(config: dict, name: str) -> BranchSpec:
-    """The branch ``branches.<name>`` of the configuration."""
-    spec = config["branches"][name]
-    stages = tuple(
-        StageSpec(
-            stage["name"],
-            dict(stage["until"]),
-            energy_max=stage.get("energy_max"),
-            pass_resonances=int(stage.get("pass_resonances", 0)),
-        )
-        for stage in spec["stages"]
-    )
-    bound = {"energy_max": float(spec["energy_max"])} if "energy_max" in spec else {}
-    return BranchSpec(name, int(spec["mode"]), spec["start_amplitude"], stages, **bound)
-
-
-def bifurcation_spec(config: dict, name: str) -> BifurcationSpec:
-    """The switched branch ``bifurcations.<name>`` of the configuration."""
-    spec = config["bifurcations"][name]
-    return BifurcationSpec(name, spec["parent"], spec["resonance"], tuple(spec["energy_range"]), spec["switch_step"])
 
 
 def build_stage(config: dict, branch: str, stage: int, previous: xr.Dataset | None = None) -> xr.Dataset:
@@ -156,7 +61,9 @@ def _load(path) -> xr.Dataset:
 
 
 def _write(ds: xr.Dataset, path, title: str, summary: str, config: dict, keywords: str = "") -> None:
-    write_dataset(ds, path, title=title, summary=summary, keywords=keywords, metadata=config.get("metadata"))
+    write_dataset(
+        ds, path, title=title, summary=summary, keywords=keywords, metadata=config.get("metadata"), kind=branch_kind(ds)
+    )
 
 
 def hbm_stage(config, inputs, outputs, branch: str, stage: str | int, keywords: str = ""):

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from nnmstop.api import exact_family_dataset
 from nnmstop.netcdf import read_dataset, write_dataset
-from nnmstop.tasks.hbm import structure_from_config
+from nnmstop.settings import structure_from_config
 
 __all__ = ["structure_exact", "structure_compare", "structure_figure", "study_figure"]
 
@@ -33,6 +33,7 @@ def structure_exact(config, inputs, outputs, keywords: str = ""):
         f"exponentials). The family ends because {family.end_reason}.",
         keywords=keywords,
         metadata=config.get("metadata"),
+        kind="one_impact_family",
     )
 
 
@@ -59,6 +60,7 @@ def structure_compare(config, inputs, outputs, keywords: str = ""):
         "log-spaced energies of their common range.",
         keywords=keywords,
         metadata=config.get("metadata"),
+        kind="one_impact_comparison",
     )
 
 

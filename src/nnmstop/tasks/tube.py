@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 import functools
 
+from nnmstop.netcdf import write_dataset
 from nnmstop.tasks import hbm, structure
 
 __all__ = ["KEYWORDS", "tube_config", "study_case_config", "TASKS"]
@@ -59,13 +60,14 @@ def tube_study_case(config, inputs, outputs, gap, factor):
     case = study_case_config(config, float(gap), float(factor))
     ds = hbm.build_stage(case, "nnm1", 1)
     ds.attrs.update(study_gap_m=float(gap), study_stiffness_factor=float(factor))
-    hbm.write_dataset(
+    write_dataset(
         ds,
         outputs["dataset"],
         title=f"Tube NNM1, gap {gap} m, stop stiffness factor {factor}",
         summary="One case of the tube's parameter study over gap and stop stiffness.",
         keywords=KEYWORDS,
         metadata=config.get("metadata"),
+        kind="nnm_branch",
     )
 
 

@@ -1,0 +1,343 @@
+"""Dataset kinds of the regularized branches of any structure (see :mod:`nnmstop.catalogue`): the one branch schema.
+
+The paper's oscillator, the finite-element tube and a structure of one's own share it
+(:mod:`nnmstop.hbm.dataset`): ``q_cos``/``q_sin(point, dof, harmonic)`` with the coordinate ``dof_label``
+(``x``, ``u`` for the paper's oscillator), the stop forces and internal variables per ``stop``, the
+diagnostics, located branch points, folds and resonance tongues, the stops and linear limits of the
+structure, and the Floquet verdicts. The stability variables depend on ``stability.method``: the
+monodromy (default for the paper's oscillator) writes the optional ones marked so, Magnus steps over a
+period (``magnus``) ``stability_error``.
+"""
+
+from nnmstop.catalogue import DatasetKind, Variable
+
+ORBIT_VARIABLES = (
+    Variable("q_cos", ("point", "dof", "harmonic"), "cosine Fourier coefficients of the degrees of freedom"),
+    Variable("q_sin", ("point", "dof", "harmonic"), "sine Fourier coefficients of the degrees of freedom"),
+    Variable(
+        "f_cos",
+        ("point", "stop", "harmonic"),
+        "cosine Fourier coefficients of the regularized stop forces (force over gap)",
+    ),
+    Variable(
+        "f_sin",
+        ("point", "stop", "harmonic"),
+        "sine Fourier coefficients of the regularized stop forces (force over gap)",
+    ),
+    Variable(
+        "z_cos",
+        ("point", "stop", "harmonic"),
+        "cosine Fourier coefficients of the internal variables z = (f/alpha - x)^2 of the stops",
+    ),
+    Variable(
+        "z_sin",
+        ("point", "stop", "harmonic"),
+        "sine Fourier coefficients of the internal variables z = (f/alpha - x)^2 of the stops",
+    ),
+    Variable("omega_squared", ("point",), "squared angular frequency (unknown lambda of the HBM system)"),
+)
+
+#: The structure: its stops, linear limits and coordinates (every branch dataset, skipped ones included).
+STRUCTURE_VARIABLES = (
+    Variable("stop_dof", ("stop",), "index of the degree of freedom that meets the stop"),
+    Variable("stop_gap", ("stop",), "gap of the stop (nondimensional)"),
+    Variable("stop_stiffness", ("stop",), "stiffness alpha of the stop (nondimensional)"),
+    Variable("stop_eta", ("stop",), "regularization stiffness eta of the stop (nondimensional)"),
+    Variable(
+        "no_contact_frequency", ("mode",), "frequency of the linear mode with no contact (every gap infinite)", "Hz"
+    ),
+    Variable(
+        "regularized_frequency", ("mode",), "frequency of the linear mode of the regularized structure near rest", "Hz"
+    ),
+    Variable(
+        "gap_zero_frequency", ("mode",), "frequency of the linear mode with every stop always engaged (gap 0)", "Hz"
+    ),
+    Variable("gap_zero_shape", ("dof", "mode"), "shape of the gap-0 linear mode (mass-normalized)"),
+    Variable("point", ("point",), "index of the point along the branch"),
+    Variable("dof", ("dof",), "index of the degree of freedom"),
+    Variable("dof_label", ("dof",), "name of the degree of freedom"),
+    Variable("stop", ("stop",), "index of the stop"),
+    Variable("harmonic", ("harmonic",), "harmonic number k (0 is the mean)"),
+    Variable("mode", ("mode",), "index of the linear mode (1 is the lowest)"),
+    Variable("node", ("node",), "index of the finite-element node", optional=True),
+    Variable(
+        "node_coordinate",
+        ("node",),
+        "position of the finite-element node over the length of the structure",
+        optional=True,
+    ),
+)
+
+#: Where the branch is: step, stage, segment and the flags of every point.
+PATH_VARIABLES = (
+    Variable(
+        "unfolding", ("point",), "unfolding parameter nu (fictitious damping times omega; zero on periodic orbits)"
+    ),
+    Variable("period", ("point",), "period of the orbit in nondimensional time"),
+    Variable(
+        "energy",
+        ("point",),
+        "total energy of the regularized model (contact potentials included), mean over the period",
+    ),
+    Variable("frequency", ("point",), "frequency omega/(2 pi) in Hz of the nondimensional time", units="Hz"),
+    Variable("impacts_per_period", ("point",), "number of excursions beyond the gaps per period, all stops"),
+    Variable("step", ("point",), "index of the ANM step that produced the point"),
+    Variable("stage", ("point",), "continuation stage of the point"),
+    Variable(
+        "segment",
+        ("point",),
+        "segment of the stage: 0 from its start, k > 0 the backbone beyond the k-th internal resonance tongue passed "
+        "(see passed_resonance_*)",
+    ),
+    Variable(
+        "branch_point",
+        ("point",),
+        "1 where a simple branch point of the HBM system (sign change of det [J; t^T]) lies within the ANM step that "
+        "ends at this point",
+        flags=("regular", "branch_point"),
+    ),
+    Variable(
+        "energy_fold",
+        ("point",),
+        "1 where the energy has a local extremum along the branch (within its segment)",
+        flags=("regular", "fold"),
+    ),
+)
+
+DIAGNOSTIC_VARIABLES = (
+    Variable("x_max", ("point",), "largest coordinate of the first stop (displacement over its gap) over the period"),
+    Variable("q_max", ("point", "dof"), "largest value of each degree of freedom over the period"),
+    Variable("stop_impacts", ("point", "stop"), "number of excursions beyond the gap per period at each stop"),
+    Variable(
+        "algebraic_residual",
+        ("point",),
+        "norm of the residual of the HBM algebraic system relative to the norm of the unknowns",
+    ),
+    Variable(
+        "time_residual",
+        ("point",),
+        "largest residual in time of the equations of the stop degrees of freedom (true cubic root for f) relative "
+        "to the largest restoring force",
+    ),
+    Variable(
+        "force_error",
+        ("point",),
+        "largest difference between the HBM stop force and the cubic root f(x(t)), relative to max |f|",
+    ),
+    Variable(
+        "energy_spread", ("point",), "relative variation of the total energy over the period (zero for an exact orbit)"
+    ),
+    Variable(
+        "truncation",
+        ("point",),
+        "share of the mean square of x'' or f carried by the top tenth of the harmonics (largest over the stops)",
+    ),
+)
+
+LOCATED_VARIABLES = (
+    Variable("branch_point_energy", ("located_branch_point",), "energy of the located branch point"),
+    Variable("branch_point_frequency", ("located_branch_point",), "frequency of the located branch point", units="Hz"),
+    Variable(
+        "branch_point_resonance",
+        ("located_branch_point",),
+        "n where the orbit at the branch point has period T/n (n:1 internal resonance), else 0",
+    ),
+    Variable(
+        "branch_point_symmetry_breaking",
+        ("located_branch_point",),
+        "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))",
+        flags=("no", "yes"),
+    ),
+    Variable(
+        "branch_point_tangent_angle",
+        ("located_branch_point",),
+        "angle between the tangents of the two curves at the branch point",
+        units="degree",
+    ),
+    Variable(
+        "branch_point_singular_ratio",
+        ("located_branch_point",),
+        "smallest over second-smallest singular value of J at the located point (zero at an exact branch point)",
+    ),
+    Variable(
+        "branch_point_flagged_point",
+        ("located_branch_point",),
+        "index of the point that ends the ANM step holding the branch point",
+    ),
+    Variable(
+        "fold_energy",
+        ("located_fold",),
+        "energy at the fold (local extremum along the branch), parabola through the three nearest points",
+    ),
+    Variable("fold_frequency", ("located_fold",), "frequency at the fold, same parabola", units="Hz"),
+    Variable("fold_point", ("located_fold",), "index of the point of extremal energy"),
+    Variable(
+        "passed_resonance_frequency",
+        ("passed_resonance",),
+        "frequency maximum where the backbone bent into the internal resonance tongue",
+        units="Hz",
+    ),
+    Variable("passed_resonance_energy", ("passed_resonance",), "energy at that frequency maximum"),
+    Variable(
+        "passed_resonance_harmonic",
+        ("passed_resonance",),
+        "harmonic that grew most into the tongue (n of the n:1 internal resonance)",
+    ),
+    Variable(
+        "passed_resonance_landing_frequency",
+        ("passed_resonance",),
+        "frequency where the predictor over the tongue landed on the backbone beyond it",
+        units="Hz",
+    ),
+)
+
+STABILITY_VARIABLES = (
+    Variable(
+        "stable",
+        ("point",),
+        "orbit linearly stable (1) or unstable (0), by the stability method of the configuration",
+        flags=("unstable", "stable"),
+    ),
+    Variable("multiplier_real", ("point", "multiplier"), "real part of the Floquet multipliers"),
+    Variable("multiplier_imag", ("point", "multiplier"), "imaginary part of the Floquet multipliers"),
+    Variable("max_multiplier", ("point",), "largest modulus of the non-trivial Floquet multiplier pair"),
+    Variable(
+        "stability_orbit_residual",
+        ("point",),
+        "estimate of the change of floquet_invariant due to the orbit's error: larger of time_residual and stability_trivial_deviation",
+        optional=True,
+    ),
+    Variable(
+        "stability_trivial_deviation",
+        ("point",),
+        "distance of the trivial pair's invariant mu + 1/mu to 2 in the computed monodromy (exactly 0 on an exact orbit)",
+        optional=True,
+    ),
+    Variable(
+        "stability_resolved",
+        ("point",),
+        "stability verdict resolved (1): stability_margin larger than the error estimates (stability_reason)",
+        flags=("unresolved", "resolved"),
+    ),
+    Variable(
+        "stability_reason",
+        ("point",),
+        "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within 2 x stability_integration_error at the largest step count; 2 stability_margin within 2 x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it) and the orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's margin was within 2 x its error; stability variables from the refined orbit); 4 the shooting did not converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within 2 x its integration error at the largest step count or below trace_tol: the non-trivial pair sits at +1 (a stability change, e.g. an energy fold)",
+        flags=(
+            "resolved",
+            "integration_error",
+            "orbit_error",
+            "resolved_refined",
+            "shooting_not_converged",
+            "refined_at_type_change",
+        ),
+        optional=True,
+    ),
+    Variable(
+        "floquet_invariant",
+        ("point",),
+        "invariant mu + 1/mu of the non-trivial Floquet pair (in [-2, 2] when elliptic)",
+        optional=True,
+    ),
+    Variable(
+        "stability_margin",
+        ("point",),
+        "distance of floquet_invariant to the values where the non-trivial pair changes type (2, and -2 unless half-wave symmetric)",
+        optional=True,
+    ),
+    Variable(
+        "stability_integration_error",
+        ("point",),
+        "change of floquet_invariant between the last two step counts of the monodromy integration",
+        optional=True,
+    ),
+    Variable(
+        "stability_steps",
+        ("point",),
+        "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric); on refined orbits (stability_reason 3-5) Runge-Kutta steps over a quarter period",
+        optional=True,
+    ),
+    Variable(
+        "stability_refined",
+        ("point",),
+        "orbit refined by shooting into a periodic orbit of (7) for its verdict (stability_reason 3-5)",
+        flags=("no", "yes"),
+        optional=True,
+    ),
+    Variable(
+        "stability_refined_frequency_change",
+        ("point",),
+        "relative change of the frequency from the HBM orbit to the shooting-refined orbit (0 where stability_refined = 0 or stability_reason = 4)",
+        optional=True,
+    ),
+    Variable(
+        "stability_refined_energy_change",
+        ("point",),
+        "relative change of the energy at t = 0 (start at rest) from the HBM orbit to the shooting-refined orbit (0 where stability_refined = 0 or stability_reason = 4)",
+        optional=True,
+    ),
+    Variable(
+        "stability_refined_residual",
+        ("point",),
+        "closure of the shooting conditions x = u = 0 at a quarter period relative to the amplitude (0 where stability_refined = 0; 1 where the shooting diverged at once)",
+        optional=True,
+    ),
+    Variable(
+        "stability_error",
+        ("point",),
+        "change of the largest multiplier modulus when the Magnus steps are doubled (stability.method magnus)",
+        optional=True,
+    ),
+    Variable("multiplier", ("multiplier",), "index of the Floquet multiplier"),
+)
+
+NNM_BRANCH_VARIABLES = (
+    ORBIT_VARIABLES + PATH_VARIABLES + DIAGNOSTIC_VARIABLES + LOCATED_VARIABLES + STABILITY_VARIABLES
+    + STRUCTURE_VARIABLES
+)  # fmt: skip
+NNM_BRANCH = DatasetKind(
+    "nnm_branch",
+    "Regularized NNM branch of a structure (HBM + ANM)",
+    ("hbm/nnm*.nc", "hbm/stages/nnm*_stage*.nc", "tube/nnm*.nc", "tube/stages/nnm*_stage*.nc", "tube/study/gap*_k*.nc"),
+    "A regularized NNM of any structure (the paper's oscillator, the finite-element tube, a structure from matrices) "
+    "continued by harmonic balance and the asymptotic numerical method: one stage, or the whole branch (the stages "
+    "concatenated). Fourier coefficients in the phase omega t, diagnostics, located branch points, folds and "
+    "resonance tongues passed, Floquet stability, the structure's stops and linear limits "
+    "(`docs/methods/hbm.md`, `docs/methods/monodromy.md`). Global attributes: the structure's own (`structure`; "
+    "the paper's `alpha`, `beta`, `delta`, `eta`; a beam's physical data), the settings, and how the stage ended "
+    "(`stage_condition`, `stage_condition_met`, `stage_end`, `end_reason`).",
+    NNM_BRANCH_VARIABLES,
+)
+
+SWITCHED_BRANCH = NNM_BRANCH.extended(
+    "switched_branch",
+    "Branch switched at a branch point of a regularized NNM",
+    ("hbm/bifurcated/*.nc",),
+    "The curve that crosses a regularized branch at its first n:1 branch point (for n = 3 and 5 the NNM2 read over n "
+    "periods), reached by branch switching and followed both ways; ordered along the curve through the branch point. "
+    "Global attributes describe the branch point (`resonance`, `parent_branch`, `branch_point_energy`, ...).",
+    Variable(
+        "step",
+        ("point",),
+        "index of the ANM step that produced the point (negative on the side followed backwards)",
+    ),
+    Variable("stage", ("point",), "stage of the parent branch from whose branch point the branch was switched"),
+    Variable(
+        "subharmonic_share",
+        ("point",),
+        "share of the mean square of the degrees of freedom in harmonics that are not multiples of n (global "
+        "attribute resonance; zero for an orbit of period T/n)",
+    ),
+)
+
+SKIPPED_BRANCH = DatasetKind(
+    "skipped_branch",
+    "A stage or switched branch that was not continued",
+    ("hbm/stages/nnm*_stage*.nc", "hbm/bifurcated/*.nc", "tube/stages/nnm*_stage*.nc"),
+    "No orbit (`point` of length 0): the stage before ended without its condition (at its energy bound, or where "
+    "the harmonics stopped resolving the stop), or the parent branch has no branch point of the resonance. Global "
+    "attributes `skipped = 1` and `end_reason` say why; the structure's variables are kept.",
+    ORBIT_VARIABLES + PATH_VARIABLES + STRUCTURE_VARIABLES,
+)
+
+KINDS = (NNM_BRANCH, SWITCHED_BRANCH, SKIPPED_BRANCH)
