@@ -353,6 +353,12 @@ def cffconvert_command() -> str | None:
     return str(executable)
 
 
+def test_bundle_ships_the_repository_citation(bundle):
+    """The bundle's CITATION.cff is the repository's own file, byte for byte (one citation, not two)."""
+    with zipfile.ZipFile(bundle) as archive:
+        assert archive.read("CITATION.cff") == (REPO / "CITATION.cff").read_bytes()
+
+
 def test_bundle_citation_is_valid_cff(bundle, tmp_path):
     """CITATION.cff validates with cffconvert (kept out of environment.lock: it pins jsonschema < 4)."""
     cffconvert = cffconvert_command()
