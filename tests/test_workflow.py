@@ -215,6 +215,23 @@ def test_report_holds_the_figures(built):
     assert "fig06" in text
 
 
+def test_docs_pages_are_generated_from_the_build(built):
+    """`snakemake docs` writes the results page from the build's datasets (the digests it lists are theirs)."""
+    from nnmstop.docpages.results import page_inputs
+    from nnmstop.pipeline.verify import data_digest
+
+    snakemake(built, "--cores", "1", "docs")
+    page = (built / "docs" / "results.md").read_text()
+    listed = page_inputs(page)
+    assert listed and all(data_digest(built / "results" / path) == digest for path, digest in listed.items())
+    nnm1 = xr.open_dataset(built / "results" / "hbm" / "nnm1.nc")
+    assert f"| regularized NNM1 | `hbm/nnm1.nc` | {nnm1.sizes['point']} |" in page
+    assert "nan" not in page.lower()
+    assert (built / "docs" / "nnm1_frequency_energy.png").read_bytes() == (
+        built / "paper_figures" / "fig02.png"
+    ).read_bytes()
+
+
 def test_workflow_lint_is_clean():
     result = subprocess.run(
         [sys.executable, "-m", "snakemake", "--lint"], cwd=REPO, capture_output=True, text=True, timeout=120

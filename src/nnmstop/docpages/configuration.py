@@ -93,7 +93,15 @@ def _rows(schema: dict, root: dict, config: dict, path: list, required: bool) ->
         for name, child in item.get("properties", {}).items():
             rows += _rows(child, root, config, [*path[:-1], f"{path[-1]}[]", name], name in needed)
         return rows
-    rows.append((key, _allowed(schema, root), "yes" if required else "no", _shipped(config, path), schema.get("description", "")))
+    rows.append(
+        (
+            key,
+            _allowed(schema, root),
+            "yes" if required else "no",
+            _shipped(config, path),
+            schema.get("description", ""),
+        )
+    )
     return rows
 
 
