@@ -57,12 +57,16 @@ def _timed(command: list, tree: Path, env: dict) -> tuple:
     return time.perf_counter() - wall0, _children_cpu() - cpu0
 
 
-def run_tasks(tree: Path, nnm1_stage1: Path | None = None) -> dict:
-    """Run the tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``, and the ``start-up`` alone."""
+def run_tasks(tree: Path, nnm1_stage1: Path | None = None, configfile: Path | None = None) -> dict:
+    """Run the tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``, and the ``start-up`` alone.
+
+    ``configfile`` replaces the tree's own ``config/config.yaml``.
+    """
     env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     times = {"start-up": _timed([sys.executable, "-m", "nnmstop.pipeline.run", "--help"], tree, env)}
+    config = ["--config", str(Path(configfile).resolve())] if configfile else []
     for task, extra, output in tasks(nnm1_stage1):
-        command = [sys.executable, "-m", "nnmstop.pipeline.run", task, *extra, "--output", f"dataset={output}"]
+        command = [sys.executable, "-m", "nnmstop.pipeline.run", task, *config, *extra, "--output", f"dataset={output}"]
         times[task] = _timed([*command, "--log", "task.log"], tree, env)
     return times
 
@@ -72,6 +76,7 @@ def main(argv=None) -> int:
     parser.add_argument("--compare", nargs=2, metavar=("A", "B"), default=("main", "HEAD"))
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--nnm1-stage1", type=Path, default=None, help="time compare_nnm1 on this stage-1 dataset")
+    parser.add_argument("--configfile", type=Path, help="a configuration to run with instead of each tree's own")
     args = parser.parse_args(argv)
     if args.repeat < 1:
         raise ValueError(f"--repeat must be >= 1, got {args.repeat}")
@@ -85,7 +90,7 @@ def main(argv=None) -> int:
         best = {ref: {} for ref in args.compare}
         for _ in range(args.repeat):
             for ref in args.compare:
-                for task, (wall, cpu) in run_tasks(trees[ref], args.nnm1_stage1).items():
+                for task, (wall, cpu) in run_tasks(trees[ref], args.nnm1_stage1, args.configfile).items():
                     old = best[ref].get(task, (float("inf"), float("inf")))
                     best[ref][task] = (min(old[0], wall), min(old[1], cpu))
         a, b = args.compare
