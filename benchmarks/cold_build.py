@@ -68,7 +68,7 @@ def cold_build(ref: str, cores: int, keep: bool, target: str = "all", configfile
         env = {**os.environ, "PYTHONPATH": str(workdir / "src")}
         config = ["--configfile", str(Path(configfile).resolve())] if configfile else []
         started = time.perf_counter()
-        command = [sys.executable, "-m", "snakemake", "--cores", str(cores), "--quiet", *config, target]
+        command = [sys.executable, "-m", "snakemake", "--cores", str(cores), "--quiet", target, *config]
         run = subprocess.run(command, cwd=workdir, env=env)
         wall = time.perf_counter() - started
         if run.returncode != 0:

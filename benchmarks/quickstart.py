@@ -11,11 +11,14 @@ after the other, the steps of README's two set-up commands:
 Without ``--install`` the steps run in the current environment with the extracted tree's ``src`` first
 on ``PYTHONPATH``. The report (``--output``, by default ``benchmarks/quickstart.md``) gives each step's
 wall time and exit status, with the command, commit, machine and load (``timing.run_header``);
-``--readme`` also rewrites the times quoted in README.md between its ``quickstart-times`` markers.
+its last line is the sentence README quotes between its ``quickstart-times`` markers, which
+``--readme`` copies there (from the report just written, or alone with ``--readme --no-run`` from
+the committed report); a test checks that README quotes the committed report.
 
 Usage::
 
     python benchmarks/quickstart.py [--install] [--cores 2] [--readme]
+    python benchmarks/quickstart.py --readme --no-run          # README quotes benchmarks/quickstart.md
     python benchmarks/quickstart.py --tiny --output /tmp/quickstart.md   # seconds: one dataset, one test file
 """
 
@@ -34,7 +37,7 @@ from pathlib import Path
 from cold_build import REPO, tracked_copy
 from timing import emit_report
 
-__all__ = ["quickstart_steps", "readme_times"]
+__all__ = ["quickstart_steps", "readme_times", "report_readme_line", "write_readme_line"]
 
 TINY_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
 README_BEGIN = "<!-- quickstart-times: written by `python benchmarks/quickstart.py --readme` -->"
@@ -56,7 +59,7 @@ def quickstart_steps(tree: Path, cores: int, install: bool, tiny: bool) -> list:
     build = f"{python} -m snakemake --cores {cores}"
     tests = f"{python} -m pytest -q -p no:cacheprovider"
     if tiny:
-        build += f" --configfile {TINY_CONFIG} results/exact/nnm1_two_impacts.nc"
+        build += f" results/exact/nnm1_two_impacts.nc --configfile {TINY_CONFIG}"  # --configfile takes a list
         tests += " tests/test_fourier.py"
     steps += [("build", build, env), ("tests", tests, env)]
     return steps
@@ -68,7 +71,8 @@ def run_steps(steps: list, tree: Path) -> list:
     for name, command, env in steps:
         started = time.perf_counter()
         run = subprocess.run(command, shell=True, cwd=tree, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        done.append((name, command.replace(str(tree), "."), time.perf_counter() - started, run.returncode))
+        shown = command.replace(str(tree), ".").replace(sys.executable, "python")
+        done.append((name, shown, time.perf_counter() - started, run.returncode))
         print(f"{name}: {done[-1][2]:.0f} s, exit {run.returncode}", file=sys.stderr, flush=True)
         if run.returncode != 0:
             print(run.stderr.decode(errors="replace")[-3000:], file=sys.stderr)
@@ -84,9 +88,26 @@ def minutes(seconds: float) -> str:
 def readme_times(done: list) -> str:
     """The line README quotes between its markers."""
     took = {name: seconds for name, _, seconds, status in done if status == 0}
-    parts = [f"{label} {minutes(took[name])}" for name, label in
-             (("install", "installing"), ("build", "building every figure"), ("tests", "the tests")) if name in took]  # fmt: skip
-    return "Measured on 2 shared cores (`benchmarks/quickstart.md`): " + ", ".join(parts) + "."
+    labels = {"install": "installing", "build": "building every figure", "tests": "the tests"}
+    parts = [f"{label} {minutes(took[name])}" for name, label in labels.items() if name in took]
+    return f"Measured on {os.cpu_count()} cores (`benchmarks/quickstart.md`): " + ", ".join(parts) + "."
+
+
+def report_readme_line(report: str) -> str:
+    """The sentence for README in a report of this script (its last line)."""
+    line = report.rstrip().splitlines()[-1]
+    if not line.startswith("Measured on "):
+        raise ValueError("the report ends with no README line (was it written by a failed run?)")
+    return line
+
+
+def write_readme_line(line: str, readme: Path = REPO / "README.md") -> None:
+    """Put ``line`` between README's ``quickstart-times`` markers."""
+    pattern = re.compile(re.escape(README_BEGIN) + r"\n.*?\n" + re.escape(README_END), re.DOTALL)
+    text = readme.read_text()
+    if not pattern.search(text):
+        raise ValueError(f"{readme} has no {README_BEGIN} ... {README_END} block")
+    readme.write_text(pattern.sub(lambda _: f"{README_BEGIN}\n{line}\n{README_END}", text))
 
 
 def main(argv=None) -> int:
@@ -96,7 +117,13 @@ def main(argv=None) -> int:
     parser.add_argument("--tiny", action="store_true", help="one dataset of the small configuration, one test file")
     parser.add_argument("--output", type=Path, default=Path(__file__).with_name("quickstart.md"))
     parser.add_argument("--readme", action="store_true", help="write the measured times into README.md")
+    parser.add_argument("--no-run", action="store_true", help="with --readme: quote the report --output as it is")
     args = parser.parse_args(argv)
+    if args.no_run:
+        if not args.readme:
+            parser.error("--no-run goes with --readme")
+        write_readme_line(report_readme_line(args.output.read_text()))
+        return 0
     tree = Path(tempfile.mkdtemp(prefix="nnmstop-quickstart-"))
     try:
         tracked_copy(tree)
@@ -112,15 +139,12 @@ def main(argv=None) -> int:
         "|---|---|---:|---:|",
         *(f"| {name} | `{command}` | {minutes(seconds)} | {status} |" for name, command, seconds, status in done),
     ]
-    emit_report("\n".join(lines), args.output)
     failed = any(status != 0 for *_, status in done)
+    if not failed:
+        lines += ["", readme_times(done)]
+    emit_report("\n".join(lines), args.output)
     if args.readme and not failed:
-        readme = REPO / "README.md"
-        pattern = re.compile(re.escape(README_BEGIN) + r"\n.*?\n" + re.escape(README_END), re.DOTALL)
-        text = readme.read_text()
-        if not pattern.search(text):
-            raise ValueError(f"README.md has no {README_BEGIN} ... {README_END} block")
-        readme.write_text(pattern.sub(lambda _: f"{README_BEGIN}\n{readme_times(done)}\n{README_END}", text))
+        write_readme_line(readme_times(done))
     return 1 if failed else 0
 
 
