@@ -68,7 +68,8 @@ def cold_build(ref: str, cores: int, keep: bool, target: str = "all", configfile
         env = {**os.environ, "PYTHONPATH": str(workdir / "src")}
         config = ["--configfile", str(Path(configfile).resolve())] if configfile else []
         started = time.perf_counter()
-        command = [sys.executable, "-m", "snakemake", "--cores", str(cores), "--quiet", target, *config]
+        # the target first: --quiet takes optional values and --configfile a list
+        command = [sys.executable, "-m", "snakemake", target, "--cores", str(cores), "--quiet", "all", *config]
         run = subprocess.run(command, cwd=workdir, env=env)
         wall = time.perf_counter() - started
         if run.returncode != 0:
