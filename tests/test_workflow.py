@@ -317,6 +317,24 @@ def test_bundle_describes_the_run_and_every_file(built, bundle, tmp_path):
     assert verify_bundle(bundle) == []
 
 
+def readme_python_blocks() -> list[str]:
+    """The ```python blocks of README.md, in order."""
+    return re.findall(r"^```python\n(.*?)^```", (REPO / "README.md").read_text(), flags=re.MULTILINE | re.DOTALL)
+
+
+def test_readme_python_snippets_run_from_the_repository_root(bundle, tmp_path):
+    """Every Python block of README runs as written in a built tree (results/ and dist/ where README says)."""
+    blocks = readme_python_blocks()
+    assert blocks, "README.md has no python block"
+    workdir = tmp_path / "root"  # a copy of the build's root: the snippets extract into it
+    shutil.copytree(bundle.parents[1] / "results", workdir / "results")
+    shutil.copytree(bundle.parent, workdir / "dist")
+    for block in blocks:
+        run = subprocess.run([sys.executable, "-c", block], cwd=workdir, capture_output=True, text=True, timeout=120)
+        assert run.returncode == 0, f"README block failed:\n{block}\n{run.stderr[-2000:]}"
+        assert run.stdout.strip()
+
+
 def test_bundle_check_fails_on_missing_or_altered_file(bundle, tmp_path):
     from nnmstop.pipeline.bundle import verify_bundle
 

@@ -11,6 +11,7 @@ test checks that it lists every key of the shipped configuration.
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import yaml
@@ -71,3 +72,26 @@ def test_configuration_reference_lists_every_shipped_key():
     missing = sorted(key for key in leaf_keys(config) if not any(p.match(key) for p in patterns))
     assert not missing, missing
     assert "| `model.alpha` | number, > 0 | yes | `30.0` |" in page
+
+
+def test_readme_quotes_the_committed_quickstart_report():
+    """README's expected times are the sentence benchmarks/quickstart.py wrote into its report."""
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    try:
+        import quickstart
+    finally:
+        sys.path.pop(0)
+    quoted = re.search(
+        re.escape(quickstart.README_BEGIN) + r"\n(.*?)\n" + re.escape(quickstart.README_END),
+        (REPO / "README.md").read_text(),
+        flags=re.DOTALL,
+    )
+    assert quoted, "README.md lost its quickstart-times block"
+    report = (REPO / "benchmarks" / "quickstart.md").read_text()
+    assert quoted[1] == quickstart.report_readme_line(report), (
+        "README's times differ from benchmarks/quickstart.md: run `python benchmarks/quickstart.py --readme --no-run`"
+    )
+
+
+def test_readme_stays_short():
+    assert len((REPO / "README.md").read_text().splitlines()) <= 200
