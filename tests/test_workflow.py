@@ -212,7 +212,22 @@ def test_report_holds_the_figures(built):
     snakemake(built, "--report", str(report))
     text = report.read_text(errors="replace")
     assert report.stat().st_size > 10_000
-    assert "fig06" in text
+    figures = sorted(p.name for p in (built / "paper_figures").glob("*.png"))
+    assert figures and all(name in text for name in figures), [n for n in figures if n not in text]
+
+
+def test_every_figure_rule_puts_its_png_in_the_report():
+    """Each rule output that is a figure (a PNG under paper_figures/) is wrapped in report(): `--report` shows it."""
+    unreported = [
+        f"{path.name}: {line.strip()}"
+        for path in sorted((REPO / "workflow" / "rules").glob("*.smk"))
+        for line in path.read_text().splitlines()
+        if re.match(r"\s+\w+=.*paper_figures.*\.png", line)
+        and "report(" not in line
+        and "input" not in line
+        and "rules." not in line
+    ]
+    assert not unreported, unreported
 
 
 def test_docs_pages_are_generated_from_the_build(built):
