@@ -86,7 +86,7 @@ def _stability_counts(ds: xr.Dataset) -> tuple:
 
 
 def _branches(data: dict) -> list:
-    rows = []
+    rows, ends = [], []
     for name, what in _BRANCHES.items():
         if name not in data:
             continue
@@ -96,29 +96,18 @@ def _branches(data: dict) -> list:
         resolved, stable = _stability_counts(ds)
         rows.append(
             [
-                what,
-                f"`{RESULT_DATASETS[name]}`",
+                f"{what} (`{RESULT_DATASETS[name]}`)",
                 ds.sizes["point"],
                 f"{g(energy.min())} - {g(energy.max())}",
                 f"{g(frequency[0], 5)} -> {g(frequency[-1], 5)}",
                 g(float(residual.max()), 2),
                 resolved,
                 stable,
-                ds.attrs.get("end_reason", ""),
             ]
         )
-    header = [
-        "branch",
-        "dataset",
-        "points",
-        "E range",
-        "f first -> last [Hz]",
-        "max residual",
-        "verdicts",
-        "stable",
-        "end",
-    ]
-    return _table(header, rows)
+        ends.append(f"- {what}: {ds.attrs.get('end_reason', '')}")
+    header = ["branch (dataset)", "points", "E range", "f first -> last [Hz]", "max residual", "verdicts", "stable"]
+    return [*_table(header, rows), "", "Where each branch ends (`end_reason`):", "", *ends]
 
 
 def _exact_regimes(ds: xr.Dataset) -> list:
@@ -294,7 +283,7 @@ def results_page(results_dir, params: ModelParameters, digests: dict) -> str:
         "",
         "Each dataset's points, energy range, frequency at its first and last point, largest residual",
         "(relative algebraic residual of the HBM equations; norm of the quarter-period equations for the exact",
-        "orbits), Floquet verdicts resolved and stable orbits, and why the branch ends (`end_reason`).",
+        "orbits), Floquet verdicts resolved and stable orbits.",
         "",
         *_branches(data),
         "",
