@@ -9,16 +9,6 @@
 from nnmstop.docpages.results import OPTIONAL_DATASETS, RESULT_DATASETS
 
 
-def docs_datasets(wildcards):
-    """The datasets the results page reads: the switched branches only where `bifurcations` has them."""
-    switched = config.get("bifurcations", {})
-    return {
-        name: results(path)
-        for name, path in RESULT_DATASETS.items()
-        if name not in OPTIONAL_DATASETS or name in switched
-    }
-
-
 localrules:
     docs,
 
@@ -26,7 +16,14 @@ localrules:
 rule docs:
     """docs/results.md from the datasets of the default build, and the front-page figure (Fig 2)."""
     input:
-        unpack(docs_datasets),
+        # the switched branches only where `bifurcations` has them (the small test configuration has none)
+        unpack(
+            lambda wildcards: {
+                name: results(path)
+                for name, path in RESULT_DATASETS.items()
+                if name not in OPTIONAL_DATASETS or name in config.get("bifurcations", {})
+            }
+        ),
         figure=rules.paper_fig02.output.png,
     output:
         results="docs/results.md",
