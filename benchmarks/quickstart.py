@@ -11,9 +11,9 @@ after the other, the steps of README's two set-up commands:
 Without ``--install`` the steps run in the current environment with the extracted tree's ``src`` first
 on ``PYTHONPATH``. The report (``--output``, by default ``benchmarks/quickstart.md``) gives each step's
 wall time and exit status, with the command, commit, machine and load (``timing.run_header``);
-its last line is the sentence README quotes between its ``quickstart-times`` markers, which
-``--readme`` copies there (from the report just written, or alone with ``--readme --no-run`` from
-the committed report); a test checks that README quotes the committed report.
+``--readme`` writes the times of the steps that succeeded into README.md between its
+``quickstart-times`` markers (from the run, or with ``--readme --no-run`` from the committed report);
+a test checks that README quotes the committed report.
 
 Usage::
 
@@ -70,12 +70,16 @@ def run_steps(steps: list, tree: Path) -> list:
     done = []
     for name, command, env in steps:
         started = time.perf_counter()
-        run = subprocess.run(command, shell=True, cwd=tree, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        run = subprocess.run(command, shell=True, cwd=tree, env=env, capture_output=True)
         shown = command.replace(str(tree), ".").replace(sys.executable, "python")
         done.append((name, shown, time.perf_counter() - started, run.returncode))
         print(f"{name}: {done[-1][2]:.0f} s, exit {run.returncode}", file=sys.stderr, flush=True)
-        if run.returncode != 0:
-            print(run.stderr.decode(errors="replace")[-3000:], file=sys.stderr)
+        if run.returncode != 0:  # the end of its output says why (pytest's summary is on stdout)
+            print(
+                run.stdout.decode(errors="replace")[-5000:],
+                run.stderr.decode(errors="replace")[-3000:],
+                file=sys.stderr,
+            )
             break
     return done
 
@@ -85,20 +89,23 @@ def minutes(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min"
 
 
-def readme_times(done: list) -> str:
-    """The line README quotes between its markers."""
-    took = {name: seconds for name, _, seconds, status in done if status == 0}
-    labels = {"install": "installing", "build": "building every figure", "tests": "the tests"}
-    parts = [f"{label} {minutes(took[name])}" for name, label in labels.items() if name in took]
-    return f"Measured on {os.cpu_count()} cores (`benchmarks/quickstart.md`): " + ", ".join(parts) + "."
+LABELS = {"install": "installing", "build": "building every figure", "tests": "the tests"}
+
+
+def readme_times(done: list, cpus: int | None = None) -> str:
+    """The sentence README quotes between its markers: the time of each step that succeeded."""
+    parts = [f"{LABELS[name]} {minutes(seconds)}" for name, _, seconds, status in done if status == 0]
+    return f"Measured on {cpus or os.cpu_count()} shared cores (`benchmarks/quickstart.md`): " + ", ".join(parts) + "."
 
 
 def report_readme_line(report: str) -> str:
-    """The sentence for README in a report of this script (its last line)."""
-    line = report.rstrip().splitlines()[-1]
-    if not line.startswith("Measured on "):
-        raise ValueError("the report ends with no README line (was it written by a failed run?)")
-    return line
+    """The sentence for README, from the table of a report of this script (steps that exited 0)."""
+    cpus = re.search(r"(\d+) logical CPUs", report)
+    rows = re.findall(r"^\| (install|build|tests) \| `[^`]*` \| ([0-9]+) (s|min) \| (\d+) \|$", report, re.MULTILINE)
+    if not cpus or not rows:
+        raise ValueError("not a report of benchmarks/quickstart.py (no machine line or no step rows)")
+    done = [(name, "", float(value) * (60 if unit == "min" else 1), int(status)) for name, value, unit, status in rows]
+    return readme_times(done, int(cpus[1]))
 
 
 def write_readme_line(line: str, readme: Path = REPO / "README.md") -> None:
@@ -140,8 +147,6 @@ def main(argv=None) -> int:
         *(f"| {name} | `{command}` | {minutes(seconds)} | {status} |" for name, command, seconds, status in done),
     ]
     failed = any(status != 0 for *_, status in done)
-    if not failed:
-        lines += ["", readme_times(done)]
     emit_report("\n".join(lines), args.output)
     if args.readme and not failed:
         write_readme_line(readme_times(done))

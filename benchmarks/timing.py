@@ -55,6 +55,10 @@ def git_commit(ref: str = "HEAD") -> str:
     return commit + (" +uncommitted changes" if ref == "HEAD" and dirty else "")
 
 
+#: Date and commit (:func:`git_commit`) when the script started.
+STARTED = (time.strftime("%Y-%m-%dT%H:%M:%S"), git_commit())
+
+
 def _cpu_model() -> str:
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -78,7 +82,10 @@ def _memory_gib() -> str:
 
 
 def run_header(argv=None) -> list[str]:
-    """Lines that open a report: the command, date, commit, machine, Python and numerics, load averages."""
+    """Lines that open a report: the command, date, commit, machine, Python and numerics, load averages.
+
+    The date and commit are those of the script's start (:data:`STARTED`): a long run measures that tree.
+    """
     argv = sys.argv if argv is None else argv
     command = "python " + shlex.join([os.path.relpath(argv[0], REPO) if argv and argv[0] else "?", *argv[1:]])
     import numpy
@@ -87,7 +94,7 @@ def run_header(argv=None) -> list[str]:
     return [
         f"Command: `{command}`",
         "",
-        f"- date: {time.strftime('%Y-%m-%dT%H:%M:%S')}, commit {git_commit()}",
+        f"- date: {STARTED[0]}, commit {STARTED[1]}",
         f"- machine: {_cpu_model()}, {os.cpu_count()} logical CPUs, {_memory_gib()}, {platform.system()} "
         f"{platform.machine()}",
         f"- Python {platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}",
