@@ -36,6 +36,7 @@ TINY_RUNS = {
     "continuation_benchmark": ["--harmonics", "5", "--branches", "NNM2", "--repeat", "1", "--output", "{out}"],
     "exact_build": ["--compare", "HEAD", "HEAD", "--repeat", "1", "--configfile", SMALL,
                     "--tasks", "exact_two_impacts"],
+    "explorer": None,  # times a built dist/explorer.html in Chromium: its --help here; the page has its own tests
     "exact_slices": ["--compare", "HEAD", "HEAD", "--nnm1-stage1", "{build}/" + NNM1_STAGE1, "--configfile", SMALL,
                      "--slices", "2", "--points", "20", "--energies", "2"],
     "fe_scaling": ["--tiny", "--output", "{out}"],
@@ -50,6 +51,12 @@ TINY_RUNS = {
                           "--output", "{out}"],
 }
 # fmt: on
+
+
+#: Scripts whose tiny run fails on this commit, with why: strict, so the test says when one runs again.
+BROKEN = {
+    "monodromy_calibration": "uses trace_invariants and system.params, gone from nnmstop.hbm.monodromy in ee16e1c",
+}
 
 
 def scripts() -> list[str]:
@@ -74,7 +81,13 @@ def imported_names(path: Path):
                     yield alias.name, None, node.lineno
 
 
-@pytest.mark.parametrize("script", scripts() + sorted(HELPERS))
+@pytest.mark.parametrize(
+    "script",
+    [
+        pytest.param(s, marks=pytest.mark.xfail(strict=True, reason=BROKEN[s])) if s in BROKEN else s
+        for s in scripts() + sorted(HELPERS)
+    ],
+)
 def test_imports_of_the_script_resolve(script, monkeypatch):
     """Every ``from nnmstop... import name`` of the script, even inside functions, names something that exists."""
     monkeypatch.syspath_prepend(str(BENCHMARKS))
@@ -101,7 +114,22 @@ def small_build(tmp_path_factory):
     return workdir
 
 
-@pytest.mark.parametrize("script", sorted(TINY_RUNS))
+def tiny_run_params():
+    return [
+        pytest.param(s, marks=pytest.mark.xfail(strict=True, reason=BROKEN[s])) if s in BROKEN else s
+        for s in sorted(k for k, v in TINY_RUNS.items() if v is not None)
+    ]
+
+
+def test_scripts_without_a_tiny_run_answer_help():
+    for script in sorted(k for k, v in TINY_RUNS.items() if v is None):
+        run = subprocess.run(
+            [sys.executable, str(BENCHMARKS / f"{script}.py"), "--help"], capture_output=True, text=True
+        )
+        assert run.returncode == 0 and "usage" in run.stdout, run.stderr[-2000:]
+
+
+@pytest.mark.parametrize("script", tiny_run_params())
 def test_script_runs_on_a_tiny_case(script, small_build, tmp_path):
     out = tmp_path / "report.md"
     args = [a.format(build=small_build, out=out) for a in TINY_RUNS[script]]
