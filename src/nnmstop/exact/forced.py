@@ -186,7 +186,10 @@ def _phases(excitation: Excitation, stop: StruckStop) -> dict:
 
 def non_impacting_response(excitation: Excitation, omega) -> np.ndarray:
     """Complex amplitudes ``Q`` (``np.shape(omega) + (N,)``) of the non-impacting response ``Re(Q e^{i theta})``."""
-    phase = _phases(excitation, StruckStop.of(excitation))["F"]
+    return _free_amplitudes(_phases(excitation, StruckStop.of(excitation))["F"], omega)
+
+
+def _free_amplitudes(phase: ForcedPhase, omega) -> np.ndarray:
     omega = np.asarray(omega, dtype=float)
     out = np.array([phase.amplitude(w)[0][: phase.n] for w in omega.ravel()])
     return out.reshape(omega.shape + (phase.n,))
@@ -198,10 +201,11 @@ def grazing_frequencies(excitation: Excitation, omega_low: float, omega_high: fl
     A sample grid (log-spaced) brackets each crossing; Brent's method locates it to round-off.
     """
     stop = StruckStop.of(excitation)
+    phase = _phases(excitation, stop)["F"]
     grid = np.geomspace(omega_low, omega_high, samples)
 
     def excess(w):
-        return abs(non_impacting_response(excitation, w)[stop.dof]) - stop.gap
+        return abs(_free_amplitudes(phase, w)[stop.dof]) - stop.gap
 
     values = np.array([excess(w) for w in grid])
     crossings = np.flatnonzero(np.sign(values[:-1]) != np.sign(values[1:]))

@@ -1,0 +1,265 @@
+"""Datasets of the forced responses (CF/ACDD through :func:`nnmstop.netcdf.write_dataset`).
+
+One dataset per response (a force level, a contact law). Per point: ``frequency``, ``x_amplitude``
+(``max |q|`` of the first stop's DOF), ``u_amplitude`` (``max |q|`` of the first forced DOF), ``amplitude``
+of every DOF, ``phase_lag`` of every DOF's fundamental behind the force, ``stable``, the multipliers
+(``multiplier_real``, ``multiplier_imag``), ``regime`` and ``segment``; the located stability changes
+(dimension ``change``); the attributes ``forcing_amplitude``, ``forcing_dofs``, the damping
+(``damping_ratio`` and the Rayleigh coefficients) and ``contact_law`` (``piecewise_linear`` or
+``regularized``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from nnmstop import fourier
+from nnmstop.exact.forced import SymmetricContactProblem, non_impacting_response
+from nnmstop.forced.stability_changes import KINDS, REGIMES, regimes
+from nnmstop.hbm.forced import phase_lags, response_amplitudes
+from nnmstop.models.excitation import Excitation
+from nnmstop.netcdf import cf_variable, flag_variable
+
+__all__ = [
+    "response_variables",
+    "change_variables",
+    "base_attributes",
+    "SEGMENT_KINDS",
+    "exact_dataset",
+    "regularized_dataset",
+]
+
+#: Kinds of the segments of an exact response (flag values of ``segment_kind``).
+SEGMENT_KINDS = ("non_impacting", "one_contact")
+
+
+def _flags(dims, values, long_name: str, names) -> tuple:
+    values = np.asarray(values, dtype=np.int8)
+    return cf_variable(
+        dims,
+        values,
+        long_name,
+        "1",
+        dtype=None,
+        flag_values=np.arange(len(names), dtype=np.int8),
+        flag_meanings=" ".join(names),
+    )
+
+
+def response_variables(
+    excitation: Excitation, frequency, amplitude, lags, multipliers, half_period: bool, segment
+) -> dict:
+    """Per-point variables (dimension ``point``; ``dof``, ``multiplier``) of a response."""
+    structure = excitation.structure
+    x_dof, u_dof = structure.stops[0].dof, excitation.force.dofs[0]
+    multipliers = np.asarray(multipliers)
+    mu = multipliers**2 if half_period else multipliers
+    stable = np.all(np.abs(mu) <= 1.0 + 1e-12, axis=1)
+    labels = structure.dof_labels or tuple(f"q{j}" for j in range(structure.n_dofs))
+    return {
+        "frequency": cf_variable(
+            "point",
+            frequency,
+            "frequency of the force and of the periodic response (Hz of the nondimensional time)",
+            "Hz",
+        ),
+        "x_amplitude": cf_variable(
+            "point", amplitude[:, x_dof], f"largest |q| over the period of the DOF of the first stop ({labels[x_dof]})"
+        ),
+        "u_amplitude": cf_variable(
+            "point", amplitude[:, u_dof], f"largest |q| over the period of the first forced DOF ({labels[u_dof]})"
+        ),
+        "amplitude": cf_variable(("point", "dof"), amplitude, "largest |q| over the period of each DOF"),
+        "phase_lag": cf_variable(
+            ("point", "dof"),
+            np.degrees(lags),
+            "lag of the fundamental harmonic of each DOF behind the force cos(Omega t) (90 at phase resonance)",
+            "degree",
+        ),
+        "stable": flag_variable(
+            "point",
+            stable,
+            "Floquet stability of the periodic response (all multipliers inside the unit circle)",
+            "unstable stable",
+        ),
+        "multiplier_real": cf_variable(
+            ("point", "multiplier"),
+            mu.real,
+            "real part of the Floquet multipliers over one period, by decreasing modulus",
+        ),
+        "multiplier_imag": cf_variable(
+            ("point", "multiplier"),
+            mu.imag,
+            "imaginary part of the Floquet multipliers over one period, by decreasing modulus",
+        ),
+        "regime": _flags(
+            "point",
+            regimes(multipliers, half_period),
+            "what the response is where the periodic one is unstable (none claimed where it is not stable)",
+            REGIMES,
+        ),
+        "segment": cf_variable("point", segment, "index of the continued piece of the response", dtype=np.int32),
+    }
+
+
+def dof_label_variable(structure) -> tuple:
+    """The ``dof_label`` coordinate of a structure (``q0, q1, ...`` when it names none)."""
+    labels = structure.dof_labels or tuple(f"q{j}" for j in range(structure.n_dofs))
+    return cf_variable("dof", np.array(labels, dtype=object), "name of the degree of freedom", dtype=None)
+
+
+def change_variables(changes, frequency_of, amplitude_of) -> dict:
+    """Located stability changes (dimension ``change``): frequency, amplitudes, kind (:data:`KINDS`)."""
+    frequency = np.array([frequency_of(c.U) for c in changes], dtype=float)
+    amplitude = np.array([amplitude_of(c.U) for c in changes], dtype=float).reshape(len(changes), -1)
+    kinds = np.array([KINDS.index(c.kind) + 1 for c in changes], dtype=np.int8)
+    return {
+        "change_frequency": cf_variable("change", frequency, "frequency of the located stability change", "Hz"),
+        "change_amplitude": cf_variable(
+            ("change", "dof"), amplitude, "largest |q| of each DOF at the located stability change"
+        ),
+        "change_kind": cf_variable(
+            "change",
+            kinds,
+            "kind of the stability change",
+            "1",
+            dtype=None,
+            flag_values=np.arange(1, len(KINDS) + 1, dtype=np.int8),
+            flag_meanings=" ".join(KINDS),
+        ),
+    }
+
+
+def base_attributes(excitation: Excitation, contact_law: str, frequency_range) -> dict:
+    """Global attributes of a response dataset."""
+    if contact_law not in ("piecewise_linear", "regularized"):
+        raise ValueError(f"contact_law must be 'piecewise_linear' or 'regularized', got {contact_law!r}")
+    stop = excitation.structure.stops[0]
+    return {
+        **excitation.as_attrs(),
+        "contact_law": contact_law,
+        "frequency_range": np.array(frequency_range, dtype=float),
+        "stop_dof": int(stop.dof),
+        "stop_gap": float(stop.gap),
+        "stop_stiffness": float(stop.stiffness),
+        "stop_eta": float(stop.eta),
+    }
+
+
+def _exact_lags(piece, problem) -> np.ndarray:
+    """Lag of each DOF's fundamental behind the force, per point of an exact piece (radians)."""
+    if piece.kind == "non_impacting":
+        amplitude = non_impacting_response(problem.excitation, 2 * np.pi * piece.frequency)
+        return np.mod(-np.angle(amplitude), 2 * np.pi)
+    samples = 2048
+    lags = []
+    for y in piece.unknowns:
+        history = problem.time_history(y, samples)
+        fundamental = (2.0 / samples) * history["q"] @ np.exp(-1j * history["theta"])
+        lags.append(np.mod(-np.angle(fundamental), 2 * np.pi))
+    return np.array(lags)
+
+
+def exact_dataset(excitation: Excitation, pieces: list, frequency_range) -> xr.Dataset:
+    """Dataset of the exact response (:func:`nnmstop.forced.responses.exact_response`), pieces one after the other.
+
+    The contact families' unknowns (``z1``, ``theta1``, contact phase duration, ``Omega``) are kept in
+    ``contact_unknowns(contact_point, unknown)`` with ``contact_point_index`` into ``point``.
+    """
+    problem = SymmetricContactProblem(excitation)
+    parts, changes, offset = [], [], 0
+    contact_rows, contact_index = [], []
+    for k, piece in enumerate(pieces):
+        half = piece.kind == "one_contact"
+        multipliers = piece.multipliers
+        if half:  # nu of the half-period map (the piece holds mu = nu**2)
+            multipliers = np.array([problem.multipliers(y)[1] for y in piece.unknowns])
+            contact_rows.append(piece.unknowns)
+            contact_index.append(offset + np.arange(len(piece.frequency)))
+        variables = response_variables(
+            excitation,
+            piece.frequency,
+            piece.amplitude,
+            _exact_lags(piece, problem),
+            multipliers,
+            half,
+            np.full(len(piece.frequency), k),
+        )
+        parts.append(xr.Dataset(variables))
+        changes += piece.changes
+        offset += len(piece.frequency)
+    ds = xr.concat(parts, dim="point", data_vars="all", combine_attrs="override")
+    ds["dof_label"] = dof_label_variable(excitation.structure)
+    ds.update(change_variables(changes, lambda U: U[-1] / (2 * np.pi), problem.amplitudes))
+    if contact_rows:
+        ds["contact_unknowns"] = cf_variable(
+            ("contact_point", "unknown"),
+            np.concatenate(contact_rows),
+            "unknowns of the symmetric one-contact responses: state (q, qdot) "
+            "entering the right stop, its phase Omega t, the phase duration of "
+            "the contact, Omega",
+        )
+        ds["contact_point_index"] = cf_variable(
+            "contact_point", np.concatenate(contact_index), "index of the point of the response", dtype=np.int32
+        )
+    ds.attrs.update(base_attributes(excitation, "piecewise_linear", frequency_range))
+    ds.attrs["segment_kinds"] = " ".join(p.kind for p in pieces)
+    ds.attrs["segment_end_reasons"] = "; ".join(f"{k}: {p.end_reason}" for k, p in enumerate(pieces))
+    return ds
+
+
+def regularized_dataset(system, branch, multipliers, half_period: bool, changes, frequency_range) -> xr.Dataset:
+    """Dataset of the regularized response: per-point variables, the Fourier coefficients of ``q``, ``f`` and
+    ``z`` (``<field>_cos``/``<field>_sin``), ``truncation`` and ``time_residual``, and the located changes."""
+    U = np.asarray(branch.points)
+    excitation = system.excitation
+    amplitude = response_amplitudes(system, U)
+    variables = response_variables(
+        excitation,
+        U[:, system.i_omega] / (2 * np.pi),
+        amplitude,
+        phase_lags(system, U),
+        multipliers,
+        half_period,
+        np.zeros(len(U), dtype=int),
+    )
+    N, s, nc, H = system.n_dofs, system.n_stops, system.nc, system.H
+    Q = U[:, : N * nc].reshape(-1, N, nc)
+    F = U[:, N * nc : (N + s) * nc].reshape(-1, s, nc)
+    Z = U[:, (N + s) * nc : (N + 2 * s) * nc].reshape(-1, s, nc)
+    for name, block, dim in (("q", Q, "dof"), ("f", F, "stop"), ("z", Z, "stop")):
+        cos, sin = fourier.to_cos_sin(block, H)
+        meaning = {"q": "displacement", "f": "regularized contact force / gap", "z": "auxiliary z of the recast"}
+        variables[f"{name}_cos"] = cf_variable(
+            ("point", dim, "harmonic"), cos, f"cosine coefficients of the {meaning[name]} in Omega t"
+        )
+        variables[f"{name}_sin"] = cf_variable(
+            ("point", dim, "harmonic"), sin, f"sine coefficients of the {meaning[name]} in Omega t"
+        )
+    diagnostics = branch.diagnostics
+    variables["truncation"] = cf_variable(
+        "point",
+        [d["truncation"] for d in diagnostics],
+        "share of the mean square of the stop DOF's acceleration or of f in the top tenth of the harmonics",
+    )
+    variables["time_residual"] = cf_variable(
+        "point",
+        [d["time_residual"] for d in diagnostics],
+        "largest residual of the equations of motion of the stop DOFs in time, relative to the largest restoring force",
+    )
+    variables["step"] = cf_variable(
+        "point", branch.step, "index of the ANM step that produced the point", dtype=np.int32
+    )
+    ds = xr.Dataset(
+        variables, coords={"harmonic": ("harmonic", np.arange(H + 1), {"long_name": "harmonic number", "units": "1"})}
+    )
+    ds.update(change_variables(changes, system.frequency_hz, lambda V: response_amplitudes(system, V[None])[0]))
+    ds.attrs.update(base_attributes(excitation, "regularized", frequency_range))
+    ds.attrs.update(
+        harmonics=int(H),
+        end_reason=branch.end_reason,
+        anm_steps=int(branch.stats.steps),
+        factorizations=int(branch.stats.factorizations),
+    )
+    return ds
