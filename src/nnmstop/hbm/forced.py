@@ -27,6 +27,7 @@ from nnmstop.continuation.core import Branch, ContinuationStats, newton_correct
 from nnmstop.hbm.stages import TruncationGuard
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.excitation import Excitation, linear_response
+from nnmstop.models.two_dof import regularized_contact_stiffness
 
 __all__ = [
     "ForcedHarmonicBalanceSystem",
@@ -35,6 +36,7 @@ __all__ = [
     "series_extremes",
     "response_amplitudes",
     "phase_lags",
+    "forced_multipliers",
 ]
 
 
@@ -213,3 +215,51 @@ def phase_lags(system: HarmonicBalanceSystem, U_array) -> np.ndarray:
     """
     Q = np.asarray(U_array, dtype=float)[:, : system.n_dofs * system.nc].reshape(-1, system.n_dofs, system.nc)
     return np.mod(np.arctan2(Q[..., system.H + 1], Q[..., 1]), 2 * np.pi)
+
+
+def _contact_stiffness(system: HarmonicBalanceSystem, x):
+    """``f_i'(x_i)`` of every stop (regularized law) at stop coordinates ``x`` (s, ...)."""
+    out = np.empty_like(x)
+    for i, law in enumerate(system._stop_laws):
+        out[i] = regularized_contact_stiffness(x[i], law)
+    return out
+
+
+def forced_multipliers(
+    system: ForcedHarmonicBalanceSystem, U_array, steps: int = 128, max_steps: int = 2048, tol: float = 1e-8
+):
+    """Floquet multipliers of the forced responses ``U_array`` (points, n_unknowns), by decreasing modulus.
+
+    The variational equation ``M dq'' + C dq' + (K + sum_i k_i(t) e_i e_i^T) dq = 0`` (``k_i`` the regularized
+    contact stiffness of stop ``i`` on the orbit) is not Hamiltonian and has no trivial multiplier: its
+    monodromy over ``T = 2 pi / Omega`` comes from the general path of the package's Floquet module
+    (:func:`nnmstop.floquet.periodic_floquet`: fourth-order Magnus steps, step doubling until the multipliers
+    move by less than ``tol``). Returns the multipliers (points, 2N) and the error estimates (points,).
+    """
+    from nnmstop.floquet import periodic_floquet  # the stability helper's general path
+
+    U = np.atleast_2d(np.asarray(U_array, dtype=float))
+    N = system.n_dofs
+    mass, stiffness = system.structure.dense_matrices()
+    m_inv = np.linalg.inv(mass)
+    damping = system._velocity.toarray()
+    A0 = np.block([[np.zeros((N, N)), np.eye(N)], [-m_inv @ stiffness, -m_inv @ damping]])
+    columns = m_inv[:, system.stop_dofs]  # d(gap f(q / gap))/dq = f'(x) on the stop DOF
+    Q = U[:, : N * system.nc].reshape(len(U), N, system.nc)
+    X = system.stop_coordinates(np.moveaxis(Q, 0, 1))  # (s, points, nc) in each stop's coordinate
+    omega = U[:, system.i_nu]
+    H = system.H
+
+    def generator(systems, t):
+        # exp(i k theta) by powers of exp(i theta): one complex product per harmonic, no cosines
+        powers = np.cumprod(np.broadcast_to(np.exp(1j * omega[systems, None] * t)[..., None], t.shape + (H,)), axis=-1)
+        c = X[:, systems]  # (s, k, nc)
+        q = c[..., :1] + np.einsum("kmh,skh->skm", powers, c[..., 1 : H + 1] - 1j * c[..., H + 1 :]).real
+        stiff = _contact_stiffness(system, q)  # (s, k, m)
+        A = np.broadcast_to(A0, t.shape + A0.shape).copy()
+        for i, dof in enumerate(system.stop_dofs):
+            A[..., N:, dof] -= stiff[i][..., None] * columns[:, i]
+        return A
+
+    result = periodic_floquet(generator, 2 * np.pi / omega, steps=steps, max_steps=max_steps, tol=tol)
+    return result.multipliers, result.error
