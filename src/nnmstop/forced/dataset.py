@@ -28,6 +28,7 @@ __all__ = [
     "SEGMENT_KINDS",
     "exact_dataset",
     "regularized_dataset",
+    "backbone_dataset",
 ]
 
 #: Kinds of the segments of an exact response (flag values of ``segment_kind``).
@@ -263,3 +264,57 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
         factorizations=int(branch.stats.factorizations),
     )
     return ds
+
+
+def backbone_dataset(excitation: Excitation, backbones: dict, forces, predictions: dict) -> xr.Dataset:
+    """NNM backbones (``backbone_point``, with ``backbone_mode``) and the peaks they predict (``level``, ``mode``).
+
+    ``backbones``: mode -> (frequency Hz, amplitudes (points, N), required force); ``predictions``: mode -> one
+    :func:`nnmstop.forced.backbone.predicted_peaks` entry per level (None where the backbone does not reach it:
+    stored as missing values).
+    """
+    modes = sorted(backbones)
+    frequency = np.concatenate([backbones[m][0] for m in modes])
+    amplitude = np.concatenate([backbones[m][1] for m in modes])
+    required = np.concatenate([backbones[m][2] for m in modes])
+    which = np.concatenate([np.full(len(backbones[m][0]), m) for m in modes])
+    n = excitation.structure.n_dofs
+    peak_frequency = np.full((len(forces), len(modes)), np.nan)
+    peak_amplitude = np.full((len(forces), len(modes), n), np.nan)
+    for j, m in enumerate(modes):
+        for i, found in enumerate(predictions[m]):
+            if found is not None:
+                peak_frequency[i, j], peak_amplitude[i, j] = found[0], found[1]
+    fill = -1.0
+    return xr.Dataset(
+        {
+            "backbone_frequency": cf_variable("backbone_point", frequency, "frequency of the NNM orbit", "Hz"),
+            "backbone_amplitude": cf_variable(
+                ("backbone_point", "dof"), amplitude, "largest |q| of each DOF over the NNM orbit"
+            ),
+            "backbone_mode": cf_variable("backbone_point", which, "index of the NNM", dtype=np.int32),
+            "required_force": cf_variable(
+                "backbone_point",
+                required,
+                "force amplitude whose resonance peak is the "
+                "NNM orbit (energy balance: damping work = work of the force in "
+                "quadrature)",
+            ),
+            "forcing_amplitude": cf_variable("level", np.asarray(forces, dtype=float), "force amplitude F"),
+            "mode": cf_variable("mode", np.array(modes), "index of the NNM", dtype=np.int32),
+            "predicted_frequency": cf_variable(
+                ("level", "mode"),
+                peak_frequency,
+                "frequency of the resonance peak predicted by the backbone",
+                "Hz",
+                fill_value=fill,
+            ),
+            "predicted_amplitude": cf_variable(
+                ("level", "mode", "dof"),
+                peak_amplitude,
+                "largest |q| of each DOF at the predicted resonance peak",
+                fill_value=fill,
+            ),
+            "dof_label": dof_label_variable(excitation.structure),
+        }
+    )

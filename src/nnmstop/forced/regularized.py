@@ -1,0 +1,49 @@
+"""Stability of a regularized (harmonic-balance) forced response and its located stability changes.
+
+The multipliers of every point come from :func:`nnmstop.hbm.forced.forced_multipliers`; a change of the
+number of multipliers outside the unit circle is located on the ANM step between two points
+(:func:`nnmstop.forced.stability_changes.locate_stability_changes`). A multiplier through +1 is a fold
+where ``Omega`` turns back there, else a symmetry-breaking branch point (the full-basis harmonic balance
+holds both the symmetric and the asymmetric responses).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from nnmstop.continuation.anm import ANMSettings, ANMStepper
+from nnmstop.forced.responses import path_between
+from nnmstop.forced.stability_changes import locate_stability_changes
+from nnmstop.hbm.forced import forced_multipliers
+
+__all__ = ["regularized_stability"]
+
+
+def regularized_stability(system, branch, anm: ANMSettings, spec: dict):
+    """Multipliers (points, 2N) of every point of ``branch`` and its located stability changes.
+
+    ``spec``: the ``forced.stability`` settings (``steps``, ``max_steps``, ``tolerance``).
+    """
+    U = np.asarray(branch.points)
+    options = dict(steps=int(spec["steps"]), max_steps=int(spec["max_steps"]), tol=float(spec["tolerance"]))
+    multipliers, _ = forced_multipliers(system, U, **options)
+    stepper = ANMStepper(anm)
+    changes = locate_stability_changes(
+        U,
+        multipliers,
+        lambda V: forced_multipliers(system, V[None], **options)[0][0],
+        lambda i: path_between(system, stepper, U, i),
+        half_period=False,
+    )
+    omega = U[:, system.i_omega]
+    typed = []
+    for change in changes:
+        i = change.after_point
+        before = np.sign(omega[i] - omega[max(i - 1, 0)]) if i > 0 else 0.0
+        after = np.sign(omega[min(i + 2, len(U) - 1)] - omega[i + 1])
+        if change.kind == "fold" and before * after > 0:
+            change = dataclasses.replace(change, kind="symmetry_breaking")
+        typed.append(change)
+    return multipliers, typed
