@@ -110,10 +110,10 @@ def dof_label_variable(structure) -> tuple:
     return cf_variable("dof", np.array(labels, dtype=object), "name of the degree of freedom", dtype=None)
 
 
-def change_variables(changes, frequency_of, amplitude_of) -> dict:
+def change_variables(changes, frequency_of, amplitude_of, n_dofs: int) -> dict:
     """Located stability changes (dimension ``change``): frequency, amplitudes, kind (:data:`KINDS`)."""
     frequency = np.array([frequency_of(c.U) for c in changes], dtype=float)
-    amplitude = np.array([amplitude_of(c.U) for c in changes], dtype=float).reshape(len(changes), -1)
+    amplitude = np.array([amplitude_of(c.U) for c in changes], dtype=float).reshape(len(changes), n_dofs)
     kinds = np.array([KINDS.index(c.kind) + 1 for c in changes], dtype=np.int8)
     return {
         "change_frequency": cf_variable("change", frequency, "frequency of the located stability change", "Hz"),
@@ -192,7 +192,7 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range) -> xr.D
         offset += len(piece.frequency)
     ds = xr.concat(parts, dim="point", data_vars="all", combine_attrs="override")
     ds["dof_label"] = dof_label_variable(excitation.structure)
-    ds.update(change_variables(changes, lambda U: U[-1] / (2 * np.pi), problem.amplitudes))
+    ds.update(change_variables(changes, lambda U: U[-1] / (2 * np.pi), problem.amplitudes, problem.n))
     if contact_rows:
         ds["contact_unknowns"] = cf_variable(
             ("contact_point", "unknown"),
@@ -255,7 +255,7 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
     ds = xr.Dataset(
         variables, coords={"harmonic": ("harmonic", np.arange(H + 1), {"long_name": "harmonic number", "units": "1"})}
     )
-    ds.update(change_variables(changes, system.frequency_hz, lambda V: response_amplitudes(system, V[None])[0]))
+    ds.update(change_variables(changes, system.frequency_hz, lambda V: response_amplitudes(system, V[None])[0], N))
     ds.attrs.update(base_attributes(excitation, "regularized", frequency_range))
     ds.attrs.update(
         harmonics=int(H),

@@ -143,7 +143,8 @@ def forced_start_point(system: ForcedHarmonicBalanceSystem, frequency: float):
     U0 = system.linear_guess(2 * np.pi * frequency)
     direction = np.zeros(system.n_unknowns)
     direction[system.i_nu] = 1.0
-    U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=1e-13)
+    # below the ANM's series tolerance by far; the round-off floor of a large (sparse) system is near 1e-12
+    U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=1e-11)
     return U0, direction
 
 

@@ -178,7 +178,7 @@ def backbone_prediction_dataset(config: dict):
     backbones, predictions = {}, {}
     for mode in (1, 2):
         system, branch = nnm_backbone(
-            excitation, mode, scenes[0].harmonics, anm, float(forced["max_truncation"]), force_limit=2.0 * max(forces)
+            excitation, mode, scenes[0].harmonics, anm, float(forced["max_truncation"]), force_limit=1.5 * max(forces)
         )
         U = np.asarray(branch.points)
         backbones[mode] = (
