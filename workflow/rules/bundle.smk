@@ -12,8 +12,8 @@ localrules:
 rule bundle:
     """dist/nnmstop-results.zip, described by its ro-crate-metadata.json (Workflow Run Crate)."""
     input:
-        datasets=PAPER_DATASETS,
-        figures=PAPER_FIGURES,
+        datasets=PAPER_DATASETS + (forced_datasets() if "forced" in config else []),
+        figures=PAPER_FIGURES + (forced_figures() if "forced" in config else []),
         manifest=rules.dataset_manifest.output.manifest,
         environment_lock=os.path.join(workflow.basedir, "environment.lock"),
         workflow_files=[

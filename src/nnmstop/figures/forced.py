@@ -55,38 +55,33 @@ def _draw_changes(ax, ds: xr.Dataset, dof: int, color, size: float = 5):
         ax.plot(f, a[dof], CHANGE_MARKERS[KINDS[int(kind) - 1]], color=color, ms=size, mec="black", mew=0.5, zorder=5)
 
 
-def frequency_response_figure(exact: list, regularized: list, backbone: xr.Dataset, pdf_path, png_dpi: int = 150):
-    """``max |x|`` and ``max |u|`` against frequency at every force level (see the module docstring)."""
-    fig, axes = plt.subplots(1, 2, figsize=(9.5, 4.2), layout="constrained")
-    colors = _level_colors(len(regularized))
-    dofs = [int(regularized[0].attrs["stop_dof"]), int(np.atleast_1d(regularized[0].attrs["forcing_dofs"])[0])]
-    labels = [str(regularized[0]["dof_label"].values[d]) for d in dofs]
-    for ax, dof, label in zip(axes, dofs, labels):
-        for mode in np.unique(backbone["backbone_mode"].values):
-            on = backbone["backbone_mode"].values == mode
-            ax.plot(
-                backbone["backbone_frequency"].values[on],
-                backbone["backbone_amplitude"].values[on, dof],
-                color="0.6",
-                lw=1.0,
-                zorder=1,
-            )
-        for color, reg, ex in zip(colors, regularized, exact):
-            _draw_response(ax, reg, reg["amplitude"].values[:, dof], color, 1.8, 2)
-            _draw_response(ax, ex, ex["amplitude"].values[:, dof], EXACT_LINE, 0.7, 3)
-            _draw_changes(ax, reg, dof, color)
-            _draw_changes(ax, ex, dof, "white", 4)
-        for i, color in enumerate(colors):
-            f = backbone["predicted_frequency"].values[i]
-            a = backbone["predicted_amplitude"].values[i, :, dof]
-            ok = f > 0
-            ax.plot(f[ok], a[ok], "*", color=color, mec="black", mew=0.5, ms=10, zorder=6)
-        if gap := float(regularized[0].attrs["stop_gap"]):
-            if dof == dofs[0]:
-                ax.axhline(gap, color="0.4", lw=0.6, ls=":")
-        ax.set_yscale("log")
-        ax.set_xlabel("forcing frequency (Hz, nondimensional time)")
-        ax.set_ylabel(f"max |{label}| over the period")
+def _response_panel(ax, exact, regularized, backbone, dof: int, colors):
+    """One panel of :func:`frequency_response_figure`: responses, changes, backbones and predicted peaks."""
+    for mode in np.unique(backbone["backbone_mode"].values):
+        on = backbone["backbone_mode"].values == mode
+        ax.plot(
+            backbone["backbone_frequency"].values[on],
+            backbone["backbone_amplitude"].values[on, dof],
+            color="0.6",
+            lw=1.0,
+            zorder=1,
+        )
+    for color, reg, ex in zip(colors, regularized, exact):
+        _draw_response(ax, reg, reg["amplitude"].values[:, dof], color, 1.8, 2)
+        _draw_response(ax, ex, ex["amplitude"].values[:, dof], EXACT_LINE, 0.7, 3)
+        _draw_changes(ax, reg, dof, color)
+        _draw_changes(ax, ex, dof, "white", 4)
+    for i, color in enumerate(colors):
+        f = backbone["predicted_frequency"].values[i]
+        a = backbone["predicted_amplitude"].values[i, :, dof]
+        ok = f > 0
+        ax.plot(f[ok], a[ok], "*", color=color, mec="black", mew=0.5, ms=10, zorder=6)
+    if dof == int(regularized[0].attrs["stop_dof"]):
+        ax.axhline(float(regularized[0].attrs["stop_gap"]), color="0.4", lw=0.6, ls=":")
+    ax.set_xlabel("forcing frequency (Hz, nondimensional time)")
+
+
+def _legend_handles(colors, regularized) -> list:
     handles = [
         Line2D([], [], color=c, lw=1.8, label=f"F = {r.attrs['forcing_amplitude']:g} (regularized)")
         for c, r in zip(colors, regularized)
@@ -94,16 +89,47 @@ def frequency_response_figure(exact: list, regularized: list, backbone: xr.Datas
     handles += [
         Line2D([], [], color=EXACT_LINE, lw=0.7, label="exact (piecewise-linear law)"),
         Line2D([], [], color="0.3", lw=1.0, ls="--", label="unstable"),
-        Line2D([], [], color="0.6", lw=1.0, label="NNM backbones"),
-        Line2D([], [], ls="", marker="*", color="0.5", mec="black", ms=10, label="predicted peak"),
+        Line2D([], [], color="0.6", lw=1.0, label="NNM backbones (regularized)"),
+        Line2D([], [], ls="", marker="*", color="0.5", mec="black", ms=10, label="peak predicted by the backbone"),
     ]
-    handles += [
+    return handles + [
         Line2D([], [], ls="", marker=m, color="0.8", mec="black", label=k.replace("_", " "))
         for k, m in CHANGE_MARKERS.items()
     ]
-    axes[1].legend(handles=handles, fontsize=7, loc="upper right")
-    axes[0].set_title("stop DOF (the gap dotted)")
-    axes[1].set_title("forced DOF")
+
+
+def frequency_response_figure(
+    exact: list, regularized: list, backbone: xr.Dataset, pdf_path, png_dpi: int = 150, zoom=None
+):
+    """``max |x|`` and ``max |u|`` against frequency at every force level (see the module docstring).
+
+    Top row: the whole range, logarithmic amplitudes; bottom row: ``zoom`` (Hz; default the frequencies of the
+    one-contact exact responses, widened) on linear amplitudes.
+    """
+    fig, axes = plt.subplots(2, 2, figsize=(10.0, 8.6), layout="constrained")
+    colors = _level_colors(len(regularized))
+    dofs = [int(regularized[0].attrs["stop_dof"]), int(np.atleast_1d(regularized[0].attrs["forcing_dofs"])[0])]
+    if zoom is None:  # the one-contact exact responses and the NNM1 peaks
+        first = backbone["predicted_frequency"].values[:, 0]
+        contact = np.concatenate(
+            [ex["frequency"].values[ex["contact_point_index"].values] for ex in exact if "contact_point_index" in ex]
+            + [first[first > 0]]
+        )
+        zoom = (0.9 * contact.min(), 1.05 * contact.max()) if contact.size else None
+    for column, dof in enumerate(dofs):
+        label = str(regularized[0]["dof_label"].values[dof])
+        for row in (0, 1):
+            ax = axes[row, column]
+            _response_panel(ax, exact, regularized, backbone, dof, colors)
+            ax.set_ylabel(f"max |{label}| over the period")
+        axes[0, column].set_yscale("log")
+        if zoom is not None:
+            axes[1, column].set_xlim(*zoom)
+            axes[1, column].set_ylim(0.0, None)
+    axes[0, 0].set_title("stop DOF (the gap dotted)")
+    axes[0, 1].set_title("forced DOF")
+    axes[1, 0].set_title("the primary resonance of NNM1 past grazing")
+    fig.legend(handles=_legend_handles(colors, regularized), loc="outside lower center", ncol=4, fontsize=7)
     return save_figure(fig, pdf_path, png_dpi)
 
 

@@ -252,6 +252,7 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
     variables["step"] = cf_variable(
         "point", branch.step, "index of the ANM step that produced the point", dtype=np.int32
     )
+    variables["dof_label"] = dof_label_variable(excitation.structure)
     ds = xr.Dataset(
         variables, coords={"harmonic": ("harmonic", np.arange(H + 1), {"long_name": "harmonic number", "units": "1"})}
     )

@@ -2,9 +2,9 @@
 
 The multipliers of every point come from :func:`nnmstop.hbm.forced.forced_multipliers`; a change of the
 number of multipliers outside the unit circle is located on the ANM step between two points
-(:func:`nnmstop.forced.stability_changes.locate_stability_changes`). A multiplier through +1 is a fold
-where ``Omega`` turns back there, else a symmetry-breaking branch point (the full-basis harmonic balance
-holds both the symmetric and the asymmetric responses).
+(:func:`nnmstop.forced.stability_changes.locate_stability_changes`). A multiplier through +1 is a
+symmetry-breaking branch point where the continuation flagged a simple branch point (the full-basis
+harmonic balance holds both the symmetric and the asymmetric responses), else a fold.
 """
 
 from __future__ import annotations
@@ -37,13 +37,13 @@ def regularized_stability(system, branch, anm: ANMSettings, spec: dict):
         lambda i: path_between(system, stepper, U, i),
         half_period=False,
     )
-    omega = U[:, system.i_omega]
+    # a multiplier through +1 is a fold of the symmetric responses unless the continuation crossed a simple
+    # branch point there (sign change of det [J; t^T]: the symmetry-breaking pitchfork of the full basis)
+    flagged = set(branch.branch_points)
     typed = []
     for change in changes:
-        i = change.after_point
-        before = np.sign(omega[i] - omega[max(i - 1, 0)]) if i > 0 else 0.0
-        after = np.sign(omega[min(i + 2, len(U) - 1)] - omega[i + 1])
-        if change.kind == "fold" and before * after > 0:
+        near = {change.after_point + k for k in (0, 1, 2)}
+        if change.kind == "fold" and near & flagged:
             change = dataclasses.replace(change, kind="symmetry_breaking")
         typed.append(change)
     return multipliers, typed
