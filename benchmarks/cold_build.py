@@ -57,14 +57,14 @@ def rule_of(benchmark_file: Path) -> str:
     return stem
 
 
-def cold_build(ref: str, cores: int, keep: bool):
-    """Build ``ref`` cold; return its wall time and per-rule job times ``{rule: (jobs, seconds)}``."""
+def cold_build(ref: str, cores: int, keep: bool, target: str = "all"):
+    """Build ``target`` of ``ref`` cold; return its wall time and per-rule job times ``{rule: (jobs, seconds)}``."""
     workdir = Path(tempfile.mkdtemp(prefix="nnmstop-cold-"))
     try:
         tracked_copy(workdir, ref)
         env = {**os.environ, "PYTHONPATH": str(workdir / "src")}
         started = time.perf_counter()
-        run = subprocess.run(["snakemake", "--cores", str(cores), "--quiet", "all"], cwd=workdir, env=env)
+        run = subprocess.run(["snakemake", "--cores", str(cores), "--quiet", target], cwd=workdir, env=env)
         wall = time.perf_counter() - started
         if run.returncode != 0:
             raise RuntimeError(f"snakemake failed for {ref} (exit {run.returncode}) in {workdir}")
