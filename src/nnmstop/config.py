@@ -94,7 +94,7 @@ def validate_config(config: dict) -> dict:
 
 def _check_forced(config: dict) -> None:
     """Frequency ranges increasing, force DOFs on the model (nnmstop.tasks.forced builds the scenes)."""
-    from nnmstop.tasks.forced import forced_scenes
+    from nnmstop.forced.scenes import forced_scenes
 
     try:
         forced_scenes(config)

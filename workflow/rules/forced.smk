@@ -6,7 +6,7 @@
 
 def forced_scene_names(which="all"):
     """File stems of the forced responses of the configuration (`F0.05`, ..., `tube_F0.5`)."""
-    from nnmstop.tasks.forced import forced_scenes
+    from nnmstop.forced.scenes import forced_scenes
 
     return [scene.name for scene in forced_scenes(config, which)] if "forced" in config else []
 

@@ -9,7 +9,6 @@ and a frequency range each); the numerics live in :mod:`nnmstop.forced` and the 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -19,102 +18,15 @@ from nnmstop.forced.backbone import nnm_backbone, predicted_peaks, required_forc
 from nnmstop.forced.dataset import backbone_dataset, base_attributes, exact_dataset, regularized_dataset
 from nnmstop.forced.regularized import regularized_stability
 from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
+from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, scene_name
 from nnmstop.hbm.forced import response_amplitudes
-from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
-from nnmstop.models.structure import Structure, two_dof_structure
-from nnmstop.models.two_dof import ModelParameters
 from nnmstop.netcdf import read_dataset, write_dataset
 
-__all__ = ["Scene", "forced_scenes", "scene_name", "forced_exact", "forced_regularized", "TASKS"]
+__all__ = ["forced_exact", "forced_regularized", "forced_backbone", "forced_figure", "TASKS"]
 
 logger = logging.getLogger("nnmstop.tasks.forced")
 
 KEYWORDS = "forced response, frequency response, harmonic balance, non-smooth, Floquet stability"
-
-
-@dataclass(frozen=True)
-class Scene:
-    """One forced response to compute: its name (file stem), excitation, frequency range (Hz) and ``H``."""
-
-    name: str
-    excitation: Excitation
-    frequency_range: tuple
-    harmonics: int
-
-
-def scene_name(amplitude: float, prefix: str = "") -> str:
-    """File stem of the response at force amplitude ``amplitude``: ``F0.05``, ``tube_F0.5``."""
-    return f"{prefix}F{float(amplitude):g}".replace("e+", "e")
-
-
-def _dof_indices(structure: Structure, dofs, key: str) -> list:
-    """DOF indices from labels (or indices); an unknown label or an index off the model is named."""
-    labels = list(structure.dof_labels or [])
-    out = []
-    for dof in dofs:
-        if isinstance(dof, str):
-            if dof not in labels:
-                shown = labels if len(labels) <= 12 else labels[:6] + ["..."] + labels[-6:]
-                raise ValueError(f"{key}: force dof {dof!r} is not a degree of freedom of the model ({shown})")
-            out.append(labels.index(dof))
-        elif not 0 <= int(dof) < structure.n_dofs:
-            raise ValueError(f"{key}: force dof {dof} is off the model (0..{structure.n_dofs - 1})")
-        else:
-            out.append(int(dof))
-    return out
-
-
-def _damping(structure: Structure, spec: dict) -> Damping:
-    if "ratios" in spec:
-        return Damping.from_modal_ratios(structure, spec["ratios"], spec["modes"])
-    return Damping(float(spec["mass_coefficient"]), float(spec["stiffness_coefficient"]))
-
-
-def _frequency_range(spec, key: str) -> tuple:
-    low, high = (float(v) for v in spec)
-    if not low < high:
-        raise ValueError(
-            f"{key}: the frequency range [{low:g}, {high:g}] Hz is empty (its low end must be below its high end)"
-        )
-    return low, high
-
-
-def forced_scenes(config: dict, which: str = "all") -> list:
-    """The scenes of the ``forced`` section: one per force amplitude on the paper's oscillator (``model``),
-    and with ``forced.tube`` (and ``tube``) one for the tube. ``which``: "oscillator", "tube" or "all"."""
-    forced = config["forced"]
-    scenes = []
-    if which in ("oscillator", "all"):
-        structure = two_dof_structure(ModelParameters.from_config(config["model"]))
-        damping = _damping(structure, forced["damping"])
-        dofs = _dof_indices(structure, forced["force"]["dofs"], "forced.force.dofs")
-        frequency_range = _frequency_range(forced["frequency_range"], "forced.frequency_range")
-        for amplitude in forced["force"]["amplitudes"]:
-            excitation = Excitation(structure, damping, HarmonicForce(float(amplitude), tuple(dofs)))
-            scenes.append(Scene(scene_name(amplitude), excitation, frequency_range, int(forced["harmonics"])))
-    if which in ("tube", "all") and "tube" in forced and "tube" in config:
-        scenes.append(_tube_scene(config))
-    return scenes
-
-
-def _tube_scene(config: dict) -> Scene:
-    from nnmstop.models.beam import beam_structure
-    from nnmstop.tasks.tube import tube_beam
-
-    spec = config["forced"]["tube"]
-    structure = beam_structure(tube_beam(config["tube"]["structure"]))
-    dofs = _dof_indices(structure, spec["force_dofs"], "forced.tube.force_dofs")
-    damping = _damping(structure, config["forced"]["damping"])
-    excitation = Excitation(structure, damping, HarmonicForce(float(spec["amplitude"]), tuple(dofs)))
-    frequency_range = _frequency_range(spec["frequency_range"], "forced.tube.frequency_range")
-    return Scene(scene_name(spec["amplitude"], "tube_"), excitation, frequency_range, int(spec["harmonics"]))
-
-
-def find_scene(config: dict, name: str) -> Scene:
-    for scene in forced_scenes(config):
-        if scene.name == name:
-            return scene
-    raise ValueError(f"no forced scene named {name!r}; the configuration has {[s.name for s in forced_scenes(config)]}")
 
 
 # --------------------------------------------------------------------------- computations
