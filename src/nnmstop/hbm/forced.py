@@ -251,11 +251,22 @@ def forced_multipliers(
     omega = U[:, system.i_nu]
     H = system.H
 
+    def stop_coordinate(systems, t):
+        """``x_i(t)`` of every stop for the orbits ``systems`` at the times ``t`` (k, m) -> (s, k, m)."""
+        out = np.empty((system.n_stops,) + t.shape)
+        # exp(i k theta) by powers of exp(i theta), a chunk of orbits at a time (bounded memory)
+        per_chunk = max(1, 2**22 // (t.shape[1] * H))
+        for start in range(0, len(systems), per_chunk):
+            chunk = slice(start, start + per_chunk)
+            phase = np.exp(1j * omega[systems[chunk], None] * t[chunk])[..., None]
+            powers = np.cumprod(np.broadcast_to(phase, phase.shape[:-1] + (H,)), axis=-1)
+            c = X[:, systems[chunk]]  # (s, k, nc)
+            series = c[..., 1 : H + 1] - 1j * c[..., H + 1 :]
+            out[:, chunk] = c[..., :1] + np.einsum("kmh,skh->skm", powers, series).real
+        return out
+
     def generator(systems, t):
-        # exp(i k theta) by powers of exp(i theta): one complex product per harmonic, no cosines
-        powers = np.cumprod(np.broadcast_to(np.exp(1j * omega[systems, None] * t)[..., None], t.shape + (H,)), axis=-1)
-        c = X[:, systems]  # (s, k, nc)
-        q = c[..., :1] + np.einsum("kmh,skh->skm", powers, c[..., 1 : H + 1] - 1j * c[..., H + 1 :]).real
+        q = stop_coordinate(systems, t)
         stiff = _contact_stiffness(system, q)  # (s, k, m)
         A = np.broadcast_to(A0, t.shape + A0.shape).copy()
         for i, dof in enumerate(system.stop_dofs):
