@@ -144,3 +144,31 @@ def test_regularized_response_converges_to_the_exact_one_at_first_order_in_eta()
     orders = np.log2(errors[:-1] / errors[1:])
     assert np.all(orders > 0.8), (errors, orders)
     assert errors[-1, 0] < 0.04
+
+
+@pytest.mark.numerics
+def test_time_integration_leaves_an_unstable_hbm_response_at_its_largest_multiplier():
+    """From the most unstable regularized response (between the folds) a perturbation grows by the largest
+    Floquet multiplier of the damped variational equation per period; from a stable one it decays."""
+    floquet = pytest.importorskip("nnmstop.floquet")
+    if not hasattr(floquet, "periodic_floquet"):
+        pytest.skip("needs nnmstop.floquet.periodic_floquet (the general path of the stability helper)")
+    from nnmstop.hbm.forced import forced_multipliers
+
+    excitation = oscillator_excitation(0.05, alpha=3.0, eta=0.3)
+    system = ForcedHarmonicBalanceSystem(excitation, harmonics=16)
+    U = np.asarray(continue_frequency_response(system, (0.09, 0.16), SETTINGS, max_truncation=1e-3).points)
+    largest = np.abs(forced_multipliers(system, U)[0]).max(axis=1)
+    for index in (int(np.argmax(largest)), int(np.argmin(largest))):
+        omega = U[index, system.i_omega]
+        history = system.time_history(U[index], 64)
+        z0 = np.concatenate([history["q"][:, 0], history["qdot"][:, 0]])
+        t = np.arange(17) * 2 * np.pi / omega
+        states = integrate_forced_regularized(
+            excitation, omega, z0 + 1e-7 * np.array([1.0, 0.5, -0.3, 0.2]), t, rtol=1e-11, atol=1e-12
+        )
+        distance = np.linalg.norm(states - z0, axis=1)
+        if largest[index] > 1:
+            assert (distance[-1] / distance[-9]) ** 0.125 == pytest.approx(largest[index], rel=0.03)
+        else:
+            assert distance[-1] < distance[0]
