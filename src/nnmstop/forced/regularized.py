@@ -22,13 +22,13 @@ __all__ = ["regularized_stability"]
 
 
 def regularized_stability(system, branch, anm: ANMSettings, spec: dict):
-    """Multipliers (points, 2N) of every point of ``branch`` and its located stability changes.
+    """Multipliers (points, 2N) of every point of ``branch``, their error estimates and the located changes.
 
     ``spec``: the ``forced.stability`` settings (``steps``, ``max_steps``, ``tolerance``).
     """
     U = np.asarray(branch.points)
     options = dict(steps=int(spec["steps"]), max_steps=int(spec["max_steps"]), tol=float(spec["tolerance"]))
-    multipliers, _ = forced_multipliers(system, U, **options)
+    multipliers, errors = forced_multipliers(system, U, **options)
     stepper = ANMStepper(anm)
     changes = locate_stability_changes(
         U,
@@ -46,4 +46,4 @@ def regularized_stability(system, branch, anm: ANMSettings, spec: dict):
         if change.kind == "fold" and near & flagged:
             change = dataclasses.replace(change, kind="symmetry_breaking")
         typed.append(change)
-    return multipliers, typed
+    return multipliers, errors, typed

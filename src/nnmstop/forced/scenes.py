@@ -16,12 +16,15 @@ __all__ = ["Scene", "scene_name", "forced_scenes", "find_scene"]
 
 @dataclass(frozen=True)
 class Scene:
-    """One forced response to compute: its name (file stem), excitation, frequency range (Hz) and ``H``."""
+    """One forced response to compute: its name (file stem), excitation, frequency range (Hz), ``H``, the points
+    stored per ANM step and the settings of its Floquet multipliers (``steps``, ``max_steps``, ``tolerance``)."""
 
     name: str
     excitation: Excitation
     frequency_range: tuple
     harmonics: int
+    points_per_step: int
+    stability: dict
 
 
 def scene_name(amplitude: float, prefix: str = "") -> str:
@@ -73,7 +76,16 @@ def forced_scenes(config: dict, which: str = "all") -> list:
         frequency_range = _frequency_range(forced["frequency_range"], "forced.frequency_range")
         for amplitude in forced["force"]["amplitudes"]:
             excitation = Excitation(structure, damping, HarmonicForce(float(amplitude), tuple(dofs)))
-            scenes.append(Scene(scene_name(amplitude), excitation, frequency_range, int(forced["harmonics"])))
+            scenes.append(
+                Scene(
+                    scene_name(amplitude),
+                    excitation,
+                    frequency_range,
+                    int(forced["harmonics"]),
+                    int(forced["points_per_step"]),
+                    dict(forced["stability"]),
+                )
+            )
     if which in ("tube", "all") and "tube" in forced and "tube" in config:
         scenes.append(_tube_scene(config))
     return scenes
@@ -89,7 +101,15 @@ def _tube_scene(config: dict) -> Scene:
     damping = _damping(structure, config["forced"]["damping"])
     excitation = Excitation(structure, damping, HarmonicForce(float(spec["amplitude"]), tuple(dofs)))
     frequency_range = _frequency_range(spec["frequency_range"], "forced.tube.frequency_range")
-    return Scene(scene_name(spec["amplitude"], "tube_"), excitation, frequency_range, int(spec["harmonics"]))
+    forced = config["forced"]
+    return Scene(
+        scene_name(spec["amplitude"], "tube_"),
+        excitation,
+        frequency_range,
+        int(spec["harmonics"]),
+        int(spec.get("points_per_step", forced["points_per_step"])),
+        dict(spec.get("stability", forced["stability"])),
+    )
 
 
 def find_scene(config: dict, name: str) -> Scene:

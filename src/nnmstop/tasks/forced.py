@@ -20,7 +20,7 @@ from nnmstop.forced.regularized import regularized_stability
 from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
 from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, scene_name
 from nnmstop.hbm.forced import response_amplitudes
-from nnmstop.netcdf import read_dataset, write_dataset
+from nnmstop.netcdf import cf_variable, read_dataset, write_dataset
 
 __all__ = ["forced_exact", "forced_regularized", "forced_backbone", "forced_figure", "TASKS"]
 
@@ -51,12 +51,18 @@ def exact_response_dataset(config: dict, scene: Scene):
 def regularized_response_dataset(config: dict, scene: Scene):
     """The harmonic-balance response of ``scene`` with its multipliers and located changes, as a dataset."""
 
-    forced = config["forced"]
-    anm = ANMSettings.from_config(config["anm"], points_per_step=int(forced["points_per_step"]))
-    settings = RegularizedSettings(scene.harmonics, anm, float(forced["max_truncation"]))
+    anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
+    settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
     system, branch = regularized_response(scene.excitation, scene.frequency_range, settings, label=scene.name)
-    multipliers, changes = regularized_stability(system, branch, anm, forced["stability"])
-    return regularized_dataset(system, branch, multipliers, False, changes, scene.frequency_range)
+    multipliers, errors, changes = regularized_stability(system, branch, anm, scene.stability)
+    ds = regularized_dataset(system, branch, multipliers, False, changes, scene.frequency_range)
+    ds["multiplier_error"] = cf_variable(
+        "point",
+        errors,
+        "largest change of a Floquet multiplier between the last two Magnus step counts (error estimate)",
+    )
+    ds.attrs.update({f"stability_{key}": value for key, value in scene.stability.items()})
+    return ds
 
 
 def _write(ds, path, scene: Scene, law: str, config: dict):
