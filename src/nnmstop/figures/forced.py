@@ -215,7 +215,8 @@ def tube_figure(regularized: list, pdf_path, png_dpi: int = 150):
             label = str(ds["dof_label"].values[dof])
             color = "tab:red" if dof == int(ds.attrs["stop_dof"]) else "tab:blue"
             _draw_response(ax, ds, ds["amplitude"].values[:, dof], color, 1.5, 2)
-            ax.plot([], [], color=color, ls=style, label=f"{label} (F = {ds.attrs['forcing_amplitude']:g})")
+            role = "stop DOF" if dof == int(ds.attrs["stop_dof"]) else "forced DOF"
+            ax.plot([], [], color=color, ls=style, label=f"{label}, {role} (F = {ds.attrs['forcing_amplitude']:g})")
             _draw_changes(ax, ds, dof, color)
         ax.axhline(float(ds.attrs["stop_gap"]), color="0.4", lw=0.6, ls=":")
     ax.set_yscale("log")
