@@ -150,9 +150,6 @@ def test_regularized_response_converges_to_the_exact_one_at_first_order_in_eta()
 def test_time_integration_leaves_an_unstable_hbm_response_at_its_largest_multiplier():
     """From the most unstable regularized response (between the folds) a perturbation grows by the largest
     Floquet multiplier of the damped variational equation per period; from a stable one it decays."""
-    floquet = pytest.importorskip("nnmstop.floquet")
-    if not hasattr(floquet, "periodic_floquet"):
-        pytest.skip("needs nnmstop.floquet.periodic_floquet (the general path of the stability helper)")
     from nnmstop.hbm.forced import forced_multipliers
 
     excitation = oscillator_excitation(0.05, alpha=3.0, eta=0.3)

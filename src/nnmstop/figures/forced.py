@@ -52,7 +52,7 @@ def _draw_changes(ax, ds: xr.Dataset, dof: int, color, size: float = 5):
     if "change_kind" not in ds:
         return
     for kind, f, a in zip(ds["change_kind"].values, ds["change_frequency"].values, ds["change_amplitude"].values):
-        ax.plot(f, a[dof], CHANGE_MARKERS[KINDS[int(kind) - 1]], color=color, ms=size, mec="black", mew=0.5, zorder=5)
+        ax.plot(f, a[dof], CHANGE_MARKERS[KINDS[int(kind)]], color=color, ms=size, mec="black", mew=0.5, zorder=5)
 
 
 def _response_panel(ax, exact, regularized, backbone, dof: int, colors):

@@ -16,10 +16,9 @@ import xarray as xr
 
 from nnmstop import fourier
 from nnmstop.exact.forced import SymmetricContactProblem, non_impacting_response
-from nnmstop.forced.stability_changes import KINDS, REGIMES, regimes
+from nnmstop.forced.stability_changes import KINDS, regimes
 from nnmstop.hbm.forced import phase_lags, response_amplitudes
 from nnmstop.models.excitation import Excitation
-from nnmstop.netcdf import cf_variable, flag_variable
 
 __all__ = [
     "response_variables",
@@ -35,100 +34,45 @@ __all__ = [
 SEGMENT_KINDS = ("non_impacting", "one_contact")
 
 
-def _flags(dims, values, long_name: str, names) -> tuple:
-    values = np.asarray(values, dtype=np.int8)
-    return cf_variable(
-        dims,
-        values,
-        long_name,
-        "1",
-        dtype=None,
-        flag_values=np.arange(len(names), dtype=np.int8),
-        flag_meanings=" ".join(names),
-    )
-
-
 def response_variables(
     excitation: Excitation, frequency, amplitude, lags, multipliers, half_period: bool, segment
 ) -> dict:
-    """Per-point variables (dimension ``point``; ``dof``, ``multiplier``) of a response."""
+    """Per-point variables (dimension ``point``; ``dof``, ``multiplier``) of a response (metadata: the catalogue)."""
     structure = excitation.structure
     x_dof, u_dof = structure.stops[0].dof, excitation.force.dofs[0]
     multipliers = np.asarray(multipliers)
     mu = multipliers**2 if half_period else multipliers
     stable = np.all(np.abs(mu) <= 1.0 + 1e-12, axis=1)
-    labels = structure.dof_labels or tuple(f"q{j}" for j in range(structure.n_dofs))
+    amplitude = np.asarray(amplitude, dtype=float)
     return {
-        "frequency": cf_variable(
-            "point",
-            frequency,
-            "frequency of the force and of the periodic response (Hz of the nondimensional time)",
-            "Hz",
-        ),
-        "x_amplitude": cf_variable(
-            "point", amplitude[:, x_dof], f"largest |q| over the period of the DOF of the first stop ({labels[x_dof]})"
-        ),
-        "u_amplitude": cf_variable(
-            "point", amplitude[:, u_dof], f"largest |q| over the period of the first forced DOF ({labels[u_dof]})"
-        ),
-        "amplitude": cf_variable(("point", "dof"), amplitude, "largest |q| over the period of each DOF"),
-        "phase_lag": cf_variable(
-            ("point", "dof"),
-            np.degrees(lags),
-            "lag of the fundamental harmonic of each DOF behind the force cos(Omega t) (90 at phase resonance)",
-            "degree",
-        ),
-        "stable": flag_variable(
-            "point",
-            stable,
-            "Floquet stability of the periodic response (all multipliers inside the unit circle)",
-            "unstable stable",
-        ),
-        "multiplier_real": cf_variable(
-            ("point", "multiplier"),
-            mu.real,
-            "real part of the Floquet multipliers over one period, by decreasing modulus",
-        ),
-        "multiplier_imag": cf_variable(
-            ("point", "multiplier"),
-            mu.imag,
-            "imaginary part of the Floquet multipliers over one period, by decreasing modulus",
-        ),
-        "regime": _flags(
-            "point",
-            regimes(multipliers, half_period),
-            "what the response is where the periodic one is unstable (none claimed where it is not stable)",
-            REGIMES,
-        ),
-        "segment": cf_variable("point", segment, "index of the continued piece of the response", dtype=np.int32),
+        "frequency": ("point", np.asarray(frequency, dtype=float)),
+        "x_amplitude": ("point", amplitude[:, x_dof]),
+        "u_amplitude": ("point", amplitude[:, u_dof]),
+        "amplitude": (("point", "dof"), amplitude),
+        "phase_lag": (("point", "dof"), np.degrees(lags)),
+        "stable": ("point", stable.astype(np.int8)),
+        "multiplier_real": (("point", "multiplier"), mu.real),
+        "multiplier_imag": (("point", "multiplier"), mu.imag),
+        "regime": ("point", regimes(multipliers, half_period)),
+        "segment": ("point", np.asarray(segment, dtype=np.int32)),
     }
 
 
 def dof_label_variable(structure) -> tuple:
     """The ``dof_label`` coordinate of a structure (``q0, q1, ...`` when it names none)."""
     labels = structure.dof_labels or tuple(f"q{j}" for j in range(structure.n_dofs))
-    return cf_variable("dof", np.array(labels, dtype=object), "name of the degree of freedom", dtype=None)
+    return ("dof", np.array(labels, dtype=object))
 
 
 def change_variables(changes, frequency_of, amplitude_of, n_dofs: int) -> dict:
-    """Located stability changes (dimension ``change``): frequency, amplitudes, kind (:data:`KINDS`)."""
+    """Located stability changes (dimension ``change``): frequency, amplitudes, kind (index in :data:`KINDS`)."""
     frequency = np.array([frequency_of(c.U) for c in changes], dtype=float)
     amplitude = np.array([amplitude_of(c.U) for c in changes], dtype=float).reshape(len(changes), n_dofs)
-    kinds = np.array([KINDS.index(c.kind) + 1 for c in changes], dtype=np.int8)
+    kinds = np.array([KINDS.index(c.kind) for c in changes], dtype=np.int8)
     return {
-        "change_frequency": cf_variable("change", frequency, "frequency of the located stability change", "Hz"),
-        "change_amplitude": cf_variable(
-            ("change", "dof"), amplitude, "largest |q| of each DOF at the located stability change"
-        ),
-        "change_kind": cf_variable(
-            "change",
-            kinds,
-            "kind of the stability change",
-            "1",
-            dtype=None,
-            flag_values=np.arange(1, len(KINDS) + 1, dtype=np.int8),
-            flag_meanings=" ".join(KINDS),
-        ),
+        "change_frequency": ("change", frequency),
+        "change_amplitude": (("change", "dof"), amplitude),
+        "change_kind": ("change", kinds),
     }
 
 
@@ -194,16 +138,8 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range) -> xr.D
     ds["dof_label"] = dof_label_variable(excitation.structure)
     ds.update(change_variables(changes, lambda U: U[-1] / (2 * np.pi), problem.amplitudes, problem.n))
     if contact_rows:
-        ds["contact_unknowns"] = cf_variable(
-            ("contact_point", "unknown"),
-            np.concatenate(contact_rows),
-            "unknowns of the symmetric one-contact responses: state (q, qdot) "
-            "entering the right stop, its phase Omega t, the phase duration of "
-            "the contact, Omega",
-        )
-        ds["contact_point_index"] = cf_variable(
-            "contact_point", np.concatenate(contact_index), "index of the point of the response", dtype=np.int32
-        )
+        ds["contact_unknowns"] = (("contact_point", "unknown"), np.concatenate(contact_rows))
+        ds["contact_point_index"] = ("contact_point", np.concatenate(contact_index).astype(np.int32))
     ds.attrs.update(base_attributes(excitation, "piecewise_linear", frequency_range))
     ds.attrs["segment_kinds"] = " ".join(p.kind for p in pieces)
     ds.attrs["segment_end_reasons"] = "; ".join(f"{k}: {p.end_reason}" for k, p in enumerate(pieces))
@@ -231,31 +167,14 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
     Z = U[:, (N + s) * nc : (N + 2 * s) * nc].reshape(-1, s, nc)
     for name, block, dim in (("q", Q, "dof"), ("f", F, "stop"), ("z", Z, "stop")):
         cos, sin = fourier.to_cos_sin(block, H)
-        meaning = {"q": "displacement", "f": "regularized contact force / gap", "z": "auxiliary z of the recast"}
-        variables[f"{name}_cos"] = cf_variable(
-            ("point", dim, "harmonic"), cos, f"cosine coefficients of the {meaning[name]} in Omega t"
-        )
-        variables[f"{name}_sin"] = cf_variable(
-            ("point", dim, "harmonic"), sin, f"sine coefficients of the {meaning[name]} in Omega t"
-        )
+        variables[f"{name}_cos"] = (("point", dim, "harmonic"), cos)
+        variables[f"{name}_sin"] = (("point", dim, "harmonic"), sin)
     diagnostics = branch.diagnostics
-    variables["truncation"] = cf_variable(
-        "point",
-        [d["truncation"] for d in diagnostics],
-        "share of the mean square of the stop DOF's acceleration or of f in the top tenth of the harmonics",
-    )
-    variables["time_residual"] = cf_variable(
-        "point",
-        [d["time_residual"] for d in diagnostics],
-        "largest residual of the equations of motion of the stop DOFs in time, relative to the largest restoring force",
-    )
-    variables["step"] = cf_variable(
-        "point", branch.step, "index of the ANM step that produced the point", dtype=np.int32
-    )
+    variables["truncation"] = ("point", np.array([d["truncation"] for d in diagnostics], dtype=float))
+    variables["time_residual"] = ("point", np.array([d["time_residual"] for d in diagnostics], dtype=float))
+    variables["step"] = ("point", np.asarray(branch.step, dtype=np.int32))
     variables["dof_label"] = dof_label_variable(excitation.structure)
-    ds = xr.Dataset(
-        variables, coords={"harmonic": ("harmonic", np.arange(H + 1), {"long_name": "harmonic number", "units": "1"})}
-    )
+    ds = xr.Dataset(variables, coords={"harmonic": ("harmonic", np.arange(H + 1))})
     ds.update(change_variables(changes, system.frequency_hz, lambda V: response_amplitudes(system, V[None])[0], N))
     ds.attrs.update(base_attributes(excitation, "regularized", frequency_range))
     ds.attrs.update(
@@ -286,36 +205,16 @@ def backbone_dataset(excitation: Excitation, backbones: dict, forces, prediction
         for i, found in enumerate(predictions[m]):
             if found is not None:
                 peak_frequency[i, j], peak_amplitude[i, j] = found[0], found[1]
-    fill = -1.0
     return xr.Dataset(
         {
-            "backbone_frequency": cf_variable("backbone_point", frequency, "frequency of the NNM orbit", "Hz"),
-            "backbone_amplitude": cf_variable(
-                ("backbone_point", "dof"), amplitude, "largest |q| of each DOF over the NNM orbit"
-            ),
-            "backbone_mode": cf_variable("backbone_point", which, "index of the NNM", dtype=np.int32),
-            "required_force": cf_variable(
-                "backbone_point",
-                required,
-                "force amplitude whose resonance peak is the "
-                "NNM orbit (energy balance: damping work = work of the force in "
-                "quadrature)",
-            ),
-            "forcing_amplitude": cf_variable("level", np.asarray(forces, dtype=float), "force amplitude F"),
-            "mode": cf_variable("mode", np.array(modes), "index of the NNM", dtype=np.int32),
-            "predicted_frequency": cf_variable(
-                ("level", "mode"),
-                peak_frequency,
-                "frequency of the resonance peak predicted by the backbone",
-                "Hz",
-                fill_value=fill,
-            ),
-            "predicted_amplitude": cf_variable(
-                ("level", "mode", "dof"),
-                peak_amplitude,
-                "largest |q| of each DOF at the predicted resonance peak",
-                fill_value=fill,
-            ),
+            "backbone_frequency": ("backbone_point", frequency),
+            "backbone_amplitude": (("backbone_point", "dof"), amplitude),
+            "backbone_mode": ("backbone_point", which.astype(np.int32)),
+            "required_force": ("backbone_point", required),
+            "forcing_amplitude": ("level", np.asarray(forces, dtype=float)),
+            "mode": ("mode", np.array(modes, dtype=np.int32)),
+            "predicted_frequency": (("level", "mode"), peak_frequency),
+            "predicted_amplitude": (("level", "mode", "dof"), peak_amplitude),
             "dof_label": dof_label_variable(excitation.structure),
         }
     )

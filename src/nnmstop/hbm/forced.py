@@ -24,6 +24,7 @@ import numpy as np
 from nnmstop import fourier
 from nnmstop.continuation.anm import ANMSettings, continue_anm
 from nnmstop.continuation.core import Branch, ContinuationStats, newton_correct
+from nnmstop.floquet import periodic_floquet
 from nnmstop.hbm.stages import TruncationGuard
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.excitation import Excitation, linear_response
@@ -237,8 +238,6 @@ def forced_multipliers(
     (:func:`nnmstop.floquet.periodic_floquet`: fourth-order Magnus steps, step doubling until the multipliers
     move by less than ``tol``). Returns the multipliers (points, 2N) and the error estimates (points,).
     """
-    from nnmstop.floquet import periodic_floquet  # the stability helper's general path
-
     U = np.atleast_2d(np.asarray(U_array, dtype=float))
     N = system.n_dofs
     mass, stiffness = system.structure.dense_matrices()

@@ -20,7 +20,7 @@ from nnmstop.forced.regularized import regularized_stability
 from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
 from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, scene_name
 from nnmstop.hbm.forced import response_amplitudes
-from nnmstop.netcdf import cf_variable, read_dataset, write_dataset
+from nnmstop.netcdf import read_dataset, write_dataset
 
 __all__ = ["forced_exact", "forced_regularized", "forced_backbone", "forced_figure", "TASKS"]
 
@@ -56,11 +56,7 @@ def regularized_response_dataset(config: dict, scene: Scene):
     system, branch = regularized_response(scene.excitation, scene.frequency_range, settings, label=scene.name)
     multipliers, errors, changes = regularized_stability(system, branch, anm, scene.stability)
     ds = regularized_dataset(system, branch, multipliers, False, changes, scene.frequency_range)
-    ds["multiplier_error"] = cf_variable(
-        "point",
-        errors,
-        "largest change of a Floquet multiplier between the last two Magnus step counts (error estimate)",
-    )
+    ds["multiplier_error"] = ("point", np.asarray(errors, dtype=float))
     ds.attrs.update({f"stability_{key}": value for key, value in scene.stability.items()})
     return ds
 
@@ -81,6 +77,7 @@ def _write(ds, path, scene: Scene, law: str, config: dict):
         summary=summary,
         keywords=KEYWORDS,
         metadata=config.get("metadata"),
+        kind="forced_exact" if law == "piecewise_linear" else "forced_regularized",
     )
     logger.info("wrote %s (%d points)", path, ds.sizes["point"])
 
@@ -141,6 +138,7 @@ def forced_backbone(config, inputs, outputs):
         summary=summary,
         keywords=KEYWORDS,
         metadata=config.get("metadata"),
+        kind="forced_backbone",
     )
 
 
