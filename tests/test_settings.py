@@ -23,7 +23,8 @@ def config(repo_root):
 
 def test_settings_carry_the_configured_values(config):
     system = system_from_config(config, harmonics=12, eta=0.02)
-    assert system.H == 12 and system.structure.stops[0].eta == 0.02 and system.structure.stops[0].stiffness == config["model"]["alpha"]
+    stop = system.structure.stops[0]
+    assert system.H == 12 and stop.eta == 0.02 and stop.stiffness == config["model"]["alpha"]
     settings = branch_settings(config)
     assert settings.continuation.order == config["anm"]["order"]
     assert settings.continuation.points_per_step == config["hbm"]["points_per_step"]

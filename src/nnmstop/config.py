@@ -83,7 +83,19 @@ def validate_config(config: dict) -> dict:
         _check_structure(config["structure"], config["branches"], "structure")
     if "tube" in config:
         _check_structure({"kind": "beam", "beam": config["tube"]["structure"]}, config["tube"]["branches"], "tube")
+    if "forced" in config:
+        _check_forced(config)
     return config
+
+
+def _check_forced(config: dict) -> None:
+    """Frequency ranges increasing, force DOFs on the model (nnmstop.tasks.forced builds the scenes)."""
+    from nnmstop.forced.scenes import forced_scenes
+
+    try:
+        forced_scenes(config)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"config key 'forced': {err}") from None
 
 
 def _check_structure(section: dict, branches: dict, key: str) -> None:

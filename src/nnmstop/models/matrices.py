@@ -7,9 +7,7 @@ file, what is wrong: not square, sizes that differ, not symmetric, a mass that i
 definite, a stop off the model, a structure free to move as a rigid body without touching a stop.
 The matrices are the nondimensional ones (``docs/structures.md`` says how to make them so).
 
-Examples
---------
-The 3-DOF chain of ``examples/three_dof_chain``:
+For example, the 3-DOF chain of ``examples/three_dof_chain``:
 
 >>> import numpy as np, scipy.io, tempfile, pathlib
 >>> folder = pathlib.Path(tempfile.mkdtemp())
