@@ -15,6 +15,7 @@ from nnmstop.config import load_config
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem
+from nnmstop.models.structure import two_dof_parameters
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
 from nnmstop.settings import study_settings
 from nnmstop.study.error_runtime import case_run
@@ -196,7 +197,8 @@ def test_sharp_stop_continuation_matches_the_exact_orbits_within_the_study_error
     matched = match_energies(exact_family_dataset, run.dataset, energies, phase_samples=1024)
     assert matched.complete, matched.failure
     system = matched.system
-    alpha = system.params.alpha
+    model = two_dof_parameters(system.structure)
+    alpha = model.alpha
     matcher = EnergyMatcher(exact_family_dataset, two_impact_arm(run.dataset, exact_family_dataset))
     phase = np.arange(4096) / 4096
     # (1 + HBM vs exact) = (1 + HBM vs shot) (1 + shot vs exact) at one energy, so the two parts below
@@ -208,7 +210,7 @@ def test_sharp_stop_continuation_matches_the_exact_orbits_within_the_study_error
         truncation = system.truncation(U)
         assert truncation < 1e-4, truncation
         state, period = orbit_initial_state(system, U)
-        shot, shot_period = _shoot_at_energy(system.params, state, period, energy)
+        shot, shot_period = _shoot_at_energy(model, state, period, energy)
         hbm_vs_shot = shot_period / period - 1.0  # (f_hbm - f_shot) / f_shot
         assert abs(hbm_vs_shot) < np.sqrt(truncation), (energy, hbm_vs_shot, truncation)
         # (b) regularization part: the shot orbit against the exact orbit at the same energy
@@ -216,7 +218,7 @@ def test_sharp_stop_continuation_matches_the_exact_orbits_within_the_study_error
         exact_period = 4.0 * y[3]
         shift, x_difference = {}, {}
         for eta in (1e-2, 1e-3):
-            params = dataclasses.replace(system.params, eta=eta)
+            params = dataclasses.replace(model, eta=eta)
             z, T = (shot, shot_period) if eta == 1e-3 else _shoot_at_energy(params, shot, shot_period, energy)
             shift[eta] = exact_period / T - 1.0
             # the regularized stop is stiffer everywhere (f >= the piecewise law): higher frequency
@@ -229,7 +231,7 @@ def test_sharp_stop_continuation_matches_the_exact_orbits_within_the_study_error
             # bounds the largest difference from below by the regularized force there less that.
             knee = np.sqrt(eta * alpha / 2.0)
             x_reg = integrate_regularized(params, z, phase * T).states[:, 0]
-            exact = TwoImpactProblem(system.params).time_history(y, y[3] + phase * exact_period)
+            exact = TwoImpactProblem(model).time_history(y, y[3] + phase * exact_period)
             force_reg = regularized_contact_force(x_reg, params)
             dx = x_difference[eta] = np.abs(x_reg - exact.x).max()
             df = np.abs(force_reg - exact.force).max()
