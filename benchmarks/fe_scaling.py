@@ -95,7 +95,7 @@ def anm_settings():
     from nnmstop.continuation.anm import ANMSettings
 
     config = load_config(ROOT / "config" / "config.yaml")
-    return ANMSettings.from_config(config["anm"], points_per_step=config["tube"]["points_per_step"])
+    return ANMSettings.from_config(config["anm"], points_per_step=config["tube"]["hbm"]["points_per_step"])
 
 
 def run_case(method: str, dofs: int, harmonics: int, repeat: int, kind: str) -> dict:
