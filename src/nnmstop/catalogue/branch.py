@@ -11,29 +11,17 @@ period (``magnus``) ``stability_error``.
 
 from nnmstop.catalogue import DatasetKind, Variable
 
+
+def _fourier_pair(name: str, dims: tuple, what: str) -> tuple:
+    """The cosine and sine coefficients ``<name>_cos``, ``<name>_sin`` of ``what``."""
+    return tuple(Variable(f"{name}_{part}", dims, f"{kind} Fourier coefficients of {what}")
+                 for part, kind in (("cos", "cosine"), ("sin", "sine")))  # fmt: skip
+
+
 ORBIT_VARIABLES = (
-    Variable("q_cos", ("point", "dof", "harmonic"), "cosine Fourier coefficients of the degrees of freedom"),
-    Variable("q_sin", ("point", "dof", "harmonic"), "sine Fourier coefficients of the degrees of freedom"),
-    Variable(
-        "f_cos",
-        ("point", "stop", "harmonic"),
-        "cosine Fourier coefficients of the regularized stop forces (force over gap)",
-    ),
-    Variable(
-        "f_sin",
-        ("point", "stop", "harmonic"),
-        "sine Fourier coefficients of the regularized stop forces (force over gap)",
-    ),
-    Variable(
-        "z_cos",
-        ("point", "stop", "harmonic"),
-        "cosine Fourier coefficients of the internal variables z = (f/alpha - x)^2 of the stops",
-    ),
-    Variable(
-        "z_sin",
-        ("point", "stop", "harmonic"),
-        "sine Fourier coefficients of the internal variables z = (f/alpha - x)^2 of the stops",
-    ),
+    *_fourier_pair("q", ("point", "dof", "harmonic"), "the degrees of freedom"),
+    *_fourier_pair("f", ("point", "stop", "harmonic"), "the regularized stop forces (force over gap)"),
+    *_fourier_pair("z", ("point", "stop", "harmonic"), "the internal variables z = (f/alpha - x)^2 of the stops"),
     Variable("omega_squared", ("point",), "squared angular frequency (unknown lambda of the HBM system)"),
 )
 

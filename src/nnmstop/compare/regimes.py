@@ -137,13 +137,12 @@ def regime_error_dataset(exact: xr.Dataset, regularized: xr.Dataset, points: boo
     rows = compare_with_regularized(exact, regularized)
     compared = [row for row in rows if row["matched"] > 0]
     data, coords = _regime_variables(compared)
-    if points:
-        point_data, point_coords = _point_variables(compared)
-        data.update(point_data)
-        coords.update(point_coords)
-    ds = xr.Dataset(data, coords=coords)
+    point_data, point_coords = _point_variables(compared)
+    ds = xr.Dataset({**data, **point_data}, coords={**coords, **point_coords})
     ds.attrs = {**attrs, **_count_attributes(exact, regularized, rows, compared), "method": METHOD}
     ds = describe(ds, "regime_errors")
+    if not points:  # the catalogue describes the whole kind; the per-orbit part is left out afterwards
+        ds = ds.drop_dims("point")
     if not compared:
         # no regularized orbit in the energy range of an exact regime of its impact count: nothing is compared,
         # and the dataset says so instead of holding NaN metrics

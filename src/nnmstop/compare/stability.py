@@ -57,19 +57,7 @@ REGIME_COLUMNS = (
     "regularized_change_energies",
 )
 
-_INTEGER = (
-    "impacts_per_period",
-    "n_compared",
-    "n_agree",
-    "n_both_stable",
-    "n_both_unstable",
-    "n_exact_stable_only",
-    "n_regularized_stable_only",
-    "n_no_regularized_verdict",
-    "n_at_exact_change",
-    "n_exact_changes",
-    "n_regularized_changes",
-)
+_INTEGER = tuple(c for c in REGIME_COLUMNS if c == "impacts_per_period" or c.startswith("n_"))
 
 
 def verdicts(ds: xr.Dataset) -> np.ndarray:
