@@ -68,7 +68,10 @@ class Branch:
     ``points`` are unknown vectors; ``step`` is the index of the continuation step
     that produced each point (interior points of one ANM step share it);
     ``diagnostics`` the dict of ``system.diagnostics`` of each point (None where the
-    method did not compute it).
+    method did not compute it); ``checks`` the events' check of each point (None without
+    events, :mod:`nnmstop.continuation.events`); ``arclength`` the pseudo-arclength of each
+    point from the start (the steps' path parameters added up; None where unknown).
+    ``end_event`` is the located event that ended the branch (None when something else did).
     """
 
     points: list = field(default_factory=list)
@@ -80,11 +83,16 @@ class Branch:
     # Indices of the points that end a continuation step across which the sign of
     # det [J; t^T] changed: a simple branch point lies within that step.
     branch_points: list = field(default_factory=list)
+    checks: list = field(default_factory=list)
+    arclength: list = field(default_factory=list)
+    end_event: object = None
 
-    def add(self, U, step, diagnostics=None):
+    def add(self, U, step, diagnostics=None, check=None, arclength=None):
         self.points.append(np.array(U, dtype=float))
         self.step.append(int(step))
         self.diagnostics.append(diagnostics)
+        self.checks.append(check)
+        self.arclength.append(arclength)
 
 
 # A stop criterion gets the new point and its diagnostics dict and returns a reason

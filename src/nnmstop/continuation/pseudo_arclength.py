@@ -216,7 +216,7 @@ def corrector(system, U_pred, tangent, stats: ContinuationStats, tol: float, max
     return result.y, result.iterations, result.jacobian.factors, float(np.linalg.norm(result.step)), ""
 
 
-def _angle(a, b) -> float:
+def tangent_angle(a, b) -> float:
     """Angle between two unit vectors, accurate for small angles."""
     return float(2.0 * np.arctan2(np.linalg.norm(a - b), np.linalg.norm(a + b)))
 
@@ -262,7 +262,7 @@ class PseudoArclengthStepper(Stepper):
             if U_new is not None:
                 t_new = factors.solve(rhs_tangent)
                 t_new /= np.linalg.norm(t_new)
-                angle = _angle(tangent, t_new)
+                angle = tangent_angle(tangent, t_new)
                 if angle <= settings.max_angle:
                     break
                 reason = f"tangent turned by {angle:.3g} rad > max_angle {settings.max_angle:.3g}"

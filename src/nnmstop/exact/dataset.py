@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from nnmstop.exact.family import Family, determinant_sign, tangent_along, unit_null_vector
+from nnmstop.continuation.core import unit_tangent
+from nnmstop.exact.family import Family
 from nnmstop.exact.problem import SequenceProblem
 from nnmstop.exact.stability import stability_variables
 from nnmstop.models.two_dof import ModelParameters
@@ -32,7 +33,7 @@ def two_impact_dataset(family: Family) -> xr.Dataset:
         return ("point", np.asarray(values, dtype=float), {"long_name": long_name, "units": units, **extra})
 
     x_max = [a.x_max for a in family.assessments]
-    u_at = [a.u_at_x_max for a in family.assessments]
+    u_at = [a.q_at_x_max[1] for a in family.assessments]
     margin = [a.min_margin for a in family.assessments]
     floquet = stability_variables(family.params, ["FR"] * n, np.column_stack([y[:, 2], y[:, 3] - y[:, 2]]))
     ds = xr.Dataset(
@@ -150,13 +151,10 @@ def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelP
     impacts = [2 if c > 0 else 0 for c in contact]
     grazing = [0] * n0
     grazing[0] = int(contact[0] == 0.0)  # the family starts at the grazing orbit
-    tangent = np.zeros(4)
     branch_points, det = [0], None
     for k in range(n0):  # bordered-Jacobian sign along the two-impact part too
-        jac = fr.jacobian(y_two[k])
-        ref = y_two[min(k + 1, n0 - 1)] - y_two[max(k - 1, 0)]
-        tangent = tangent_along(jac, ref if np.linalg.norm(ref) > 0 else unit_null_vector(jac))
-        sign = determinant_sign(jac, tangent)
+        chord = y_two[min(k + 1, n0 - 1)] - y_two[max(k - 1, 0)]
+        _, sign = unit_tangent(fr, y_two[k], chord, singular_tol=None)
         if det is not None:
             branch_points.append(int(sign != det))
         det = sign

@@ -190,6 +190,10 @@ class SequenceProblem:
         """``1 / (4 T1)``, in Hz of the nondimensional time."""
         return 1.0 / (4.0 * self.quarter(y))
 
+    def diagnostics(self, y) -> dict:
+        """Energy, frequency and impacts per period, for the continuation."""
+        return {"energy": self.energy(y), "frequency": self.frequency(y), "impacts_per_period": self.impacts_per_period}
+
     def quarter_state(self, y, t) -> np.ndarray:
         """State at times ``0 <= t <= T1`` of the quarter period, shape ``np.shape(t) + (4,)``."""
         y = self.check(y)
