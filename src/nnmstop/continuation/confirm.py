@@ -7,10 +7,11 @@ family at ``alpha = 1e6`` with step 0.02 "ended" after two orbits that way, whil
 ``E = 21.3``). :func:`confirm_end` restarts the continuation a few points before its end with a
 step ``refine`` times smaller and requires the same end:
 
-* an end on a located event (a validity margin reaching zero): the restart must end on the same
-  event, at a point no farther from the first than the two runs' location tolerances allow
+* an end on a located event (a validity margin reaching zero): the restart must end on an event
+  too, at a point no farther from the first than the two runs' location tolerances allow
   (:func:`event_tolerance`: the event's bracket on the step's path, times the largest slope of a
-  trusted path, plus the corrector's residual tolerance);
+  trusted path, plus the square root of the round-off, to which a margin that reaches zero
+  quadratically is located);
 * an end on a stop criterion (an energy or a number of points reached, the curve still valid): the
   restart must not end on an event before the first run's end.
 
@@ -68,11 +69,15 @@ class ContinuationEnd:
     tolerance: float
 
 
-def event_tolerance(step: float, U, event_tol: float = 1e-13, residual_tol: float = 1e-10) -> float:
-    """Distance within which a located event end is known: its bracket on the last step's path (``event_tol``
-    of a step at most ``step``) times the largest slope of a trusted path, plus the corrector's residual
-    tolerance relative to ``max(|U|, 1)``."""
-    return MAX_EVENT_SLOPE * event_tol * step + residual_tol * max(float(np.linalg.norm(U)), 1.0)
+def event_tolerance(step: float, U, event_tol: float = 1e-13) -> float:
+    """Distance within which a located event end is known.
+
+    Its bracket on the last step's path (``event_tol`` of a step at most ``step``) times the largest slope
+    of a trusted path, plus ``sqrt(eps) max(|U|, 1)``: a margin is computed to round-off, and one that
+    reaches zero quadratically along the curve (a tangency; or the neighbours of a phase shrinking to
+    zero, which it drags to zero with it) is located only to the square root of that.
+    """
+    return MAX_EVENT_SLOPE * event_tol * step + np.sqrt(np.finfo(float).eps) * max(float(np.linalg.norm(U)), 1.0)
 
 
 def confirm_end(
@@ -123,9 +128,14 @@ def confirm_end(
     if end.event:
         gap = float(np.linalg.norm(again.points[-1] - points[-1]))
         limit = end.tolerance + again.tolerance
-        if again.event == end.event and gap <= limit:
+        # the position decides, not which margin is named first: where a phase shrinks to zero it drags
+        # the margins of its neighbours to zero with it, and either run may name another of them
+        if again.event and gap <= limit:
             return f"end confirmed: {there} ({gap:.2g} from the first end, within {limit:.2g})"
-        raise EndNotConfirmed(f"end NOT confirmed: {here}; {there}; the end is not a property of the curve")
+        raise EndNotConfirmed(
+            f"end NOT confirmed: {here}; {there}, {gap:.3g} from the first end (allowed {limit:.3g}): "
+            "the end is not a property of the curve"
+        )
     reached = end.arclength[-1] - end.arclength[k]
     if again.event and again.arclength[-1] - again.arclength[0] < reached:
         raise EndNotConfirmed(f"end NOT confirmed: {here}; {there} before the first run's end")

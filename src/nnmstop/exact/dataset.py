@@ -82,6 +82,7 @@ def two_impact_dataset(family: Family) -> xr.Dataset:
         "family_start": family.start,
         "end_reason": family.end_reason,
         "end_margin": family.end_margin or "none",
+        "end_check": family.end_check or "not confirmed (not asked)",
         "continuation_step": family.step,
         "max_residual": float(np.max(family.residual)),
     }
@@ -265,6 +266,7 @@ def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelP
         "two_impact_points": n0,
         "segments": len(summaries),
         **{f"segment_{k}": text for k, text in enumerate(summaries)},
+        **{f"segment_{k}_end_check": seg.end_check for k, seg in enumerate(segments) if seg.end_check},
         "end_reason": segments[-1].end_reason if segments else two_impacts.attrs.get("end_reason", ""),
         "max_residual": float(np.max(cols["residual"])),
     }

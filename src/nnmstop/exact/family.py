@@ -16,6 +16,7 @@ unknowns of the paper. Method notes: ``docs/methods/exact.md``.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass, field
 
@@ -24,7 +25,13 @@ import scipy.linalg
 
 from nnmstop.continuation.dense_arclength import DenseArclengthSettings
 from nnmstop.exact import ndof
-from nnmstop.exact.follow import ValidityEvents, branch_point_flags, continue_exact_family
+from nnmstop.exact.follow import (
+    RESTART_POINTS,
+    ValidityEvents,
+    branch_point_flags,
+    confirm_family_end,
+    continue_exact_family,
+)
 from nnmstop.exact.grazing import Transition, assess_orbit, classify_boundary, describe_margin, split_start
 from nnmstop.exact.ndof import OneStopProblem
 from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem
@@ -129,6 +136,8 @@ class Family:
         Nominal continuation step.
     end_tangent : ndarray or None
         Unit tangent at the last orbit of the continuation.
+    end_check : str
+        How the end was confirmed (:func:`nnmstop.exact.follow.confirm_family_end`; '' when it was not asked).
     """
 
     problem: SequenceProblem
@@ -144,6 +153,7 @@ class Family:
     start: str = ""
     step: float = 0.0
     end_tangent: np.ndarray | None = None
+    end_check: str = ""
 
     @property
     def sequence(self) -> str:
@@ -210,6 +220,7 @@ def follow_family(
     first_grazing: bool = False,
     transitions: bool = True,
     start_label: str = "",
+    confirm: bool = False,
 ) -> Family:
     """Follow the family of one phase sequence until its assumptions fail.
 
@@ -239,6 +250,10 @@ def follow_family(
         Classify the end of the family as a grazing transition.
     start_label : str
         Description of the first orbit, kept in the result.
+    confirm : bool
+        Confirm the end by a restart with a ten times smaller step and ten times smaller limits of the
+        energy and frequency changes (``end_check``); raise
+        :class:`~nnmstop.continuation.confirm.EndNotConfirmed` when the restart ends elsewhere.
 
     Returns
     -------
@@ -267,6 +282,20 @@ def follow_family(
     family.end_reason, family.end_tangent = branch.end_reason, branch.end_tangent
     if branch.end_event is not None:
         _end_family(family, branch.end_event.outside, transitions)
+    if confirm:
+
+        def restart(U, direction, fine_step):
+            refine = settings.step / fine_step
+            fine = dataclasses.replace(
+                settings,
+                step=fine_step,
+                max_log_energy_step=settings.max_log_energy_step / refine,
+                max_frequency_step=settings.max_frequency_step / refine,
+                min_step=min(settings.min_step, fine_step),
+            )
+            return follow_family(problem, U, direction, fine, max_points=RESTART_POINTS, transitions=False)
+
+        family.end_check = confirm_family_end(family, restart, f"exact {problem.sequence} family")
     energies, frequencies = family.energy, family.frequency
     logger.info(
         "%s family%s: %d orbits, energy %.6g..%.6g, frequency %.7g..%.7g Hz, max residual %.2e; end: %s",
@@ -312,6 +341,7 @@ def follow_two_impact_family(
     direction=None,
     start_label: str | None = None,
     min_step_ratio: float = 1e-6,
+    confirm: bool = False,
 ) -> Family:
     """The family of two-impact orbits (Section 3.1): the one-stop family of the 2-DOF oscillator.
 
@@ -338,6 +368,9 @@ def follow_two_impact_family(
         Description of the start, kept in the result.
     min_step_ratio : float
         The continuation fails when the step falls below ``min_step_ratio * step``.
+    confirm : bool
+        Confirm the end by a restart with a ten times smaller step (``end_check``, see
+        :func:`nnmstop.exact.ndof.follow_one_stop_family`).
 
     Returns
     -------
@@ -366,7 +399,13 @@ def follow_two_impact_family(
             raise ValueError(f"start {start} violates the assumptions {check.violated} of the two-impact family")
     orient = None if direction is None else to_modal(direction)
     modal = ndof.follow_one_stop_family(
-        structure, step=step, max_points=max_points, start=y0, direction=orient, min_step_ratio=min_step_ratio
+        structure,
+        step=step,
+        max_points=max_points,
+        start=y0,
+        direction=orient,
+        min_step_ratio=min_step_ratio,
+        confirm=confirm,
     )
     label = start_label or ("grazing orbit" if start is None else "user-supplied orbit")
     family = Family(problem, start=label, step=float(step))
@@ -375,6 +414,7 @@ def follow_two_impact_family(
         y = np.concatenate([velocities[k], modal.unknowns[k, -2:]])
         family.append(y, modal.arclength[k], check, branch_point=bool(modal.branch_point[k]), grazing=k == 0)
     family.end_reason, family.end_margin, family.end_tangent = modal.end_reason, modal.end_margin, modal.end_tangent
+    family.end_check = modal.end_check
     return family._freeze()
 
 
@@ -413,7 +453,9 @@ def _start_after(tr: Transition, params, settings: FamilySettings):
     return problem, tr.y_graze, null if valid[0] else -null, trial, True
 
 
-def follow_branch(params: ModelParameters, sequence: str, y0, direction, settings: FamilySettings) -> list:
+def follow_branch(
+    params: ModelParameters, sequence: str, y0, direction, settings: FamilySettings, confirm: bool = False
+) -> list:
     """Follow the exact NNM1 through its grazing transitions.
 
     Parameters
@@ -426,6 +468,8 @@ def follow_branch(params: ModelParameters, sequence: str, y0, direction, setting
     direction : array_like
         Initial direction of the continuation in the unknowns of ``sequence``.
     settings : FamilySettings
+    confirm : bool
+        Confirm the end of every segment (:func:`follow_family`).
 
     Returns
     -------
@@ -433,7 +477,7 @@ def follow_branch(params: ModelParameters, sequence: str, y0, direction, setting
         In continuation order; the last one has no transition and says why the branch ends.
     """
     problem = SequenceProblem(params, sequence)
-    segments = [follow_family(problem, y0, direction, settings)]
+    segments = [follow_family(problem, y0, direction, settings, confirm=confirm)]
     used = len(segments[0])
     seen = set()
     while segments[-1].transition is not None:
@@ -459,7 +503,14 @@ def follow_branch(params: ModelParameters, sequence: str, y0, direction, setting
             segments[-1].transition = None
             break
         seg = follow_family(
-            problem, y1, direction, settings, h0=h0, max_points=settings.max_points - used, first_grazing=graze
+            problem,
+            y1,
+            direction,
+            settings,
+            h0=h0,
+            max_points=settings.max_points - used,
+            first_grazing=graze,
+            confirm=confirm,
         )
         segments.append(seg)
         used += len(seg)

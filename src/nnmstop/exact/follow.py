@@ -8,7 +8,9 @@ quarter-period equations, valid while the assumptions of its construction hold. 
 validity margins as events (:class:`ValidityEvents`): at the first orbit where a margin fails, the
 driver locates the change on the step's path and the family ends at its last valid orbit.
 :func:`continue_exact_family` is that call with the stop criteria of a family (a number of orbits, an
-energy); :func:`branch_point_flags` reads the driver's flagged steps as a flag per orbit.
+energy); :func:`branch_point_flags` reads the driver's flagged steps as a flag per orbit;
+:func:`confirm_family_end` confirms where a family ends by a restart with a smaller step
+(:func:`nnmstop.continuation.confirm.confirm_end`).
 Method notes: ``docs/methods/exact.md``, ``docs/methods/continuation.md``.
 """
 
@@ -19,13 +21,26 @@ from collections.abc import Callable
 
 import numpy as np
 
+from nnmstop.continuation.confirm import ContinuationEnd, confirm_end, event_tolerance
 from nnmstop.continuation.core import Branch
 from nnmstop.continuation.dense_arclength import DenseArclengthSettings
 from nnmstop.continuation.driver import continue_branch
 
-__all__ = ["ValidityEvents", "continue_exact_family", "branch_point_flags", "residual_norms"]
+__all__ = [
+    "ValidityEvents",
+    "continue_exact_family",
+    "branch_point_flags",
+    "residual_norms",
+    "RESTART_POINTS",
+    "family_end",
+    "confirm_family_end",
+]
 
 logger = logging.getLogger("nnmstop.exact.follow")
+
+#: Orbits of a restart that confirms an end: it starts two orbits before the end with a ten times smaller
+#: step, so some 20 steps cover the last two of the first run; the rest leaves room for shortened steps.
+RESTART_POINTS = 170
 
 
 class ValidityEvents:
@@ -103,3 +118,32 @@ def branch_point_flags(branch: Branch) -> np.ndarray:
 def residual_norms(problem, unknowns) -> np.ndarray:
     """Euclidean norm of the quarter-period equations at every orbit."""
     return np.array([np.linalg.norm(problem.residual(y)) for y in unknowns])
+
+
+def family_end(family) -> ContinuationEnd:
+    """The end of a followed family (``unknowns``, ``arclength``, ``energy``, ``end_margin``, ``end_reason``,
+    ``step``), at its last valid orbit: a grazing orbit appended after the located boundary is left out."""
+    n = len(family.unknowns)
+    grazing = getattr(family, "grazing", None)
+    if grazing is not None and n > 1 and grazing[-1]:
+        n -= 1
+    points = np.asarray(family.unknowns[:n], dtype=float)
+    return ContinuationEnd(
+        points=points,
+        arclength=np.asarray(family.arclength[:n], dtype=float),
+        event=str(family.end_margin) if family.end_margin else "",
+        reason=family.end_reason,
+        energy=float(family.energy[n - 1]),
+        tolerance=event_tolerance(family.step, points[-1]),
+    )
+
+
+def confirm_family_end(family, restart: Callable, label: str, refine: float = 10.0) -> str:
+    """:func:`~nnmstop.continuation.confirm.confirm_end` for a family: ``restart(U, direction, step)`` follows
+    the same family from ``U`` with the largest step ``step`` and returns it; raises
+    :class:`~nnmstop.continuation.confirm.EndNotConfirmed` when it does not end where ``family`` ends."""
+    message = confirm_end(
+        family_end(family), lambda U, d, h: family_end(restart(U, d, h)), family.step, refine=refine, label=label
+    )
+    logger.info("%s: %s", label, message)
+    return message

@@ -25,7 +25,14 @@ import scipy.optimize
 
 from nnmstop.continuation.dense_arclength import DenseArclengthSettings
 from nnmstop.continuation.newton import newton_solve, round_off_criterion
-from nnmstop.exact.follow import ValidityEvents, branch_point_flags, continue_exact_family, residual_norms
+from nnmstop.exact.follow import (
+    RESTART_POINTS,
+    ValidityEvents,
+    branch_point_flags,
+    confirm_family_end,
+    continue_exact_family,
+    residual_norms,
+)
 from nnmstop.exact.grazing import TWO_IMPACT_MARGINS, MarginChecks
 from nnmstop.exact.phases import unfold_quarter_states
 from nnmstop.models.structure import Structure, generalized_modes
@@ -493,6 +500,8 @@ class OneStopFamily:
         Description of the first orbit.
     step : float
         Largest continuation step.
+    end_check : str
+        How the end was confirmed (:func:`nnmstop.exact.follow.confirm_family_end`; '' when it was not asked).
     """
 
     problem: OneStopProblem
@@ -506,6 +515,7 @@ class OneStopFamily:
     end_tangent: np.ndarray | None
     start: str = ""
     step: float = 0.0
+    end_check: str = ""
 
     @classmethod
     def from_branch(cls, problem: OneStopProblem, branch, start: str, step: float) -> OneStopFamily:
@@ -583,6 +593,7 @@ def follow_one_stop_family(
     direction=None,
     stop_index: int = 0,
     min_step_ratio: float = 1e-6,
+    confirm: bool = False,
 ) -> OneStopFamily:
     """Follow the family of one-stop orbits of ``structure`` from the grazing orbit of linear mode ``mode``.
 
@@ -608,6 +619,9 @@ def follow_one_stop_family(
         The struck stop.
     min_step_ratio : float
         The continuation fails (ContinuationError) when a step below ``min_step_ratio * step`` is needed.
+    confirm : bool
+        Confirm the end by a restart with a ten times smaller step (``end_check``); raise
+        :class:`~nnmstop.continuation.confirm.EndNotConfirmed` when the restart ends elsewhere.
     """
     if not (np.isfinite(step) and step > 0):
         raise ValueError(f"step must be a finite number > 0, got {step!r}")
@@ -622,6 +636,20 @@ def follow_one_stop_family(
         problem, y0, direction, validity_events(problem), settings, max_points=max_points, label="one-stop family"
     )
     family = OneStopFamily.from_branch(problem, branch, label, step)
+    if confirm:
+
+        def restart(U, direction, fine_step):
+            return follow_one_stop_family(
+                structure,
+                fine_step,
+                RESTART_POINTS,
+                start=U,
+                direction=direction,
+                stop_index=stop_index,
+                min_step_ratio=min_step_ratio,
+            )
+
+        family.end_check = confirm_family_end(family, restart, "one-stop family")
     logger.info(
         "one-stop family from the %s: %d orbits, energy %.6g..%.6g; end: %s",
         label,

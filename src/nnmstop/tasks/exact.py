@@ -40,13 +40,21 @@ def build_two_impact_dataset(config: dict, output_path: str | Path) -> Path:
     -------
     Path
         The written file.
+
+    Raises
+    ------
+    nnmstop.continuation.confirm.EndNotConfirmed
+        When a restart with a ten times smaller step does not end where the family ends (the end is
+        then an artefact of the step: decrease ``exact.step``).
     """
     for key in ("model", "exact"):
         if key not in config:
             raise ValueError(f"config lacks the section {key!r}")
     params = ModelParameters.from_config(config["model"])
     exact = config["exact"]
-    family = follow_two_impact_family(params, step=float(exact["step"]), max_points=int(exact["max_points"]))
+    family = follow_two_impact_family(
+        params, step=float(exact["step"]), max_points=int(exact["max_points"]), confirm=True
+    )
     ds = two_impact_dataset(family)
     summary = (
         "Exact periodic orbits of the non-smooth 2-DOF oscillator with a bilateral elastic stop "
@@ -88,6 +96,11 @@ def build_multi_impact_dataset(config: dict, two_impact_path: str | Path, output
     Returns
     -------
     Path
+
+    Raises
+    ------
+    nnmstop.continuation.confirm.EndNotConfirmed
+        When the end of a segment is not met again by a restart with a ten times smaller step.
     """
     for key in ("model", "exact_multi"):
         if key not in config:
@@ -108,7 +121,7 @@ def build_multi_impact_dataset(config: dict, two_impact_path: str | Path, output
     y = two_impact_unknowns(two)
     if len(y) < 2:
         raise ValueError(f"{two_impact_path} holds fewer than two orbits")
-    segments = follow_branch(params, "FR", y[-1], y[-1] - y[-2], settings)
+    segments = follow_branch(params, "FR", y[-1], y[-1] - y[-2], settings, confirm=True)
     ds = exact_branch_dataset(two, segments, params)
     summary = (
         "Exact NNM1 of the non-smooth 2-DOF oscillator with a bilateral elastic stop (Eqs. 3-4) with any number "
