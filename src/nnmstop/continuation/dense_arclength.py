@@ -159,14 +159,14 @@ class DenseArclengthStepper(Stepper):
 
     def step(self, system, U, tangent, stats: DenseArclengthStats) -> StepResult:
         settings, h = self.settings, self.h
-        before = system.diagnostics(U)
+        before = system.diagnostics(U) if self._limited else None
         while True:
             if h < settings.min_step:
                 raise ContinuationError(
                     f"no correction converged for steps down to {h:.3e} < min_step {settings.min_step:.1e}"
                 )
             U_new = self.correct(system, U, tangent, h, stats)
-            ratio = None if U_new is None else self._change_ratio(before, system.diagnostics(U_new))
+            ratio = None if U_new is None else self._change_ratio(before, U_new, system)
             if ratio is not None and ratio <= 2.0:
                 factors, t_new = self._tangent(system, U_new, tangent, stats)
                 if tangent_angle(tangent, t_new) <= settings.max_angle:
@@ -211,13 +211,22 @@ class DenseArclengthStepper(Stepper):
         t = factors.solve(rhs)
         return factors, t / np.linalg.norm(t)
 
-    def _change_ratio(self, before: dict, after: dict) -> float:
+    @property
+    def _limited(self) -> bool:
+        return math.isfinite(self.settings.max_log_energy_step) or math.isfinite(self.settings.max_frequency_step)
+
+    def _change_ratio(self, before: dict | None, U_new, system) -> float:
         """The larger of the energy and frequency changes over their limits (0 without limits)."""
         settings = self.settings
-        return max(
-            abs(np.log(after["energy"] / before["energy"])) / settings.max_log_energy_step,
-            abs(after["frequency"] - before["frequency"]) / settings.max_frequency_step,
-        )
+        if before is None:
+            return 0.0
+        after = system.diagnostics(U_new)
+        ratio = 0.0
+        if math.isfinite(settings.max_log_energy_step):
+            ratio = abs(math.log(after["energy"] / before["energy"])) / settings.max_log_energy_step
+        if math.isfinite(settings.max_frequency_step):
+            ratio = max(ratio, abs(after["frequency"] - before["frequency"]) / settings.max_frequency_step)
+        return ratio
 
     def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats, strict: bool = True):
         """The branch in the hyperplanes orthogonal to ``tangent_a`` from ``U_a`` to ``U_b``

@@ -14,7 +14,8 @@ A located change is only an event where the path is the branch: a path that has 
 (past a turn of the branch with respect to the step's direction, Newton in a hyperplane lands on
 another solution or fails) changes from valid to invalid without any condition reaching zero on
 the branch. :attr:`LocatedEvent.trusted` tells the two apart by the slope of the path at the
-located point; the driver shortens the step and tries again where it is not.
+located point and by the distance to the point found just beyond; the driver shortens the step and
+tries again where it is not.
 Method notes: ``docs/methods/continuation.md``.
 """
 
@@ -62,6 +63,10 @@ class LocatedEvent:
         The check of the nearest point beyond, where ``key`` fails.
     slope : float
         ``|dU/da|`` of the path at ``a``.
+    width : float
+        Width of the final bracket in ``a``.
+    jump : float
+        Distance from ``U`` to the nearest point found beyond (``inf`` where the path failed there).
     """
 
     key: Any
@@ -70,11 +75,16 @@ class LocatedEvent:
     inside: Any
     outside: Any
     slope: float
+    width: float = 0.0
+    jump: float = 0.0
 
     @property
     def trusted(self) -> bool:
-        """The path is the branch at the located point (its slope is at most :data:`MAX_EVENT_SLOPE`)."""
-        return bool(self.slope <= MAX_EVENT_SLOPE)
+        """The path is the branch at the located point: its slope is at most :data:`MAX_EVENT_SLOPE`, and the
+        point found beyond is as close as that slope allows over the bracket (plus ``sqrt(eps) max(|U|, 1)``
+        for the round-off of the two corrected points); a path that switched to another curve jumps."""
+        allowed = MAX_EVENT_SLOPE * self.width + np.sqrt(np.finfo(float).eps) * max(float(np.linalg.norm(self.U)), 1.0)
+        return bool(self.slope <= MAX_EVENT_SLOPE and self.jump <= allowed)
 
 
 def locate_event(path, events, U_start, check_start, a_end: float, check_end, tol: float) -> LocatedEvent:
@@ -114,7 +124,18 @@ def locate_event(path, events, U_start, check_start, a_end: float, check_end, to
     )
     U, inside = bracket.value_lo
     inside = check_start if inside is None else inside
-    return LocatedEvent(outside[0].violated[0], bracket.lo, U, inside, outside[0], _slope(path, bracket.lo))
+    beyond = bracket.value_hi[0] if bracket.value_hi is not None else None
+    jump = np.inf if beyond is None else float(np.linalg.norm(beyond - U))
+    return LocatedEvent(
+        outside[0].violated[0],
+        bracket.lo,
+        U,
+        inside,
+        outside[0],
+        _slope(path, bracket.lo),
+        width=bracket.hi - bracket.lo,
+        jump=jump,
+    )
 
 
 def _slope(path, a: float) -> float:
