@@ -9,9 +9,11 @@ construction against a different method.
   steps across the kink of the contact law.
 * :func:`integrate_regularized`: Eq. (7) with the smooth regularized contact force
   (:func:`nnmstop.models.two_dof.regularized_vector_field`).
+* :func:`integrate_structure_nonsmooth`: any :class:`~nnmstop.models.structure.Structure` with one struck
+  stop and the piecewise-linear law, region by region in the same way (the other stops stay passive).
 
-Both take the state ``z = (x, u, xdot, udot)`` at ``t_eval[0]`` and return it at every
-requested time.
+The 2-DOF integrators take the state ``z = (x, u, xdot, udot)`` at ``t_eval[0]``, the structure's the
+state ``(q, qdot)``, and return it at every requested time.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_vector_field
 
-__all__ = ["Trajectory", "integrate_nonsmooth", "integrate_regularized"]
+__all__ = ["Trajectory", "integrate_nonsmooth", "integrate_regularized", "integrate_structure_nonsmooth"]
 
 
 class Trajectory(NamedTuple):
@@ -36,11 +38,15 @@ class Trajectory(NamedTuple):
         ``(x, u, xdot, udot)`` at each time.
     switch_times : ndarray
         Times where x crossed a stop (empty for the regularized system).
+    switch_sides : ndarray
+        For :func:`integrate_structure_nonsmooth`: +1 (-1) where the stop coordinate entered the stop at
+        ``+gap`` (``-gap``), 0 where it left it; empty otherwise.
     """
 
     t: np.ndarray
     states: np.ndarray
     switch_times: np.ndarray
+    switch_sides: np.ndarray = np.empty(0)
 
 
 def _check_inputs(z0, t_eval):
@@ -208,3 +214,77 @@ def integrate_regularized(params: ModelParameters, z0, t_eval, rtol: float = 1e-
     if sol.status != 0:
         raise RuntimeError(f"solve_ivp failed: {sol.message}")
     return Trajectory(t_eval, sol.y.T, np.empty(0))
+
+
+def integrate_structure_nonsmooth(
+    structure, z0, t_eval, stop_index: int = 0, rtol: float = 1e-12, atol: float = 1e-12
+) -> Trajectory:
+    """Integrate ``M q'' + K q + e_c f(q_c) = 0`` (stop ``stop_index``, piecewise-linear law) with DOP853.
+
+    Region by region (free flight, contact at ``+gap``, contact at ``-gap``); each crossing of the stop
+    coordinate out of its region is a terminal event located by DOP853, where the integration restarts in the
+    next region, so no step ever straddles the kink of the contact law.
+
+    Parameters
+    ----------
+    structure : Structure
+    z0 : array_like, shape (2N,)
+        ``(q, qdot)`` at ``t_eval[0]``; the stop coordinate must not sit exactly on the gap.
+    t_eval : array_like
+        Increasing output times.
+    stop_index : int
+        The struck stop.
+    rtol, atol : float
+        Tolerances of DOP853.
+
+    Returns
+    -------
+    Trajectory
+        ``switch_times`` and ``switch_sides`` of every crossing.
+    """
+    mass, stiffness = structure.dense_matrices()
+    stop = structure.stops[stop_index]
+    n, c, gap, alpha = structure.n_dofs, stop.dof, stop.gap, stop.stiffness
+    z0, t_eval = np.asarray(z0, dtype=float), np.asarray(t_eval, dtype=float)
+    if z0.shape != (2 * n,) or not np.all(np.isfinite(z0)):
+        raise ValueError(f"z0 must be 2N = {2 * n} finite numbers (q, qdot), got shape {z0.shape}")
+    if t_eval.ndim != 1 or t_eval.size < 2 or np.any(np.diff(t_eval) <= 0):
+        raise ValueError("t_eval must be at least two increasing times")
+    minv_k, minv_e = np.linalg.solve(mass, stiffness), np.linalg.solve(mass, np.eye(n)[c])
+
+    def rhs(side):
+        def field(_t, z):
+            force = alpha * (z[c] - side * gap) if side else 0.0
+            return np.concatenate([z[n:], -minv_k @ z[:n] - force * minv_e])
+
+        return field
+
+    def leaving(level, direction):
+        def event(_t, z):
+            return z[c] - level
+
+        event.terminal, event.direction = True, direction
+        return event
+
+    t, z, side = float(t_eval[0]), z0.copy(), int(np.sign(z0[c])) if abs(z0[c]) > gap else 0
+    out, k, times, sides = np.empty((t_eval.size, 2 * n)), 1, [], []
+    out[0] = z0
+    while k < t_eval.size:
+        events = [leaving(gap, 1.0), leaving(-gap, -1.0)] if side == 0 else [leaving(side * gap, -side)]
+        sol = solve_ivp(
+            rhs(side), (t, t_eval[-1]), z, method="DOP853", rtol=rtol, atol=atol, events=events, t_eval=t_eval[k:]
+        )
+        if sol.status < 0:
+            raise RuntimeError(f"solve_ivp failed: {sol.message}")
+        n_out = np.asarray(sol.t).size
+        if n_out:
+            out[k : k + n_out] = np.asarray(sol.y).reshape(2 * n, n_out).T
+        k += n_out
+        if sol.status != 1:
+            continue
+        which = next(i for i, te in enumerate(sol.t_events) if te.size)
+        t, z = float(sol.t_events[which][0]), sol.y_events[which][0].copy()
+        side = (1 if which == 0 else -1) if side == 0 else 0
+        times.append(t)
+        sides.append(side)
+    return Trajectory(t_eval, out, np.array(times), np.array(sides))

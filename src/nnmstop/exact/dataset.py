@@ -20,7 +20,7 @@ from nnmstop.exact.problem import SequenceProblem
 from nnmstop.exact.stability import stability_variables
 from nnmstop.models.two_dof import ModelParameters
 
-__all__ = ["two_impact_dataset", "two_impact_unknowns", "exact_branch_dataset"]
+__all__ = ["two_impact_dataset", "two_impact_unknowns", "exact_branch_dataset", "one_stop_dataset", "one_stop_backbone"]
 
 
 def two_impact_dataset(family: Family) -> xr.Dataset:
@@ -271,3 +271,111 @@ def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelP
         "max_residual": float(np.max(cols["residual"])),
     }
     return ds
+
+
+def one_stop_dataset(family) -> xr.Dataset:
+    """A one-stop family of any structure (:func:`nnmstop.exact.ndof.follow_one_stop_family`) along ``orbit``.
+
+    With the energy of every linear mode (``modal_energy``) and, per orbit, the internal resonance it is in
+    (:func:`nnmstop.exact.resonance.classify_resonances`: ``resonant_mode``, ``resonance_order``; 0 on the
+    family's backbone). The attributes say why the family ends, how that end was confirmed and where it
+    leaves its backbone.
+    """
+    from nnmstop.exact.resonance import classify_resonances
+
+    problem = family.problem
+    resonances = classify_resonances(family)
+    one = {"units": "1"}
+    ds = xr.Dataset(
+        {
+            "energy": ("orbit", family.energy, {"long_name": "total energy of the non-smooth model", **one}),
+            "frequency": (
+                "orbit",
+                family.frequency,
+                {"long_name": "frequency 1/T in Hz of the nondimensional time", "units": "Hz"},
+            ),
+            "contact_time": (
+                "orbit",
+                family.contact_time,
+                {"long_name": "contact duration of the quarter period", **one},
+            ),
+            "x_max": ("orbit", family.x_max, {"long_name": "largest displacement at the stop over its gap", **one}),
+            "initial_velocity": (
+                ("orbit", "dof"),
+                family.initial_velocity,
+                {"long_name": "velocities at q = 0 (start of the orbit)", **one},
+            ),
+            "modal_energy": (
+                ("orbit", "mode"),
+                family.modal_energy,
+                {
+                    "long_name": "energy of each linear (free-flight) mode, b_k^2 / 2 at q = 0 (they add up to energy)",
+                    **one,
+                },
+            ),
+            "resonant_mode": (
+                "orbit",
+                resonances.mode.astype(np.int32),
+                {
+                    "long_name": "linear mode in internal resonance with the orbit (takes most of the energy growth, "
+                    "at one harmonic); 0 on the backbone",
+                    **one,
+                },
+            ),
+            "resonance_order": (
+                "orbit",
+                resonances.order.astype(np.int32),
+                {
+                    "long_name": "harmonic n of the orbit at which the resonant mode moves (an n:1 resonance); "
+                    "0 on the backbone",
+                    **one,
+                },
+            ),
+        },
+        coords={
+            "orbit": ("orbit", np.arange(len(family)), {"long_name": "index of the orbit along the family", **one}),
+            "dof": ("dof", np.arange(problem.n), {"long_name": "index of the degree of freedom", **one}),
+            "mode": ("mode", np.arange(1, problem.n + 1), {"long_name": "linear (free-flight) mode number", **one}),
+            "mode_frequency": (
+                "mode",
+                problem.free.omega / (2.0 * np.pi),
+                {
+                    "long_name": "linear frequency of the mode without contact, in Hz of the nondimensional time",
+                    "units": "Hz",
+                },
+            ),
+        },
+    )
+    ds.attrs = {
+        "start": family.start,
+        "end_reason": family.end_reason,
+        "end_margin": family.end_margin or "none",
+        "end_check": family.end_check or "not confirmed (not asked)",
+        "internal_resonance": _resonance_summary(family, resonances),
+    }
+    return ds
+
+
+def _resonance_summary(family, resonances) -> str:
+    first = resonances.first()
+    if first is None:
+        return "none: every orbit is on the backbone (the energy grows in the family's own mode)"
+    mode, order = int(resonances.mode[first]), int(resonances.order[first])
+    frequency = family.frequency[first]
+    linear = family.problem.free.omega[mode - 1] / (2 * np.pi)
+    return (
+        f"from orbit {first} (energy {family.energy[first]:.6g}, frequency {frequency:.8g} Hz) the family is in the "
+        f"{order}:1 internal resonance with linear mode {mode} ({linear:.6g} Hz = {linear / frequency:.6f} x the "
+        f"orbit's): the energy grows in "
+        f"mode {mode} at the {order}th harmonic while the frequency stays locked; orbits 0 to {first - 1} "
+        f"(energy {family.energy[0]:.6g} to {family.energy[first - 1]:.6g}) are the backbone"
+    )
+
+
+def one_stop_backbone(ds: xr.Dataset) -> xr.Dataset:
+    """The orbits of a :func:`one_stop_dataset` before its first internal resonance: the family's backbone,
+    the part that a regularized backbone (whose harmonics stop far below the resonant harmonic) compares with."""
+    if "resonant_mode" not in ds:
+        raise ValueError("the dataset has no resonant_mode variable: rebuild it with one_stop_dataset")
+    resonant = np.flatnonzero(ds["resonant_mode"].values > 0)
+    return ds.isel(orbit=slice(0, int(resonant[0]) if resonant.size else ds.sizes["orbit"]))

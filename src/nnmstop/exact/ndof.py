@@ -502,6 +502,9 @@ class OneStopFamily:
         Largest continuation step.
     end_check : str
         How the end was confirmed (:func:`nnmstop.exact.follow.confirm_family_end`; '' when it was not asked).
+    mode : int
+        The linear mode (0-based) whose grazing orbit starts the family, or that holds most of the energy of
+        a user-supplied first orbit.
     """
 
     problem: OneStopProblem
@@ -516,6 +519,7 @@ class OneStopFamily:
     start: str = ""
     step: float = 0.0
     end_check: str = ""
+    mode: int = 0
 
     @classmethod
     def from_branch(cls, problem: OneStopProblem, branch, start: str, step: float) -> OneStopFamily:
@@ -636,6 +640,7 @@ def follow_one_stop_family(
         problem, y0, direction, validity_events(problem), settings, max_points=max_points, label="one-stop family"
     )
     family = OneStopFamily.from_branch(problem, branch, label, step)
+    family.mode = int(mode if start is None else np.argmax(np.abs(y0[: problem.n])))
     if confirm:
 
         def restart(U, direction, fine_step):

@@ -13,7 +13,6 @@ import copy
 import logging
 
 import numpy as np
-import xarray as xr
 
 from nnmstop.netcdf import read_dataset, write_dataset
 
@@ -66,53 +65,27 @@ def _mode_attrs(beam, mode: int) -> dict:
 
 
 def tube_exact(config, inputs, outputs):
-    """Exact NNM1 of the non-smooth tube with one impact per stop side per period."""
+    """Exact NNM1 of the non-smooth tube with one impact per stop side per period, its end confirmed."""
+    from nnmstop.exact.dataset import one_stop_dataset
     from nnmstop.exact.ndof import follow_one_stop_family
     from nnmstop.models.beam import beam_structure
 
     tube = config["tube"]
     beam = tube_beam(tube["structure"])
     structure = beam_structure(beam)
-    family = follow_one_stop_family(structure, step=tube["exact"]["step"], max_points=tube["exact"]["max_points"])
-    one = {"units": "1"}
-    ds = xr.Dataset(
-        {
-            "energy": ("orbit", family.energy, {"long_name": "total energy of the non-smooth model", **one}),
-            "frequency": (
-                "orbit",
-                family.frequency,
-                {"long_name": "frequency 1/T in Hz of the nondimensional time", "units": "Hz"},
-            ),
-            "contact_time": (
-                "orbit",
-                family.contact_time,
-                {"long_name": "contact duration of the quarter period", **one},
-            ),
-            "x_max": ("orbit", family.x_max, {"long_name": "largest displacement at the stop over its gap", **one}),
-            "initial_velocity": (
-                ("orbit", "dof"),
-                family.initial_velocity,
-                {"long_name": "velocities at q = 0 (start of the orbit)", **one},
-            ),
-        },
-        coords={
-            "orbit": ("orbit", np.arange(len(family)), {"long_name": "index of the orbit along the family", **one}),
-            "dof": ("dof", np.arange(structure.n_dofs), {"long_name": "index of the degree of freedom", **one}),
-        },
+    family = follow_one_stop_family(
+        structure, step=tube["exact"]["step"], max_points=tube["exact"]["max_points"], confirm=True
     )
-    ds.attrs = {
-        **_structure_attrs(beam, structure),
-        **_mode_attrs(beam, 1),
-        "start": family.start,
-        "end_reason": family.end_reason,
-    }
+    ds = one_stop_dataset(family)
+    ds.attrs = {**_structure_attrs(beam, structure), **_mode_attrs(beam, 1), **ds.attrs}
     write_dataset(
         ds,
         outputs["dataset"],
         title="Exact NNM1 of the finite-element tube with a bilateral stop",
         summary="Exact periodic orbits of the non-smooth (piecewise-linear) finite-element tube with one "
         "impact on each side of its stop per period, from the grazing orbit of its first linear "
-        f"mode; closed-form phases (matrix exponentials). The family ends because {family.end_reason}.",
+        f"mode; closed-form phases (matrix exponentials). Internal resonance: {ds.attrs['internal_resonance']}. "
+        f"The family ends because {family.end_reason}.",
         keywords=KEYWORDS,
         metadata=config.get("metadata"),
     )
@@ -190,8 +163,9 @@ def tube_branch(config, inputs, outputs, branch: str):
 def tube_compare(config, inputs, outputs):
     """Exact against regularized NNM1 of the tube at matched energies."""
     from nnmstop.compare.structure_branches import compare_at_energies
+    from nnmstop.exact.dataset import one_stop_backbone
 
-    exact = read_dataset(inputs["exact"])
+    exact = one_stop_backbone(read_dataset(inputs["exact"]))  # not its internal resonance: see the dataset
     regularized = read_dataset(inputs["nnm1"])
     ds = compare_at_energies(
         exact.energy.values,
