@@ -119,6 +119,8 @@ def confirm_end(
     if not refine > 1:
         raise ValueError(f"refine must be > 1, got {refine!r}")
     points = np.asarray(end.points, dtype=float)
+    if len(points) < 2:
+        return "nothing to confirm: the continuation ends at its first point (no point before it to restart from)"
     k = max(0, len(points) - 1 - int(back))
     direction = points[min(k + 1, len(points) - 1)] - points[k]
     fine_step = step / refine

@@ -219,29 +219,7 @@ def continue_branch(
     run = _Run(system, stepper, stop, label, Progress(label, progress_seconds, log), log, events, event_tol)
     tangent, run.sign = unit_tangent(system, U, direction, run.stats)
     run.store(U, 0, 0.0)
-    for step in range(1, stepper.max_steps + 1):
-        try:
-            result = stepper.step(system, U, tangent, run.stats)
-        except (ContinuationError, np.linalg.LinAlgError) as err:
-            raise run.failure(step, err) from err
-        if not (np.all(np.isfinite(result.U_end)) and result.length > 0):
-            raise run.failure(step, "non-finite values")
-        run.stats.steps = step
-        run.flag_sign(result.start_sign, step - 1)  # the sign at U: a change lies within the previous step
-        outcome = run.take(result, step, U)
-        if outcome == "ended":
-            return run.finish(step, result.length)
-        if outcome == "retry":
-            continue
-        run.flag_sign(result.end_sign, step)
-        run.offset += result.length
-        U, tangent = result.U_end, result.t_end
-        run.progress(step, run.diag, result.length)
-    run.finish(step, 0.0, log_progress=False)
-    raise ContinuationError(
-        f"{label}: no stop criterion met after max_steps = {stepper.max_steps} steps "
-        f"(last energy {run.diag['energy']:.6g}, frequency {run.diag['frequency']:.6g} Hz)"
-    )
+    return run.steps(U, tangent)
 
 
 class _Run:
@@ -256,6 +234,33 @@ class _Run:
         self.sign = None
         self.offset = 0.0  # arclength at the start of the current step
         self.diag = None
+
+    def steps(self, U, tangent) -> Branch:
+        """Step from ``U`` along ``tangent`` until the branch ends; ContinuationError when ``max_steps`` run out."""
+        stepper, stats = self.stepper, self.stats
+        for step in range(1, stepper.max_steps + 1):
+            try:
+                result = stepper.step(self.system, U, tangent, stats)
+            except (ContinuationError, np.linalg.LinAlgError) as err:
+                raise self.failure(step, err) from err
+            if not (np.all(np.isfinite(result.U_end)) and result.length > 0):
+                raise self.failure(step, "non-finite values")
+            stats.steps = step
+            self.flag_sign(result.start_sign, step - 1)  # the sign at U: a change lies within the previous step
+            outcome = self.take(result, step)
+            if outcome == "ended":
+                return self.finish(step, result.length)
+            if outcome == "retry":
+                continue
+            self.flag_sign(result.end_sign, step)
+            self.offset += result.length
+            U, tangent = result.U_end, result.t_end
+            self.progress(step, self.diag, result.length)
+        self.finish(stepper.max_steps, 0.0, log_progress=False)
+        raise ContinuationError(
+            f"{self.label}: no stop criterion met after max_steps = {stepper.max_steps} steps "
+            f"(last energy {self.diag['energy']:.6g}, frequency {self.diag['frequency']:.6g} Hz)"
+        )
 
     def store(self, U, step: int, a: float, check=None):
         self.diag = self.system.diagnostics(U)
@@ -286,7 +291,7 @@ class _Run:
             )
         self.sign = new_sign
 
-    def take(self, result: StepResult, step: int, U_step) -> str:
+    def take(self, result: StepResult, step: int) -> str:
         """Store the step's points until one ends the branch: "ended", "retry" (the step was shortened) or ""."""
         points = iter(result.points)
         stored_a, start_check = 0.0, self.branch.checks[-1]
@@ -301,7 +306,7 @@ class _Run:
             a_j = item[2] if len(item) > 2 else result.length
             check = None if self.events is None else self.events(U_j)
             if check is not None and not check.valid:
-                return self._event(result, step, stored_a, self.branch.points[-1], start_check, a_j, check, U_step)
+                return self._event(result, step, stored_a, self.branch.points[-1], start_check, a_j, check)
             self.store(U_j, step, a_j, check)
             stored_a, start_check = a_j, check
             reason = self.stop(U_j, self.diag)
@@ -310,7 +315,7 @@ class _Run:
                 self.branch.end_reason, self.branch.end_tangent = reason, t_j
                 return "ended"
 
-    def _event(self, result, step, a_start, U_start, check_start, a_end, check_end, U_step) -> str:
+    def _event(self, result, step, a_start, U_start, check_start, a_end, check_end) -> str:
         """Locate the event between the last stored point of the step and the first that fails one."""
 
         def shifted(a, derivative=False):  # the path from the last stored point of the step

@@ -35,7 +35,7 @@ def two_impact_dataset(family: Family) -> xr.Dataset:
     x_max = [a.x_max for a in family.assessments]
     u_at = [a.q_at_x_max[1] for a in family.assessments]
     margin = [a.min_margin for a in family.assessments]
-    floquet = stability_variables(family.params, ["FR"] * n, np.column_stack([y[:, 2], y[:, 3] - y[:, 2]]))
+    floquet = stability_variables(family.model, ["FR"] * n, np.column_stack([y[:, 2], y[:, 3] - y[:, 2]]))
     ds = xr.Dataset(
         {
             "energy": var(
@@ -76,9 +76,7 @@ def two_impact_dataset(family: Family) -> xr.Dataset:
         },
     )
     ds.attrs = {
-        "alpha": family.params.alpha,
-        "beta": family.params.beta,
-        "delta": family.params.delta,
+        **model_attributes(family.model),
         "family_start": family.start,
         "end_reason": family.end_reason,
         "end_margin": family.end_margin or "none",
@@ -87,6 +85,19 @@ def two_impact_dataset(family: Family) -> xr.Dataset:
         "max_residual": float(np.max(family.residual)),
     }
     return ds
+
+
+def model_attributes(model) -> dict:
+    """``alpha``, ``beta``, ``delta`` of the paper's oscillator; a 2-DOF structure's stop stiffness as ``alpha``
+    and its matrices."""
+    if isinstance(model, ModelParameters):
+        return {"alpha": model.alpha, "beta": model.beta, "delta": model.delta}
+    mass, stiffness = model.dense_matrices()
+    return {
+        "alpha": float(model.stops[0].stiffness),
+        "mass_matrix": np.asarray(mass, dtype=float).ravel(),
+        "stiffness_matrix": np.asarray(stiffness, dtype=float).ravel(),
+    }
 
 
 def two_impact_unknowns(ds: xr.Dataset) -> np.ndarray:
@@ -122,7 +133,7 @@ _LONG_NAMES = {
 }
 
 
-def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelParameters) -> xr.Dataset:
+def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, model) -> xr.Dataset:
     """The exact NNM1: the two-impact dataset followed by the continuation segments.
 
     Parameters
@@ -134,96 +145,128 @@ def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelP
         The continuation from its last orbit (:func:`nnmstop.exact.family.follow_branch`). Orbits of a first
         ``"FR"`` segment duplicate the end of ``two_impacts`` (to the bisection tolerance)
         and are left out.
-    params : ModelParameters
+    model : ModelParameters or Structure
+        The paper's oscillator or a 2-DOF structure (:func:`nnmstop.exact.phases.check_sequence_model`).
 
     Returns
     -------
     xarray.Dataset
         Dimension ``point``; every variable has ``long_name`` and ``units``.
     """
-    n0 = two_impacts.sizes["point"]
-    fr = SequenceProblem(params, "FR")
-    y_two = two_impact_unknowns(two_impacts)
-    contact = two_impacts["contact_time"].values
-    cols = {name: list(two_impacts[name].values) for name in _LONG_NAMES}
-    seq_col = ["FR"] * n0
-    durations = [y[2:] for y in y_two]
-    segment_col = [0] * n0
-    impacts = [2 if c > 0 else 0 for c in contact]
-    grazing = [0] * n0
-    grazing[0] = int(contact[0] == 0.0)  # the family starts at the grazing orbit
-    branch_points, det = [0], None
-    for k in range(n0):  # bordered-Jacobian sign along the two-impact part too
-        chord = y_two[min(k + 1, n0 - 1)] - y_two[max(k - 1, 0)]
-        _, sign = unit_tangent(fr, y_two[k], chord, singular_tol=None)
-        if det is not None:
-            branch_points.append(int(sign != det))
-        det = sign
-    arclength = list(two_impacts["arclength"].values)
+    rows = _two_impact_rows(two_impacts, SequenceProblem(model, "FR"))
     summaries = [
         f"FR: 2 impacts per period, energy {two_impacts['energy'].values.min():.6g} to "
         f"{two_impacts['energy'].values.max():.6g}, from the grazing orbit; ends where "
         f"{two_impacts.attrs.get('end_reason', 'the two-impact family ends')} (results/exact/nnm1_two_impacts.nc)"
     ]
     index = 0
-    s_offset = arclength[-1]
     for number, seg in enumerate(segments):
-        rows = list(range(len(seg)))
-        if number == 0:
-            if seg.sequence != "FR":
-                raise ValueError(f"the continuation of the two-impact family must start with FR, got {seg.sequence}")
-            # its first orbit is the last two-impact orbit; its grazing orbit, when located within
-            # round-off of that orbit (the two-impact family already ended there), is not repeated
-            same = 1e-9 * (1 + np.linalg.norm(y_two[-1]))
-            rows = [j for j in rows[1:] if np.linalg.norm(seg.unknowns[j] - y_two[-1]) > same]
-            if seg.grazing[-1] and not rows:
-                grazing[-1] = 1
-        else:
-            index += 1
+        if number == 0 and seg.sequence != "FR":
+            raise ValueError(f"the continuation of the two-impact family must start with FR, got {seg.sequence}")
+        index += number > 0
+        added = _append_segment(rows, seg, index, first=number == 0)
+        energies = np.array(rows["energy"])[np.array(rows["segment"]) == index]
         problem = seg.problem
-        for j in rows:
-            y, check = seg.unknowns[j], seg.assessments[j]
-            is_free = np.array([c == "F" for c in seg.sequence])
-            cols["energy"].append(problem.energy(y))
-            cols["frequency"].append(problem.frequency(y))
-            cols["period"].append(4.0 * problem.quarter(y))
-            cols["x_max"].append(check.x_max)
-            cols["u_at_x_max"].append(check.u_at_x_max)
-            cols["x_turning_point"].append(check.x_turning)
-            cols["xdot0"].append(y[0])
-            cols["udot0"].append(y[1])
-            cols["free_flight_time"].append(float(np.sum(y[2:][is_free])))
-            cols["contact_time"].append(float(np.sum(y[2:][~is_free])))
-            cols["residual"].append(seg.residual[j])
-            cols["validity_margin"].append(check.min_margin)
-            seq_col.append(seg.sequence)
-            durations.append(y[2:])
-            segment_col.append(index)
-            impacts.append(problem.impacts_per_period)
-            grazing.append(int(seg.grazing[j]))
-            branch_points.append(int(seg.branch_point[j]))
-            arclength.append(s_offset + seg.arclength[j])
-        s_offset = arclength[-1]
-        energies = np.array(cols["energy"])[np.array(segment_col) == index]
         text = (
             f"{seg.sequence}: {problem.impacts_per_period} impacts per period, energy {energies.min():.6g} to "
             f"{energies.max():.6g} ({energies[0]:.6g} -> {energies[-1]:.6g}); ends: {seg.end_reason}"
         )
         if number == 0:
-            source = "the points of" if not rows else "starts with"
-            summaries[0] = text + f" ({source} results/exact/nnm1_two_impacts.nc)"
+            summaries[0] = text + f" ({'starts with' if added else 'the points of'} results/exact/nnm1_two_impacts.nc)"
         else:
             summaries.append(text)
-    n = len(seq_col)
-    data = {name: _var(cols[name], long_name) for name, long_name in _LONG_NAMES.items()}
+    ds = _branch_variables(rows, model)
+    ds.attrs = {
+        **model_attributes(model),
+        "two_impact_points": two_impacts.sizes["point"],
+        "segments": len(summaries),
+        **{f"segment_{k}": text for k, text in enumerate(summaries)},
+        **{f"segment_{k}_end_check": seg.end_check for k, seg in enumerate(segments) if seg.end_check},
+        "end_reason": segments[-1].end_reason if segments else two_impacts.attrs.get("end_reason", ""),
+        "max_residual": float(np.max(rows["residual"])),
+    }
+    return ds
+
+
+def _two_impact_rows(two_impacts: xr.Dataset, fr: SequenceProblem) -> dict:
+    """The columns of the branch dataset for the two-impact points (copied), with their bordered-Jacobian signs."""
+    n0 = two_impacts.sizes["point"]
+    y_two = two_impact_unknowns(two_impacts)
+    contact = two_impacts["contact_time"].values
+    rows = {name: list(two_impacts[name].values) for name in _LONG_NAMES}
+    rows.update(
+        sequence=["FR"] * n0,
+        durations=[y[2:] for y in y_two],
+        segment=[0] * n0,
+        impacts=[2 if c > 0 else 0 for c in contact],
+        grazing=[0] * n0,
+        branch_point=[0],
+        arclength=list(two_impacts["arclength"].values),
+        last_two_impact=y_two[-1],
+    )
+    rows["grazing"][0] = int(contact[0] == 0.0)  # the family starts at the grazing orbit
+    det = None
+    for k in range(n0):  # bordered-Jacobian sign along the two-impact part too
+        chord = y_two[min(k + 1, n0 - 1)] - y_two[max(k - 1, 0)]
+        _, sign = unit_tangent(fr, y_two[k], chord, singular_tol=None)
+        if det is not None:
+            rows["branch_point"].append(int(sign != det))
+        det = sign
+    return rows
+
+
+def _append_segment(rows: dict, seg, index: int, first: bool) -> bool:
+    """Append the orbits of a continuation segment to the columns; False when none was added."""
+    y_last = rows["last_two_impact"]
+    keep = list(range(len(seg)))
+    if first:
+        # its first orbit is the last two-impact orbit; its grazing orbit, when located within
+        # round-off of that orbit (the two-impact family already ended there), is not repeated
+        same = 1e-9 * (1 + np.linalg.norm(y_last))
+        keep = [j for j in keep[1:] if np.linalg.norm(seg.unknowns[j] - y_last) > same]
+        if seg.grazing[-1] and not keep:
+            rows["grazing"][-1] = 1
+    problem, s_offset = seg.problem, rows["arclength"][-1]
+    is_free = np.array([c == "F" for c in seg.sequence])
+    for j in keep:
+        y, check = seg.unknowns[j], seg.assessments[j]
+        for name, value in (
+            ("energy", problem.energy(y)),
+            ("frequency", problem.frequency(y)),
+            ("period", 4.0 * problem.quarter(y)),
+            ("x_max", check.x_max),
+            ("u_at_x_max", check.u_at_x_max),
+            ("x_turning_point", check.x_turning),
+            ("xdot0", y[0]),
+            ("udot0", y[1]),
+            ("free_flight_time", float(np.sum(y[2:][is_free]))),
+            ("contact_time", float(np.sum(y[2:][~is_free]))),
+            ("residual", seg.residual[j]),
+            ("validity_margin", check.min_margin),
+            ("sequence", seg.sequence),
+            ("durations", y[2:]),
+            ("segment", index),
+            ("impacts", problem.impacts_per_period),
+            ("grazing", int(seg.grazing[j])),
+            ("branch_point", int(seg.branch_point[j])),
+            ("arclength", s_offset + seg.arclength[j]),
+        ):
+            rows[name].append(value)
+    return bool(keep)
+
+
+def _branch_variables(rows: dict, model) -> xr.Dataset:
+    """The labelled variables of the exact NNM1 from its columns."""
+    n = len(rows["sequence"])
+    data = {name: _var(rows[name], long_name) for name, long_name in _LONG_NAMES.items()}
     # "Hz" of the nondimensional time (the long name says so): a unit UDUNITS knows, as CF asks.
     data["frequency"][2]["units"] = "Hz"
     data["impacts_per_period"] = _var(
-        impacts, "number of excursions of x beyond the stops (|x| > 1) per period", dtype=np.int32
+        rows["impacts"], "number of excursions of x beyond the stops (|x| > 1) per period", dtype=np.int32
     )
     data["phase_sequence"] = (
         "point",
-        np.array(seq_col, dtype=object),
+        np.array(rows["sequence"], dtype=object),
         {
             "long_name": (
                 "linear phases of the quarter period from the origin to the turning point: F free flight, "
@@ -233,44 +276,34 @@ def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, params: ModelP
             "units": "1",
         },
     )
-    data.update(stability_variables(params, seq_col, durations))
-    data["n_phases"] = _var([len(s) for s in seq_col], "number of linear phases in the quarter period", dtype=np.int32)
+    data.update(stability_variables(model, rows["sequence"], rows["durations"]))
+    data["n_phases"] = _var(
+        [len(s) for s in rows["sequence"]], "number of linear phases in the quarter period", dtype=np.int32
+    )
     data["segment"] = _var(
-        segment_col, "index of the phase-sequence segment (0: the two-impact family)", dtype=np.int32
+        rows["segment"], "index of the phase-sequence segment (0: the two-impact family)", dtype=np.int32
     )
     data["grazing"] = _var(
-        grazing,
+        rows["grazing"],
         "1 for an exactly computed grazing orbit (a transition between phase sequences, or the start)",
         dtype=np.int8,
     )
     data["branch_point"] = _var(
-        branch_points,
+        rows["branch_point"],
         "1 where the sign of det [J; t] changed since the previous orbit (a simple bifurcation was crossed)",
         dtype=np.int8,
     )
-    ds = xr.Dataset(
+    return xr.Dataset(
         data,
         coords={
             "point": ("point", np.arange(n), {"long_name": "index of the orbit along the branch", "units": "1"}),
             "arclength": _var(
-                arclength,
+                rows["arclength"],
                 "pseudo-arclength in the unknowns (xdot0, udot0, phase durations) of each segment, accumulated "
                 "from the first orbit (a length in different unknowns on each segment)",
             ),
         },
     )
-    ds.attrs = {
-        "alpha": params.alpha,
-        "beta": params.beta,
-        "delta": params.delta,
-        "two_impact_points": n0,
-        "segments": len(summaries),
-        **{f"segment_{k}": text for k, text in enumerate(summaries)},
-        **{f"segment_{k}_end_check": seg.end_check for k, seg in enumerate(segments) if seg.end_check},
-        "end_reason": segments[-1].end_reason if segments else two_impacts.attrs.get("end_reason", ""),
-        "max_residual": float(np.max(cols["residual"])),
-    }
-    return ds
 
 
 def one_stop_dataset(family) -> xr.Dataset:

@@ -36,7 +36,7 @@ from nnmstop.exact.grazing import Transition, assess_orbit, classify_boundary, d
 from nnmstop.exact.ndof import OneStopProblem
 from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem
 from nnmstop.models.structure import two_dof_structure
-from nnmstop.models.two_dof import ModelParameters, total_energy
+from nnmstop.models.two_dof import ModelParameters
 
 __all__ = [
     "FamilySettings",
@@ -161,9 +161,14 @@ class Family:
         return self.problem.sequence
 
     @property
-    def params(self) -> ModelParameters:
-        """Model parameters."""
+    def params(self) -> ModelParameters | None:
+        """The paper's parameters when the model was given by them (None for a 2-DOF structure)."""
         return self.problem.params
+
+    @property
+    def model(self):
+        """The model: :class:`~nnmstop.models.two_dof.ModelParameters` or a 2-DOF structure."""
+        return self.problem.model
 
     def __len__(self) -> int:
         return len(self.unknowns)
@@ -171,8 +176,7 @@ class Family:
     @property
     def energy(self) -> np.ndarray:
         """Total energy of the piecewise model (the kinetic energy at ``x = u = 0``) of each orbit."""
-        y = np.asarray(self.unknowns)
-        return total_energy(0.0, 0.0, y[:, 0], y[:, 1], self.params, model="piecewise")
+        return np.array([self.problem.energy(y) for y in self.unknowns])
 
     @property
     def frequency(self) -> np.ndarray:
@@ -283,24 +287,35 @@ def follow_family(
     if branch.end_event is not None:
         _end_family(family, branch.end_event.outside, transitions)
     if confirm:
+        family.end_check = confirm_family_end(family, _restart(problem, settings), f"exact {problem.sequence} family")
+    _log_family(family)
+    return family._freeze()
 
-        def restart(U, direction, fine_step):
-            refine = settings.step / fine_step
-            fine = dataclasses.replace(
-                settings,
-                step=fine_step,
-                max_log_energy_step=settings.max_log_energy_step / refine,
-                max_frequency_step=settings.max_frequency_step / refine,
-                min_step=min(settings.min_step, fine_step),
-            )
-            return follow_family(problem, U, direction, fine, max_points=RESTART_POINTS, transitions=False)
 
-        family.end_check = confirm_family_end(family, restart, f"exact {problem.sequence} family")
+def _restart(problem: SequenceProblem, settings: FamilySettings):
+    """``restart(U, direction, fine_step)``: the family of ``problem`` from ``U`` with the step and its energy and
+    frequency limits refined alike, without transition (for :func:`nnmstop.exact.follow.confirm_family_end`)."""
+
+    def restart(U, direction, fine_step):
+        refine = settings.step / fine_step
+        fine = dataclasses.replace(
+            settings,
+            step=fine_step,
+            max_log_energy_step=settings.max_log_energy_step / refine,
+            max_frequency_step=settings.max_frequency_step / refine,
+            min_step=min(settings.min_step, fine_step),
+        )
+        return follow_family(problem, U, direction, fine, max_points=RESTART_POINTS, transitions=False)
+
+    return restart
+
+
+def _log_family(family: Family) -> None:
     energies, frequencies = family.energy, family.frequency
     logger.info(
         "%s family%s: %d orbits, energy %.6g..%.6g, frequency %.7g..%.7g Hz, max residual %.2e; end: %s",
-        problem.sequence,
-        f" from the {start_label}" if start_label else "",
+        family.sequence,
+        f" from the {family.start}" if family.start else "",
         len(family),
         energies.min(),
         energies.max(),
@@ -309,7 +324,6 @@ def follow_family(
         max(family.residual),
         family.end_reason,
     )
-    return family._freeze()
 
 
 def _end_family(family: Family, check_hi, transitions: bool) -> None:
@@ -334,7 +348,7 @@ def _end_family(family: Family, check_hi, transitions: bool) -> None:
 
 
 def follow_two_impact_family(
-    params: ModelParameters,
+    model,
     step: float = 0.02,
     max_points: int = 4000,
     start=None,
@@ -353,7 +367,8 @@ def follow_two_impact_family(
 
     Parameters
     ----------
-    params : ModelParameters
+    model : ModelParameters or Structure
+        The paper's oscillator, or a 2-DOF structure with one stop on its first degree of freedom and gap 1.
     step : float
         Largest arclength step (> 0; the modal unknowns of the 2-DOF oscillator with ``delta = 1`` are
         a rotation of the velocities, so the lengths are those of the paper's unknowns).
@@ -380,24 +395,11 @@ def follow_two_impact_family(
         raise ValueError(f"step must be a finite number > 0, got {step!r}")
     if int(max_points) != max_points or max_points < 2:
         raise ValueError(f"max_points must be an integer >= 2, got {max_points!r}")
-    structure = two_dof_structure(params)
+    problem = TwoImpactProblem(model)
+    structure = two_dof_structure(model) if problem.params is not None else model
     one_stop = OneStopProblem(structure)
-    problem = TwoImpactProblem(params)
-
-    def to_modal(y):
-        y = np.asarray(y, dtype=float)
-        b = one_stop.free.modal_coordinates(np.concatenate([np.zeros(2), y[:2]]))[1]
-        return np.concatenate([b, y[2:]])
-
-    y0 = None if start is None else to_modal(problem.check(start))
-    if y0 is not None:
-        residual = np.linalg.norm(problem.residual(start))
-        if residual > 1e-10:
-            raise ValueError(f"start {start} is not a two-impact orbit (residual {residual:.3e})")
-        check = ndof.assess_orbit(one_stop, y0)
-        if check.min_margin < -1e-9:
-            raise ValueError(f"start {start} violates the assumptions {check.violated} of the two-impact family")
-    orient = None if direction is None else to_modal(direction)
+    y0 = None if start is None else _modal_start(problem, one_stop, start)
+    orient = None if direction is None else _to_modal(one_stop, direction)
     modal = ndof.follow_one_stop_family(
         structure,
         step=step,
@@ -418,11 +420,31 @@ def follow_two_impact_family(
     return family._freeze()
 
 
-def _start_after(tr: Transition, params, settings: FamilySettings):
+def _to_modal(one_stop: OneStopProblem, y) -> np.ndarray:
+    """``(xdot0, udot0, tau1, T1)`` (or a direction in them) as the one-stop unknowns ``(b, tau1, T1)``."""
+    y = np.asarray(y, dtype=float)
+    b = one_stop.free.modal_coordinates(np.concatenate([np.zeros(2), y[:2]]))[1]
+    return np.concatenate([b, y[2:]])
+
+
+def _modal_start(problem: TwoImpactProblem, one_stop: OneStopProblem, start) -> np.ndarray:
+    """A user's first two-impact orbit, checked (an orbit, its assumptions holding), in the one-stop unknowns."""
+    start = problem.check(start)
+    residual = np.linalg.norm(problem.residual(start))
+    if residual > 1e-10:
+        raise ValueError(f"start {start} is not a two-impact orbit (residual {residual:.3e})")
+    y0 = _to_modal(one_stop, start)
+    check = ndof.assess_orbit(one_stop, y0)
+    if check.min_margin < -1e-9:
+        raise ValueError(f"start {start} violates the assumptions {check.violated} of the two-impact family")
+    return y0
+
+
+def _start_after(tr: Transition, model, settings: FamilySettings):
     """First orbit, tangent, first step and grazing flag of the family after a transition."""
     if tr.kind in ("split", "append"):
         eps = settings.grazing_epsilon
-        problem, y1, index = split_start(params, tr.old, tr.y_graze, tr.phase, tr.t_star, tr.level, eps)
+        problem, y1, index = split_start(model, tr.old, tr.y_graze, tr.phase, tr.t_star, tr.level, eps)
         if problem.sequence != tr.new:  # pragma: no cover - consistency of the two constructions
             raise RuntimeError(f"split of {tr.old} gave {problem.sequence}, expected {tr.new}")
         check = assess_orbit(problem, y1)
@@ -434,7 +456,7 @@ def _start_after(tr: Transition, params, settings: FamilySettings):
         direction = np.zeros(problem.n_unknowns)
         direction[index] = 1.0
         return problem, y1, direction, eps, False
-    problem = SequenceProblem(params, tr.new)
+    problem = SequenceProblem(model, tr.new)
     null = scipy.linalg.null_space(problem.jacobian(tr.y_graze))
     if null.shape[1] != 1:
         raise RuntimeError(f"after the merge {tr.old} -> {tr.new}: the grazing orbit is not a regular point")
@@ -453,14 +475,15 @@ def _start_after(tr: Transition, params, settings: FamilySettings):
     return problem, tr.y_graze, null if valid[0] else -null, trial, True
 
 
-def follow_branch(
-    params: ModelParameters, sequence: str, y0, direction, settings: FamilySettings, confirm: bool = False
-) -> list:
+def follow_branch(model, sequence: str, y0, direction, settings: FamilySettings, confirm: bool = False) -> list:
     """Follow the exact NNM1 through its grazing transitions.
 
     Parameters
     ----------
-    params : ModelParameters
+    model : ModelParameters or Structure
+        The paper's oscillator or a 2-DOF structure with one stop on its first degree of freedom and gap 1
+        (anything else: ValueError naming what is not supported,
+        :func:`nnmstop.exact.phases.check_sequence_model`).
     sequence : str
         Phase sequence of the first orbit.
     y0 : array_like
@@ -476,7 +499,7 @@ def follow_branch(
     list of Family
         In continuation order; the last one has no transition and says why the branch ends.
     """
-    problem = SequenceProblem(params, sequence)
+    problem = SequenceProblem(model, sequence)
     segments = [follow_family(problem, y0, direction, settings, confirm=confirm)]
     used = len(segments[0])
     seen = set()
@@ -497,7 +520,7 @@ def follow_branch(
             segments[-1].transition = None
             break
         try:
-            problem, y1, direction, h0, graze = _start_after(tr, params, settings)
+            problem, y1, direction, h0, graze = _start_after(tr, model, settings)
         except RuntimeError as exc:
             segments[-1].end_reason += f"; cannot continue: {exc}"
             segments[-1].transition = None
