@@ -2,24 +2,6 @@
 
 from nnmstop.catalogue import DatasetKind, Variable
 
-TUBE_EXACT_FAMILY_VARIABLES = (
-    Variable("energy", ("orbit",), "total energy of the non-smooth model"),
-    Variable("frequency", ("orbit",), "frequency 1/T in Hz of the nondimensional time", units="Hz"),
-    Variable("contact_time", ("orbit",), "contact duration of the quarter period"),
-    Variable("x_max", ("orbit",), "largest displacement at the stop over its gap"),
-    Variable("initial_velocity", ("orbit", "dof"), "velocities at q = 0 (start of the orbit)"),
-    Variable("orbit", ("orbit",), "index of the orbit along the family"),
-    Variable("dof", ("dof",), "index of the degree of freedom"),
-)
-TUBE_EXACT_FAMILY = DatasetKind(
-    "tube_exact_family",
-    "Exact NNM1 of the finite-element tube, one impact per stop side",
-    ("tube/exact_nnm1.nc",),
-    "Exact periodic orbits of the non-smooth finite-element tube with one impact on each side of its stop per period, from the grazing orbit of its first linear mode (closed-form phases).",
-    TUBE_EXACT_FAMILY_VARIABLES,
-)
-
-
 STRUCTURE_BRANCH_VARIABLES = (
     Variable("q_cos", ("point", "dof", "harmonic"), "cosine Fourier coefficients of the degrees of freedom"),
     Variable("q_sin", ("point", "dof", "harmonic"), "sine Fourier coefficients of the degrees of freedom"),
@@ -167,7 +149,6 @@ TUBE_COMPARISON = DatasetKind(
 )
 
 KINDS = (
-    TUBE_EXACT_FAMILY,
     STRUCTURE_BRANCH,
     TUBE_COMPARISON,
 )

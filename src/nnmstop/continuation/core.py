@@ -35,6 +35,9 @@ __all__ = [
     "unit_tangent",
     "StopCriterion",
     "Progress",
+    "is_real_number",
+    "is_integer",
+    "require_on_branch",
 ]
 
 logger = logging.getLogger("nnmstop.continuation.core")
@@ -177,6 +180,25 @@ def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max
         f"Newton correction did not converge in {max_iter} iterations (relative residual "
         f"{result.residual_norm:.2e} > {tol:.1e})"
     )
+
+
+def is_real_number(value) -> bool:
+    """A Python or numpy real number (not a bool), for the settings' checks."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
+def is_integer(value) -> bool:
+    """A Python or numpy integer (not a bool)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def require_on_branch(system, U, tolerance: float, hint: str = "") -> None:
+    """ValueError unless the relative residual at ``U`` is at most ``tolerance`` (a stepper's start check)."""
+    residual = relative_residual(system, U)
+    if residual > tolerance:
+        raise ValueError(
+            f"U_start is not on the branch: relative residual {residual:.2e} > tolerance {tolerance:.1e}{hint}"
+        )
 
 
 def relative_of_residual(U, r) -> float:

@@ -35,7 +35,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.continuation.core import ContinuationError, ContinuationStats, relative_residual
+from nnmstop.continuation.core import (
+    ContinuationError,
+    ContinuationStats,
+    is_integer,
+    is_real_number,
+    require_on_branch,
+)
 from nnmstop.continuation.corrected_path import CorrectedPath, newton_in_hyperplane
 from nnmstop.continuation.driver import Stepper, StepResult
 from nnmstop.continuation.linear import factorize_bordered
@@ -44,10 +50,6 @@ from nnmstop.continuation.pseudo_arclength import tangent_angle
 __all__ = ["DenseArclengthSettings", "DenseArclengthStats", "DenseArclengthStepper"]
 
 logger = logging.getLogger("nnmstop.continuation.dense_arclength")
-
-
-def _is_real(value) -> bool:
-    return isinstance(value, (int, float, np.floating)) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True)
@@ -99,19 +101,19 @@ class DenseArclengthSettings:
     def __post_init__(self):
         for name in ("step", "min_step", "tolerance"):
             value = getattr(self, name)
-            if not _is_real(value) or not (math.isfinite(value) and value > 0):
+            if not is_real_number(value) or not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         if self.min_step > self.step:
             raise ValueError(f"min_step must be at most step = {self.step!r}, got {self.min_step!r}")
         for name in ("max_log_energy_step", "max_frequency_step"):
             value = getattr(self, name)
-            if not _is_real(value) or not value > 0:
+            if not is_real_number(value) or not value > 0:
                 raise ValueError(f"{name} must be a number > 0 (inf for no limit), got {value!r}")
-        if not _is_real(self.max_angle) or not 0 < self.max_angle < math.pi / 2:
+        if not is_real_number(self.max_angle) or not 0 < self.max_angle < math.pi / 2:
             raise ValueError(f"max_angle must be a number in (0, pi/2) radians, got {self.max_angle!r}")
         for name in ("max_iterations", "max_steps"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            if not is_integer(value) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
 
     def stepper(self, first_step: float | None = None) -> DenseArclengthStepper:
@@ -145,12 +147,7 @@ class DenseArclengthStepper(Stepper):
         return DenseArclengthStats()
 
     def start(self, system, U) -> None:
-        residual = relative_residual(system, U)
-        if residual > self.settings.tolerance:
-            raise ValueError(
-                f"U_start is not on the curve: relative residual {residual:.3e} > tolerance "
-                f"{self.settings.tolerance:.1e}"
-            )
+        require_on_branch(system, U, self.settings.tolerance)
         self.h = min(self.settings.step, self.first_step or self.settings.step)
 
     def shorten(self, length: float) -> None:

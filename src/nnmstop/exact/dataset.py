@@ -4,8 +4,10 @@
 ``(xdot0, udot0, tau1, T1)``); :func:`exact_branch_dataset` appends the segments of the
 continuation through the grazing transitions (:func:`nnmstop.exact.family.follow_branch`)
 to it, one row per orbit with its phase sequence, impact count, validity margin and
-Floquet multipliers (:func:`nnmstop.exact.stability.stability_variables`). Every variable
-has ``long_name`` and ``units``; the variables are listed in ``docs/datasets.md``.
+Floquet multipliers (:func:`nnmstop.exact.stability.stability_variables`);
+:func:`one_stop_dataset` labels the one-stop family of any structure. Numerics and plain values
+only: every variable's long name, units and flags are in :mod:`nnmstop.catalogue.exact`, which
+:func:`nnmstop.netcdf.write_dataset` applies (``docs/datasets.md`` is generated from it).
 Reading and writing files is the job of :mod:`nnmstop.tasks.exact`.
 """
 
@@ -24,56 +26,31 @@ __all__ = ["two_impact_dataset", "two_impact_unknowns", "exact_branch_dataset", 
 
 
 def two_impact_dataset(family: Family) -> xr.Dataset:
-    """The two-impact family (:func:`nnmstop.exact.family.follow_two_impact_family`) as a dataset along ``point``."""
+    """The two-impact family (:func:`nnmstop.exact.family.follow_two_impact_family`) as a dataset along ``point``.
+
+    Plain values; the metadata of every variable are in :mod:`nnmstop.catalogue.exact` (kind
+    ``two_impact_family``).
+    """
     y = np.asarray(family.unknowns)
     n = len(family)
-    one = "1"
-
-    def var(values, long_name, units, **extra):
-        return ("point", np.asarray(values, dtype=float), {"long_name": long_name, "units": units, **extra})
-
-    x_max = [a.x_max for a in family.assessments]
-    u_at = [a.q_at_x_max[1] for a in family.assessments]
-    margin = [a.min_margin for a in family.assessments]
     floquet = stability_variables(family.model, ["FR"] * n, np.column_stack([y[:, 2], y[:, 3] - y[:, 2]]))
     ds = xr.Dataset(
         {
-            "energy": var(
-                family.energy,
-                "total energy of the non-smooth (piecewise-linear) model: kinetic + spring potential "
-                "+ stop potential alpha/2 (|x|-1)^2, conserved along the orbit",
-                one,
-            ),
-            "frequency": var(
-                family.frequency, "frequency 1/T of the periodic orbit, in Hz of the nondimensional time", "Hz"
-            ),
-            "period": var(4.0 * y[:, 3], "period T = 4 T1", one),
-            "x_max": var(x_max, "maximum of x over the period (x_max - 1 is the penetration into the stop)", one),
-            "u_at_x_max": var(u_at, "u at the time of the maximum of x", one),
-            "x_turning_point": var(
-                [a.margins["final_position"] + 1.0 for a in family.assessments],
-                "x(T1) where both velocities vanish (equals x_max unless x peaks earlier during contact)",
-                one,
-            ),
-            "xdot0": var(y[:, 0], "velocity of x at x = u = 0 (t = 0)", one),
-            "udot0": var(y[:, 1], "velocity of u at x = u = 0 (t = 0)", one),
-            "free_flight_time": var(y[:, 2], "free-flight duration tau1 of the quarter period", one),
-            "contact_time": var(y[:, 3] - y[:, 2], "contact duration T1 - tau1 of the quarter period", one),
-            "residual": var(family.residual, "Euclidean norm of (x(tau1) - 1, xdot(T1), udot(T1))", one),
-            "validity_margin": var(
-                margin,
-                "smallest margin of the assumptions of the two-impact construction "
-                "(> 0 inside the family, about 0 at its ends)",
-                one,
-            ),
+            "energy": _var(family.energy),
+            "frequency": _var(family.frequency),
+            "period": _var(4.0 * y[:, 3]),
+            "x_max": _var([a.x_max for a in family.assessments]),
+            "u_at_x_max": _var([a.q_at_x_max[1] for a in family.assessments]),
+            "x_turning_point": _var([a.margins["final_position"] + 1.0 for a in family.assessments]),
+            "xdot0": _var(y[:, 0]),
+            "udot0": _var(y[:, 1]),
+            "free_flight_time": _var(y[:, 2]),
+            "contact_time": _var(y[:, 3] - y[:, 2]),
+            "residual": _var(family.residual),
+            "validity_margin": _var([a.min_margin for a in family.assessments]),
             **floquet,
         },
-        coords={
-            "point": ("point", np.arange(n), {"long_name": "index of the orbit along the family", "units": one}),
-            "arclength": var(
-                family.arclength, "pseudo-arclength in (xdot0, udot0, tau1, T1) from the first orbit", one
-            ),
-        },
+        coords={"point": ("point", np.arange(n)), "arclength": _var(family.arclength)},
     )
     ds.attrs = {
         **model_attributes(family.model),
@@ -107,30 +84,25 @@ def two_impact_unknowns(ds: xr.Dataset) -> np.ndarray:
     return np.column_stack([ds["xdot0"].values, ds["udot0"].values, tau1, quarter - tau1])
 
 
-def _var(values, long_name, units="1", dtype=float, **extra):
-    return ("point", np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units, **extra})
+def _var(values, dtype=float):
+    return ("point", np.asarray(values, dtype=dtype))
 
 
-_LONG_NAMES = {
-    "energy": (
-        "total energy of the non-smooth (piecewise-linear) model: kinetic + spring potential + stop potential "
-        "alpha/2 (|x|-1)^2, conserved along the orbit"
-    ),
-    "frequency": "frequency 1/T of the periodic orbit, in Hz of the nondimensional time",
-    "period": "period T = 4 T1 (T1: quarter period, from the origin to the turning point)",
-    "x_max": "maximum of x over the period (x_max - 1 is the penetration into the stop)",
-    "u_at_x_max": "u at the time of the maximum of x",
-    "x_turning_point": "x(T1) at the turning point, where both velocities vanish",
-    "xdot0": "velocity of x at x = u = 0 (t = 0)",
-    "udot0": "velocity of u at x = u = 0 (t = 0)",
-    "free_flight_time": "total free-flight duration in the quarter period (tau1 for two impacts per period)",
-    "contact_time": "total contact duration in the quarter period (T1 - tau1 for two impacts per period)",
-    "residual": "Euclidean norm of the quarter-period equations (switching conditions, xdot(T1), udot(T1))",
-    "validity_margin": (
-        "smallest margin of the assumptions of the phase sequence (> 0 inside a segment, about 0 at its "
-        "grazing transitions)"
-    ),
-}
+#: The columns of the exact NNM1 copied from the two-impact family and filled from each segment's orbits.
+_COLUMNS = (
+    "energy",
+    "frequency",
+    "period",
+    "x_max",
+    "u_at_x_max",
+    "x_turning_point",
+    "xdot0",
+    "udot0",
+    "free_flight_time",
+    "contact_time",
+    "residual",
+    "validity_margin",
+)
 
 
 def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, model) -> xr.Dataset:
@@ -151,7 +123,7 @@ def exact_branch_dataset(two_impacts: xr.Dataset, segments: list, model) -> xr.D
     Returns
     -------
     xarray.Dataset
-        Dimension ``point``; every variable has ``long_name`` and ``units``.
+        Dimension ``point``; the metadata come from the catalogue (kind ``exact_nnm1``).
     """
     rows = _two_impact_rows(two_impacts, SequenceProblem(model, "FR"))
     summaries = [
@@ -193,7 +165,7 @@ def _two_impact_rows(two_impacts: xr.Dataset, fr: SequenceProblem) -> dict:
     n0 = two_impacts.sizes["point"]
     y_two = two_impact_unknowns(two_impacts)
     contact = two_impacts["contact_time"].values
-    rows = {name: list(two_impacts[name].values) for name in _LONG_NAMES}
+    rows = {name: list(two_impacts[name].values) for name in _COLUMNS}
     rows.update(
         sequence=["FR"] * n0,
         durations=[y[2:] for y in y_two],
@@ -256,54 +228,17 @@ def _append_segment(rows: dict, seg, index: int, first: bool) -> bool:
 
 
 def _branch_variables(rows: dict, model) -> xr.Dataset:
-    """The labelled variables of the exact NNM1 from its columns."""
+    """The variables of the exact NNM1 from its columns (metadata: kind ``exact_nnm1`` of the catalogue)."""
     n = len(rows["sequence"])
-    data = {name: _var(rows[name], long_name) for name, long_name in _LONG_NAMES.items()}
-    # "Hz" of the nondimensional time (the long name says so): a unit UDUNITS knows, as CF asks.
-    data["frequency"][2]["units"] = "Hz"
-    data["impacts_per_period"] = _var(
-        rows["impacts"], "number of excursions of x beyond the stops (|x| > 1) per period", dtype=np.int32
-    )
-    data["phase_sequence"] = (
-        "point",
-        np.array(rows["sequence"], dtype=object),
-        {
-            "long_name": (
-                "linear phases of the quarter period from the origin to the turning point: F free flight, "
-                "R contact with the stop x = 1, L contact with the stop x = -1 (the orbit -q, half a period "
-                "later, has R and L swapped)"
-            ),
-            "units": "1",
-        },
-    )
+    data = {name: _var(rows[name]) for name in _COLUMNS}
+    data["impacts_per_period"] = _var(rows["impacts"], dtype=np.int32)
+    data["phase_sequence"] = ("point", np.array(rows["sequence"], dtype=object))
     data.update(stability_variables(model, rows["sequence"], rows["durations"]))
-    data["n_phases"] = _var(
-        [len(s) for s in rows["sequence"]], "number of linear phases in the quarter period", dtype=np.int32
-    )
-    data["segment"] = _var(
-        rows["segment"], "index of the phase-sequence segment (0: the two-impact family)", dtype=np.int32
-    )
-    data["grazing"] = _var(
-        rows["grazing"],
-        "1 for an exactly computed grazing orbit (a transition between phase sequences, or the start)",
-        dtype=np.int8,
-    )
-    data["branch_point"] = _var(
-        rows["branch_point"],
-        "1 where the sign of det [J; t] changed since the previous orbit (a simple bifurcation was crossed)",
-        dtype=np.int8,
-    )
-    return xr.Dataset(
-        data,
-        coords={
-            "point": ("point", np.arange(n), {"long_name": "index of the orbit along the branch", "units": "1"}),
-            "arclength": _var(
-                rows["arclength"],
-                "pseudo-arclength in the unknowns (xdot0, udot0, phase durations) of each segment, accumulated "
-                "from the first orbit (a length in different unknowns on each segment)",
-            ),
-        },
-    )
+    data["n_phases"] = _var([len(s) for s in rows["sequence"]], dtype=np.int32)
+    data["segment"] = _var(rows["segment"], dtype=np.int32)
+    data["grazing"] = _var(rows["grazing"], dtype=np.int8)
+    data["branch_point"] = _var(rows["branch_point"], dtype=np.int8)
+    return xr.Dataset(data, coords={"point": ("point", np.arange(n)), "arclength": _var(rows["arclength"])})
 
 
 def one_stop_dataset(family) -> xr.Dataset:
@@ -312,71 +247,28 @@ def one_stop_dataset(family) -> xr.Dataset:
     With the energy of every linear mode (``modal_energy``) and, per orbit, the internal resonance it is in
     (:func:`nnmstop.exact.resonance.classify_resonances`: ``resonant_mode``, ``resonance_order``; 0 on the
     family's backbone). The attributes say why the family ends, how that end was confirmed and where it
-    leaves its backbone.
+    leaves its backbone. Metadata: kind ``one_stop_family`` of :mod:`nnmstop.catalogue.exact`.
     """
     from nnmstop.exact.resonance import classify_resonances
 
     problem = family.problem
     resonances = classify_resonances(family)
-    one = {"units": "1"}
     ds = xr.Dataset(
         {
-            "energy": ("orbit", family.energy, {"long_name": "total energy of the non-smooth model", **one}),
-            "frequency": (
-                "orbit",
-                family.frequency,
-                {"long_name": "frequency 1/T in Hz of the nondimensional time", "units": "Hz"},
-            ),
-            "contact_time": (
-                "orbit",
-                family.contact_time,
-                {"long_name": "contact duration of the quarter period", **one},
-            ),
-            "x_max": ("orbit", family.x_max, {"long_name": "largest displacement at the stop over its gap", **one}),
-            "initial_velocity": (
-                ("orbit", "dof"),
-                family.initial_velocity,
-                {"long_name": "velocities at q = 0 (start of the orbit)", **one},
-            ),
-            "modal_energy": (
-                ("orbit", "mode"),
-                family.modal_energy,
-                {
-                    "long_name": "energy of each linear (free-flight) mode, b_k^2 / 2 at q = 0 (they add up to energy)",
-                    **one,
-                },
-            ),
-            "resonant_mode": (
-                "orbit",
-                resonances.mode.astype(np.int32),
-                {
-                    "long_name": "linear mode in internal resonance with the orbit (takes most of the energy growth, "
-                    "at one harmonic); 0 on the backbone",
-                    **one,
-                },
-            ),
-            "resonance_order": (
-                "orbit",
-                resonances.order.astype(np.int32),
-                {
-                    "long_name": "harmonic n of the orbit at which the resonant mode moves (an n:1 resonance); "
-                    "0 on the backbone",
-                    **one,
-                },
-            ),
+            "energy": ("orbit", family.energy),
+            "frequency": ("orbit", family.frequency),
+            "contact_time": ("orbit", family.contact_time),
+            "x_max": ("orbit", family.x_max),
+            "initial_velocity": (("orbit", "dof"), family.initial_velocity),
+            "modal_energy": (("orbit", "mode"), family.modal_energy),
+            "resonant_mode": ("orbit", resonances.mode.astype(np.int32)),
+            "resonance_order": ("orbit", resonances.order.astype(np.int32)),
         },
         coords={
-            "orbit": ("orbit", np.arange(len(family)), {"long_name": "index of the orbit along the family", **one}),
-            "dof": ("dof", np.arange(problem.n), {"long_name": "index of the degree of freedom", **one}),
-            "mode": ("mode", np.arange(1, problem.n + 1), {"long_name": "linear (free-flight) mode number", **one}),
-            "mode_frequency": (
-                "mode",
-                problem.free.omega / (2.0 * np.pi),
-                {
-                    "long_name": "linear frequency of the mode without contact, in Hz of the nondimensional time",
-                    "units": "Hz",
-                },
-            ),
+            "orbit": ("orbit", np.arange(len(family))),
+            "dof": ("dof", np.arange(problem.n)),
+            "mode": ("mode", np.arange(1, problem.n + 1)),
+            "mode_frequency": ("mode", problem.free.omega / (2.0 * np.pi)),
         },
     )
     ds.attrs = {

@@ -14,7 +14,6 @@ import numpy as np
 
 from nnmstop.exact.phases import phase_of
 from nnmstop.floquet import multipliers_from_invariant
-from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "ExactMultipliers",
@@ -195,7 +194,7 @@ def exact_multipliers(model, sequence: str, durations, phases: dict | None = Non
 
 
 def stability_variables(model, sequences, durations) -> dict:
-    """Floquet variables of exact orbits, as ``{name: (dims, values, attrs)}`` along ``point``.
+    """Floquet variables of exact orbits, as ``{name: (dims, values)}`` along ``point``.
 
     Parameters
     ----------
@@ -211,7 +210,7 @@ def stability_variables(model, sequences, durations) -> dict:
     dict
         ``multiplier_real``, ``multiplier_imag``, ``multiplier_modulus``, ``trace_invariant``,
         ``stability_margin``, ``stability_tolerance``, ``trivial_multiplier_distance`` and
-        the flag ``stable``, each with ``long_name`` and ``units``.
+        the flag ``stable`` (int8, 1 stable); their metadata are in :mod:`nnmstop.catalogue.exact`.
     """
     phases = _phases(model)
     sequences = list(sequences)
@@ -234,34 +233,18 @@ def stability_variables(model, sequences, durations) -> dict:
     trivial = _trivial_distance(origin)
     stable = margin >= -tol
 
-    def var(values, long_name):
-        return ("point", np.asarray(values, dtype=float), {"long_name": long_name, "units": "1"})
+    def var(values):
+        return ("point", np.asarray(values, dtype=float))
 
-    nontrivial = "non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials)"
     return {
-        "multiplier_real": var(lam.real, f"real part of the {nontrivial}; the other one is its reciprocal"),
-        "multiplier_imag": var(lam.imag, f"imaginary part of the {nontrivial} (>= 0 on the unit circle)"),
-        "multiplier_modulus": var(np.abs(lam), "modulus of the largest non-trivial Floquet multiplier (1 if stable)"),
-        "trace_invariant": var(s, "s = lambda + 1/lambda = trace of the monodromy matrix - 2"),
-        "stability_margin": var(
-            margin,
-            "2 - |s|: > 0 elliptic multiplier pair (on the unit circle), < 0 real pair off it",
-        ),
-        "stability_tolerance": var(
-            tol,
-            "tolerance on s from its measured round-off; stable means stability_margin >= -stability_tolerance",
-        ),
-        "trivial_multiplier_distance": var(
-            trivial,
-            "largest distance from +1 of the trivial multiplier pair (time shift and energy, a Jordan block; "
-            "about sqrt(eps |M|) from round-off)",
-        ),
-        "stable": flag_variable(
-            "point",
-            stable,
-            "Floquet stability of the exact orbit: non-trivial multipliers on the unit circle",
-            "unstable stable",
-        ),
+        "multiplier_real": var(lam.real),
+        "multiplier_imag": var(lam.imag),
+        "multiplier_modulus": var(np.abs(lam)),
+        "trace_invariant": var(s),
+        "stability_margin": var(margin),
+        "stability_tolerance": var(tol),
+        "trivial_multiplier_distance": var(trivial),
+        "stable": ("point", stable.astype(np.int8)),
     }
 
 

@@ -81,7 +81,7 @@ def tube_exact(config, inputs, outputs):
     write_dataset(
         ds,
         outputs["dataset"],
-        kind="tube_exact_family",
+        kind="one_stop_family",
         title="Exact NNM1 of the finite-element tube with a bilateral stop",
         summary="Exact periodic orbits of the non-smooth (piecewise-linear) finite-element tube with one "
         "impact on each side of its stop per period, from the grazing orbit of its first linear "
