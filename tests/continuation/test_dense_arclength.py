@@ -5,7 +5,7 @@ import pytest
 from test_continuation_driver import QUIET, circle
 
 from nnmstop.continuation.anm import ANMSettings
-from nnmstop.continuation.confirm import ContinuationEnd, EndNotConfirmed, confirm_end, event_tolerance
+from nnmstop.continuation.confirm import ContinuationEnd, EndNotConfirmed, confirm_end
 from nnmstop.continuation.corrected_path import CorrectedPath
 from nnmstop.continuation.dense_arclength import DenseArclengthSettings
 from nnmstop.continuation.driver import continue_branch
@@ -145,15 +145,7 @@ def _run(events, start, step, stop_at):
         progress_seconds=QUIET,
         events=events,
     )
-    event = branch.end_event
-    return ContinuationEnd(
-        points=np.array(branch.points),
-        arclength=np.array(branch.arclength),
-        event="" if event is None else event.key,
-        reason=branch.end_reason,
-        energy=float(np.exp(branch.points[-1][0])),
-        tolerance=event_tolerance(step, branch.points[-1]),
-    )
+    return ContinuationEnd.of_branch(branch, step)
 
 
 def test_a_step_over_a_thin_invalid_band_is_not_confirmed():

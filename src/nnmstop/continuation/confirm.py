@@ -68,6 +68,32 @@ class ContinuationEnd:
     energy: float
     tolerance: float
 
+    @classmethod
+    def of_branch(cls, branch, step: float, event_tol: float = 1e-13) -> ContinuationEnd:
+        """The end of a driver :class:`~nnmstop.continuation.core.Branch` whose largest step is ``step``.
+
+        An event end is known to :func:`event_tolerance`; an end on a stop criterion (the first stored
+        point that meets it, not located) only to the last step's length. For a staged continuation
+        (an HBM stage), ``restart(U, direction, step)`` reruns the stage from ``U`` with its step settings
+        scaled by ``step / (the stage's step)`` and returns ``ContinuationEnd.of_branch`` of the result.
+        """
+        points = np.asarray(branch.points, dtype=float)
+        arclength = np.array([np.nan if a is None else a for a in branch.arclength], dtype=float)
+        event = branch.end_event
+        if event is not None:
+            tolerance = event_tolerance(step, points[-1], event_tol)
+        else:
+            tolerance = float(np.linalg.norm(points[-1] - points[-2])) if len(points) > 1 else 0.0
+        diagnostics = branch.diagnostics[-1] or {}
+        return cls(
+            points=points,
+            arclength=arclength,
+            event="" if event is None else str(event.key),
+            reason=branch.end_reason,
+            energy=float(diagnostics.get("energy", np.nan)),
+            tolerance=tolerance,
+        )
+
 
 def event_tolerance(step: float, U, event_tol: float = 1e-13) -> float:
     """Distance within which a located event end is known.
