@@ -117,9 +117,7 @@ class StageRun:
         return self.dataset is not None and not self.failure
 
 
-def run_stage_one(
-    run: StageOneRun, label: str = "NNM1 stage 1", energy_limit: float | None = None
-) -> StageRun:
+def run_stage_one(run: StageOneRun, label: str = "NNM1 stage 1", energy_limit: float | None = None) -> StageRun:
     """Continue stage 1 of ``run.branch`` with a :class:`TruncationGuard` at ``run.max_truncation``; time it.
 
     ``energy_limit`` (optional) also ends the stage at the first orbit above that energy
