@@ -56,11 +56,31 @@ def test_cf_variable_labels_and_converts():
 
 
 def test_cf_variable_marks_missing_values_so_they_read_back_as_nan(tmp_path):
-    ds = xr.Dataset({"error": cf_variable("case", [1e-3, np.nan], "error", fill_value=-9.0e33)})
+    error = cf_variable("case", [1e-3, np.nan], "error", fill_value=-9.0e33, ancillary_variables="failure")
+    ds = xr.Dataset({"error": error, "failure": cf_variable("case", ["", "diverged"], "why", dtype=None)})
     assert ds["error"].values[1] == -9.0e33  # nothing non-finite reaches the writer
     write_dataset(ds, tmp_path / "study.nc", title="t", summary="s")
     back = read_dataset(tmp_path / "study.nc")
     assert back["error"].values[0] == 1e-3 and np.isnan(back["error"].values[1])
+
+
+def test_write_refuses_a_fill_value_without_a_reason(tmp_path):
+    """A fill value is a value not computed: the dataset must say why, at that very element."""
+    status = cf_variable(("case",), np.array([0, 1], dtype=np.int8), "0: computed, 1: unresolved", dtype=None)
+    for reason, values, match in (
+        (None, [np.nan, 1.0], "names no variable"),
+        ("status", [1.0, np.nan], None),  # the unresolved case is filled: explained
+        ("status", [np.nan, 1.0], r"at \{'case': 0, 'energy': 0\}"),  # filled where status says computed
+    ):
+        extra = {"ancillary_variables": reason} if reason else {}
+        per_energy = np.array([values, values]).T  # (case, energy)
+        error = cf_variable(("case", "energy"), per_energy, "error", fill_value=-9.0e33, **extra)
+        ds = xr.Dataset({"error": error, "status": status})
+        if match is None:
+            write_dataset(ds, tmp_path / "ok.nc", title="t", summary="s")
+        else:
+            with pytest.raises(ValueError, match=match):
+                write_dataset(ds, tmp_path / "bad.nc", title="t", summary="s")
 
 
 def test_flag_variable_holds_cf_flags():
