@@ -333,18 +333,33 @@ def _high_energy_at(params: ModelParameters, energy: float) -> tuple:
         if mismatch(hi) > 0:
             break
         hi *= 2.0
-    if not (mismatch(lo) < 0 < mismatch(hi)):
-        return None, (
-            f"the high-energy solver (Newton from the gap-0 mode) finds no two-impact orbit whose energy brackets "
-            f"{energy:g} for turning points x_max in [{lo:.6g}, {hi:.6g}]"
-        )
-    x_max, result = scipy.optimize.brentq(
-        mismatch, lo, hi, xtol=1e-14 * hi, rtol=1e-15, full_output=True, disp=False
+    refusal = (
+        f"the high-energy solver (Newton from the gap-0 mode) finds no two-impact orbit of energy {energy:g} "
+        f"for turning points x_max in [{lo:.6g}, {hi:.6g}]"
     )
+    if not (mismatch(lo) < 0 < mismatch(hi)):
+        return None, refusal
+
+    def defined_mismatch(x_max):
+        value = mismatch(x_max)
+        if np.isnan(value):
+            raise _NoOrbitHere(x_max)
+        return value
+
+    try:
+        x_max, result = scipy.optimize.brentq(
+            defined_mismatch, lo, hi, xtol=1e-14 * hi, rtol=1e-15, full_output=True, disp=False
+        )
+    except _NoOrbitHere as gap:
+        return None, f"{refusal} (none at x_max = {gap.args[0]:.6g} inside the bracket)"
     y = orbit(x_max)
     if not result.converged or y is None:
-        return None, f"the high-energy solver finds no two-impact orbit at energy {energy:g} (no converged turning point)"
+        return None, f"{refusal} (no converged turning point)"
     return y, ""
+
+
+class _NoOrbitHere(Exception):
+    """The high-energy solver finds no orbit at this turning point (ends the root search)."""
 
 
 def _hbm_from_exact(system, params: ModelParameters, y) -> np.ndarray:
