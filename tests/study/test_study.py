@@ -179,8 +179,15 @@ def test_an_unexpected_error_fails_the_study_job_and_leaves_no_dataset(small, ex
     monkeypatch.setattr(matching.EnergyMatcher, "regularized_orbit", failing)
     output = tmp_path / "results/study/cases/H30_eta0.1.nc"
     with pytest.raises(ValueError, match="did not converge for the regularized orbit at energy 3.0"):
-        run_task("study_error_case", small, {"exact": str(exact_path)}, {"dataset": str(output)},
-                 log=str(tmp_path / "log.txt"), harmonics="30", eta="0.1")
+        run_task(
+            "study_error_case",
+            small,
+            {"exact": str(exact_path)},
+            {"dataset": str(output)},
+            log=str(tmp_path / "log.txt"),
+            harmonics="30",
+            eta="0.1",
+        )
     assert not output.exists() and not output.with_name(output.name + ".tmp").exists()
 
 
@@ -192,8 +199,19 @@ def test_gathered_dataset_layout(gathered, small):
     assert ds["frequency_error"].dims == ("harmonics", "eta")
     assert ds["harmonics"].values.tolist() == [10, 30, 60] and ds["eta"].values.tolist() == [0.1, 0.01]
     assert ds["anm_runtime"].dims == ("order", "tolerance")
-    for name in ("runtime", "cpu_time", "factorizations", "x_error", "u_error", "force_error", "status", "failure",
-                 "frequency_error_truncation", "frequency_error_regularization", "exact_seconds_per_orbit"):
+    for name in (
+        "runtime",
+        "cpu_time",
+        "factorizations",
+        "x_error",
+        "u_error",
+        "force_error",
+        "status",
+        "failure",
+        "frequency_error_truncation",
+        "frequency_error_regularization",
+        "exact_seconds_per_orbit",
+    ):
         assert name in ds, name
     assert ds["runtime"].attrs["units"] == "s"
     # H = 10 does not resolve the stop: reported with its reason, never a number
@@ -273,6 +291,24 @@ def test_sparse_linear_algebra_gives_the_same_split(small, exact, gathered, tmp_
             np.testing.assert_allclose(values, dense, rtol=1e-6, err_msg=f"{name}_{part}")
 
 
+def test_tables_print_every_setting_and_the_advice_from_the_dataset(gathered):
+    from nnmstop.study.tables import error_split_rows, harmonics_advice_rows
+
+    _, _, ds = gathered
+    header, rows = error_split_rows(ds, times=False)
+    assert "CPU time (s)" not in header and len(rows) == ds.sizes["harmonics"] * ds.sizes["eta"]
+    reasons = {(row[0], row[1]): row[-1] for row in rows}
+    assert all("not resolved" in reasons[(f"{eta:g}", 10)] for eta in ds["eta"].values)
+    assert all(reasons[(f"{eta:g}", H)] == "" for eta in ds["eta"].values for H in (30, 60))
+    # the advice: the smallest H whose truncation part is below the regularization part of its eta
+    _, advice = harmonics_advice_rows(ds, times=False)
+    for row, eta in zip(advice, ds["eta"].values):
+        case = ds.sel(eta=eta)
+        below = case["frequency_error_truncation"] < case["frequency_error_regularization"]
+        expected = int(case["harmonics"][below][0]) if below.any() else None
+        assert (row[2] == expected) if expected else row[2].startswith("none"), (eta, row)
+
+
 def test_gather_refuses_stale_case_files(gathered, small):
     root, inputs, _ = gathered
     other = copy.deepcopy(small)
@@ -296,7 +332,7 @@ def test_error_vs_runtime_figure(gathered, small, tmp_path):
     assert pdf.stat().st_size > 1000 and png.stat().st_size > 1000
 
 
-def test_stiff_gather_and_figure(small, tmp_path):
+def test_stiff_gather_tables_and_figure(small, gathered, tmp_path, capsys):
     from nnmstop.study import stiff_cases as sc
     from nnmstop.tasks.figures import build_stiff_cases_figure
 
@@ -329,6 +365,12 @@ def test_stiff_gather_and_figure(small, tmp_path):
         assert float(ds["exact_periodicity_error"].max()) < 1e-10
         assert ds["energy_kind"].sel(energy_alpha=30.0).values.tolist() == ["linear", "high_energy"]
         assert bool(ds["energy_hbm_converged"].sel(energy_alpha=30.0).values[0])
+    from nnmstop.study.tables import main as print_tables
+
+    (tmp_path / "error_vs_runtime.nc").symlink_to(gathered[0] / "results/study/error_vs_runtime.nc")
+    print_tables([str(tmp_path), "--no-times"])
+    printed = capsys.readouterr().out
+    assert "## Stiff cases" in printed and "| 300 |" in printed and "CPU time" not in printed
     pdf, png = build_stiff_cases_figure(cfg, target, tmp_path / "stiff.pdf")
     assert pdf.stat().st_size > 1000 and png.stat().st_size > 1000
 

@@ -31,23 +31,15 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
+from nnmstop.study.status import status_words
+
 __all__ = [
     "pareto_front",
-    "status_words",
     "error_vs_runtime_figure",
     "stiff_cases_figure",
 ]
 
 _ETA_COLORS = ("tab:purple", "tab:blue", "tab:green", "tab:orange", "tab:red", "tab:brown")
-
-#: What each status flag means, in words for a reader (the flag meanings are the datasets').
-_STATUS_WORDS = {
-    "unresolved": "not resolved by its harmonics (truncation guard)",
-    "continuation_ended": "continuation ended before its stage did",
-    "outside_common_range": "energies outside the common two-impact range",
-    "not_applicable": "comparison does not apply (max of x off the symmetry axis)",
-    "no_exact_orbit": "no exact two-impact orbit",
-}
 
 
 def pareto_front(cost, error) -> np.ndarray:
@@ -72,15 +64,6 @@ def pareto_front(cost, error) -> np.ndarray:
             front.append(int(i))
             best = error[i]
     return np.array(front, dtype=int)
-
-
-def status_words(status: xr.DataArray) -> np.ndarray:
-    """The reason of each element of a status flag variable, in words ('' where computed)."""
-    meanings = str(status.attrs["flag_meanings"]).split()
-    values = np.asarray(status.attrs["flag_values"]).tolist()
-    words = {v: _STATUS_WORDS.get(m, m.replace("_", " ")) for v, m in zip(values, meanings)}
-    words[0] = ""
-    return np.vectorize(lambda s: words[int(s)], otypes=[object])(status.values)
 
 
 def _listing(groups: dict) -> list[str]:
@@ -159,8 +142,10 @@ def _sweep_notes(ds: xr.Dataset) -> list[str]:
     for j, eta in enumerate(ds["eta"].values):
         if ref_words[j]:
             H_ref = ds.attrs.get("reference_harmonics", "?")
-            lines.append(f"regularization part of eta = {eta:g} (dotted: over the energies its H_ref = {H_ref} "
-                         f"reference covers): {ref_words[j]}")
+            lines.append(
+                f"regularization part of eta = {eta:g} (dotted: over the energies its H_ref = {H_ref} "
+                f"reference covers): {ref_words[j]}"
+            )
     return lines
 
 
@@ -174,16 +159,22 @@ def _anm_panel(ax, ds: xr.Dataset) -> list[str]:
         ax.plot(time[ok, j], residual[ok, j], markers[j % len(markers)] + "-", ms=4, lw=0.8, label=f"tol {tol:g}")
         for i, order in enumerate(orders):
             if ok[i]:
-                ax.annotate(f"N{order}", (time[i, j], residual[i, j]), textcoords="offset points",
-                            xytext=(3, 2 + 5 * (j % 2)), fontsize=6)
+                ax.annotate(
+                    f"N{order}",
+                    (time[i, j], residual[i, j]),
+                    textcoords="offset points",
+                    xytext=(3, 2 + 5 * (j % 2)),
+                    fontsize=6,
+                )
             if words[i, j]:
                 drawn = "drawn (its path is measured)" if ok[i] else "not drawn"
                 notes.setdefault(words[i, j], []).append(f"N{order}, tol {tol:g}: {drawn}")
     ok = np.isfinite(residual)
     front = pareto_front(np.where(ok, time, np.nan).ravel(), np.where(ok, residual, np.nan).ravel())
     if front.size:
-        ax.plot(time.ravel()[front], residual.ravel()[front], "o", mfc="none", mec="k", ms=9, mew=0.8,
-                label="Pareto front")
+        ax.plot(
+            time.ravel()[front], residual.ravel()[front], "o", mfc="none", mec="k", ms=9, mew=0.8, label="Pareto front"
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("run time (CPU s of the job, 1 BLAS thread)")
@@ -292,10 +283,21 @@ def _energy_panel(ax, ds: xr.Dataset) -> list[str]:
     for k, a in enumerate(ds["energy_alpha"].values):
         case = ds.isel(energy_alpha=k)
         color = _ETA_COLORS[k % len(_ETA_COLORS)]
-        ax.plot(energies, case["energy_periodicity_error"].values, "s-", color=color,
-                label=f"alpha = {a:g}: exact orbit, periodicity error")
-        ax.plot(energies, np.abs(case["energy_hbm_frequency_difference"].values), "o--", color=color, mfc="none",
-                label=f"alpha = {a:g}: |HBM - exact| / exact frequency")
+        ax.plot(
+            energies,
+            case["energy_periodicity_error"].values,
+            "s-",
+            color=color,
+            label=f"alpha = {a:g}: exact orbit, periodicity error",
+        )
+        ax.plot(
+            energies,
+            np.abs(case["energy_hbm_frequency_difference"].values),
+            "o--",
+            color=color,
+            mfc="none",
+            label=f"alpha = {a:g}: |HBM - exact| / exact frequency",
+        )
         for name, what in (("energy_exact_status", "exact orbit"), ("energy_hbm_status", "HBM orbit")):
             words = status_words(case[name])
             for e, word in zip(energies, words):

@@ -25,7 +25,6 @@ Method notes (why the guard, why the increasing run, what each status means):
 
 from __future__ import annotations
 
-import enum
 import logging
 import time
 from dataclasses import dataclass
@@ -49,6 +48,7 @@ from nnmstop.hbm.stages import TruncationGuard, stage_criterion, stage_dataset, 
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.netcdf import cf_variable
 from nnmstop.settings import StageOneRun
+from nnmstop.study.status import STATUS_MEANINGS, Status
 
 __all__ = [
     "FILL_VALUE",
@@ -82,31 +82,6 @@ ERROR_KEYS = (
     "max_force_difference",
     "force_max_exact",
 )
-
-
-class Status(enum.IntEnum):
-    """Why a study value was not computed (the flag values of every ``status`` variable of the study).
-
-    Each is an outcome the method expects, stored with its reason (the ``failure`` text);
-    anything else fails the job.
-    """
-
-    #: computed (a case: converged and compared at every energy)
-    COMPUTED = 0
-    #: the truncation guard refused an orbit: H does not resolve the stop
-    UNRESOLVED = 1
-    #: the continuation ended before its stage did: max_steps exhausted, or a step it could not take
-    CONTINUATION_ENDED = 2
-    #: the energy lies outside the common range of the regularized two-impact run and the exact family
-    OUTSIDE_COMMON_RANGE = 3
-    #: the comparison does not apply (the exact orbit's maximum of x is not on a symmetry axis)
-    NOT_APPLICABLE = 4
-    #: the exact solver has no two-impact orbit at this energy
-    NO_EXACT_ORBIT = 5
-
-
-#: ``flag_meanings`` of the status variables, in the order of :class:`Status`.
-STATUS_MEANINGS = " ".join(s.name.lower() for s in Status)
 
 
 # --------------------------------------------------------------------------- configuration
@@ -424,8 +399,9 @@ def variable(dims, values, long_name: str, units: str = "1", *, reason: str | No
     """
     if reason is None:
         return cf_variable(dims, values, long_name, units, dtype=dtype, **extra)
-    return cf_variable(dims, values, long_name, units, dtype=dtype, fill_value=FILL_VALUE,
-                       ancillary_variables=reason, **extra)
+    return cf_variable(
+        dims, values, long_name, units, dtype=dtype, fill_value=FILL_VALUE, ancillary_variables=reason, **extra
+    )
 
 
 def string_variable(dims, values, long_name: str):
@@ -436,6 +412,11 @@ def string_variable(dims, values, long_name: str):
 def status_variable(dims, values, long_name: str):
     """A :class:`Status` flag variable (int8, CF ``flag_values`` and ``flag_meanings``)."""
     return cf_variable(
-        dims, np.asarray(values, dtype=np.int8), long_name, "1", dtype=None,
-        flag_values=np.array([s.value for s in Status], dtype=np.int8), flag_meanings=STATUS_MEANINGS,
+        dims,
+        np.asarray(values, dtype=np.int8),
+        long_name,
+        "1",
+        dtype=None,
+        flag_values=np.array([s.value for s in Status], dtype=np.int8),
+        flag_meanings=STATUS_MEANINGS,
     )
