@@ -67,8 +67,16 @@ def pareto_front(cost, error) -> np.ndarray:
 
 
 def _listing(groups: dict) -> list[str]:
-    """``{reason: [item, ...]}`` as lines ``reason: item, item``."""
-    return [f"{reason}: {', '.join(items)}" for reason, items in groups.items() if items]
+    """``{reason: {key: [value, ...]}}`` as lines ``reason: key (value, value); key (value)``."""
+    lines = []
+    for reason, keys in groups.items():
+        parts = [f"{key} ({', '.join(values)})" if values else key for key, values in keys.items()]
+        lines.append(f"{reason}: {'; '.join(parts)}")
+    return lines
+
+
+def _add(groups: dict, reason: str, key: str, value: str) -> None:
+    groups.setdefault(reason, {}).setdefault(key, []).append(value)
 
 
 def _add_notes(ax, lines: list[str], title: str, width: int = 95) -> None:
@@ -132,11 +140,11 @@ def _sweep_notes(ds: xr.Dataset) -> list[str]:
     """Which settings of the (H, eta) grid are not drawn, or drawn in part, and why."""
     words, groups = status_words(ds["status"]), {}
     partial = np.isfinite(_partial_errors(ds, "relative_frequency_difference"))
-    for j, eta in enumerate(ds["eta"].values):
-        for i, H in enumerate(ds["harmonics"].values):
+    for i, H in enumerate(ds["harmonics"].values):
+        for j, eta in enumerate(ds["eta"].values):
             if words[i, j]:
-                shown = " (hollow)" if partial[i, j] else " (not drawn)"
-                groups.setdefault(words[i, j], []).append(f"H = {H}, eta = {eta:g}{shown}")
+                shown = "hollow: largest error over the energies compared" if partial[i, j] else "not drawn"
+                _add(groups, f"{words[i, j]}, {shown}", f"H = {H}", f"eta = {eta:g}")
     lines = _listing(groups)
     ref_words = status_words(ds["reference_status"])
     for j, eta in enumerate(ds["eta"].values):
@@ -168,7 +176,7 @@ def _anm_panel(ax, ds: xr.Dataset) -> list[str]:
                 )
             if words[i, j]:
                 drawn = "drawn (its path is measured)" if ok[i] else "not drawn"
-                notes.setdefault(words[i, j], []).append(f"N{order}, tol {tol:g}: {drawn}")
+                _add(notes, f"{words[i, j]}, {drawn}", f"N{order}", f"tol {tol:g}")
     ok = np.isfinite(residual)
     front = pareto_front(np.where(ok, time, np.nan).ravel(), np.where(ok, residual, np.nan).ravel())
     if front.size:
@@ -262,7 +270,7 @@ def _error_panel(ax, ds: xr.Dataset) -> list[str]:
         ax.plot(alphas, err, "o-", color=_ETA_COLORS[(j + 1) % len(_ETA_COLORS)], label=f"eta = {eta:g}")
         for i, a in enumerate(alphas):
             if words[i, j]:
-                groups.setdefault(words[i, j], []).append(f"alpha = {a:g}, eta = {eta:g}")
+                _add(groups, words[i, j], f"alpha = {a:g}", f"eta = {eta:g}")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xticks(alphas, [f"{a:g}" for a in alphas])
@@ -274,7 +282,8 @@ def _error_panel(ax, ds: xr.Dataset) -> list[str]:
     for i, b in enumerate(ds["beta"].values):
         for k, d in enumerate(ds["delta"].values):
             if ratio_words[i, k]:
-                groups.setdefault(ratio_words[i, k], []).append(f"beta = {b:g}, delta = {d:g} (ratio grid)")
+                grid_name = f"beta x delta grid (alpha = {ds.attrs.get('alpha_of_ratio_grid', '?'):g})"
+                _add(groups, f"{grid_name}, {ratio_words[i, k]}", f"beta = {b:g}", f"delta = {d:g}")
     return _listing(groups)
 
 
@@ -283,11 +292,13 @@ def _energy_panel(ax, ds: xr.Dataset) -> list[str]:
     for k, a in enumerate(ds["energy_alpha"].values):
         case = ds.isel(energy_alpha=k)
         color = _ETA_COLORS[k % len(_ETA_COLORS)]
+        size = 9 - 3 * (k % 2)  # the alphas coincide below grazing (the linear mode): both stay visible
         ax.plot(
             energies,
             case["energy_periodicity_error"].values,
             "s-",
             color=color,
+            ms=size - 2,
             label=f"alpha = {a:g}: exact orbit, periodicity error",
         )
         ax.plot(
@@ -296,13 +307,14 @@ def _energy_panel(ax, ds: xr.Dataset) -> list[str]:
             "o--",
             color=color,
             mfc="none",
+            ms=size,
             label=f"alpha = {a:g}: |HBM - exact| / exact frequency",
         )
         for name, what in (("energy_exact_status", "exact orbit"), ("energy_hbm_status", "HBM orbit")):
             words = status_words(case[name])
             for e, word in zip(energies, words):
                 if word and not (what == "HBM orbit" and "exact" in word):
-                    groups.setdefault(f"{what}: {word}", []).append(f"alpha = {a:g}, E = {e:g}")
+                    _add(groups, f"{what}: {word}", f"alpha = {a:g}", f"E = {e:g}")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("energy")
@@ -324,6 +336,6 @@ def stiff_cases_figure(ds: xr.Dataset):
     _exact_panel(axes[0][1], ds)
     error_notes = _error_panel(axes[1][0], ds)
     energy_notes = _energy_panel(axes[1][1], ds)
-    _add_notes(fig.add_subplot(grid[2, 0]), error_notes, "(c): cases not compared", width=80)
+    _add_notes(fig.add_subplot(grid[2, 0]), error_notes, "(c) and the beta x delta grid: cases not compared", width=80)
     _add_notes(fig.add_subplot(grid[2, 1]), energy_notes, "(d): points not drawn", width=80)
     return fig

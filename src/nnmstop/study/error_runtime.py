@@ -497,8 +497,8 @@ def _split_variables(settings: StudySettings, grid: dict, refs: dict) -> dict:
     the reference, per H and eta)."""
     hz, he, ee = ("harmonics", "eta"), ("harmonics", "eta", "energy"), ("eta", "energy")
     sweep = settings.sweep()
-    both = (grid["status"] == Status.COMPUTED) & (refs["status"] == Status.COMPUTED)[None, :]
-    split_status = np.where(both, Status.COMPUTED, np.maximum(grid["status"], refs["status"][None, :]))
+    # the setting's own reason first, else its reference's
+    split_status = np.where(grid["status"] != Status.COMPUTED, grid["status"], refs["status"][None, :])
     ref_why, ref_why_energy = "reference_status reference_failure", "reference_energy_status"
     data = {
         "reference_status": status_variable(("eta",), refs["status"], "why the H_ref reference of this eta is incomplete (0: complete and resolved)"),
@@ -508,7 +508,7 @@ def _split_variables(settings: StudySettings, grid: dict, refs: dict) -> dict:
         "reference_runtime": variable(("eta",), refs["runtime"], "wall-clock time of the reference of this eta", "s"),
         "reference_truncation": variable(("eta",), refs["truncation"], "largest truncation indicator of the reference orbits", reason=ref_why),
         "reference_ratio": (("harmonics",), sweep.reference_harmonics / np.asarray(sweep.harmonics, dtype=float), {"long_name": "H_ref / H: how much larger the reference is (the truncation part is underestimated when small)", "units": "1"}),
-        "split_status": status_variable(hz, split_status, "why the truncation part of this setting is not summarized: the setting's or its reference's status (0: both complete)"),
+        "split_status": status_variable(hz, split_status, "why the truncation part of this setting is not summarized: the setting's status, else its reference's (0: both complete)"),
     }
     names = {"relative_frequency_difference": "frequency", "max_x_difference": "x", "max_u_difference": "u", "max_force_difference": "force"}
     for key, short in names.items():

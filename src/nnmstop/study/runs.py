@@ -322,7 +322,7 @@ def match_energies(
         return MatchedErrors(energies, values, orbits, None, status, reason, np.nan, np.nan)
     failure = ""
     t_exact, t_reg, n = 0.0, 0.0, 0
-    for i, energy in enumerate(energies):
+    for i, energy in enumerate(energies.tolist()):
         try:
             matcher.check_energy(energy)
             start = time.perf_counter()

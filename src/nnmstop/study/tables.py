@@ -39,8 +39,18 @@ def markdown_table(header: list[str], rows: list[list]) -> str:
     return "\n".join(lines)
 
 
+def _largest(values, computed) -> float:
+    """Largest ``|value|`` over the computed entries (NaN when none is)."""
+    values = np.abs(np.asarray(values, dtype=float))[np.asarray(computed)]
+    return float(values.max()) if values.size else np.nan
+
+
 def error_split_rows(ds: xr.Dataset, times: bool = True) -> tuple[list[str], list[list]]:
-    """One row per ``(eta, H)``: the largest errors over the study energies and their two parts."""
+    """One row per ``(eta, H)``: the largest errors over the study energies and their two parts.
+
+    A setting (or reference) compared at some energies only gets its largest errors over those,
+    marked ``*``, and the energies left out in its reason.
+    """
     header = (
         ["eta", "H"]
         + (["CPU time (s)"] if times else [])
@@ -53,23 +63,30 @@ def error_split_rows(ds: xr.Dataset, times: bool = True) -> tuple[list[str], lis
             "not computed because",
         ]
     )
-    words = status_words(ds["status"])
+    words, energies = status_words(ds["status"]), ds["energy"].values
     rows = []
     for j, eta in enumerate(ds["eta"].values):
+        reference = ds.isel(eta=j)
+        ref_ok = reference["reference_energy_status"].values == 0
         for i, H in enumerate(ds["harmonics"].values):
-            case = ds.isel(eta=j, harmonics=i)
-            rows.append(
-                [f"{eta:g}", int(H)]
-                + ([_number(case["cpu_time"])] if times else [])
-                + [
-                    _number(case["frequency_error"]),
-                    _number(case["frequency_error_truncation"]),
-                    _number(case["frequency_error_regularization"]),
-                    _number(case["x_error"]),
-                    _number(case["relative_force_error"]),
-                    words[i, j] or "",
-                ]
-            )
+            case = reference.isel(harmonics=i)
+            ok = case["energy_status"].values == 0
+            star = "" if ok.all() else "*"
+            force = case["max_force_difference_at_energy"].values / case["force_max_exact_at_energy"].values
+            cells = [
+                _largest(case["relative_frequency_difference_at_energy"], ok),
+                _largest(case["relative_frequency_difference_truncation_at_energy"], ok & ref_ok),
+                _largest(reference["relative_frequency_difference_regularization_at_energy"], ref_ok),
+                _largest(case["max_x_difference_at_energy"], ok),
+                _largest(force, ok),
+            ]
+            shown = [_number(c) + (star if np.isfinite(c) else "") for c in cells]
+            shown[2] = _number(cells[2]) + ("" if ref_ok.all() or not np.isfinite(cells[2]) else "*")
+            reason = words[i, j] or ""
+            if reason and ok.any():
+                left_out = ", ".join(f"{e:g}" for e in energies[~ok])
+                reason += f" at E = {left_out} (* over the other energies)"
+            rows.append([f"{eta:g}", int(H)] + ([_number(case["cpu_time"])] if times else []) + shown + [reason])
     return header, rows
 
 
