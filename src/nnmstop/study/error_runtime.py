@@ -458,29 +458,39 @@ def _summary(values, status):
     return np.where(status == Status.COMPUTED, _max_abs(values), np.nan)
 
 
-def _case_variables(grid: dict) -> dict:
-    hz, he = ("harmonics", "eta"), ("harmonics", "eta", "energy")
-    status, scalars, counts, per_energy = grid["status"], grid["scalars"], grid["counts"], grid["per_energy"]
-    why, why_energy = "status failure", "energy_status"
-    relative_force = per_energy["max_force_difference"] / per_energy["force_max_exact"]
+def _run_variables(dims: tuple, grid: dict, prefix: str = "", label: str = "") -> dict:
+    """What every grid of settings stores about its runs: status, failure, times and counts, residuals
+    (names ``prefix + name``, long names ``label + long name``)."""
+    status, scalars, counts = grid["status"], grid["scalars"], grid["counts"]
+    why = f"{prefix}status {prefix}failure"
     ended = np.isin(status, (Status.UNRESOLVED, Status.CONTINUATION_ENDED))
     data = {
-        "status": status_variable(hz, status, "why the setting was not compared at every study energy (0: it was)"),
+        "status": status_variable(dims, status, label + "why the setting was not compared at every study energy (0: it was)"),
+        "converged": (dims, ~ended, {"long_name": label + "the continuation reached the end of NNM1 stage 1 with every orbit resolved", "units": "1"}),
+        "compared": (dims, status == Status.COMPUTED, {"long_name": label + "converged and matched with the exact orbits at every study energy", "units": "1"}),
+        "failure": string_variable(dims, grid["failure"].astype(str), label + "why the setting did not converge or was not compared ('' if it was)"),
+        "runtime": variable(dims, scalars["runtime"], label + "wall-clock time of the continuation of NNM1 stage 1", "s"),
+        "cpu_time": variable(dims, scalars["cpu_time"], label + "CPU time of the continuation of NNM1 stage 1", "s"),
+        "load_average": variable(dims, scalars["load_average"], label + "1-minute load average when the job started (run times are measurements)"),
+        "truncation": variable(dims, scalars["truncation"], label + "largest truncation indicator along the run (top share of x'' or f, at least two harmonics)"),
+        "time_residual": variable(dims, scalars["time_residual"], label + "largest residual in time of Eq. (7) along the branch, relative to the largest restoring force", reason=why),
+        "path_residual": variable(dims, scalars["path_residual"], label + "largest relative algebraic residual over the branch points, interior points of the ANM steps included (accuracy of the path itself)", reason=why),
+        "path_frequency_error": variable(dims, scalars["path_frequency_error"], label + "relative frequency shift of the worst branch point (largest residual) from the HBM solution at the same amplitude (accuracy of the drawn curve)", reason=why),
+    }
+    for key, what in (("steps", "ANM steps"), ("factorizations", "LU factorizations of the bordered Jacobian"),
+                      ("newton_iterations", "Newton corrections of ANM step ends")):
+        data[key] = (dims, counts[key], {"long_name": f"{label}{what} (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why})
+    return {prefix + name: value for name, value in data.items()}
+
+
+def _case_variables(grid: dict) -> dict:
+    hz, he = ("harmonics", "eta"), ("harmonics", "eta", "energy")
+    status, per_energy, why = grid["status"], grid["per_energy"], "status failure"
+    relative_force = per_energy["max_force_difference"] / per_energy["force_max_exact"]
+    data = {
+        **_run_variables(hz, grid),
         "energy_status": status_variable(he, grid["energy_status"], "why the setting was not compared at this energy (0: it was)"),
-        "converged": (hz, ~ended, {"long_name": "the continuation reached the end of NNM1 stage 1 with every orbit resolved", "units": "1"}),
-        "compared": (hz, status == Status.COMPUTED, {"long_name": "converged and matched with the exact orbits at every study energy", "units": "1"}),
-        "failure": string_variable(hz, grid["failure"].astype(str), "why the setting did not converge or was not compared ('' if it was)"),
-        "runtime": variable(hz, scalars["runtime"], "wall-clock time of the continuation of NNM1 stage 1", "s"),
-        "cpu_time": variable(hz, scalars["cpu_time"], "CPU time of the continuation of NNM1 stage 1", "s"),
-        "load_average": variable(hz, scalars["load_average"], "1-minute load average when the job started (run times are measurements)"),
-        "steps": (hz, counts["steps"], {"long_name": "ANM steps (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "factorizations": (hz, counts["factorizations"], {"long_name": "LU factorizations of the bordered Jacobian (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "newton_iterations": (hz, counts["newton_iterations"], {"long_name": "Newton corrections of ANM step ends (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "truncation": variable(hz, scalars["truncation"], "largest truncation indicator along the run (top share of x'' or f, at least two harmonics)"),
-        "time_residual": variable(hz, scalars["time_residual"], "largest residual in time of Eq. (7) along the branch, relative to the largest restoring force", reason=why),
-        "path_residual": variable(hz, scalars["path_residual"], "largest relative algebraic residual over the branch points (ANM interior points included)", reason=why),
-        "path_frequency_error": variable(hz, scalars["path_frequency_error"], "relative frequency shift of the worst branch point from the HBM solution curve", reason=why),
-        "regularized_seconds_per_orbit": variable(hz, scalars["regularized_seconds_per_orbit"], "mean time to solve one HBM orbit at a prescribed energy", "s", reason=why),
+        "regularized_seconds_per_orbit": variable(hz, grid["scalars"]["regularized_seconds_per_orbit"], "mean time to solve one HBM orbit at a prescribed energy", "s", reason=why),
         "frequency_error": variable(hz, _summary(per_energy["relative_frequency_difference"], status), "largest |relative frequency error| against the exact orbits over the study energies", reason=why),
         "x_error": variable(hz, _summary(per_energy["max_x_difference"], status), "largest |x_regularized - x_exact| over the period and the study energies", reason=why),
         "u_error": variable(hz, _summary(per_energy["max_u_difference"], status), "largest |u_regularized - u_exact| over the period and the study energies", reason=why),
@@ -488,7 +498,7 @@ def _case_variables(grid: dict) -> dict:
         "relative_force_error": variable(hz, _summary(relative_force, status), "largest contact-force error relative to the largest exact contact force, over the study energies", reason=why),
     }
     for key, (long_name, units) in _PER_ENERGY.items():
-        data[f"{key}_at_energy"] = variable(he, per_energy[key], long_name, units, reason=why_energy)
+        data[f"{key}_at_energy"] = variable(he, per_energy[key], long_name, units, reason="energy_status")
     return data
 
 
@@ -533,24 +543,9 @@ def _split_variables(settings: StudySettings, grid: dict, refs: dict) -> dict:
 
 
 def _anm_variables(anm: dict) -> dict:
-    ot = ("order", "tolerance")
-    status, scalars, counts = anm["status"], anm["scalars"], anm["counts"]
-    why = "anm_status anm_failure"
-    ended = np.isin(status, (Status.UNRESOLVED, Status.CONTINUATION_ENDED))
+    ot, why = ("order", "tolerance"), "anm_status anm_failure"
     return {
-        "anm_status": status_variable(ot, status, "ANM sweep: why the setting was not compared at every study energy (0: it was)"),
-        "anm_converged": (ot, ~ended, {"long_name": "ANM sweep: the continuation converged with every orbit resolved", "units": "1"}),
-        "anm_failure": string_variable(ot, anm["failure"].astype(str), "ANM sweep: why the setting was not compared ('' if it was)"),
-        "anm_runtime": variable(ot, scalars["runtime"], "ANM sweep: wall-clock time of NNM1 stage 1", "s"),
-        "anm_cpu_time": variable(ot, scalars["cpu_time"], "ANM sweep: CPU time of NNM1 stage 1", "s"),
-        "anm_load_average": variable(ot, scalars["load_average"], "ANM sweep: 1-minute load average when the job started"),
-        "anm_steps": (ot, counts["steps"], {"long_name": "ANM sweep: steps (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "anm_factorizations": (ot, counts["factorizations"], {"long_name": "ANM sweep: LU factorizations (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "anm_newton_iterations": (ot, counts["newton_iterations"], {"long_name": "ANM sweep: Newton corrections of step ends (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "anm_truncation": variable(ot, scalars["truncation"], "ANM sweep: largest truncation indicator along the run"),
-        "anm_path_residual": variable(ot, scalars["path_residual"], "ANM sweep: largest relative algebraic residual over the branch points, interior points of the steps included (accuracy of the path itself)", reason=why),
-        "anm_path_frequency_error": variable(ot, scalars["path_frequency_error"], "ANM sweep: relative frequency shift of the worst branch point (largest residual) from the HBM solution at the same amplitude (accuracy of the drawn curve)", reason=why),
-        "anm_time_residual": variable(ot, scalars["time_residual"], "ANM sweep: largest residual in time of Eq. (7) along the branch", reason=why),
+        **_run_variables(ot, anm, "anm_", "ANM sweep: "),
         "anm_frequency_error": variable(ot, anm["errors"]["relative_frequency_difference"], "ANM sweep: largest |relative frequency error| against the exact orbits (Newton-corrected matched orbits)", reason=why),
         "anm_x_error": variable(ot, anm["errors"]["max_x_difference"], "ANM sweep: largest x error against the exact orbits (Newton-corrected matched orbits)", reason=why),
     }
