@@ -41,6 +41,7 @@ PAPER_FIGURES = paper_figure_files()
 
 include: "workflow/rules/manifest.smk"
 include: "workflow/rules/verify.smk"
+include: "workflow/rules/explorer.smk"
 
 
 if "tube" in config:  # the finite-element tube (issue 14); a configuration may leave it out

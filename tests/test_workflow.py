@@ -286,6 +286,7 @@ def test_bundle_describes_the_run_and_every_file(built, bundle, tmp_path):
     assert run["instrument"].id == "Snakefile"
     assert [entity.id for entity in run["object"]] == ["config/config.yaml"]
     produced = {str(p.relative_to(built)) for p in outputs(built) if p.suffix in (".nc", ".pdf", ".png")}
+    produced.add("dist/explorer.html")  # the explorer page is a result of the run too
     assert {entity.id for entity in run["result"]} == produced
     files = [entity for entity in crate.data_entities if "File" in entity.type]
     assert {entity.id for entity in files} == set(names) - {"ro-crate-metadata.json"}

@@ -2,9 +2,8 @@
 
 The one owner of the pipeline's file format. Variables are built with :func:`cf_variable`
 (and :func:`flag_variable` for 0/1 flags), so each carries ``long_name`` and ``units``.
-:func:`write_dataset` refuses unlabelled variables, NaN or infinite values (a failed
-computation never leaves a dataset) and fill values that no reason variable explains
-(:func:`check_fill_values`), adds the CF-1.10 / ACDD-1.3 global attributes
+:func:`write_dataset` refuses unlabelled variables and NaN or infinite values (a failed
+computation never leaves a dataset), adds the CF-1.10 / ACDD-1.3 global attributes
 (``date_created`` from ``SOURCE_DATE_EPOCH`` or the commit date, never the clock; who made and
 publishes the data from the configuration's ``metadata`` section), gives every variable a
 ``coverage_content_type`` and writes through a temporary file renamed at the end, so an
@@ -28,6 +27,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop import __version__
+from nnmstop.catalogue import describe
 
 __all__ = [
     "PAPER_AUTHORS",
@@ -40,7 +40,6 @@ __all__ = [
     "cf_variable",
     "flag_variable",
     "check_labelled",
-    "check_fill_values",
     "write_dataset",
     "read_dataset",
     "check_up_to_date",
@@ -173,8 +172,7 @@ def cf_variable(dims, values, long_name: str, units: str = "1", *, dtype=float, 
     fill_value : float, optional
         For a variable where some values are legitimately missing (a case that failed in a study):
         non-finite floats become ``fill_value`` and the attribute ``_FillValue`` names it, so a reader
-        gets NaN back and never a number that looks valid. Such a variable must name, in the CF
-        attribute ``ancillary_variables``, the variables that say why (:func:`check_fill_values`).
+        gets NaN back and never a number that looks valid.
     **extra
         Further attributes, in order after ``long_name`` and ``units``.
     """
@@ -207,95 +205,49 @@ def flag_variable(dims, values, long_name: str, meanings: str, **extra) -> tuple
 
 
 def check_labelled(ds: xr.Dataset) -> None:
-    """Raise ``ValueError`` if a variable lacks ``long_name``/``units``, holds NaN/inf, or holds
-    fill values that no reason explains (:func:`check_fill_values`)."""
+    """Raise ``ValueError`` if a variable lacks ``long_name``/``units`` or holds NaN/inf."""
     for name, var in {**ds.coords, **ds.data_vars}.items():
         missing = [a for a in ("long_name", "units") if a not in var.attrs]
         if missing:
             raise ValueError(f"variable {name!r} lacks the attribute(s) {missing}")
         if np.issubdtype(var.dtype, np.number) and not np.all(np.isfinite(var.values)):
             raise ValueError(f"variable {name!r} holds NaN or infinite values; refusing to write the dataset")
-    check_fill_values(ds)
-
-
-def _reason_given(reason: xr.DataArray) -> np.ndarray:
-    """Where a reason variable says "not computed": a non-empty string, or a non-zero status flag."""
-    values = reason.values
-    if values.dtype.kind in "OUS":
-        return np.vectorize(lambda v: bool(str(v)), otypes=[bool])(values) if values.size else values.astype(bool)
-    if values.dtype.kind in "iu":
-        return values != 0
-    raise ValueError(
-        f"variable {reason.name!r} cannot give a reason for missing values: it must hold strings (empty: "
-        f"computed) or integer status flags (0: computed), not {values.dtype}"
-    )
-
-
-def check_fill_values(ds: xr.Dataset) -> None:
-    """Refuse a fill value that no reason explains.
-
-    A variable whose ``_FillValue`` (a missing value, read back as NaN) occurs must name in its
-    CF attribute ``ancillary_variables`` one or more variables of ``ds`` with a subset of its
-    dimensions that say why: at every filled element, at least one of them holds a non-empty
-    string or a non-zero integer status. A fill where all of them say "computed" is a value
-    that was claimed and lost.
-
-    Raises
-    ------
-    ValueError
-        Naming the variable and the first unexplained element.
-    """
-    for name, var in ds.data_vars.items():
-        fill = var.attrs.get("_FillValue", var.encoding.get("_FillValue"))
-        if fill is None or not np.issubdtype(var.dtype, np.number):
-            continue
-        filled = var.values == fill
-        if not filled.any():
-            continue
-        names = str(var.attrs.get("ancillary_variables", "")).split()
-        unknown = [n for n in names if n not in ds.variables or not set(ds[n].dims) <= set(var.dims)]
-        if not names or unknown:
-            raise ValueError(
-                f"variable {name!r} holds its fill value {fill!r} but names no variable of the dataset that says "
-                f"why (attribute ancillary_variables {var.attrs.get('ancillary_variables')!r}"
-                + (f"; not found or with other dimensions: {unknown}" if unknown else "")
-                + ")"
-            )
-        explained = np.zeros(var.shape, dtype=bool)
-        for reason_name in names:
-            given = xr.DataArray(_reason_given(ds[reason_name]), dims=ds[reason_name].dims)
-            explained |= given.broadcast_like(var).transpose(*var.dims).values
-        unexplained = filled & ~explained
-        if unexplained.any():
-            index = dict(zip(var.dims, np.argwhere(unexplained)[0].tolist()))
-            raise ValueError(
-                f"variable {name!r} holds its fill value at {index} where {names} say it was computed; "
-                "refusing to write a dataset that lost a value it claims"
-            )
 
 
 def write_dataset(
-    ds: xr.Dataset, path: str | Path, title: str, summary: str, keywords: str = "", metadata: dict | None = None
+    ds: xr.Dataset,
+    path: str | Path,
+    title: str,
+    summary: str,
+    keywords: str = "",
+    metadata: dict | None = None,
+    *,
+    kind: str,
 ) -> Path:
-    """Validate ``ds``, add the global attributes and write it atomically to ``path``.
+    """Describe ``ds`` from the variable catalogue, add the global attributes and write it atomically to ``path``.
 
-    Existing global attributes of ``ds`` (model parameters, settings) are kept, except those this
-    function writes (title, summary, id, history, ...: they may come from an input file), and so is a
+    ``kind`` names the dataset's layout in :mod:`nnmstop.catalogue`: every variable gets its ``long_name``,
+    ``units`` and flag attributes from there, and a variable the kind does not list, other dimensions, a
+    missing required variable or a NaN where the catalogue allows none are refused
+    (:func:`nnmstop.catalogue.describe`).
+
+    Existing global attributes of ``ds`` (model parameters, settings) are kept, except those this function
+    writes (title, summary, id, history, ...: they may come from an input file), and so is a
     ``coverage_content_type`` a variable already carries; the others get one (``coordinate``,
     ``qualityInformation`` for flags, ``modelResult``). ``metadata`` is the configuration's
     ``metadata`` section (see :func:`global_attributes`).
     """
-    check_labelled(ds)
+    described_ds = describe(ds, kind)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    out = ds.copy()
+    out = described_ds.copy()
     # Zero-length dimensions read back from NetCDF-4 are marked unlimited in the encoding, as
     # a set: written unlimited, their order in the file would follow string hashing.
     out.encoding = {k: v for k, v in out.encoding.items() if k != "unlimited_dims"}
     # The attributes written here describe this file; those of the same name that ``ds`` carries over
     # from an input it was read from (a stage's title, id) are replaced. The rest (physics, settings) stay.
     described = {**global_attributes(title, summary, keywords, metadata), "id": dataset_id(path)}
-    out.attrs = {**described, **{key: value for key, value in ds.attrs.items() if key not in described}}
+    out.attrs = {**described, **{key: value for key, value in described_ds.attrs.items() if key not in described}}
     for name in out.variables:
         var = out[name]
         var.attrs.setdefault("coverage_content_type", _coverage_content_type(var, name in out.coords))

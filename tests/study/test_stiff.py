@@ -282,7 +282,7 @@ def test_stiff_case_dataset_reports_every_attempt(config, tmp_path):
     ds = stiff_branch_dataset(settings, xr.Dataset(), 1.0e4, 1.0, 1.0, 1e-3)
     assert not bool(ds["converged"]) and int(ds["harmonics"]) == -1
     assert "H=10:" in str(ds["attempts"].values) and "H=20:" in str(ds["attempts"].values)
-    path = write_dataset(ds, tmp_path / "case.nc", title="t", summary="s")
+    path = write_dataset(ds, tmp_path / "case.nc", title="t", summary="s", kind="stiff_nnm1")
     with xr.open_dataset(path) as back:
         assert np.isnan(float(back["frequency_error"])) and np.isnan(float(back["runtime"]))
         assert "no number of harmonics tried resolves the branch" in str(back["failure"].values)

@@ -29,7 +29,7 @@ from nnmstop.models.two_dof import ModelParameters
 from nnmstop.netcdf import write_dataset
 from nnmstop.settings import study_settings
 from nnmstop.study import error_runtime as er
-from nnmstop.study.runs import FILL_VALUE, Status, format_number
+from nnmstop.study.runs import Status, format_number
 from nnmstop.tasks import study as ts
 from nnmstop.tasks.figures import build_error_vs_runtime_figure
 
@@ -76,7 +76,9 @@ def exact(config):
 
 def build_study(small, exact, root):
     """Every sweep file of ``small`` written through the pipeline builders, then gathered."""
-    exact_path = write_dataset(exact, root / "exact.nc", title="exact", summary="exact family")
+    exact_path = write_dataset(
+        exact, root / "exact.nc", title="exact", summary="exact family", kind="two_impact_family"
+    )
     inputs = {"exact": str(exact_path)}
     cases = er.sweep_cases(study_settings(small))
     out = {kind: [] for kind in ("cases", "anm_cases", "references")}
@@ -151,7 +153,7 @@ def test_unresolved_case_is_reported_not_computed(small, exact):
     assert not bool(ds["converged"]) and not bool(ds["compared"])
     failure = str(ds["failure"].values)
     assert "truncation indicator" in failure and "H = 10" in failure and "eta = 0.01" in failure
-    assert np.all(ds["relative_frequency_difference"].values == FILL_VALUE)
+    assert np.isnan(ds["relative_frequency_difference"].values).all()  # not computed: the status says why
     assert int(ds["factorizations"]) == -1 and float(ds["runtime"]) > 0
 
 
@@ -163,7 +165,7 @@ def test_setting_compared_on_part_of_the_energies_says_which(small, exact):
     assert "energy 80" in str(ds["failure"].values)
     assert int(ds["status"]) == Status.OUTSIDE_COMMON_RANGE
     assert ds["energy_status"].values.tolist() == [Status.COMPUTED, Status.OUTSIDE_COMMON_RANGE]
-    assert np.isfinite(ds["max_x_difference"].values[0]) and ds["max_x_difference"].values[1] == FILL_VALUE
+    assert np.isfinite(ds["max_x_difference"].values[0]) and np.isnan(ds["max_x_difference"].values[1])
 
 
 def test_an_unexpected_error_fails_the_study_job_and_leaves_no_dataset(small, exact, tmp_path, monkeypatch):
@@ -171,7 +173,9 @@ def test_an_unexpected_error_fails_the_study_job_and_leaves_no_dataset(small, ex
     import nnmstop.compare.matching as matching
     from nnmstop.pipeline.run import run_task
 
-    exact_path = write_dataset(exact, tmp_path / "exact.nc", title="exact", summary="exact family")
+    exact_path = write_dataset(
+        exact, tmp_path / "exact.nc", title="exact", summary="exact family", kind="two_impact_family"
+    )
 
     def failing(self, energy, tol=1e-13):
         raise ValueError(f"Newton's method did not converge for the regularized orbit at energy {energy!r}")

@@ -13,7 +13,7 @@ rule bundle:
     """dist/nnmstop-results.zip, described by its ro-crate-metadata.json (Workflow Run Crate)."""
     input:
         datasets=PAPER_DATASETS,
-        figures=PAPER_FIGURES,
+        figures=[*PAPER_FIGURES, rules.explorer.output.page],  # the explorer page is a result of the run too
         manifest=rules.dataset_manifest.output.manifest,
         environment_lock=os.path.join(workflow.basedir, "environment.lock"),
         workflow_files=[

@@ -206,3 +206,15 @@ def tube_branch_config(wildcards):
     tube = {key: value for key, value in config["tube"].items() if key not in ("branches", "figures", "study", "exact", "compare_count")}
     tube["branches"] = {wildcards.branch: config["tube"]["branches"][wildcards.branch]}
     return {"tube": tube, "anm": config["anm"], "metadata": config.get("metadata", {})}
+
+
+# --------------------------------------------------------------------------- explorer
+
+
+def explorer_branches():
+    """Datasets drawn by the explorer, by kind of branch (nnmstop.explorer.extract.KINDS)."""
+    exact = rules.exact_nnm1.output.dataset if "exact_multi" in config else rules.exact_two_impacts.output.dataset
+    regularized = [branch_file("nnm1"), branch_file("nnm2"), *[bifurcated_file(name) for name in config.get("bifurcations", {})]]
+    if config.get("explorer", {}).get("tube", False) and "tube" in config:  # the tube's branches, built for it
+        regularized += [tube_file(name) for name in config["tube"]["branches"]]
+    return {"regularized": regularized, "exact": [exact]}

@@ -31,6 +31,7 @@ ENCODING_FORMATS = {
     ".nc": "application/x-netcdf",
     ".pdf": "application/pdf",
     ".png": "image/png",
+    ".html": "text/html",  # dist/explorer.html
     ".sha256": "text/plain",
     ".lock": "text/plain",
     ".yaml": "application/yaml",

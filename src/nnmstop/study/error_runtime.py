@@ -33,13 +33,13 @@ from nnmstop.study.runs import (
     ERROR_KEYS,
     Status,
     case_status,
+    flags,
+    floats,
     hbm_orbit_differences,
     match_energies,
     path_error,
     run_stage_one,
-    status_variable,
-    string_variable,
-    variable,
+    texts,
 )
 
 __all__ = [
@@ -50,18 +50,6 @@ __all__ = [
     "exact_cost_dataset",
     "gather_error_vs_runtime",
 ]
-
-_PER_ENERGY = {
-    "relative_frequency_difference": ("relative frequency difference (regularized minus exact) / exact", "1"),
-    "max_x_difference": ("largest |x_regularized - x_exact| over the period", "1"),
-    "max_u_difference": ("largest |u_regularized - u_exact| over the period", "1"),
-    "max_force_difference": (
-        "largest |f_HBM - f_piecewise(x_exact)| over the period (regularized contact force series vs the "
-        "piecewise-linear law on the exact orbit)",
-        "1",
-    ),
-    "force_max_exact": ("largest contact force over the exact orbit", "1"),
-}
 
 
 # --------------------------------------------------------------------------- settings
@@ -89,9 +77,7 @@ def case_run(settings: StudySettings, harmonics: int, eta: float, order=None, to
         continuation = replace(continuation, order=int(order))
     if tolerance is not None:
         continuation = replace(continuation, tolerance=float(tolerance))
-    return replace(
-        run, harmonics=int(harmonics), params=replace(run.params, eta=float(eta)), continuation=continuation
-    )
+    return replace(run, harmonics=int(harmonics), params=replace(run.params, eta=float(eta)), continuation=continuation)
 
 
 def _load_average() -> float:
@@ -154,34 +140,33 @@ def error_case_dataset(
     stats = run.stats
     count = (lambda name: getattr(stats, name)) if stats is not None else (lambda name: -1)
     e = ("energy",)
-    why, why_energy = "status failure", "energy_status failure"
     data = {
-        "status": status_variable((), status, "why the setting was not compared at every study energy (0: it was)"),
-        "energy_status": status_variable(e, energy_status, "why the setting was not compared at this energy (0: it was)"),
-        "converged": ((), status not in (Status.UNRESOLVED, Status.CONTINUATION_ENDED), {"long_name": "the continuation reached the end of stage 1 with every orbit resolved", "units": "1"}),
-        "compared": ((), status == Status.COMPUTED, {"long_name": "converged and matched with the exact orbits at every study energy", "units": "1"}),
-        "failure": string_variable((), failure, "why the setting did not converge or was not compared ('' if it was)"),
-        "runtime": variable((), run.runtime, "wall-clock time of the continuation of NNM1 stage 1 (start point included)", "s"),
-        "cpu_time": variable((), run.cpu_time, "CPU time of the continuation of NNM1 stage 1 (all threads)", "s"),
-        "load_average": variable((), load, "1-minute load average of the machine when the job started", "1"),
-        "steps": ((), np.int32(count("steps")), {"long_name": "ANM steps (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "factorizations": ((), np.int32(count("factorizations")), {"long_name": "LU factorizations of the bordered Jacobian (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "newton_iterations": ((), np.int32(count("newton_iterations")), {"long_name": "Newton corrections of step ends (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why}),
-        "truncation": variable((), run.truncation, "largest truncation indicator met along the run (top share of x'' or f, at least two harmonics)"),
-        "time_residual": variable((), time_residual, "largest residual in time of Eq. (7) along the branch, relative to the largest restoring force", reason=why),
-        "path_residual": variable((), path_residual, "largest relative algebraic residual of the HBM system over the branch points (interior points of ANM steps included)", reason=why),
-        "path_frequency_error": variable((), path_frequency, "relative frequency shift of the worst branch point (largest residual) from the HBM solution at the same amplitude", reason=why),
-        "exact_seconds_per_orbit": variable((), t_exact, "mean time to solve one exact orbit at a prescribed energy (Newton on the closed form, validity checks)", "s", reason=why),
-        "regularized_seconds_per_orbit": variable((), t_reg, "mean time to solve one HBM orbit at a prescribed energy (Newton from the branch)", "s", reason=why),
-        "orbit": variable(("energy", "unknown"), orbits, "HBM unknown vector of the matched regularized orbit (layout of nnmstop.hbm.system, cosine basis)", reason=why_energy),
+        "status": ((), flags(status)),
+        "energy_status": (e, flags(energy_status)),
+        "converged": ((), status not in (Status.UNRESOLVED, Status.CONTINUATION_ENDED)),
+        "compared": ((), status == Status.COMPUTED),
+        "failure": ((), texts(failure)),
+        "runtime": ((), floats(run.runtime)),
+        "cpu_time": ((), floats(run.cpu_time)),
+        "load_average": ((), floats(load)),
+        "steps": ((), np.int32(count("steps"))),
+        "factorizations": ((), np.int32(count("factorizations"))),
+        "newton_iterations": ((), np.int32(count("newton_iterations"))),
+        "truncation": ((), floats(run.truncation)),
+        "time_residual": ((), floats(time_residual)),
+        "path_residual": ((), floats(path_residual)),
+        "path_frequency_error": ((), floats(path_frequency)),
+        "exact_seconds_per_orbit": ((), floats(t_exact)),
+        "regularized_seconds_per_orbit": ((), floats(t_reg)),
+        "orbit": (("energy", "unknown"), floats(orbits)),
     }
-    for key, (long_name, units) in _PER_ENERGY.items():
-        data[key] = variable(e, values[key], long_name, units, reason=why_energy)
+    for key in ERROR_KEYS:
+        data[key] = (e, floats(values[key]))
     ds = xr.Dataset(
         data,
         coords={
-            "energy": ("energy", energies, {"long_name": "matched total energy", "units": "1"}),
-            "unknown": ("unknown", np.arange(n_unknowns), {"long_name": "index into the HBM unknown vector", "units": "1"}),
+            "energy": ("energy", energies),
+            "unknown": ("unknown", np.arange(n_unknowns)),
         },
     )
     ds.attrs = _case_common_attrs(case)
@@ -236,24 +221,24 @@ def reference_dataset(settings: StudySettings, exact: xr.Dataset, eta: float) ->
             )
     status = case_status(seed.status, energy_status)
     runtime = time.perf_counter() - start
-    e, why_energy = ("energy",), "energy_status failure"
+    e = ("energy",)
     data = {
-        "status": status_variable((), status, "why the reference is incomplete (0: every orbit found and resolved)"),
-        "energy_status": status_variable(e, energy_status, "why there is no reference orbit at this energy (0: there is)"),
-        "converged": ((), status == Status.COMPUTED, {"long_name": "every reference orbit was found and is resolved", "units": "1"}),
-        "failure": string_variable((), failure, "why the reference is incomplete ('' if it is complete)"),
-        "runtime": variable((), runtime, "wall-clock time of the reference (seed continuation and Newton at H_ref)", "s"),
-        "load_average": variable((), load, "1-minute load average of the machine when the job started", "1"),
-        "truncation": variable(e, levels, "truncation indicator of each reference orbit", reason=why_energy),
-        "orbit": variable(("energy", "unknown"), orbits, "HBM unknown vector of the reference orbit (H_ref harmonics, cosine basis)", reason=why_energy),
+        "status": ((), flags(status)),
+        "energy_status": (e, flags(energy_status)),
+        "converged": ((), status == Status.COMPUTED),
+        "failure": ((), texts(failure)),
+        "runtime": ((), floats(runtime)),
+        "load_average": ((), floats(load)),
+        "truncation": (e, floats(levels)),
+        "orbit": (("energy", "unknown"), floats(orbits)),
     }
-    for key, (long_name, units) in _PER_ENERGY.items():
-        data[key] = variable(e, values[key], "reference orbit vs exact: " + long_name, units, reason=why_energy)
+    for key in ERROR_KEYS:
+        data[key] = (e, floats(values[key]))
     ds = xr.Dataset(
         data,
         coords={
-            "energy": ("energy", energies, {"long_name": "matched total energy", "units": "1"}),
-            "unknown": ("unknown", np.arange(n_unknowns), {"long_name": "index into the HBM unknown vector", "units": "1"}),
+            "energy": ("energy", energies),
+            "unknown": ("unknown", np.arange(n_unknowns)),
         },
     )
     ds.attrs = {**_case_common_attrs(replace(seed_run, harmonics=H_ref)), "seed_harmonics": H_seed}
@@ -286,12 +271,12 @@ def exact_cost_dataset(params: ModelParameters, exact, phase_samples: int, repea
         history_times.append((time.perf_counter() - start) / 10)
     n = len(family)
     data = {
-        "family_seconds_per_orbit": variable((), min(family_times) / n, "time per orbit of the pseudo-arclength continuation of the exact family (closed form, validity checks, end location)", "s"),
-        "family_orbits": ((), np.int32(n), {"long_name": "orbits of the exact family", "units": "1"}),
-        "family_seconds": variable((), min(family_times), "time to follow the whole exact family (fastest of the repeats)", "s"),
-        "time_history_seconds": variable((), min(history_times), f"time to evaluate one exact orbit on {samples} phases (closed form)", "s"),
-        "max_residual": variable((), float(family.residual.max()), "largest residual of the quarter-period equations along the family"),
-        "load_average": variable((), load, "1-minute load average of the machine when the job started", "1"),
+        "family_seconds_per_orbit": ((), floats(min(family_times) / n)),
+        "family_orbits": ((), np.int32(n)),
+        "family_seconds": ((), floats(min(family_times))),
+        "time_history_seconds": ((), floats(min(history_times))),
+        "max_residual": ((), floats(float(family.residual.max()))),
+        "load_average": ((), floats(load)),
     }
     ds = xr.Dataset(data)
     ds.attrs = {**params.as_attrs(), "repeats": int(repeats), "measurement": "run times measured on this machine"}
@@ -309,7 +294,10 @@ def _check_case(ds: xr.Dataset, label: str, settings: StudySettings, expect: dic
             raise ValueError(f"{label}: {key} = {stored!r} in the dataset but {value!r} expected (stale study file?)")
     energies = np.asarray(settings.energies, dtype=float)
     if ds.sizes.get("energy") != energies.size or not np.allclose(ds["energy"].values, energies, rtol=1e-12, atol=0):
-        raise ValueError(f"{label}: computed at the energies {ds['energy'].values.tolist()}, the configuration asks for {energies.tolist()}")
+        raise ValueError(
+            f"{label}: computed at the energies {ds['energy'].values.tolist()}, the configuration asks for "
+            f"{energies.tolist()}"
+        )
 
 
 def _system(settings: StudySettings, harmonics: int, eta: float) -> HarmonicBalanceSystem:
@@ -332,7 +320,9 @@ def _references(settings: StudySettings, references: list) -> dict:
     sweep, run = settings.sweep(), settings.run
     base = {k: getattr(run.params, k) for k in ("alpha", "beta", "delta")}
     for eta, ds in zip(sweep.eta, references):
-        _check_case(ds, f"reference of eta = {eta:g}", settings, {**base, "eta": eta, "harmonics": sweep.reference_harmonics})
+        _check_case(
+            ds, f"reference of eta = {eta:g}", settings, {**base, "eta": eta, "harmonics": sweep.reference_harmonics}
+        )
     levels = [r["truncation"].values for r in references]
     return {
         "datasets": references,
@@ -345,8 +335,17 @@ def _references(settings: StudySettings, references: list) -> dict:
     }
 
 
-_CASE_SCALARS = ("runtime", "cpu_time", "load_average", "truncation", "time_residual", "path_residual",
-                 "path_frequency_error", "exact_seconds_per_orbit", "regularized_seconds_per_orbit")
+_CASE_SCALARS = (
+    "runtime",
+    "cpu_time",
+    "load_average",
+    "truncation",
+    "time_residual",
+    "path_residual",
+    "path_frequency_error",
+    "exact_seconds_per_orbit",
+    "regularized_seconds_per_orbit",
+)
 _CASE_COUNTS = ("steps", "factorizations", "newton_iterations")
 
 
@@ -383,7 +382,9 @@ def _cases(settings: StudySettings, cases: list, refs: dict) -> dict:
             for key in ERROR_KEYS:
                 out["per_energy"][key][i, j] = ds[key].values
             system = _system(settings, H, eta)
-            both = (ds["energy_status"].values == Status.COMPUTED) & (reference["energy_status"].values == Status.COMPUTED)
+            both = (ds["energy_status"].values == Status.COMPUTED) & (
+                reference["energy_status"].values == Status.COMPUTED
+            )
             for k in np.flatnonzero(both):
                 U, U_ref = ds["orbit"].values[k], reference["orbit"].values[k]
                 diff = hbm_orbit_differences(system, U, ref_system, U_ref, settings.phase_samples)
@@ -396,7 +397,15 @@ def _anm_cases(settings: StudySettings, anm_cases: list) -> dict:
     """The (order, tolerance) grid at ``anm_harmonics`` and ``model.eta``."""
     sweep, run = settings.sweep(), settings.run
     shape = (len(sweep.anm_orders), len(sweep.anm_tolerances))
-    scalars = ("runtime", "cpu_time", "load_average", "path_residual", "path_frequency_error", "time_residual", "truncation")
+    scalars = (
+        "runtime",
+        "cpu_time",
+        "load_average",
+        "path_residual",
+        "path_frequency_error",
+        "time_residual",
+        "truncation",
+    )
     out = {
         "scalars": {k: _grid(shape) for k in scalars},
         "counts": {k: _grid(shape, -1, np.int32) for k in _CASE_COUNTS},
@@ -445,8 +454,12 @@ def gather_error_vs_runtime(
     if not compared.any():
         raise ValueError("no setting of the sweep was compared at every study energy: nothing to summarize")
     ds = xr.Dataset(
-        {**_case_variables(grid), **_split_variables(settings, grid, refs), **_anm_variables(anm),
-         **_exact_cost_variables(grid, exact_cost)},
+        {
+            **_case_variables(grid),
+            **_split_variables(settings, grid, refs),
+            **_anm_variables(anm),
+            **_exact_cost_variables(grid, exact_cost),
+        },
         coords=_coordinates(settings),
     )
     ds.attrs = _gather_attrs(settings)
@@ -462,43 +475,41 @@ def _run_variables(dims: tuple, grid: dict, prefix: str = "", label: str = "") -
     """What every grid of settings stores about its runs: status, failure, times and counts, residuals
     (names ``prefix + name``, long names ``label + long name``)."""
     status, scalars, counts = grid["status"], grid["scalars"], grid["counts"]
-    why = f"{prefix}status {prefix}failure"
     ended = np.isin(status, (Status.UNRESOLVED, Status.CONTINUATION_ENDED))
     data = {
-        "status": status_variable(dims, status, label + "why the setting was not compared at every study energy (0: it was)"),
-        "converged": (dims, ~ended, {"long_name": label + "the continuation reached the end of NNM1 stage 1 with every orbit resolved", "units": "1"}),
-        "compared": (dims, status == Status.COMPUTED, {"long_name": label + "converged and matched with the exact orbits at every study energy", "units": "1"}),
-        "failure": string_variable(dims, grid["failure"].astype(str), label + "why the setting did not converge or was not compared ('' if it was)"),
-        "runtime": variable(dims, scalars["runtime"], label + "wall-clock time of the continuation of NNM1 stage 1", "s"),
-        "cpu_time": variable(dims, scalars["cpu_time"], label + "CPU time of the continuation of NNM1 stage 1", "s"),
-        "load_average": variable(dims, scalars["load_average"], label + "1-minute load average when the job started (run times are measurements)"),
-        "truncation": variable(dims, scalars["truncation"], label + "largest truncation indicator along the run (top share of x'' or f, at least two harmonics)"),
-        "time_residual": variable(dims, scalars["time_residual"], label + "largest residual in time of Eq. (7) along the branch, relative to the largest restoring force", reason=why),
-        "path_residual": variable(dims, scalars["path_residual"], label + "largest relative algebraic residual over the branch points, interior points of the ANM steps included (accuracy of the path itself)", reason=why),
-        "path_frequency_error": variable(dims, scalars["path_frequency_error"], label + "relative frequency shift of the worst branch point (largest residual) from the HBM solution at the same amplitude (accuracy of the drawn curve)", reason=why),
+        "status": (dims, flags(status)),
+        "converged": (dims, ~ended),
+        "compared": (dims, status == Status.COMPUTED),
+        "failure": (dims, texts(grid["failure"].astype(str))),
+        "runtime": (dims, floats(scalars["runtime"])),
+        "cpu_time": (dims, floats(scalars["cpu_time"])),
+        "load_average": (dims, floats(scalars["load_average"])),
+        "truncation": (dims, floats(scalars["truncation"])),
+        "time_residual": (dims, floats(scalars["time_residual"])),
+        "path_residual": (dims, floats(scalars["path_residual"])),
+        "path_frequency_error": (dims, floats(scalars["path_frequency_error"])),
     }
-    for key, what in (("steps", "ANM steps"), ("factorizations", "LU factorizations of the bordered Jacobian"),
-                      ("newton_iterations", "Newton corrections of ANM step ends")):
-        data[key] = (dims, counts[key], {"long_name": f"{label}{what} (-1: unknown, the run ended early)", "units": "1", "ancillary_variables": why})
+    for key in _CASE_COUNTS:
+        data[key] = (dims, counts[key])
     return {prefix + name: value for name, value in data.items()}
 
 
 def _case_variables(grid: dict) -> dict:
     hz, he = ("harmonics", "eta"), ("harmonics", "eta", "energy")
-    status, per_energy, why = grid["status"], grid["per_energy"], "status failure"
+    status, per_energy = grid["status"], grid["per_energy"]
     relative_force = per_energy["max_force_difference"] / per_energy["force_max_exact"]
     data = {
         **_run_variables(hz, grid),
-        "energy_status": status_variable(he, grid["energy_status"], "why the setting was not compared at this energy (0: it was)"),
-        "regularized_seconds_per_orbit": variable(hz, grid["scalars"]["regularized_seconds_per_orbit"], "mean time to solve one HBM orbit at a prescribed energy", "s", reason=why),
-        "frequency_error": variable(hz, _summary(per_energy["relative_frequency_difference"], status), "largest |relative frequency error| against the exact orbits over the study energies", reason=why),
-        "x_error": variable(hz, _summary(per_energy["max_x_difference"], status), "largest |x_regularized - x_exact| over the period and the study energies", reason=why),
-        "u_error": variable(hz, _summary(per_energy["max_u_difference"], status), "largest |u_regularized - u_exact| over the period and the study energies", reason=why),
-        "force_error": variable(hz, _summary(per_energy["max_force_difference"], status), "largest |f_HBM - f_piecewise(x_exact)| over the period and the study energies", reason=why),
-        "relative_force_error": variable(hz, _summary(relative_force, status), "largest contact-force error relative to the largest exact contact force, over the study energies", reason=why),
+        "energy_status": (he, flags(grid["energy_status"])),
+        "regularized_seconds_per_orbit": (hz, floats(grid["scalars"]["regularized_seconds_per_orbit"])),
+        "frequency_error": (hz, floats(_summary(per_energy["relative_frequency_difference"], status))),
+        "x_error": (hz, floats(_summary(per_energy["max_x_difference"], status))),
+        "u_error": (hz, floats(_summary(per_energy["max_u_difference"], status))),
+        "force_error": (hz, floats(_summary(per_energy["max_force_difference"], status))),
+        "relative_force_error": (hz, floats(_summary(relative_force, status))),
     }
-    for key, (long_name, units) in _PER_ENERGY.items():
-        data[f"{key}_at_energy"] = variable(he, per_energy[key], long_name, units, reason="energy_status")
+    for key in ERROR_KEYS:
+        data[f"{key}_at_energy"] = (he, floats(per_energy[key]))
     return data
 
 
@@ -509,66 +520,57 @@ def _split_variables(settings: StudySettings, grid: dict, refs: dict) -> dict:
     sweep = settings.sweep()
     # the setting's own reason first, else its reference's
     split_status = np.where(grid["status"] != Status.COMPUTED, grid["status"], refs["status"][None, :])
-    ref_why, ref_why_energy = "reference_status reference_failure", "reference_energy_status"
     data = {
-        "reference_status": status_variable(("eta",), refs["status"], "why the H_ref reference of this eta is incomplete (0: complete and resolved)"),
-        "reference_energy_status": status_variable(ee, refs["energy_status"], "why there is no H_ref reference orbit at this energy (0: there is)"),
-        "reference_converged": (("eta",), refs["status"] == Status.COMPUTED, {"long_name": "the H_ref reference of this eta is complete and resolved", "units": "1"}),
-        "reference_failure": string_variable(("eta",), refs["failure"], "why the reference is incomplete ('' if complete)"),
-        "reference_runtime": variable(("eta",), refs["runtime"], "wall-clock time of the reference of this eta", "s"),
-        "reference_truncation": variable(("eta",), refs["truncation"], "largest truncation indicator of the reference orbits", reason=ref_why),
-        "reference_ratio": (("harmonics",), sweep.reference_harmonics / np.asarray(sweep.harmonics, dtype=float), {"long_name": "H_ref / H: how much larger the reference is (the truncation part is underestimated when small)", "units": "1"}),
-        "split_status": status_variable(hz, split_status, "why the truncation part of this setting is not summarized: the setting's status, else its reference's (0: both complete)"),
+        "reference_status": (("eta",), flags(refs["status"])),
+        "reference_energy_status": (ee, flags(refs["energy_status"])),
+        "reference_converged": (("eta",), refs["status"] == Status.COMPUTED),
+        "reference_failure": (("eta",), texts(refs["failure"])),
+        "reference_runtime": (("eta",), floats(refs["runtime"])),
+        "reference_truncation": (("eta",), floats(refs["truncation"])),
+        "reference_ratio": (("harmonics",), sweep.reference_harmonics / np.asarray(sweep.harmonics, dtype=float)),
+        "split_status": (hz, flags(split_status)),
     }
-    names = {"relative_frequency_difference": "frequency", "max_x_difference": "x", "max_u_difference": "u", "max_force_difference": "force"}
+    names = {
+        "relative_frequency_difference": "frequency",
+        "max_x_difference": "x",
+        "max_u_difference": "u",
+        "max_force_difference": "force",
+    }
     for key, short in names.items():
-        data[f"{short}_error_regularization"] = variable(
-            ("eta",), _summary(refs["values"][key], refs["status"]),
-            f"regularization part of the {short} error: largest |H_ref orbit - exact orbit| over the study energies",
-            reason=ref_why,
-        )
-        data[f"{short}_error_truncation"] = variable(
-            hz, _summary(grid["truncation_part"][key], split_status),
-            f"truncation part of the {short} error: largest |H orbit - H_ref orbit| (same eta) over the study energies",
-            reason="split_status",
-        )
-        long_name, units = _PER_ENERGY[key]
-        data[f"{key}_regularization_at_energy"] = variable(ee, refs["values"][key], "regularization part (H_ref vs exact): " + long_name, units, reason=ref_why_energy)
-        data[f"{key}_truncation_at_energy"] = variable(
-            he, grid["truncation_part"][key],
-            "truncation part (H vs H_ref, same eta): " + long_name.replace("regularized", "H").replace("exact", "H_ref"),
-            units, reason="energy_status reference_energy_status",
-        )
+        data[f"{short}_error_regularization"] = (("eta",), floats(_summary(refs["values"][key], refs["status"])))
+        data[f"{short}_error_truncation"] = (hz, floats(_summary(grid["truncation_part"][key], split_status)))
+        data[f"{key}_regularization_at_energy"] = (ee, floats(refs["values"][key]))
+        data[f"{key}_truncation_at_energy"] = (he, floats(grid["truncation_part"][key]))
     return data
 
 
 def _anm_variables(anm: dict) -> dict:
-    ot, why = ("order", "tolerance"), "anm_status anm_failure"
+    ot = ("order", "tolerance")
     return {
         **_run_variables(ot, anm, "anm_", "ANM sweep: "),
-        "anm_frequency_error": variable(ot, anm["errors"]["relative_frequency_difference"], "ANM sweep: largest |relative frequency error| against the exact orbits (Newton-corrected matched orbits)", reason=why),
-        "anm_x_error": variable(ot, anm["errors"]["max_x_difference"], "ANM sweep: largest x error against the exact orbits (Newton-corrected matched orbits)", reason=why),
+        "anm_frequency_error": (ot, floats(anm["errors"]["relative_frequency_difference"])),
+        "anm_x_error": (ot, floats(anm["errors"]["max_x_difference"])),
     }
 
 
 def _exact_cost_variables(grid: dict, cost: xr.Dataset) -> dict:
     per_orbit = grid["scalars"]["exact_seconds_per_orbit"]
     return {
-        "exact_seconds_per_orbit": variable((), np.median(per_orbit[np.isfinite(per_orbit)]), "exact solver: median time to solve one orbit at a prescribed energy (Newton on the closed form, validity checks)", "s"),
-        "exact_family_seconds_per_orbit": variable((), float(cost["family_seconds_per_orbit"]), "exact solver: time per orbit of the family continuation", "s"),
-        "exact_time_history_seconds": variable((), float(cost["time_history_seconds"]), cost["time_history_seconds"].attrs["long_name"], "s"),
-        "exact_max_residual": variable((), float(cost["max_residual"]), "exact solver: largest residual of the quarter-period equations along the family"),
+        "exact_seconds_per_orbit": ((), floats(np.median(per_orbit[np.isfinite(per_orbit)]))),
+        "exact_family_seconds_per_orbit": ((), floats(float(cost["family_seconds_per_orbit"]))),
+        "exact_time_history_seconds": ((), floats(float(cost["time_history_seconds"]))),
+        "exact_max_residual": ((), floats(float(cost["max_residual"]))),
     }
 
 
 def _coordinates(settings: StudySettings) -> dict:
     sweep = settings.sweep()
     return {
-        "harmonics": ("harmonics", np.asarray(sweep.harmonics, dtype=np.int32), {"long_name": "number of harmonics H", "units": "1"}),
-        "eta": ("eta", np.asarray(sweep.eta), {"long_name": "regularization parameter eta", "units": "1"}),
-        "energy": ("energy", np.asarray(settings.energies), {"long_name": "matched total energy (two-impact range of NNM1)", "units": "1"}),
-        "order": ("order", np.asarray(sweep.anm_orders, dtype=np.int32), {"long_name": "ANM series order N (ANM sweep)", "units": "1"}),
-        "tolerance": ("tolerance", np.asarray(sweep.anm_tolerances), {"long_name": "ANM step-length tolerance (ANM sweep)", "units": "1"}),
+        "harmonics": ("harmonics", np.asarray(sweep.harmonics, dtype=np.int32)),
+        "eta": ("eta", np.asarray(sweep.eta)),
+        "energy": ("energy", np.asarray(settings.energies)),
+        "order": ("order", np.asarray(sweep.anm_orders, dtype=np.int32)),
+        "tolerance": ("tolerance", np.asarray(sweep.anm_tolerances)),
     }
 
 

@@ -14,10 +14,10 @@ a value is missing.
   apply (:class:`~nnmstop.compare.matching.NotComparableError`), gets its :class:`Status`;
   :func:`hbm_orbit_differences` compares two HBM orbits (``H`` against a reference ``H``) the
   same way.
-* :class:`Status` says why a value was not computed; :func:`variable` stores a missing value
-  as ``FILL_VALUE`` with ``_FillValue`` and names the variables that say why
-  (``ancillary_variables``, checked by :func:`nnmstop.netcdf.check_fill_values`), so that
-  readers get NaN and the reason, never a number that looks valid.
+* :class:`~nnmstop.study.status.Status` says why a value was not computed. The datasets hold
+  plain arrays (:func:`floats`, :func:`texts`, :func:`flags`), NaN where a value was not
+  computed; their metadata, and which variables give the reason of each missing value, are in
+  :mod:`nnmstop.catalogue.study` (checked when written: a missing value with no reason is refused).
 
 Method notes (why the guard, why the increasing run, what each status means):
 ``docs/methods/study.md``.
@@ -46,12 +46,10 @@ from nnmstop.continuation.core import ContinuationError, ContinuationStats, Unre
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.stages import TruncationGuard, stage_criterion, stage_dataset, start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.netcdf import cf_variable
 from nnmstop.settings import StageOneRun
-from nnmstop.study.status import STATUS_MEANINGS, Status
+from nnmstop.study.status import Status
 
 __all__ = [
-    "FILL_VALUE",
     "Status",
     "UnresolvedBranchError",
     "TruncationGuard",
@@ -64,15 +62,12 @@ __all__ = [
     "match_energies",
     "hbm_orbit_differences",
     "path_error",
-    "variable",
-    "string_variable",
-    "status_variable",
+    "floats",
+    "texts",
+    "flags",
 ]
 
 logger = logging.getLogger("nnmstop.study")
-
-#: Fill value of missing floats (netCDF default fill of doubles); read back as NaN.
-FILL_VALUE = 9.969209968386869e36
 
 #: Per-energy quantities of :func:`match_energies` (keys of :class:`MatchedErrors`).
 ERROR_KEYS = (
@@ -389,34 +384,16 @@ def hbm_orbit_differences(
 # --------------------------------------------------------------------------- dataset variables
 
 
-def variable(dims, values, long_name: str, units: str = "1", *, reason: str | None = None, dtype=float, **extra):
-    """A labelled float variable tuple.
-
-    ``reason``: the variable(s) of the dataset that say why a value is missing (a ``status`` or
-    ``failure`` variable, space-separated names); NaN then becomes ``FILL_VALUE`` with
-    ``_FillValue`` and ``ancillary_variables`` names them (checked when written,
-    :func:`nnmstop.netcdf.check_fill_values`). Without ``reason`` every value must be finite.
-    """
-    if reason is None:
-        return cf_variable(dims, values, long_name, units, dtype=dtype, **extra)
-    return cf_variable(
-        dims, values, long_name, units, dtype=dtype, fill_value=FILL_VALUE, ancillary_variables=reason, **extra
-    )
+def floats(values) -> np.ndarray:
+    """A float variable's values (NaN where not computed: the catalogue entry names the reason)."""
+    return np.asarray(values, dtype=float)
 
 
-def string_variable(dims, values, long_name: str):
-    """A labelled variable of strings (empty string: nothing to report)."""
-    return (dims, np.asarray(values, dtype=str), {"long_name": long_name, "units": "1"})
+def texts(values) -> np.ndarray:
+    """A text variable's values (an empty string: nothing to report)."""
+    return np.asarray(values, dtype=str)
 
 
-def status_variable(dims, values, long_name: str):
-    """A :class:`Status` flag variable (int8, CF ``flag_values`` and ``flag_meanings``)."""
-    return cf_variable(
-        dims,
-        np.asarray(values, dtype=np.int8),
-        long_name,
-        "1",
-        dtype=None,
-        flag_values=np.array([s.value for s in Status], dtype=np.int8),
-        flag_meanings=STATUS_MEANINGS,
-    )
+def flags(values) -> np.ndarray:
+    """A :class:`Status` variable's values (int8; flag meanings in the catalogue)."""
+    return np.asarray(values, dtype=np.int8)

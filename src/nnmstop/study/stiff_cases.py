@@ -37,11 +37,11 @@ from nnmstop.settings import StageOneRun, StudySettings
 from nnmstop.study.runs import (
     Status,
     case_status,
+    flags,
+    floats,
     match_energies,
     run_stage_one,
-    status_variable,
-    string_variable,
-    variable,
+    texts,
 )
 
 __all__ = [
@@ -174,17 +174,17 @@ def stiff_exact_dataset(params: ModelParameters, exact) -> xr.Dataset:
     """
     family, checks = exact_checks(params, exact.step, exact.max_points)
     ds = two_impact_dataset(family)
-    for key, long_name, units in (
-        ("relative_residual", "largest residual of the quarter-period equations, relative to max velocity * sqrt(1 + beta + alpha)", "1"),
-        ("periodicity_error", "middle orbit integrated over one period with event location: max |z(T) - z(0)| / max |z|", "1"),
-        ("integration_difference", "middle orbit: largest difference between integration and closed form / max |z|", "1"),
-        ("integration_seconds", "time of that integration", "s"),
-        ("seconds_per_orbit", "time per orbit of the family continuation", "s"),
-        ("step", "continuation step used", "1"),
+    for key in (
+        "relative_residual",
+        "periodicity_error",
+        "integration_difference",
+        "integration_seconds",
+        "seconds_per_orbit",
+        "step",
     ):
-        ds[f"check_{key}"] = variable((), checks[key], long_name, units)
-    ds["check_end_confirmed"] = ((), checks["end_confirmed"], {"long_name": "the end of the family was met again with a step 100 times smaller", "units": "1"})
-    ds["check_end_note"] = string_variable((), checks["end_check"], "how the end of the family was confirmed")
+        ds[f"check_{key}"] = ((), floats(checks[key]))
+    ds["check_end_confirmed"] = ((), checks["end_confirmed"])
+    ds["check_end_note"] = ((), texts(checks["end_check"]))
     return ds
 
 
@@ -246,7 +246,9 @@ def stiff_branch_dataset(settings: StudySettings, exact: xr.Dataset, alpha, beta
     )
     label = f"NNM1 stage 1 (alpha {alpha:g}, beta {beta:g}, delta {delta:g}, eta {eta:g})"
     run, attempts, total, failure = harmonics_ladder(base, stiff.harmonics, energy_limit, label)
-    errors = dict.fromkeys(("relative_frequency_difference", "max_x_difference", "max_u_difference", "max_force_difference"), np.nan)
+    errors = dict.fromkeys(
+        ("relative_frequency_difference", "max_x_difference", "max_u_difference", "max_force_difference"), np.nan
+    )
     relative_force = np.nan
     energy_status = np.full(energies.size, run.status, dtype=np.int8)
     if run.converged:
@@ -260,30 +262,36 @@ def stiff_branch_dataset(settings: StudySettings, exact: xr.Dataset, alpha, beta
             failure = f"converged but not compared with the exact family: {matched.failure}"
     status = case_status(run.status, energy_status)
     energy_range = (float(energies[0]), float(energies[-1])) if energies.size else (np.nan, np.nan)
-    stats, converged, why = run.stats, run.converged, "status failure"
+    stats, converged = run.stats, run.converged
     data = {
-        "status": status_variable((), status, "why the case was not compared with the exact family at every chosen energy (0: it was)"),
-        "converged": ((), converged, {"long_name": "NNM1 stage 1 converged with every orbit resolved, for one of the harmonics tried", "units": "1"}),
-        "compared": ((), status == Status.COMPUTED, {"long_name": "converged and compared with the exact family at every chosen energy", "units": "1"}),
-        "failure": string_variable((), failure, "why the case did not converge or was not compared ('' if it was)"),
-        "attempts": string_variable((), " | ".join(attempts), "every number of harmonics tried, with its outcome"),
-        "harmonics": ((), np.int32(run.harmonics if converged else -1), {"long_name": "smallest number of harmonics tried that resolves the branch (-1: none)", "units": "1", "ancillary_variables": why}),
-        "steps": ((), np.int32(stats.steps if converged else -1), {"long_name": "ANM steps of the resolving run (-1: none)", "units": "1", "ancillary_variables": why}),
-        "factorizations": ((), np.int32(stats.factorizations if converged else -1), {"long_name": "LU factorizations of the resolving run (-1: none)", "units": "1", "ancillary_variables": why}),
-        "runtime": variable((), run.runtime if converged else np.nan, "wall-clock time of the resolving run", "s", reason=why),
-        "total_runtime": variable((), total, "wall-clock time of every attempt together", "s"),
-        "truncation": variable((), run.truncation, "largest truncation indicator of the last attempt (up to its end)"),
-        "frequency_error": variable((), errors["relative_frequency_difference"], "largest |relative frequency error| against the exact orbits at the compared energies", reason=why),
-        "x_error": variable((), errors["max_x_difference"], "largest |x_regularized - x_exact| over the period and the compared energies", reason=why),
-        "u_error": variable((), errors["max_u_difference"], "largest |u_regularized - u_exact| over the period and the compared energies", reason=why),
-        "force_error": variable((), errors["max_force_difference"], "largest contact-force difference over the period and the compared energies", reason=why),
-        "relative_force_error": variable((), relative_force, "largest contact-force difference relative to the largest exact force", reason=why),
-        "compared_energy_min": variable((), energy_range[0], "lowest compared energy (log-fraction 1/(n+1) of the exact increasing arm)", reason=why),
-        "compared_energy_max": variable((), energy_range[1], "highest compared energy (log-fraction n/(n+1) of the exact increasing arm)", reason=why),
+        "status": ((), flags(status)),
+        "converged": ((), converged),
+        "compared": ((), status == Status.COMPUTED),
+        "failure": ((), texts(failure)),
+        "attempts": ((), texts(" | ".join(attempts))),
+        "harmonics": ((), np.int32(run.harmonics if converged else -1)),
+        "steps": ((), np.int32(stats.steps if converged else -1)),
+        "factorizations": ((), np.int32(stats.factorizations if converged else -1)),
+        "runtime": ((), floats(run.runtime if converged else np.nan)),
+        "total_runtime": ((), floats(total)),
+        "truncation": ((), floats(run.truncation)),
+        "frequency_error": ((), floats(errors["relative_frequency_difference"])),
+        "x_error": ((), floats(errors["max_x_difference"])),
+        "u_error": ((), floats(errors["max_u_difference"])),
+        "force_error": ((), floats(errors["max_force_difference"])),
+        "relative_force_error": ((), floats(relative_force)),
+        "compared_energy_min": ((), floats(energy_range[0])),
+        "compared_energy_max": ((), floats(energy_range[1])),
     }
     ds = xr.Dataset(data)
-    ds.attrs = {"alpha": float(alpha), "beta": float(beta), "delta": float(delta), "eta": float(eta),
-                "harmonics_tried": ", ".join(str(h) for h in stiff.harmonics), "max_truncation": float(base.max_truncation)}
+    ds.attrs = {
+        "alpha": float(alpha),
+        "beta": float(beta),
+        "delta": float(delta),
+        "eta": float(eta),
+        "harmonics_tried": ", ".join(str(h) for h in stiff.harmonics),
+        "max_truncation": float(base.max_truncation),
+    }
     return ds
 
 
@@ -389,7 +397,11 @@ def _exact_at_energy(params: ModelParameters, energy: float, family) -> tuple:
     if energy < grazing:
         amplitude, phi, omega = _linear_amplitude(params, energy, "no_contact")
         y = np.array([amplitude * omega, amplitude * omega * phi[1], 0.5 * np.pi / omega, 0.5 * np.pi / omega])
-        return "linear", y, f"below the grazing energy {grazing:.6g}: the linear mode (x amplitude {amplitude:.3g}), no impact"
+        return (
+            "linear",
+            y,
+            f"below the grazing energy {grazing:.6g}: the linear mode (x amplitude {amplitude:.3g}), no impact",
+        )
     if family.energy.min() <= energy <= family.energy.max():
         i = int(np.argmin(np.abs(np.log(family.energy / energy))))
         return "family", family.unknowns[i], f"first two-impact family, nearest orbit (energy {family.energy[i]:.9g})"
@@ -399,9 +411,13 @@ def _exact_at_energy(params: ModelParameters, energy: float, family) -> tuple:
         if check.valid:
             return "high_energy", y, "high-energy two-impact segment, solved at exactly this energy"
         note = f"the high-energy two-impact orbit at this energy violates {', '.join(check.violated)}"
-    return "none", None, (
-        f"{note}; outside the first two-impact family ({family.energy.min():.6g}..{family.energy.max():.6g}): the "
-        "exact solver has no two-impact orbit to offer at this energy"
+    return (
+        "none",
+        None,
+        (
+            f"{note}; outside the first two-impact family ({family.energy.min():.6g}..{family.energy.max():.6g}): the "
+            "exact solver has no two-impact orbit to offer at this energy"
+        ),
     )
 
 
@@ -438,30 +454,51 @@ def energy_case(settings: StudySettings, alpha: float, energy: float, family=Non
     if family is None:
         family = follow_two_impact_family(params, step=settings.exact.step, max_points=settings.exact.max_points)
     kind, y, note = _exact_at_energy(params, energy, family)
-    out = {"kind": kind, "exact_note": note, "exact_status": Status.COMPUTED, "exact_energy": np.nan,
-           "exact_frequency": np.nan, "exact_residual": np.nan, "periodicity_error": np.nan,
-           "integration_difference": np.nan, "hbm_status": Status.COMPUTED, "hbm_failure": "",
-           "hbm_frequency_difference": np.nan, "hbm_energy_mismatch": np.nan, "hbm_truncation": np.nan}
+    out = {
+        "kind": kind,
+        "exact_note": note,
+        "exact_status": Status.COMPUTED,
+        "exact_energy": np.nan,
+        "exact_frequency": np.nan,
+        "exact_residual": np.nan,
+        "periodicity_error": np.nan,
+        "integration_difference": np.nan,
+        "hbm_status": Status.COMPUTED,
+        "hbm_failure": "",
+        "hbm_frequency_difference": np.nan,
+        "hbm_energy_mismatch": np.nan,
+        "hbm_truncation": np.nan,
+    }
     if y is None:
-        out.update(exact_status=Status.NO_EXACT_ORBIT, hbm_status=Status.NO_EXACT_ORBIT,
-                   hbm_failure="no exact two-impact orbit to compare with")
+        out.update(
+            exact_status=Status.NO_EXACT_ORBIT,
+            hbm_status=Status.NO_EXACT_ORBIT,
+            hbm_failure="no exact two-impact orbit to compare with",
+        )
         return out
     if kind == "linear":
         omega = linear_modes(params, "no_contact")[0][0]
         out.update(exact_energy=energy, exact_frequency=omega / (2 * np.pi), exact_residual=0.0)
     else:
-        out.update(exact_energy=problem.energy(y), exact_frequency=1.0 / (4.0 * y[3]),
-                   exact_residual=float(np.linalg.norm(problem.residual(y))))
+        out.update(
+            exact_energy=problem.energy(y),
+            exact_frequency=1.0 / (4.0 * y[3]),
+            exact_residual=float(np.linalg.norm(problem.residual(y))),
+        )
     out.update({k: v for k, v in periodicity_check(params, y).items() if k != "integration_seconds"})
     system, U = _hbm_at(run, kind, y, energy)
     level = out["hbm_truncation"] = system.truncation(U)
     if level > run.max_truncation:  # no number for an unresolved orbit: only the indicator and the reason
         out["hbm_status"] = Status.UNRESOLVED
-        out["hbm_failure"] = f"H = {system.H} does not resolve the orbit (truncation indicator {level:.4g} > {run.max_truncation:g})"
+        out["hbm_failure"] = (
+            f"H = {system.H} does not resolve the orbit (truncation indicator {level:.4g} > {run.max_truncation:g})"
+        )
     else:
         diag = system.diagnostics(U)
-        out.update(hbm_frequency_difference=(diag["frequency"] - out["exact_frequency"]) / out["exact_frequency"],
-                   hbm_energy_mismatch=(diag["energy"] - out["exact_energy"]) / out["exact_energy"])
+        out.update(
+            hbm_frequency_difference=(diag["frequency"] - out["exact_frequency"]) / out["exact_frequency"],
+            hbm_energy_mismatch=(diag["energy"] - out["exact_energy"]) / out["exact_energy"],
+        )
     return out
 
 
@@ -473,24 +510,24 @@ def energy_sweep_dataset(settings: StudySettings, alpha: float) -> xr.Dataset:
     family = follow_two_impact_family(params, step=settings.exact.step, max_points=settings.exact.max_points)
     rows = [energy_case(settings, float(alpha), float(e), family) for e in energies]
     col = lambda key: [r[key] for r in rows]  # noqa: E731
-    e, why_exact, why_hbm = ("energy",), "exact_status", "hbm_status hbm_failure"
+    e = ("energy",)
     data = {
-        "kind": string_variable(e, col("kind"), f"exact orbit used: one of {', '.join(ENERGY_KINDS)} (none: no two-impact orbit)"),
-        "exact_status": status_variable(e, col("exact_status"), "why there is no exact orbit at this energy (0: there is)"),
-        "exact_note": string_variable(e, col("exact_note"), "how the exact orbit was found, or why there is none"),
-        "exact_energy": variable(e, col("exact_energy"), "energy of the exact orbit", reason=why_exact),
-        "exact_frequency": variable(e, col("exact_frequency"), "frequency of the exact orbit", "Hz", reason=why_exact),
-        "exact_residual": variable(e, col("exact_residual"), "norm of the quarter-period equations of the exact orbit", reason=why_exact),
-        "periodicity_error": variable(e, col("periodicity_error"), "event-located integration over one period: max |z(T) - z(0)| / max |z|", reason=why_exact),
-        "integration_difference": variable(e, col("integration_difference"), "largest difference between integration and closed form / max |z|", reason=why_exact),
-        "hbm_status": status_variable(e, col("hbm_status"), "why there is no resolved HBM orbit at this energy (0: there is)"),
-        "hbm_converged": (e, np.array(col("hbm_status")) == Status.COMPUTED, {"long_name": "an HBM orbit of the regularized model was found there and is resolved", "units": "1"}),
-        "hbm_failure": string_variable(e, col("hbm_failure"), "why there is no resolved HBM orbit ('' if there is)"),
-        "hbm_frequency_difference": variable(e, col("hbm_frequency_difference"), "(HBM frequency - exact frequency) / exact frequency", reason=why_hbm),
-        "hbm_energy_mismatch": variable(e, col("hbm_energy_mismatch"), "(HBM energy - exact energy) / exact energy (the HBM orbit keeps the x amplitude)", reason=why_hbm),
-        "hbm_truncation": variable(e, col("hbm_truncation"), "truncation indicator of the HBM orbit", reason=why_exact),
+        "kind": (e, texts(col("kind"))),
+        "exact_status": (e, flags(col("exact_status"))),
+        "exact_note": (e, texts(col("exact_note"))),
+        "exact_energy": (e, floats(col("exact_energy"))),
+        "exact_frequency": (e, floats(col("exact_frequency"))),
+        "exact_residual": (e, floats(col("exact_residual"))),
+        "periodicity_error": (e, floats(col("periodicity_error"))),
+        "integration_difference": (e, floats(col("integration_difference"))),
+        "hbm_status": (e, flags(col("hbm_status"))),
+        "hbm_converged": (e, np.array(col("hbm_status")) == Status.COMPUTED),
+        "hbm_failure": (e, texts(col("hbm_failure"))),
+        "hbm_frequency_difference": (e, floats(col("hbm_frequency_difference"))),
+        "hbm_energy_mismatch": (e, floats(col("hbm_energy_mismatch"))),
+        "hbm_truncation": (e, floats(col("hbm_truncation"))),
     }
-    ds = xr.Dataset(data, coords={"energy": ("energy", energies, {"long_name": "requested total energy", "units": "1"})})
+    ds = xr.Dataset(data, coords={"energy": ("energy", energies)})
     ds.attrs = {**{k: float(v) for k, v in params.as_attrs().items()}, "harmonics": int(run.harmonics)}
     return ds
 
@@ -500,21 +537,12 @@ def energy_sweep_dataset(settings: StudySettings, alpha: float) -> xr.Dataset:
 
 def _stacked(cases: np.ndarray, dims: tuple, prefix: str) -> dict:
     """Every variable of the case datasets ``cases`` (an object array over the grid ``dims``) stacked
-    over that grid, named ``prefix + name`` (the reasons they name too), attributes kept."""
+    over that grid, named ``prefix + name`` (catalogue: :func:`nnmstop.catalogue.study.over`)."""
     first = cases.flat[0]
     out = {}
     for key in first.data_vars:
-        src = first[key]
-        values = np.array([c[key].values for c in cases.ravel()]).reshape(cases.shape + src.shape)
-        attrs = {k: v for k, v in src.attrs.items() if k != "coverage_content_type"}
-        reason = attrs.pop("ancillary_variables", None)
-        reason = reason and " ".join(prefix + name for name in reason.split())
-        name, all_dims = prefix + key, tuple(dims) + src.dims
-        if values.dtype.kind == "f":
-            out[name] = variable(all_dims, values, attrs.pop("long_name"), attrs.pop("units"), reason=reason, **attrs)
-        else:
-            extra = {"ancillary_variables": reason} if reason else {}
-            out[name] = (all_dims, values.astype(str) if values.dtype.kind in "OUS" else values, {**attrs, **extra})
+        values = np.array([c[key].values for c in cases.ravel()]).reshape(cases.shape + first[key].shape)
+        out[prefix + key] = (tuple(dims) + first[key].dims, texts(values) if values.dtype.kind in "OUS" else values)
     return out
 
 
@@ -522,17 +550,18 @@ def _exact_summary(family: xr.Dataset) -> xr.Dataset:
     """The checks of one exact family (:func:`stiff_exact_dataset`) as scalar variables."""
     data = {}
     for key in ("relative_residual", "periodicity_error", "integration_difference", "seconds_per_orbit", "step"):
-        src = family[f"check_{key}"]
-        data[f"exact_{key}"] = variable((), float(src), "exact solver: " + src.attrs["long_name"], src.attrs["units"])
-    data.update({
-        "exact_max_residual": variable((), float(family.attrs["max_residual"]), "exact solver: largest residual norm of the quarter-period equations"),
-        "exact_orbits": ((), np.int32(family.sizes["point"]), {"long_name": "exact solver: orbits of the two-impact family", "units": "1"}),
-        "exact_energy_min": variable((), float(family["energy"].min()), "exact solver: lowest energy of the two-impact family"),
-        "exact_energy_max": variable((), float(family["energy"].max()), "exact solver: highest energy of the two-impact family"),
-        "exact_end_reason": string_variable((), family.attrs["end_reason"], "exact solver: why the two-impact family ends"),
-        "exact_end_confirmed": ((), bool(family["check_end_confirmed"]), {"long_name": "exact solver: the family end was met again with a step 100 times smaller (else recomputed with a 10 times smaller step)", "units": "1"}),
-        "exact_end_note": string_variable((), str(family["check_end_note"].values), "exact solver: how the family end was checked"),
-    })
+        data[f"exact_{key}"] = ((), floats(float(family[f"check_{key}"])))
+    data.update(
+        {
+            "exact_max_residual": ((), floats(float(family.attrs["max_residual"]))),
+            "exact_orbits": ((), np.int32(family.sizes["point"])),
+            "exact_energy_min": ((), floats(float(family["energy"].min()))),
+            "exact_energy_max": ((), floats(float(family["energy"].max()))),
+            "exact_end_reason": ((), texts(family.attrs["end_reason"])),
+            "exact_end_confirmed": ((), bool(family["check_end_confirmed"])),
+            "exact_end_note": ((), texts(str(family["check_end_note"].values))),
+        }
+    )
     return xr.Dataset(data)
 
 
@@ -557,7 +586,9 @@ def gather_stiff_cases(settings: StudySettings, exact: list, branches: list, ene
     expected = stiff_case_parameters(settings)
     for kind, datasets in (("exact", exact), ("branches", branches), ("energy", energy)):
         if len(datasets) != len(expected[kind]):
-            raise ValueError(f"{len(datasets)} stiff {kind} datasets given, the configuration has {len(expected[kind])} cases")
+            raise ValueError(
+                f"{len(datasets)} stiff {kind} datasets given, the configuration has {len(expected[kind])} cases"
+            )
     family = {key: _exact_summary(ds) for key, ds in zip(expected["exact"], exact)}
     branch = dict(zip(expected["branches"], branches))
     alphas, etas, ratios = stiff.alpha, stiff.eta, stiff.ratios
@@ -565,25 +596,33 @@ def gather_stiff_cases(settings: StudySettings, exact: list, branches: list, ene
     data = {
         **_stacked(_grid(lambda ij: branch[(alphas[ij[0]], b0, d0, etas[ij[1]])], shape), ("alpha", "eta"), ""),
         **_stacked(_grid(lambda ij: family[(alphas[ij[0]], b0, d0)], (len(alphas),)), ("alpha",), ""),
-        **_stacked(_grid(lambda ij: branch[(a0, ratios[ij[0]], ratios[ij[1]], e0)], ratio_shape), ("beta", "delta"), "ratio_"),
-        **_stacked(_grid(lambda ij: family[(a0, ratios[ij[0]], ratios[ij[1]])], ratio_shape), ("beta", "delta"), "ratio_"),
+        **_stacked(
+            _grid(lambda ij: branch[(a0, ratios[ij[0]], ratios[ij[1]], e0)], ratio_shape), ("beta", "delta"), "ratio_"
+        ),
+        **_stacked(
+            _grid(lambda ij: family[(a0, ratios[ij[0]], ratios[ij[1]])], ratio_shape), ("beta", "delta"), "ratio_"
+        ),
         **_stacked(_grid(lambda i: energy[i[0]], (len(energy),)), ("energy_alpha",), "energy_"),
     }
     coords = {
-        "alpha": ("alpha", np.asarray(alphas), {"long_name": "stop stiffness ratio alpha = K/k1", "units": "1"}),
-        "eta": ("eta", np.asarray(etas), {"long_name": "regularization parameter eta", "units": "1"}),
-        "beta": ("beta", np.asarray(ratios), {"long_name": "coupling stiffness ratio beta = k2/k1 (ratio sweep)", "units": "1"}),
-        "delta": ("delta", np.asarray(ratios), {"long_name": "mass ratio delta = m2/m1 (ratio sweep)", "units": "1"}),
-        "energy": ("energy", energy[0]["energy"].values, {"long_name": "requested total energy (energy sweep)", "units": "1"}),
-        "energy_alpha": ("energy_alpha", np.asarray(stiff.energy_alpha), {"long_name": "alpha of the energy sweep", "units": "1"}),
+        "alpha": ("alpha", np.asarray(alphas)),
+        "eta": ("eta", np.asarray(etas)),
+        "beta": ("beta", np.asarray(ratios)),
+        "delta": ("delta", np.asarray(ratios)),
+        "energy": ("energy", energy[0]["energy"].values),
+        "energy_alpha": ("energy_alpha", np.asarray(stiff.energy_alpha)),
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = {
-        "beta_of_alpha_eta_grid": b0, "delta_of_alpha_eta_grid": d0,
-        "alpha_of_ratio_grid": a0, "eta_of_ratio_grid": e0,
-        "energy_sweep_eta": float(stiff.energy_eta), "energy_sweep_harmonics": int(stiff.energy_harmonics),
+        "beta_of_alpha_eta_grid": b0,
+        "delta_of_alpha_eta_grid": d0,
+        "alpha_of_ratio_grid": a0,
+        "eta_of_ratio_grid": e0,
+        "energy_sweep_eta": float(stiff.energy_eta),
+        "energy_sweep_harmonics": int(stiff.energy_harmonics),
         "harmonics_tried": ", ".join(str(h) for h in stiff.harmonics),
-        "max_truncation": float(settings.run.max_truncation), "max_steps": int(stiff.max_steps),
+        "max_truncation": float(settings.run.max_truncation),
+        "max_steps": int(stiff.max_steps),
         "measurement": "run times are measurements of this machine; not reproducible byte for byte",
     }
     return ds

@@ -91,6 +91,7 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
     path = write_dataset(
         ds,
         output_path,
+        kind="exact_vs_regularized",
         title="NNM1: exact non-smooth vs regularized orbits at matched energies",
         summary=summary,
         keywords="exact solution, regularization, comparison",
@@ -183,6 +184,7 @@ def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Pat
     path = write_dataset(
         ds,
         outputs["dataset"],
+        kind="regime_errors",
         title="Regularized vs exact NNM1: frequency error per impact regime, whole branch",
         summary=(
             "Frequency of the regularized NNM1 (HBM with "
@@ -220,6 +222,7 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
     path = write_dataset(
         ds,
         outputs["dataset"],
+        kind="stability_comparison",
         title="Exact vs regularized NNM1: Floquet stability per impact regime",
         summary=(
             "Agreement of the stability verdicts of the exact NNM1 (non-smooth model, monodromy from the linear "

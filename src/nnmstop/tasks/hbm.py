@@ -64,6 +64,7 @@ def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
     write_dataset(
         ds,
         outputs["dataset"],
+        kind="nnm_branch",
         title=f"Regularized {branch.upper()}, stage {stage} ({name}): HBM-ANM continuation",
         summary=(
             f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
@@ -81,6 +82,7 @@ def hbm_bifurcated(config, inputs, outputs, bifurcation: str):
     write_dataset(
         ds,
         outputs["dataset"],
+        kind="switched_branch",
         title=f"Branch bifurcating from regularized {parent_name} at the {n}:1 internal resonance ({bifurcation})",
         summary=(
             f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop on the curve "
@@ -98,6 +100,7 @@ def hbm_branch(config, inputs, outputs, branch: str):
     write_dataset(
         combined,
         outputs["dataset"],
+        kind="nnm_branch",
         title=f"Regularized {branch.upper()}: HBM-ANM continuation, whole branch",
         summary=(
             f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "

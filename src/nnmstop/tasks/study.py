@@ -56,6 +56,7 @@ def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, or
     return write_dataset(
         ds,
         output_path,
+        kind="study_case",
         title="Study case: regularized NNM1 stage 1 against the exact orbits, timed",
         summary="One setting of the error-against-run-time study (measurement; not part of the paper's figures).",
         keywords="study, run time",
@@ -69,6 +70,7 @@ def build_reference(config: dict, inputs: dict, output_path, eta) -> Path:
     return write_dataset(
         ds,
         output_path,
+        kind="study_reference",
         title="Study reference: regularized NNM1 orbits with many harmonics at the study energies",
         summary="Large-H reference of the error-against-run-time study (measurement; not part of the paper's figures).",
         keywords="study, reference",
@@ -82,6 +84,7 @@ def build_exact_cost(config: dict, inputs: dict, output_path) -> Path:
     return write_dataset(
         error_runtime.exact_cost_dataset(model_parameters(config), exact_settings(config), samples),
         output_path,
+        kind="exact_cost",
         title="Study: cost of the exact two-impact solver",
         summary="Run time per orbit of the closed-form exact solver (measurement).",
         keywords="study, run time",
@@ -102,6 +105,7 @@ def build_error_vs_runtime(config: dict, inputs: dict, output_path) -> Path:
     return write_dataset(
         ds,
         output_path,
+        kind="error_vs_runtime",
         title="Error against run time of the regularized NNM1 (HBM + ANM) on its two-impact range",
         summary=(
             "Errors of the regularized NNM1 against the exact non-smooth orbits at matched energies, split into "
@@ -124,6 +128,7 @@ def build_stiff_exact(config: dict, inputs: dict, output_path, alpha, beta, delt
     return write_dataset(
         ds,
         output_path,
+        kind="stiff_exact",
         title="Study (stiff cases): exact two-impact NNM1 family with exactness checks",
         summary="Exact family, residuals, periodicity by event-located integration (measurement of the study).",
         keywords="study, stiff cases",
@@ -145,6 +150,7 @@ def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, del
     return write_dataset(
         out,
         output_path,
+        kind="stiff_nnm1",
         title="Study (stiff cases): regularized NNM1 stage 1, harmonics needed and error",
         summary="Harmonics ladder of a guarded continuation against the exact family (measurement of the study).",
         keywords="study, stiff cases",
@@ -157,6 +163,7 @@ def build_stiff_energy(config: dict, inputs: dict, output_path, alpha) -> Path:
     return write_dataset(
         stiff_cases.energy_sweep_dataset(study_settings(config), float(alpha)),
         output_path,
+        kind="stiff_energy",
         title="Study (stiff cases): exact solver and HBM at energies from 1e-6 to 1e6",
         summary="Exact orbits and their periodicity by integration, and HBM orbits, at extreme energies (study).",
         keywords="study, stiff cases",
@@ -173,6 +180,7 @@ def build_stiff_cases(config: dict, inputs: dict, output_path) -> Path:
     return write_dataset(
         ds,
         output_path,
+        kind="stiff_cases",
         title="Stiff and extreme cases: exactness of the exact solver, convergence of the continuation, errors",
         summary=(
             "For stiff stops (alpha up to 1e4), sharp regularizations (eta down to 1e-3), extreme energies "
