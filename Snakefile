@@ -48,6 +48,7 @@ if "tube" in config:  # the finite-element tube (issue 14); a configuration may 
 
     include: "workflow/rules/tube.smk"
 include: "workflow/rules/bundle.smk"
+include: "workflow/rules/docs.smk"
 
 
 rule all:

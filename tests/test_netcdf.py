@@ -183,3 +183,27 @@ def test_stale_dataset_is_refused_naming_the_setting():
         check_up_to_date(ds, {"eta": 0.1})
     with pytest.raises(ValueError, match="sequence"):
         check_up_to_date(ds, {"sequence": "FRF"})
+
+
+def test_float_coordinate_variables_carry_no_fill_value(tmp_path, monkeypatch):
+    """CF forbids missing values in coordinate variables: the IOOS checker finds nothing to say about them."""
+    import netCDF4
+
+    from nnmstop.pipeline.compliance import checker_findings
+
+    sweep = DatasetKind(
+        "netcdf_sweep",
+        "t",
+        (),
+        "t",
+        (
+            Variable("energy", ("energy",), "total energy"),
+            Variable("frequency", ("energy",), "frequency", units="Hz"),
+        ),
+    )
+    monkeypatch.setitem(catalogue.KINDS, sweep.name, sweep)
+    ds = xr.Dataset({"frequency": ("energy", [0.1, 0.2, 0.3])}, coords={"energy": ("energy", [0.5, 1.0, 2.0])})
+    path = write_dataset(ds, tmp_path / "study" / "sweep.nc", title="t", summary="s", kind="netcdf_sweep")
+    with netCDF4.Dataset(path) as nc:
+        assert "_FillValue" not in nc["energy"].ncattrs()
+    assert not [f for f in checker_findings(path) if f.startswith("cf:") or "_FillValue" in f]

@@ -252,6 +252,8 @@ def write_dataset(
         var = out[name]
         var.attrs.setdefault("coverage_content_type", _coverage_content_type(var, name in out.coords))
     encoding = {name: {"zlib": False} for name in out.data_vars}
+    # CF: a coordinate variable holds no missing values, so it gets no _FillValue (xarray's default on floats)
+    encoding.update({name: {"_FillValue": None} for name in out.coords if name in out.dims})
     tmp = path.with_name(path.name + ".tmp")
     out.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
     os.replace(tmp, path)

@@ -511,3 +511,12 @@ def test_interrupted_run_restarts_to_the_outputs_of_a_clean_run(repo_root, tmp_p
         assert (clean / target).read_bytes() == (broken / target).read_bytes(), target
     if interrupted:  # the rerun job replaced the leftover temporary file by the dataset
         assert not stale.exists()
+
+
+def test_study_datasets_pass_the_cf_and_acdd_checkers(gathered):
+    """The gathered study dataset and its case files pass cf:1.10 and acdd:1.3 but for the documented exclusions."""
+    from nnmstop.pipeline.compliance import checker_findings
+
+    root, out, _ = gathered
+    for path in [root / "results/study/error_vs_runtime.nc", out["cases"][0], out["references"][0], out["exact_cost"]]:
+        assert checker_findings(path) == [], path

@@ -16,6 +16,7 @@ rule bundle:
         figures=[*PAPER_FIGURES, rules.explorer.output.page],  # the explorer page is a result of the run too
         manifest=rules.dataset_manifest.output.manifest,
         environment_lock=os.path.join(workflow.basedir, "environment.lock"),
+        citation=os.path.join(workflow.basedir, "CITATION.cff"),
         workflow_files=[
             os.path.join(workflow.basedir, "Snakefile"),
             *sorted(glob.glob(os.path.join(workflow.basedir, "workflow", "rules", "*.smk"))),

@@ -148,7 +148,7 @@ rule study_error_vs_runtime_figure:
         dataset=rules.study_error_vs_runtime.output.dataset,
     output:
         pdf=paper_figures("error_vs_runtime.pdf"),
-        png=paper_figures("error_vs_runtime.png"),
+        png=report(paper_figures("error_vs_runtime.png"), category="Study"),
     log:
         logs("study/error_vs_runtime_figure.log"),
     benchmark:
@@ -257,7 +257,7 @@ rule study_stiff_cases_figure:
         dataset=rules.study_stiff_cases.output.dataset,
     output:
         pdf=paper_figures("stiff_cases.pdf"),
-        png=paper_figures("stiff_cases.png"),
+        png=report(paper_figures("stiff_cases.png"), category="Study"),
     log:
         logs("study/stiff_cases_figure.log"),
     benchmark:

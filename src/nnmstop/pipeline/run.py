@@ -55,6 +55,7 @@ TASK_INDEX = {
     ),
     "manifest": ("dataset_manifest",),
     "bundle": ("bundle",),
+    "docs": ("docs",),
     "explorer": ("explorer",),
     "verify": ("verify", "update_reference"),
     "tube": ("tube_exact", "tube_branch", "tube_compare", "tube_figure", "tube_study_case", "tube_study"),
