@@ -45,6 +45,8 @@ def test_no_long_name_is_written_outside_the_catalogue_in_new_code(repo_root):
         "netcdf.py",
         "tasks/tube.py",
     }
+    # the explorer reads the datasets' attributes into its page: it writes no dataset
+    legacy.add("explorer/extract.py")
     src = repo_root / "src" / "nnmstop"
     carrying = {
         str(path.relative_to(src))
