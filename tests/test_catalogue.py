@@ -43,9 +43,6 @@ def test_no_long_name_is_written_outside_the_catalogue_in_new_code(repo_root):
         "hbm/structure_branch.py",
         "hbm/structure_stability.py",
         "netcdf.py",
-        "study/error_runtime.py",
-        "study/runs.py",
-        "study/stiff_cases.py",
         "tasks/tube.py",
     }
     # the explorer reads the datasets' attributes into its page: it writes no dataset

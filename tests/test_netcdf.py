@@ -91,6 +91,30 @@ def test_cf_variable_marks_missing_values_so_they_read_back_as_nan(tmp_path):
     assert back["error"].values[0] == 1e-3 and np.isnan(back["error"].values[1])
 
 
+def test_write_refuses_a_missing_value_without_its_reason(tmp_path, monkeypatch):
+    """A missing value is a value not computed: the variables the catalogue names must say why, there."""
+    kind = DatasetKind(
+        "netcdf_reason",
+        "t",
+        (),
+        "t",
+        (
+            Variable("status", ("case",), "why not computed", flags=("computed", "unresolved")),
+            Variable("error", ("case", "energy"), "error", missing="where status says why", reason="status"),
+        ),
+    )
+    monkeypatch.setitem(catalogue.KINDS, kind.name, kind)
+    status = ("case", np.array([0, 1], dtype=np.int8))
+    explained = xr.Dataset({"error": (("case", "energy"), [[1.0, 1.0], [np.nan, np.nan]]), "status": status})
+    path = write_dataset(explained, tmp_path / "ok.nc", title="t", summary="s", kind="netcdf_reason")
+    back = read_dataset(path)
+    assert back["error"].attrs["ancillary_variables"] == "status" and np.isnan(back["error"].values[1]).all()
+    lost = xr.Dataset({"error": (("case", "energy"), [[1.0, np.nan], [1.0, 1.0]]), "status": status})
+    with pytest.raises(ValueError, match=r"'error' .* missing at \{'case': 0, 'energy': 1\} where \['status'\]"):
+        write_dataset(lost, tmp_path / "bad.nc", title="t", summary="s", kind="netcdf_reason")
+    assert not (tmp_path / "bad.nc").exists()
+
+
 def test_flag_variable_holds_cf_flags():
     dims, values, attrs = flag_variable("point", [True, False], "1 where stable", "unstable stable")
     assert values.dtype == np.int8 and values.tolist() == [1, 0]
