@@ -200,7 +200,10 @@ ONE_STOP_FAMILY_VARIABLES = (
     Variable("dof", ("dof",), "index of the degree of freedom"),
     Variable("mode", ("mode",), "linear (free-flight) mode number"),
     Variable(
-        "mode_frequency", ("mode",), "linear frequency of the mode without contact, in Hz of the nondimensional time", units="Hz"
+        "mode_frequency",
+        ("mode",),
+        "linear frequency of the mode without contact, in Hz of the nondimensional time",
+        units="Hz",
     ),
 )
 ONE_STOP_FAMILY = DatasetKind(
