@@ -365,7 +365,8 @@ def check_up_to_date(
         else:
             same = str(stored) == str(value)
         if not same:
+            shown = stored.item() if isinstance(stored, np.generic) else stored  # 0.1, not np.float64(0.1)
             raise ValueError(
-                f"{source}: {key} = {stored!r} in the dataset but {value!r} in the configuration "
+                f"{source}: {key} = {shown!r} in the dataset but {value!r} in the configuration "
                 "(stale dataset); rebuild it"
             )
