@@ -26,6 +26,31 @@ def pytest_addoption(parser):
     )
 
 
+#: Test modules whose tests take the most CPU time (``python -m pytest --durations=40`` on a quiet machine), longest
+#: first: the two xdist workers start with them, so that neither is left alone with a long module at the end.
+LONGEST_MODULES = (
+    "tests/test_cpu_variants.py",
+    "tests/test_workflow.py",
+    "tests/study/test_study.py",
+    "tests/study/test_stiff.py",
+    "tests/tube/test_tube_workflow.py",
+    "tests/pipeline/test_verify.py",
+    "tests/pipeline/test_faults.py",
+    "tests/pipeline/test_worker.py",
+)
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Keep each test module on one xdist worker (``--dist loadgroup``: a module's fixtures, such as a
+    workflow build, are made once), unless a test names its own ``xdist_group``; longest modules first."""
+    for item in items:
+        if not any(item.iter_markers("xdist_group")):
+            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+    rank = {module: k for k, module in enumerate(LONGEST_MODULES)}
+    items.sort(key=lambda item: rank.get(item.nodeid.split("::")[0], len(rank)))
+
+
 def pytest_configure(config):
     config.addinivalue_line(
         "markers",

@@ -67,7 +67,7 @@ def selected_variants(option: str) -> list[str]:
     return names
 
 
-@pytest.mark.parametrize("name", list(VARIANTS))
+@pytest.mark.parametrize("name", [pytest.param(name, marks=pytest.mark.xdist_group(name)) for name in VARIANTS])
 def test_numerics_tests_pass_under_other_cpu_kernels(name, request, repo_root):
     if name not in selected_variants(request.config.getoption("--cpu-variants")):
         pytest.skip(f"CPU variant {name!r} not selected by --cpu-variants")
@@ -87,6 +87,8 @@ def test_numerics_tests_pass_under_other_cpu_kernels(name, request, repo_root):
         "no:cacheprovider",
         "-m",
         "numerics",
+        "-n",
+        "0",  # one process per variant: the variants run side by side on the suite's workers
         "--cpu-variants=none",
         str(repo_root / "tests"),
     ]
