@@ -51,11 +51,9 @@ def planned_rules(workdir: Path, target: str) -> set[str]:
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    """The default target of the workflow, built once from scratch."""
-    workdir = tmp_path_factory.mktemp("workflow")
-    snakemake(workdir, "--cores", "2")
-    return workdir
+def built(small_build):
+    """The default target of the workflow, built once from scratch (shared with the verifier's tests)."""
+    return small_build
 
 
 def outputs(workdir: Path) -> list[Path]:
