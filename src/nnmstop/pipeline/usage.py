@@ -2,8 +2,8 @@
 
 Every task ends its log with one line (:func:`nnmstop.pipeline.run.run_task`)::
 
-    task hbm_stage ran in the warm worker: 12.31 s wall, 12.05 s CPU (user 11.80 s, system 0.25 s),
-        312 MB peak resident; finished
+    task hbm_stage ran in the warm worker: W s wall, C s CPU (user U s, system S s), M MB peak resident;
+        finished
 
 (one line in the log)
 
