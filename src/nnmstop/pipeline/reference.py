@@ -46,12 +46,13 @@ __all__ = [
     "profile",
     "point_table",
     "json_value",
+    "share",
     "projections",
     "write_csv",
     "read_csv",
 ]
 
-REFERENCE_FORMAT = 2
+REFERENCE_FORMAT = 3
 POINT = "point"
 
 #: Pairs (energy, frequency) that make a file's stored points a frequency-energy curve, first found first.
@@ -234,23 +235,28 @@ def _range(values: np.ndarray) -> list[float]:
     return [float(np.min(values)), float(np.max(values)), step]
 
 
-def profile(ds: xr.Dataset, attribute_sets: dict) -> dict:
+def share(shared: dict, value) -> str:
+    """Key of ``value`` in the table ``shared`` of values kept once for all files (added if new)."""
+    key = hashlib.sha256(json.dumps(value, sort_keys=True).encode()).hexdigest()[:12]
+    shared[key] = value
+    return key
+
+
+def profile(ds: xr.Dataset, shared: dict) -> dict:
     """What the reference keeps of one dataset (read with CF decoding), in JSON types.
 
-    ``attribute_sets`` collects the variables' attribute dictionaries (shared between files:
-    stage and branch files carry the same); the profile names each by its key there.
+    ``shared`` collects what files have in common (stage and branch files carry the same variables):
+    each variable's attributes, and the table of the variables (name -> [dimensions, type, key of its
+    attributes]); the profile names the table by its key there.
     """
     variables = {}
     for name, variable in ds.variables.items():
-        attrs = {key: json_value(value) for key, value in variable.attrs.items()}
-        text = json.dumps(attrs, sort_keys=True)
-        key = hashlib.sha256(text.encode()).hexdigest()[:12]
-        attribute_sets[key] = attrs
-        variables[str(name)] = {"dims": list(variable.dims), "dtype": str(variable.dtype), "attributes": key}
+        attrs = share(shared, {key: json_value(value) for key, value in variable.attrs.items()})
+        variables[str(name)] = [list(variable.dims), str(variable.dtype), attrs]
     entry = {
         "global": {k: json_value(v) for k, v in ds.attrs.items() if k not in PROVENANCE_ATTRIBUTES},
         "dims": {str(k): int(v) for k, v in ds.sizes.items() if k != POINT},
-        "variables": variables,
+        "variables": share(shared, variables),
         "values": {},
     }
     for name, variable in ds.variables.items():

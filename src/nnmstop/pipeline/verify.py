@@ -176,6 +176,19 @@ def _column_scale(values) -> float:
     return largest if largest > 0 else 1.0
 
 
+def _compact_json(format_version: int, shared: dict, files: dict) -> str:
+    """``files.json``: one line per shared value and per file (small, and a diff names what changed)."""
+
+    def one_line(value) -> str:
+        return json.dumps(value, sort_keys=True, separators=(",", ":"))
+
+    def block(mapping: dict) -> str:
+        return ",\n".join(f"  {json.dumps(key)}: {one_line(mapping[key])}" for key in sorted(mapping))
+
+    return (f'{{"format": {format_version},\n"shared": {{\n{block(shared)}\n}},\n'
+            f'"files": {{\n{block(files)}\n}}}}\n')
+
+
 def update_reference(results_dir, reference_dir="reference") -> Path:
     """Regenerate ``reference_dir`` from the build in ``results_dir``.
 
@@ -205,10 +218,10 @@ def update_reference(results_dir, reference_dir="reference") -> Path:
     listed = [line.split("  ")[1].removeprefix("results/") for line in lines]
     data = [f"{data_digest(results / relative)}  results/{relative}" for relative in listed]
     (reference / "DATA.sha256").write_text("\n".join(data) + "\n")
-    attribute_sets, files, scales = {}, {}, {}
+    shared, files, scales = {}, {}, {}
     for relative in sorted(r for r in listed if r.endswith(".nc")):
         ds = open_checked(results / relative)
-        entry = profile(ds, attribute_sets)
+        entry = profile(ds, shared)
         entry["base"] = _base_tolerance(ds)
         table = point_table(ds)
         if table is not None and _stage_of(relative) is None:
@@ -223,8 +236,7 @@ def update_reference(results_dir, reference_dir="reference") -> Path:
             entry["base"] = files[stage[0]]["base"]
     if REGIMES_NC in files and "hbm/nnm1.nc" in files:  # its points are NNM1's stored points
         files[REGIMES_NC]["base"] = files["hbm/nnm1.nc"]["base"]
-    document = {"format": REFERENCE_FORMAT, "attributes": attribute_sets, "files": files}
-    (reference / "files.json").write_text(json.dumps(document, indent=1, sort_keys=True) + "\n")
+    (reference / "files.json").write_text(_compact_json(REFERENCE_FORMAT, shared, files))
     if (results / REGIMES_CSV).is_file():
         shutil.copyfile(results / REGIMES_CSV, reference / "nnm1_regimes.csv")
         with xr.open_dataset(results / REGIMES_NC) as regimes:
@@ -249,10 +261,10 @@ def _check_finite(name: str, ds: xr.Dataset) -> list[Row]:
     return rows
 
 
-def _check_structure(name: str, ds: xr.Dataset, entry: dict, attribute_sets: dict) -> list[Row]:
+def _check_structure(name: str, ds: xr.Dataset, entry: dict, shared: dict) -> list[Row]:
     """Missing and extra variables; each variable's dimensions, type and attributes; dimension sizes."""
     rows = []
-    expected, present = entry["variables"], {str(v) for v in ds.variables}
+    expected, present = shared[entry["variables"]], {str(v) for v in ds.variables}
     missing, extra = sorted(set(expected) - present), sorted(present - set(expected))
     if missing:
         rows.append(Row(name, f"variable {missing[0]}" if len(missing) == 1 else f"{len(missing)} variables missing",
@@ -261,11 +273,11 @@ def _check_structure(name: str, ds: xr.Dataset, entry: dict, attribute_sets: dic
         rows.append(Row(name, f"variable {extra[0]}" if len(extra) == 1 else f"{len(extra)} variables not in the "
                         "reference", "absent", ", ".join(extra)[:90], float(len(extra)), 0.0, DISCREPANT))
     for var in sorted(present & set(expected)):
-        spec, variable = expected[var], ds.variables[var]
-        if list(variable.dims) != spec["dims"] or str(variable.dtype) != spec["dtype"]:
-            rows.append(Row(name, f"variable {var}: dimensions and type", f"{spec['dims']} {spec['dtype']}",
+        (dims, dtype, attributes), variable = expected[var], ds.variables[var]
+        if list(variable.dims) != dims or str(variable.dtype) != dtype:
+            rows.append(Row(name, f"variable {var}: dimensions and type", f"{dims} {dtype}",
                             f"{list(variable.dims)} {variable.dtype}", float("nan"), 0.0, DISCREPANT))
-        wanted = attribute_sets.get(spec["attributes"], {})
+        wanted = shared.get(attributes, {})
         got = {key: json_value(value) for key, value in variable.attrs.items()}
         for key in sorted(set(wanted) | set(got)):
             if wanted.get(key) != got.get(key):
@@ -673,7 +685,7 @@ def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -
 # --------------------------------------------------------------------------- verify
 
 
-def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, attribute_sets: dict) -> list[Row]:
+def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, shared: dict) -> list[Row]:
     """Every check of one NetCDF file; a check that fails to run is a discrepant row with its reason."""
     try:
         ds = open_checked(path)
@@ -684,7 +696,7 @@ def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, at
     located = [v for pair in LOCATED.values() for v in pair]
     checks = [
         ("finite values", lambda: _check_finite(listed, ds)),
-        ("structure", lambda: _check_structure(listed, ds, entry, attribute_sets)),
+        ("structure", lambda: _check_structure(listed, ds, entry, shared)),
         ("global attributes", lambda: _check_attributes(listed, ds, entry)),
         ("values off the curve", lambda: _check_other_values(listed, ds, entry, skip=located + (
             [str(v) for v in ds.variables if ds[v].dims == ("regime",)] if relative == REGIMES_NC else []))),
@@ -712,9 +724,9 @@ def _load_reference(reference: Path) -> dict:
         document = json.loads((reference / "files.json").read_text())
     except (OSError, ValueError) as error:
         raise ValueError(f"{reference / 'files.json'} cannot be read ({error}): regenerate the reference") from None
-    if document.get("format") != REFERENCE_FORMAT:
-        raise ValueError(f"{reference} is a reference of format {document.get('format')}, this verifier reads format "
-                         f"{REFERENCE_FORMAT}: regenerate it (--update-reference)")
+    if document.get("format") != REFERENCE_FORMAT or not {"shared", "files"} <= set(document):
+        raise ValueError(f"{reference}/files.json is not of the format this verifier reads ({REFERENCE_FORMAT}): "
+                         "regenerate the reference (--update-reference)")
     return document
 
 
@@ -755,7 +767,7 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
         elif relative == REGIMES_CSV:
             rows += _regime_table_rows(listed, path, results, reference)
         elif relative in document["files"]:
-            rows += _check_dataset(listed, path, document["files"][relative], reference, document["attributes"])
+            rows += _check_dataset(listed, path, document["files"][relative], reference, document["shared"])
         else:
             rows.append(Row(listed, "file (SHA-256)", digest[:12], _sha256(path)[:12], float("nan"), 0.0, DISCREPANT))
     return rows
