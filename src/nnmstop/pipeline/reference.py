@@ -48,6 +48,8 @@ __all__ = [
     "json_value",
     "share",
     "projections",
+    "projected_columns",
+    "PROJECTIONS",
     "write_csv",
     "read_csv",
 ]
@@ -68,6 +70,18 @@ SAMPLING_VARIABLES = frozenset(
 MARKER_VARIABLES = frozenset({"branch_point", "energy_fold", "grazing", "marked"})
 #: Stability verdicts: compared outside the band of a change of verdict or resolution.
 STABILITY_VARIABLES = frozenset({"stable", "stability_resolved", "stability_reason", "stability_refined"})
+#: Stability numbers (Floquet multipliers and what is made of them): where two multipliers collide (a change
+#: of stability) they vary as a square root along the curve and cannot be interpolated; compared outside
+#: the band of a change, like the verdicts.
+STABILITY_VALUE_PATTERN = re.compile(
+    r"^(multiplier_\w+|max_multiplier|floquet_invariant|trace_invariant|stability_margin)$"
+)
+#: Values interpolated between the stored orbits of another file (the regime dataset's exact frequencies and
+#: frequency errors): accurate to that interpolation, not to the orbits; compared by their ranges.
+INTERPOLATED_VARIABLES = frozenset({"exact_frequency", "frequency_error", "relative_frequency_error"})
+#: A smooth quantity whose largest magnitude on the reference curve is below this is zero up to round-off
+#: (a share of subharmonics on a symmetric branch): compared as an accuracy estimate.
+ZERO_LEVEL = 1e-12
 #: Accuracy estimates (residuals, errors, deviations of the computed orbits): round-off or truncation,
 #: not reproducible point by point; each must stay within ACCURACY_FACTOR of the reference's largest.
 ACCURACY_PATTERN = re.compile(
@@ -114,8 +128,9 @@ def curve_coordinates(ds: xr.Dataset) -> tuple[str, str] | None:
 
 def variable_kind(name: str, variable: xr.Variable | xr.DataArray, coordinates=()) -> str:
     """How a variable along ``point`` is compared: ``curve`` (the coordinates), ``sampling``,
-    ``marker``, ``stability``, ``accuracy``, ``orbit`` (harmonics), ``discrete`` or ``smooth``;
-    ``other`` for a variable without the ``point`` dimension."""
+    ``marker``, ``stability`` (verdicts), ``stability_value``, ``accuracy``, ``interpolated``,
+    ``orbit`` (harmonics), ``discrete`` or ``smooth``; ``other`` for a variable without the ``point``
+    dimension."""
     if POINT not in variable.dims:
         return "other"
     if name in coordinates:
@@ -133,6 +148,10 @@ def variable_kind(name: str, variable: xr.Variable | xr.DataArray, coordinates=(
         return "discrete"  # integers, flags, labels
     if ACCURACY_PATTERN.search(name):
         return "accuracy"
+    if name in INTERPOLATED_VARIABLES:
+        return "interpolated"
+    if STABILITY_VALUE_PATTERN.match(name):
+        return "stability_value"
     return "smooth"
 
 
@@ -189,14 +208,19 @@ def _columns(ds: xr.Dataset, name: str) -> dict[str, np.ndarray]:
     return {f"{name}[{j}]": flat[:, j] for j in range(flat.shape[1])}
 
 
+POINT_KINDS = ("discrete", "stability", "marker", "accuracy", "interpolated", "stability_value", "smooth")
+#: The projections of the reference's curve tables: name -> the kind of the columns it sums.
+PROJECTIONS = {"orbit": "orbit", "quantities": "smooth", "stability": "stability_value"}
+
+
 def point_table(ds: xr.Dataset) -> dict:
     """The variables along ``point`` of a curve file by kind: ``curve`` (energy, frequency),
-    ``step``/``stage`` (if any), ``discrete``/``stability``/``marker``/``accuracy``/``smooth``
-    columns, ``orbit`` fingerprints (see :func:`_signals`); None if the file holds no curve."""
+    ``step``/``stage`` (if any), one table of columns per kind of :data:`POINT_KINDS`, and ``orbit``
+    fingerprints (see :func:`_signals`); None if the file holds no curve."""
     coordinates = curve_coordinates(ds)
     if coordinates is None:
         return None
-    table = {kind: {} for kind in ("discrete", "stability", "marker", "accuracy", "smooth")}
+    table = {kind: {} for kind in POINT_KINDS}
     table["curve"] = {"energy": ds[coordinates[0]].values, "frequency": ds[coordinates[1]].values}
     for name in ("step", "stage"):
         if name in ds.variables and ds[name].dims == (POINT,):
@@ -269,10 +293,20 @@ def profile(ds: xr.Dataset, shared: dict) -> dict:
             entry["values"][str(name)] = {"sha256": hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest()}
     table = point_table(ds)
     if table is not None:
-        entry["ranges"] = {name: _range(values) for name, values in table["smooth"].items()}
-        entry["ranges"].update({name: _range(values) for name, values in table["orbit"].items()})
-        entry["bounds"] = {name: float(np.max(np.abs(values))) for name, values in table["accuracy"].items()}
+        entry["ranges"], entry["bounds"] = {}, {}
+        for kind in ("accuracy", "interpolated", *PROJECTIONS.values()):
+            for name, values in table[kind].items():
+                largest = float(np.max(np.abs(values))) if len(values) else 0.0
+                if kind == "accuracy" or largest <= ZERO_LEVEL:
+                    entry["bounds"][name] = largest
+                else:
+                    entry["ranges"][name] = _range(values)
     return entry
+
+
+def projected_columns(table: dict, kind: str) -> dict[str, np.ndarray]:
+    """The columns of ``kind`` that a projection sums: those not zero up to round-off (ZERO_LEVEL)."""
+    return {name: values for name, values in table[kind].items() if np.max(np.abs(values), initial=0.0) > ZERO_LEVEL}
 
 
 def write_csv(path: Path, header: list[str], rows) -> None:

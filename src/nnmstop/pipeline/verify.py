@@ -35,12 +35,14 @@ from nnmstop.pipeline.reference import (
     ACCURACY_FACTOR,
     ACCURACY_PATTERN,
     POINT,
+    PROJECTIONS,
     REFERENCE_FORMAT,
     SAMPLING_VARIABLES,
     attribute_kind,
     json_value,
     point_table,
     profile,
+    projected_columns,
     projections,
     read_csv,
     write_csv,
@@ -59,8 +61,8 @@ DERIVED_TOLERANCE = 1e-6
 # Numbers of configured settings (global attributes): written from the configuration, so equal.
 SETTING_TOLERANCE = 1e-12
 LOCATED = {"branch point": ("branch_point_energy", "branch_point_frequency"), "fold": ("fold_energy", "fold_frequency")}
-PROJECTIONS = ("orbit", "quantities")
 WITHIN, DISCREPANT = "within tolerance", "discrepant"
+LOO_FACTOR = 3.0  # leave-one-out deviations per interpolation tolerance along a curve (see _check_projection)
 
 
 @dataclass
@@ -163,10 +165,11 @@ def _write_curve(path: Path, table: dict) -> dict:
     for kind in ("discrete", "stability", "marker"):
         columns.update(table[kind])
     scales = {}
-    for projection, source in zip(PROJECTIONS, ("orbit", "smooth")):
-        if table[source]:
-            scales[projection] = {name: _column_scale(values) for name, values in table[source].items()}
-            columns[projection] = projections(table[source], scales[projection])[0]
+    for projection, kind in PROJECTIONS.items():
+        projected = projected_columns(table, kind)
+        if projected:
+            scales[projection] = {name: _column_scale(values) for name, values in projected.items()}
+            columns[projection] = projections(projected, scales[projection])[0]
     write_csv(path, list(columns), zip(*columns.values()))
     return scales
 
@@ -419,7 +422,7 @@ def _check_regimes(name: str, reference: dict, sampling: dict, build: dict, buil
     """The regime table: the regimes and their exact sequences exactly; statistics over
     stored orbits within the largest change between neighbouring orbits (either build)."""
     identities = ("impacts_per_period", "exact_sequence")
-    if any(list(map(str, reference[k])) != list(map(str, build[k])) for k in identities):
+    if any(_labels(reference[k]) != _labels(build[k]) for k in identities):
         return [Row(name, "regimes (impacts per period, exact sequence)", str(list(reference["impacts_per_period"])),
                     str(list(build["impacts_per_period"])), float("nan"), 0.0, DISCREPANT)]
     step_of = {"energy": "d_log_energy", "frequency": "d_frequency", "frequency_error": "d_frequency_error",
@@ -448,6 +451,11 @@ def _check_regimes(name: str, reference: dict, sampling: dict, build: dict, buil
                         + (" (ln)" if kind == "energy" else ""), f"{r:.9g}", f"{b:.9g}", difference, tolerance,
                         _verdict(difference <= tolerance)))
     return rows
+
+
+def _labels(values) -> list[str]:
+    """Values as text, whole numbers without a decimal point (a CSV gives 2.0 where a dataset holds 2)."""
+    return [str(v).removesuffix(".0") for v in np.asarray(values).tolist()]
 
 
 def _regime_rows(name: str, ds: xr.Dataset, reference_dir: Path) -> list[Row]:
@@ -542,8 +550,8 @@ def _check_discrete(name: str, reference: dict, table: dict, curves: dict, match
             if column not in reference:
                 rows.append(Row(name, f"{column} along the curve", "absent", "present", float("nan"), 0.0, DISCREPANT))
                 continue
-            ref = np.array([str(v).removesuffix(".0") for v in reference[column][keep_ref]])
-            got = np.array([str(v).removesuffix(".0") for v in np.asarray(table[kind][column])[keep_build]])
+            ref = np.array(_labels(reference[column][keep_ref]))
+            got = np.array(_labels(np.asarray(table[kind][column])[keep_build]))
             valid = ~skip & (~band[segment] if kind == "stability" else True)
             wrong = valid & (got != ref[segment]) & (got != ref[segment + 1])
             if wrong.any():
@@ -598,19 +606,26 @@ def _check_projection(name: str, kind: str, reference: dict, columns: dict, scal
     """Every orbit fingerprint or smooth quantity at each build point, through the projection: the
     build's value against the reference's interpolated at the point's position; tolerance = the
     base accuracy of the values + the reference's interpolation error there (leave-one-out)."""
-    label = {"orbit": "orbits (harmonics, every signal)", "quantities": "smooth quantities"}[kind]
+    label = {"orbit": "orbits (harmonics, every signal)", "quantities": "smooth quantities",
+             "stability": "stability numbers (multipliers, margins; outside the band of a change)"}[kind]
     missing = sorted(set(scales) - set(columns))
     if missing:
         return [Row(name, f"{label}: not compared, columns missing", "-", str(missing)[:60], float("nan"), 0.0,
                     DISCREPANT)]
     segment, parameter, skip = match
     c_ref, c_build = curves["reference"], curves["build"]
+    if kind == "stability":
+        skip = skip | _band(reference, c_ref.keep)[segment]
     value, size = projections(columns, scales)
     value, size = value[c_build.keep], size[c_build.keep]
     ref = np.asarray(reference[kind], dtype=float)[c_ref.keep]
     expected = c_ref.values_at(ref, parameter, segment)
     difference = np.abs(value - expected)
-    tolerance = base * size + c_ref.segment_error(segment, c_ref.leave_one_out(ref)) + 1e-12 * np.abs(expected)
+    # three times the largest leave-one-out deviation of the segments around: an over-estimate of the cubic's
+    # error for smooth values, and it covers the noise of values sampled in time (x_max) or round-off
+    loo = c_ref.leave_one_out(ref)
+    around = np.max([c_ref.segment_error(np.clip(segment + k, 0, len(c_ref.s) - 2), loo) for k in (-1, 0, 1)], axis=0)
+    tolerance = base * size + LOO_FACTOR * around + 1e-12 * np.abs(expected)
     ratio = np.where(skip, 0.0, difference / np.maximum(tolerance, 1e-300))
     worst = int(np.argmax(ratio))
     e, f = np.exp(c_build.points[worst])
@@ -619,12 +634,17 @@ def _check_projection(name: str, kind: str, reference: dict, columns: dict, scal
                 _verdict(ratio[worst] <= 1))]
 
 
+def _column(table: dict, column: str):
+    """A column of a point table, whatever its kind (None if absent)."""
+    return next((t[column] for t in table.values() if isinstance(t, dict) and column in t), None)
+
+
 def _check_ranges(name: str, entry: dict, table: dict, base: float) -> list[Row]:
     """Each smooth quantity's least and largest value on the curve: within its largest change between
     neighbouring stored points (either build) and its base accuracy. Names the variable of a change."""
     rows = []
     for column, (low, high, step) in sorted(entry.get("ranges", {}).items()):
-        values = table["smooth"].get(column, table["orbit"].get(column))
+        values = _column(table, column)
         if values is None:
             continue
         got_low, got_high, got_step = (float(np.min(values)), float(np.max(values)),
@@ -641,7 +661,7 @@ def _check_bounds(name: str, entry: dict, table: dict) -> list[Row]:
     """Accuracy estimates: at every stored point within ACCURACY_FACTOR of the reference's largest."""
     rows, checked = [], 0
     for column, largest in sorted(entry.get("bounds", {}).items()):
-        values = table["accuracy"].get(column)
+        values = _column(table, column)
         if values is None:
             continue
         checked += 1
@@ -674,7 +694,7 @@ def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -
     match = (segment, parameter, past)
     rows += _check_discrete(name, reference, table, curves, match)
     rows += _check_markers(name, reference, table, curves)
-    for kind, source in zip(PROJECTIONS, ("orbit", "smooth")):
+    for kind, source in PROJECTIONS.items():
         if kind in spec["scales"]:
             rows += _check_projection(name, kind, reference, table[source], spec["scales"][kind], curves, match, base)
     rows += _check_ranges(name, entry, table, base)
