@@ -148,6 +148,7 @@ ALTERATIONS = {
     "exact/nnm1_two_impacts.nc": "no frequency",
     "hbm/stages/nnm1_stage2.nc": "empty",
     "hbm/stages/nnm1_stage3.nc": "all-NaN curve",
+    "hbm/stages/nnm2_stage1.nc": "x_max of one orbit moved by 1 %",
 }
 
 
@@ -167,6 +168,9 @@ def _alter(copy: Path) -> None:
     def all_nan(ds):
         ds["frequency"].values[:] = np.nan
 
+    def x_max(ds):
+        ds["x_max"].values[ds.sizes["point"] // 2] *= 1.01
+
     _rewrite(copy / "hbm/nnm1.nc", invert)
     _rewrite(copy / "hbm/nnm2.nc", alpha)
     _rewrite(copy / "hbm/stages/nnm1_stage4.nc", nan)
@@ -177,6 +181,7 @@ def _alter(copy: Path) -> None:
     _rewrite(copy / "exact/nnm1_two_impacts.nc", no_frequency)
     (copy / "hbm/stages/nnm1_stage2.nc").write_bytes(b"")
     _rewrite(copy / "hbm/stages/nnm1_stage3.nc", all_nan)
+    _rewrite(copy / "hbm/stages/nnm2_stage1.nc", x_max)
 
 
 @pytest.fixture(scope="module")
@@ -189,8 +194,9 @@ def altered(reference, tmp_path_factory):
 
 
 def test_damaged_and_altered_files_are_each_discrepant_and_named(reference, altered, capsys):
-    """The adversarial copies of issue 25: every altered file is discrepant with a reason, the others
-    stay identical, the table and counts come out and the exit status is 1."""
+    """The adversarial copies of issue 25 (and one quantity of one orbit moved by 1 %): every altered
+    file is discrepant with a reason, the others stay identical, the table and counts come out and the
+    exit status is 1."""
     _, ref = reference
     copy, rows = altered
     verdicts = file_verdicts(rows)
@@ -215,6 +221,7 @@ def test_damaged_and_altered_files_are_each_discrepant_and_named(reference, alte
     ("exact/nnm1_two_impacts.nc", "variable frequency"),
     ("hbm/stages/nnm1_stage2.nc", "readable NetCDF"),
     ("hbm/stages/nnm1_stage3.nc", "variable frequency: NaN or infinite values"),
+    ("hbm/stages/nnm2_stage1.nc", "smooth quantities"),
 ])  # fmt: skip
 def test_each_alteration_is_reported_with_its_reason(altered, relative, reason):
     _, rows = altered
