@@ -28,6 +28,7 @@ from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
+from nnmstop.netcdf import check_up_to_date
 from nnmstop.study.runs import (
     ERROR_KEYS,
     case_config,
@@ -310,10 +311,7 @@ def exact_cost_dataset(config: dict, repeats: int = 3) -> xr.Dataset:
 
 def _check_case(ds: xr.Dataset, label: str, config: dict, expect: dict) -> None:
     """Refuse a case dataset computed with other settings (a stale file)."""
-    for key, value in expect.items():
-        stored = ds.attrs.get(key)
-        if stored is None or not np.isclose(float(stored), float(value), rtol=1e-12, atol=0):
-            raise ValueError(f"{label}: {key} = {stored!r} in the dataset but {value!r} expected (stale study file?)")
+    check_up_to_date(ds, expect, source=label)
     energies = np.asarray(config["study"]["energies"], dtype=float)
     if ds.sizes.get("energy") != energies.size or not np.allclose(ds["energy"].values, energies, rtol=1e-12, atol=0):
         raise ValueError(f"{label}: computed at the energies {ds['energy'].values.tolist()}, the configuration asks for {energies.tolist()}")
