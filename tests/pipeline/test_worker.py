@@ -32,22 +32,36 @@ REPO = Path(__file__).resolve().parents[2]
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
 
 
-@pytest.fixture
-def worker_dir(monkeypatch):
-    """A socket directory of the test's own (short: a socket path has at most 107 characters),
-    so that no worker of another build serves the test's jobs. Workers still running at the end
-    are ended."""
+def _own_worker_dir():
+    """A socket directory of its own (short: a socket path has at most 107 characters), so that no
+    worker of another build serves the test's jobs; workers still running at the end are ended."""
     directory = Path(tempfile.mkdtemp(prefix="nnw"))
-    monkeypatch.setenv("NNMSTOP_WORKER_DIR", str(directory))
-    yield directory
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("NNMSTOP_WORKER_DIR", str(directory))
+        yield directory
+    ended = []
     for sock in directory.glob("*.sock"):
         pid = worker_pid(sock)
         if pid:
             os.kill(pid, signal.SIGCONT)
             os.kill(pid, signal.SIGTERM)
+            ended.append(pid)
+    wait_until(lambda: not any(alive(pid) for pid in ended), timeout=10.0)
     for leftover in directory.iterdir():
         leftover.unlink()
     directory.rmdir()
+
+
+@pytest.fixture
+def worker_dir():
+    """A worker of the test's own (for tests that stop it, or wait for it to exit)."""
+    yield from _own_worker_dir()
+
+
+@pytest.fixture(scope="module")
+def shared_worker_dir():
+    """One worker for the tests that only send it jobs (each start imports numpy, scipy, ...)."""
+    yield from _own_worker_dir()
 
 
 def worker_pid(sock: Path) -> int | None:
@@ -104,11 +118,11 @@ def started_pid(log: Path) -> int | None:
     return None
 
 
-def test_task_in_the_worker_writes_the_same_bytes_as_in_process(worker_dir, tmp_path):
+def test_task_in_the_worker_writes_the_same_bytes_as_in_process(shared_worker_dir, tmp_path):
     in_process, in_worker = tmp_path / "process", tmp_path / "worker"
     in_process.mkdir(), in_worker.mkdir()
     run_request(two_impact_request(in_process))
-    assert run_in_worker(two_impact_request(in_worker), idle=2.0) == 0
+    assert run_in_worker(two_impact_request(in_worker), idle=60.0) == 0
     assert (in_worker / "two_impacts.nc").read_bytes() == (in_process / "two_impacts.nc").read_bytes()
     xr.testing.assert_identical(
         xr.load_dataset(in_worker / "two_impacts.nc"), xr.load_dataset(in_process / "two_impacts.nc")
@@ -117,10 +131,10 @@ def test_task_in_the_worker_writes_the_same_bytes_as_in_process(worker_dir, tmp_
     assert "task exact_two_impacts ran in the warm worker" in log and "s CPU (user" in log
 
 
-def test_a_failing_task_fails_the_job_and_leaves_no_output(worker_dir, tmp_path):
+def test_a_failing_task_fails_the_job_and_leaves_no_output(shared_worker_dir, tmp_path):
     request = two_impact_request(tmp_path)
     request["config"]["model"] = {**request["config"]["model"], "eta": -1.0}
-    assert run_in_worker(request, idle=2.0) == 1
+    assert run_in_worker(request, idle=60.0) == 1
     assert not (tmp_path / "two_impacts.nc").exists()
     assert "eta" in (tmp_path / "two_impacts.log").read_text()
 
@@ -245,7 +259,7 @@ def start_slow_job(directory: Path) -> tuple[subprocess.Popen, int]:
     return job, started_pid(directory / "two_impacts.log")
 
 
-def test_a_task_dies_with_its_killed_job_and_writes_nothing(worker_dir, tmp_path):
+def test_a_task_dies_with_its_killed_job_and_writes_nothing(shared_worker_dir, tmp_path):
     job, task = start_slow_job(tmp_path)
     assert alive(task) and task != job.pid
     job.kill()  # SIGKILL: the job cannot pass anything on
@@ -257,7 +271,7 @@ def test_a_task_dies_with_its_killed_job_and_writes_nothing(worker_dir, tmp_path
 
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
-def test_a_signalled_job_interrupts_its_task_which_logs_it(worker_dir, tmp_path, signum):
+def test_a_signalled_job_interrupts_its_task_which_logs_it(shared_worker_dir, tmp_path, signum):
     job, task = start_slow_job(tmp_path)
     job.send_signal(signum)
     _, stderr = job.communicate(timeout=60)
