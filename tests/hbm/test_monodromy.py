@@ -23,17 +23,13 @@ from nnmstop.config import ConfigError, load_config, validate_config
 from nnmstop.exact.family import follow_two_impact_family as follow_family
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.exact.stability import exact_multipliers
+from nnmstop.floquet import symplectic_invariants
 from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.monodromy import (
-    MonodromySettings,
-    branch_monodromy,
-    orbit_monodromy,
-    trace_invariants,
-    variational_step_matrices,
-)
-from nnmstop.hbm.shooting_refinement import refined_stability, segment_flow, shooting_stability
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, variational_step_matrices
+from nnmstop.hbm.shooting_refinement import RegularizedDynamics, refined_stability, segment_flow, shooting_stability
 from nnmstop.hbm.stability import branch_hill, orbit_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.hbm.variational import Linearization
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.tasks.hbm import stability_settings
@@ -74,23 +70,31 @@ def test_linear_limit_matches_closed_form():
     assert r.stable[0] and r.resolved[0]
 
 
-@pytest.mark.parametrize("step", [0.01, 0.1, 0.6, 3.0])  # the two largest need 6 and 8 squarings
+@pytest.mark.parametrize("step", [0.01, 0.1, 0.6, 3.0])  # the two largest need squarings
 def test_magnus_step_matrices_are_the_exponentials_of_their_generators(step):
-    """The step matrices (Cayley-Hamilton series) against scipy's expm (Pade) of the Magnus generator
-    h A(k_mean) + sqrt(3)/12 h**2 (k_2 - k_1) diag(1, 0, -1, 0), for unequal masses and stiffnesses."""
+    """The step matrices (Cayley-Hamilton series, balanced coordinates) against scipy's expm (Pade) of the
+    Magnus generator h/2 (A_1 + A_2) + sqrt(3)/12 h**2 [A_2, A_1], A_j = [[0, I], [-M^-1 K_t(t_j), 0]],
+    in (q, q') coordinates, for unequal masses and stiffnesses."""
     params = ModelParameters(alpha=30.0, beta=0.7, delta=2.5, eta=0.1)
+    system = HarmonicBalanceSystem(two_dof_structure(params), 4)
+    linearization = Linearization.of(system)
     rng = np.random.default_rng(3)
-    nodes = rng.uniform(params.eta, params.alpha, size=(3, 5, 2))
-    matrices = variational_step_matrices(nodes, step, params)
+    nodes = rng.uniform(params.eta, params.alpha, size=(1, 3, 5, 2))
+    matrices = linearization.to_physical(variational_step_matrices(linearization, nodes, step))
     b, d = params.beta, params.delta
+
+    def generator(k):
+        stiffness = np.array([[1.0 + b + k, -b], [-b / d, b / d]])
+        return np.block([[np.zeros((2, 2)), np.eye(2)], [-stiffness, np.zeros((2, 2))]])
+
     for k, matrix in zip(nodes.reshape(-1, 2), matrices.reshape(-1, 4, 4)):
-        stiffness = np.array([[1.0 + b + k.mean(), -b], [-b / d, b / d]])
-        generator = step * np.block([[np.zeros((2, 2)), np.eye(2)], [-stiffness, np.zeros((2, 2))]])
-        generator += np.sqrt(3.0) / 12.0 * step**2 * (k[1] - k[0]) * np.diag([1.0, 0.0, -1.0, 0.0])
-        expected = scipy.linalg.expm(generator)
-        # round-off of a series summed at norm <= 1/2 (a few ulps), doubled by each of the squarings
-        squarings = max(0, int(np.ceil(np.log2(np.abs(generator).sum(axis=1).max() / 0.5))))
-        tolerance = 2.0 ** (squarings + 4) * np.finfo(float).eps * np.abs(expected).max()
+        A1, A2 = generator(k[0]), generator(k[1])
+        omega = 0.5 * step * (A1 + A2) + np.sqrt(3.0) / 12.0 * step**2 * (A2 @ A1 - A1 @ A2)
+        expected = scipy.linalg.expm(omega)
+        # round-off of a series summed at norm <= 1/2 (a few ulps), doubled by each squaring (of the balanced
+        # generator, whose norm is that of omega at most)
+        squarings = max(0, int(np.ceil(np.log2(np.abs(omega).sum(axis=1).max() / 0.5))))
+        tolerance = 2.0 ** (squarings + 5) * np.finfo(float).eps * np.abs(expected).max()
         np.testing.assert_allclose(matrix, expected, rtol=0, atol=tolerance)
 
 
@@ -174,10 +178,11 @@ def test_segment_flows_chain_into_the_whole_flow():
     start = np.array([[1.3, 0.6, 0.4, -0.8]])
     period = np.array([6.0])
     phases = np.linspace(0.0, 0.5 * np.pi, 65)[None]
-    whole_end, whole_Q = segment_flow(params, start, period, phases)
+    dynamics = RegularizedDynamics(two_dof_structure(params))
+    whole_end, whole_Q = segment_flow(dynamics, start, period, phases)
     state, Q = start, np.eye(4)
     for m in range(4):
-        state, Q_m = segment_flow(params, state, period, phases[:, 16 * m : 16 * (m + 1) + 1])
+        state, Q_m = segment_flow(dynamics, state, period, phases[:, 16 * m : 16 * (m + 1) + 1])
         Q = Q_m[0] @ Q
     np.testing.assert_allclose(state, whole_end, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(Q, whole_Q[0], rtol=1e-11, atol=1e-11 * np.abs(whole_Q).max())
@@ -186,12 +191,13 @@ def test_segment_flows_chain_into_the_whole_flow():
 def test_refined_orbits_match_adaptive_integration(system, refined):
     """DOP853 over a whole period (an independent integrator, no symmetry used) from the refined start:
     the orbit closes, and the multipliers of its monodromy match, within the two integrators' errors."""
-    stable = np.abs(refined.invariant) <= 2
+    stable = np.abs(refined.invariants.s[:, 0].real) <= 2
     assert stable.any() and (~stable).any()
     picks = [
-        int(np.argmax(np.where(stable, np.abs(refined.invariant - 2), -1))),
-        int(np.argmax(np.where(~stable, np.abs(refined.invariant - 2), -1))),
+        int(np.argmax(np.where(stable, np.abs(refined.invariants.s[:, 0].real - 2), -1))),
+        int(np.argmax(np.where(~stable, np.abs(refined.invariants.s[:, 0].real - 2), -1))),
     ]
+    invariant = refined.invariants.s[:, 0].real
     for i in picks:
         z = np.r_[refined.start[i], 0.0, 0.0]
         coarse = monodromy(system.params, z, refined.period[i], rtol=1e-12, atol=1e-12)
@@ -199,16 +205,16 @@ def test_refined_orbits_match_adaptive_integration(system, refined):
         assert fine.closure < 1e-8
         # Trivial pair at +1 on a periodic orbit: s = tr M - 2 (reference error from its two tolerances).
         s_coarse, s_fine = np.trace(coarse.matrix) - 2.0, np.trace(fine.matrix) - 2.0
-        assert abs(refined.invariant[i] - s_fine) <= 2 * refined.integration_error[i] + abs(s_fine - s_coarse) + 1e-10
+        assert abs(invariant[i] - s_fine) <= 2 * refined.integration_error[i] + abs(s_fine - s_coarse) + 1e-10
         assert (abs(s_fine) <= 2) == stable[i]
 
 
 def test_unstable_refined_orbit_perturbation_grows_like_its_multiplier(system, refined):
     """A small perturbation along the unstable direction, integrated through the nonlinear equations (7)
     period after period (DOP853), grows by the refined orbit's multiplier mu = s/2 + sqrt(s**2/4 - 1)."""
-    unstable = np.flatnonzero(np.abs(refined.invariant) > 2)
-    i = int(unstable[np.argmax(refined.invariant[unstable])])
-    s = refined.invariant[i]
+    unstable = np.flatnonzero(np.abs(refined.invariants.s[:, 0].real) > 2)
+    i = int(unstable[np.argmax(refined.invariants.s[:, 0].real[unstable])])
+    s = refined.invariants.s[:, 0].real[i]
     mu = s / 2 + np.sqrt(s * s / 4 - 1)
     assert mu > 1.05  # growth measurable in a few periods
     z0 = np.r_[refined.start[i], 0.0, 0.0]
@@ -239,7 +245,8 @@ def test_matches_integrated_monodromy_of_refined_orbits(system, nnm1, verdicts):
         z0, T = orbit_initial_state(system, nnm1[i])
         z, T = refine_orbit(system.params, z0, T)
         ref = monodromy(system.params, z, T)
-        s_ref, dev_ref = trace_invariants(ref.matrix)
+        trivial, others, _ = symplectic_invariants(ref.matrix[None])  # delta = 1: symplectic for the standard J
+        s_ref, dev_ref = others[0, 0].real, abs(trivial[0] - 2.0)
         assert dev_ref < 1e-6  # exact orbit: trivial pair at +1
         # The HBM orbit differs from the exact one by its error: s moves by about its time residual.
         tol = mono.settings.resolution_factor * (mono.integration_error[i] + mono.orbit_error[i]) + 1e-8
@@ -318,7 +325,7 @@ def test_refined_multipliers_tend_to_the_exact_ones_as_eta_vanishes():
 
         orbit = problem.time_history(y, y[3] + theta * period / (2 * np.pi))
         r = shooting_stability(
-            params,
+            two_dof_structure(params),
             [period],
             orbit.x[None],
             (orbit.xdot * period / (2 * np.pi))[None],
@@ -330,8 +337,9 @@ def test_refined_multipliers_tend_to_the_exact_ones_as_eta_vanishes():
             s.refine_max_change,
         )
         assert r.converged[0]
-        assert (abs(r.invariant[0]) <= 2) == exact.stable
-        errors.append(abs(r.invariant[0] - exact.trace_invariant))
+        invariant = r.invariants.s[0, 0].real
+        assert (abs(invariant) <= 2) == exact.stable
+        errors.append(abs(invariant - exact.trace_invariant))
     # First order: the error falls by about 10 per decade of eta (between orders 0.7 and 1.3).
     assert all(0.05 < later / earlier < 0.2 for earlier, later in zip(errors, errors[1:]))
     assert errors[-1] < 1e-3

@@ -17,19 +17,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.floquet import multipliers_from_invariant, transition_matrix
-from nnmstop.hbm.hill import halfwave_symmetric, is_reversible
+from nnmstop.floquet import GAUSS, PairInvariants, check_power_of_two, hamiltonian_expm, transition_matrix
 from nnmstop.hbm.shooting_refinement import refined_stability
-from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
+from nnmstop.hbm.variational import Linearization, halfwave_symmetric, is_reversible, stop_coefficients
 from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "MonodromySettings",
     "BranchMonodromy",
     "REASONS",
+    "variational_generators",
     "variational_step_matrices",
-    "transition_matrix",
-    "trace_invariants",
+    "integrated_monodromy",
     "orbit_monodromy",
     "branch_monodromy",
 ]
@@ -42,10 +41,9 @@ REASONS = (
     "resolved", "integration_error", "orbit_error", "resolved_refined", "shooting_not_converged", "refined_at_type_change"
 )
 RESOLVED_REASONS = (0, 3)
-# Gauss-Legendre nodes of one step (fractions of the step).
-_GAUSS = (0.5 - np.sqrt(3.0) / 6.0, 0.5 + np.sqrt(3.0) / 6.0)
-# Matrices of the batched products per chunk: 4 MB an array, about the fastest here (memory traffic).
-_CHUNK_MATRICES = 2**15
+# Entries of the batched step matrices per chunk (4 MB an array: 2**15 matrices of 4 x 4), about the
+# fastest here (memory traffic).
+_CHUNK_ENTRIES = 2**19
 
 
 @dataclass(frozen=True)
@@ -92,9 +90,7 @@ class MonodromySettings:
 
     def __post_init__(self):
         for name in ("steps", "max_steps"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 64 or value & (value - 1):
-                raise ValueError(f"stability {name} must be a power of two >= 64, got {value!r}")
+            check_power_of_two(f"stability {name}", getattr(self, name), 64)
         if self.max_steps < self.steps:
             raise ValueError(f"stability max_steps ({self.max_steps}) must be >= steps ({self.steps})")
         if not (np.isfinite(self.trace_tol) and self.trace_tol >= 0):
@@ -104,9 +100,7 @@ class MonodromySettings:
         if not isinstance(self.refine, (bool, np.bool_)):
             raise ValueError(f"stability refine must be true or false, got {self.refine!r}")
         for name in ("refine_steps", "refine_max_steps"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 16 or value & (value - 1):
-                raise ValueError(f"stability {name} must be a power of two >= 16, got {value!r}")
+            check_power_of_two(f"stability {name}", getattr(self, name), 16)
         if self.refine_max_steps < 2 * self.refine_steps:
             raise ValueError(
                 f"stability refine_max_steps ({self.refine_max_steps}) must be >= 2 x refine_steps ({self.refine_steps})"
@@ -131,93 +125,75 @@ class MonodromySettings:
 # --------------------------------------------------------------------------- integrator
 
 
-def _product(a, b):
-    """Products of 4x4 matrices stored entry-first, ``a``, ``b``: (4, 4, m)."""
-    return np.einsum("ikm,kjm->ijm", a, b)
+def chunk_orbits(n_states: int, steps: int) -> int:
+    """Orbits per chunk of the batched step matrices: about :data:`_CHUNK_ENTRIES` entries."""
+    return max(1, _CHUNK_ENTRIES // (steps * n_states * n_states))
 
 
-def _hamiltonian_exp(omega, norm: float):
-    """``exp`` of 4x4 matrices with an even characteristic polynomial, stored entry-first (4, 4, m).
+def variational_generators(linearization: Linearization, stiffness_nodes, step, balance: float = 1.0):
+    """Fourth-order Magnus generators of ``z'' + B(t) z = 0`` in the coordinates ``(z, z' / balance)``, entry-first.
 
-    The Magnus matrices are Hamiltonian (for the mass-weighted symplectic form), so their
-    characteristic polynomial is ``l**4 + e2 l**2 + e4`` and, by Cayley-Hamilton,
-    ``X**4 = -e2 X**2 - e4 I``: every power is ``u I + v X**2`` or ``(u I + v X**2) X``
-    with scalar ``u, v`` from a two-term recurrence. The Taylor series of degree 15 after
-    scaling to norm <= 1/2 (truncation ``(1/2)**16 / 16!``, below round-off) is then
-    ``a I + b X**2 + (c I + d X**2) X``: two matrix products and scalar work, instead of
-    the seven matrix products of a matrix polynomial. ``norm``: the largest row sum of
-    ``|omega|`` over the stack. Storing the 16 entries first keeps each product a few
-    vector operations over the whole stack.
-    """
-    squarings = max(0, int(np.ceil(np.log2(norm / 0.5)))) if norm > 0 else 0
-    X = omega / 2.0**squarings if squarings else omega
-    X2 = _product(X, X)
-    p2 = X2[0, 0] + X2[1, 1] + X2[2, 2] + X2[3, 3]  # tr X**2 = -2 e2
-    p4 = np.einsum("ijm,jim->m", X2, X2)  # tr X**4 = 2 e2**2 - 4 e4 (Newton's identities, e1 = e3 = 0)
-    e2 = -0.5 * p2
-    e4 = 0.25 * (0.5 * p2 * p2 - p4)
-    u, v = np.ones_like(e2), np.zeros_like(e2)  # X**0 = u I + v X**2
-    a, b, c, d = np.ones_like(e2), np.zeros_like(e2), np.ones_like(e2), np.zeros_like(e2)
-    factorial = 1.0
-    for k in range(1, 8):
-        u, v = -e4 * v, u - e2 * v  # X**(2k) = X**(2k-2) X**2
-        factorial *= 2 * k - 1
-        factorial *= 2 * k
-        a += u / factorial
-        b += v / factorial
-        odd_factor = 1.0 / (factorial * (2 * k + 1))  # 1 / (2k + 1)!
-        c += u * odd_factor
-        d += v * odd_factor
-    result = b * X2
-    result += _product(c * np.eye(4)[:, :, None] + d * X2, X)
-    result[0, 0] += a
-    result[1, 1] += a
-    result[2, 2] += a
-    result[3, 3] += a
-    for _ in range(squarings):
-        result = _product(result, result)
-    return result
-
-
-def variational_step_matrices(stiffness_nodes, step, params: ModelParameters):
-    """Fourth-order Magnus step matrices of ``Phi' = (A0 + k(t) E) Phi``.
+    With ``A_j = [[0, I], [-B_j, 0]]`` at the two Gauss nodes, ``B_j = B_0 + sum_i k_ij w_i w_i^T``, the
+    step's generator ``h/2 (A_1 + A_2) + sqrt(3)/12 h**2 [A_2, A_1]`` is
+    ``[[G, h I], [-h B_mean, -G]]`` with ``G = sqrt(3)/12 h**2 (B_2 - B_1)`` (symmetric): Hamiltonian,
+    so its exponential is symplectic and :func:`nnmstop.floquet.hamiltonian_expm` applies. In the
+    balanced coordinates the off-diagonal blocks are ``h balance I`` and ``-h B_mean / balance``: with
+    ``balance**2 ~ ||B||`` the norm, hence the squarings of the exponential, follow the fastest
+    frequency ``sqrt(||B||)`` instead of ``||B||``.
 
     Parameters
     ----------
-    stiffness_nodes : ndarray, shape (..., n, 2)
-        ``k = f'(x)`` at the two Gauss-Legendre nodes of each of ``n`` steps.
+    linearization : Linearization
+    stiffness_nodes : ndarray, shape (s, ..., 2)
+        ``k_i = f_i'(x_i)`` of each stop at the two Gauss nodes of each step.
     step : float or ndarray
-        Step length in time, > 0 (broadcast against ``stiffness_nodes.shape[:-1]``, e.g.
-        one per orbit as shape ``(n_orbits, 1)``).
-    params : ModelParameters
+        Step length, broadcast against ``stiffness_nodes.shape[1:-1]``.
+    balance : float
 
     Returns
     -------
-    ndarray, shape (..., n, 4, 4)
-        ``exp(Omega_j)``, ``Omega_j = h A(k_mean) + sqrt(3)/12 h**2 (k_2 - k_1) [E, A0]``
-        (the commutator ``[A_2, A_1]`` of the two node matrices reduces to that term,
-        ``[E, A0] = diag(1, 0, -1, 0)``). ``Omega_j`` is filled entry by entry: eight
-        non-zero entries of sixteen.
+    ndarray, shape (2N, 2N, ...)
+        The entries first (the layout of :func:`~nnmstop.floquet.hamiltonian_expm` with ``entry_first``).
     """
-    b, d = params.beta, params.delta
     k = np.asarray(stiffness_nodes, dtype=float)
-    k_mean = 0.5 * (k[..., 0] + k[..., 1])
-    k_diff = k[..., 1] - k[..., 0]
-    h = np.broadcast_to(np.asarray(step, dtype=float), k_mean.shape).ravel()
-    gamma = (np.sqrt(3.0) / 12.0) * h**2 * k_diff.ravel()
-    omega = np.zeros((4, 4, h.size))
-    omega[0, 0] = gamma
-    omega[0, 2] = h
-    omega[1, 3] = h
-    omega[2, 0] = h * (-(1.0 + b) - k_mean.ravel())
-    omega[2, 1] = h * b
-    omega[2, 2] = -gamma
-    omega[3, 0] = h * (b / d)
-    omega[3, 1] = h * (-b / d)
-    # Largest row sum of |Omega|, for the scaling of the exponential.
-    norm = float(np.abs(omega).sum(axis=1).max()) if h.size else 0.0
-    exponential = _hamiltonian_exp(omega, norm)
-    return np.ascontiguousarray(np.moveaxis(exponential, 2, 0)).reshape(k_mean.shape + (4, 4))
+    N = linearization.n_dofs
+    batch = k.shape[1:-1]
+    h = np.broadcast_to(np.asarray(step, dtype=float), batch)
+    outer = linearization.stop_outer
+    out = np.empty((2 * N, 2 * N) + batch)
+    out[:N, :N] = np.tensordot(outer, k[..., 1] - k[..., 0], axes=(0, 0))
+    out[:N, :N] *= (np.sqrt(3.0) / 12.0) * h * h
+    out[N:, N:] = -out[:N, :N]
+    out[N:, :N] = np.tensordot(outer, 0.5 * (k[..., 0] + k[..., 1]), axes=(0, 0))
+    out[N:, :N] += linearization.stiffness.reshape((N, N) + (1,) * len(batch))
+    out[N:, :N] *= -h / balance
+    out[:N, N:] = 0.0
+    for i in range(N):
+        out[i, N + i] = h * balance
+    return out
+
+
+def variational_step_matrices(linearization: Linearization, stiffness_nodes, step):
+    """Magnus step maps ``exp(Omega_j)`` of the variational equation in the coordinates ``(z, z')``.
+
+    Arguments as in :func:`variational_generators`; returns ``(..., 2N, 2N)``. (The integration of
+    :func:`branch_monodromy` keeps the balanced coordinates, whose monodromy is similar.)
+    """
+    k = np.asarray(stiffness_nodes, dtype=float)
+    balance = _balance(linearization, k)
+    mats = np.moveaxis(hamiltonian_expm(variational_generators(linearization, k, step, balance), True), (0, 1), (-2, -1))
+    N = linearization.n_dofs
+    mats[..., :N, N:] /= balance  # exp(Omega) = T exp(Omega_balanced) T^-1, T = diag(I, balance I)
+    mats[..., N:, :N] *= balance
+    return mats
+
+
+def _balance(linearization: Linearization, k) -> float:
+    """``sqrt`` of the largest row sum of ``|B|`` over the stop slopes ``k`` (at least 1)."""
+    largest = np.abs(linearization.stiffness).sum(axis=1)
+    outer = np.abs(linearization.stop_vectors).sum(axis=1)[:, None] * np.abs(linearization.stop_vectors)
+    k_max = np.abs(k).reshape(len(k), -1).max(axis=1) if k.size else np.zeros(len(k))
+    return float(np.sqrt(max(1.0, (largest + k_max @ outer).max())))
 
 
 def _displacement_at_nodes(x_full, H: int, steps: int, halfwave: bool):
@@ -225,8 +201,8 @@ def _displacement_at_nodes(x_full, H: int, steps: int, halfwave: bool):
 
     The nodes of all steps form two uniform grids shifted by a fraction of a step:
     each is one inverse FFT of the coefficients times a phase ramp (exact, no
-    interpolation). ``x_full``: (n_orbits, 2H+1) full-layout coefficients.
-    Returns (n_orbits, steps, 2).
+    interpolation). ``x_full``: (rows, 2H+1) full-layout coefficients.
+    Returns (rows, steps, 2).
     """
     per_period = 2 * steps if halfwave else steps
     samples = max(per_period, 2 * H + 2)
@@ -235,7 +211,7 @@ def _displacement_at_nodes(x_full, H: int, steps: int, halfwave: bool):
     k = np.arange(1, H + 1)
     spec = np.zeros((x_full.shape[0], samples // 2 + 1), dtype=complex)
     out = np.empty((x_full.shape[0], steps, 2))
-    for i, c in enumerate(_GAUSS):
+    for i, c in enumerate(GAUSS):
         spec[:, 0] = x_full[:, 0] * samples
         ramp = np.exp(1j * k * (2 * np.pi * c * stride / samples))
         spec[:, 1 : H + 1] = 0.5 * samples * (x_full[:, 1 : H + 1] - 1j * x_full[:, H + 1 :]) * ramp
@@ -244,86 +220,47 @@ def _displacement_at_nodes(x_full, H: int, steps: int, halfwave: bool):
     return out
 
 
-def trace_invariants(matrices):
-    """Invariant ``s = mu + 1/mu`` of the non-trivial pair and the trivial pair's deviation.
+def _stiffness_at_nodes(linearization: Linearization, x_full, H: int, steps: int, halfwave: bool):
+    """``k_i`` of every stop at the Gauss nodes: ``x_full`` (n, s, 2H+1) -> (s, n, steps, 2)."""
+    n, s = x_full.shape[:2]
+    nodes = _displacement_at_nodes(x_full.reshape(n * s, -1), H, steps, halfwave).reshape(n, s, steps, 2)
+    return linearization.contact_stiffness(np.moveaxis(nodes, 1, 0))
 
-    For a 4x4 symplectic matrix with eigenvalues ``{mu_t, 1/mu_t, mu, 1/mu}`` the
-    characteristic polynomial is ``(l**2 - s_t l + 1)(l**2 - s l + 1)``, so ``s_t`` and
-    ``s`` are the roots of ``r**2 - a r + (b - 2)``, ``a = tr M``,
-    ``b = (a**2 - tr M**2) / 2``. The root nearer 2 is the trivial one
-    (``s_t = 2`` exactly for an exact orbit). A negative discriminant (round-off or
-    orbit error where the two are close) counts as zero.
 
-    Returns
-    -------
-    s : ndarray
-        Non-trivial invariant.
-    trivial_deviation : ndarray
-        ``|s_t - 2|``.
+def integrated_monodromy(linearization: Linearization, x_full, omega, H: int, steps: int, span: float):
+    """Transition matrices over ``span`` of phase from ``t = 0`` (balanced coordinates), for a chunk of orbits.
+
+    ``x_full`` (n, s, 2H+1): the stop coordinates' coefficients; ``span``: ``pi`` (half-wave
+    symmetric orbits) or ``2 pi``. Returns ``(n, 2N, 2N)``, similar to the physical ones.
     """
-    M = np.asarray(matrices)
-    a = np.trace(M, axis1=-2, axis2=-1)
-    b = 0.5 * (a * a - np.trace(np.matmul(M, M), axis1=-2, axis2=-1))
-    half = 0.5 * np.sqrt(np.maximum(a * a - 4.0 * (b - 2.0), 0.0))
-    r1, r2 = 0.5 * a + half, 0.5 * a - half
-    trivial_first = np.abs(r1 - 2.0) <= np.abs(r2 - 2.0)
-    s_t = np.where(trivial_first, r1, r2)
-    s = np.where(trivial_first, r2, r1)
-    return s, np.abs(s_t - 2.0)
+    k = _stiffness_at_nodes(linearization, x_full, H, steps, span < 2 * np.pi)
+    h = (span / steps) / np.asarray(omega, dtype=float)
+    generators = variational_generators(linearization, k, h[:, None], _balance(linearization, k))
+    step_maps = hamiltonian_expm(generators, entry_first=True)
+    return transition_matrix(np.ascontiguousarray(np.moveaxis(step_maps, (0, 1), (-2, -1))))
 
 
 # --------------------------------------------------------------------------- orbits
 
 
 def _orbit_arrays(system, U_array):
-    """Full-layout ``x`` coefficients, ``omega`` and half-wave symmetry of each orbit."""
-    parts = system.split(U_array)
-    x = system.to_full(parts[0])
-    omega = np.sqrt(np.asarray(parts[4], dtype=float))
+    """Stop coordinates' coefficients (n, s, 2H+1), ``omega`` and half-wave symmetry of each orbit."""
+    omega = np.sqrt(np.asarray(system.split(U_array)[-2], dtype=float))
     if not np.all(omega > 0):
         raise ValueError("omega**2 must be > 0 on every orbit")
-    return x, omega, halfwave_symmetric(system, U_array)
+    return stop_coefficients(system, U_array), omega, halfwave_symmetric(system, U_array)
 
 
-def _invariant_with_steps(system, x, omega, halfwave: bool, steps: int):
-    """Invariant of the full-period monodromy and trivial deviation, for orbits of one symmetry.
-
-    Half-wave symmetric orbits: ``A(t + T/2) = A(t)`` and the state is odd over a
-    half period, so ``M = P**2`` with ``P = Phi(T/2)``; ``N = -P`` has the trivial
-    pair at +1 and the non-trivial ``nu`` with ``mu = nu**2``, hence
-    ``s = s_N**2 - 2``. Only half a period is integrated and a multiplier near -1
-    (``s_N`` near 0) costs no accuracy.
-    """
-    params = system.params
+def _invariants_with_steps(linearization, x, omega, H: int, halfwave: bool, steps: int) -> PairInvariants:
+    """:class:`PairInvariants` of orbits of one symmetry from ``steps`` Magnus steps over the integrated interval."""
     span = np.pi if halfwave else 2 * np.pi
-    s_all = np.empty(len(x))
-    dev_all = np.empty(len(x))
-    per_chunk = max(1, _CHUNK_MATRICES // steps)
+    out = PairInvariants.empty(len(x), linearization.n_dofs - 1)
+    per_chunk = chunk_orbits(2 * linearization.n_dofs, steps)
     for start in range(0, len(x), per_chunk):
         sl = slice(start, start + per_chunk)
-        nodes = _displacement_at_nodes(x[sl], system.H, steps, halfwave)
-        k = regularized_contact_stiffness(nodes, params)
-        h = (span / steps) / omega[sl]
-        mats = variational_step_matrices(k, h[:, None], params)
-        P = transition_matrix(mats)
-        if halfwave:
-            s_n, dev_n = trace_invariants(-P)
-            s_all[sl] = s_n * s_n - 2.0
-            # Deviation carried to the full-period invariant: ds = 2 |s_N| ds_N.
-            dev_all[sl] = 2.0 * np.abs(s_n) * dev_n
-        else:
-            s_all[sl], dev_all[sl] = trace_invariants(P)
-    return s_all, dev_all
-
-
-def _margin(s, halfwave):
-    """Distance of ``s`` to the points where the pair can change type.
-
-    Half-wave symmetric orbits change type only at ``mu = 1`` (``s = 2``; ``s >= -2``
-    always, see ``_invariant_with_steps``), others also at ``mu = -1`` (``s = -2``).
-    """
-    to_plus = np.abs(s - 2.0)
-    return np.where(halfwave, to_plus, np.minimum(to_plus, np.abs(s + 2.0)))
+        P = integrated_monodromy(linearization, x[sl], omega[sl], H, steps, span)
+        out.assign(sl, PairInvariants.of(P, halfwave))
+    return out
 
 
 @dataclass
@@ -333,17 +270,18 @@ class BranchMonodromy:
     Attributes
     ----------
     stable : ndarray of bool
-        ``|s| <= 2 + trace_tol`` (elliptic non-trivial pair).
-    multipliers : ndarray of complex, shape (n, 4)
-        ``[1, 1, mu_1, mu_2]``, ``|mu_1| >= |mu_2|`` (trivial pair exactly 1, see
-        ``trivial_deviation`` for how far the computed one is).
+        Every non-trivial pair elliptic, ``|s| <= 2 + trace_tol``.
+    multipliers : ndarray of complex, shape (n, 2N)
+        ``[1, 1, mu_1, 1/mu_1, mu_2, 1/mu_2, ...]``, pairs by decreasing largest modulus, within a
+        pair the larger first (trivial pair exactly 1, see ``trivial_deviation`` for how far the
+        computed one is). For the 2-DOF oscillator ``[1, 1, mu_1, mu_2]``.
     invariant : ndarray
-        ``s = mu_1 + mu_2`` of the full-period monodromy (``2 cos theta`` for an
-        elliptic pair ``exp(+-i theta)``).
+        ``s = mu + 1/mu`` of the full-period monodromy for the pair that sets the margin (its
+        real part for a quartet; ``2 cos theta`` for an elliptic pair ``exp(+-i theta)``).
     margin : ndarray
-        Distance of ``s`` to the type-change points.
+        Distance of the invariants to where the verdict can change (:meth:`PairInvariants.margin`).
     integration_error : ndarray
-        ``|s(2N) - s(N)|`` between the last two step counts.
+        Largest ``|s(2N) - s(N)|`` of a pair between the last two step counts.
     trivial_deviation : ndarray
         ``|s_t - 2|`` of the trivial pair: the orbit's error seen by the linearization.
     orbit_error : ndarray
@@ -368,6 +306,8 @@ class BranchMonodromy:
         refined, 1 where the shooting diverged at once).
     refine_seconds : float
         Time spent refining.
+    invariants : PairInvariants
+        All pairs' invariants.
     """
 
     stable: np.ndarray
@@ -387,6 +327,7 @@ class BranchMonodromy:
     refined_energy_change: np.ndarray | None = None
     refined_residual: np.ndarray | None = None
     refine_seconds: float = 0.0
+    invariants: PairInvariants | None = None
 
     def __post_init__(self):
         n = len(self.reason)
@@ -473,12 +414,13 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     Parameters
     ----------
     system : HarmonicBalanceSystem
+        Of any structure (:class:`~nnmstop.models.structure.Structure`).
     U_array : array_like, shape (n, n_unknowns)
     settings : MonodromySettings, optional
     time_residual : array_like, shape (n,), optional
-        Relative time-domain residual of Eq. (7) of each orbit (the ``time_residual``
-        of :meth:`HarmonicBalanceSystem.diagnostics`, computed when not given): the
-        orbit's own error, which moves ``s`` by about as much (calibration in
+        Relative time-domain residual of the equations of motion of each orbit (the
+        ``time_residual`` of :meth:`HarmonicBalanceSystem.diagnostics`, computed when not given):
+        the orbit's own error, which moves ``s`` by about as much (calibration in
         ``docs/methods/monodromy.md``).
 
     Returns
@@ -500,69 +442,84 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     time_residual = np.asarray(time_residual, dtype=float)
     if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
         raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
-    s = np.zeros(n)
-    dev = np.zeros(n)
+    linearization = Linearization.of(system)
+    found = PairInvariants.empty(n, system.n_dofs - 1)
     err = np.zeros(n)
     steps = np.zeros(n, dtype=int)
     halfwave = np.zeros(n, dtype=bool)
     if n:
         x, omega, halfwave = _orbit_arrays(system, U_array)
-        F = settings.resolution_factor
         for hw in (True, False):
             idx = np.flatnonzero(halfwave == hw)
-            if not len(idx):
-                continue
-            N = settings.steps
-            coarse, _ = _invariant_with_steps(system, x[idx], omega[idx], hw, N)
-            todo = idx
-            while len(todo):
-                fine, fine_dev = _invariant_with_steps(system, x[todo], omega[todo], hw, 2 * N)
-                s[todo], dev[todo], steps[todo] = fine, fine_dev, 2 * N
-                err[todo] = np.abs(fine - coarse)
-                # More steps where the integration error could decide the verdict and exceeds
-                # the orbit's own error (beyond that they cannot make the verdict better), unless
-                # s within its error bound stays within F x the orbit's residual: reason 2 (and the
-                # refinement) whatever the steps.
-                margin = _margin(fine, hw)
-                undecided = (margin <= F * err[todo]) & (err[todo] > np.maximum(time_residual[todo], fine_dev))
-                undecided &= margin + err[todo] > F * time_residual[todo]
-                if 2 * N >= settings.max_steps:
-                    break
-                todo, coarse, N = todo[undecided], fine[undecided], 2 * N
-    orbit_error = np.maximum(time_residual, dev)
-    margin = _margin(s, halfwave)
+            if len(idx):
+                integration = _integrate(linearization, x[idx], omega[idx], system.H, hw, time_residual[idx], settings)
+                found.assign(idx, integration[0])
+                err[idx], steps[idx] = integration[1:]
+    trivial_deviation = found.trivial_deviation.copy()  # the HBM orbit's, also where refined
+    orbit_error = np.maximum(time_residual, trivial_deviation)
+    margin, _ = found.margin(halfwave)
     F = settings.resolution_factor
     reason = np.zeros(n, dtype=np.int8)
     reason[margin <= F * err] = 1
     reason[margin <= F * orbit_error] = 2  # the orbit's error decides whatever the steps
-    refinement = _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings)
-    multipliers = multipliers_from_invariant(s)
+    refinement = _refine(system, U_array, found, err, steps, reason, halfwave, settings)
+    margin, critical = found.margin(halfwave)
     return BranchMonodromy(
-        stable=np.abs(s) <= 2.0 + settings.trace_tol,
-        multipliers=multipliers,
-        invariant=s,
+        stable=found.stable(settings.trace_tol),
+        multipliers=found.multipliers(),
+        invariant=np.take_along_axis(found.s.real, critical[:, None], axis=-1)[:, 0] if found.s.shape[1] else np.full(n, 2.0),
         margin=margin,
         integration_error=err,
-        trivial_deviation=dev,
+        trivial_deviation=trivial_deviation,
         orbit_error=orbit_error,
         steps=steps,
         reason=reason,
         halfwave=halfwave,
         settings=settings,
         seconds_per_point=(time.perf_counter() - start) / max(n, 1),
+        invariants=found,
         **refinement,
     )
 
 
-def _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings: MonodromySettings) -> dict:
+def _integrate(linearization, x, omega, H: int, halfwave: bool, time_residual, settings: MonodromySettings):
+    """PairInvariants of orbits of one symmetry with ``steps`` and ``2 steps``, more where the integration decides.
+
+    Returns the :class:`PairInvariants` of the finer of the last two step counts, the integration error
+    (change between them) and that step count, per orbit.
+    """
+    F = settings.resolution_factor
+    n = len(x)
+    found, err, used = PairInvariants.empty(n, linearization.n_dofs - 1), np.zeros(n), np.zeros(n, dtype=int)
+    N = settings.steps
+    coarse = _invariants_with_steps(linearization, x, omega, H, halfwave, N)
+    todo = np.arange(n)
+    while len(todo):
+        fine = _invariants_with_steps(linearization, x[todo], omega[todo], H, halfwave, 2 * N)
+        found.assign(todo, fine)
+        used[todo] = 2 * N
+        err[todo] = fine.change_from(coarse)
+        # More steps where the integration error could decide the verdict and exceeds the orbit's
+        # own error (beyond that they cannot make the verdict better), unless s within its error
+        # bound stays within F x the orbit's residual: reason 2 (and the refinement) whatever the steps.
+        margin, _ = fine.margin(np.full(len(todo), halfwave))
+        residual = time_residual[todo]
+        undecided = (margin <= F * err[todo]) & (err[todo] > np.maximum(residual, fine.trivial_deviation))
+        undecided &= margin + err[todo] > F * residual
+        if 2 * N >= settings.max_steps:
+            break
+        todo, coarse, N = todo[undecided], fine.select(undecided), 2 * N
+    return found, err, used
+
+
+def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave, settings: MonodromySettings) -> dict:
     """Shooting refinement of the orbits whose own error decides the verdict (reason 2), in place.
 
-    Applies to time-reversible, half-wave symmetric orbits (all NNM orbits of the
-    branches); others keep reason 2. Updates ``s``, ``margin``, ``err``, ``steps`` and
-    ``reason`` of the refined orbits and returns the diagnostics for
-    :class:`BranchMonodromy`.
+    Applies to time-reversible, half-wave symmetric orbits (all NNM orbits of the branches); others
+    keep reason 2. Updates ``found``, ``err``, ``steps`` and ``reason`` of the refined orbits and returns
+    the diagnostics for :class:`BranchMonodromy`.
     """
-    n = len(s)
+    n = len(reason)
     out = {"refined": np.zeros(n, dtype=bool)}
     for name in ("refined_frequency_change", "refined_energy_change", "refined_residual"):
         out[name] = np.zeros(n)
@@ -578,12 +535,13 @@ def _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings: 
     )
     ok = r.converged
     done = idx[ok]
-    s[done], err[done], steps[done] = r.invariant[ok], r.integration_error[ok], r.steps[ok]
-    margin[done] = np.abs(s[done] - 2.0)  # half-wave symmetric: the pair changes type only at +1
+    found.assign(done, r.invariants.select(ok))
+    err[done], steps[done] = r.integration_error[ok], r.steps[ok]
+    margin, _ = r.invariants.select(ok).margin(np.ones(len(done), dtype=bool))
     # Error of the refined s: the integration error, and the orbit's closure error (which moves s by
     # about as much, as the HBM orbit's time residual does); a margin below trace_tol is a pair at +1.
     bound = F * np.maximum(err[done], r.residual[ok])  # converged: both finite
-    resolved = margin[done] > np.maximum(bound, settings.trace_tol)
+    resolved = margin > np.maximum(bound, settings.trace_tol)
     reason[done] = np.where(resolved, 3, 5)
     reason[idx[~ok]] = 4
     out["refined"][idx] = True
@@ -599,12 +557,12 @@ def _refine(system, U_array, s, margin, err, steps, reason, halfwave, settings: 
 
 
 def orbit_monodromy(system, U, steps: int = 1024):
-    """Full-period monodromy matrix of one HBM orbit (Magnus steps, no symmetry used).
+    """Full-period monodromy matrix of one HBM orbit in the coordinates ``(dq, dq')`` (no symmetry used).
 
     For checks and diagnostics; :func:`branch_monodromy` works from the invariants.
     """
+    linearization = Linearization.of(system)
     x, omega, _ = _orbit_arrays(system, np.asarray(U, dtype=float)[None])
-    nodes = _displacement_at_nodes(x, system.H, steps, False)
-    k = regularized_contact_stiffness(nodes, system.params)
-    mats = variational_step_matrices(k, 2 * np.pi / steps / omega[0], system.params)
-    return transition_matrix(mats)[0]
+    k = _stiffness_at_nodes(linearization, x, system.H, steps, False)
+    mats = variational_step_matrices(linearization, k, 2 * np.pi / steps / omega[0])
+    return linearization.to_physical(transition_matrix(mats)[0])

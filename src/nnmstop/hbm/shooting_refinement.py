@@ -1,14 +1,16 @@
-"""Exact periodic orbits of the regularized equations (7) near HBM orbits, by shooting, and their monodromy.
+"""Exact periodic orbits of the regularized equations of a structure near HBM orbits, by shooting.
 
 Used by :func:`nnmstop.hbm.monodromy.branch_monodromy` where the HBM orbit's own error decides the
-verdict (``stability_reason = 2``): the orbit is refined into a periodic orbit of (7) to the
-accuracy of the integrator, and the Floquet invariant of the refined orbit resolves the margin test.
-The quarter period (the NNMs are time-reversible and half-wave symmetric, so the quarter-period flow
-gives both the shooting conditions and the half-period monodromy) is cut into segments started
-from the HBM orbit's states (multiple shooting); all segments of all refined orbits are integrated
-together by one vectorized explicit Runge-Kutta scheme of order 8, on a step grid that concentrates
-the steps where the contact stiffness changes. Method, conditions, error estimate and cost:
-``docs/methods/monodromy.md``, section "Shooting refinement".
+verdict (``stability_reason = 2``): the orbit is refined into a periodic orbit of the regularized
+equations of motion to the accuracy of the integrator, and the Floquet invariants of the refined
+orbit resolve the margin test. The quarter period (NNM orbits are time-reversible and half-wave
+symmetric, so the quarter-period flow gives both the shooting conditions and the half-period
+monodromy) is cut into segments started from the HBM orbit's states (multiple shooting); all
+segments of all refined orbits are integrated together by one vectorized explicit Runge-Kutta
+scheme of order 8, on a step grid that concentrates the steps where the contact stiffness changes.
+Any structure (:class:`~nnmstop.models.structure.Structure`): ``N`` degrees of freedom, any stops.
+Method, conditions, error estimate and cost: ``docs/methods/monodromy.md``, section "Shooting
+refinement".
 """
 
 from __future__ import annotations
@@ -21,15 +23,12 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop853
 
 from nnmstop import fourier
-from nnmstop.floquet import transition_matrix
-from nnmstop.models.two_dof import (
-    ModelParameters,
-    regularized_contact_force,
-    regularized_contact_potential,
-    regularized_vector_field,
-)
+from nnmstop.floquet import PairInvariants, transition_matrix
+from nnmstop.hbm.variational import dof_coefficients
+from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, regularized_contact_potential
 
 __all__ = [
+    "RegularizedDynamics",
     "RefinedStability",
     "segment_flow",
     "segment_joints",
@@ -42,75 +41,153 @@ __all__ = [
 _STAGES = _dop853.N_STAGES
 _A = np.asarray(_dop853.A[:_STAGES, :_STAGES], dtype=float)
 _B = np.asarray(_dop853.B, dtype=float)
-# Time reversal (velocities change sign): the NNMs satisfy z(-t) = R z(t).
-_REVERSAL = np.diag([1.0, 1.0, -1.0, -1.0])
 # Samples of the HBM orbit per quarter period for the step grid (the grid only has to follow the orbit).
 _GRID_SAMPLES = 2048
-# Step grid density 6 + |dx/dtheta| / (||x| - 1| + 2 w) per radian of phase, w the width of the contact
-# transition: the weights that minimized the integration error of s at a given step count over a sample
-# of the refined NNM1 and 5:1 orbits (errors 100 to 1000 times smaller than with 1 and w; method notes).
+# Step grid density 6 + sum_i |dx_i/dtheta| / (||x_i| - 1| + 2 w_i) per radian of phase, w_i the width of
+# stop i's contact transition: the weights that minimized the integration error of s at a given step count
+# over a sample of the refined NNM1 and 5:1 orbits of the 2-DOF oscillator (errors 100 to 1000 times
+# smaller than with 1 and w; method notes).
 _UNIFORM_DENSITY = 6.0
 _WIDTH_FACTOR = 2.0
-# Steps per chunk of the vectorized step maps (12 stages x 16 entries x 8 bytes each: 12 MB).
-_CHUNK_STEPS = 2**13
+# Entries of the vectorized step maps per chunk (12 stages x 16 entries x 2**13 steps x 8 bytes: 12 MB).
+_CHUNK_ENTRIES = 2**17
 # Segments of the quarter period (multiple shooting): the sequential step loop, whose cost is
 # numpy's per-call overhead, is 8 times shorter over 8 times as many columns.
 _SEGMENTS = 8
 
 
-class _StateRhs:
-    """Right-hand side of (7) for ``n`` orbits: ``rhs(w, out)``, ``w``, ``out``: (4, n).
+class RegularizedDynamics:
+    """The regularized equations of motion of a structure, ``M q'' + K q + sum_i gap_i f_i(q_{d_i}/gap_i) e_{d_i} = 0``.
 
-    Row 0 is the branch coordinate ``y = x - f/alpha`` instead of ``x``: ``x``, ``f`` and
-    ``f'(x)`` are rational in ``y`` (``nnmstop.models.two_dof``; the same force as the root of the
-    cubic), so no cubic is solved per evaluation. The linear part is one matrix product with
-    ``w``, corrected by ``x - y = f/alpha`` where it acts on ``x``; ``dy/dt`` is set apart.
-    Evaluated 12 times a step, one step at a time: its cost is numpy's per-call overhead, hence
-    few calls.
+    In the integrator's state ``w`` (2N, n) the row of each stop's degree of freedom holds
+    ``gap_i y_i`` with ``y_i = x_i - f_i / alpha_i`` the branch coordinate of the contact law
+    instead of ``q_{d_i} = gap_i x_i``: ``x``, ``f`` and ``f'(x)`` are rational in ``y``
+    (``x = y + eps y / s``, ``f = eta y / s``, ``s = 1 - eps - y**2``; ``nnmstop.models.two_dof``, the
+    same force as the root of the cubic), so no cubic is solved per evaluation.
+
+    Parameters
+    ----------
+    structure : Structure
     """
 
-    def __init__(self, params: ModelParameters):
-        b, d = params.beta, params.delta
-        self.c = 1.0 - params.eps
-        self.eps = params.eps
-        # d(x, u, xdot, udot)/dt without the contact force, rows 1-3 (row 0 is set apart).
-        self.linear = np.array(
-            [[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], [-(1.0 + b), b, 0.0, 0.0], [b / d, -b / d, 0.0, 0.0]]
-        )
-        # Rows xdot, udot: coefficients of x (linear part) and of -f = -alpha (x - y) on x - y.
-        self.on_x_minus_y = np.array([-(1.0 + b) - params.alpha, b / d])[:, None]
+    def __init__(self, structure):
+        mass, stiffness = structure.dense_matrices()
+        self.n_dofs = N = structure.n_dofs
+        self.mass_factor = np.linalg.cholesky(mass)
+        mass_inverse = np.linalg.inv(mass)
+        self.stiffness = stiffness
+        self.stop_dofs = np.array(structure.stop_dofs, dtype=int)
+        self.gaps = np.array([s.gap for s in structure.stops], dtype=float)
+        self.laws = tuple(ModelParameters(alpha=s.stiffness, eta=s.eta) for s in structure.stops)
+        self.eps = np.array([law.eps for law in self.laws])
+        self.eta = np.array([law.eta for law in self.laws])
+        # d(velocities)/dt without the stops' rational corrections: -M^-1 K on the positions
+        self.linear = np.zeros((2 * N, 2 * N))
+        self.linear[:N, N:] = np.eye(N)
+        self.linear[N:, :N] = -mass_inverse @ stiffness
+        # per stop, the column multiplying gap y / s: -(eps M^-1 K e_d + eta M^-1 e_d)
+        self.mass_inverse_stops = mass_inverse[:, self.stop_dofs]
+        self.on_stop = -(self.eps * (mass_inverse @ stiffness)[:, self.stop_dofs] + self.eta * self.mass_inverse_stops)
+        # rows of the stops' coordinates and velocities in the state: views where they are contiguous
+        self._stop_rows = _rows(self.stop_dofs)
+        self._velocity_rows = _rows(N + self.stop_dofs)
+        self._inverse_gap = (1.0 / self.gaps)[:, None]
+        self._c = (1.0 - self.eps)[:, None]
+        self._eps = self.eps[:, None]
 
-    def __call__(self, w, out):
-        y = w[0]
+    def to_state(self, states):
+        """Integrator states ``w`` (2N, n) from physical ``(q, q')`` (n, 2N)."""
+        w = np.array(np.asarray(states, dtype=float).T)
+        for dof, gap, law in zip(self.stop_dofs, self.gaps, self.laws):
+            x = w[dof] / gap
+            w[dof] = gap * (x - regularized_contact_force(x, law) / law.alpha)
+        return w
+
+    def from_state(self, w):
+        """Physical ``(q, q')`` (n, 2N) from integrator states ``w`` (2N, n)."""
+        out = np.array(w)
+        for i, (dof, gap) in enumerate(zip(self.stop_dofs, self.gaps)):
+            y = w[dof] / gap
+            root = np.sqrt(1.0 - self.eps[i])
+            s = (root - np.abs(y)) * (root + np.abs(y))
+            out[dof] = gap * (y + self.eps[i] * y / s)
+        return out.T
+
+    def rhs(self, w, out):
+        """``dw/dt`` (2N, n) into ``out``. Evaluated 12 times a step, one step at a time: its cost is
+        numpy's per-call overhead, hence few calls (views of the stops' rows, in-place operations)."""
+        stops, velocities = self._stop_rows, self._velocity_rows
+        gap_y = w[stops]
+        y = gap_y * self._inverse_gap
         y2 = y * y
-        # c - y**2 >= eps y / (|x| - y): relative rounding error about 1e-16 |x| / eps, below 1e-11 here
-        s = self.c - y2
-        g = self.eps / s
+        s = self._c - y2
         np.dot(self.linear, w, out=out)
-        out[2:] += self.on_x_minus_y * (g * y)  # x - y = g y
-        np.divide(w[2], 1.0 + g * (self.c + y2) / s, out=out[0])  # dx/dt = xdot and dx/dy
+        gap_y = gap_y / s
+        out[self.n_dofs :] += np.dot(self.on_stop, gap_y)
+        # dx/dt = xdot / gap and dx/dy = 1 + eps (c + y**2) / s**2
+        y2 += self._c
+        y2 *= self._eps
+        y2 /= s
+        y2 /= s
+        y2 += 1.0
+        np.divide(w[velocities], y2, out=out[stops])
         return out
 
+    def contact_stiffness(self, y):
+        """``f_i'(x_i)`` at the branch coordinates ``y`` (s, ...): ``eta (c + y**2) / (s**2 + eps (c + y**2))``."""
+        eps = self.eps.reshape((-1,) + (1,) * (np.ndim(y) - 1))
+        eta = self.eta.reshape(eps.shape)
+        q = (1.0 - eps) + y * y
+        s = (1.0 - eps) - y * y
+        return eta * q / (s * s + eps * q)
 
-def _variational_rhs(Z, y, params: ModelParameters, out):
-    """``A(y) Z`` for many 4x4 matrices ``Z`` (rows of ``Z``, ``out``: the 16 entries, row-major).
+    def variational_rhs(self, Z, y, out):
+        """``A(y) Z`` for many ``2N x 2N`` matrices ``Z`` (2N, 2N, k), ``y`` (s, k) the stops' branch coordinates.
 
-    ``A(y)`` is the linearization of (7) at the branch coordinate ``y``:
-    ``-(1 + beta + f'(x)) Z_x + beta Z_u`` in the ``xdot`` row, ``f'`` rational in ``y``.
-    """
-    b, d, eta, eps = params.beta, params.delta, params.eta, params.eps
-    c = 1.0 - eps
-    y2 = y * y
-    s = c - y2
-    q = c + y2
-    out[0:8] = Z[8:16]  # d(rows x, u)/dt = rows xdot, udot
-    diff = (b / d) * (Z[0:4] - Z[4:8])
-    out[8:12] = -(1.0 + eta * q / (s * s + eps * q)) * Z[0:4] - d * diff  # -(1 + f'(x)) Z_x - beta (Z_x - Z_u)
-    out[12:16] = diff
-    return out
+        ``A = [[0, I], [-M^-1 (K + sum_i f_i'(x_i) e_{d_i} e_{d_i}^T), 0]]``.
+        """
+        N = self.n_dofs
+        out[:N] = Z[N:]
+        np.dot(self.linear[N:, :N], Z[:N].reshape(N, -1), out=out[N:].reshape(N, -1))
+        slopes = self.contact_stiffness(y)
+        for i, dof in enumerate(self.stop_dofs):
+            out[N:] -= self.mass_inverse_stops[:, i, None, None] * (slopes[i] * Z[dof])
+        return out
+
+    def vector_field(self, states):
+        """Right-hand side of the equations of motion at physical states ``(q, q')`` (..., 2N)."""
+        states = np.asarray(states, dtype=float)
+        N = self.n_dofs
+        q = states[..., :N]
+        acceleration = q @ self.linear[N:, :N].T
+        for i, (dof, gap, law) in enumerate(zip(self.stop_dofs, self.gaps, self.laws)):
+            acceleration = (
+                acceleration
+                - (gap * regularized_contact_force(q[..., dof] / gap, law))[..., None] * (self.mass_inverse_stops[:, i])
+            )
+        return np.concatenate([states[..., N:], acceleration], axis=-1)
+
+    def energy_at_rest(self, q):
+        """Total energy of the states ``(q, 0)``, ``q``: (n, N)."""
+        energy = 0.5 * np.einsum("ni,ij,nj->n", q, self.stiffness, q)
+        for dof, gap, law in zip(self.stop_dofs, self.gaps, self.laws):
+            energy = energy + gap * gap * regularized_contact_potential(q[:, dof] / gap, law)
+        return energy
+
+    def width(self):
+        """Width in ``x`` of each stop's contact transition, ``sqrt(2 eps)``."""
+        return np.sqrt(2.0 * self.eps)
 
 
-def _step_maps(params: ModelParameters, stage_y, steps):
+def _rows(indices):
+    """``indices`` as a slice where they are consecutive (basic indexing: views), else as they are."""
+    indices = np.asarray(indices, dtype=int)
+    if np.all(np.diff(indices) == 1):
+        return slice(int(indices[0]), int(indices[-1]) + 1)
+    return indices
+
+
+def _step_maps(dynamics: RegularizedDynamics, stage_y, steps):
     """Runge-Kutta step maps ``Phi_{j+1} = R_j Phi_j`` of the variational equation, all steps at once.
 
     The variational equation is linear and its coefficient depends only on the state, so the
@@ -120,42 +197,43 @@ def _step_maps(params: ModelParameters, stage_y, steps):
 
     Parameters
     ----------
-    stage_y : ndarray, shape (stages, m)
-        Branch coordinate at the stages of ``m`` steps (flattened over orbits and steps).
+    stage_y : ndarray, shape (stages, s, m)
+        Stops' branch coordinates at the stages of ``m`` steps (flattened over orbits and steps).
     steps : ndarray, shape (m,)
 
     Returns
     -------
-    ndarray, shape (m, 4, 4)
+    ndarray, shape (m, 2N, 2N)
     """
+    n = 2 * dynamics.n_dofs
     m = steps.shape[0]
-    maps = np.empty((m, 4, 4))
-    identity = np.eye(4).reshape(16, 1)
-    for lo in range(0, m, _CHUNK_STEPS):
-        sl = slice(lo, min(lo + _CHUNK_STEPS, m))
+    maps = np.empty((m, n, n))
+    identity = np.eye(n)[:, :, None]
+    chunk = max(1, _CHUNK_ENTRIES // (n * n))
+    for lo in range(0, m, chunk):
+        sl = slice(lo, min(lo + chunk, m))
         h = steps[sl]
         k = h.shape[0]
-        M = np.empty((_STAGES, 16, k))
-        flat = M.reshape(_STAGES, 16 * k)
-        _variational_rhs(np.broadcast_to(identity, (16, k)), stage_y[0, sl], params, M[0])
+        M = np.empty((_STAGES, n, n, k))
+        dynamics.variational_rhs(np.broadcast_to(identity, (n, n, k)), stage_y[0, :, sl], M[0])
         for i in range(1, _STAGES):
-            _variational_rhs(identity + h * (_A[i, :i] @ flat[:i]).reshape(16, k), stage_y[i, sl], params, M[i])
-        maps[sl] = (identity + h * (_B @ flat).reshape(16, k)).T.reshape(k, 4, 4)
+            dynamics.variational_rhs(identity + h * np.tensordot(_A[i, :i], M[:i], axes=1), stage_y[i, :, sl], M[i])
+        maps[sl] = np.moveaxis(identity + h * np.tensordot(_B, M, axes=1), 2, 0)
     return maps
 
 
-def segment_flow(params: ModelParameters, states, period, phases):
-    """State and fundamental matrix of (7) at the end of phase grids, many trajectories at once.
+def segment_flow(dynamics: RegularizedDynamics, states, period, phases):
+    """State and fundamental matrix of the equations of motion at the end of phase grids, many trajectories at once.
 
     The state is integrated step by step, all trajectories as columns of one array, keeping the
-    branch coordinate of every stage; the fundamental matrix by the same scheme afterwards, as
-    the ordered product of the step maps (:func:`_step_maps`), vectorized over the steps.
+    stops' branch coordinates at every stage; the fundamental matrix by the same scheme afterwards,
+    as the ordered product of the step maps (:func:`_step_maps`), vectorized over the steps.
 
     Parameters
     ----------
-    params : ModelParameters
-    states : ndarray, shape (c, 4)
-        ``(x, u, xdot, udot)`` at ``phases[:, 0]``.
+    dynamics : RegularizedDynamics
+    states : ndarray, shape (c, 2N)
+        ``(q, q')`` at ``phases[:, 0]``.
     period : ndarray, shape (c,)
         Period ``T`` of each trajectory's orbit: a phase step ``d theta`` lasts ``T d theta / (2 pi)``.
     phases : ndarray, shape (c, K + 1)
@@ -163,54 +241,63 @@ def segment_flow(params: ModelParameters, states, period, phases):
 
     Returns
     -------
-    end : ndarray, shape (c, 4)
-        ``(x, u, xdot, udot)`` at ``phases[:, -1]``.
-    Q : ndarray, shape (c, 4, 4)
-        Fundamental matrix over the grid (identity at its start).
+    end : ndarray, shape (c, 2N)
+        ``(q, q')`` at ``phases[:, -1]``.
+    Q : ndarray, shape (c, 2N, 2N)
+        Fundamental matrix over the grid (identity at its start), in ``(q, q')``.
     """
-    states = np.asarray(states, dtype=float)
-    n = len(states)
-    w = np.empty((4, n))
-    w[0] = states[:, 0] - regularized_contact_force(states[:, 0], params) / params.alpha
-    w[1:] = states[:, 1:].T
+    w = dynamics.to_state(states)
+    n_states, c = w.shape
     steps = np.diff(phases, axis=1) * (np.asarray(period, dtype=float) / (2.0 * np.pi))[:, None]
     N = steps.shape[1]
-    K = np.empty((_STAGES, 4 * n))
-    flat = K.reshape(_STAGES, 4, n)
-    stages = np.empty((_STAGES, 4, n))  # stage states of one step
-    stage_y = np.empty((N, _STAGES, n))  # their branch coordinate, all steps, for the step maps
-    rhs = _StateRhs(params)
-    stage_sums = [(_A[i, :i], K[:i], stages[i], stages[i].reshape(4 * n)) for i in range(1, _STAGES)]
-    increment = np.empty(4 * n)
+    K = np.empty((_STAGES, n_states * c))
+    flat = K.reshape(_STAGES, n_states, c)
+    stages = np.empty((_STAGES, n_states, c))  # stage states of one step
+    stops = dynamics.stop_dofs
+    stage_y = np.empty((N, _STAGES, len(stops), c))  # the stops' rows, all steps, for the step maps
+    stage_sums = [(_A[i, :i], K[:i], stages[i], stages[i].reshape(n_states * c)) for i in range(1, _STAGES)]
+    increment = np.empty(n_states * c)
     for j in range(N):
         h = steps[:, j]
         stages[0] = w
-        rhs(w, flat[0])
+        dynamics.rhs(w, flat[0])
         for i, (a, k, stage, stage_flat) in enumerate(stage_sums, start=1):
             np.dot(a, k, out=stage_flat)
             stage *= h
             stage += w
-            rhs(stage, flat[i])
-        stage_y[j] = stages[:, 0]
+            dynamics.rhs(stage, flat[i])
+        stage_y[j] = stages[:, stops]
         np.dot(_B, K, out=increment)
-        w = w + h * increment.reshape(4, n)
+        w = w + h * increment.reshape(n_states, c)
+    stage_y /= dynamics.gaps[:, None]
     maps = _step_maps(
-        params, np.ascontiguousarray(stage_y.transpose(1, 2, 0)).reshape(_STAGES, n * N), steps.reshape(n * N)
+        dynamics,
+        np.ascontiguousarray(stage_y.transpose(1, 2, 3, 0)).reshape(_STAGES, len(stops), c * N),
+        steps.reshape(c * N),
     )
-    eps = params.eps
-    s = (np.sqrt(1.0 - eps) - np.abs(w[0])) * (np.sqrt(1.0 - eps) + np.abs(w[0]))
-    end = np.stack([w[0] + eps * w[0] / s, w[1], w[2], w[3]], axis=1)
-    return end, transition_matrix(maps.reshape(n, N, 4, 4))
+    return dynamics.from_state(w), transition_matrix(maps.reshape(c, N, n_states, n_states))
 
 
-def _step_density(x_phase, x_slope_phase, width: float):
-    """Cumulative step density along the uniform phase samples (see :func:`step_phases`)."""
-    n = x_phase.shape[0]
-    density = _UNIFORM_DENSITY + np.abs(x_slope_phase) / (np.abs(np.abs(x_phase) - 1.0) + _WIDTH_FACTOR * width)
+def _step_density(x_phase, x_slope_phase, width):
+    """Cumulative step density along the uniform phase samples (see :func:`step_phases`).
+
+    ``x_phase``, ``x_slope_phase``: (n, s, m + 1); ``width``: (s,).
+    """
+    w = np.asarray(width, dtype=float)[:, None]
+    density = _UNIFORM_DENSITY + (np.abs(x_slope_phase) / (np.abs(np.abs(x_phase) - 1.0) + _WIDTH_FACTOR * w)).sum(
+        axis=1
+    )
+    n = density.shape[0]
     return np.concatenate([np.zeros((n, 1)), np.cumsum(0.5 * (density[:, 1:] + density[:, :-1]), axis=1)], axis=1)
 
 
-def segment_joints(x_phase, x_slope_phase, segments: int, width: float):
+def _stops_axis(x):
+    """``(n, m + 1)`` (one stop) or ``(n, s, m + 1)`` as ``(n, s, m + 1)``."""
+    x = np.asarray(x, dtype=float)
+    return x[:, None] if x.ndim == 2 else x
+
+
+def segment_joints(x_phase, x_slope_phase, segments: int, width):
     """Samples where the segments of the multiple shooting join: equal shares of the step density.
 
     Each joint is the uniform sample nearest to ``m / segments`` of the cumulative step density
@@ -219,17 +306,18 @@ def segment_joints(x_phase, x_slope_phase, segments: int, width: float):
 
     Parameters
     ----------
-    x_phase, x_slope_phase : ndarray, shape (n, m + 1)
-        ``x`` and ``dx/dtheta`` of the (approximate) orbits on a uniform grid of ``[0, pi/2]``.
+    x_phase, x_slope_phase : ndarray, shape (n, s, m + 1) or (n, m + 1) for one stop
+        Stop coordinates ``x_i`` and ``dx_i/dtheta`` of the (approximate) orbits on a uniform grid of
+        ``[0, pi/2]``.
     segments : int
-    width : float
+    width : float or array_like, shape (s,)
 
     Returns
     -------
     ndarray of int, shape (n, segments + 1)
         Increasing sample indices from 0 to ``m``.
     """
-    cumulative = _step_density(x_phase, x_slope_phase, width)
+    cumulative = _step_density(_stops_axis(x_phase), _stops_axis(x_slope_phase), np.atleast_1d(width))
     n, m1 = cumulative.shape
     if m1 - 1 < segments:
         raise ValueError(f"{m1 - 1} phase samples cannot hold {segments} segments")
@@ -248,36 +336,36 @@ def segment_joints(x_phase, x_slope_phase, segments: int, width: float):
     return joints
 
 
-def step_phases(x_phase, x_slope_phase, joints, steps: int, width: float):
-    """Step grid in phase over a quarter period, dense where ``|x|`` crosses the stop.
+def step_phases(x_phase, x_slope_phase, joints, steps: int, width):
+    """Step grid in phase over a quarter period, dense where a stop coordinate ``|x_i|`` crosses 1.
 
-    The grid equidistributes ``6 + |dx/dtheta| / (||x| - 1| + 2 width)``: nearly uniform away
-    from the stops and, near them, a step proportional to the distance to the contact transition
-    (where the stiffness goes from ``eta`` to ``alpha`` over about ``width`` in ``x``) divided by
-    the speed, so that each passage costs a number of steps growing only with the logarithm of
-    the speed. Each segment between two joints (:func:`segment_joints`) gets ``steps / segments``
-    steps and starts and ends on its joints' samples.
+    The grid equidistributes ``6 + sum_i |dx_i/dtheta| / (||x_i| - 1| + 2 width_i)``: nearly uniform
+    away from the stops and, near them, a step proportional to the distance to the contact
+    transition (where the stiffness goes from ``eta`` to ``alpha`` over about ``width`` in ``x``)
+    divided by the speed, so that each passage costs a number of steps growing only with the
+    logarithm of the speed. Each segment between two joints (:func:`segment_joints`) gets
+    ``steps / segments`` steps and starts and ends on its joints' samples.
 
     Parameters
     ----------
-    x_phase, x_slope_phase : ndarray, shape (n, m + 1)
-        ``x`` and ``dx/dtheta`` of the (approximate) orbits on a uniform grid of ``[0, pi/2]``.
+    x_phase, x_slope_phase : ndarray, shape (n, s, m + 1) or (n, m + 1)
     joints : ndarray of int, shape (n, segments + 1)
     steps : int
         A multiple of the number of segments.
-    width : float
+    width : float or array_like, shape (s,)
 
     Returns
     -------
     ndarray, shape (n, steps + 1)
     """
-    n, m1 = x_phase.shape
+    x_phase = _stops_axis(x_phase)
+    n, _, m1 = x_phase.shape
     segments = joints.shape[1] - 1
     if steps % segments:
         raise ValueError(f"steps must be a multiple of the {segments} segments, got {steps}")
     per_segment = steps // segments
     theta = np.linspace(0.0, 0.5 * np.pi, m1)
-    cumulative = _step_density(x_phase, x_slope_phase, width)
+    cumulative = _step_density(x_phase, _stops_axis(x_slope_phase), np.atleast_1d(width))
     at_joints = np.take_along_axis(cumulative, joints, axis=1)
     fraction = np.arange(per_segment) / per_segment
     targets = at_joints[:, :-1, None] + np.diff(at_joints, axis=1)[:, :, None] * fraction
@@ -289,68 +377,70 @@ def step_phases(x_phase, x_slope_phase, joints, steps: int, width: float):
     return out
 
 
-def shoot(params: ModelParameters, states, period, phases, tol: float, max_iter: int):
-    """Multiple shooting: Newton's method for ``x(T/4) = u(T/4) = 0`` with minimum-norm updates.
+def shoot(dynamics: RegularizedDynamics, states, period, phases, tol: float, max_iter: int):
+    """Multiple shooting: Newton's method for ``q(T/4) = 0`` with minimum-norm updates.
 
-    A time-reversible, half-wave symmetric orbit starts at rest and passes through ``x = u = 0``
-    at ``T/4``. The quarter period is cut into segments, each integrated from its own start
-    state (the joints), all side by side. The unknowns are ``x(0)``, ``u(0)``, ``T`` and the joint
-    states; the conditions are the two at ``T/4`` and continuity at the joints. The joints are
-    eliminated from the Newton system (condensing: the joint corrections follow from the start's
-    by the segments' fundamental matrices), which leaves the single-shooting system in
-    ``(x(0), u(0), omega T/4)`` with the joints' mismatches carried along. The orbits form a
-    one-parameter family, so its minimum-norm update (unknowns of comparable size) converges
-    to a nearby orbit of the family without fixing ``x(0)``, ``T`` or the energy, each of which
-    is singular at some fold.
+    A time-reversible, half-wave symmetric orbit starts at rest and passes through ``q = 0`` at
+    ``T/4``. The quarter period is cut into segments, each integrated from its own start state
+    (the joints), all side by side. The unknowns are ``q(0)``, ``T`` and the joint states; the
+    conditions are the ``N`` at ``T/4`` and continuity at the joints. The joints are eliminated from
+    the Newton system (condensing: the joint corrections follow from the start's by the segments'
+    fundamental matrices), which leaves the single-shooting system in ``(q(0), omega T/4)`` with the
+    joints' mismatches carried along. The orbits form a one-parameter family, so its minimum-norm
+    update (unknowns of comparable size) converges to a nearby orbit of the family without fixing
+    ``q(0)``, ``T`` or the energy, each of which is singular at some fold.
 
     Parameters
     ----------
-    states : ndarray, shape (n, segments, 4)
-        Start states of the segments (the first at rest, ``(x0, u0, 0, 0)``).
+    dynamics : RegularizedDynamics
+    states : ndarray, shape (n, segments, 2N)
+        Start states of the segments (the first at rest, ``(q0, 0)``).
     period : ndarray, shape (n,)
-    phases : ndarray, shape (n, N + 1)
-        Step grid of the quarter period (:func:`step_phases`), ``N / segments`` steps a segment.
+    phases : ndarray, shape (n, K + 1)
+        Step grid of the quarter period (:func:`step_phases`), ``K / segments`` steps a segment.
 
     Returns
     -------
     states, period : ndarray
         Corrected unknowns (the last iterate where not converged).
     residual : ndarray
-        Closure relative to the amplitude ``max(|x0|, |u0|)``: the largest of ``|x|, |u|`` at
-        ``T/4`` and of the joints' mismatches (velocities divided by ``omega``), at the returned
-        unknowns (at the last finite iterate where the flow diverged; ``inf`` if none).
+        Closure relative to the amplitude ``max |q0|``: the largest of ``|q|`` at ``T/4`` and of the
+        joints' mismatches (velocities divided by ``omega``), at the returned unknowns (at the last
+        finite iterate where the flow diverged; ``inf`` if none).
     converged : ndarray of bool
         ``residual <= tol`` within ``max_iter`` updates.
-    Q : ndarray, shape (n, 4, 4)
+    Q : ndarray, shape (n, 2N, 2N)
         ``Phi(T/4)``, the product of the segments' fundamental matrices, at the returned unknowns.
     """
     states = np.array(states, dtype=float)
     period = np.array(period, dtype=float)
-    n, segments, _ = states.shape
+    n, segments, n_states = states.shape
+    N = n_states // 2
     per_segment = (phases.shape[1] - 1) // segments
     segment_phases = np.stack([phases[:, m * per_segment : (m + 1) * per_segment + 1] for m in range(segments)], axis=1)
     phase_span = (segment_phases[..., -1] - segment_phases[..., 0]) / (0.5 * np.pi)  # shares of T/4
     residual = np.full(n, np.inf)
     converged = np.zeros(n, dtype=bool)
-    Q_all = np.full((n, 4, 4), np.nan)
+    Q_all = np.full((n, n_states, n_states), np.nan)
     active = np.arange(n)
+    positions = np.r_[np.ones(N), np.zeros(N)]
     for iteration in range(max_iter + 1):
         a = len(active)
         end, Qs = segment_flow(
-            params,
-            states[active].reshape(a * segments, 4),
+            dynamics,
+            states[active].reshape(a * segments, n_states),
             np.repeat(period[active], segments),
             segment_phases[active].reshape(a * segments, per_segment + 1),
         )
-        end, Qs = end.reshape(a, segments, 4), Qs.reshape(a, segments, 4, 4)
+        end, Qs = end.reshape(a, segments, n_states), Qs.reshape(a, segments, n_states, n_states)
         omega = 2.0 * np.pi / period[active]
-        # mismatch of each segment's end: with the next joint, and with x = u = 0 for the last one
+        # mismatch of each segment's end: with the next joint, and with q = 0 for the last one
         mismatch = end.copy()
         mismatch[:, :-1] -= states[active, 1:]
-        scale = np.array([1.0, 1.0, 0.0, 0.0]) + np.array([0.0, 0.0, 1.0, 1.0]) / omega[:, None, None]
+        scale = positions + (1.0 - positions) / omega[:, None, None]
         scaled = np.abs(mismatch * scale)
-        scaled[:, -1, 2:] = 0.0  # the velocities at T/4 are free
-        closure = scaled.max(axis=(1, 2)) / np.maximum(np.abs(states[active, 0, :2]).max(axis=1), 1e-300)
+        scaled[:, -1, N:] = 0.0  # the velocities at T/4 are free
+        closure = scaled.max(axis=(1, 2)) / np.maximum(np.abs(states[active, 0, :N]).max(axis=1), 1e-300)
         Q = transition_matrix(Qs)
         finite = np.isfinite(closure) & np.all(np.isfinite(Q), axis=(1, 2))
         # A diverged orbit (non-finite flow) keeps its last finite closure and is not updated further.
@@ -362,62 +452,72 @@ def shoot(params: ModelParameters, states, period, phases, tol: float, max_iter:
             break
         active, end, Qs, mismatch, omega = active[keep], end[keep], Qs[keep], mismatch[keep], omega[keep]
         # d(segment end)/d(omega T/4): the segment lasts its share of T/4
-        dp = regularized_vector_field(end, params) * (phase_span[active] / omega[:, None])[..., None]
-        # condensing: the last segment's end as a function of (dx0, du0, dp) and the joints' mismatches
-        A, b, c = Qs[:, 0, :, :2], dp[:, 0], mismatch[:, 0]
-        for m in range(1, segments):
-            A = Qs[:, m] @ A
-            b = np.einsum("nij,nj->ni", Qs[:, m], b) + dp[:, m]
-            c = np.einsum("nij,nj->ni", Qs[:, m], c) + mismatch[:, m]
-        J = np.concatenate([A[:, :2], b[:, :2, None]], axis=2)
-        update = -np.einsum("nji,nj->ni", J, np.linalg.solve(J @ np.swapaxes(J, 1, 2), c[:, :2, None])[..., 0])
-        correction = np.zeros((len(active), 4))
-        correction[:, :2] = update[:, :2]
+        dp = dynamics.vector_field(end) * (phase_span[active] / omega[:, None])[..., None]
+        update = _newton_update(Qs, dp, mismatch, N)
+        correction = np.zeros((len(active), n_states))
+        correction[:, :N] = update[:, :N]
         states[active, 0] += correction
         for m in range(segments - 1):
-            correction = mismatch[:, m] + np.einsum("nij,nj->ni", Qs[:, m], correction) + dp[:, m] * update[:, 2:3]
+            correction = mismatch[:, m] + np.einsum("nij,nj->ni", Qs[:, m], correction) + dp[:, m] * update[:, N:]
             states[active, m + 1] += correction
-        period[active] += 4.0 * update[:, 2] / omega
+        period[active] += 4.0 * update[:, N] / omega
     return states, period, residual, converged, Q_all
 
 
-def _half_period_invariant(Q):
-    """``s = mu + 1/mu`` of the full-period monodromy from ``Q = Phi(T/4)`` of a symmetric orbit.
+def _newton_update(Qs, dp, mismatch, N: int):
+    """Minimum-norm update ``(dq0, d(omega T/4))`` (a, N + 1) of the condensed multiple-shooting system.
 
-    Reversibility maps the second quarter onto the first: ``Phi(T/2) = R Q^-1 R Q``. With the
-    half-wave symmetry ``N = -Phi(T/2)`` has the eigenvalues ``{1, 1, nu, 1/nu}``, ``mu = nu**2``,
-    so ``s_N = nu + 1/nu = tr N - 2`` and ``s = s_N**2 - 2``. On an orbit periodic to the
-    integration accuracy, the trivial pair is at 1 to that accuracy, so the trace, linear in the
-    matrix, is accurate to it as well (splitting the quadratic of the two invariants, as for HBM
-    orbits, would lose half the digits where both pairs are close to +1).
+    ``Qs`` (a, segments, 2N, 2N) the segments' fundamental matrices, ``dp`` (a, segments, 2N) the
+    derivatives of their ends with respect to ``omega T/4``, ``mismatch`` (a, segments, 2N).
     """
-    P = _REVERSAL @ np.linalg.inv(Q) @ _REVERSAL @ Q
-    s_n = -np.trace(P, axis1=-2, axis2=-1) - 2.0
-    return s_n * s_n - 2.0
+    # condensing: the last segment's end as a function of (dq0, dp) and the joints' mismatches
+    A, b, c = Qs[:, 0, :, :N], dp[:, 0], mismatch[:, 0]
+    for m in range(1, Qs.shape[1]):
+        A = Qs[:, m] @ A
+        b = np.einsum("nij,nj->ni", Qs[:, m], b) + dp[:, m]
+        c = np.einsum("nij,nj->ni", Qs[:, m], c) + mismatch[:, m]
+    J = np.concatenate([A[:, :N], b[:, :N, None]], axis=2)
+    return -np.einsum("nji,nj->ni", J, np.linalg.solve(J @ np.swapaxes(J, 1, 2), c[:, :N, None])[..., 0])
+
+
+def _half_period_invariants(dynamics: RegularizedDynamics, Q):
+    """:class:`~nnmstop.floquet.PairInvariants` of symmetric orbits from ``Q = Phi(T/4)`` in ``(q, q')``.
+
+    Reversibility maps the second quarter onto the first: ``Phi(T/2) = R Q^-1 R Q``, ``R`` reversing the
+    velocities; with the half-wave symmetry ``-Phi(T/2)`` gives the invariants (mass-normalized
+    coordinates ``(L^T q, L^T q')``, in which the flow is symplectic for the standard form).
+    """
+    N = dynamics.n_dofs
+    R = np.diag(np.r_[np.ones(N), -np.ones(N)])
+    P = R @ np.linalg.inv(Q) @ R @ Q
+    S = np.kron(np.eye(2), dynamics.mass_factor.T)
+    S_inv = np.kron(np.eye(2), np.linalg.inv(dynamics.mass_factor.T))
+    return PairInvariants.of(S @ P @ S_inv, halfwave=True)
 
 
 def _quarter_period_samples(system, U_array, samples: int):
-    """``x`` and ``dx/dtheta`` of HBM orbits on ``samples + 1`` uniform phases of ``[0, pi/2]``."""
-    x = system.to_full(system.split(np.asarray(U_array))[0])
-    values = system.to_time(x, 4 * samples)[:, : samples + 1]
-    slopes = system.to_time(system.derivative(x), 4 * samples)[:, : samples + 1]
+    """Stop coordinates ``x_i`` and ``dx_i/dtheta`` of HBM orbits on ``samples + 1`` uniform phases of
+    ``[0, pi/2]``, each (n, s, samples + 1)."""
+    q = dof_coefficients(system, U_array)
+    x = q[:, system.stop_dofs] / np.asarray(system.gaps, dtype=float)[:, None]
+    values = system.to_time(x, 4 * samples)[..., : samples + 1]
+    slopes = system.to_time(system.derivative(x), 4 * samples)[..., : samples + 1]
     return values, slopes
 
 
 def _hbm_states_at(system, U_array):
-    """``states_at(theta)`` for :func:`shooting_stability`: ``(x, u, xdot, udot)`` of the HBM orbits
-    ``U_array`` at the phases ``theta`` (n, J), by direct synthesis of their series."""
-    parts = system.split(np.asarray(U_array))
-    omega = np.sqrt(np.asarray(parts[4], dtype=float))
-    series = [
-        {"x": fourier.to_cos_sin(x, system.H), "u": fourier.to_cos_sin(u, system.H)} for x, u in zip(parts[0], parts[1])
-    ]
+    """``states_at(theta)`` for :func:`shooting_stability`: ``(q, q')`` of the HBM orbits ``U_array`` at the
+    phases ``theta`` (n, J), by direct synthesis of their series; and their periods."""
+    omega = np.sqrt(np.asarray(system.split(np.asarray(U_array))[-2], dtype=float))
+    cos, sin = fourier.to_cos_sin(dof_coefficients(system, U_array), system.H)  # (n, N, H + 1) each
 
     def states_at(theta):
-        out = np.empty(np.shape(theta) + (4,))
-        for i, (phases, w, pairs) in enumerate(zip(theta, omega, series)):
-            fields = fourier.fields_at_phases(phases, float(w), pairs)
-            out[i] = np.stack([fields[name] for name in ("x", "u", "xdot", "udot")], axis=-1)
+        out = np.empty(np.shape(theta) + (2 * system.n_dofs,))
+        for i, phases in enumerate(theta):
+            at = fourier.PhaseSynthesis(phases, system.H)
+            c, s = cos[i].T, sin[i].T  # (H + 1, N)
+            out[i, :, : system.n_dofs] = at.values(c, s)
+            out[i, :, system.n_dofs :] = omega[i] * at.values(at.k[:, None] * s, -at.k[:, None] * c)
         return out
 
     return states_at, 2.0 * np.pi / omega
@@ -429,24 +529,25 @@ class RefinedStability:
 
     Attributes
     ----------
-    invariant : ndarray
-        ``s = mu + 1/mu`` of the refined orbit, from the finer of the last two step counts.
+    invariants : PairInvariants
+        Of the refined orbit's monodromy (:class:`nnmstop.floquet.PairInvariants`), from the finer
+        of the last two step counts.
     integration_error : ndarray
-        ``|s(2N) - s(N)|`` between those step counts.
+        Largest change of a pair's ``s`` between those step counts.
     steps : ndarray of int
-        Runge-Kutta steps over the quarter period of the stored ``invariant``.
+        Runge-Kutta steps over the quarter period of the stored invariants.
     residual : ndarray
         Closure of the shooting conditions relative to the amplitude (:func:`shoot`).
     converged : ndarray of bool
-    start : ndarray, shape (n, 2)
-        ``(x, u)`` of the refined orbits at ``t = 0`` (at rest).
+    start : ndarray, shape (n, N)
+        ``q`` of the refined orbits at ``t = 0`` (at rest).
     period, energy : ndarray
         Period and energy of the refined orbits.
     initial_period, initial_energy : ndarray
         The same for the start orbits (energy of their state at ``t = 0``).
     """
 
-    invariant: np.ndarray
+    invariants: object
     integration_error: np.ndarray
     steps: np.ndarray
     residual: np.ndarray
@@ -469,7 +570,7 @@ def refined_stability(
     floor: float = 0.0,
     max_iter: int = 10,
 ):
-    """Refine HBM orbits into periodic orbits of (7) by shooting and compute their Floquet invariant.
+    """Refine HBM orbits into periodic orbits of the regularized equations by shooting; their Floquet invariants.
 
     The start (state at ``t = 0`` and period) and the step grid come from the HBM orbits;
     :func:`shooting_stability` does the rest.
@@ -489,7 +590,7 @@ def refined_stability(
     x_phase, x_slope_phase = _quarter_period_samples(system, U_array, _GRID_SAMPLES)
     states_at, period = _hbm_states_at(system, U_array)
     return shooting_stability(
-        system.params,
+        system.structure,
         period,
         x_phase,
         x_slope_phase,
@@ -505,7 +606,7 @@ def refined_stability(
 
 
 def shooting_stability(
-    params: ModelParameters,
+    structure,
     period,
     x_phase,
     x_slope_phase,
@@ -518,37 +619,37 @@ def shooting_stability(
     floor: float = 0.0,
     max_iter: int = 10,
 ):
-    """Periodic orbits of (7) by shooting from approximate ones, and their Floquet invariant.
+    """Periodic orbits of the regularized equations by shooting from approximate ones, and their Floquet invariants.
 
     Multiple shooting (:func:`shoot`) with ``N = steps`` Runge-Kutta steps per quarter period,
-    then the invariant with ``2N`` steps from the corrected start and joints, compared with the
-    ``N``-step one. Where ``|s - 2|`` (the distance to the type change of a half-wave symmetric
-    orbit) is within ``resolution_factor`` times that difference, ``N`` is doubled (shooting again
-    from the corrected orbit) up to ``max_steps``, unless that bound is already below ``floor``
-    (the stability tolerance on ``s``: the pair sits at the type change within it, and more steps
-    cannot change the verdict by more).
+    then the invariants with ``2N`` steps from the corrected start, compared with the ``N``-step
+    ones. Where the margin (:meth:`nnmstop.floquet.PairInvariants.margin`) is within
+    ``resolution_factor`` times that difference, ``N`` is doubled (shooting again from the corrected
+    orbit) up to ``max_steps``, unless that bound is already below ``floor`` (the stability tolerance
+    on ``s``: the pair sits at the type change within it, and more steps cannot change the verdict
+    by more).
 
     Parameters
     ----------
-    params : ModelParameters
+    structure : Structure
     period : array_like, shape (n,)
         Approximate periods.
-    x_phase, x_slope_phase : ndarray, shape (n, m + 1)
-        Approximate ``x`` and ``dx/dtheta`` of time-reversible, half-wave symmetric orbits on a
-        uniform grid of the phase ``[0, pi/2]`` (``m >= 8``), for the step grid
+    x_phase, x_slope_phase : ndarray, shape (n, s, m + 1) or (n, m + 1) for one stop
+        Approximate stop coordinates ``x_i`` and ``dx_i/dtheta`` of time-reversible, half-wave
+        symmetric orbits on a uniform grid of the phase ``[0, pi/2]`` (``m >= 8``), for the step grid
         (:func:`step_phases`) and the joints (:func:`segment_joints`).
     states_at : callable
-        ``states_at(theta)``, ``theta`` of shape (n, J): the approximate orbits' states
-        ``(x, u, xdot, udot)``, shape (n, J, 4), at those phases: the start (at ``theta = 0``, at rest;
-        its velocities are taken as zero) and the joints' start states.
+        ``states_at(theta)``, ``theta`` of shape (n, J): the approximate orbits' states ``(q, q')``,
+        shape (n, J, 2N), at those phases: the start (at ``theta = 0``, at rest; its velocities are
+        taken as zero) and the joints' start states.
     steps, max_steps : int
         Multiples of the number of segments (8).
     tol : float
         Shooting tolerance on the closure relative to the amplitude.
     resolution_factor : float
     max_change : float
-        Largest relative change of ``x(0)``, ``u(0)`` (relative to the amplitude) and ``T`` from the
-        start: a shooting that goes farther has found another orbit and counts as not converged.
+        Largest relative change of ``q(0)`` (relative to the amplitude) and ``T`` from the start: a
+        shooting that goes farther has found another orbit and counts as not converged.
     floor : float
     max_iter : int
         Newton updates per step count.
@@ -557,65 +658,63 @@ def shooting_stability(
     -------
     RefinedStability
     """
+    dynamics = RegularizedDynamics(structure)
+    N = dynamics.n_dofs
     period = np.array(period, dtype=float)
-    x_phase, x_slope_phase = np.asarray(x_phase, dtype=float), np.asarray(x_slope_phase, dtype=float)
+    x_phase, x_slope_phase = _stops_axis(x_phase), _stops_axis(x_slope_phase)
     n = len(period)
-    width = np.sqrt(2.0 * params.eps)  # width in x of the contact transition
+    width = dynamics.width()
     joints = segment_joints(x_phase, x_slope_phase, _SEGMENTS, width)
-    theta = np.linspace(0.0, 0.5 * np.pi, x_phase.shape[1])
+    theta = np.linspace(0.0, 0.5 * np.pi, x_phase.shape[-1])
     states = np.array(states_at(theta[joints[:, :-1]]), dtype=float)
-    if states.shape != (n, _SEGMENTS, 4):
-        raise ValueError(f"states_at must return shape {(n, _SEGMENTS, 4)}, got {states.shape}")
-    states[:, 0, 2:] = 0.0
-    initial_start, initial_period = states[:, 0, :2].copy(), period.copy()
-    initial_energy = _energy_at_rest(initial_start, params)
-    s = np.zeros(n)
+    if states.shape != (n, _SEGMENTS, 2 * N):
+        raise ValueError(f"states_at must return shape {(n, _SEGMENTS, 2 * N)}, got {states.shape}")
+    states[:, 0, N:] = 0.0
+    initial_start, initial_period = states[:, 0, :N].copy(), period.copy()
+    found = PairInvariants.empty(n, N - 1)
     err = np.full(n, np.inf)
     used = np.zeros(n, dtype=int)
     residual = np.full(n, np.inf)
     converged = np.zeros(n, dtype=bool)
     todo = np.arange(n)
-    N = steps
+    K = steps
     while len(todo):
-        phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], N, width)
-        z, T, res, conv, Q = shoot(params, states[todo], period[todo], phases, tol, max_iter)
+        phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], K, width)
+        z, T, res, conv, Q = shoot(dynamics, states[todo], period[todo], phases, tol, max_iter)
         states[todo], period[todo], residual[todo], converged[todo] = z, T, res, conv
         ok = todo[conv]
         if not len(ok):
             break
-        coarse = _half_period_invariant(Q[conv])
-        # the fine invariant from one trajectory over the quarter period, started at the converged
-        # start: integrated anew at 2N steps everywhere (joints restarted from the N-step orbit would
+        coarse = _half_period_invariants(dynamics, Q[conv])
+        # the fine invariants from one trajectory over the quarter period, started at the converged
+        # start: integrated anew at 2K steps everywhere (joints restarted from the K-step orbit would
         # keep its integration error there and hide it from the estimate)
-        fine_phases = step_phases(x_phase[ok], x_slope_phase[ok], joints[ok], 2 * N, width)
-        _, Q_fine = segment_flow(params, states[ok, 0] * [1.0, 1.0, 0.0, 0.0], period[ok], fine_phases)
-        s[ok] = _half_period_invariant(Q_fine)
-        err[ok] = np.abs(s[ok] - coarse)
-        used[ok] = 2 * N
-        if 2 * N >= max_steps:
+        fine_phases = step_phases(x_phase[ok], x_slope_phase[ok], joints[ok], 2 * K, width)
+        start = np.concatenate([states[ok, 0, :N], np.zeros((len(ok), N))], axis=1)
+        _, Q_fine = segment_flow(dynamics, start, period[ok], fine_phases)
+        fine = _half_period_invariants(dynamics, Q_fine)
+        found.assign(ok, fine)
+        err[ok] = fine.change_from(coarse)
+        used[ok] = 2 * K
+        if 2 * K >= max_steps:
             break
+        margin, _ = fine.margin(np.ones(len(ok), dtype=bool))
         bound = resolution_factor * err[ok]
-        todo = ok[(np.abs(s[ok] - 2.0) <= bound) & (bound > floor)]
-        N *= 2
-    start = states[:, 0, :2]
+        todo = ok[(margin <= bound) & (bound > floor)]
+        K *= 2
+    start = states[:, 0, :N]
     amplitude = np.abs(initial_start).max(axis=1)
     change = np.maximum(np.abs(start - initial_start).max(axis=1) / amplitude, np.abs(period / initial_period - 1.0))
     converged &= change <= max_change
     return RefinedStability(
-        invariant=s,
+        invariants=found,
         integration_error=err,
         steps=used,
         residual=residual,
         converged=converged,
         start=start,
         period=period,
-        energy=_energy_at_rest(start, params),
+        energy=dynamics.energy_at_rest(start),
         initial_period=initial_period,
-        initial_energy=initial_energy,
+        initial_energy=dynamics.energy_at_rest(initial_start),
     )
-
-
-def _energy_at_rest(start, params: ModelParameters):
-    """Total energy of the regularized model at the states ``(x, u, 0, 0)``, ``start``: (n, 2)."""
-    x, u = start[:, 0], start[:, 1]
-    return 0.5 * x**2 + 0.5 * params.beta * (x - u) ** 2 + regularized_contact_potential(x, params)

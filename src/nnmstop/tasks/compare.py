@@ -22,6 +22,7 @@ from nnmstop.compare.matching import PARAMETER_KEYS
 from nnmstop.compare.regimes import regime_error_dataset, regime_table
 from nnmstop.compare.stability import stability_comparison_dataset, stability_table
 from nnmstop.netcdf import read_dataset, write_dataset
+from nnmstop.settings import compare_settings
 
 __all__ = [
     "build_comparison_dataset",
@@ -57,19 +58,19 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
     for key in ("exact", "nnm1"):
         if key not in inputs:
             raise ValueError(f"the comparison needs the input {key!r}, got {sorted(inputs)}")
-    spec = config["compare"]
+    spec = compare_settings(config)
     model = config["model"]
     exact = read_dataset(inputs["exact"], expected={key: model[key] for key in PARAMETER_KEYS if key != "eta"})
     settings = {**{key: model[key] for key in PARAMETER_KEYS}, "harmonics": config["hbm"]["harmonics"]}
     branch = read_dataset(inputs["nnm1"], expected=settings)
-    marked = {label: spec["points"][label] for label in ("a", "b")}
+    marked = {label: spec.points[label] for label in ("a", "b")}
     ds = comparison_dataset(
         exact,
         branch,
-        count=spec["energy_count"],
+        count=spec.energy_count,
         marked=marked,
-        phase_samples=spec["phase_samples"],
-        end_margin=spec["end_margin"],
+        phase_samples=spec.phase_samples,
+        end_margin=spec.end_margin,
     )
     p = ds.attrs
     summary = (
@@ -81,6 +82,7 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
     path = write_dataset(
         ds,
         output_path,
+        kind="exact_vs_regularized",
         title="NNM1: exact non-smooth vs regularized orbits at matched energies",
         summary=summary,
         keywords="exact solution, regularization, comparison",
@@ -166,6 +168,7 @@ def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Pat
     path = write_dataset(
         ds,
         outputs["dataset"],
+        kind="regime_errors",
         title="Regularized vs exact NNM1: frequency error per impact regime, whole branch",
         summary=(
             "Frequency of the regularized NNM1 (HBM with "
@@ -203,6 +206,7 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
     path = write_dataset(
         ds,
         outputs["dataset"],
+        kind="stability_comparison",
         title="Exact vs regularized NNM1: Floquet stability per impact regime",
         summary=(
             "Agreement of the stability verdicts of the exact NNM1 (non-smooth model, monodromy from the linear "
