@@ -7,6 +7,7 @@ or equal to the minimum of 0``.
 
 from __future__ import annotations
 
+import math
 from importlib import resources
 from pathlib import Path
 
@@ -37,6 +38,26 @@ def _key_path(error: jsonschema.ValidationError) -> str:
     return path or "<root>"
 
 
+def _non_finite(node, path: str = ""):
+    """(key, value) of the first NaN or infinite number in ``node`` (nested mappings and lists), or None.
+
+    JSON Schema's bounds let NaN through (every comparison with NaN is false) and YAML writes
+    ``.nan`` and ``.inf``; no key of the configuration means a non-finite number."""
+    if isinstance(node, float) and not math.isfinite(node):
+        return path or "<root>", node
+    if isinstance(node, dict):
+        items = ((f"{path}.{key}" if path else str(key), value) for key, value in node.items())
+    elif isinstance(node, list):
+        items = ((f"{path}[{index}]", value) for index, value in enumerate(node))
+    else:
+        return None
+    for key, value in items:
+        found = _non_finite(value, key)
+        if found:
+            return found
+    return None
+
+
 def validate_config(config: dict) -> dict:
     """Check ``config`` against the schema and the cross-key rules; return it unchanged.
 
@@ -45,6 +66,11 @@ def validate_config(config: dict) -> dict:
     ConfigError
         Naming the first offending key and what is allowed there.
     """
+    if not isinstance(config, dict):
+        raise ConfigError(f"the configuration must be a mapping of sections, got {type(config).__name__}")
+    found = _non_finite(config)
+    if found:
+        raise ConfigError(f"config key '{found[0]}': {found[1]} is not a finite number; every number must be finite")
     validator = jsonschema.Draft202012Validator(load_schema())
     errors = sorted(validator.iter_errors(config), key=lambda e: (len(e.absolute_path), str(e.absolute_path)))
     if errors:
@@ -104,12 +130,19 @@ def _check_forced(config: dict) -> None:
 
 def _check_tube(tube: dict) -> None:
     """The tube's structure must make a beam (stops on nodes, eta below the stop stiffness, ...)."""
-    from nnmstop.models.beam import Beam
+    from nnmstop.models.beam import Beam, rigid_body_modes
 
     try:
         beam = Beam.from_parameters(tube["structure"])
     except (TypeError, ValueError) as err:
         raise ConfigError(f"config key 'tube.structure': {err}") from None
+    rigid = rigid_body_modes(beam.left, beam.right)
+    if rigid:
+        raise ConfigError(
+            f"config key 'tube.structure': a beam {beam.left} at the left end and {beam.right} at the right end has "
+            f"{rigid} rigid-body mode(s) (zero stiffness, a singular model): its NNMs do not start from a linear "
+            "mode. Clamp or pin an end so that no rigid-body motion is left (left/right: clamped or pinned)"
+        )
     for name, spec in tube["branches"].items():
         dofs = 2 * (beam.n_elements + 1)
         if spec["mode"] > dofs:

@@ -20,6 +20,7 @@ import pytest
 import xarray as xr
 import yaml
 
+from nnmstop.atomic import temporary_name
 from nnmstop.config import load_config
 from nnmstop.continuation.core import ContinuationError
 from nnmstop.figures.study import pareto_front
@@ -424,7 +425,7 @@ def test_numerical_failure_mid_branch_names_step_and_energy_and_leaves_no_datase
         run_task(
             "hbm_stage", cfg, {}, {"dataset": str(output)}, log=str(tmp_path / "log.txt"), branch="nnm1", stage="1"
         )
-    assert not output.exists() and not output.with_name(output.name + ".tmp").exists()
+    assert not output.exists() and not temporary_name(output).exists()
     assert "step 3 failed at energy" in (tmp_path / "log.txt").read_text()
 
 
@@ -483,7 +484,7 @@ def test_interrupted_run_restarts_to_the_outputs_of_a_clean_run(repo_root, tmp_p
     runner.wait(timeout=60)
     interrupted = not (broken / TARGETS[2]).exists()
     # what an interruption can leave behind: a temporary file of the atomic writer
-    stale = broken / (TARGETS[2] + ".tmp")
+    stale = temporary_name(broken / TARGETS[2])
     stale.parent.mkdir(parents=True, exist_ok=True)
     stale.write_bytes(b"partial netcdf")
     # a hard kill leaves the working directory locked: unlock (as after a lost cluster node), then rerun

@@ -28,6 +28,7 @@ from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
+from nnmstop.netcdf import check_up_to_date
 from nnmstop.settings import StageOneRun, StudySettings
 from nnmstop.study.runs import (
     ERROR_KEYS,
@@ -288,10 +289,7 @@ def exact_cost_dataset(params: ModelParameters, exact, phase_samples: int, repea
 
 def _check_case(ds: xr.Dataset, label: str, settings: StudySettings, expect: dict) -> None:
     """Refuse a case dataset computed with other settings (a stale file)."""
-    for key, value in expect.items():
-        stored = ds.attrs.get(key)
-        if stored is None or not np.isclose(float(stored), float(value), rtol=1e-12, atol=0):
-            raise ValueError(f"{label}: {key} = {stored!r} in the dataset but {value!r} expected (stale study file?)")
+    check_up_to_date(ds, expect, source=label)
     energies = np.asarray(settings.energies, dtype=float)
     if ds.sizes.get("energy") != energies.size or not np.allclose(ds["energy"].values, energies, rtol=1e-12, atol=0):
         raise ValueError(

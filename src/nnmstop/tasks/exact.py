@@ -10,13 +10,10 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import numpy as np
-import xarray as xr
-
 from nnmstop.exact.dataset import exact_branch_dataset, two_impact_dataset, two_impact_unknowns
 from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impact_family
 from nnmstop.models.two_dof import ModelParameters
-from nnmstop.netcdf import write_dataset
+from nnmstop.netcdf import read_dataset, write_dataset
 
 __all__ = ["build_two_impact_dataset", "build_multi_impact_dataset"]
 
@@ -108,15 +105,7 @@ def build_multi_impact_dataset(config: dict, two_impact_path: str | Path, output
             raise ValueError(f"config lacks the section {key!r}")
     params = ModelParameters.from_config(config["model"])
     settings = FamilySettings.from_config(config["exact_multi"])
-    with xr.open_dataset(two_impact_path) as ds:
-        two = ds.load()
-    for name in ("alpha", "beta", "delta"):
-        if not np.isclose(float(two.attrs[name]), getattr(params, name), rtol=1e-14, atol=0):
-            raise ValueError(
-                f"{two_impact_path}: {name} = {two.attrs[name]} differs from the configuration "
-                f"({getattr(params, name)}); "
-                "rebuild the two-impact dataset"
-            )
+    two = read_dataset(two_impact_path, expected={name: getattr(params, name) for name in ("alpha", "beta", "delta")})
     if two.attrs.get("end_margin") != "opposite_stop":
         logger.warning("the two-impact family ends on %r, not on the opposite stop", two.attrs.get("end_margin"))
     y = two_impact_unknowns(two)
