@@ -39,6 +39,7 @@ TINY_RUNS = {
     "explorer": None,  # times a built dist/explorer.html in Chromium: its --help here; the page has its own tests
     "exact_slices": ["--compare", "HEAD", "HEAD", "--nnm1-stage1", "{build}/" + NNM1_STAGE1, "--configfile", SMALL,
                      "--slices", "2", "--points", "20", "--energies", "2"],
+    "forced_build": None,  # a cold build of the forced target (over a minute): its --help; tests/forced build it
     "fe_scaling": ["--tiny", "--output", "{out}"],
     "figure_cost": ["--figures", "fig06", "--repeat", "1", "--results", "{build}/results", "--configfile", SMALL,
                     "--output", "{out}"],

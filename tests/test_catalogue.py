@@ -37,9 +37,6 @@ def test_no_long_name_is_written_outside_the_catalogue_in_new_code(repo_root):
         "hbm/stability.py",
         "hbm/structure_stability.py",
         "netcdf.py",
-        "study/error_runtime.py",
-        "study/runs.py",
-        "study/stiff_cases.py",
     }
     # the explorer reads the datasets' attributes into its page: it writes no dataset
     legacy.add("explorer/extract.py")

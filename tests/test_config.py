@@ -1,6 +1,7 @@
 """Configuration validation: the shipped file, each kind of bad value, and the workflow refusing it."""
 
 import copy
+import re
 import subprocess
 import sys
 
@@ -99,3 +100,55 @@ def test_workflow_refuses_a_negative_alpha(repo_root, tmp_path):
     output = proc.stdout + proc.stderr
     assert proc.returncode != 0, output
     assert "model.alpha" in output and "-1.0" in output, output
+
+
+@pytest.mark.parametrize(
+    "key",
+    ["model.alpha", "model.eta", "exact.step", "anm.tolerance", "compare.points.a", "execution.worker_idle_seconds"],
+)
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), float("-inf")])
+def test_non_finite_numbers_are_rejected_at_their_key(shipped, key, bad):
+    """NaN passes JSON Schema's bounds (every comparison is false) and `eta >= alpha`; each is named here."""
+    with pytest.raises(ConfigError, match=rf"config key '{re.escape(key)}': {bad} is not a finite number"):
+        validate_config(_with(shipped, key, bad))
+
+
+def test_a_non_finite_number_in_a_list_is_named_with_its_index(shipped):
+    config = copy.deepcopy(shipped)
+    config["figures"]["fig06"]["labels"][1]["energy"] = float("nan")
+    with pytest.raises(ConfigError, match=r"'figures\.fig06\.labels\[1\]\.energy': nan is not a finite number"):
+        validate_config(config)
+
+
+def test_the_idle_time_of_the_worker_is_bounded(shipped):
+    with pytest.raises(ConfigError, match="'execution.worker_idle_seconds': 100000.0 is greater than the maximum"):
+        validate_config(_with(shipped, "execution.worker_idle_seconds", 1e5))
+
+
+@pytest.mark.parametrize("section", ["model", "exact", "hbm", "anm", "branches", "compare", "figures"])
+def test_every_section_of_the_default_target_is_required(shipped, section):
+    with pytest.raises(ConfigError, match=f"config key '{section}': '{section}' is a required property"):
+        validate_config(_with(shipped, section, ...))
+
+
+@pytest.mark.parametrize("left, right, modes", [("free", "free", 2), ("pinned", "free", 1), ("free", "pinned", 1)])
+def test_a_beam_with_rigid_body_modes_is_refused_at_validation(shipped, left, right, modes):
+    config = _with(_with(shipped, "tube.structure.left", left), "tube.structure.right", right)
+    with pytest.raises(ConfigError, match=f"'tube.structure': a beam {left} .* has {modes} rigid-body mode"):
+        validate_config(config)
+
+
+def test_workflow_names_a_nan_at_its_key(repo_root, tmp_path):
+    """`.nan` in YAML reaches Snakemake's configuration as a float: refused before any job, at its key."""
+    override = tmp_path / "nan.yaml"
+    override.write_text("model:\n  eta: .nan\n")
+    proc = subprocess.run(
+        [sys.executable, "-m", "snakemake", "-n", "--configfile", str(override)],
+        cwd=repo_root,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    output = proc.stdout + proc.stderr
+    assert proc.returncode != 0, output
+    assert "config key 'model.eta': nan is not a finite number" in output, output[-2000:]

@@ -67,8 +67,8 @@ def selected_variants(option: str) -> list[str]:
     return names
 
 
-@pytest.mark.parametrize("name", list(VARIANTS))
-def test_numerics_tests_pass_under_other_cpu_kernels(name, request, repo_root):
+def run_variant(name, request, repo_root):
+    """Rerun the tests marked ``numerics`` under CPU variant ``name``; skip where it cannot run here."""
     if name not in selected_variants(request.config.getoption("--cpu-variants")):
         pytest.skip(f"CPU variant {name!r} not selected by --cpu-variants")
     if platform.machine().lower() not in ("x86_64", "amd64"):
@@ -87,6 +87,8 @@ def test_numerics_tests_pass_under_other_cpu_kernels(name, request, repo_root):
         "no:cacheprovider",
         "-m",
         "numerics",
+        "-n",
+        "0",  # one process per variant: the variants run side by side on the suite's workers
         "--cpu-variants=none",
         str(repo_root / "tests"),
     ]
@@ -95,3 +97,21 @@ def test_numerics_tests_pass_under_other_cpu_kernels(name, request, repo_root):
     assert run.returncode == 0, (
         f"tests marked 'numerics' fail under CPU variant {name} ({meaning}; {shown}):\n{run.stdout}\n{run.stderr}"
     )
+
+
+# One class per variant: xdist (--dist loadscope) keeps a module's functions on one worker but
+# schedules each class on its own, so the two variants run side by side.
+
+
+class TestSandybridge:
+    def test_numerics_tests_pass_under_other_cpu_kernels(self, request, repo_root):
+        run_variant("sandybridge", request, repo_root)
+
+
+class TestPrescottNoSimd:
+    def test_numerics_tests_pass_under_other_cpu_kernels(self, request, repo_root):
+        run_variant("prescott-nosimd", request, repo_root)
+
+
+def test_every_variant_has_its_class():
+    assert {"sandybridge": TestSandybridge, "prescott-nosimd": TestPrescottNoSimd}.keys() == VARIANTS.keys()

@@ -1,6 +1,7 @@
 """NetCDF writing (nnmstop.netcdf)."""
 
 import os
+import re
 import subprocess
 import sys
 
@@ -89,6 +90,30 @@ def test_cf_variable_marks_missing_values_so_they_read_back_as_nan(tmp_path):
     write_dataset(ds, tmp_path / "study.nc", title="t", summary="s", kind="netcdf_test")
     back = read_dataset(tmp_path / "study.nc")
     assert back["error"].values[0] == 1e-3 and np.isnan(back["error"].values[1])
+
+
+def test_write_refuses_a_missing_value_without_its_reason(tmp_path, monkeypatch):
+    """A missing value is a value not computed: the variables the catalogue names must say why, there."""
+    kind = DatasetKind(
+        "netcdf_reason",
+        "t",
+        (),
+        "t",
+        (
+            Variable("status", ("case",), "why not computed", flags=("computed", "unresolved")),
+            Variable("error", ("case", "energy"), "error", missing="where status says why", reason="status"),
+        ),
+    )
+    monkeypatch.setitem(catalogue.KINDS, kind.name, kind)
+    status = ("case", np.array([0, 1], dtype=np.int8))
+    explained = xr.Dataset({"error": (("case", "energy"), [[1.0, 1.0], [np.nan, np.nan]]), "status": status})
+    path = write_dataset(explained, tmp_path / "ok.nc", title="t", summary="s", kind="netcdf_reason")
+    back = read_dataset(path)
+    assert back["error"].attrs["ancillary_variables"] == "status" and np.isnan(back["error"].values[1]).all()
+    lost = xr.Dataset({"error": (("case", "energy"), [[1.0, np.nan], [1.0, 1.0]]), "status": status})
+    with pytest.raises(ValueError, match=r"'error' .* missing at \{'case': 0, 'energy': 1\} where \['status'\]"):
+        write_dataset(lost, tmp_path / "bad.nc", title="t", summary="s", kind="netcdf_reason")
+    assert not (tmp_path / "bad.nc").exists()
 
 
 def test_flag_variable_holds_cf_flags():
@@ -183,3 +208,90 @@ def test_float_coordinate_variables_carry_no_fill_value(tmp_path, monkeypatch):
     with netCDF4.Dataset(path) as nc:
         assert "_FillValue" not in nc["energy"].ncattrs()
     assert not [f for f in checker_findings(path) if f.startswith("cf:") or "_FillValue" in f]
+
+
+def altered_copy(path, tmp_path, change):
+    """A copy of the dataset at ``path`` changed by ``change(ds)`` and written as xarray would (no checks)."""
+    ds = xr.load_dataset(path)
+    change(ds)
+    copy = tmp_path / "altered.nc"
+    ds.to_netcdf(copy)
+    return copy
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_read_dataset_refuses_a_non_finite_value_naming_file_and_variable(tmp_path, bad):
+    path = write_dataset(labelled(), tmp_path / "branch.nc", title="t", summary="s", kind="netcdf_test")
+
+    def spoil(ds):
+        ds["frequency"].values[1] = bad
+
+    copy = altered_copy(path, tmp_path, spoil)
+    with pytest.raises(ValueError, match=rf"{copy} holds NaN or infinite values .*: frequency \(1 values\)"):
+        read_dataset(copy)
+
+
+def test_read_dataset_refuses_an_empty_truncated_or_foreign_file_naming_it(tmp_path):
+    path = write_dataset(labelled(), tmp_path / "branch.nc", title="t", summary="s", kind="netcdf_test")
+    empty, truncated, text = tmp_path / "empty.nc", tmp_path / "truncated.nc", tmp_path / "text.nc"
+    empty.touch()
+    truncated.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    text.write_text("regime,impacts\n0,2\n")
+    with pytest.raises(ValueError, match=f"{empty} is empty"):
+        read_dataset(empty)
+    for broken in (truncated, text):
+        with pytest.raises(ValueError, match=f"{broken} cannot be read as NetCDF"):
+            read_dataset(broken)
+
+
+FULL_DISK = """
+import sys
+from pathlib import Path
+import numpy as np, xarray as xr
+from nnmstop import catalogue
+from nnmstop.catalogue import DatasetKind, Variable
+from nnmstop.netcdf import write_dataset
+catalogue.KINDS["netcdf_big"] = DatasetKind("netcdf_big", "t", (), "t", (Variable("big", ("point",), "big"),))
+folder = Path(sys.argv[1])
+ds = xr.Dataset({"big": ("point", np.arange(200_000.0))})
+try:
+    write_dataset(ds, folder / "big.nc", title="t", summary="s", kind="netcdf_big")
+except OSError as error:
+    print("REFUSED", error)
+print("LEFT", sorted(p.name for p in folder.iterdir()))
+"""
+
+
+def run_in_small_tmpfs(script: str, options: str) -> str:
+    """Output of ``script`` run with a fresh tmpfs mounted (``options``) as its first argument, in a
+    mount namespace of its own (the machine's mounts stay untouched); skip when the machine forbids it."""
+    import shutil
+
+    unshare = shutil.which("unshare")
+    if unshare is None:
+        pytest.skip("no unshare command: cannot mount a private tmpfs")
+    namespace = ["-m"] if os.geteuid() == 0 else ["-r", "-m"]
+    command = f'd=$(mktemp -d) && mount -t tmpfs -o {options} tmpfs "$d" && exec "$0" -c "$1" "$d"'
+    run = subprocess.run(
+        [unshare, *namespace, "sh", "-c", command, sys.executable, script],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    if "REFUSED" not in run.stdout and "LEFT" not in run.stdout:
+        pytest.skip(f"this machine does not allow a private tmpfs here: {run.stderr.strip()[-300:]}")
+    return run.stdout
+
+
+def test_a_full_disk_is_named_and_leaves_no_temporary_file():
+    """A 64 kB tmpfs cannot hold a 1.6 MB dataset: the error says so and nothing is left behind."""
+    out = run_in_small_tmpfs(FULL_DISK, "size=64k")
+    assert "REFUSED" in out and "No space left on device" in out and "big.nc" in out, out
+    assert "the partial file was removed" in out, out
+    assert "LEFT []" in out, out
+
+
+def test_a_read_only_folder_is_named_and_leaves_no_temporary_file():
+    out = run_in_small_tmpfs(FULL_DISK, "ro,size=64k")
+    assert "REFUSED" in out and re.search("Read-only file system|Permission denied", out) and "big.nc" in out, out
+    assert "LEFT []" in out, out

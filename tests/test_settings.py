@@ -48,9 +48,8 @@ def test_study_run_is_the_configured_stage_one_at_the_study_limits(config):
 
 
 def test_study_reads_only_its_sections(config):
-    """What the study's rules pass (workflow/rules/study.smk): no other branch, no figure, no hbm.harmonics."""
+    """What the study's rules pass (workflow/rules/study.smk): no other branch, no figure, no hbm section."""
     parts = {name: config[name] for name in ("model", "anm", "stability", "exact")}
-    parts["hbm"] = {"time_samples": config["hbm"]["time_samples"]}
     parts["branches"] = {"nnm1": config["branches"]["nnm1"]}
     study = {k: v for k, v in config["study"].items() if k not in ("png_dpi", "stiff")}
     settings = study_settings({**parts, "study": study})

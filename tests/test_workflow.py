@@ -51,11 +51,9 @@ def planned_rules(workdir: Path, target: str) -> set[str]:
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    """The default target of the workflow, built once from scratch."""
-    workdir = tmp_path_factory.mktemp("workflow")
-    snakemake(workdir, "--cores", "2")
-    return workdir
+def built(small_build):
+    """The default target of the workflow, built once from scratch (shared with the verifier's tests)."""
+    return small_build
 
 
 def outputs(workdir: Path) -> list[Path]:
@@ -423,3 +421,19 @@ def test_bundle_citation_is_valid_cff(bundle, tmp_path):
         [cffconvert, "--validate", "-i", str(tmp_path / "CITATION.cff")], capture_output=True, text=True, timeout=120
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_every_task_logs_its_cost_and_the_build_sums_them(built):
+    """The CPU time of the tasks, which run outside the jobs' process trees in the warm worker, is in
+    each log's last line and summed by `python -m nnmstop.pipeline.usage` (docs/methods/warm_worker.md)."""
+    from nnmstop.pipeline.usage import read_usage
+
+    logs = sorted((built / "logs").rglob("*.log"))
+    usages = read_usage(built / "logs")
+    assert sorted(u["log"] for u in usages) == [str(p) for p in logs]
+    assert all(u["outcome"] == "finished" for u in usages), usages
+    assert sum(u["cpu"] for u in usages if u["task"] == "hbm_stage") > 0
+    result = subprocess.run(
+        [sys.executable, "-m", "nnmstop.pipeline.usage", str(built / "logs")], capture_output=True, text=True
+    )
+    assert result.returncode == 0 and "hbm_stage" in result.stdout and "all tasks:" in result.stdout, result.stderr

@@ -124,31 +124,22 @@ def stability(structure: Structure, branch: xr.Dataset, steps: int = 128, tolera
 def exact_family_dataset(structure: Structure, family) -> xr.Dataset:
     """Labelled dataset of a one-stop exact family (:func:`nnmstop.exact.ndof.follow_one_stop_family`).
 
-    Long names and units from the variable catalogue (kind ``one_impact_family``).
+    The family's orbits, modal energies and internal resonances (:func:`nnmstop.exact.dataset.one_stop_dataset`)
+    with the structure's DOF labels and attributes. Long names and units from the variable catalogue (kind
+    ``one_stop_family``).
     """
-    ds = xr.Dataset(
-        {
-            "energy": ("orbit", family.energy),
-            "frequency": ("orbit", family.frequency),
-            "contact_time": ("orbit", family.contact_time),
-            "x_max": ("orbit", family.x_max),
-            "initial_velocity": (("orbit", "dof"), family.initial_velocity),
-        },
-        coords={
-            "orbit": np.arange(len(family)),
-            "dof": np.arange(structure.n_dofs),
-            "dof_label": ("dof", np.array(structure.dof_labels, dtype=str)),
-        },
-    )
+    from nnmstop.exact.dataset import one_stop_dataset
+
+    ds = one_stop_dataset(family)
+    ds = ds.assign_coords(dof_label=("dof", np.array(structure.dof_labels, dtype=str)))
     ds.attrs = {
         **structure.attributes,
         "dofs": structure.n_dofs,
         "stops": len(structure.stops),
         "mode": 1,
-        "start": family.start,
-        "end_reason": family.end_reason,
+        **ds.attrs,
     }
-    return describe(ds, "one_impact_family")
+    return describe(ds, "one_stop_family")
 
 
 def exact_family(structure: Structure, step: float = 0.02, max_points: int = 2000) -> xr.Dataset:

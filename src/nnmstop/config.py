@@ -7,6 +7,7 @@ or equal to the minimum of 0``.
 
 from __future__ import annotations
 
+import math
 from importlib import resources
 from pathlib import Path
 
@@ -37,6 +38,26 @@ def _key_path(error: jsonschema.ValidationError) -> str:
     return path or "<root>"
 
 
+def _non_finite(node, path: str = ""):
+    """(key, value) of the first NaN or infinite number in ``node`` (nested mappings and lists), or None.
+
+    JSON Schema's bounds let NaN through (every comparison with NaN is false) and YAML writes
+    ``.nan`` and ``.inf``; no key of the configuration means a non-finite number."""
+    if isinstance(node, float) and not math.isfinite(node):
+        return path or "<root>", node
+    if isinstance(node, dict):
+        items = ((f"{path}.{key}" if path else str(key), value) for key, value in node.items())
+    elif isinstance(node, list):
+        items = ((f"{path}[{index}]", value) for index, value in enumerate(node))
+    else:
+        return None
+    for key, value in items:
+        found = _non_finite(value, key)
+        if found:
+            return found
+    return None
+
+
 def validate_config(config: dict) -> dict:
     """Check ``config`` against the schema and the cross-key rules; return it unchanged.
 
@@ -45,6 +66,11 @@ def validate_config(config: dict) -> dict:
     ConfigError
         Naming the first offending key and what is allowed there.
     """
+    if not isinstance(config, dict):
+        raise ConfigError(f"the configuration must be a mapping of sections, got {type(config).__name__}")
+    found = _non_finite(config)
+    if found:
+        raise ConfigError(f"config key '{found[0]}': {found[1]} is not a finite number; every number must be finite")
     validator = jsonschema.Draft202012Validator(load_schema())
     errors = sorted(validator.iter_errors(config), key=lambda e: (len(e.absolute_path), str(e.absolute_path)))
     if errors:
@@ -112,7 +138,9 @@ def _check_structure(section: dict, branches: dict, key: str) -> None:
         if kind == "beam":
             from nnmstop.models.beam import Beam, beam_structure
 
-            structure = beam_structure(Beam.from_parameters(copy.deepcopy(section["beam"])))
+            beam = Beam.from_parameters(copy.deepcopy(section["beam"]))
+            _check_no_rigid_body_mode(beam)
+            structure = beam_structure(beam)
         else:
             from nnmstop.models.matrices import matrix_structure
 
@@ -128,6 +156,19 @@ def _check_structure(section: dict, branches: dict, key: str) -> None:
                 f"config key '{branch_key}': {spec['mode']} exceeds the {structure.n_dofs} degrees of freedom "
                 f"of the {kind}"
             )
+
+
+def _check_no_rigid_body_mode(beam) -> None:
+    """A beam's ends must hold it without its stops: in free flight the non-smooth model has no zero-frequency mode."""
+    from nnmstop.models.beam import rigid_body_modes
+
+    rigid = rigid_body_modes(beam.left, beam.right)
+    if rigid:
+        raise ValueError(
+            f"a beam {beam.left} at the left end and {beam.right} at the right end has {rigid} rigid-body mode(s) "
+            "(zero stiffness, a singular model): its NNMs do not start from a linear mode. Clamp or pin an end so "
+            "that no rigid-body motion is left (left/right: clamped or pinned)"
+        )
 
 
 def load_config(path: str | Path = "config/config.yaml") -> dict:

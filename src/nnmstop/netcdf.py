@@ -27,6 +27,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop import __version__
+from nnmstop.atomic import atomic_output
 from nnmstop.catalogue import describe
 
 __all__ = [
@@ -42,6 +43,9 @@ __all__ = [
     "check_labelled",
     "write_dataset",
     "read_dataset",
+    "open_checked",
+    "may_be_missing",
+    "non_finite_variables",
     "check_up_to_date",
 ]
 
@@ -236,6 +240,13 @@ def write_dataset(
     ``coverage_content_type`` a variable already carries; the others get one (``coordinate``,
     ``qualityInformation`` for flags, ``modelResult``). ``metadata`` is the configuration's
     ``metadata`` section (see :func:`global_attributes`).
+
+    Raises
+    ------
+    ValueError
+        If a variable is unlabelled or holds NaN or infinite values.
+    nnmstop.atomic.OutputWriteError
+        If the file system refuses the file (no space left, permission, ...): no file is left behind.
     """
     described_ds = describe(ds, kind)
     path = Path(path)
@@ -254,10 +265,53 @@ def write_dataset(
     encoding = {name: {"zlib": False} for name in out.data_vars}
     # CF: a coordinate variable holds no missing values, so it gets no _FillValue (xarray's default on floats)
     encoding.update({name: {"_FillValue": None} for name in out.coords if name in out.dims})
-    tmp = path.with_name(path.name + ".tmp")
-    out.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
-    os.replace(tmp, path)
+    with atomic_output(path) as tmp:
+        out.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
     return path
+
+
+def may_be_missing(variable: xr.Variable) -> bool:
+    """Whether ``variable`` (read with CF decoding) may hold NaN: only where its file declares a
+    finite ``_FillValue`` (a documented fill value, see :func:`cf_variable`) for values not computed.
+
+    Every other floating-point variable must be finite: :func:`write_dataset` refuses NaN and
+    infinity, so one in a file means the file was altered or damaged.
+    """
+    fill = variable.encoding.get("_FillValue", variable.attrs.get("_FillValue"))
+    try:
+        return fill is not None and bool(np.isfinite(fill))
+    except TypeError:
+        return False
+
+
+def non_finite_variables(ds: xr.Dataset) -> dict[str, int]:
+    """Variables of ``ds`` (read from a file) holding NaN or infinite values where they must be
+    finite (:func:`may_be_missing`), with the number of such values."""
+    found = {}
+    for name, variable in ds.variables.items():
+        if np.issubdtype(variable.dtype, np.floating) or np.issubdtype(variable.dtype, np.complexfloating):
+            values = np.asarray(variable.values)
+            bad = ~np.isfinite(values)
+            if may_be_missing(variable):
+                bad &= ~np.isnan(values)
+            if bad.any():
+                found[str(name)] = int(bad.sum())
+    return found
+
+
+def open_checked(path: str | Path) -> xr.Dataset:
+    """Load the NetCDF file at ``path`` into memory and close it; ``ValueError`` naming the file if
+    it is missing, empty, truncated or not NetCDF (with the reader's own message)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no dataset at {path}")
+    if path.stat().st_size == 0:
+        raise ValueError(f"{path} is empty (0 bytes): not a NetCDF dataset")
+    try:
+        with xr.open_dataset(path) as ds:
+            return ds.load()
+    except Exception as error:  # the readers raise OSError, RuntimeError, ValueError, KeyError...
+        raise ValueError(f"{path} cannot be read as NetCDF ({type(error).__name__}: {error})") from error
 
 
 def read_dataset(path: str | Path, required: Iterable[str] = (), expected: Mapping | None = None) -> xr.Dataset:
@@ -275,16 +329,19 @@ def read_dataset(path: str | Path, required: Iterable[str] = (), expected: Mappi
     Raises
     ------
     ValueError
-        If the file does not exist, lacks a required variable, or is stale.
+        If the file does not exist or cannot be read, lacks a required variable, holds NaN or
+        infinite values in a variable that must be finite (:func:`may_be_missing`), or is stale;
+        the message names the file (and the variable).
     """
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"no dataset at {path}")
-    with xr.open_dataset(path) as ds:
-        loaded = ds.load()
+    loaded = open_checked(path)
     missing = [name for name in required if name not in loaded.variables]
     if missing:
         raise ValueError(f"{path} lacks the variable(s) {missing}; it holds {sorted(map(str, loaded.variables))}")
+    non_finite = non_finite_variables(loaded)
+    if non_finite:
+        listed = ", ".join(f"{name} ({count} values)" for name, count in sorted(non_finite.items()))
+        raise ValueError(f"{path} holds NaN or infinite values where numbers must be: {listed}; rebuild it")
     if expected:
         check_up_to_date(loaded, expected, source=path)
     return loaded
@@ -323,7 +380,8 @@ def check_up_to_date(
         else:
             same = str(stored) == str(value)
         if not same:
+            shown = stored.item() if isinstance(stored, np.generic) else stored  # 0.1, not np.float64(0.1)
             raise ValueError(
-                f"{source}: {key} = {stored!r} in the dataset but {value!r} in the configuration "
+                f"{source}: {key} = {shown!r} in the dataset but {value!r} in the configuration "
                 "(stale dataset); rebuild it"
             )

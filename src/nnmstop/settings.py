@@ -388,10 +388,11 @@ class StudySettings:
     Attributes
     ----------
     run : StageOneRun
-        NNM1 stage 1 of the configuration (``model``, ``anm``, ``stability``, ``branches.nnm1``,
-        ``hbm.time_samples``) at the study's truncation limit and point density, with
-        ``H = error_runtime.anm_harmonics`` (or ``stiff.energy_harmonics`` without an
-        ``error_runtime`` section); every job replaces ``H`` by its own.
+        NNM1 stage 1 of the configuration (``model``, ``anm``, ``stability``, ``branches.nnm1``)
+        at the study's truncation limit and point density, with ``H = error_runtime.anm_harmonics``
+        (or ``stiff.energy_harmonics`` without an ``error_runtime`` section): every job replaces
+        ``H`` by its own, so the FFT samples are always the automatic, alias-free number (the
+        smallest power of two above ``3H``), whatever ``hbm.time_samples`` says.
     exact : FamilySettings
         The exact two-impact family (section ``exact``).
     energies : tuple of float
@@ -441,8 +442,8 @@ STUDY_KEYS = ("energies", "end_margin", "phase_samples", "max_truncation", "poin
 
 
 def study_settings(config: dict) -> StudySettings:
-    """The study's settings from the sections ``model``, ``hbm`` (``time_samples``), ``anm``,
-    ``stability``, ``branches`` (``nnm1``), ``exact`` and ``study``.
+    """The study's settings from the sections ``model``, ``anm``, ``stability``, ``branches``
+    (``nnm1``), ``exact`` and ``study``.
 
     Raises
     ------
@@ -458,7 +459,7 @@ def study_settings(config: dict) -> StudySettings:
     run = StageOneRun(
         params=model_parameters(config),
         harmonics=harmonics,
-        time_samples=int(_section(config, "hbm")["time_samples"]),
+        time_samples=0,
         continuation=anm_settings(config, study["points_per_step"]),
         stability=stability_settings(config),
         max_truncation=float(study["max_truncation"]),

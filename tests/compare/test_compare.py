@@ -272,7 +272,7 @@ def test_task_writes_a_labelled_dataset_and_refuses_stale_inputs(tmp_path, exact
         assert ds.attrs["point_a_energy"] == pytest.approx(low ** (1 - r) * high**r, rel=1e-12)
     stale = copy.deepcopy(config)
     stale["model"]["eta"] = 0.05
-    with pytest.raises(ValueError, match="model.eta = 0.05"):
+    with pytest.raises(ValueError, match=r"eta = 0.1 in the dataset but 0.05 in the configuration \(stale dataset\)"):
         run_task("compare_nnm1", stale, {"exact": str(exact_path), "nnm1": str(nnm1_path)}, {"dataset": str(out)})
 
 

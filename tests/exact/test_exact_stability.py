@@ -159,8 +159,10 @@ def test_bad_inputs_are_rejected(paper_params):
 def test_two_impact_family_changes_stability_at_its_energy_extrema(paper_params):
     """On the energy surface, a fold of the family in energy is a saddle-node of the Poincare map:
     the non-trivial pair passes +1 there and nowhere else on this stretch of the family."""
+    from nnmstop.catalogue import describe
+
     family = follow_two_impact_family(paper_params, step=0.02, max_points=40)
-    ds = two_impact_dataset(family)
+    ds = describe(two_impact_dataset(family), "two_impact_family")  # labelled as write_dataset writes it
     for name in (
         "stable",
         "multiplier_real",

@@ -8,11 +8,12 @@ scratch (no pipeline output is read) and runs in well under a minute.
 
 import numpy as np
 import pytest
+import scipy.linalg
 import xarray as xr
 
 from nnmstop.checks.time_integration import integrate_nonsmooth
 from nnmstop.exact.dataset import two_impact_dataset
-from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impact_family, unit_null_vector
+from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impact_family
 from nnmstop.exact.grazing import OrbitAssessment, assess_orbit, classify_boundary, merge_seed, split_start
 from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem, from_two_impact_unknowns, high_energy_orbit
 from nnmstop.exact.sequences import check_sequence, sequence_impacts
@@ -236,7 +237,7 @@ def test_transitions_are_found_again_in_the_reverse_direction(paper_params, firs
     """
     problem = SequenceProblem(paper_params, "FRFL")
     y0 = _refine(problem, SEEDS["FRFL"])
-    direction = unit_null_vector(problem.jacobian(y0))
+    direction = scipy.linalg.null_space(problem.jacobian(y0))[:, 0]
     direction *= -np.sign(direction[3])  # shrink the right-stop contact
     settings = FamilySettings(
         step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=900, max_segments=4
@@ -264,7 +265,7 @@ def test_transitions_are_found_again_in_the_reverse_direction(paper_params, firs
 
 def test_the_six_impact_high_energy_family_ends_on_the_two_impact_high_energy_orbits(paper_params, orbits):
     problem, y = orbits["FRFR"]
-    direction = unit_null_vector(problem.jacobian(y))
+    direction = scipy.linalg.null_space(problem.jacobian(y))[:, 0]
     direction *= -np.sign(direction[4])  # shrink the free flight between the two right-stop contacts
     settings = FamilySettings(
         step=0.25, max_frequency_step=5e-4, max_log_energy_step=0.1, max_points=500, max_segments=2, energy_max=2000.0
@@ -342,3 +343,36 @@ def test_settings_are_checked():
         FamilySettings(step=-1.0)
     with pytest.raises(ValueError, match="max_points"):
         FamilySettings(max_points=0)
+
+
+def test_the_phase_sequences_take_a_two_dof_structure_and_refuse_others(paper_params):
+    """Any 2-DOF structure with one stop on its first DOF (gap 1) gets the multi-impact sequences: on one that is
+    not the paper's, an FLFR orbit past the two-impact family is checked by time integration; other structures
+    are refused with a message naming what is not supported."""
+    from nnmstop.checks.time_integration import integrate_structure_nonsmooth
+    from nnmstop.exact.problem import from_two_impact_unknowns
+    from nnmstop.models.structure import Stop, Structure, two_dof_structure
+
+    y = np.array([1.2, 0.9, 0.7, 0.1, 1.1, 0.3])
+    paper, as_structure = (
+        SequenceProblem(paper_params, "FLFR"),
+        SequenceProblem(two_dof_structure(paper_params), "FLFR"),
+    )
+    np.testing.assert_array_equal(paper.residual(y), as_structure.residual(y))
+    other = Structure(np.diag([1.5, 1.0]), np.array([[2.2, -1.0], [-1.0, 1.3]]), (Stop(0, 1.0, 30.0, 0.1),))
+    two = follow_two_impact_family(other, step=0.25)
+    assert two.end_margin == "opposite_stop"
+    start = from_two_impact_unknowns(two.unknowns)
+    settings = FamilySettings(
+        step=0.25, max_points=40, max_log_energy_step=0.1, max_frequency_step=5e-4, max_segments=2
+    )
+    segments = follow_branch(other, "FR", start[-1], start[-1] - start[-2], settings)
+    flfr = segments[-1]
+    assert flfr.sequence == "FLFR"
+    orbit = flfr.unknowns[-1]
+    run = integrate_structure_nonsmooth(other, [0.0, 0.0, orbit[0], orbit[1]], [0.0, 4.0 * flfr.problem.quarter(orbit)])
+    np.testing.assert_allclose(run.states[-1], run.states[0], rtol=0, atol=1e-8 * np.abs(run.states[0]).max())
+    assert np.count_nonzero(run.switch_sides) == flfr.problem.impacts_per_period == 6
+    three = Structure(np.eye(3), np.diag([1.0, 2.0, 3.0]), (Stop(0, 1.0, 30.0, 0.1),))
+    with pytest.raises(ValueError, match="implemented for the 2-DOF oscillator only; this structure has 3 degrees"):
+        follow_branch(three, "FR", np.ones(4), np.ones(4), settings)

@@ -3,9 +3,9 @@ non-smooth equations, against scipy's matrix exponential; conservation and valid
 
 import numpy as np
 import pytest
-import scipy.integrate
 import scipy.linalg
 
+from nnmstop.checks.time_integration import integrate_structure_nonsmooth
 from nnmstop.exact.family import follow_two_impact_family as follow_family
 from nnmstop.exact.ndof import (
     OneStopProblem,
@@ -112,45 +112,6 @@ def test_a_passive_stop_ends_the_family_where_it_is_reached(paper_params):
     assert 0.0 <= 2.0 - np.abs(u).max() < 1e-8
 
 
-def _integrate_nonsmooth(structure, z0, duration):
-    """Non-smooth equations integrated region by region (free flight, contact right/left), switching at events
-    |x_c| = gap; returns the final state and the list of (time, side) of the contact entries."""
-    mass, stiffness = structure.dense_matrices()
-    (stop,) = structure.stops
-    n, c, g, alpha = structure.n_dofs, stop.dof, stop.gap, stop.stiffness
-    minv_k = np.linalg.solve(mass, stiffness)
-    minv_e = np.linalg.solve(mass, np.eye(n)[c])
-
-    def rhs(side):
-        def f(t, z):
-            force = alpha * (z[c] - side * g) if side else 0.0
-            return np.concatenate([z[n:], -minv_k @ z[:n] - force * minv_e])
-
-        return f
-
-    def event(level, direction):
-        def e(t, z):
-            return z[c] - level
-
-        e.terminal, e.direction = True, direction
-        return e
-
-    t, z, side, entries = 0.0, np.asarray(z0, dtype=float), 0, []
-    while t < duration:
-        events = [event(g, 1), event(-g, -1)] if side == 0 else [event(side * g, -side)]
-        sol = scipy.integrate.solve_ivp(
-            rhs(side), (t, duration), z, method="DOP853", rtol=1e-12, atol=1e-12, events=events
-        )
-        t, z = sol.t[-1], sol.y[:, -1]
-        if sol.status == 1:
-            if side == 0:
-                side = 1 if sol.t_events[0].size else -1
-                entries.append((t, side))
-            else:
-                side = 0
-    return z, entries
-
-
 def test_beam_orbit_is_periodic_under_time_integration_with_one_impact_per_stop(small_beam):
     problem = OneStopProblem(small_beam)
     y = orbit_at_contact_time(problem, 0.04)
@@ -158,12 +119,13 @@ def test_beam_orbit_is_periodic_under_time_integration_with_one_impact_per_stop(
     assert check.valid
     period = 4.0 * y[-1]
     z0 = np.concatenate([np.zeros(problem.n), problem.initial_velocity(y)])
-    z_end, entries = _integrate_nonsmooth(small_beam, z0, period)
+    trajectory = integrate_structure_nonsmooth(small_beam, z0, [0.0, period])
     scale = np.abs(z0).max()
-    np.testing.assert_allclose(z_end, z0, atol=1e-8 * scale)
+    np.testing.assert_allclose(trajectory.states[-1], z0, atol=1e-8 * scale)
     # one impact on each side of the stop per period, at the times of the exact construction
-    assert [side for _, side in entries] == [1, -1]
-    np.testing.assert_allclose([t for t, _ in entries], [y[-2], y[-2] + 0.5 * period], rtol=1e-9)
+    entries = trajectory.switch_sides != 0
+    assert list(trajectory.switch_sides[entries]) == [1, -1]
+    np.testing.assert_allclose(trajectory.switch_times[entries], [y[-2], y[-2] + 0.5 * period], rtol=1e-9)
 
 
 def test_exact_time_history_conserves_the_piecewise_energy(small_beam):

@@ -289,7 +289,9 @@ def test_regularized_orbit_approaches_the_exact_orbit_as_eta_shrinks(paper_param
 
 
 def test_dataset_is_labelled_and_consistent(paper_params, family, tmp_path):
-    ds = two_impact_dataset(family)
+    from nnmstop.catalogue import describe
+
+    ds = describe(two_impact_dataset(family), "two_impact_family")  # what write_dataset writes
     for name in [
         "energy",
         "frequency",

@@ -1,21 +1,24 @@
-"""The verifier (nnmstop.pipeline.verify) on a small build: identity, curves, missing files.
+"""The verifier (nnmstop.pipeline.verify) on a small build: identity, curves, every variable, damaged files.
 
-A small build (tests/data/small_config.yaml: H = 16, short ranges) of the exact two-impact
-family and of NNM1 (four stages) is the reference. Copies of it are altered the way a
-build on another CPU would differ (other points on the same curve) or the way a wrong
-build would (one frequency moved), and the verifier must tell the two apart.
+The small configuration's build (tests/data/small_config.yaml: H = 16, short ranges; shared with
+tests/test_workflow.py) is the reference. Copies of it are altered the way a build on another CPU
+would differ (other points on the same curves) or the way a wrong or damaged build would (a moved
+frequency, an inverted stability flag, a changed parameter, a NaN, a foreign, truncated or empty
+file, a flipped byte), and the verifier must tell them apart, file by file, without stopping.
 """
 
 from __future__ import annotations
 
 import shutil
+import struct
 from pathlib import Path
 
+import numpy as np
 import pytest
 import xarray as xr
 import yaml
 
-from nnmstop.pipeline.verify import file_verdicts, main, update_reference, verify
+from nnmstop.pipeline.verify import file_verdicts, format_table, main, update_reference, verify
 from nnmstop.tasks.manifest import dataset_manifest
 from snakemake_cli import run_snakemake
 
@@ -24,24 +27,40 @@ SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
 TARGETS = ["results/exact/nnm1_two_impacts.nc", "results/hbm/nnm1.nc"]
 
 
-def _build(workdir: Path, config: Path) -> Path:
-    """Build TARGETS with the workflow and write their manifest; return the results directory."""
-    result = run_snakemake(workdir, config, "--cores", "2", *TARGETS, check=False)
-    assert result.returncode == 0, result.stderr[-3000:]
+def _manifest(workdir: Path) -> Path:
+    """Write the manifest of the datasets under ``workdir/results``, with paths as the workflow writes them."""
     datasets = sorted(str(p.relative_to(workdir)) for p in (workdir / "results").rglob("*.nc"))
-    dataset_manifest(
-        {}, {"datasets": [str(workdir / d) for d in datasets]}, {"manifest": str(workdir / "results/MANIFEST.sha256")}
-    )
-    manifest = workdir / "results/MANIFEST.sha256"  # paths relative to the work directory, as the workflow writes them
+    manifest = workdir / "results/MANIFEST.sha256"
+    dataset_manifest({}, {"datasets": [str(workdir / d) for d in datasets]}, {"manifest": str(manifest)})
     manifest.write_text(manifest.read_text().replace(f"{workdir}/", ""))
     return workdir / "results"
 
 
+def _build(workdir: Path, config: Path) -> Path:
+    """Build TARGETS with the workflow and write their manifest; return the results directory."""
+    result = run_snakemake(workdir, config, "--cores", "2", *TARGETS, check=False)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return _manifest(workdir)
+
+
 @pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    """A small build and the reference made from it."""
-    workdir = tmp_path_factory.mktemp("verify_build")
-    results = _build(workdir, SMALL_CONFIG)
+def reference(small_build, tmp_path_factory):
+    """The small build's results and the reference made from them."""
+    results = small_build / "results"
+    return results, update_reference(results, tmp_path_factory.mktemp("verify") / "reference")
+
+
+@pytest.fixture(scope="module")
+def targets_reference(small_build, tmp_path_factory):
+    """A reference of TARGETS only (the two-impact family, NNM1 and its stages), from the small build."""
+    workdir = tmp_path_factory.mktemp("targets")
+    for target in TARGETS:
+        (workdir / target).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(small_build / target, workdir / target)
+    shutil.copytree(small_build / "results/hbm/stages", workdir / "results/hbm/stages")
+    for stray in (workdir / "results/hbm/stages").glob("nnm2_*"):
+        stray.unlink()
+    results = _manifest(workdir)
     return results, update_reference(results, workdir / "reference")
 
 
@@ -49,10 +68,18 @@ def _copy(results: Path, tmp_path: Path) -> Path:
     return Path(shutil.copytree(results, tmp_path / "results"))
 
 
+def _rewrite(path: Path, change) -> None:
+    """Apply ``change(ds)`` to the dataset at ``path`` and write it back as xarray does (no checks)."""
+    ds = xr.load_dataset(path)
+    change(ds)
+    path.unlink()
+    ds.to_netcdf(path)
+
+
 def test_an_identical_copy_is_identical(reference, tmp_path):
     results, ref = reference
     verdicts = file_verdicts(verify(_copy(results, tmp_path), ref))
-    assert set(verdicts.values()) == {"identical"} and len(verdicts) == 6  # exact family, NNM1 and its 4 stages
+    assert set(verdicts.values()) == {"identical"} and len(verdicts) >= 12, verdicts
     assert main([str(results), "--reference", str(ref)]) == 0
 
 
@@ -60,15 +87,11 @@ def test_a_frequency_moved_by_1e5_is_a_discrepancy(reference, tmp_path):
     """One stored NNM1 frequency, halfway along the branch, moved by 1e-5 relative."""
     results, ref = reference
     copy = _copy(results, tmp_path)
-    path = copy / "hbm/nnm1.nc"
-    with xr.open_dataset(path) as ds:
-        ds = ds.load()
-    i = ds.sizes["point"] // 2
-    frequency = ds["frequency"].values.copy()
-    frequency[i] *= 1 + 1e-5
-    ds["frequency"].values = frequency
-    path.unlink()
-    ds.to_netcdf(path)
+
+    def move(ds):
+        ds["frequency"].values[ds.sizes["point"] // 2] *= 1 + 1e-5
+
+    _rewrite(copy / "hbm/nnm1.nc", move)
     rows = verify(copy, ref)
     assert file_verdicts(rows)["results/hbm/nnm1.nc"] == "discrepant"
     assert file_verdicts(rows)["results/hbm/stages/nnm1_stage1.nc"] == "identical"
@@ -84,10 +107,10 @@ def test_a_missing_file_fails(reference, tmp_path):
     assert main([str(copy), "--reference", str(ref)]) == 1
 
 
-def test_other_points_on_the_same_curve_pass(reference, tmp_path):
-    """A build storing 3 points per ANM step instead of 4 (other points, same curves)
-    is within tolerance; its files are not identical."""
-    results, ref = reference
+def test_other_points_on_the_same_curve_pass(targets_reference, tmp_path):
+    """A build storing 3 points per ANM step instead of 4 (other points, same curves) is within
+    tolerance in every variable; its files are not identical."""
+    results, ref = targets_reference
     config = yaml.safe_load(SMALL_CONFIG.read_text())
     config["hbm"]["points_per_step"] = 3
     resampled_config = tmp_path / "config.yaml"
@@ -96,8 +119,125 @@ def test_other_points_on_the_same_curve_pass(reference, tmp_path):
     verdicts = file_verdicts(rows)
     assert verdicts["results/hbm/nnm1.nc"] == "within tolerance"
     assert set(verdicts.values()) <= {"identical", "within tolerance"}, [r for r in rows if r.verdict == "discrepant"]
+    compared = " ".join(r.quantity for r in rows if r.file == "results/hbm/nnm1.nc")
+    for check in ("orbits (harmonics", "smooth quantities", "flags, counts and verdicts", "global attributes",
+                  "variables: names"):  # fmt: skip
+        assert check in compared, compared
     with xr.open_dataset(results / "hbm/nnm1.nc") as a, xr.open_dataset(tmp_path / "build/results/hbm/nnm1.nc") as b:
         assert a.sizes["point"] != b.sizes["point"]
+
+
+def _flip_byte_of_a_harmonic(path: Path) -> None:
+    """Flip one bit of the exponent byte of a stored harmonic coefficient, in the file's bytes."""
+    with xr.open_dataset(path) as ds:
+        value = float(ds["q_cos"].values[ds.sizes["point"] // 2, 0, 1])
+    raw = bytearray(path.read_bytes())
+    packed = struct.pack("<d", value)
+    assert raw.count(packed) == 1, "the coefficient's bytes are not unique in the file"
+    raw[raw.find(packed) + 7] ^= 0x40
+    path.write_bytes(bytes(raw))
+
+
+ALTERATIONS = {
+    "hbm/nnm1.nc": "stable inverted",
+    "hbm/nnm2.nc": "attribute alpha = 31",
+    "hbm/stages/nnm1_stage4.nc": "one NaN in q_cos",
+    "compare/nnm1_regimes.nc": "an unrelated dataset in its place",
+    "hbm/stages/nnm1_stage1.nc": "one flipped byte in its harmonics",
+    "exact/nnm1.nc": "truncated",
+    "exact/nnm1_two_impacts.nc": "no frequency",
+    "hbm/stages/nnm1_stage2.nc": "empty",
+    "hbm/stages/nnm1_stage3.nc": "all-NaN curve",
+    "hbm/stages/nnm2_stage1.nc": "x_max of one orbit moved by 1 %",
+}
+
+
+def _alter(copy: Path) -> None:
+    def invert(ds):
+        ds["stable"].values[:] = 1 - ds["stable"].values
+
+    def alpha(ds):
+        ds.attrs["alpha"] = 31.0
+
+    def nan(ds):
+        ds["q_cos"].values[ds.sizes["point"] // 2, 0, 1] = np.nan
+
+    def no_frequency(ds):
+        del ds["frequency"]
+
+    def all_nan(ds):
+        ds["frequency"].values[:] = np.nan
+
+    def x_max(ds):
+        ds["x_max"].values[ds.sizes["point"] // 2] *= 1.01
+
+    _rewrite(copy / "hbm/nnm1.nc", invert)
+    _rewrite(copy / "hbm/nnm2.nc", alpha)
+    _rewrite(copy / "hbm/stages/nnm1_stage4.nc", nan)
+    shutil.copyfile(copy / "exact/nnm1_two_impacts.nc", copy / "compare/nnm1_regimes.nc")
+    _flip_byte_of_a_harmonic(copy / "hbm/stages/nnm1_stage1.nc")
+    truncated = copy / "exact/nnm1.nc"
+    truncated.write_bytes(truncated.read_bytes()[: truncated.stat().st_size // 2])
+    _rewrite(copy / "exact/nnm1_two_impacts.nc", no_frequency)
+    (copy / "hbm/stages/nnm1_stage2.nc").write_bytes(b"")
+    _rewrite(copy / "hbm/stages/nnm1_stage3.nc", all_nan)
+    _rewrite(copy / "hbm/stages/nnm2_stage1.nc", x_max)
+
+
+@pytest.fixture(scope="module")
+def altered(reference, tmp_path_factory):
+    """A copy of the small build with the alterations of ALTERATIONS, and the verifier's rows for it."""
+    results, ref = reference
+    copy = _copy(results, tmp_path_factory.mktemp("altered"))
+    _alter(copy)
+    return copy, verify(copy, ref)
+
+
+def test_damaged_and_altered_files_are_each_discrepant_and_named(reference, altered, capsys):
+    """The adversarial copies of issue 25 (and one quantity of one orbit moved by 1 %): every altered
+    file is discrepant with a reason, the others stay identical, the table and counts come out and the
+    exit status is 1."""
+    _, ref = reference
+    copy, rows = altered
+    verdicts = file_verdicts(rows)
+    for relative, alteration in ALTERATIONS.items():
+        assert verdicts[f"results/{relative}"] == "discrepant", (alteration, [r for r in rows if relative in r.file])
+    untouched = {name for name in verdicts if name.removeprefix("results/") not in ALTERATIONS}
+    assert untouched and all(verdicts[name] in ("identical", "within tolerance") for name in untouched), verdicts
+    assert main([str(copy), "--reference", str(ref)]) == 1
+    out = capsys.readouterr().out
+    assert f"{len(ALTERATIONS)} discrepant" in out
+    for relative in ALTERATIONS:
+        assert f"results/{relative}" in out.splitlines()[-1]
+
+
+@pytest.mark.parametrize("relative, reason", [
+    ("hbm/nnm1.nc", "stable at"),
+    ("hbm/nnm2.nc", "attribute alpha"),
+    ("hbm/stages/nnm1_stage4.nc", "variable q_cos: NaN or infinite values"),
+    ("compare/nnm1_regimes.nc", "variables missing"),
+    ("hbm/stages/nnm1_stage1.nc", "orbits (harmonics"),
+    ("exact/nnm1.nc", "readable NetCDF"),
+    ("exact/nnm1_two_impacts.nc", "variable frequency"),
+    ("hbm/stages/nnm1_stage2.nc", "readable NetCDF"),
+    ("hbm/stages/nnm1_stage3.nc", "variable frequency: NaN or infinite values"),
+    ("hbm/stages/nnm2_stage1.nc", "smooth quantities"),
+])  # fmt: skip
+def test_each_alteration_is_reported_with_its_reason(altered, relative, reason):
+    _, rows = altered
+    found = [r.quantity for r in rows if r.file == f"results/{relative}" and r.verdict == "discrepant"]
+    assert any(reason in quantity for quantity in found), found
+
+
+def test_the_table_comes_out_when_every_file_is_unreadable(reference, tmp_path):
+    results, ref = reference
+    copy = _copy(results, tmp_path)
+    for path in copy.rglob("*.nc"):
+        path.write_bytes(b"not NetCDF")
+    rows = verify(copy, ref)
+    table = format_table(rows)
+    assert all(verdict == "discrepant" for name, verdict in file_verdicts(rows).items() if name.endswith(".nc"))
+    assert "cannot be read as NetCDF" in table
 
 
 def test_bad_directories_are_named(reference, tmp_path):

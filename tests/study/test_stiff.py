@@ -63,9 +63,12 @@ def test_exact_orbit_is_periodic_by_event_located_integration_for_alpha_1e6(stif
 
 
 def test_a_continuation_step_longer_than_the_contact_is_caught_as_a_false_end():
-    """With the default step the alpha = 1e6 family 'ends' two orbits after grazing; the check says so."""
+    """The end the old exact loop reported at alpha = 1e6 with the default step (two orbits after grazing, on
+    'final_position'; the loop now refuses the steps that caused it, tests/exact/test_end_confirmation.py):
+    the study's check says it is not confirmed."""
     params = ModelParameters(alpha=1.0e6, beta=1.0, delta=1.0, eta=0.1)
-    family = follow_two_impact_family(params, step=0.02, max_points=4000)
+    family = follow_two_impact_family(params, step=0.002, max_points=3)
+    family.end_margin, family.step = "final_position", 0.02
     confirmed, note = _confirm_end(params, family)
     assert not confirmed, note
     assert "NOT confirmed" in note and "goes on" in note

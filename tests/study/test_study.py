@@ -1,8 +1,10 @@
 """The study (issue 5): sweep cases, the error split, gathering, figures, bad input and faults.
 
-Small settings only (H <= 40, H_ref = 60, two energies): the point is the machinery --
-what is measured, how failures are reported, how files are checked -- not the numbers of
-the full study (``snakemake --cores 2 study``).
+Small settings only (H <= 60, H_ref = 120, two energies): the machinery -- what is measured,
+how the failures the method expects are stored and every other one fails the job, how files
+are checked -- and the behaviour of the split (the truncation part falls with H, the
+regularization part scales with eta, the sparse linear algebra gives the dense one's numbers),
+not the numbers of the full study (``snakemake --cores 2 study``).
 """
 
 import copy
@@ -18,6 +20,7 @@ import pytest
 import xarray as xr
 import yaml
 
+from nnmstop.atomic import temporary_name
 from nnmstop.config import load_config
 from nnmstop.continuation.core import ContinuationError
 from nnmstop.figures.study import pareto_front
@@ -27,7 +30,7 @@ from nnmstop.models.two_dof import ModelParameters
 from nnmstop.netcdf import write_dataset
 from nnmstop.settings import study_settings
 from nnmstop.study import error_runtime as er
-from nnmstop.study.runs import FILL_VALUE, format_number
+from nnmstop.study.runs import Status, format_number
 from nnmstop.tasks import study as ts
 from nnmstop.tasks.figures import build_error_vs_runtime_figure
 
@@ -39,23 +42,28 @@ def config(repo_root):
     return load_config(repo_root / "config" / "config.yaml")
 
 
-@pytest.fixture(scope="module")
-def small(config):
-    """A small study: H in {10, 30}, eta in {0.1, 0.01}, H_ref = 60, ANM 2 x 1, energies 3 and 12."""
+def small_study(config, harmonics=(10, 30, 60), eta=(0.1, 0.01), anm_orders=(10, 20)):
+    """A small study: energies 3 and 12, H_ref = 120 seeded at H = 60, ANM sweep at H = 30."""
     cfg = copy.deepcopy(config)
     study = cfg["study"]
     study["energies"] = [3.0, 12.0]
     study["phase_samples"] = 512
     study["error_runtime"].update(
-        harmonics=[10, 30],
-        eta=[0.1, 0.01],
-        reference_harmonics=60,
-        reference_seed_harmonics=30,
+        harmonics=list(harmonics),
+        eta=list(eta),
+        reference_harmonics=120,
+        reference_seed_harmonics=60,
         anm_harmonics=30,
-        anm_orders=[10, 20],
+        anm_orders=list(anm_orders),
         anm_tolerances=[1e-6],
     )
     return cfg
+
+
+@pytest.fixture(scope="module")
+def small(config):
+    """H in {10, 30, 60}, eta in {0.1, 0.01}, ANM 2 x 1."""
+    return small_study(config)
 
 
 @pytest.fixture(scope="module")
@@ -67,10 +75,8 @@ def exact(config):
     return two_impact_dataset(follow_two_impact_family(params, step=0.05, max_points=4000))
 
 
-@pytest.fixture(scope="module")
-def gathered(small, exact, tmp_path_factory):
-    """Every small sweep file written through the pipeline builders, then gathered."""
-    root = tmp_path_factory.mktemp("study")
+def build_study(small, exact, root):
+    """Every sweep file of ``small`` written through the pipeline builders, then gathered."""
     exact_path = write_dataset(
         exact, root / "exact.nc", title="exact", summary="exact family", kind="two_impact_family"
     )
@@ -94,6 +100,11 @@ def gathered(small, exact, tmp_path_factory):
     ts.build_error_vs_runtime(small, out, target)
     with xr.open_dataset(target) as ds:
         return root, out, ds.load()
+
+
+@pytest.fixture(scope="module")
+def gathered(small, exact, tmp_path_factory):
+    return build_study(small, exact, tmp_path_factory.mktemp("study"))
 
 
 # --------------------------------------------------------------------------- helpers
@@ -143,7 +154,7 @@ def test_unresolved_case_is_reported_not_computed(small, exact):
     assert not bool(ds["converged"]) and not bool(ds["compared"])
     failure = str(ds["failure"].values)
     assert "truncation indicator" in failure and "H = 10" in failure and "eta = 0.01" in failure
-    assert np.all(ds["relative_frequency_difference"].values == FILL_VALUE)
+    assert np.isnan(ds["relative_frequency_difference"].values).all()  # not computed: the status says why
     assert int(ds["factorizations"]) == -1 and float(ds["runtime"]) > 0
 
 
@@ -153,7 +164,36 @@ def test_setting_compared_on_part_of_the_energies_says_which(small, exact):
     ds = er.error_case_dataset(study_settings(cfg), exact, 30, 0.1)
     assert bool(ds["converged"]) and not bool(ds["compared"])
     assert "energy 80" in str(ds["failure"].values)
-    assert np.isfinite(ds["max_x_difference"].values[0]) and ds["max_x_difference"].values[1] == FILL_VALUE
+    assert int(ds["status"]) == Status.OUTSIDE_COMMON_RANGE
+    assert ds["energy_status"].values.tolist() == [Status.COMPUTED, Status.OUTSIDE_COMMON_RANGE]
+    assert np.isfinite(ds["max_x_difference"].values[0]) and np.isnan(ds["max_x_difference"].values[1])
+
+
+def test_an_unexpected_error_fails_the_study_job_and_leaves_no_dataset(small, exact, tmp_path, monkeypatch):
+    """Only the outcomes the method expects are results; a failed solve inside the compared range is not."""
+    import nnmstop.compare.matching as matching
+    from nnmstop.pipeline.run import run_task
+
+    exact_path = write_dataset(
+        exact, tmp_path / "exact.nc", title="exact", summary="exact family", kind="two_impact_family"
+    )
+
+    def failing(self, energy, tol=1e-13):
+        raise ValueError(f"Newton's method did not converge for the regularized orbit at energy {energy!r}")
+
+    monkeypatch.setattr(matching.EnergyMatcher, "regularized_orbit", failing)
+    output = tmp_path / "results/study/cases/H30_eta0.1.nc"
+    with pytest.raises(ValueError, match="did not converge for the regularized orbit at energy 3.0"):
+        run_task(
+            "study_error_case",
+            small,
+            {"exact": str(exact_path)},
+            {"dataset": str(output)},
+            log=str(tmp_path / "log.txt"),
+            harmonics="30",
+            eta="0.1",
+        )
+    assert not output.exists() and not output.with_name(output.name + ".tmp").exists()
 
 
 # --------------------------------------------------------------------------- gathered dataset
@@ -162,7 +202,7 @@ def test_setting_compared_on_part_of_the_energies_says_which(small, exact):
 def test_gathered_dataset_layout(gathered, small):
     _, _, ds = gathered
     assert ds["frequency_error"].dims == ("harmonics", "eta")
-    assert ds["harmonics"].values.tolist() == [10, 30] and ds["eta"].values.tolist() == [0.1, 0.01]
+    assert ds["harmonics"].values.tolist() == [10, 30, 60] and ds["eta"].values.tolist() == [0.1, 0.01]
     assert ds["anm_runtime"].dims == ("order", "tolerance")
     for name in (
         "runtime",
@@ -171,7 +211,7 @@ def test_gathered_dataset_layout(gathered, small):
         "x_error",
         "u_error",
         "force_error",
-        "converged",
+        "status",
         "failure",
         "frequency_error_truncation",
         "frequency_error_regularization",
@@ -179,23 +219,25 @@ def test_gathered_dataset_layout(gathered, small):
     ):
         assert name in ds, name
     assert ds["runtime"].attrs["units"] == "s"
-    # H = 10 does not resolve the stop: reported, never a number
-    assert not ds["converged"].sel(harmonics=10).any()
-    assert np.isnan(ds["frequency_error"].sel(harmonics=10)).all()
-    assert all("truncation indicator" in s for s in ds["failure"].sel(harmonics=10).values)
-    # H = 30 converges, with an error and a cost
-    ok = ds.sel(harmonics=30)
-    assert ok["converged"].all() and ok["compared"].all()
+    # H = 10 does not resolve the stop: reported with its reason, never a number
+    unresolved = ds.sel(harmonics=10)
+    assert (unresolved["status"] == Status.UNRESOLVED).all() and not unresolved["converged"].any()
+    assert np.isnan(unresolved["frequency_error"]).all() and np.isnan(unresolved["frequency_error_truncation"]).all()
+    assert all("truncation indicator" in s for s in unresolved["failure"].values)
+    # H = 30 and 60 converge and are compared at every energy, with an error and a cost
+    ok = ds.sel(harmonics=[30, 60])
+    assert (ok["status"] == Status.COMPUTED).all() and (ok["energy_status"] == Status.COMPUTED).all()
     assert (ok["frequency_error"] > 0).all() and (ok["factorizations"] > 0).all() and (ok["runtime"] > 0).all()
+    assert np.isfinite(ok["frequency_error_truncation"]).all() and np.isfinite(ds["x_error_regularization"]).all()
     assert float(ds["exact_seconds_per_orbit"]) > 0 and float(ds["exact_family_seconds_per_orbit"]) > 0
 
 
 def test_error_split_is_consistent(gathered):
     """Per energy: |total| <= regularization + truncation (triangle inequality, same phase alignment),
     up to the refinement of each maximum (each is refined around its own grid maximum: ~0.5 % for the
-    force, whose exact law has a kink); the regularization part depends on eta only and shrinks with it."""
+    force, whose exact law has a kink); frequencies add up (up to f_ref / f_exact)."""
     _, _, ds = gathered
-    ok = ds.sel(harmonics=30)
+    ok = ds.sel(harmonics=[30, 60])
     for key in ("max_x_difference", "max_u_difference", "max_force_difference"):
         total = ok[f"{key}_at_energy"]
         bound = ds[f"{key}_regularization_at_energy"] + ok[f"{key}_truncation_at_energy"]
@@ -205,9 +247,71 @@ def test_error_split_is_consistent(gathered):
         ds["relative_frequency_difference_regularization_at_energy"]
         + ok["relative_frequency_difference_truncation_at_energy"]
     )
-    np.testing.assert_allclose(freq, split, rtol=1e-3, atol=1e-9)  # frequencies add up (up to f_ref / f_exact)
-    reg = ds["frequency_error_regularization"]
-    assert float(reg.sel(eta=0.01)) < float(reg.sel(eta=0.1))
+    xr.testing.assert_allclose(freq, split.transpose(*freq.dims), rtol=1e-3, atol=1e-9)
+
+
+def test_truncation_part_falls_with_H(gathered):
+    """Doubling H shrinks the truncation part at every energy, for every eta (the series converge)."""
+    _, _, ds = gathered
+    for key in ("relative_frequency_difference", "max_x_difference", "max_force_difference"):
+        part = np.abs(ds[f"{key}_truncation_at_energy"])
+        coarse, fine = part.sel(harmonics=30), part.sel(harmonics=60)
+        assert (fine < coarse).all(), (key, coarse.values, fine.values)
+
+
+def test_regularization_part_scales_with_eta(gathered):
+    """The regularization part is a potential excess over the piecewise law (the linear spring eta x in
+    free flight, (eta/2) log(alpha (|x| - 1) / eta) in contact): shift = eta (a + b log(1/eta)), a, b >= 0.
+    Ten times eta gives a ratio between 10 log(100)/log(1000) = 6.67 (log term alone) and 10 (no log term),
+    up to the next order in the knee width sqrt(eta / alpha) (0.06 at eta = 0.1); the regularized stop is
+    stiffer everywhere, so the frequency is higher."""
+    _, _, ds = gathered
+    freq = ds["relative_frequency_difference_regularization_at_energy"]
+    assert (freq > 0).all(), freq.values
+    ratio = freq.sel(eta=0.1) / freq.sel(eta=0.01)
+    assert ((ratio > 0.9 * 10 * np.log(100) / np.log(1000)) & (ratio < 1.1 * 10)).all(), ratio.values
+
+
+def test_sparse_linear_algebra_gives_the_same_split(small, exact, gathered, tmp_path, monkeypatch):
+    """The study through the sparse path (systems above DENSE_MAX_UNKNOWNS unknowns: here H = 60 and the
+    H_ref = 120 reference, with the limit lowered to 200) has a finite split, equal to the dense one's:
+    the matched orbits are Newton-solved at the same energies to 1e-13, whatever the factorization."""
+    import nnmstop.compare.matching as matching
+    import nnmstop.hbm.system as hbm_system
+
+    monkeypatch.setattr(hbm_system, "DENSE_MAX_UNKNOWNS", 200)
+    sparse_solves = []
+    real_splu = matching.splu
+    monkeypatch.setattr(matching, "splu", lambda matrix: sparse_solves.append(matrix.shape) or real_splu(matrix))
+    cfg = small_study(small, harmonics=(30, 60), eta=(0.1,), anm_orders=(20,))
+    _, _, sparse = build_study(cfg, exact, tmp_path)
+    assert {shape[0] for shape in sparse_solves} == {245, 485}  # H = 60 (case) and H = 120 (reference)
+    for name in ("frequency_error", "x_error", "force_error"):
+        for part in ("truncation", "regularization"):
+            values = sparse[f"{name}_{part}"]
+            assert np.isfinite(values).all(), (name, part)
+            dense = gathered[2][f"{name}_{part}"].sel(eta=[0.1])
+            if "harmonics" in dense.dims:
+                dense = dense.sel(harmonics=[30, 60])
+            np.testing.assert_allclose(values, dense, rtol=1e-6, err_msg=f"{name}_{part}")
+
+
+def test_tables_print_every_setting_and_the_advice_from_the_dataset(gathered):
+    from nnmstop.study.tables import error_split_rows, harmonics_advice_rows
+
+    _, _, ds = gathered
+    header, rows = error_split_rows(ds, times=False)
+    assert "CPU time (s)" not in header and len(rows) == ds.sizes["harmonics"] * ds.sizes["eta"]
+    reasons = {(row[0], row[1]): row[-1] for row in rows}
+    assert all("not resolved" in reasons[(f"{eta:g}", 10)] for eta in ds["eta"].values)
+    assert all(reasons[(f"{eta:g}", H)] == "" for eta in ds["eta"].values for H in (30, 60))
+    # the advice: the smallest H whose truncation part is below the regularization part of its eta
+    _, advice = harmonics_advice_rows(ds, times=False)
+    for row, eta in zip(advice, ds["eta"].values):
+        case = ds.sel(eta=eta)
+        below = case["frequency_error_truncation"] < case["frequency_error_regularization"]
+        expected = int(case["harmonics"][below][0]) if below.any() else None
+        assert (row[2] == expected) if expected else row[2].startswith("none"), (eta, row)
 
 
 def test_gather_refuses_stale_case_files(gathered, small):
@@ -222,8 +326,8 @@ def test_gather_refuses_stale_case_files(gathered, small):
         ts.build_error_vs_runtime(other, inputs, root / "stale.nc")
     assert not (root / "stale.nc").exists()
     other = copy.deepcopy(small)
-    other["study"]["error_runtime"]["harmonics"] = [10, 20, 30]
-    with pytest.raises(ValueError, match="4 cases datasets given, the configuration's sweep has 6"):
+    other["study"]["error_runtime"]["harmonics"] = [10, 20, 30, 60]
+    with pytest.raises(ValueError, match="6 cases datasets given, the configuration's sweep has 8"):
         ts.build_error_vs_runtime(other, inputs, root / "stale.nc")
 
 
@@ -233,7 +337,7 @@ def test_error_vs_runtime_figure(gathered, small, tmp_path):
     assert pdf.stat().st_size > 1000 and png.stat().st_size > 1000
 
 
-def test_stiff_gather_and_figure(small, tmp_path):
+def test_stiff_gather_tables_and_figure(small, gathered, tmp_path, capsys):
     from nnmstop.study import stiff_cases as sc
     from nnmstop.tasks.figures import build_stiff_cases_figure
 
@@ -264,8 +368,14 @@ def test_stiff_gather_and_figure(small, tmp_path):
         assert bool(ds["converged"].sel(alpha=30.0, eta=0.1)) and int(ds["harmonics"].sel(alpha=30.0, eta=0.1)) == 40
         assert float(ds["exact_relative_residual"].max()) < 1e-13
         assert float(ds["exact_periodicity_error"].max()) < 1e-10
-        assert ds["energy_kind"].values[:, 0].tolist() == ["linear", "high_energy"]
-        assert bool(ds["energy_hbm_converged"].values[0, 0])
+        assert ds["energy_kind"].sel(energy_alpha=30.0).values.tolist() == ["linear", "high_energy"]
+        assert bool(ds["energy_hbm_converged"].sel(energy_alpha=30.0).values[0])
+    from nnmstop.study.tables import main as print_tables
+
+    (tmp_path / "error_vs_runtime.nc").symlink_to(gathered[0] / "results/study/error_vs_runtime.nc")
+    print_tables([str(tmp_path), "--no-times"])
+    printed = capsys.readouterr().out
+    assert "## Stiff cases" in printed and "| 300 |" in printed and "CPU time" not in printed
     pdf, png = build_stiff_cases_figure(cfg, target, tmp_path / "stiff.pdf")
     assert pdf.stat().st_size > 1000 and png.stat().st_size > 1000
 
@@ -315,7 +425,7 @@ def test_numerical_failure_mid_branch_names_step_and_energy_and_leaves_no_datase
         run_task(
             "hbm_stage", cfg, {}, {"dataset": str(output)}, log=str(tmp_path / "log.txt"), branch="nnm1", stage="1"
         )
-    assert not output.exists() and not output.with_name(output.name + ".tmp").exists()
+    assert not output.exists() and not temporary_name(output).exists()
     assert "step 3 failed at energy" in (tmp_path / "log.txt").read_text()
 
 
@@ -374,7 +484,7 @@ def test_interrupted_run_restarts_to_the_outputs_of_a_clean_run(repo_root, tmp_p
     runner.wait(timeout=60)
     interrupted = not (broken / TARGETS[2]).exists()
     # what an interruption can leave behind: a temporary file of the atomic writer
-    stale = broken / (TARGETS[2] + ".tmp")
+    stale = temporary_name(broken / TARGETS[2])
     stale.parent.mkdir(parents=True, exist_ok=True)
     stale.write_bytes(b"partial netcdf")
     # a hard kill leaves the working directory locked: unlock (as after a lost cluster node), then rerun

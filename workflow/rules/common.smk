@@ -262,3 +262,36 @@ def explorer_branches():
     if config.get("explorer", {}).get("tube", False) and "tube" in config:  # the tube's branches, built for it
         regularized += [tube_file(name) for name in config["tube"]["branches"]]
     return {"regularized": regularized, "exact": [exact]}
+
+
+# --------------------------------------------------------------------------- forced
+# Forced responses (workflow/rules/forced.smk): the scenes of the configuration and their files.
+
+
+def forced_scene_names(which="all"):
+    """File stems of the forced responses of the configuration (`F0.05`, ..., `tube_F0.5`)."""
+    from nnmstop.forced.scenes import forced_scenes
+
+    return [scene.name for scene in forced_scenes(config, which)] if "forced" in config else []
+
+
+def forced_file(kind, scene):
+    """The dataset of one forced response: kind `exact` or `regularized`."""
+    return results(f"forced/{kind}_{scene}.nc")
+
+
+def forced_datasets():
+    """Every dataset of the forced target."""
+    names = forced_scene_names()
+    oscillator = forced_scene_names("oscillator")
+    return (
+        [forced_file("exact", s) for s in oscillator]
+        + [forced_file("regularized", s) for s in names]
+        + [rules.forced_backbone.output.dataset]
+    )
+
+
+def forced_figures():
+    """The forced figures of the configuration (the tube's only when it is configured)."""
+    figures = [f for f in FORCED_FIGURE_INPUTS if f != "tube" or forced_scene_names("tube")]
+    return expand(paper_figures("forced_{figure}.{ext}"), figure=figures, ext=("pdf", "png"))

@@ -4,16 +4,6 @@
 # builds only the datasets it draws. Thin rules: the tasks are in nnmstop.tasks.forced.
 
 
-def forced_scene_names(which="all"):
-    """File stems of the forced responses of the configuration (`F0.05`, ..., `tube_F0.5`)."""
-    from nnmstop.forced.scenes import forced_scenes
-
-    return [scene.name for scene in forced_scenes(config, which)] if "forced" in config else []
-
-
-def forced_file(kind, scene):
-    """The dataset of one forced response: kind `exact` or `regularized`."""
-    return results(f"forced/{kind}_{scene}.nc")
 
 
 FORCED_CONFIG = task_config("model", "anm", "forced", "metadata", tube=["structure"])
@@ -92,7 +82,7 @@ rule forced_figure:
         unpack(lambda wildcards: FORCED_FIGURE_INPUTS[wildcards.figure]()),
     output:
         pdf=paper_figures("forced_{figure}.pdf"),
-        png=paper_figures("forced_{figure}.png"),
+        png=report(paper_figures("forced_{figure}.png"), category="Forced responses"),
     wildcard_constraints:
         figure="|".join(FORCED_FIGURE_INPUTS),
     log:
@@ -107,21 +97,6 @@ rule forced_figure:
         "../scripts/run_task.py"
 
 
-def forced_datasets():
-    """Every dataset of the forced target."""
-    names = forced_scene_names()
-    oscillator = forced_scene_names("oscillator")
-    return (
-        [forced_file("exact", s) for s in oscillator]
-        + [forced_file("regularized", s) for s in names]
-        + [rules.forced_backbone.output.dataset]
-    )
-
-
-def forced_figures():
-    """The forced figures of the configuration (the tube's only when it is configured)."""
-    figures = [f for f in FORCED_FIGURE_INPUTS if f != "tube" or forced_scene_names("tube")]
-    return expand(paper_figures("forced_{figure}.{ext}"), figure=figures, ext=("pdf", "png"))
 
 
 rule forced:

@@ -14,7 +14,7 @@ STIFF_CASES = stiff_case_files() if "study" in config else {"exact": [], "branch
 STUDY_NUMBER = r"[0-9][0-9.e-]*"
 # The configuration each kind of job reads (nnmstop.settings.study_settings), and nothing else: a job
 # reruns when its part changes, and only then (not for an edit of branches.nnm2, say).
-STUDY_COMMON = dict(hbm=["time_samples"], branches=["nnm1"])
+STUDY_COMMON = dict(branches=["nnm1"])
 STUDY_RUNS = ("model", "anm", "stability", "exact", "metadata")
 ERROR_SWEEP_CONFIG = task_config(
     *STUDY_RUNS, **STUDY_COMMON,

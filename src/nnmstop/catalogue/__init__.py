@@ -45,6 +45,12 @@ class Variable:
     missing : str
         Empty: every value must be finite. Otherwise the values may be missing (NaN, written as the
         ``_FillValue`` :data:`FILL_VALUE`) and this says where and which variable gives the reason.
+    reason : str
+        Names (space-separated) of variables of the same dataset, with a subset of this one's
+        dimensions, that say element by element why a value is missing: a non-empty string or a
+        non-zero status flag. Written as the CF attribute ``ancillary_variables``; a missing value
+        that none of them explains is refused (a value the dataset claims and lost). Integer
+        variables with a sentinel (``-1: unknown``) name their reason the same way.
     """
 
     name: str
@@ -54,6 +60,7 @@ class Variable:
     flags: tuple = ()
     optional: bool = False
     missing: str = ""
+    reason: str = ""
 
     def __post_init__(self):
         if isinstance(self.dims, str):
@@ -67,6 +74,8 @@ class Variable:
         if self.flags:
             out["flag_values"] = np.arange(len(self.flags), dtype=np.int8)
             out["flag_meanings"] = " ".join(self.flags)
+        if self.reason:
+            out["ancillary_variables"] = self.reason
         return out
 
 
@@ -154,9 +163,11 @@ def describe(ds: xr.Dataset, kind_name: str) -> xr.Dataset:
                 f"variable {name!r} of a {kind_name!r} dataset has dimensions {tuple(var.dims)}, the catalogue "
                 f"says {entry.dims}"
             )
-        kept = {k: v for k, v in var.attrs.items() if k not in ("long_name", "units", "flag_values", "flag_meanings")}
+        described = ("long_name", "units", "flag_values", "flag_meanings", "ancillary_variables")
+        kept = {k: v for k, v in var.attrs.items() if k not in described}
         var.attrs = {**entry.attrs(), **kept}
         _check_values(name, var, entry, kind_name)
+        _check_reasons(out, name, entry, kind_name)
     missing = [v.name for v in spec.variables if not v.optional and v.name not in out.variables]
     if missing:
         raise ValueError(f"a {kind_name!r} dataset must hold {missing} (catalogue), it does not")
@@ -180,6 +191,45 @@ def _check_values(name: str, var: xr.DataArray, entry: Variable, kind_name: str)
     var.attrs["_FillValue"] = FILL_VALUE
 
 
+def _reason_given(reason: xr.DataArray) -> np.ndarray:
+    """Where a reason variable says "not computed": a non-empty string, or a non-zero status flag."""
+    values = np.asarray(reason.values)
+    if values.dtype.kind in "OUS":
+        return np.vectorize(lambda v: bool(str(v)), otypes=[bool])(values).reshape(values.shape)
+    if values.dtype.kind in "iub":
+        return values != 0
+    raise ValueError(
+        f"variable {reason.name!r} cannot give a reason for missing values: it must hold strings (empty: "
+        f"computed) or integer status flags (0: computed), not {values.dtype}"
+    )
+
+
+def _check_reasons(ds: xr.Dataset, name: str, entry: Variable, kind_name: str) -> None:
+    """Refuse a missing value (NaN) of ``name`` that none of the variables of ``entry.reason`` explains."""
+    var = ds[name]
+    if not entry.reason or not np.issubdtype(var.dtype, np.floating):
+        return
+    missing = np.isnan(var.values)
+    if not missing.any():
+        return
+    explained = np.zeros(var.shape, dtype=bool)
+    for reason_name in entry.reason.split():
+        if reason_name not in ds.variables or not set(ds[reason_name].dims) <= set(var.dims):
+            raise ValueError(
+                f"variable {name!r} of a {kind_name!r} dataset names {reason_name!r} as the reason of its missing "
+                "values; the dataset must hold it, with a subset of its dimensions"
+            )
+        given = xr.DataArray(_reason_given(ds[reason_name]), dims=ds[reason_name].dims)
+        explained |= given.broadcast_like(var).transpose(*var.dims).values
+    unexplained = missing & ~explained
+    if unexplained.any():
+        index = dict(zip(var.dims, np.argwhere(unexplained)[0].tolist()))
+        raise ValueError(
+            f"variable {name!r} of a {kind_name!r} dataset is missing at {index} where {entry.reason.split()} say "
+            "it was computed; refusing to write a dataset that lost a value it claims"
+        )
+
+
 def _cell(text: str) -> str:
     return text.replace("|", "\\|")
 
@@ -194,6 +244,8 @@ def _kind_markdown(spec: DatasetKind) -> list:
             meaning += " (values: " + ", ".join(f"{i} {m}" for i, m in enumerate(v.flags)) + ")"
         if v.missing:
             meaning += f"; may be missing: {v.missing}"
+        if v.reason:
+            meaning += " (reason: " + ", ".join(f"`{r}`" for r in v.reason.split()) + ")"
         if v.optional:
             meaning += " (optional)"
         dims = ", ".join(v.dims) if v.dims else "scalar"

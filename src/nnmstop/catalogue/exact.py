@@ -175,7 +175,48 @@ TWO_IMPACT_FAMILY = DatasetKind(
     TWO_IMPACT_FAMILY_VARIABLES,
 )
 
+ONE_STOP_FAMILY_VARIABLES = (
+    Variable("energy", ("orbit",), "total energy of the non-smooth model"),
+    Variable("frequency", ("orbit",), "frequency 1/T in Hz of the nondimensional time", units="Hz"),
+    Variable("contact_time", ("orbit",), "contact duration of the quarter period"),
+    Variable("x_max", ("orbit",), "largest displacement at the stop over its gap"),
+    Variable("initial_velocity", ("orbit", "dof"), "velocities at q = 0 (start of the orbit)"),
+    Variable(
+        "modal_energy",
+        ("orbit", "mode"),
+        "energy of each linear (free-flight) mode, b_k^2 / 2 with b the modal velocities at q = 0 (they add up to energy)",
+    ),
+    Variable(
+        "resonant_mode",
+        ("orbit",),
+        "linear mode (1-based) in internal resonance with the orbit: it takes most of the energy growth along the family, at one harmonic; 0 on the backbone",
+    ),
+    Variable(
+        "resonance_order",
+        ("orbit",),
+        "harmonic n of the orbit at which the resonant mode moves (an n:1 internal resonance); 0 on the backbone",
+    ),
+    Variable("orbit", ("orbit",), "index of the orbit along the family"),
+    Variable("dof", ("dof",), "index of the degree of freedom"),
+    Variable("dof_label", ("dof",), "name of the degree of freedom"),
+    Variable("mode", ("mode",), "linear (free-flight) mode number"),
+    Variable(
+        "mode_frequency",
+        ("mode",),
+        "linear frequency of the mode without contact, in Hz of the nondimensional time",
+        units="Hz",
+    ),
+)
+ONE_STOP_FAMILY = DatasetKind(
+    "one_stop_family",
+    "Exact one-stop family of a structure (NNM1 with one impact per stop side)",
+    ("tube/exact_nnm1.nc", "exact/nnm1_one_impact.nc"),
+    "Exact periodic orbits of a non-smooth structure with one impact on each side of its stop per period (`docs/methods/exact_ndof.md`), from the grazing orbit of a linear mode, with the energy of every linear mode and, per orbit, the internal resonance it is in (global attribute `internal_resonance`: where the family leaves its backbone; `end_check`: how its end was confirmed).",
+    ONE_STOP_FAMILY_VARIABLES,
+)
+
 KINDS = (
     EXACT_NNM1,
     TWO_IMPACT_FAMILY,
+    ONE_STOP_FAMILY,
 )

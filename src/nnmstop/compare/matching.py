@@ -20,7 +20,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 import xarray as xr
+from scipy.sparse.linalg import splu
 
 from nnmstop import fourier
 from nnmstop.continuation.core import relative_residual
@@ -34,6 +36,8 @@ from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, t
 
 __all__ = [
     "MAX_IMPACTS",
+    "NotComparableError",
+    "OutsideRangeError",
     "EnergyMatcher",
     "MatchedOrbits",
     "comparison_gap",
@@ -51,6 +55,23 @@ __all__ = [
 MAX_IMPACTS = 2
 PARAMETER_KEYS = ("alpha", "beta", "delta", "eta")
 _NEWTON_MAX_ITER = 30
+
+
+class NotComparableError(ValueError):
+    """The two orbits cannot be compared by this method: an expected outcome, stated with its reason.
+
+    Unlike the other ``ValueError`` of this module (bad input, a failed solve), it says that the
+    comparison does not apply, for example an orbit whose ``x`` is not positive at its turning point
+    in contact, so that the phase alignment of :func:`orbit_differences` is undefined.
+    """
+
+
+class OutsideRangeError(NotComparableError):
+    """The energy lies outside the range where both models have an orbit to compare.
+
+    For example a regularized branch that leaves the two-impact regime before the exact family
+    ends (a large ``eta``), or that ends before the family starts.
+    """
 
 
 # --------------------------------------------------------------------------- monotone parts
@@ -232,6 +253,14 @@ def _bracket(energies: np.ndarray, target: float) -> tuple[int, float]:
     return i, (target - energies[i]) / (energies[i + 1] - energies[i])
 
 
+def _bordered(jacobian, row):
+    """``[J; row]`` for :func:`~nnmstop.continuation.newton.newton_solve`: the dense matrix, or the
+    sparse LU of it when ``J`` is sparse (systems above ``DENSE_MAX_UNKNOWNS`` unknowns)."""
+    if sp.issparse(jacobian):
+        return splu(sp.vstack([jacobian, sp.csr_matrix(row[None, :])], format="csc"))
+    return np.vstack([jacobian, row])
+
+
 def _check_between(solution, points, i: int, message: str) -> None:
     """Raise ``ValueError(message)`` if ``solution`` strayed from the segment ``points[i:i+2]``.
 
@@ -294,19 +323,19 @@ class EnergyMatcher:
 
         self.overlap, self.energy_range, gap = _overlap(self._exact_energy, self._hbm_energy, end_margin)
         if gap:
-            raise ValueError(gap)
+            raise OutsideRangeError(gap)
 
     # ------------------------------------------------------------------ checks
 
     def check_energy(self, energy) -> float:
-        """Return ``energy`` as a float, or raise ``ValueError`` if outside :attr:`energy_range`."""
+        """Return ``energy`` as a float, or raise :class:`OutsideRangeError` if outside :attr:`energy_range`."""
         try:
             value = float(energy)
         except (TypeError, ValueError):
             raise ValueError(f"energy must be a real number, got {energy!r}") from None
         lo, hi = self.energy_range
         if not (np.isfinite(value) and lo <= value <= hi):
-            raise ValueError(
+            raise OutsideRangeError(
                 f"energy {energy!r} is outside the range where exact and regularized NNM1 orbits are "
                 f"compared, [{lo:.6g}, {hi:.6g}] (overlap of the exact increasing arm and the regularized "
                 f"monotone part, {self.overlap[0]:.6g}..{self.overlap[1]:.6g}, less a relative end margin "
@@ -356,7 +385,7 @@ class EnergyMatcher:
 
         def bordered(U):  # HBM equations and mean energy, with their Jacobian
             e, grad = self._energy_op(U, gradient=True)
-            return np.append(s.residual(U), (e - energy)), np.vstack([s.jacobian(U), grad])
+            return np.append(s.residual(U), (e - energy)), _bordered(s.jacobian(U), grad)
 
         def converged(U, r, dU):  # small update, HBM residual and energy both at the tolerance
             return (
@@ -506,7 +535,7 @@ def orbit_differences(
     # for the paper's parameters, not for every structure (a secondary oscillation of x may rise above it)
     for name, xs in (("exact", ex["x"]), ("regularized", reg["x"])):
         if not xs[0] > 0:
-            raise ValueError(
+            raise NotComparableError(
                 f"the {name} orbit at energy {matched.energy!r} has x = {xs[0]:.6g} <= 0 at its turning point in "
                 "contact; the phase alignment does not apply"
             )

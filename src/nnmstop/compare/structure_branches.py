@@ -41,7 +41,10 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
     ``segment``: the regularized branch's segments (:func:`first_crossing`).
 
     The common range runs from the larger to the smaller of the two branches' lowest and highest
-    energies, with 1 % kept from both ends. Raises ValueError when the branches share no energy.
+    energies, with 1 % of it (in log energy) kept from both ends. Raises ValueError when the branches
+    share no energy. ``exact_*`` is what the regularized branch should be compared with: for the exact
+    one-stop family, its backbone (:func:`nnmstop.exact.dataset.one_stop_backbone`), not the internal
+    resonance it may enter, whose harmonic is far beyond the regularized branch's.
     """
     low = max(np.min(exact_energy), np.min(energy))
     high = min(np.max(exact_energy), np.max(energy))
@@ -50,7 +53,8 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
             f"the exact ({np.min(exact_energy):.4g}..{np.max(exact_energy):.4g}) and regularized "
             f"({np.min(energy):.4g}..{np.max(energy):.4g}) branches share no energy range"
         )
-    targets = np.geomspace(low * 1.01, high / 1.01, count)
+    margin = (high / low) ** 0.01
+    targets = np.geomspace(low * margin, high / margin, count)
     fe = np.array([first_crossing(exact_energy, exact_frequency, e) for e in targets])
     fr = np.array([first_crossing(energy, frequency, e, segment) for e in targets])
     keep = np.isfinite(fe) & np.isfinite(fr)

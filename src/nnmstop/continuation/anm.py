@@ -340,8 +340,8 @@ class ANMStepper(Stepper):
                 U_j, _ = _on_threshold(system, U_j, t_j, result.factors, self.settings, stats)
             except ContinuationError as err:
                 raise ContinuationError(f"interior point {j}: {err}") from err
-            yield U_j, t_j
-        yield result.U_end, result.t_end
+            yield U_j, t_j, a
+        yield result.U_end, result.t_end, result.a_max
 
     def path_through(self, system, U_a, tangent_a, U_b, stats: ContinuationStats, strict: bool = True):
         """The ANM step from ``U_a`` recomputed; ``U_b``'s parameter is that of the nearest point of its path.

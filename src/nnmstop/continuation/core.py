@@ -35,6 +35,9 @@ __all__ = [
     "unit_tangent",
     "StopCriterion",
     "Progress",
+    "is_real_number",
+    "is_integer",
+    "require_on_branch",
 ]
 
 logger = logging.getLogger("nnmstop.continuation.core")
@@ -68,7 +71,10 @@ class Branch:
     ``points`` are unknown vectors; ``step`` is the index of the continuation step
     that produced each point (interior points of one ANM step share it);
     ``diagnostics`` the dict of ``system.diagnostics`` of each point (None where the
-    method did not compute it).
+    method did not compute it); ``checks`` the events' check of each point (None without
+    events, :mod:`nnmstop.continuation.events`); ``arclength`` the pseudo-arclength of each
+    point from the start (the steps' path parameters added up; None where unknown).
+    ``end_event`` is the located event that ended the branch (None when something else did).
     """
 
     points: list = field(default_factory=list)
@@ -80,11 +86,16 @@ class Branch:
     # Indices of the points that end a continuation step across which the sign of
     # det [J; t^T] changed: a simple branch point lies within that step.
     branch_points: list = field(default_factory=list)
+    checks: list = field(default_factory=list)
+    arclength: list = field(default_factory=list)
+    end_event: object = None
 
-    def add(self, U, step, diagnostics=None):
+    def add(self, U, step, diagnostics=None, check=None, arclength=None):
         self.points.append(np.array(U, dtype=float))
         self.step.append(int(step))
         self.diagnostics.append(diagnostics)
+        self.checks.append(check)
+        self.arclength.append(arclength)
 
 
 # A stop criterion gets the new point and its diagnostics dict and returns a reason
@@ -169,6 +180,25 @@ def newton_correct(system, U, tangent, stats: ContinuationStats, tol: float, max
         f"Newton correction did not converge in {max_iter} iterations (relative residual "
         f"{result.residual_norm:.2e} > {tol:.1e})"
     )
+
+
+def is_real_number(value) -> bool:
+    """A Python or numpy real number (not a bool), for the settings' checks."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
+def is_integer(value) -> bool:
+    """A Python or numpy integer (not a bool)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def require_on_branch(system, U, tolerance: float, hint: str = "") -> None:
+    """ValueError unless the relative residual at ``U`` is at most ``tolerance`` (a stepper's start check)."""
+    residual = relative_residual(system, U)
+    if residual > tolerance:
+        raise ValueError(
+            f"U_start is not on the branch: relative residual {residual:.2e} > tolerance {tolerance:.1e}{hint}"
+        )
 
 
 def relative_of_residual(U, r) -> float:

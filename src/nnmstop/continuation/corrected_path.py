@@ -22,7 +22,40 @@ from nnmstop.continuation.core import ContinuationError, relative_of_residual
 from nnmstop.continuation.linear import factorize_bordered
 from nnmstop.continuation.newton import newton_solve
 
-__all__ = ["CorrectedPath"]
+__all__ = ["CorrectedPath", "newton_in_hyperplane"]
+
+
+def newton_in_hyperplane(system, U0, t0, a: float, guess, tol: float, max_iter: int, stats=None):
+    """Newton on ``S(U) = 0`` in the hyperplane ``<U - U0, t0> = a`` from ``guess``, iterated to round-off.
+
+    Converged once the relative residual is at most ``tol`` and the update has stopped shrinking (or
+    is below ``1e-14`` relative): the point is then the hyperplane's solution to round-off. Returns
+    the :class:`~nnmstop.continuation.newton.NewtonResult` (its ``jacobian`` the factors of
+    ``[J; t0^T]`` of the last update).
+    """
+
+    def residual(V):
+        return np.append(system.residual(V), np.dot(t0, V - U0) - a)
+
+    last_update = [np.inf]
+
+    def converged(V, r, dU):
+        if dU is None:
+            return False
+        update, previous = float(np.linalg.norm(dU)), last_update[0]
+        last_update[0] = update
+        if relative_of_residual(V, r[:-1]) > tol:
+            return False
+        return update <= 1e-14 * (1.0 + np.linalg.norm(V)) or update >= previous
+
+    return newton_solve(
+        residual,
+        lambda V: factorize_bordered(system, V, t0, stats, singular_tol=None),
+        guess,
+        tol=tol,
+        max_iter=max_iter,
+        criterion=converged,
+    )
 
 
 class CorrectedPath:
@@ -113,31 +146,7 @@ class CorrectedPath:
         return U
 
     def _newton(self, a: float, guess):
-        system, U0, t0, tol = self.system, self.U0, self.t0, self.tol
-
-        def residual(V):
-            return np.append(system.residual(V), np.dot(t0, V - U0) - a)
-
-        last_update = [np.inf]
-
-        def converged(V, r, dU):
-            # to round-off: accepted once the update stops shrinking
-            if dU is None:
-                return False
-            update, previous = float(np.linalg.norm(dU)), last_update[0]
-            last_update[0] = update
-            if relative_of_residual(V, r[:-1]) > tol:
-                return False
-            return update <= 1e-14 * (1.0 + np.linalg.norm(V)) or update >= previous
-
-        return newton_solve(
-            residual,
-            lambda V: factorize_bordered(system, V, t0, singular_tol=None),
-            guess,
-            tol=tol,
-            max_iter=self.max_iter,
-            criterion=converged,
-        )
+        return newton_in_hyperplane(self.system, self.U0, self.t0, a, guess, self.tol, self.max_iter)
 
     def _hermite(self, a: float):
         """Cubic Hermite interpolant of the path over ``[a - h, a + h]`` (within the path), ``h = span * length``."""

@@ -4,10 +4,13 @@ A continuation follows the solution curve of ``S(U) = 0`` (``n`` equations, ``n 
 unknowns) from a start point along a direction until a stop criterion is met. The loop
 is the same for every method: the first tangent, the steps, the points they store, the
 stop criterion, the detection of simple branch points (sign changes of ``det [J; t^T]``),
-progress messages and error messages naming the step and the energy. What differs is one
-step, behind the small :class:`Stepper` interface: the ANM with Padé
-(:class:`nnmstop.continuation.anm.ANMStepper`) and Newton pseudo-arclength
-(:class:`nnmstop.continuation.pseudo_arclength.PseudoArclengthStepper`).
+events (conditions that end the continuation where they fail, located on the step's path:
+:mod:`nnmstop.continuation.events`), progress messages and error messages naming the step and the
+energy. What differs is one step, behind the small :class:`Stepper` interface: the ANM with Padé
+(:class:`nnmstop.continuation.anm.ANMStepper`), Newton pseudo-arclength
+(:class:`nnmstop.continuation.pseudo_arclength.PseudoArclengthStepper`) and its dense variant
+corrected to round-off for the exact orbits
+(:class:`nnmstop.continuation.dense_arclength.DenseArclengthStepper`).
 
 Each step returns a :class:`StepResult` with a *path* ``a -> U(a)`` over the step, on the
 branch all along it, so that branch points (and folds) can be located afterwards whatever
@@ -33,6 +36,7 @@ from nnmstop.continuation.core import (
     StopCriterion,
     unit_tangent,
 )
+from nnmstop.continuation.events import Events, locate_event
 
 __all__ = ["Path", "path_border", "StepResult", "Stepper", "as_stepper", "continue_branch"]
 
@@ -76,9 +80,10 @@ class StepResult:
         Path parameter of the end point (> 0).
     path : Path
         The branch over the step.
-    points : iterable of (U, t)
-        The points the step stores, in order along the curve, ending with ``(U_end, t_end)``;
-        may be lazy (the driver stops iterating at the first point that meets the stop criterion).
+    points : iterable of (U, t) or (U, t, a)
+        The points the step stores, in order along the curve, ending with ``(U_end, t_end)``,
+        with their path parameter ``a`` (the end's is ``length``); may be lazy (the driver stops
+        iterating at the first point that meets the stop criterion or fails an event).
     start_sign, end_sign : int or None
         Sign of ``det [J; t^T]`` at the start or at the end of the step, when the stepper
         computed it (any bordering row with a positive component along the tangent gives
@@ -112,6 +117,12 @@ class Stepper:
     def step(self, system, U, tangent, stats: ContinuationStats) -> StepResult:
         """One step from ``U`` along the unit ``tangent``; raises ContinuationError or LinAlgError on failure."""
         raise NotImplementedError
+
+    def shorten(self, length: float) -> None:
+        """Make the next step at most ``length`` long; the driver asks for it when the path of a step
+        lost the branch before an event (:attr:`nnmstop.continuation.events.LocatedEvent.trusted`).
+        A stepper that cannot shorten its steps raises ContinuationError."""
+        raise ContinuationError(f"{type(self).__name__} cannot shorten its steps")
 
     def path_through(
         self, system, U_a, tangent_a, U_b, stats: ContinuationStats, strict: bool = True
@@ -154,6 +165,8 @@ def continue_branch(
     label: str = "continuation",
     progress_seconds: float = 2.0,
     log: logging.Logger = logger,
+    events: Events | None = None,
+    event_tol: float = 1e-13,
 ) -> Branch:
     """Follow the branch through ``U_start`` along ``direction`` with ``stepper`` until ``stop`` says so.
 
@@ -176,6 +189,13 @@ def continue_branch(
         Name in log and error messages.
     progress_seconds : float
         Interval between progress messages.
+    events : Events, optional
+        Conditions checked at every point (:mod:`nnmstop.continuation.events`); at the first point
+        where one fails, the change is located on the step's path (to ``event_tol`` of the step),
+        the last point where all hold ends the branch (``end_event``) and the condition's
+        description is the end reason. Each point's check is kept in ``checks``.
+    event_tol : float
+        Width of the located event's bracket relative to the step's path length.
 
     Returns
     -------
@@ -196,68 +216,137 @@ def continue_branch(
     direction = np.array(direction, dtype=float)
     _check_start(system, U, direction)
     stepper.start(system, U)
-    stats = stepper.new_stats()
-    started = time.perf_counter()
-    branch = Branch(stats=stats)
-    tangent, sign = unit_tangent(system, U, direction, stats)
-    diag = system.diagnostics(U)
-    branch.add(U, 0, diag)
-    progress = Progress(label, progress_seconds, log)
+    run = _Run(system, stepper, stop, label, Progress(label, progress_seconds, log), log, events, event_tol)
+    tangent, run.sign = unit_tangent(system, U, direction, run.stats)
+    run.store(U, 0, 0.0)
+    return run.steps(U, tangent)
 
-    def failure(step, err):
-        stats.wall_time = time.perf_counter() - started
-        return ContinuationError(
-            f"{label}: step {step} failed at energy {diag['energy']:.6g} (frequency {diag['frequency']:.6g} Hz): {err}"
+
+class _Run:
+    """The state of one :func:`continue_branch`: the branch so far, the sign of ``det [J; t^T]``, the clock."""
+
+    def __init__(self, system, stepper, stop, label, progress, log, events, event_tol):
+        self.system, self.stepper, self.stop, self.label = system, stepper, stop, label
+        self.progress, self.log, self.events, self.event_tol = progress, log, events, event_tol
+        self.stats = stepper.new_stats()
+        self.branch = Branch(stats=self.stats)
+        self.started = time.perf_counter()
+        self.sign = None
+        self.offset = 0.0  # arclength at the start of the current step
+        self.diag = None
+
+    def steps(self, U, tangent) -> Branch:
+        """Step from ``U`` along ``tangent`` until the branch ends; ContinuationError when ``max_steps`` run out."""
+        stepper, stats = self.stepper, self.stats
+        for step in range(1, stepper.max_steps + 1):
+            try:
+                result = stepper.step(self.system, U, tangent, stats)
+            except (ContinuationError, np.linalg.LinAlgError) as err:
+                raise self.failure(step, err) from err
+            if not (np.all(np.isfinite(result.U_end)) and result.length > 0):
+                raise self.failure(step, "non-finite values")
+            stats.steps = step
+            self.flag_sign(result.start_sign, step - 1)  # the sign at U: a change lies within the previous step
+            outcome = self.take(result, step)
+            if outcome == "ended":
+                return self.finish(step, result.length)
+            if outcome == "retry":
+                continue
+            self.flag_sign(result.end_sign, step)
+            self.offset += result.length
+            U, tangent = result.U_end, result.t_end
+            self.progress(step, self.diag, result.length)
+        self.finish(stepper.max_steps, 0.0, log_progress=False)
+        raise ContinuationError(
+            f"{self.label}: no stop criterion met after max_steps = {stepper.max_steps} steps "
+            f"(last energy {self.diag['energy']:.6g}, frequency {self.diag['frequency']:.6g} Hz)"
         )
 
-    def flag_sign(new_sign, step):
+    def store(self, U, step: int, a: float, check=None):
+        self.diag = self.system.diagnostics(U)
+        if self.events is not None and check is None:
+            check = self.events(U)
+        self.branch.add(U, step, self.diag, check=check, arclength=self.offset + a)
+        return check
+
+    def failure(self, step, err):
+        self.stats.wall_time = time.perf_counter() - self.started
+        return ContinuationError(
+            f"{self.label}: step {step} failed at energy {self.diag['energy']:.6g} "
+            f"(frequency {self.diag['frequency']:.6g} Hz): {err}"
+        )
+
+    def flag_sign(self, new_sign, step):
         """Record a sign change of det [J; t^T]: a branch point within the step ending at the last point."""
-        nonlocal sign
         if new_sign is None:
             return
-        if new_sign != sign:
-            branch.branch_points.append(len(branch.points) - 1)
-            log.info(
+        if new_sign != self.sign:
+            self.branch.branch_points.append(len(self.branch.points) - 1)
+            self.log.info(
                 "%s: simple branch point passed near energy %.6g, frequency %.6g Hz (step %d)",
-                label,
-                diag["energy"],
-                diag["frequency"],
+                self.label,
+                self.diag["energy"],
+                self.diag["frequency"],
                 step,
             )
-        sign = new_sign
+        self.sign = new_sign
 
-    for step in range(1, stepper.max_steps + 1):
-        try:
-            result = stepper.step(system, U, tangent, stats)
-        except (ContinuationError, np.linalg.LinAlgError) as err:
-            raise failure(step, err) from err
-        if not (np.all(np.isfinite(result.U_end)) and result.length > 0):
-            raise failure(step, "non-finite values")
-        stats.steps = step
-        flag_sign(result.start_sign, step - 1)  # the sign at U: a change lies within the previous step
+    def take(self, result: StepResult, step: int) -> str:
+        """Store the step's points until one ends the branch: "ended", "retry" (the step was shortened) or ""."""
         points = iter(result.points)
+        stored_a, start_check = 0.0, self.branch.checks[-1]
         while True:
             try:
-                U_j, t_j = next(points)
+                item = next(points)
             except StopIteration:
-                break
+                return ""
             except (ContinuationError, np.linalg.LinAlgError) as err:
-                raise failure(step, err) from err
-            diag = system.diagnostics(U_j)
-            branch.add(U_j, step, diag)
-            reason = stop(U_j, diag)
+                raise self.failure(step, err) from err
+            U_j, t_j = item[0], item[1]
+            a_j = item[2] if len(item) > 2 else result.length
+            check = None if self.events is None else self.events(U_j)
+            if check is not None and not check.valid:
+                return self._event(result, step, stored_a, self.branch.points[-1], start_check, a_j, check)
+            self.store(U_j, step, a_j, check)
+            stored_a, start_check = a_j, check
+            reason = self.stop(U_j, self.diag)
             if reason:
-                flag_sign(result.end_sign, step)
-                branch.end_reason = reason
-                branch.end_tangent = t_j
-                stats.wall_time = time.perf_counter() - started
-                progress(step, diag, result.length, force=True)
-                return branch
-        flag_sign(result.end_sign, step)
-        U, tangent = result.U_end, result.t_end
-        progress(step, diag, result.length)
-    stats.wall_time = time.perf_counter() - started
-    raise ContinuationError(
-        f"{label}: no stop criterion met after max_steps = {stepper.max_steps} steps "
-        f"(last energy {diag['energy']:.6g}, frequency {diag['frequency']:.6g} Hz)"
-    )
+                self.flag_sign(result.end_sign, step)
+                self.branch.end_reason, self.branch.end_tangent = reason, t_j
+                return "ended"
+
+    def _event(self, result, step, a_start, U_start, check_start, a_end, check_end) -> str:
+        """Locate the event between the last stored point of the step and the first that fails one."""
+
+        def shifted(a, derivative=False):  # the path from the last stored point of the step
+            return result.path(a_start + a, derivative)
+
+        try:
+            event = locate_event(shifted, self.events, U_start, check_start, a_end - a_start, check_end, self.event_tol)
+        except ValueError as err:
+            raise self.failure(step, f"locating the event: {err}") from err
+        if not event.trusted:
+            if a_start > 0:
+                raise self.failure(step, "the step's path lost the branch after the step stored points")
+            self.log.info(
+                "%s step %d: the path of the step lost the branch before the event (slope %.3g); shorter step",
+                self.label,
+                step,
+                event.slope,
+            )
+            try:
+                self.stepper.shorten(0.5 * event.a if event.a > 0 else 0.25 * result.length)
+            except ContinuationError as err:
+                raise self.failure(step, f"the step's path lost the branch before an event: {err}") from err
+            return "retry"
+        if event.a > 0:
+            self.store(event.U, step, a_start + event.a, event.inside)
+        self.branch.end_event = event
+        self.branch.end_reason = self.events.describe(event.key)
+        return "ended"
+
+    def finish(self, step, length, log_progress=True):
+        self.stats.wall_time = time.perf_counter() - self.started
+        if log_progress:
+            self.progress(step, self.diag, length, force=True)
+        return self.branch

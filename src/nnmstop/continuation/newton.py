@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["NewtonResult", "newton_solve", "step_converged", "Bisection", "bisect_sign_change"]
+__all__ = ["NewtonResult", "newton_solve", "step_converged", "round_off_criterion", "Bisection", "bisect_sign_change"]
 
 
 @dataclass(frozen=True)
@@ -59,6 +59,28 @@ class NewtonResult:
 def step_converged(y, dy, tol: float) -> bool:
     """The default test: ``||dy|| <= tol (1 + ||y||)`` after the update ``dy`` to ``y``."""
     return bool(np.linalg.norm(dy) <= tol * (1.0 + np.linalg.norm(y)))
+
+
+def round_off_criterion():
+    """A convergence test for :func:`newton_solve` that runs the iteration to round-off.
+
+    Converged once an update is below ``1e-13`` relative, or once it has stopped shrinking (by at
+    least half per iteration) while below ``1e-8`` relative: the floor that the conditioning of the
+    equations sets (the quarter-period equations of a model with fast modes, whose velocities at the
+    turning point carry the round-off). A fresh test per iteration (it keeps the previous update).
+    """
+    previous = [np.inf]
+
+    def converged(y, r, dy) -> bool:
+        if dy is None:
+            return False
+        dy_norm = float(np.linalg.norm(dy))
+        scale = 1.0 + float(np.linalg.norm(y))
+        done = dy_norm <= 1e-13 * scale or (dy_norm <= 1e-8 * scale and dy_norm > 0.5 * previous[0])
+        previous[0] = dy_norm
+        return done
+
+    return converged
 
 
 def _euclidean(y, r) -> float:

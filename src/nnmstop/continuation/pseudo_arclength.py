@@ -29,9 +29,11 @@ from nnmstop.continuation.core import (
     ContinuationStats,
     OrthogonalUpdate,
     StopCriterion,
+    is_integer,
+    is_real_number,
     newton_converged,
     relative_of_residual,
-    relative_residual,
+    require_on_branch,
 )
 from nnmstop.continuation.corrected_path import CorrectedPath
 from nnmstop.continuation.driver import Stepper, StepResult, continue_branch
@@ -102,9 +104,9 @@ class PseudoArclengthSettings:
     def __post_init__(self):
         for name in ("tolerance", "initial_step", "min_step"):
             value = getattr(self, name)
-            if not _is_real(value) or not (np.isfinite(value) and value > 0):
+            if not is_real_number(value) or not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-        if not _is_real(self.max_step) or np.isnan(self.max_step) or self.max_step < self.initial_step:
+        if not is_real_number(self.max_step) or np.isnan(self.max_step) or self.max_step < self.initial_step:
             raise ValueError(
                 f"max_step must be >= initial_step = {self.initial_step!r} (inf for no cap), got {self.max_step!r}"
             )
@@ -112,29 +114,21 @@ class PseudoArclengthSettings:
             raise ValueError(f"min_step must be <= initial_step = {self.initial_step!r}, got {self.min_step!r}")
         for name in ("max_iterations", "max_steps"):
             value = getattr(self, name)
-            if not _is_int(value) or value < 1:
+            if not is_integer(value) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-        if not _is_int(self.target_iterations) or not 1 <= self.target_iterations <= self.max_iterations:
+        if not is_integer(self.target_iterations) or not 1 <= self.target_iterations <= self.max_iterations:
             raise ValueError(
                 f"target_iterations must be an integer in [1, max_iterations = {self.max_iterations!r}], "
                 f"got {self.target_iterations!r}"
             )
-        if not _is_real(self.growth) or not (np.isfinite(self.growth) and self.growth > 1):
+        if not is_real_number(self.growth) or not (np.isfinite(self.growth) and self.growth > 1):
             raise ValueError(f"growth must be finite and > 1, got {self.growth!r}")
-        if not _is_real(self.max_angle) or not 0 < self.max_angle < np.pi:
+        if not is_real_number(self.max_angle) or not 0 < self.max_angle < np.pi:
             raise ValueError(f"max_angle must be in (0, pi) radians, got {self.max_angle!r}")
 
     def stepper(self) -> PseudoArclengthStepper:
         """The pseudo-arclength step with these settings, for :func:`nnmstop.continuation.driver.continue_branch`."""
         return PseudoArclengthStepper(self)
-
-
-def _is_real(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
-
-
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 @dataclass
@@ -216,7 +210,7 @@ def corrector(system, U_pred, tangent, stats: ContinuationStats, tol: float, max
     return result.y, result.iterations, result.jacobian.factors, float(np.linalg.norm(result.step)), ""
 
 
-def _angle(a, b) -> float:
+def tangent_angle(a, b) -> float:
     """Angle between two unit vectors, accurate for small angles."""
     return float(2.0 * np.arctan2(np.linalg.norm(a - b), np.linalg.norm(a + b)))
 
@@ -236,12 +230,7 @@ class PseudoArclengthStepper(Stepper):
         return PseudoArclengthStats()
 
     def start(self, system, U) -> None:
-        start_residual = relative_residual(system, U)
-        if start_residual > self.settings.tolerance:
-            raise ValueError(
-                f"U_start is not on the branch: relative residual {start_residual:.2e} > tolerance "
-                f"{self.settings.tolerance:.1e} (correct it with newton_correct first)"
-            )
+        require_on_branch(system, U, self.settings.tolerance, " (correct it with newton_correct first)")
         self.ds = self.settings.initial_step
 
     def step(self, system, U, tangent, stats: PseudoArclengthStats) -> StepResult:
@@ -262,7 +251,7 @@ class PseudoArclengthStepper(Stepper):
             if U_new is not None:
                 t_new = factors.solve(rhs_tangent)
                 t_new /= np.linalg.norm(t_new)
-                angle = _angle(tangent, t_new)
+                angle = tangent_angle(tangent, t_new)
                 if angle <= settings.max_angle:
                     break
                 reason = f"tangent turned by {angle:.3g} rad > max_angle {settings.max_angle:.3g}"

@@ -1,27 +1,42 @@
-"""Continuation of the families of exact orbits, through their grazing transitions.
+"""The exact NNM1 of the 2-DOF oscillator through its grazing transitions (2-DOF only), and its two-impact family.
 
 The solutions of the quarter-period equations of one phase sequence form one-parameter
-families. :func:`follow_family` is the one continuation of this package's exact orbits:
-pseudo-arclength in the unknowns (predictor along the unit tangent of the analytic
-Jacobian, Newton corrector to round-off), the step adapted to the changes of energy and
-frequency, every orbit checked (:func:`nnmstop.exact.grazing.assess_orbit`) and the end
-of the family located by bisection where an assumption first fails. It follows the
-two-impact family (:func:`follow_two_impact_family`) and every segment of the exact NNM1
-(:func:`follow_branch`, which switches the phase sequence at each grazing transition).
-Method notes: ``docs/methods/exact.md``.
+families. :func:`follow_family` follows one with the continuation every exact family uses
+(:func:`nnmstop.exact.follow.continue_exact_family`: the continuation driver, dense
+pseudo-arclength steps corrected to round-off, the validity margins of
+:func:`nnmstop.exact.grazing.assess_orbit` as events located on the step's path), the step
+limited by the changes of energy and frequency; at its end the grazing transition is
+classified and :func:`follow_branch` enters the family of the next phase sequence. The phase
+sequences with several impacts per stop are implemented for 2-DOF structures only
+(:class:`nnmstop.exact.problem.SequenceProblem`). The two-impact family
+(:func:`follow_two_impact_family`) is the one-stop family of any structure
+(:func:`nnmstop.exact.ndof.follow_one_stop_family`) on the 2-DOF oscillator, returned in the
+unknowns of the paper. Method notes: ``docs/methods/exact.md``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
 
+from nnmstop.continuation.dense_arclength import DenseArclengthSettings
+from nnmstop.exact import ndof
+from nnmstop.exact.follow import (
+    RESTART_POINTS,
+    ValidityEvents,
+    branch_point_flags,
+    confirm_family_end,
+    continue_exact_family,
+)
 from nnmstop.exact.grazing import Transition, assess_orbit, classify_boundary, describe_margin, split_start
-from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem, first_grazing_orbit, newton
-from nnmstop.models.two_dof import ModelParameters, total_energy
+from nnmstop.exact.ndof import OneStopProblem
+from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem
+from nnmstop.models.structure import two_dof_structure
+from nnmstop.models.two_dof import ModelParameters
 
 __all__ = [
     "FamilySettings",
@@ -29,9 +44,7 @@ __all__ = [
     "follow_family",
     "follow_two_impact_family",
     "follow_branch",
-    "unit_null_vector",
-    "tangent_along",
-    "determinant_sign",
+    "validity_events",
 ]
 
 logger = logging.getLogger(__name__)
@@ -123,6 +136,8 @@ class Family:
         Nominal continuation step.
     end_tangent : ndarray or None
         Unit tangent at the last orbit of the continuation.
+    end_check : str
+        How the end was confirmed (:func:`nnmstop.exact.follow.confirm_family_end`; '' when it was not asked).
     """
 
     problem: SequenceProblem
@@ -138,6 +153,7 @@ class Family:
     start: str = ""
     step: float = 0.0
     end_tangent: np.ndarray | None = None
+    end_check: str = ""
 
     @property
     def sequence(self) -> str:
@@ -145,9 +161,14 @@ class Family:
         return self.problem.sequence
 
     @property
-    def params(self) -> ModelParameters:
-        """Model parameters."""
+    def params(self) -> ModelParameters | None:
+        """The paper's parameters when the model was given by them (None for a 2-DOF structure)."""
         return self.problem.params
+
+    @property
+    def model(self):
+        """The model: :class:`~nnmstop.models.two_dof.ModelParameters` or a 2-DOF structure."""
+        return self.problem.model
 
     def __len__(self) -> int:
         return len(self.unknowns)
@@ -155,8 +176,7 @@ class Family:
     @property
     def energy(self) -> np.ndarray:
         """Total energy of the piecewise model (the kinetic energy at ``x = u = 0``) of each orbit."""
-        y = np.asarray(self.unknowns)
-        return total_energy(0.0, 0.0, y[:, 0], y[:, 1], self.params, model="piecewise")
+        return np.array([self.problem.energy(y) for y in self.unknowns])
 
     @property
     def frequency(self) -> np.ndarray:
@@ -179,78 +199,18 @@ class Family:
         return self
 
 
-def tangent_along(jac, previous) -> np.ndarray:
-    """Unit null vector of ``jac`` oriented like ``previous`` (bordered solve ``[J; previous] t = e_n``)."""
-    rhs = np.zeros(jac.shape[1])
-    rhs[-1] = 1.0
-    t = np.linalg.solve(np.vstack([jac, previous]), rhs)
-    return t / np.linalg.norm(t)
+def validity_events(problem: SequenceProblem) -> ValidityEvents:
+    """The margins of :func:`nnmstop.exact.grazing.assess_orbit` as continuation events."""
+    return ValidityEvents(lambda y: assess_orbit(problem, y), lambda key: describe_margin(problem, key))
 
 
-def unit_null_vector(jac) -> np.ndarray:
-    """Unit null vector of a Jacobian with a one-dimensional null space (sign arbitrary).
-
-    Raises
-    ------
-    RuntimeError
-        If the null space is not one-dimensional (not a regular point of a family).
-    """
-    null = scipy.linalg.null_space(jac)
-    if null.shape[1] != 1:
-        raise RuntimeError(f"the Jacobian has a {null.shape[1]}-dimensional null space; not a regular point")
-    return null[:, 0]
-
-
-def determinant_sign(jac, tangent) -> float:
-    """Sign of ``det [J; t^T]``: it changes where a simple branch point is crossed."""
-    return float(np.sign(np.linalg.det(np.vstack([jac, tangent]))))
-
-
-def _correct(problem: SequenceProblem, y_prev, tangent, sigma, max_iter=15):
-    """Pseudo-arclength corrector; returns the orbit or None.
-
-    Newton on the equations plus ``tangent . (y - y_prev) = sigma`` to round-off. The
-    result is refused if it lies farther than ``|sigma| / 2`` from the predictor (a jump to
-    another family, e.g. the spurious zero-duration family near a grazing orbit).
-    """
-    pred = y_prev + sigma * tangent
-
-    def fun(y):
-        return np.append(problem.residual(y), tangent @ (y - y_prev) - sigma)
-
-    def jac(y):
-        return np.vstack([problem.jacobian(y), tangent])
-
-    y, converged = newton(fun, jac, pred.copy(), tol=1e-13, max_iter=max_iter)
-    if not converged or np.linalg.norm(problem.residual(y)) > 1e-10:
-        return None
-    if np.linalg.norm(y - pred) > 0.5 * abs(sigma) + 1e-13:
-        return None
-    return y
-
-
-def _locate_boundary(problem, y, tangent, h, bad, rel_tol=1e-13):
-    """Bisection on the arclength of the last step for the first violated margin.
-
-    Returns ``(last valid orbit or None, its arclength from y, its assessment, assessment of
-    the nearest invalid orbit found)``.
-    """
-    lo, hi = 0.0, h
-    y_lo, check_lo, check_hi = None, None, bad
-    for _ in range(200):
-        if hi - lo <= rel_tol * h:
-            break
-        mid = 0.5 * (lo + hi)
-        y_mid = _correct(problem, y, tangent, mid)
-        if y_mid is None:
-            hi = mid
-            continue
-        check = assess_orbit(problem, y_mid)
-        if check.valid:
-            lo, y_lo, check_lo = mid, y_mid, check
-        else:
-            hi, check_hi = mid, check
-    return y_lo, lo, check_lo, check_hi
+def _continuation_settings(settings: FamilySettings) -> DenseArclengthSettings:
+    return DenseArclengthSettings(
+        step=float(settings.step),
+        min_step=float(settings.min_step),
+        max_log_energy_step=float(settings.max_log_energy_step),
+        max_frequency_step=float(settings.max_frequency_step),
+    )
 
 
 def follow_family(
@@ -263,20 +223,18 @@ def follow_family(
     max_points: int | None = None,
     first_grazing: bool = False,
     transitions: bool = True,
-    tangent_from: str = "direction",
     start_label: str = "",
-    start_violation: float | None = None,
+    confirm: bool = False,
 ) -> Family:
     """Follow the family of one phase sequence until its assumptions fail.
 
-    Pseudo-arclength continuation (predictor along the unit tangent, Newton corrector to
-    round-off) with the step adapted to keep the changes of ``ln E`` and of the frequency
-    per step below the settings. Nothing assumes the energy to be monotone along the
-    family. At the first invalid orbit, the boundary is located by bisection on the last
-    step (relative ``1e-13``) and the last valid orbit is kept: the family is never
-    extended past its end. With ``transitions``, the grazing transition there is
-    classified (:func:`nnmstop.exact.grazing.classify_boundary`) and its grazing orbit is
-    appended when it belongs to this sequence (split, append).
+    :func:`nnmstop.exact.follow.continue_exact_family` with the steps of ``settings`` (their
+    changes of ``ln E`` and frequency limited); nothing assumes the energy to be monotone along
+    the family. At the first invalid orbit the boundary is located on the last step's path
+    (relative ``1e-13``) and the last valid orbit is kept: the family is never extended past its
+    end. With ``transitions``, the grazing transition there is classified
+    (:func:`nnmstop.exact.grazing.classify_boundary`) and its grazing orbit is appended when it
+    belongs to this sequence (split, append).
 
     Parameters
     ----------
@@ -284,7 +242,7 @@ def follow_family(
     y0 : array_like
         First orbit (residual below ``1e-10``).
     direction : array_like
-        Initial direction of the continuation.
+        Orientation of the first tangent (the tangent solves ``[J; direction] t = e_n``).
     settings : FamilySettings
     h0 : float, optional
         First step (default ``settings.step``).
@@ -294,14 +252,12 @@ def follow_family(
         Mark the first orbit as a grazing orbit.
     transitions : bool
         Classify the end of the family as a grazing transition.
-    tangent_from : {"direction", "null_space"}
-        First tangent: the bordered solve ``[J; direction] t = e_n`` (``direction`` close to
-        the tangent), or the unit null vector of ``J`` with the sign of ``direction``
-        (``direction`` only an orientation).
     start_label : str
         Description of the first orbit, kept in the result.
-    start_violation : float, optional
-        Refuse a first orbit whose smallest validity margin is below ``-start_violation``.
+    confirm : bool
+        Confirm the end by a restart with a ten times smaller step and ten times smaller limits of the
+        energy and frequency changes (``end_check``); raise
+        :class:`~nnmstop.continuation.confirm.EndNotConfirmed` when the restart ends elsewhere.
 
     Returns
     -------
@@ -311,64 +267,55 @@ def follow_family(
     res0 = np.linalg.norm(problem.residual(y))
     if res0 > 1e-10:
         raise ValueError(f"start is not an orbit of {problem.sequence!r} (residual {res0:.3e})")
-    first = assess_orbit(problem, y)
-    if start_violation is not None and first.min_margin < -start_violation:
-        raise ValueError(f"start {y} violates the assumptions {first.violated} of {problem.sequence!r}")
-    if tangent_from not in ("direction", "null_space"):
-        raise ValueError(f"tangent_from must be 'direction' or 'null_space', got {tangent_from!r}")
     max_points = settings.max_points if max_points is None else int(max_points)
-    direction = np.asarray(direction, dtype=float)
-    jac = problem.jacobian(y)
-    if tangent_from == "null_space":
-        tangent = unit_null_vector(jac)
-        tangent = -tangent if tangent @ direction < 0 else tangent
-    else:
-        tangent = tangent_along(jac, direction)
+    branch = continue_exact_family(
+        problem,
+        y,
+        direction,
+        validity_events(problem),
+        _continuation_settings(settings),
+        max_points=max_points,
+        energy_max=settings.energy_max,
+        first_step=None if h0 is None else min(h0, settings.step),
+        label=f"exact {problem.sequence} family",
+    )
     family = Family(problem, start=start_label, step=float(settings.step))
-    family.append(y, 0.0, first, grazing=first_grazing)
-    det = determinant_sign(problem.jacobian(y), tangent)
-    h = min(settings.step, h0 or settings.step)
-    s = 0.0
-    energy, freq = problem.energy(y), problem.frequency(y)
-    while True:
-        if len(family) >= max_points:
-            family.end_reason = f"max_points = {max_points} reached (the family is still valid there)"
-            break
-        if energy > settings.energy_max:
-            family.end_reason = f"energy above energy_max = {settings.energy_max:g} (the family is still valid there)"
-            break
-        if h < settings.min_step:
-            family.end_reason = f"continuation failed: no convergence for steps down to {h:.3e}"
-            break
-        y_new = _correct(problem, y, tangent, h)
-        if y_new is None:
-            h *= 0.5
-            continue
-        e_new, f_new = problem.energy(y_new), problem.frequency(y_new)
-        ratio = max(
-            abs(np.log(e_new / energy)) / settings.max_log_energy_step,
-            abs(f_new - freq) / settings.max_frequency_step,
+    flags = branch_point_flags(branch)
+    for k, (y_k, s_k, check) in enumerate(zip(branch.points, branch.arclength, branch.checks)):
+        family.append(y_k, s_k, check, branch_point=bool(flags[k]), grazing=first_grazing and k == 0)
+    family.end_reason, family.end_tangent = branch.end_reason, branch.end_tangent
+    if branch.end_event is not None:
+        _end_family(family, branch.end_event.outside, transitions)
+    if confirm:
+        family.end_check = confirm_family_end(family, _restart(problem, settings), f"exact {problem.sequence} family")
+    _log_family(family)
+    return family._freeze()
+
+
+def _restart(problem: SequenceProblem, settings: FamilySettings):
+    """``restart(U, direction, fine_step)``: the family of ``problem`` from ``U`` with the step and its energy and
+    frequency limits refined alike, without transition (for :func:`nnmstop.exact.follow.confirm_family_end`)."""
+
+    def restart(U, direction, fine_step):
+        refine = settings.step / fine_step
+        fine = dataclasses.replace(
+            settings,
+            step=fine_step,
+            max_log_energy_step=settings.max_log_energy_step / refine,
+            max_frequency_step=settings.max_frequency_step / refine,
+            min_step=min(settings.min_step, fine_step),
         )
-        if ratio > 2.0:
-            h *= 0.9 / ratio
-            continue
-        check = assess_orbit(problem, y_new)
-        if not check.valid:
-            _end_family(family, y, tangent, h, s, check, transitions)
-            break
-        jac = problem.jacobian(y_new)
-        new_tangent = tangent_along(jac, tangent)
-        new_det = determinant_sign(jac, new_tangent)
-        y, tangent, s = y_new, new_tangent, s + h
-        family.append(y, s, check, branch_point=new_det != det)
-        det, energy, freq = new_det, e_new, f_new
-        h = min(settings.step, h * min(2.0, 0.9 / max(ratio, 1e-12)))
-    family.end_tangent = tangent
+        return follow_family(problem, U, direction, fine, max_points=RESTART_POINTS, transitions=False)
+
+    return restart
+
+
+def _log_family(family: Family) -> None:
     energies, frequencies = family.energy, family.frequency
     logger.info(
         "%s family%s: %d orbits, energy %.6g..%.6g, frequency %.7g..%.7g Hz, max residual %.2e; end: %s",
-        problem.sequence,
-        f" from the {start_label}" if start_label else "",
+        family.sequence,
+        f" from the {family.start}" if family.start else "",
         len(family),
         energies.min(),
         energies.max(),
@@ -377,20 +324,14 @@ def follow_family(
         max(family.residual),
         family.end_reason,
     )
-    return family._freeze()
 
 
-def _end_family(family: Family, y, tangent, h, s, check, transitions: bool) -> None:
-    """Locate the end of the family in the last step, keep its last valid orbit and say why it ends."""
+def _end_family(family: Family, check_hi, transitions: bool) -> None:
+    """Say why the family ends at its located boundary; classify the grazing transition there."""
     problem = family.problem
-    y_lo, sigma, check_lo, check_hi = _locate_boundary(problem, y, tangent, h, check)
-    if y_lo is not None and sigma > 0:
-        family.append(y_lo, s + sigma, check_lo)
-    else:
-        y_lo, check_lo = y, family.assessments[-1]
+    y_lo, check_lo = family.unknowns[-1], family.assessments[-1]
     family.end_margin = check_hi.violated[0]
     if not transitions:
-        family.end_reason = describe_margin(problem, family.end_margin)
         return
     try:
         family.transition = classify_boundary(problem, y_lo, check_lo, check_hi)
@@ -407,30 +348,34 @@ def _end_family(family: Family, y, tangent, h, s, check, transitions: bool) -> N
 
 
 def follow_two_impact_family(
-    params: ModelParameters,
+    model,
     step: float = 0.02,
     max_points: int = 4000,
     start=None,
     direction=None,
     start_label: str | None = None,
     min_step_ratio: float = 1e-6,
+    confirm: bool = False,
 ) -> Family:
-    """Follow the family of two-impact orbits (Section 3.1) with :func:`follow_family`.
+    """The family of two-impact orbits (Section 3.1): the one-stop family of the 2-DOF oscillator.
 
-    The problem is :class:`nnmstop.exact.problem.TwoImpactProblem` (unknowns
-    ``(xdot0, udot0, tau1, T1)``), the step is only limited by ``step`` (no energy or
-    frequency limit) and the family ends, without transition, at its first violated
-    assumption (``end_margin``, a key of :data:`nnmstop.exact.grazing.TWO_IMPACT_MARGINS`).
+    :func:`nnmstop.exact.ndof.follow_one_stop_family` on :func:`nnmstop.models.structure.two_dof_structure`
+    (any structure's family, in its modal unknowns), returned in the unknowns of the paper
+    ``(xdot0, udot0, tau1, T1)`` (:class:`nnmstop.exact.problem.TwoImpactProblem`). The family ends,
+    without transition, at its first violated assumption (``end_margin``, a key of
+    :data:`nnmstop.exact.grazing.TWO_IMPACT_MARGINS`).
 
     Parameters
     ----------
-    params : ModelParameters
+    model : ModelParameters or Structure
+        The paper's oscillator, or a 2-DOF structure with one stop on its first degree of freedom and gap 1.
     step : float
-        Nominal arclength step (> 0).
+        Largest arclength step (> 0; the modal unknowns of the 2-DOF oscillator with ``delta = 1`` are
+        a rotation of the velocities, so the lengths are those of the paper's unknowns).
     max_points : int
         Maximum number of orbits (>= 2).
     start : array_like, shape (4,), optional
-        First orbit; the grazing orbit (:func:`nnmstop.exact.problem.first_grazing_orbit`) by default.
+        First orbit ``(xdot0, udot0, tau1, T1)``; the grazing orbit (first linear mode with x amplitude 1) by default.
     direction : array_like, shape (4,), optional
         The first tangent has a positive dot product with it; by default the direction of
         increasing contact duration ``T1 - tau1``.
@@ -438,6 +383,9 @@ def follow_two_impact_family(
         Description of the start, kept in the result.
     min_step_ratio : float
         The continuation fails when the step falls below ``min_step_ratio * step``.
+    confirm : bool
+        Confirm the end by a restart with a ten times smaller step (``end_check``, see
+        :func:`nnmstop.exact.ndof.follow_one_stop_family`).
 
     Returns
     -------
@@ -447,38 +395,56 @@ def follow_two_impact_family(
         raise ValueError(f"step must be a finite number > 0, got {step!r}")
     if int(max_points) != max_points or max_points < 2:
         raise ValueError(f"max_points must be an integer >= 2, got {max_points!r}")
-    problem = TwoImpactProblem(params)
-    y = first_grazing_orbit(params) if start is None else problem.check(start).copy()
-    label = start_label or ("grazing orbit" if start is None else "user-supplied orbit")
-    settings = FamilySettings(
-        step=float(step),
-        max_points=int(max_points),
-        energy_max=np.inf,
-        max_log_energy_step=np.inf,
-        max_frequency_step=np.inf,
-        min_step=min_step_ratio * step,
+    problem = TwoImpactProblem(model)
+    structure = two_dof_structure(model) if problem.params is not None else model
+    one_stop = OneStopProblem(structure)
+    y0 = None if start is None else _modal_start(problem, one_stop, start)
+    orient = None if direction is None else _to_modal(one_stop, direction)
+    modal = ndof.follow_one_stop_family(
+        structure,
+        step=step,
+        max_points=max_points,
+        start=y0,
+        direction=orient,
+        min_step_ratio=min_step_ratio,
+        confirm=confirm,
     )
-    orient = np.array([0.0, 0.0, -1.0, 1.0]) if direction is None else np.asarray(direction, dtype=float)
-    try:
-        return follow_family(
-            problem,
-            y,
-            orient,
-            settings,
-            transitions=False,
-            tangent_from="null_space",
-            start_label=label,
-            start_violation=None if start is None else 1e-9,
-        )
-    except RuntimeError as exc:  # a singular start
-        raise ValueError(f"cannot start the two-impact family at {y}: {exc}") from exc
+    label = start_label or ("grazing orbit" if start is None else "user-supplied orbit")
+    family = Family(problem, start=label, step=float(step))
+    velocities = modal.initial_velocity
+    for k, check in enumerate(modal.assessments):
+        y = np.concatenate([velocities[k], modal.unknowns[k, -2:]])
+        family.append(y, modal.arclength[k], check, branch_point=bool(modal.branch_point[k]), grazing=k == 0)
+    family.end_reason, family.end_margin, family.end_tangent = modal.end_reason, modal.end_margin, modal.end_tangent
+    family.end_check = modal.end_check
+    return family._freeze()
 
 
-def _start_after(tr: Transition, params, settings: FamilySettings):
+def _to_modal(one_stop: OneStopProblem, y) -> np.ndarray:
+    """``(xdot0, udot0, tau1, T1)`` (or a direction in them) as the one-stop unknowns ``(b, tau1, T1)``."""
+    y = np.asarray(y, dtype=float)
+    b = one_stop.free.modal_coordinates(np.concatenate([np.zeros(2), y[:2]]))[1]
+    return np.concatenate([b, y[2:]])
+
+
+def _modal_start(problem: TwoImpactProblem, one_stop: OneStopProblem, start) -> np.ndarray:
+    """A user's first two-impact orbit, checked (an orbit, its assumptions holding), in the one-stop unknowns."""
+    start = problem.check(start)
+    residual = np.linalg.norm(problem.residual(start))
+    if residual > 1e-10:
+        raise ValueError(f"start {start} is not a two-impact orbit (residual {residual:.3e})")
+    y0 = _to_modal(one_stop, start)
+    check = ndof.assess_orbit(one_stop, y0)
+    if check.min_margin < -1e-9:
+        raise ValueError(f"start {start} violates the assumptions {check.violated} of the two-impact family")
+    return y0
+
+
+def _start_after(tr: Transition, model, settings: FamilySettings):
     """First orbit, tangent, first step and grazing flag of the family after a transition."""
     if tr.kind in ("split", "append"):
         eps = settings.grazing_epsilon
-        problem, y1, index = split_start(params, tr.old, tr.y_graze, tr.phase, tr.t_star, tr.level, eps)
+        problem, y1, index = split_start(model, tr.old, tr.y_graze, tr.phase, tr.t_star, tr.level, eps)
         if problem.sequence != tr.new:  # pragma: no cover - consistency of the two constructions
             raise RuntimeError(f"split of {tr.old} gave {problem.sequence}, expected {tr.new}")
         check = assess_orbit(problem, y1)
@@ -490,12 +456,16 @@ def _start_after(tr: Transition, params, settings: FamilySettings):
         direction = np.zeros(problem.n_unknowns)
         direction[index] = 1.0
         return problem, y1, direction, eps, False
-    problem = SequenceProblem(params, tr.new)
-    null = unit_null_vector(problem.jacobian(tr.y_graze))
+    problem = SequenceProblem(model, tr.new)
+    null = scipy.linalg.null_space(problem.jacobian(tr.y_graze))
+    if null.shape[1] != 1:
+        raise RuntimeError(f"after the merge {tr.old} -> {tr.new}: the grazing orbit is not a regular point")
+    null = null[:, 0]
     trial = min(1e-4, settings.step)
+    stepper = _continuation_settings(settings).stepper()
     valid = []
     for sign in (1.0, -1.0):
-        y_t = _correct(problem, tr.y_graze, sign * null, trial)
+        y_t = stepper.correct(problem, tr.y_graze, sign * null, trial)
         valid.append(y_t is not None and assess_orbit(problem, y_t).valid)
     if valid[0] == valid[1]:
         raise RuntimeError(
@@ -505,12 +475,15 @@ def _start_after(tr: Transition, params, settings: FamilySettings):
     return problem, tr.y_graze, null if valid[0] else -null, trial, True
 
 
-def follow_branch(params: ModelParameters, sequence: str, y0, direction, settings: FamilySettings) -> list:
+def follow_branch(model, sequence: str, y0, direction, settings: FamilySettings, confirm: bool = False) -> list:
     """Follow the exact NNM1 through its grazing transitions.
 
     Parameters
     ----------
-    params : ModelParameters
+    model : ModelParameters or Structure
+        The paper's oscillator or a 2-DOF structure with one stop on its first degree of freedom and gap 1
+        (anything else: ValueError naming what is not supported,
+        :func:`nnmstop.exact.phases.check_sequence_model`).
     sequence : str
         Phase sequence of the first orbit.
     y0 : array_like
@@ -518,14 +491,16 @@ def follow_branch(params: ModelParameters, sequence: str, y0, direction, setting
     direction : array_like
         Initial direction of the continuation in the unknowns of ``sequence``.
     settings : FamilySettings
+    confirm : bool
+        Confirm the end of every segment (:func:`follow_family`).
 
     Returns
     -------
     list of Family
         In continuation order; the last one has no transition and says why the branch ends.
     """
-    problem = SequenceProblem(params, sequence)
-    segments = [follow_family(problem, y0, direction, settings)]
+    problem = SequenceProblem(model, sequence)
+    segments = [follow_family(problem, y0, direction, settings, confirm=confirm)]
     used = len(segments[0])
     seen = set()
     while segments[-1].transition is not None:
@@ -540,18 +515,25 @@ def follow_branch(params: ModelParameters, sequence: str, y0, direction, setting
             segments[-1].end_reason += f"; max_segments = {settings.max_segments} reached"
             segments[-1].transition = None
             break
-        if used >= settings.max_points:
+        if used >= settings.max_points - 1:
             segments[-1].end_reason += "; max_points reached"
             segments[-1].transition = None
             break
         try:
-            problem, y1, direction, h0, graze = _start_after(tr, params, settings)
+            problem, y1, direction, h0, graze = _start_after(tr, model, settings)
         except RuntimeError as exc:
             segments[-1].end_reason += f"; cannot continue: {exc}"
             segments[-1].transition = None
             break
         seg = follow_family(
-            problem, y1, direction, settings, h0=h0, max_points=settings.max_points - used, first_grazing=graze
+            problem,
+            y1,
+            direction,
+            settings,
+            h0=h0,
+            max_points=settings.max_points - used,
+            first_grazing=graze,
+            confirm=confirm,
         )
         segments.append(seg)
         used += len(seg)

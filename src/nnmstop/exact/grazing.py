@@ -18,7 +18,6 @@ import numpy as np
 from nnmstop.exact.phases import STOP_SIDE, LinearPhase, interior_extrema
 from nnmstop.exact.problem import SequenceProblem, TwoImpactProblem, newton
 from nnmstop.exact.sequences import merged_sequence, split_sequence
-from nnmstop.models.two_dof import ModelParameters
 
 __all__ = [
     "TWO_IMPACT_MARGINS",
@@ -333,7 +332,7 @@ def locate_grazing_orbit(problem: SequenceProblem, y_seed, phase: int, level: fl
     return y, t_star
 
 
-def split_start(params: ModelParameters, sequence: str, y_graze, phase: int, t_star, level, epsilon: float):
+def split_start(model, sequence: str, y_graze, phase: int, t_star, level, epsilon: float):
     """First orbit of the longer sequence after a grazing in ``phase`` of ``sequence``.
 
     The grazing phase is split at the tangency (local time ``t_star``) by a new phase of
@@ -352,7 +351,7 @@ def split_start(params: ModelParameters, sequence: str, y_graze, phase: int, t_s
     index : int
         Index of the new duration in ``y``.
     """
-    old = SequenceProblem(params, sequence)
+    old = SequenceProblem(model, sequence)
     y_graze = old.check(y_graze)
     d = list(y_graze[2:])
     at_end = phase == old.n_phases - 1 and abs(t_star - d[phase]) <= 1e-9 * max(1.0, d[phase])
@@ -362,7 +361,7 @@ def split_start(params: ModelParameters, sequence: str, y_graze, phase: int, t_s
     else:
         d_new = d[:phase] + [t_star - 0.5 * epsilon, epsilon, d[phase] - t_star - 0.5 * epsilon] + d[phase + 1 :]
     index = 2 + phase + 1
-    problem = SequenceProblem(params, seq)
+    problem = SequenceProblem(model, seq)
     e = np.zeros(problem.n_unknowns)
     e[index] = 1.0
     y0 = np.concatenate([y_graze[:2], d_new])
@@ -458,7 +457,7 @@ def classify_boundary(problem: SequenceProblem, y_valid, check_valid, check_inva
     """
     seq = problem.sequence
     violated = check_invalid.violated
-    params = problem.params
+    model = problem.model
     # A vanishing duration d drags the margins of the neighbouring switches (~ d) and
     # extrema (~ d**2) to zero with it; the latter reach round-off first, so a duration
     # that is tiny at the boundary decides even if it is not (yet) the violated margin.
@@ -484,7 +483,7 @@ def classify_boundary(problem: SequenceProblem, y_valid, check_valid, check_inva
     k = key[1]
     if kind == "duration":
         short, seed, phase, level, t_seed = merge_seed(seq, y_valid, k)
-        short_problem = SequenceProblem(params, short)
+        short_problem = SequenceProblem(model, short)
         y_g, t_star = locate_grazing_orbit(short_problem, seed, phase, level, t_seed)
         reason = describe_margin(problem, key)
         return Transition("merge", seq, short, key, reason, short, y_g, t_star, phase, level)

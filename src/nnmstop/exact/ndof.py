@@ -16,14 +16,23 @@ orbits, the regularized law. Method notes: docs/methods/exact_ndof.md.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 import scipy.optimize
 
-from nnmstop.continuation.newton import newton_solve
-from nnmstop.exact.arclength import FamilyTrace, continue_family, round_off_criterion
+from nnmstop.continuation.dense_arclength import DenseArclengthSettings
+from nnmstop.continuation.newton import newton_solve, round_off_criterion
+from nnmstop.exact.follow import (
+    RESTART_POINTS,
+    ValidityEvents,
+    branch_point_flags,
+    confirm_family_end,
+    continue_exact_family,
+    residual_norms,
+)
 from nnmstop.exact.grazing import TWO_IMPACT_MARGINS, MarginChecks
 from nnmstop.exact.phases import unfold_quarter_states
 from nnmstop.models.structure import Structure, generalized_modes
@@ -39,12 +48,13 @@ __all__ = [
     "orbit_at_contact_time",
     "orbit_at_energy",
     "follow_one_stop_family",
-    "FamilyTrace",
-    "continue_family",
+    "validity_events",
     "REASONS",
     "time_history",
     "piecewise_energy",
 ]
+
+logger = logging.getLogger("nnmstop.exact.ndof")
 
 _ROUND_OFF = np.finfo(float).eps
 #: Why an orbit stops being admissible, by validity margin: those of the 2-DOF code and the passive stops.
@@ -259,6 +269,14 @@ class OneStopProblem:
         b = self.check(y)[: self.n]
         return float(0.5 * b @ b)
 
+    def frequency(self, y) -> float:
+        """``1 / (4 T1)``, in Hz of the nondimensional time."""
+        return 1.0 / (4.0 * float(self.check(y)[-1]))
+
+    def diagnostics(self, y) -> dict:
+        """Energy, frequency and impacts per period (two: one on each side of the stop), for the continuation."""
+        return {"energy": self.energy(y), "frequency": self.frequency(y), "impacts_per_period": 2}
+
     def quarter_state(self, y, t):
         """State on the quarter period ``0 <= t <= T1``, shape ``np.shape(t) + (2N,)``."""
         z0, z1, _ = self.switch_states(y)
@@ -292,14 +310,19 @@ def grazing_orbit(problem: OneStopProblem, mode: int = 0) -> np.ndarray:
 @dataclass(frozen=True)
 class OneStopAssessment(MarginChecks):
     """Validity margins (names and meanings of :data:`nnmstop.exact.grazing.TWO_IMPACT_MARGINS`, with ``x`` the
-    stop degree of freedom and 1 its gap) and the maximum ``x_max`` of the stop degree of freedom."""
+    stop degree of freedom and 1 its gap), the maximum ``x_max`` of the stop degree of freedom over the orbit,
+    the time ``t_x_max`` of the quarter period where it is reached and the displacements ``q_at_x_max`` of all
+    degrees of freedom then."""
 
     margins: dict
     x_max: float
+    t_x_max: float
+    q_at_x_max: np.ndarray
 
 
 def _interior_extreme(phase: PhaseFlow, z0, duration: float, dof: int, sign: float):
-    """Largest interior local maximum of ``sign * q_dof`` over ``(0, duration)`` (times ``sign``), or None.
+    """``(time, value)`` of the largest interior local maximum of ``sign * q_dof`` over ``(0, duration)``
+    (``value`` is ``q_dof`` there), or None.
 
     The closed-form velocity is sampled at :data:`SAMPLES_PER_PERIOD` points per period of the fastest mode that
     moves ``dof`` by more than 1e-12 of its motion; the three highest sampled candidates are refined by Brent's
@@ -332,8 +355,9 @@ def _interior_extreme(phase: PhaseFlow, z0, duration: float, dof: int, sign: flo
             s = scipy.optimize.brentq(velocity, t[i], t[i + 1], xtol=1e-15, rtol=4 * _ROUND_OFF)
         if edge < s < duration - edge:
             value = sign * phase.component(z0, s, dof)[0]
-            best = value if best is None else max(best, value)
-    return None if best is None else sign * best
+            if best is None or value > best[1]:
+                best = (float(s), value)
+    return None if best is None else (best[0], sign * best[1])
 
 
 def assess_orbit(problem: OneStopProblem, y) -> OneStopAssessment:
@@ -352,16 +376,21 @@ def assess_orbit(problem: OneStopProblem, y) -> OneStopAssessment:
     margins = {"free_flight_time": tau1, "contact_time": quarter - tau1, "entry_velocity": z1[problem.n + c]}
     free_max = _interior_extreme(problem.free, z0, tau1, c, 1.0)
     free_min = _interior_extreme(problem.free, z0, tau1, c, -1.0)
-    margins["early_impact"] = np.inf if free_max is None else g - free_max
-    margins["opposite_stop"] = g + min(0.0, z1[c], np.inf if free_min is None else free_min)
+    margins["early_impact"] = np.inf if free_max is None else g - free_max[1]
+    margins["opposite_stop"] = g + min(0.0, z1[c], np.inf if free_min is None else free_min[1])
     contact_min = _interior_extreme(problem.contact, z1, quarter - tau1, c, -1.0)
     contact_max = _interior_extreme(problem.contact, z1, quarter - tau1, c, 1.0)
-    margins["leaves_stop"] = np.inf if contact_min is None else contact_min - g
+    margins["leaves_stop"] = np.inf if contact_min is None else contact_min[1] - g
     margins["final_position"] = z2[c] - g
     if problem.passive_stops:
         margins["other_stops"] = min(s.gap - _largest_magnitude(problem, y, s.dof) for s in problem.passive_stops)
-    x_max = max(v for v in (z1[c], z2[c], free_max, contact_max) if v is not None)
-    return OneStopAssessment({k: float(v) for k, v in margins.items()}, float(x_max))
+    # the maximum of q_c over the quarter (hence the orbit): phase ends and interior maxima
+    candidates = [(tau1, z1[c]), (quarter, z2[c])]
+    candidates += [] if free_max is None else [free_max]
+    candidates += [] if contact_max is None else [(tau1 + contact_max[0], contact_max[1])]
+    t_max, x_max = max(candidates, key=lambda pair: pair[1])
+    q_at = problem.quarter_state(y, np.array([t_max]))[0, : problem.n]
+    return OneStopAssessment({k: float(v) for k, v in margins.items()}, float(x_max), float(t_max), q_at)
 
 
 def _largest_magnitude(problem: OneStopProblem, y, dof: int) -> float:
@@ -372,7 +401,7 @@ def _largest_magnitude(problem: OneStopProblem, y, dof: int) -> float:
         for sign in (1.0, -1.0):
             extreme = _interior_extreme(phase, start, duration, dof, sign)
             if extreme is not None:
-                values.append(abs(extreme))
+                values.append(abs(extreme[1]))
     return max(values)
 
 
@@ -380,7 +409,7 @@ def _largest_magnitude(problem: OneStopProblem, y, dof: int) -> float:
 
 
 def _newton(fun, jac, y, max_iter=30):
-    """Newton iteration to round-off (:func:`~nnmstop.exact.arclength.round_off_criterion`); None if it fails."""
+    """Newton iteration to round-off (:func:`~nnmstop.continuation.newton.round_off_criterion`); None if it fails."""
     result = newton_solve(fun, jac, y, tol=0.0, max_iter=max_iter, criterion=round_off_criterion())
     return result.y if result.converged else None
 
@@ -441,16 +470,75 @@ def orbit_at_energy(problem: OneStopProblem, energy: float, seed) -> np.ndarray:
 # --------------------------------------------------------------------------- families
 
 
+def validity_events(problem: OneStopProblem) -> ValidityEvents:
+    """The margins of :func:`assess_orbit` as continuation events, described by :data:`REASONS`."""
+    return ValidityEvents(lambda y: assess_orbit(problem, y), lambda key: REASONS.get(key, str(key)))
+
+
 @dataclass
-class OneStopFamily(FamilyTrace):
+class OneStopFamily:
     """A followed family of one-stop orbits (arrays along the family, in continuation order).
 
-    ``unknowns`` rows are ``(b, tau1, T1)`` (modal initial velocities, see :class:`OneStopProblem`); the
-    properties give the physical quantities.
+    Attributes
+    ----------
+    problem : OneStopProblem
+    unknowns : ndarray, shape (n, N + 2)
+        Rows ``(b, tau1, T1)`` (modal initial velocities, see :class:`OneStopProblem`); the properties give
+        the physical quantities.
+    arclength : ndarray
+        Pseudo-arclength in the unknowns from the first orbit.
+    residual : ndarray
+        Euclidean norm of the quarter-period equations.
+    assessments : list of OneStopAssessment
+    branch_point : ndarray of bool
+        True where the sign of ``det [J; t^T]`` changed since the previous orbit.
+    end_reason : str
+    end_margin : str
+        The margin that reached zero at the end ('' when the family ended on a stop criterion).
+    end_tangent : ndarray or None
+    start : str
+        Description of the first orbit.
+    step : float
+        Largest continuation step.
+    end_check : str
+        How the end was confirmed (:func:`nnmstop.exact.follow.confirm_family_end`; '' when it was not asked).
+    mode : int
+        The linear mode (0-based) whose grazing orbit starts the family, or that holds most of the energy of
+        a user-supplied first orbit.
     """
 
-    problem: OneStopProblem | None = None
+    problem: OneStopProblem
+    unknowns: np.ndarray
+    arclength: np.ndarray
+    residual: np.ndarray
+    assessments: list
+    branch_point: np.ndarray
+    end_reason: str
+    end_margin: str
+    end_tangent: np.ndarray | None
     start: str = ""
+    step: float = 0.0
+    end_check: str = ""
+    mode: int = 0
+
+    @classmethod
+    def from_branch(cls, problem: OneStopProblem, branch, start: str, step: float) -> OneStopFamily:
+        """The family of a :func:`~nnmstop.exact.follow.continue_exact_family` branch."""
+        unknowns = np.array(branch.points)
+        event = branch.end_event
+        return cls(
+            problem=problem,
+            unknowns=unknowns,
+            arclength=np.array(branch.arclength, dtype=float),
+            residual=residual_norms(problem, unknowns),
+            assessments=list(branch.checks),
+            branch_point=branch_point_flags(branch),
+            end_reason=branch.end_reason,
+            end_margin="" if event is None else event.key,
+            end_tangent=branch.end_tangent,
+            start=start,
+            step=float(step),
+        )
 
     def __len__(self) -> int:
         return len(self.unknowns)
@@ -490,6 +578,15 @@ class OneStopFamily(FamilyTrace):
         """Maximum of the stop degree of freedom over the orbit (``x_max - gap`` is the penetration)."""
         return np.array([a.x_max for a in self.assessments])
 
+    @property
+    def modal_energy(self) -> np.ndarray:
+        """Energy of each linear (free-flight) mode, ``b_k^2 / 2``, shape (n, N): the orbit's energy by mode.
+
+        At ``q = 0`` the energy is kinetic and the free-flight modes are mass-orthonormal, so these add up
+        to the total energy (the free flight conserves each of them until the stop is reached).
+        """
+        return 0.5 * self.unknowns[:, : self.problem.n] ** 2
+
 
 def follow_one_stop_family(
     structure: Structure,
@@ -499,17 +596,23 @@ def follow_one_stop_family(
     start=None,
     direction=None,
     stop_index: int = 0,
+    min_step_ratio: float = 1e-6,
+    confirm: bool = False,
 ) -> OneStopFamily:
     """Follow the family of one-stop orbits of ``structure`` from the grazing orbit of linear mode ``mode``.
+
+    The continuation is :func:`nnmstop.exact.follow.continue_exact_family` (dense pseudo-arclength steps
+    corrected to round-off, the validity margins of :func:`assess_orbit` as events located on the step's
+    path): the family ends at its first violated assumption (``end_margin``), or at ``max_points``.
 
     Parameters
     ----------
     structure : Structure
         Its stop ``stop_index`` is struck, the others must stay inside their gaps (see :class:`OneStopProblem`).
     step : float
-        Nominal pseudo-arclength step in the unknowns ``(b, tau1, T1)``.
+        Largest pseudo-arclength step in the unknowns ``(b, tau1, T1)``.
     max_points : int
-        Maximum number of orbits.
+        Maximum number of orbits (>= 2).
     mode : int
         Linear mode whose grazing orbit starts the family (0: the first one), when ``start`` is not given.
     start : array_like, optional
@@ -518,24 +621,49 @@ def follow_one_stop_family(
         Orientation of the first tangent; by default increasing contact duration.
     stop_index : int
         The struck stop.
+    min_step_ratio : float
+        The continuation fails (ContinuationError) when a step below ``min_step_ratio * step`` is needed.
+    confirm : bool
+        Confirm the end by a restart with a ten times smaller step (``end_check``); raise
+        :class:`~nnmstop.continuation.confirm.EndNotConfirmed` when the restart ends elsewhere.
     """
+    if not (np.isfinite(step) and step > 0):
+        raise ValueError(f"step must be a finite number > 0, got {step!r}")
     problem = OneStopProblem(structure, stop_index)
     y0 = grazing_orbit(problem, mode) if start is None else problem.check(start)
     if direction is None:
         direction = np.zeros(problem.n_unknowns)
         direction[-2:] = (-1.0, 1.0)
-    trace = continue_family(
-        problem.residual,
-        problem.jacobian,
-        lambda y: assess_orbit(problem, y),
-        y0,
-        direction,
-        step,
-        max_points,
-        reasons=REASONS,
-    )
     label = f"grazing orbit of linear mode {mode}" if start is None else "user-supplied orbit"
-    return OneStopFamily(**vars(trace), problem=problem, start=label)
+    settings = DenseArclengthSettings(step=float(step), min_step=min_step_ratio * float(step))
+    branch = continue_exact_family(
+        problem, y0, direction, validity_events(problem), settings, max_points=max_points, label="one-stop family"
+    )
+    family = OneStopFamily.from_branch(problem, branch, label, step)
+    family.mode = int(mode if start is None else np.argmax(np.abs(y0[: problem.n])))
+    if confirm:
+
+        def restart(U, direction, fine_step):
+            return follow_one_stop_family(
+                structure,
+                fine_step,
+                RESTART_POINTS,
+                start=U,
+                direction=direction,
+                stop_index=stop_index,
+                min_step_ratio=min_step_ratio,
+            )
+
+        family.end_check = confirm_family_end(family, restart, "one-stop family")
+    logger.info(
+        "one-stop family from the %s: %d orbits, energy %.6g..%.6g; end: %s",
+        label,
+        len(family),
+        family.energy.min(),
+        family.energy.max(),
+        family.end_reason,
+    )
+    return family
 
 
 # --------------------------------------------------------------------------- time histories

@@ -24,7 +24,9 @@ __all__ = [
     "PHASE_NAMES",
     "STOP_SIDE",
     "LinearPhase",
+    "check_sequence_model",
     "phase_of",
+    "stop_stiffness",
     "interior_extrema",
     "OrbitTimeHistory",
     "unfold_quarter_states",
@@ -208,13 +210,55 @@ class LinearPhase:
         return out
 
 
-def phase_of(params: ModelParameters, kind: str) -> LinearPhase:
-    """The linear phase ``kind`` (``"F"``, ``"R"`` or ``"L"``, see :data:`PHASE_NAMES`)."""
-    if kind == "F":
-        return LinearPhase.free_flight(params)
-    if kind not in STOP_SIDE:
+def check_sequence_model(model):
+    """``model`` if the phase sequences apply to it, else a ValueError naming what is not supported.
+
+    The paper's oscillator (:class:`~nnmstop.models.two_dof.ModelParameters`), or a
+    :class:`~nnmstop.models.structure.Structure` with two degrees of freedom and one stop, on the first,
+    with gap 1 (lengths made nondimensional by the gap). The closed-form phases of the sequences are
+    written for two degrees of freedom; the one-impact family of any structure is
+    :func:`nnmstop.exact.ndof.follow_one_stop_family`.
+    """
+    if isinstance(model, ModelParameters):
+        return model
+    missing = []
+    if getattr(model, "n_dofs", None) != 2:
+        missing.append(f"{getattr(model, 'n_dofs', '?')} degrees of freedom (2 are supported)")
+    stops = getattr(model, "stops", ())
+    if len(stops) != 1:
+        missing.append(f"{len(stops)} stops (one is supported)")
+    elif stops[0].dof != 0 or stops[0].gap != 1.0:
+        missing.append(f"a stop on degree of freedom {stops[0].dof} with gap {stops[0].gap:g} (dof 0, gap 1)")
+    if missing:
+        raise ValueError(
+            "the phase sequences with several impacts per stop are implemented for the 2-DOF oscillator only; "
+            f"this structure has {', '.join(missing)}; its one-impact family: "
+            "nnmstop.exact.ndof.follow_one_stop_family"
+        )
+    return model
+
+
+def phase_of(model, kind: str) -> LinearPhase:
+    """The linear phase ``kind`` (``"F"``, ``"R"`` or ``"L"``, see :data:`PHASE_NAMES`) of ``model``
+    (:func:`check_sequence_model`)."""
+    model = check_sequence_model(model)
+    if kind not in PHASE_NAMES:
         raise ValueError(f"unknown phase {kind!r}; use one of {sorted(PHASE_NAMES)}")
-    return LinearPhase.contact(params, STOP_SIDE[kind])
+    if isinstance(model, ModelParameters):
+        return LinearPhase.free_flight(model) if kind == "F" else LinearPhase.contact(model, STOP_SIDE[kind])
+    mass, stiffness = (np.asarray(m, dtype=float) for m in model.dense_matrices())
+    if kind == "F":
+        return LinearPhase(mass, stiffness, np.zeros(2))
+    alpha = model.stops[0].stiffness
+    contact = stiffness.copy()
+    contact[0, 0] += alpha
+    return LinearPhase(mass, contact, np.array([STOP_SIDE[kind] * alpha, 0.0]))
+
+
+def stop_stiffness(model) -> float:
+    """The stop stiffness ``alpha`` of a sequence model."""
+    model = check_sequence_model(model)
+    return model.alpha if isinstance(model, ModelParameters) else model.stops[0].stiffness
 
 
 def interior_extrema(phase: LinearPhase, z0, duration: float, samples_per_period: int = 64):

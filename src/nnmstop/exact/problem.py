@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from nnmstop.continuation.newton import newton_solve
-from nnmstop.exact.phases import OrbitTimeHistory, phase_of, unfold_quarter
+from nnmstop.exact.phases import OrbitTimeHistory, check_sequence_model, phase_of, stop_stiffness, unfold_quarter
 from nnmstop.exact.sequences import check_sequence, sequence_impacts, switch_levels
-from nnmstop.models.two_dof import ModelParameters, linear_modes, total_energy
+from nnmstop.models.two_dof import ModelParameters, linear_modes, mass_matrix
 
 __all__ = [
     "SequenceProblem",
@@ -56,8 +56,10 @@ class SequenceProblem:
 
     Parameters
     ----------
-    params : ModelParameters
-        Only ``alpha``, ``beta`` and ``delta`` matter.
+    model : ModelParameters or Structure
+        The paper's oscillator (only ``alpha``, ``beta`` and ``delta`` matter) or a 2-DOF structure with one
+        stop on its first degree of freedom and gap 1 (:func:`nnmstop.exact.phases.check_sequence_model`;
+        anything else is refused with a ValueError naming what is not supported).
     sequence : str
         Phase sequence, see :func:`nnmstop.exact.sequences.check_sequence`.
 
@@ -74,12 +76,15 @@ class SequenceProblem:
     #: (``"next"``) or ending there (``"previous"``); both agree to round-off.
     state_at_switch = "next"
 
-    def __init__(self, params: ModelParameters, sequence: str):
-        self.params = params
+    def __init__(self, model, sequence: str):
+        self.model = check_sequence_model(model)
+        #: The paper's parameters when the model is given by them (None for a structure).
+        self.params = model if isinstance(model, ModelParameters) else None
+        self.mass = mass_matrix(model) if self.params is not None else np.asarray(model.dense_matrices()[0], float)
         self.sequence = check_sequence(sequence)
         self.n_phases = len(sequence)
         self.n_unknowns = self.n_phases + 2
-        self.phases = tuple(phase_of(params, kind) for kind in sequence)
+        self.phases = tuple(phase_of(model, kind) for kind in sequence)
         self.levels = switch_levels(sequence)
         self._last_states = (None, None)
 
@@ -179,7 +184,9 @@ class SequenceProblem:
     def energy(self, y) -> float:
         """Total energy: the kinetic energy at the origin ``x = u = 0``."""
         y = self.check(y)
-        return float(total_energy(0.0, 0.0, y[0], y[1], self.params, model="piecewise"))
+        xdot, udot = float(y[0]), float(y[1])
+        (m00, m01), (m10, m11) = self.mass.tolist()
+        return 0.5 * (xdot * (m00 * xdot + m01 * udot) + udot * (m10 * xdot + m11 * udot))
 
     def quarter(self, y) -> float:
         """Quarter period ``T1``."""
@@ -189,6 +196,10 @@ class SequenceProblem:
     def frequency(self, y) -> float:
         """``1 / (4 T1)``, in Hz of the nondimensional time."""
         return 1.0 / (4.0 * self.quarter(y))
+
+    def diagnostics(self, y) -> dict:
+        """Energy, frequency and impacts per period, for the continuation."""
+        return {"energy": self.energy(y), "frequency": self.frequency(y), "impacts_per_period": self.impacts_per_period}
 
     def quarter_state(self, y, t) -> np.ndarray:
         """State at times ``0 <= t <= T1`` of the quarter period, shape ``np.shape(t) + (4,)``."""
@@ -211,7 +222,7 @@ class SequenceProblem:
     def time_history(self, y, t) -> OrbitTimeHistory:
         """Exact time history of the orbit ``y`` at any times ``t`` (:func:`nnmstop.exact.phases.unfold_quarter`)."""
         y = self.check(y)
-        return unfold_quarter(lambda r: self.quarter_state(y, r), self.quarter(y), t, self.params.alpha)
+        return unfold_quarter(lambda r: self.quarter_state(y, r), self.quarter(y), t, stop_stiffness(self.model))
 
 
 class TwoImpactProblem(SequenceProblem):
@@ -225,8 +236,8 @@ class TwoImpactProblem(SequenceProblem):
     state_at_switch = "previous"
     names = ("xdot0", "udot0", "tau1", "T1")
 
-    def __init__(self, params: ModelParameters):
-        super().__init__(params, "FR")
+    def __init__(self, model):
+        super().__init__(model, "FR")
         self.free, self.contact = self.phases
 
 

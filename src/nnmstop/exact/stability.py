@@ -12,10 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nnmstop.exact.phases import LinearPhase
+from nnmstop.exact.phases import phase_of
 from nnmstop.floquet import multipliers_from_invariant
-from nnmstop.models.two_dof import ModelParameters
-from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "ExactMultipliers",
@@ -63,32 +61,33 @@ class ExactMultipliers(NamedTuple):
     invariant_mismatch: float
 
 
-def _phases(params: ModelParameters) -> dict:
+def _phases(model) -> dict:
     # Left and right contacts differ only in their constant force, which the transition
     # matrix (the linear part of the affine flow) does not see.
-    contact = LinearPhase.contact(params)
-    return {"F": LinearPhase.free_flight(params), "R": contact, "L": contact}
+    contact = phase_of(model, "R")
+    return {"F": phase_of(model, "F"), "R": contact, "L": contact}
 
 
-def quarter_transitions(params: ModelParameters, sequence: str, durations, phases: dict | None = None) -> list:
+def quarter_transitions(model, sequence: str, durations, phases: dict | None = None) -> list:
     """Transition matrices ``E_k(d_k)`` of the phases of the quarter period, in time order.
 
     Parameters
     ----------
-    params : ModelParameters
+    model : ModelParameters or Structure
+        The paper's oscillator or a 2-DOF structure (:func:`nnmstop.exact.phases.check_sequence_model`).
     sequence : str
         Quarter-period phase sequence (``"FR"``, ``"FLFR"``...; see :mod:`nnmstop.exact.sequences`).
     durations : array_like
         Duration of each phase (>= 0), same length as ``sequence``.
     phases : dict, optional
-        The phases of ``params`` (``{"F", "R", "L"}`` -> LinearPhase) when the caller has them.
+        The phases of ``model`` (``{"F", "R", "L"}`` -> LinearPhase) when the caller has them.
 
     Returns
     -------
     list of ndarray, shape (4, 4)
     """
     durations = _checked_durations(sequence, durations, (len(sequence),))
-    phases = phases or _phases(params)
+    phases = phases or _phases(model)
     return [phases[kind].transition(d) for kind, d in zip(sequence, durations)]
 
 
@@ -104,9 +103,7 @@ def _checked_durations(sequence, durations, shape) -> np.ndarray:
     return durations
 
 
-def monodromy(
-    params: ModelParameters, sequence: str, durations, start: str = "origin", phases: dict | None = None
-) -> np.ndarray:
+def monodromy(model, sequence: str, durations, start: str = "origin", phases: dict | None = None) -> np.ndarray:
     """Monodromy matrix of the symmetric orbit with this quarter-period phase sequence.
 
     With ``A = E_n ... E_1`` (quarter period, origin to turning point) and
@@ -121,7 +118,7 @@ def monodromy(
     """
     if start not in ("origin", "turning_point"):
         raise ValueError(f"start must be 'origin' or 'turning_point', got {start!r}")
-    return _monodromy_from(quarter_transitions(params, sequence, durations, phases), start)
+    return _monodromy_from(quarter_transitions(model, sequence, durations, phases), start)
 
 
 def _monodromy_from(mats: list, start: str) -> np.ndarray:
@@ -190,20 +187,19 @@ def _trivial_distance(m):
     return trivial.max(axis=-1)
 
 
-def exact_multipliers(
-    params: ModelParameters, sequence: str, durations, phases: dict | None = None
-) -> ExactMultipliers:
+def exact_multipliers(model, sequence: str, durations, phases: dict | None = None) -> ExactMultipliers:
     """Monodromy (:func:`monodromy`) and multipliers (:func:`multipliers_from_monodromy`) of one orbit."""
-    mats = quarter_transitions(params, sequence, durations, phases)
+    mats = quarter_transitions(model, sequence, durations, phases)
     return multipliers_from_monodromy(_monodromy_from(mats, "origin"), _monodromy_from(mats, "turning_point"))
 
 
-def stability_variables(params: ModelParameters, sequences, durations) -> dict:
-    """Floquet variables of exact orbits, as ``{name: (dims, values, attrs)}`` along ``point``.
+def stability_variables(model, sequences, durations) -> dict:
+    """Floquet variables of exact orbits, as ``{name: (dims, values)}`` along ``point``.
 
     Parameters
     ----------
-    params : ModelParameters
+    model : ModelParameters or Structure
+        The paper's oscillator or a 2-DOF structure (:func:`nnmstop.exact.phases.check_sequence_model`).
     sequences : sequence of str
         Quarter-period phase sequence of each orbit.
     durations : sequence of array_like
@@ -214,9 +210,9 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
     dict
         ``multiplier_real``, ``multiplier_imag``, ``multiplier_modulus``, ``trace_invariant``,
         ``stability_margin``, ``stability_tolerance``, ``trivial_multiplier_distance`` and
-        the flag ``stable``, each with ``long_name`` and ``units``.
+        the flag ``stable`` (int8, 1 stable); their metadata are in :mod:`nnmstop.catalogue.exact`.
     """
-    phases = _phases(params)
+    phases = _phases(model)
     sequences = list(sequences)
     if not sequences:
         raise ValueError("no orbit to compute the multipliers of")
@@ -237,34 +233,18 @@ def stability_variables(params: ModelParameters, sequences, durations) -> dict:
     trivial = _trivial_distance(origin)
     stable = margin >= -tol
 
-    def var(values, long_name):
-        return ("point", np.asarray(values, dtype=float), {"long_name": long_name, "units": "1"})
+    def var(values):
+        return ("point", np.asarray(values, dtype=float))
 
-    nontrivial = "non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials)"
     return {
-        "multiplier_real": var(lam.real, f"real part of the {nontrivial}; the other one is its reciprocal"),
-        "multiplier_imag": var(lam.imag, f"imaginary part of the {nontrivial} (>= 0 on the unit circle)"),
-        "multiplier_modulus": var(np.abs(lam), "modulus of the largest non-trivial Floquet multiplier (1 if stable)"),
-        "trace_invariant": var(s, "s = lambda + 1/lambda = trace of the monodromy matrix - 2"),
-        "stability_margin": var(
-            margin,
-            "2 - |s|: > 0 elliptic multiplier pair (on the unit circle), < 0 real pair off it",
-        ),
-        "stability_tolerance": var(
-            tol,
-            "tolerance on s from its measured round-off; stable means stability_margin >= -stability_tolerance",
-        ),
-        "trivial_multiplier_distance": var(
-            trivial,
-            "largest distance from +1 of the trivial multiplier pair (time shift and energy, a Jordan block; "
-            "about sqrt(eps |M|) from round-off)",
-        ),
-        "stable": flag_variable(
-            "point",
-            stable,
-            "Floquet stability of the exact orbit: non-trivial multipliers on the unit circle",
-            "unstable stable",
-        ),
+        "multiplier_real": var(lam.real),
+        "multiplier_imag": var(lam.imag),
+        "multiplier_modulus": var(np.abs(lam)),
+        "trace_invariant": var(s),
+        "stability_margin": var(margin),
+        "stability_tolerance": var(tol),
+        "trivial_multiplier_distance": var(trivial),
+        "stable": ("point", stable.astype(np.int8)),
     }
 
 

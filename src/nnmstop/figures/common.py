@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from nnmstop.atomic import atomic_output  # noqa: E402
 from nnmstop.fourier import fields_at_phases  # noqa: E402
 
 __all__ = [
@@ -152,8 +153,7 @@ def save_figure(fig, pdf_path, png_dpi: int = 150, description: str | None = Non
         (pdf_path, {"CreationDate": None, "ModDate": None, "Creator": None, "Producer": None, **text("Subject")}, {}),
         (png_path, {"Software": None, **text("Description")}, {"dpi": png_dpi}),
     ):
-        tmp = path.with_name(path.stem + ".tmp" + path.suffix)
-        fig.savefig(tmp, metadata=meta, **kwargs)
-        os.replace(tmp, path)
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, metadata=meta, **kwargs)
     plt.close(fig)
     return pdf_path, png_path

@@ -155,14 +155,25 @@ def _frequency_energy(fig, data, spec):
         _located_points(ax, ds)
         _linear_lines(ax, ds)
         if name == "nnm1" and "exact" in data:
-            exact = data["exact"]
-            ax.plot(exact.energy.values, exact.frequency.values, color=EXACT, lw=1.2, label="NNM1 exact (non-smooth)")
+            _exact_curves(ax, data["exact"])
         ax.set_xscale("log")
         ax.set_xlabel("energy (nondimensional)")
         ax.set_title(f"{name.upper()}: dashed where unstable; numbers: impacts per period", fontsize=9)
         ax.legend(fontsize=7, loc="best")
     axes[0].set_ylabel("frequency (Hz of the nondimensional time)")
     fig.suptitle(f"{_structure_name(data[names[0]])}: frequency-energy plots", fontsize=10)
+
+
+def _exact_curves(ax, exact):
+    """The exact family: its backbone solid; the internal resonance it enters (if any) dotted and named."""
+    resonant = exact.resonant_mode.values > 0 if "resonant_mode" in exact else np.zeros(exact.sizes["orbit"], bool)
+    first = int(np.argmax(resonant)) if resonant.any() else len(resonant)
+    e, f = exact.energy.values, exact.frequency.values
+    ax.plot(e[: first + 1], f[: first + 1], color=EXACT, lw=1.2, label="NNM1 exact (non-smooth): backbone")
+    if first < len(resonant):
+        k, n = int(exact.resonant_mode.values[first]), int(exact.resonance_order.values[first])
+        label = f"exact: {n}:1 resonance with mode {k} (energy into mode {k}, frequency locked)"
+        ax.plot(e[first:], f[first:], color=EXACT, lw=1.0, ls=":", label=label)
 
 
 def _orbit_samples(ds, i: int, samples: int):
@@ -229,7 +240,7 @@ def _contact_force(fig, data, spec):
 def _exact_vs_regularized(fig, data, spec):
     comparison = data["comparison"]
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
-    ax1.plot(data["exact"].energy.values, data["exact"].frequency.values, color=EXACT, label="exact (non-smooth)")
+    _exact_curves(ax1, data["exact"])
     nnm1 = data["nnm1"]
     segment = branch_segments(nnm1)
     for k in np.unique(segment):

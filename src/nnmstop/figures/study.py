@@ -1,17 +1,20 @@
 """Figures of the study (issue 5): error against run time, and the stiff cases.
 
 Both are drawn from the gathered study datasets only (``results/study/*.nc``); they are
-measurements (run times), kept apart from the paper's Figs 2-11.
+measurements (run times), kept apart from the paper's Figs 2-11. A value the study did not
+compute is never a silent gap: every setting that is not drawn, or drawn in part, is listed
+under the panels with the reason its dataset stores (the ``status`` flags and their
+``flag_meanings``, ``docs/methods/study.md``).
 
 * :func:`error_vs_runtime_figure`: error against run time, log-log, one marker per
   setting (colour: ``eta``; label: ``H``), the Pareto front (no other setting is both
-  faster and more accurate) ringed and joined, the regularization part of each ``eta``
-  as a dashed floor; settings that did not converge are crosses at the top, at their
-  measured time; settings compared on part of the energies only are hollow. A third
-  panel shows the ANM order and tolerance sweep: the accuracy of the stored path itself
-  (relative frequency shift of its worst point from the HBM solution curve, which the
-  errors against the exact orbits do not see since matched orbits are Newton-solved)
-  against run time.
+  faster and more accurate) ringed and joined; the regularization part of each ``eta`` as a
+  dashed floor (dotted where its reference covers part of the energies only), the truncation
+  part of each setting as a small triangle; settings compared on part of the energies only
+  are hollow (largest error over the energies compared). A third panel shows the ANM order
+  and tolerance sweep: the accuracy of the stored path itself (relative frequency shift of
+  its worst point from the HBM solution curve, which the errors against the exact orbits do
+  not see since matched orbits are Newton-solved) against run time.
 * :func:`stiff_cases_figure`: harmonics needed per ``(alpha, eta)``, exactness of the
   exact solver, errors against the exact orbits, and the extreme-energy sweep.
 
@@ -21,21 +24,20 @@ to the wall-clock time on an idle core and far less sensitive to the machine's l
 
 from __future__ import annotations
 
-import logging
+import textwrap
 import warnings
 
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
-from matplotlib import transforms
+
+from nnmstop.study.status import status_words
 
 __all__ = [
     "pareto_front",
     "error_vs_runtime_figure",
     "stiff_cases_figure",
 ]
-
-logger = logging.getLogger("nnmstop.figures.study")
 
 _ETA_COLORS = ("tab:purple", "tab:blue", "tab:green", "tab:orange", "tab:red", "tab:brown")
 
@@ -64,103 +66,118 @@ def pareto_front(cost, error) -> np.ndarray:
     return np.array(front, dtype=int)
 
 
+def _listing(groups: dict) -> list[str]:
+    """``{reason: {key: [value, ...]}}`` as lines ``reason: key (value, value); key (value)``."""
+    lines = []
+    for reason, keys in groups.items():
+        parts = [f"{key} ({', '.join(values)})" if values else key for key, values in keys.items()]
+        lines.append(f"{reason}: {'; '.join(parts)}")
+    return lines
+
+
+def _add(groups: dict, reason: str, key: str, value: str) -> None:
+    groups.setdefault(reason, {}).setdefault(key, []).append(value)
+
+
+def _add_notes(ax, lines: list[str], title: str, width: int = 95) -> None:
+    """Text under a panel (an axes of its own, turned off) saying what is not drawn and why."""
+    ax.axis("off")
+    text = "\n".join(textwrap.fill(line, width, subsequent_indent="    ") for line in lines) or "every setting drawn"
+    ax.text(0.0, 1.0, f"{title}\n{text}", va="top", ha="left", fontsize=6.5, transform=ax.transAxes)
+
+
 def _partial_errors(ds: xr.Dataset, key: str) -> np.ndarray:
-    """Largest error over the matched energies only (for the settings compared on part of them)."""
+    """Largest error over the energies compared (for the settings compared on part of them)."""
     values = np.abs(ds[f"{key}_at_energy"].values)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: settings never compared
         return np.nanmax(values, axis=-1)
 
 
-def _sweep_panel(ax, ds: xr.Dataset, key: str, summary: str, ylabel: str, time_var: str):
+def _floor(ax, ds: xr.Dataset, key: str, summary: str, j: int, color) -> None:
+    """The regularization part of eta ``j``: dashed over every energy, dotted over those compared."""
+    full = ds[f"{summary}_regularization"].values[j]
+    if np.isfinite(full):
+        ax.axhline(full, color=color, ls="--", lw=0.8, alpha=0.8)
+        return
+    partial = np.abs(ds[f"{key}_regularization_at_energy"].values[j])
+    if np.isfinite(partial).any():
+        ax.axhline(np.nanmax(partial), color=color, ls=":", lw=0.9, alpha=0.9)
+
+
+def _sweep_panel(ax, ds: xr.Dataset, key: str, summary: str, ylabel: str) -> None:
     Hs, etas = ds["harmonics"].values, ds["eta"].values
-    time = ds[time_var].values
-    full = ds[summary].values
-    partial = _partial_errors(ds, key)
-    converged, compared = ds["converged"].values, ds["compared"].values
-    top = transforms.blended_transform_factory(ax.transData, ax.transAxes)
+    time, full, partial = ds["cpu_time"].values, ds[summary].values, _partial_errors(ds, key)
+    truncation = ds[f"{summary}_truncation"].values
+    compared = ds["status"].values == 0
+    drawn_partial = ~compared & np.isfinite(partial)
     for j, eta in enumerate(etas):
         color = _ETA_COLORS[j % len(_ETA_COLORS)]
-        ok = compared[:, j]
+        ok, part = compared[:, j], drawn_partial[:, j]
         ax.plot(time[ok, j], full[ok, j], "o-", color=color, ms=4, lw=0.8, label=f"eta = {eta:g}")
-        part = converged[:, j] & ~compared[:, j] & np.isfinite(partial[:, j])
-        if part.any():
-            ax.plot(time[part, j], partial[part, j], "o", mfc="none", color=color, ms=5)
-        floor = ds[summary + "_regularization"].values[j] if summary + "_regularization" in ds else np.nan
-        if np.isfinite(floor):
-            ax.axhline(floor, color=color, ls="--", lw=0.6, alpha=0.7)
+        ax.plot(time[part, j], partial[part, j], "o", mfc="none", color=color, ms=5)
+        ax.plot(time[:, j], truncation[:, j], "v", color=color, ms=3, alpha=0.6)
+        _floor(ax, ds, key, summary, j, color)
         for i, H in enumerate(Hs):
             if ok[i] or part[i]:
                 y = full[i, j] if ok[i] else partial[i, j]
                 ax.annotate(f"{H}", (time[i, j], y), textcoords="offset points", xytext=(3, 2), fontsize=6, color=color)
-            elif not converged[i, j] and np.isfinite(time[i, j]):
-                ax.plot(time[i, j], 0.97, "x", color=color, ms=6, transform=top, clip_on=False)
-                ax.annotate(
-                    f"{H}",
-                    (time[i, j], 0.97),
-                    xycoords=top,
-                    textcoords="offset points",
-                    xytext=(3, -8),
-                    fontsize=6,
-                    color=color,
-                )
-    # room above the data for the crosses of the settings that did not converge
-    shown = np.concatenate([full[compared], partial[converged & ~compared]])
-    shown = shown[np.isfinite(shown) & (shown > 0)]
-    if shown.size:
-        ax.set_ylim(shown.min() / 3.0, shown.max() * 30.0)
     cost = np.where(compared, time, np.nan).ravel()
     front = pareto_front(cost, np.where(compared, full, np.nan).ravel())
     if front.size:
         ax.step(cost[front], full.ravel()[front], where="post", color="k", lw=0.8, alpha=0.6, label="Pareto front")
         ax.plot(cost[front], full.ravel()[front], "o", mfc="none", mec="k", ms=9, mew=0.8)
+    ax.plot([], [], "o", mfc="none", color="gray", ms=5, label="part of the energies (hollow)")
+    ax.plot([], [], "v", color="gray", ms=3, label="truncation part (H vs H_ref)")
+    ax.plot([], [], "--", color="gray", lw=0.8, label="regularization part (H_ref vs exact)")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("run time (CPU s of the job, 1 BLAS thread)")
     ax.set_ylabel(ylabel)
 
 
-def error_vs_runtime_figure(ds: xr.Dataset):
-    """The error-against-run-time figure (see the module docstring); returns the figure."""
-    for name in ("harmonics", "eta", "cpu_time", "frequency_error", "x_error", "converged", "compared"):
-        if name not in ds.variables:
-            raise ValueError(f"the error_vs_runtime dataset lacks the variable {name!r}")
-    fig, axes = plt.subplots(1, 3, figsize=(13.5, 4.4), constrained_layout=True)
-    _sweep_panel(
-        axes[0],
-        ds,
-        "relative_frequency_difference",
-        "frequency_error",
-        "largest |relative frequency error|",
-        "cpu_time",
-    )
-    _sweep_panel(axes[1], ds, "max_x_difference", "x_error", "largest |x error| over the orbit", "cpu_time")
-    axes[0].set_title("(a) frequency (labels: H; dashed: regularization part)", fontsize=8)
-    axes[1].set_title("(b) displacement x (x: not resolved; hollow: partial range)", fontsize=8)
-    axes[0].legend(fontsize=7, loc="lower left")
-    ax = axes[2]
+def _sweep_notes(ds: xr.Dataset) -> list[str]:
+    """Which settings of the (H, eta) grid are not drawn, or drawn in part, and why."""
+    words, groups = status_words(ds["status"]), {}
+    partial = np.isfinite(_partial_errors(ds, "relative_frequency_difference"))
+    for i, H in enumerate(ds["harmonics"].values):
+        for j, eta in enumerate(ds["eta"].values):
+            if words[i, j]:
+                shown = "hollow: largest error over the energies compared" if partial[i, j] else "not drawn"
+                _add(groups, f"{words[i, j]}, {shown}", f"H = {H}", f"eta = {eta:g}")
+    lines = _listing(groups)
+    ref_words = status_words(ds["reference_status"])
+    for j, eta in enumerate(ds["eta"].values):
+        if ref_words[j]:
+            H_ref = ds.attrs.get("reference_harmonics", "?")
+            lines.append(
+                f"regularization part of eta = {eta:g} (dotted: over the energies its H_ref = {H_ref} "
+                f"reference covers): {ref_words[j]}"
+            )
+    return lines
+
+
+def _anm_panel(ax, ds: xr.Dataset) -> list[str]:
     orders, tols = ds["order"].values, ds["tolerance"].values
-    time, residual, conv = ds["anm_cpu_time"].values, ds["anm_path_frequency_error"].values, ds["anm_converged"].values
-    markers = "osD^v<>p"
+    time, residual = ds["anm_cpu_time"].values, ds["anm_path_frequency_error"].values
+    words = status_words(ds["anm_status"])
+    markers, notes = "osD^v<>p", {}
     for j, tol in enumerate(tols):
-        ok = conv[:, j] & np.isfinite(residual[:, j])
+        ok = np.isfinite(residual[:, j])
         ax.plot(time[ok, j], residual[ok, j], markers[j % len(markers)] + "-", ms=4, lw=0.8, label=f"tol {tol:g}")
         for i, order in enumerate(orders):
             if ok[i]:
                 ax.annotate(
-                    f"N{order}", (time[i, j], residual[i, j]), textcoords="offset points", xytext=(3, 2), fontsize=6
+                    f"N{order}",
+                    (time[i, j], residual[i, j]),
+                    textcoords="offset points",
+                    xytext=(3, 2 + 5 * (j % 2)),
+                    fontsize=6,
                 )
-            elif np.isfinite(time[i, j]):
-                ax.plot(
-                    time[i, j],
-                    0.97,
-                    "x",
-                    color="k",
-                    transform=transforms.blended_transform_factory(ax.transData, ax.transAxes),
-                )
-    ok = conv & np.isfinite(residual)
-    if ok.any():
-        ax.set_ylim(residual[ok].min() / 3.0, residual[ok].max() * 30.0)
+            if words[i, j]:
+                drawn = "drawn (its path is measured)" if ok[i] else "not drawn"
+                _add(notes, f"{words[i, j]}, {drawn}", f"N{order}", f"tol {tol:g}")
+    ok = np.isfinite(residual)
     front = pareto_front(np.where(ok, time, np.nan).ravel(), np.where(ok, residual, np.nan).ravel())
     if front.size:
         ax.plot(
@@ -176,41 +193,47 @@ def error_vs_runtime_figure(ds: xr.Dataset):
         fontsize=8,
     )
     ax.legend(fontsize=7, loc="best")
-    return fig
+    return _listing(notes)
 
 
-def stiff_cases_figure(ds: xr.Dataset):
-    """The stiff-cases figure (see the module docstring); returns the figure."""
-    for name in ("alpha", "eta", "converged", "harmonics", "exact_relative_residual", "energy_periodicity_error"):
+def error_vs_runtime_figure(ds: xr.Dataset):
+    """The error-against-run-time figure (see the module docstring); returns the figure."""
+    for name in ("harmonics", "eta", "cpu_time", "frequency_error", "x_error", "status", "reference_status"):
         if name not in ds.variables:
-            raise ValueError(f"the stiff_cases dataset lacks the variable {name!r}")
-    fig, axes = plt.subplots(2, 2, figsize=(11.5, 8.0), constrained_layout=True)
-    _harmonics_needed(axes[0, 0], ds)
-    _exact_solver(axes[0, 1], ds)
-    _error_against_exact(axes[1, 0], ds)
-    _extreme_energies(axes[1, 1], ds)
+            raise ValueError(f"the error_vs_runtime dataset lacks the variable {name!r}")
+    fig = plt.figure(figsize=(13.5, 6.0), constrained_layout=True)
+    grid = fig.add_gridspec(2, 3, height_ratios=[1.0, 0.28])
+    axes = [fig.add_subplot(grid[0, k]) for k in range(3)]
+    _sweep_panel(axes[0], ds, "relative_frequency_difference", "frequency_error", "largest |relative frequency error|")
+    _sweep_panel(axes[1], ds, "max_x_difference", "x_error", "largest |x error| over the orbit")
+    axes[0].set_title("(a) frequency against the exact orbits (labels: H)", fontsize=8)
+    axes[1].set_title("(b) displacement x against the exact orbits (labels: H)", fontsize=8)
+    axes[0].legend(fontsize=6.5, loc="lower left")
+    anm_notes = _anm_panel(axes[2], ds)
+    _add_notes(fig.add_subplot(grid[1, :2]), _sweep_notes(ds), "(a), (b): settings not compared at every energy")
+    _add_notes(fig.add_subplot(grid[1, 2]), anm_notes, "(c): settings not compared at every energy", width=60)
     return fig
 
 
-def _at_top(ax):
-    """Transform of markers at a height in axes units above a data abscissa."""
-    return transforms.blended_transform_factory(ax.transData, ax.transAxes)
+# --------------------------------------------------------------------------- stiff cases
 
 
-def _harmonics_needed(ax, ds: xr.Dataset) -> None:
-    """(a) harmonics needed on the alpha x eta grid."""
+def _harmonics_panel(ax, ds: xr.Dataset) -> None:
     alphas, etas = ds["alpha"].values, ds["eta"].values
     H = ds["harmonics"].values.astype(float)
-    shown = np.where(ds["converged"].values, np.log2(np.where(H > 0, H, np.nan)), np.nan)
+    converged = ds["converged"].values
+    shown = np.where(converged, np.log2(np.where(H > 0, H, np.nan)), np.nan)
     ax.imshow(shown.T, origin="lower", cmap="viridis", aspect="auto", vmin=np.log2(16), vmax=np.log2(1024))
+    tried = ds.attrs.get("harmonics_tried", "?").split(",")[-1].strip()
+    words = status_words(ds["status"])
     for i in range(alphas.size):
         for j in range(etas.size):
-            if ds["converged"].values[i, j]:
-                text = f"H={int(H[i, j])}\n{int(ds['steps'].values[i, j])} steps"
-                color = "w"
+            if converged[i, j]:
+                text, color = f"H={int(H[i, j])}\n{int(ds['steps'].values[i, j])} steps", "w"
+            elif "resolved" in words[i, j]:
+                text, color = f"not resolved\n(H <= {tried})", "k"
             else:
-                text = "not resolved\n(H <= " + ds.attrs.get("harmonics_tried", "?").split(",")[-1].strip() + ")"
-                color = "k"
+                text, color = "\n".join(textwrap.wrap(words[i, j], 18)), "k"
             ax.text(i, j, text, ha="center", va="center", fontsize=7, color=color)
     ax.set_xticks(range(alphas.size), [f"{a:g}" for a in alphas])
     ax.set_yticks(range(etas.size), [f"{e:g}" for e in etas])
@@ -220,11 +243,9 @@ def _harmonics_needed(ax, ds: xr.Dataset) -> None:
     ax.set_title("(a) harmonics needed for NNM1 stage 1 (guarded continuation)", fontsize=8)
 
 
-def _exact_solver(ax, ds: xr.Dataset) -> None:
-    """(b) exactness of the exact solver."""
+def _exact_panel(ax, ds: xr.Dataset) -> None:
     labels = [f"a={a:g}" for a in ds["alpha"].values]
-    res = list(ds["exact_relative_residual"].values)
-    per = list(ds["exact_periodicity_error"].values)
+    res, per = list(ds["exact_relative_residual"].values), list(ds["exact_periodicity_error"].values)
     for b in ds["beta"].values:
         for d in ds["delta"].values:
             labels.append(f"b={b:g},d={d:g}")
@@ -236,43 +257,85 @@ def _exact_solver(ax, ds: xr.Dataset) -> None:
     ax.set_yscale("log")
     ax.set_xticks(x, labels, rotation=60, ha="right", fontsize=6)
     ax.axhline(np.finfo(float).eps, color="k", lw=0.6, ls=":")
+    ax.set_ylabel("relative error of the exact orbits")
     ax.set_title("(b) exact solver: residuals and periodicity (dotted: machine epsilon)", fontsize=8)
     ax.legend(fontsize=7)
 
 
-def _error_against_exact(ax, ds: xr.Dataset) -> None:
-    """(c) error against the exact orbits."""
-    alphas = ds["alpha"].values
-    for j, eta in enumerate(ds["eta"].values):
-        color = _ETA_COLORS[(j + 1) % len(_ETA_COLORS)]
-        ax.plot(alphas, ds["frequency_error"].values[:, j], "o-", color=color, label=f"eta = {eta:g}")
+def _error_panel(ax, ds: xr.Dataset) -> list[str]:
+    alphas, etas = ds["alpha"].values, ds["eta"].values
+    words, groups = status_words(ds["status"]), {}
+    for j, eta in enumerate(etas):
+        err = ds["frequency_error"].values[:, j]
+        ax.plot(alphas, err, "o-", color=_ETA_COLORS[(j + 1) % len(_ETA_COLORS)], label=f"eta = {eta:g}")
         for i, a in enumerate(alphas):
-            if not ds["converged"].values[i, j]:
-                ax.plot(a, 0.97, "x", color=color, transform=_at_top(ax))
+            if words[i, j]:
+                _add(groups, words[i, j], f"alpha = {a:g}", f"eta = {eta:g}")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.set_xticks(alphas, [f"{a:g}" for a in alphas])
     ax.set_xlabel("alpha")
     ax.set_ylabel("largest |relative frequency error|")
-    ax.set_title("(c) regularized vs exact NNM1 with the H of (a) (x at the top: not resolved)", fontsize=8)
+    ax.set_title("(c) regularized vs exact NNM1 with the H of (a)", fontsize=8)
     ax.legend(fontsize=7)
+    ratio_words = status_words(ds["ratio_status"])
+    for i, b in enumerate(ds["beta"].values):
+        for k, d in enumerate(ds["delta"].values):
+            if ratio_words[i, k]:
+                grid_name = f"beta x delta grid (alpha = {ds.attrs.get('alpha_of_ratio_grid', '?'):g})"
+                _add(groups, f"{grid_name}, {ratio_words[i, k]}", f"beta = {b:g}", f"delta = {d:g}")
+    return _listing(groups)
 
 
-def _extreme_energies(ax, ds: xr.Dataset) -> None:
-    """(d) extreme energies."""
-    energies = ds["energy"].values
+def _energy_panel(ax, ds: xr.Dataset) -> list[str]:
+    energies, groups = ds["energy"].values, {}
     for k, a in enumerate(ds["energy_alpha"].values):
-        per = ds["energy_periodicity_error"].values[:, k]
-        freq = np.abs(ds["energy_hbm_frequency_difference"].values[:, k])
-        ax.plot(energies, per, "s-", color=_ETA_COLORS[k], label=f"alpha = {a:g}: exact orbit, periodicity error")
-        label = f"alpha = {a:g}: |HBM - exact| / exact frequency"
-        ax.plot(energies, freq, "o--", color=_ETA_COLORS[k], mfc="none", label=label)
-        for e, kind in zip(energies, ds["energy_kind"].values[:, k]):
-            if kind == "none":
-                ax.plot(e, 0.97 - 0.05 * k, "x", color=_ETA_COLORS[k], transform=_at_top(ax))
+        case = ds.isel(energy_alpha=k)
+        color = _ETA_COLORS[k % len(_ETA_COLORS)]
+        size = 9 - 3 * (k % 2)  # the alphas coincide below grazing (the linear mode): both stay visible
+        ax.plot(
+            energies,
+            case["energy_periodicity_error"].values,
+            "s-",
+            color=color,
+            ms=size - 2,
+            label=f"alpha = {a:g}: exact orbit, periodicity error",
+        )
+        ax.plot(
+            energies,
+            np.abs(case["energy_hbm_frequency_difference"].values),
+            "o--",
+            color=color,
+            mfc="none",
+            ms=size,
+            label=f"alpha = {a:g}: |HBM - exact| / exact frequency",
+        )
+        for name, what in (("energy_exact_status", "exact orbit"), ("energy_hbm_status", "HBM orbit")):
+            words = status_words(case[name])
+            for e, word in zip(energies, words):
+                if word and not (what == "HBM orbit" and "exact" in word):
+                    _add(groups, f"{what}: {word}", f"alpha = {a:g}", f"E = {e:g}")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("energy")
-    ax.set_title(
-        f"(d) extreme energies (eta = {ds.attrs.get('energy_sweep_eta', '?')}; x: no two-impact orbit)", fontsize=8
-    )
+    ax.set_ylabel("relative error (periodicity; frequency)")
+    ax.set_title(f"(d) extreme energies (eta = {ds.attrs.get('energy_sweep_eta', '?')})", fontsize=8)
     ax.legend(fontsize=6)
+    return _listing(groups)
+
+
+def stiff_cases_figure(ds: xr.Dataset):
+    """The stiff-cases figure (see the module docstring); returns the figure."""
+    for name in ("alpha", "eta", "status", "harmonics", "exact_relative_residual", "energy_periodicity_error"):
+        if name not in ds.variables:
+            raise ValueError(f"the stiff_cases dataset lacks the variable {name!r}")
+    fig = plt.figure(figsize=(11.5, 9.4), constrained_layout=True)
+    grid = fig.add_gridspec(3, 2, height_ratios=[1.0, 1.0, 0.22])
+    axes = [[fig.add_subplot(grid[r, c]) for c in range(2)] for r in range(2)]
+    _harmonics_panel(axes[0][0], ds)
+    _exact_panel(axes[0][1], ds)
+    error_notes = _error_panel(axes[1][0], ds)
+    energy_notes = _energy_panel(axes[1][1], ds)
+    _add_notes(fig.add_subplot(grid[2, 0]), error_notes, "(c) and the beta x delta grid: cases not compared", width=80)
+    _add_notes(fig.add_subplot(grid[2, 1]), energy_notes, "(d): points not drawn", width=80)
+    return fig

@@ -22,6 +22,7 @@ from pathlib import Path
 import yaml
 
 from nnmstop import __version__
+from nnmstop.atomic import atomic_output
 from nnmstop.netcdf import provenance
 
 __all__ = ["ENCODING_FORMATS", "build_bundle", "verify_bundle"]
@@ -230,14 +231,15 @@ def build_bundle(
         staged = Path(tmp) / "crate"
         crate.write(staged)
         members = sorted(p for p in staged.rglob("*") if p.is_file())
-        partial = output.with_name(output.name + ".tmp")
-        with zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=6) as archive:
+        with (
+            atomic_output(output) as partial,
+            zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=6) as archive,
+        ):
             for member in members:
                 info = zipfile.ZipInfo(member.relative_to(staged).as_posix(), date_time=_ZIP_DATE)
                 info.external_attr = _ZIP_MODE
                 info.compress_type = zipfile.ZIP_DEFLATED
                 archive.writestr(info, member.read_bytes(), compresslevel=6)
-        partial.replace(output)
     return output
 
 

@@ -23,11 +23,28 @@ import functools
 import importlib
 import importlib.util
 import logging
+import os
+import signal
 import sys
+import threading
+import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["TASK_MODULES", "find_task", "task_module", "task_table", "named_entries", "run_task", "run_request", "main"]
+__all__ = [
+    "TASK_MODULES",
+    "Interrupted",
+    "JobEnded",
+    "find_task",
+    "task_module",
+    "task_table",
+    "named_entries",
+    "run_task",
+    "run_request",
+    "watch_parent",
+    "main",
+]
 
 logger = logging.getLogger("nnmstop.pipeline.run")
 
@@ -126,6 +143,84 @@ def configure_logging(log_path: str | None) -> None:
     root.setLevel(logging.INFO)
 
 
+class Interrupted(BaseException):
+    """The task's process received SIGTERM, SIGINT or SIGHUP (a ``BaseException``, like
+    ``KeyboardInterrupt``: no ``except Exception`` of a task takes it for a failed computation)."""
+
+    def __init__(self, signum: int):
+        self.signum = int(signum)
+        super().__init__(f"interrupted by {signal.Signals(self.signum).name}")
+
+
+class JobEnded(RuntimeError):
+    """The job that started the task has ended: the task must not put an output in place."""
+
+
+#: Signals that interrupt a task: its log says so, and the job fails with 128 + the signal number.
+INTERRUPTING_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
+
+
+@contextmanager
+def _interruptible():
+    """Within the block, SIGTERM, SIGINT and SIGHUP raise :class:`Interrupted` (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise Interrupted(signum)
+
+    previous = {signum: signal.signal(signum, interrupt) for signum in INTERRUPTING_SIGNALS}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _usage_line(name: str, where: str, wall: float, outcome: str) -> str:
+    """The log line with the task's wall time, CPU time and peak memory (``python -m
+    nnmstop.pipeline.usage`` sums these lines over a build's logs)."""
+    try:
+        import resource  # Unix only
+    except ImportError:
+        return f"task {name} ran {where}: {wall:.2f} s wall; {outcome}"
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    user, system = own.ru_utime + children.ru_utime, own.ru_stime + children.ru_stime
+    return (
+        f"task {name} ran {where}: {wall:.2f} s wall, {user + system:.2f} s CPU (user {user:.2f} s, "
+        f"system {system:.2f} s), {max(own.ru_maxrss, children.ru_maxrss) / 1024:.0f} MB peak resident; {outcome}"
+    )
+
+
+def watch_parent() -> None:
+    """For a task that runs in its job's own process (no warm worker): the task ends with the
+    process that started it, and renames no output into place once that process has gone.
+
+    On Linux the process asks for SIGTERM when its parent ends (``PR_SET_PDEATHSIG``), which
+    interrupts the task; everywhere, the commit guard of :mod:`nnmstop.atomic` refuses a rename
+    once the parent has changed (the process was handed over to another one).
+    """
+    from nnmstop import atomic
+
+    parent = os.getppid()
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:  # the parent ended before the request took effect
+        raise Interrupted(signal.SIGTERM)
+
+    def guard(path: Path) -> None:
+        if os.getppid() != parent:
+            raise JobEnded(f"the process that started this task (pid {parent}) has ended: {path} is not written")
+
+    atomic.set_commit_guard(guard)
+
+
 def named_entries(named) -> dict:
     """A Snakemake ``Namedlist`` (or a dict, or None) as a plain dict of its named entries."""
     return dict(named.items()) if hasattr(named, "items") else dict(named or {})
@@ -137,25 +232,53 @@ def run_task(name: str, config: dict, inputs=None, outputs=None, log: str | None
     ``config`` holds the configuration sections the task reads; ``log`` is the path of the
     log file (None or '-' for stderr); ``wildcards`` are passed on as keywords.
     """
+    _run_logged(name, config, inputs, outputs, log, "in its own process", wildcards)
+
+
+def _run_logged(name: str, config: dict, inputs, outputs, log, where: str, wildcards: dict, note=None) -> None:
+    """:func:`run_task`, saying ``where`` it ran in the log line of its cost."""
     task = find_task(name)
     configure_logging(log)
+    if note:
+        logger.warning(note)
+    logger.info("task %s started %s (pid %d)", name, where, os.getpid())
+    started, outcome = time.perf_counter(), "failed"
     try:
-        task(config, named_entries(inputs), named_entries(outputs), **wildcards)
+        with _interruptible():
+            task(config, named_entries(inputs), named_entries(outputs), **wildcards)
+        outcome = "finished"
+    except Interrupted as interruption:
+        outcome = f"interrupted by {signal.Signals(interruption.signum).name}"
+        logger.error(
+            "task %s was interrupted by %s before it finished; it puts no further output in place",
+            name,
+            signal.Signals(interruption.signum).name,
+        )
+        raise
+    except JobEnded as ended:
+        outcome = "its job has ended"
+        logger.error("task %s stopped: %s", name, ended)
+        raise
     except Exception:
         logger.exception("task %s failed", name)
         raise
+    finally:
+        logger.info(_usage_line(name, where, time.perf_counter() - started, outcome))
 
 
-def run_request(request: dict) -> None:
+def run_request(request: dict, where: str = "in its own process", note: str | None = None) -> None:
     """:func:`run_task` from a request (``name``, ``config``, ``inputs``, ``outputs``, ``log``,
-    ``wildcards``), as :func:`nnmstop.pipeline.worker.plain_request` makes it from a Snakemake job."""
-    run_task(
+    ``wildcards``), as :func:`nnmstop.pipeline.worker.plain_request` makes it from a Snakemake job;
+    ``where`` it runs is named in the log line of its cost; ``note``, if any, is logged first."""
+    _run_logged(
         request["name"],
         request["config"],
         request["inputs"],
         request["outputs"],
         request["log"],
-        **request["wildcards"],
+        where,
+        request["wildcards"],
+        note,
     )
 
 

@@ -1,10 +1,13 @@
-"""Check a build of the pipeline against the committed reference (``reference/``).
+"""Check a build of the pipeline against the committed reference (``reference/``), variable by variable.
 
 A build made on another CPU stores other points along the same curves (the continuation's
-step sequence follows round-off), so byte identity is checked first and, for each file
-that differs, what the file means: its frequency-energy curve, its located points, its
-table. Tolerances follow from the methods and are printed with every row; the method
-notes are in docs/reproducibility.md.
+step sequence follows round-off), so byte identity is checked first and, for each file that
+differs, everything it holds: that it can be read, that no number is NaN or infinite, its
+variables (names, dimensions, types, attributes), its global attributes, its curve and every
+variable along it at matched positions, its located points, regimes and other values. Each
+check has its tolerance, printed with every row; a check that cannot run is a discrepancy
+with its reason, and the table always comes out. What the reference keeps:
+:mod:`nnmstop.pipeline.reference`; method and tolerances: docs/reproducibility.md.
 
 Usage::
 
@@ -15,9 +18,9 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import csv
 import hashlib
 import json
+import re
 import shutil
 import sys
 from dataclasses import dataclass
@@ -25,21 +28,41 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
-from scipy.spatial import cKDTree
 
-from nnmstop.netcdf import PROVENANCE_ATTRIBUTES
+from nnmstop.netcdf import PROVENANCE_ATTRIBUTES, non_finite_variables, open_checked
+from nnmstop.pipeline.curve import Curve
+from nnmstop.pipeline.reference import (
+    ACCURACY_FACTOR,
+    ACCURACY_PATTERN,
+    POINT,
+    PROJECTIONS,
+    REFERENCE_FORMAT,
+    SAMPLING_VARIABLES,
+    attribute_kind,
+    json_value,
+    point_table,
+    profile,
+    projected_columns,
+    projections,
+    read_csv,
+    write_csv,
+)
 
 __all__ = ["Row", "data_digest", "update_reference", "verify", "file_verdicts", "format_table", "main"]
 
 REGIMES_CSV = "compare/nnm1_regimes.csv"
-COMPARE_NC = "compare/nnm1_exact_vs_regularized.nc"
-# Exact (closed-form) orbits solve their equations to round-off; their curve is checked to this.
+REGIMES_NC = "compare/nnm1_regimes.nc"
+# Exact (closed-form) orbits and the comparison's Newton-solved orbits (residual 1e-13) are accurate
+# to round-off; their curves are checked to this relative accuracy.
 EXACT_BASE_TOLERANCE = 1e-9
-# Newton-solved orbits of the comparison dataset (residual 1e-13, nnmstop.compare.matching): relative
-# tolerance on their frequencies at the same energy, allowing for the conditioning of the solve.
-COMPARE_TOLERANCE = 1e-9
-DENSE_SPACING = 2e-4  # largest distance between sub-points of the densified curve (first guess of the nearest point)
-SAME_POINT = 1e-12  # points closer than this in (ln E, ln f) are one point of a curve
+# A number derived at a located point (a tangent angle) or a regime statistic without a rule of its
+# own: relative tolerance, at least this and ten times the file's base accuracy.
+DERIVED_TOLERANCE = 1e-6
+# Numbers of configured settings (global attributes): written from the configuration, so equal.
+SETTING_TOLERANCE = 1e-12
+LOCATED = {"branch point": ("branch_point_energy", "branch_point_frequency"), "fold": ("fold_energy", "fold_frequency")}
+WITHIN, DISCREPANT = "within tolerance", "discrepant"
+LOO_FACTOR = 3.0  # leave-one-out deviations per interpolation tolerance along a curve (see _check_projection)
 
 
 @dataclass
@@ -55,6 +78,10 @@ class Row:
     verdict: str  # "identical", "identical data" (all but provenance), "within tolerance" or "discrepant"
 
 
+def _verdict(ok: bool) -> str:
+    return WITHIN if ok else DISCREPANT
+
+
 def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
@@ -63,7 +90,7 @@ def data_digest(path: Path) -> str:
     """SHA-256 of a file's content without its provenance.
 
     For a NetCDF file: every variable's name, type, dimensions, attributes and values,
-    and the global attributes except ``datasets.PROVENANCE_ATTRIBUTES`` (the git commit and
+    and the global attributes except ``netcdf.PROVENANCE_ATTRIBUTES`` (the git commit and
     its date, which change with every commit even when no number does). Other files:
     their bytes.
     """
@@ -75,7 +102,8 @@ def data_digest(path: Path) -> str:
         digest.update(repr(sorted((k, str(v)) for k, v in attrs.items())).encode())
         for name in sorted(ds.variables):
             variable = ds.variables[name]
-            digest.update(repr((name, str(variable.dtype), variable.dims, sorted((k, str(v)) for k, v in variable.attrs.items()))).encode())
+            described = (name, str(variable.dtype), variable.dims, sorted((k, str(v)) for k, v in variable.attrs.items()))
+            digest.update(repr(described).encode())
             digest.update(np.ascontiguousarray(variable.values).tobytes())
     return digest.hexdigest()
 
@@ -83,7 +111,9 @@ def data_digest(path: Path) -> str:
 def _results_dir(path) -> Path:
     path = Path(path)
     if not path.is_dir():
-        raise ValueError(f"results directory {str(path)!r} does not exist (expected e.g. 'results' after `snakemake --cores 2`)")
+        raise ValueError(
+            f"results directory {str(path)!r} does not exist (expected e.g. 'results' after `snakemake --cores 2`)"
+        )
     return path
 
 
@@ -91,55 +121,23 @@ def _curve_name(relative: str) -> str:
     return relative.removesuffix(".nc").replace("/", "__") + ".csv"
 
 
-def _is_curve(relative: str) -> bool:
-    return relative.startswith(("hbm/", "exact/")) and "/stages/" not in relative
-
-
-# --------------------------------------------------------------------------- reference
-
-
-def _write_csv(path: Path, header: list[str], rows) -> None:
-    with path.open("w", newline="") as handle:
-        writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(header)
-        for row in rows:
-            writer.writerow([f"{float(v):.13g}" if isinstance(v, (float, np.floating)) else v for v in row])
-
-
-def _read_csv(path: Path) -> dict[str, np.ndarray]:
-    with path.open() as handle:
-        rows = list(csv.reader(handle))
-    columns = {}
-    for j, name in enumerate(rows[0]):
-        values = [r[j] for r in rows[1:]]
-        try:
-            columns[name] = np.array([float(v) for v in values])
-        except ValueError:
-            columns[name] = np.array(values)
-    return columns
-
-
-def _curve_table(ds: xr.Dataset) -> dict[str, np.ndarray]:
-    table = {"energy": ds["energy"].values, "frequency": ds["frequency"].values}
-    for name in ("stage", "step"):
-        if name in ds:
-            table[name] = ds[name].values
-    return table
+def _stage_of(relative: str) -> tuple[str, int] | None:
+    """(branch file, stage number) of a stage file ``hbm/stages/<branch>_stage<k>.nc``."""
+    match = re.fullmatch(r"(.*)/stages/(\w+)_stage(\d+)\.nc", relative)
+    return (f"{match.group(1)}/{match.group(2)}.nc", int(match.group(3))) if match else None
 
 
 def _base_tolerance(ds: xr.Dataset) -> float:
-    """Relative accuracy of the stored orbits: the Newton threshold of the ANM (a stored
-    point's relative residual stays below it, and the series' own tolerance is smaller),
-    or round-off for the closed-form exact orbits."""
+    """Relative accuracy of the stored orbits: the Newton threshold of the ANM (a stored point's
+    relative residual stays below it), or round-off for closed-form and Newton-solved orbits."""
     return float(ds.attrs.get("newton_threshold", EXACT_BASE_TOLERANCE))
 
 
-def _located(ds: xr.Dataset) -> list[tuple[str, float, float]]:
-    located = []
-    for kind, prefix in (("branch point", "branch_point"), ("fold", "fold")):
-        if f"{prefix}_energy" in ds:
-            located += [(kind, float(e), float(f)) for e, f in zip(ds[f"{prefix}_energy"].values, ds[f"{prefix}_frequency"].values)]
-    return located
+def _fmt(e, f) -> str:
+    return f"E={e:.9g} f={f:.9g}"
+
+
+# --------------------------------------------------------------------------- the reference
 
 
 def _regime_sampling(regimes: xr.Dataset) -> list[list[float]]:
@@ -150,25 +148,62 @@ def _regime_sampling(regimes: xr.Dataset) -> list[list[float]]:
     rows = []
     for k in range(regimes.sizes["regime"]):
         part = regimes.isel(point=(regimes["point_regime"].values == k))
-        values = [np.log(part["energy"].values), part["frequency"].values, part["frequency_error"].values,
-                  part["relative_frequency_error"].values]
+        values = [
+            np.log(part["energy"].values),
+            part["frequency"].values,
+            part["frequency_error"].values,
+            part["relative_frequency_error"].values,
+        ]
         rows.append([float(np.abs(np.diff(v)).max()) if v.size > 1 else 0.0 for v in values])
     return rows
+
+
+def _write_curve(path: Path, table: dict) -> dict:
+    """Write one curve's CSV (see :mod:`nnmstop.pipeline.reference`); the projections' scales."""
+    columns = {"energy": table["curve"]["energy"], "frequency": table["curve"]["frequency"]}
+    columns.update({name: table[name] for name in ("step", "stage") if name in table})
+    for kind in ("discrete", "stability", "marker"):
+        columns.update(table[kind])
+    scales = {}
+    for projection, kind in PROJECTIONS.items():
+        projected = projected_columns(table, kind)
+        if projected:
+            scales[projection] = {name: _column_scale(values) for name, values in projected.items()}
+            columns[projection] = projections(projected, scales[projection])[0]
+    write_csv(path, list(columns), zip(*columns.values()))
+    return scales
+
+
+def _column_scale(values) -> float:
+    largest = float(np.max(np.abs(values))) if len(values) else 0.0
+    return largest if largest > 0 else 1.0
+
+
+def _compact_json(format_version: int, shared: dict, files: dict) -> str:
+    """``files.json``: one line per shared value and per file (small, and a diff names what changed)."""
+
+    def one_line(value) -> str:
+        return json.dumps(value, sort_keys=True, separators=(",", ":"))
+
+    def block(mapping: dict) -> str:
+        return ",\n".join(f"  {json.dumps(key)}: {one_line(mapping[key])}" for key in sorted(mapping))
+
+    return (f'{{"format": {format_version},\n"shared": {{\n{block(shared)}\n}},\n'
+            f'"files": {{\n{block(files)}\n}}}}\n')
 
 
 def update_reference(results_dir, reference_dir="reference") -> Path:
     """Regenerate ``reference_dir`` from the build in ``results_dir``.
 
     Writes ``MANIFEST.sha256`` (the build's manifest plus the regime table), ``DATA.sha256``
-    (the same files' :func:`data_digest`), one curve
-    CSV per branch (energy, frequency, stage and step of every stored point),
-    ``located.csv`` (branch points and folds), ``tolerances.json`` (base tolerance of
-    each branch), ``compare_nnm1.csv`` and the regime table with its sampling steps.
+    (the same files' :func:`data_digest`), ``files.json`` (each dataset's profile, see
+    :func:`nnmstop.pipeline.reference.profile`, and its base tolerance), one curve CSV per
+    branch and family (``curves/``) and the regime table with its sampling steps.
 
     Raises
     ------
     ValueError
-        If ``results_dir`` or its manifest is missing.
+        If ``results_dir`` or its manifest is missing, or a dataset cannot be read.
     """
     results = _results_dir(results_dir)
     manifest = results / "MANIFEST.sha256"
@@ -183,296 +218,544 @@ def update_reference(results_dir, reference_dir="reference") -> Path:
         lines.append(f"{_sha256(results / REGIMES_CSV)}  results/{REGIMES_CSV}")
     lines = sorted(lines, key=lambda line: line.split("  ")[1])
     (reference / "MANIFEST.sha256").write_text("\n".join(lines) + "\n")
-    data = [f"{data_digest(results / line.split('  ')[1].removeprefix('results/'))}  {line.split('  ')[1]}" for line in lines]
+    listed = [line.split("  ")[1].removeprefix("results/") for line in lines]
+    data = [f"{data_digest(results / relative)}  results/{relative}" for relative in listed]
     (reference / "DATA.sha256").write_text("\n".join(data) + "\n")
-    located, tolerances = [], {}
-    for path in sorted(results.rglob("*.nc")):
-        relative = path.relative_to(results).as_posix()
-        if not _is_curve(relative):
-            continue
-        with xr.open_dataset(path) as ds:
-            table = _curve_table(ds)
-            _write_csv(reference / "curves" / _curve_name(relative), list(table), zip(*table.values()))
-            located += [(relative, *item) for item in _located(ds)]
-            tolerances[relative] = _base_tolerance(ds)
-    _write_csv(reference / "located.csv", ["file", "kind", "energy", "frequency"], located)
-    (reference / "tolerances.json").write_text(json.dumps(tolerances, indent=1, sort_keys=True) + "\n")
-    if (results / COMPARE_NC).is_file():
-        with xr.open_dataset(results / COMPARE_NC) as ds:
-            names = ["energy", "frequency_exact", "frequency_regularized"]
-            _write_csv(reference / "compare_nnm1.csv", names, zip(*(ds[n].values for n in names)))
+    shared, files, scales = {}, {}, {}
+    for relative in sorted(r for r in listed if r.endswith(".nc")):
+        ds = open_checked(results / relative)
+        entry = profile(ds, shared)
+        entry["base"] = _base_tolerance(ds)
+        table = point_table(ds)
+        if table is not None and _stage_of(relative) is None:
+            entry["curve"] = {"csv": _curve_name(relative)}
+            scales[relative] = _write_curve(reference / "curves" / _curve_name(relative), table)
+            entry["curve"]["scales"] = scales[relative]
+        files[relative] = entry
+    for relative, entry in files.items():
+        stage = _stage_of(relative)
+        if stage and stage[0] in files:
+            entry["curve"] = {"csv": _curve_name(stage[0]), "stage": stage[1], "scales": scales[stage[0]]}
+            entry["base"] = files[stage[0]]["base"]
+    if REGIMES_NC in files and "hbm/nnm1.nc" in files:  # its points are NNM1's stored points
+        files[REGIMES_NC]["base"] = files["hbm/nnm1.nc"]["base"]
+    (reference / "files.json").write_text(_compact_json(REFERENCE_FORMAT, shared, files))
     if (results / REGIMES_CSV).is_file():
         shutil.copyfile(results / REGIMES_CSV, reference / "nnm1_regimes.csv")
-        with xr.open_dataset(results / REGIMES_CSV.replace(".csv", ".nc")) as regimes:
-            _write_csv(reference / "nnm1_regimes_sampling.csv",
-                       ["d_log_energy", "d_frequency", "d_frequency_error", "d_relative_frequency_error"],
-                       _regime_sampling(regimes))
+        with xr.open_dataset(results / REGIMES_NC) as regimes:
+            write_csv(
+                reference / "nnm1_regimes_sampling.csv",
+                ["d_log_energy", "d_frequency", "d_frequency_error", "d_relative_frequency_error"],
+                _regime_sampling(regimes),
+            )
     return reference
 
 
-# --------------------------------------------------------------------------- curves
+# --------------------------------------------------------------------------- structure and attributes
 
 
-class Curve:
-    """A stored frequency-energy curve in (ln E, ln f), interpolated by local cubics.
-
-    Each segment between stored points i and i+1 is the cubic through points i-1..i+2
-    in the chord-length parameter (fewer points at the ends); the curve is densified
-    with those cubics and distances are taken to the densified polyline. The
-    interpolation error near point j is bounded by the leave-one-out deviation: the
-    distance of point j from the cubic through its four neighbours j-2, j-1, j+1, j+2,
-    an interpolation over twice the spacing (about 16 times the error of the
-    interpolation used, for a smooth curve; large at kinks, as it should be).
-    """
-
-    def __init__(self, energy, frequency, step=None):
-        points = np.column_stack([np.log(energy), np.log(frequency)])
-        # repeated points (a stage starts at its predecessor's last point; the exact branch
-        # stores both sides of a grazing transition) are one point of the curve
-        keep = np.ones(len(points), dtype=bool)
-        last = points[0]
-        for i in range(1, len(points)):
-            keep[i] = np.linalg.norm(points[i] - last) > SAME_POINT
-            last = points[i] if keep[i] else last
-        self.points = points[keep]
-        self.step = None if step is None else np.asarray(step)[keep]
-        self.s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self.points, axis=0), axis=1))])
-        n = len(self.points)
-        if n < 5:
-            raise ValueError(f"a curve needs at least 5 stored points to be compared, got {n}")
-        # leave-one-out: cubic through the four nearest other points of each point
-        window = np.clip(np.arange(n) - 2, 0, n - 5)[:, None] + np.arange(5)
-        others = np.array([row[row != j] for j, row in enumerate(window)])
-        self.interpolation_error = np.linalg.norm(self._lagrange(others, self.s) - self.points, axis=1)
-        # densified curve: on segment i, the cubic through the four points around it
-        nodes = np.clip(np.arange(n - 1) - 1, 0, n - 4)[:, None] + np.arange(4)
-        # sub-points no farther apart than DENSE_SPACING, so that the nearest sub-point of
-        # a query lies on the right arm where two arms of a branch pass close to each other
-        count = np.maximum(4, np.ceil(np.diff(self.s) / DENSE_SPACING)).astype(int)
-        owner = np.repeat(np.arange(n - 1), count)
-        fractions = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-        a = self.s[owner] + fractions / count[owner] * np.diff(self.s)[owner]
-        self.nodes = nodes
-        self.sub_length = np.diff(self.s) / count
-        dense = self._lagrange(nodes[owner], a)
-        self.dense = np.vstack([dense, self.points[-1:]])
-        self.dense_s = np.concatenate([a, self.s[-1:]])
-        self.owner = np.concatenate([owner, [n - 2]])
-        self.tree = cKDTree(self.dense)
-
-    def _lagrange(self, nodes: np.ndarray, a: np.ndarray) -> np.ndarray:
-        """Values at parameters ``a`` of the polynomials through the stored points ``nodes`` (one row each)."""
-        s = self.s[nodes]
-        weights = np.ones(nodes.shape)
-        for k in range(nodes.shape[1]):
-            for m in range(nodes.shape[1]):
-                if m != k:
-                    weights[:, k] *= (a - s[:, m]) / (s[:, k] - s[:, m])
-        return np.einsum("ik,ikd->id", weights, self.points[nodes])
-
-    def segment_error(self, segment: np.ndarray) -> np.ndarray:
-        """Interpolation error bound on the given segments (largest of the points around them)."""
-        n = len(self.points)
-        around = [self.interpolation_error[np.clip(segment + d, 0, n - 1)] for d in (-1, 0, 1, 2)]
-        return np.max(around, axis=0)
-
-    def end_length(self, end: int) -> float:
-        """Chord length of the continuation step at one end (0: start, -1: end): the last
-        stored point of a stopped branch lies at most one step past its stop criterion.
-
-        A step is a run of points with the same ``step`` number (numbers restart in each
-        stage; a lone first point is the branch's start); without step numbers, two segments.
-        """
-        n = len(self.points)
-        if self.step is None or not len(self.step):
-            first, last = (0, 2) if end == 0 else (n - 3, n - 1)
-        else:
-            change = np.flatnonzero(np.diff(self.step) != 0)  # last point of each run but the final one
-            if end == 0:
-                last = n - 1 if not len(change) else (change[1] if change[0] == 0 and len(change) > 1 else change[0])
-                first = 0
-            else:
-                first, last = (change[-1] if len(change) else 0), n - 1
-        first, last = max(first, 0), min(last, n - 1)
-        return float(self.s[last] - self.s[first])
-
-    def distance(self, queries: np.ndarray):
-        """Distance of points (ln E, ln f) to the curve; the segment and whether the nearest
-        location is an end of the curve (then the point may lie beyond it).
-
-        The nearest sub-segment of the densified curve gives a first parameter; the
-        distance to the cubic of that segment is then minimised by a shrinking search on
-        the parameter (the densified polyline alone would add its own chord error)."""
-        _, nearest = self.tree.query(queries, k=min(8, len(self.dense)))
-        nearest = np.atleast_2d(nearest)
-        best = np.full(len(queries), np.inf)
-        at_end = np.zeros(len(queries), dtype=bool)
-        parameter = np.zeros(len(queries))
-        last = len(self.dense) - 1
-        for column in nearest.T:
-            for lo in (column - 1, column):
-                lo = np.clip(lo, 0, last - 1)
-                a, b = self.dense[lo], self.dense[lo + 1]
-                ab = b - a
-                length2 = np.maximum((ab * ab).sum(axis=1), 1e-300)
-                t = np.clip(((queries - a) * ab).sum(axis=1) / length2, 0.0, 1.0)
-                d = np.linalg.norm(a + t[:, None] * ab - queries, axis=1)
-                better = d < best
-                best[better] = d[better]
-                parameter[better] = (self.dense_s[lo] + t * (self.dense_s[lo + 1] - self.dense_s[lo]))[better]
-                at_end[better] = ((lo[better] == 0) & (t[better] == 0)) | ((lo[better] == last - 1) & (t[better] == 1))
-        segment = np.clip(np.searchsorted(self.s, parameter, side="right") - 1, 0, len(self.s) - 2)
-        nodes = self.nodes[segment]
-        width = self.sub_length[segment].copy()
-        offsets = np.linspace(-1.0, 1.0, 5)
-        for _ in range(40):
-            trial = np.clip(parameter[:, None] + width[:, None] * offsets, self.s[0], self.s[-1])
-            values = self._lagrange(np.repeat(nodes, 5, axis=0), trial.ravel()).reshape(len(queries), 5, 2)
-            d = np.linalg.norm(values - queries[:, None, :], axis=2)
-            parameter = trial[np.arange(len(queries)), np.argmin(d, axis=1)]
-            best = np.minimum(best, d.min(axis=1))
-            width /= 2
-        return best, segment, at_end
-
-
-def _fmt(e, f) -> str:
-    return f"E={e:.9g} f={f:.9g}"
-
-
-def _check_curve(name, reference: dict, build: dict, base: float) -> list[Row]:
-    """Each curve's stored points on the other curve, and the two curves' ends."""
-    curves = {side: Curve(t["energy"], t["frequency"], t.get("step")) for side, t in (("reference", reference), ("build", build))}
-    rows = []
-    for label, source, target in (("build points on reference curve", "build", "reference"),
-                                  ("reference points on build curve", "reference", "build")):
-        c_src, c_tgt = curves[source], curves[target]
-        d, segment, at_end = c_tgt.distance(c_src.points)
-        tolerance = base + c_tgt.segment_error(segment)
-        # A point within one end step of both curves' ends may lie past the other curve's
-        # end (where the other branch stopped one step earlier); the end rows check it.
-        for end in (0, -1):
-            step = max(c_src.end_length(end), c_tgt.end_length(end))
-            along = np.abs(c_src.s - c_src.s[end])
-            near = (along <= step) & (np.linalg.norm(c_src.points - c_tgt.points[end], axis=1) <= step)
-            at_end |= near & (d > tolerance)
-        ratio = np.where(at_end, 0.0, d / tolerance)
-        worst = int(np.argmax(ratio))
-        n_out = int(at_end.sum())
-        verdict = "within tolerance" if ratio[worst] <= 1 else "discrepant"
-        e, f = np.exp(c_src.points[worst])
-        rows.append(Row(name, f"{label} ({len(c_src.points)} points, {n_out} past an end; worst at {_fmt(e, f)})",
-                        f"{len(curves['reference'].points)} points", f"{len(curves['build'].points)} points",
-                        float(d[worst]), float(tolerance[worst]), verdict))
-    for end, label in ((0, "start point"), (-1, "end point")):
-        p_ref, p_build = curves["reference"].points[end], curves["build"].points[end]
-        gap = float(np.linalg.norm(p_ref - p_build))
-        tolerance = base + max(curves["reference"].end_length(end), curves["build"].end_length(end))
-        rows.append(Row(name, label, _fmt(*np.exp(p_ref)), _fmt(*np.exp(p_build)), gap, tolerance,
-                        "within tolerance" if gap <= tolerance else "discrepant"))
+def _check_finite(name: str, ds: xr.Dataset) -> list[Row]:
+    """NaN or infinity in a variable that must hold numbers (netcdf.may_be_missing)."""
+    found = non_finite_variables(ds)
+    rows = [Row(name, f"variable {var}: NaN or infinite values", "finite", f"{count} non-finite", float(count), 0.0,
+                DISCREPANT) for var, count in sorted(found.items())]
+    if not rows:
+        rows.append(Row(name, "every number finite", "finite", "finite", 0.0, 0.0, WITHIN))
     return rows
 
 
-def _check_located(name, reference: list, build: list, ref_curve: dict, build_curve: dict, base: float) -> list[Row]:
+def _check_structure(name: str, ds: xr.Dataset, entry: dict, shared: dict) -> list[Row]:
+    """Missing and extra variables; each variable's dimensions, type and attributes; dimension sizes."""
+    rows = []
+    expected, present = shared[entry["variables"]], {str(v) for v in ds.variables}
+    missing, extra = sorted(set(expected) - present), sorted(present - set(expected))
+    if missing:
+        rows.append(Row(name, f"variable {missing[0]}" if len(missing) == 1 else f"{len(missing)} variables missing",
+                        ", ".join(missing)[:90], "missing", float(len(missing)), 0.0, DISCREPANT))
+    if extra:
+        rows.append(Row(name, f"variable {extra[0]}" if len(extra) == 1 else f"{len(extra)} variables not in the "
+                        "reference", "absent", ", ".join(extra)[:90], float(len(extra)), 0.0, DISCREPANT))
+    for var in sorted(present & set(expected)):
+        (dims, dtype, attributes), variable = expected[var], ds.variables[var]
+        if list(variable.dims) != dims or str(variable.dtype) != dtype:
+            rows.append(Row(name, f"variable {var}: dimensions and type", f"{dims} {dtype}",
+                            f"{list(variable.dims)} {variable.dtype}", float("nan"), 0.0, DISCREPANT))
+        wanted = shared.get(attributes, {})
+        got = {key: json_value(value) for key, value in variable.attrs.items()}
+        for key in sorted(set(wanted) | set(got)):
+            if wanted.get(key) != got.get(key):
+                rows.append(Row(name, f"variable {var}: attribute {key}", str(wanted.get(key, "absent"))[:60],
+                                str(got.get(key, "absent"))[:60], float("nan"), 0.0, DISCREPANT))
+    for dim, size in entry["dims"].items():
+        if ds.sizes.get(dim) != size:
+            rows.append(Row(name, f"dimension {dim}", str(size), str(ds.sizes.get(dim, "absent")), float("nan"), 0.0,
+                            DISCREPANT))
+    if not rows:
+        rows.append(Row(name, f"{len(present)} variables: names, dimensions, types, attributes", "same", "same", 0.0,
+                        0.0, WITHIN))
+    return rows
+
+
+def _mask_numbers(text: str) -> str:
+    return re.sub(r"[-+]?\d+(\.\d*)?([eE][-+]?\d+)?", "#", text)
+
+
+def _compare_attribute(key: str, wanted, got, base: float) -> tuple[float, float, bool] | None:
+    """(difference, tolerance, ok) of one global attribute; None when it is not compared."""
+    kind = attribute_kind(key)
+    if kind in ("provenance", "sampling"):
+        return None
+    if isinstance(wanted, str) or isinstance(got, str):
+        # text: same words; numbers in it restate what the data hold (range ends, counts of stored points)
+        ok = isinstance(wanted, str) and isinstance(got, str) and _mask_numbers(wanted) == _mask_numbers(got)
+        return (0.0 if ok else float("nan")), 0.0, ok
+    try:
+        w, g = float(wanted), float(got)
+    except (TypeError, ValueError):
+        return float("nan"), 0.0, wanted == got
+    if not (np.isfinite(w) and np.isfinite(g)):
+        return float("nan"), 0.0, False
+    if kind == "accuracy":
+        return abs(g), ACCURACY_FACTOR * abs(w), abs(g) <= ACCURACY_FACTOR * abs(w)
+    tolerance = SETTING_TOLERANCE if kind == "exact" else max(DERIVED_TOLERANCE, 10 * base)
+    difference = abs(g - w) / max(abs(w), 1e-300)
+    return difference, tolerance, difference <= tolerance
+
+
+def _check_attributes(name: str, ds: xr.Dataset, entry: dict) -> list[Row]:
+    """Every global attribute but the provenance (git commit and date) and those that count stored
+    points; text compared word for word (numbers masked)."""
+    wanted = entry["global"]
+    got = {k: json_value(v) for k, v in ds.attrs.items() if k not in PROVENANCE_ATTRIBUTES}
+    rows, compared, skipped = [], 0, []
+    for key in sorted(set(wanted) | set(got)):
+        if key not in wanted or key not in got:
+            if attribute_kind(key) != "sampling":
+                rows.append(Row(name, f"attribute {key}", str(wanted.get(key, "absent"))[:60],
+                                str(got.get(key, "absent"))[:60], float("nan"), 0.0, DISCREPANT))
+            continue
+        result = _compare_attribute(key, wanted[key], got[key], entry["base"])
+        if result is None:
+            skipped.append(key)
+            continue
+        compared += 1
+        difference, tolerance, ok = result
+        if not ok or attribute_kind(key) in ("accuracy", "located"):
+            rows.append(Row(name, f"attribute {key}", str(wanted[key])[:60], str(got[key])[:60], difference,
+                            tolerance, _verdict(ok)))
+    rows.append(Row(name, f"{compared} global attributes ({len(skipped)} counting stored points not compared)",
+                    "-", "-", 0.0, 0.0, WITHIN if not any(r.verdict == DISCREPANT for r in rows) else DISCREPANT))
+    return rows
+
+
+# --------------------------------------------------------------------------- values off the curve
+
+
+def _check_other_values(name: str, ds: xr.Dataset, entry: dict, skip=()) -> list[Row]:
+    """Variables without the ``point`` dimension (located points' other numbers, coordinates, ...):
+    integers and text equal, accuracy estimates within ACCURACY_FACTOR of the reference's, other
+    numbers within DERIVED_TOLERANCE (relative)."""
+    rows = []
+    for var, wanted in entry["values"].items():
+        if var in skip or var in SAMPLING_VARIABLES or var not in ds.variables or POINT in ds[var].dims:
+            continue
+        values = np.asarray(ds[var].values)
+        if isinstance(wanted, dict):  # large: its digest
+            ok = hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest() == wanted["sha256"]
+            if not ok:
+                rows.append(Row(name, f"variable {var} (SHA-256 of its values)", wanted["sha256"][:12], "differs",
+                                float("nan"), 0.0, DISCREPANT))
+            continue
+        reference = np.asarray(wanted)
+        if reference.shape != values.shape:
+            rows.append(Row(name, f"variable {var}: shape", str(reference.shape), str(values.shape), float("nan"), 0.0,
+                            DISCREPANT))
+            continue
+        if values.dtype.kind not in "fc" or reference.dtype.kind not in "fc":
+            ok = [str(v) for v in reference.ravel()] == [str(v) for v in values.ravel()]
+            if not ok:
+                rows.append(Row(name, f"variable {var}", str(reference.tolist())[:60], str(values.tolist())[:60],
+                                float("nan"), 0.0, DISCREPANT))
+            continue
+        if ACCURACY_PATTERN.search(var):
+            bound = ACCURACY_FACTOR * float(np.max(np.abs(reference))) if reference.size else 0.0
+            worst = float(np.max(np.abs(values))) if values.size else 0.0
+            rows.append(Row(name, f"variable {var} (accuracy estimate: largest)", f"{bound / ACCURACY_FACTOR:.3g}",
+                            f"{worst:.3g}", worst, bound, _verdict(worst <= bound)))
+            continue
+        tolerance = max(DERIVED_TOLERANCE, 10 * entry["base"])
+        difference = np.abs(values - reference) / np.maximum(np.abs(reference), 1e-300)
+        worst = float(np.max(difference)) if difference.size else 0.0
+        if worst > tolerance:
+            rows.append(Row(name, f"variable {var} (relative)", str(reference.tolist())[:60], str(values.tolist())[:60],
+                            worst, tolerance, DISCREPANT))
+    return rows
+
+
+def _check_located(name: str, entry: dict, ds: xr.Dataset, curves: dict, base: float) -> list[Row]:
     """Branch points to the ANM's accuracy (bisection along the series, then Newton);
     folds within the spacing of the stored points around them (the parabola through the
     extremal point and its neighbours), from either build."""
     rows = []
-    curves = [Curve(t["energy"], t["frequency"], t.get("step")) for t in (ref_curve, build_curve)]
-    for kind in ("branch point", "fold"):
-        ref = np.array([[np.log(e), np.log(f)] for k, e, f in reference if k == kind]).reshape(-1, 2)
-        got = np.array([[np.log(e), np.log(f)] for k, e, f in build if k == kind]).reshape(-1, 2)
+    for kind, (energy, frequency) in LOCATED.items():
+        if energy not in entry["values"]:
+            continue
+        ref = np.log(np.column_stack([entry["values"][energy], entry["values"][frequency]]).reshape(-1, 2))
+        got = np.log(np.column_stack([ds[energy].values, ds[frequency].values]).reshape(-1, 2))
         if len(ref) != len(got):
-            rows.append(Row(name, f"number of {kind}s", str(len(ref)), str(len(got)), float(abs(len(ref) - len(got))), 0.0, "discrepant"))
+            rows.append(Row(name, f"number of {kind}s", str(len(ref)), str(len(got)), float(abs(len(ref) - len(got))),
+                            0.0, DISCREPANT))
             continue
         for j, (p, q) in enumerate(zip(ref, got)):
             tolerance = base
             if kind == "fold":  # length of the segment of each curve where its fold lies
-                segments = [int(c.distance(x[None])[1][0]) for c, x in zip(curves, (p, q))]
-                tolerance += max(float(c.s[k + 1] - c.s[k]) for c, k in zip(curves, segments))
+                pairs = ((curves["reference"], p), (curves["build"], q))
+                segments = [(c, int(c.distance(x[None])[1][0])) for c, x in pairs]
+                tolerance += max(float(c.s[k + 1] - c.s[k]) for c, k in segments)
             gap = float(np.linalg.norm(p - q))
             rows.append(Row(name, f"{kind} {j + 1}", _fmt(*np.exp(p)), _fmt(*np.exp(q)), gap, tolerance,
-                            "within tolerance" if gap <= tolerance else "discrepant"))
+                            _verdict(gap <= tolerance)))
     return rows
 
 
-# --------------------------------------------------------------------------- tables
-
-
-def _check_compare(reference: Path, build: xr.Dataset, tolerances: dict) -> list[Row]:
-    """Figs 2-4's comparison. Orbits are Newton-solved at the matched energies (residual
-    1e-13), so at the same energies both frequencies agree to COMPARE_TOLERANCE. The
-    energies follow NNM1 stage 1's range, which ends one step apart between builds; then
-    each (energy, frequency) must lie on the reference curve it was solved on."""
-    name = f"results/{COMPARE_NC}"
-    table = _read_csv(reference / "compare_nnm1.csv")
-    energy = build["energy"].values
-    rows = []
-    if len(energy) == len(table["energy"]) and np.allclose(energy, table["energy"], rtol=1e-12, atol=0):
-        for variable in ("frequency_exact", "frequency_regularized"):
-            difference = np.abs(build[variable].values / table[variable] - 1)
-            worst = int(np.argmax(difference))
-            rows.append(Row(name, f"{variable} at the same energies (relative, worst at E={energy[worst]:.6g})",
-                            f"{table[variable][worst]:.12g}", f"{build[variable].values[worst]:.12g}",
-                            float(difference[worst]), COMPARE_TOLERANCE,
-                            "within tolerance" if difference[worst] <= COMPARE_TOLERANCE else "discrepant"))
-        return rows
-    nnm1 = _read_csv(reference / "curves" / _curve_name("hbm/nnm1.nc"))
-    stage1 = {k: v[nnm1["stage"] == 1] for k, v in nnm1.items()}
-    for variable, curve, relative in (("frequency_exact", _read_csv(reference / "curves" / _curve_name("exact/nnm1_two_impacts.nc")),
-                                       "exact/nnm1_two_impacts.nc"),
-                                      ("frequency_regularized", stage1, "hbm/nnm1.nc")):
-        target = Curve(curve["energy"], curve["frequency"], curve.get("step"))
-        points = np.column_stack([np.log(energy), np.log(build[variable].values)])
-        d, segment, _ = target.distance(points)
-        tolerance = tolerances[relative] + target.segment_error(segment)
-        worst = int(np.argmax(d / tolerance))
-        rows.append(Row(name, f"{variable} on the reference curve of {relative} ({len(energy)} other energies; worst at E={energy[worst]:.6g})",
-                        "curve", f"{build[variable].values[worst]:.12g}", float(d[worst]), float(tolerance[worst]),
-                        "within tolerance" if d[worst] <= tolerance[worst] else "discrepant"))
-    return rows
-
-
-def _check_regimes(reference: dict, sampling: dict, build: dict, build_sampling: list) -> list[Row]:
+def _check_regimes(name: str, reference: dict, sampling: dict, build: dict, build_sampling: list) -> list[Row]:
     """The regime table: the regimes and their exact sequences exactly; statistics over
     stored orbits within the largest change between neighbouring orbits (either build)."""
-    name = f"results/{REGIMES_CSV}"
-    if list(reference["impacts_per_period"]) != list(build["impacts_per_period"]) or \
-            list(reference["exact_sequence"]) != list(build["exact_sequence"]):
+    identities = ("impacts_per_period", "exact_sequence")
+    if any(_labels(reference[k]) != _labels(build[k]) for k in identities):
         return [Row(name, "regimes (impacts per period, exact sequence)", str(list(reference["impacts_per_period"])),
-                    str(list(build["impacts_per_period"])), float("nan"), 0.0, "discrepant")]
+                    str(list(build["impacts_per_period"])), float("nan"), 0.0, DISCREPANT)]
     step_of = {"energy": "d_log_energy", "frequency": "d_frequency", "frequency_error": "d_frequency_error",
                "rel_frequency_error": "d_relative_frequency_error"}
     rows = []
     for column in reference:
-        if column in ("regime", "impacts_per_period", "exact_sequence", "n_matched", "n_unmatched"):
+        if column in ("regime", *identities, "n_matched", "n_unmatched"):
             continue  # identities, or counts of stored orbits (they follow the sampling)
         kind = next((k for k in ("rel_frequency_error", "frequency_error", "energy", "frequency") if k in column), None)
         if kind is None:
+            continue
+        if column not in build:
+            rows.append(Row(name, f"{column}", "present", "missing", float("nan"), 0.0, DISCREPANT))
             continue
         worst = None
         for k in range(len(reference[column])):
             r, b = float(reference[column][k]), float(build[column][k])
             tolerance = max(sampling[step_of[kind]][k], build_sampling[k][list(step_of).index(kind)])
             difference = abs(np.log(b / r)) if kind == "energy" else abs(b - r)
+            if not np.isfinite(difference):
+                difference = np.inf
             if worst is None or difference / max(tolerance, 1e-300) > worst[0]:
                 worst = (difference / max(tolerance, 1e-300), k, r, b, difference, tolerance)
         _, k, r, b, difference, tolerance = worst
         rows.append(Row(name, f"{column} (worst of {len(reference[column])} regimes: regime {k})"
                         + (" (ln)" if kind == "energy" else ""), f"{r:.9g}", f"{b:.9g}", difference, tolerance,
-                        "within tolerance" if difference <= tolerance else "discrepant"))
+                        _verdict(difference <= tolerance)))
+    return rows
+
+
+def _labels(values) -> list[str]:
+    """Values as text, whole numbers without a decimal point (a CSV gives 2.0 where a dataset holds 2)."""
+    return [str(v).removesuffix(".0") for v in np.asarray(values).tolist()]
+
+
+def _regime_rows(name: str, ds: xr.Dataset, reference_dir: Path) -> list[Row]:
+    """The regime dataset's variables along ``regime``, by the rules of the regime table."""
+    table = read_csv(reference_dir / "nnm1_regimes.csv")
+    sampling = read_csv(reference_dir / "nnm1_regimes_sampling.csv")
+    build = {str(v): ds[v].values for v in ds.variables if ds[v].dims == ("regime",)}
+    missing = [c for c in table if c not in build]
+    if missing or "point_regime" not in ds.variables:
+        return [Row(name, "regime table: columns missing", ", ".join(table)[:90], ", ".join(missing)[:90],
+                    float(len(missing)), 0.0, DISCREPANT)]
+    return _check_regimes(name, table, sampling, build, _regime_sampling(ds))
+
+
+# --------------------------------------------------------------------------- along the curve
+
+
+def _reference_rows(reference_dir: Path, spec: dict) -> dict[str, np.ndarray]:
+    """The reference curve's CSV columns (a stage's rows, with the stored point it starts from)."""
+    table = read_csv(reference_dir / "curves" / spec["csv"])
+    if "stage" not in spec:
+        return table
+    rows = np.flatnonzero(table["stage"] == spec["stage"])
+    if len(rows) and rows[0] > 0:
+        rows = np.concatenate([[rows[0] - 1], rows])
+    return {k: v[rows] for k, v in table.items()}
+
+
+def _past_an_end(c_src: Curve, c_tgt: Curve, d: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
+    """Points of ``c_src`` off ``c_tgt`` within one end step of both curves' ends: they may lie past
+    the other curve's end (where the other branch stopped one step earlier); the end rows check them."""
+    out = np.zeros(len(d), dtype=bool)
+    for end in (0, -1):
+        step = max(c_src.end_length(end), c_tgt.end_length(end))
+        along = np.abs(c_src.s - c_src.s[end])
+        near = (along <= step) & (np.linalg.norm(c_src.points - c_tgt.points[end], axis=1) <= step)
+        out |= near & (d > tolerance)
+    return out
+
+
+def _check_curve(name: str, curves: dict, base: float) -> tuple[list[Row], np.ndarray]:
+    """Each curve's stored points on the other curve, and the two curves' ends; also which build
+    points lie past an end of the reference curve (not compared along it)."""
+    rows, build_past = [], None
+    for label, source, target in (("build points on reference curve", "build", "reference"),
+                                  ("reference points on build curve", "reference", "build")):
+        c_src, c_tgt = curves[source], curves[target]
+        d, segment, at_end = c_tgt.distance(c_src.points)
+        tolerance = base + c_tgt.segment_error(segment)
+        at_end |= _past_an_end(c_src, c_tgt, d, tolerance)
+        build_past = at_end if source == "build" else build_past
+        ratio = np.where(at_end, 0.0, d / tolerance)
+        worst = int(np.argmax(ratio))
+        e, f = np.exp(c_src.points[worst])
+        rows.append(Row(name, f"{label} ({len(c_src.points)} points, {int(at_end.sum())} past an end; worst at "
+                        f"{_fmt(e, f)})", f"{len(curves['reference'].points)} points",
+                        f"{len(curves['build'].points)} points", float(d[worst]), float(tolerance[worst]),
+                        _verdict(ratio[worst] <= 1)))
+    for end, label in ((0, "start point"), (-1, "end point")):
+        p_ref, p_build = curves["reference"].points[end], curves["build"].points[end]
+        gap = float(np.linalg.norm(p_ref - p_build))
+        tolerance = base + max(curves["reference"].end_length(end), curves["build"].end_length(end))
+        rows.append(Row(name, label, _fmt(*np.exp(p_ref)), _fmt(*np.exp(p_build)), gap, tolerance,
+                        _verdict(gap <= tolerance)))
+    return rows, build_past
+
+
+def _band(reference: dict, keep: np.ndarray) -> np.ndarray:
+    """Reference segments within one segment of a change of stability verdict or resolution: there
+    two builds may give either verdict (the tolerance band of a stability change)."""
+    change = np.zeros(max(int(keep.sum()) - 1, 0), dtype=bool)  # a change within segment i (points i, i+1)
+    for flag in ("stable", "stability_resolved"):
+        if flag in reference:
+            values = reference[flag][keep]
+            change |= values[1:] != values[:-1]
+    band = change.copy()
+    band[1:] |= change[:-1]
+    band[:-1] |= change[1:]
+    return band
+
+
+def _check_discrete(name: str, reference: dict, table: dict, curves: dict, match: tuple) -> list[Row]:
+    """Flags, counts, labels and stability verdicts at each build point: one of the reference's
+    values at the two stored points around its position (a change happens somewhere between
+    them); stability verdicts outside the band of a change (:func:`_band`)."""
+    segment, _, skip = match
+    keep_ref, keep_build = curves["reference"].keep, curves["build"].keep
+    band = _band(reference, keep_ref)
+    rows = []
+    for kind in ("discrete", "stability"):
+        for column in sorted(table[kind]):
+            if column not in reference:
+                rows.append(Row(name, f"{column} along the curve", "absent", "present", float("nan"), 0.0, DISCREPANT))
+                continue
+            ref = np.array(_labels(reference[column][keep_ref]))
+            got = np.array(_labels(np.asarray(table[kind][column])[keep_build]))
+            valid = ~skip & (~band[segment] if kind == "stability" else True)
+            wrong = valid & (got != ref[segment]) & (got != ref[segment + 1])
+            if wrong.any():
+                j = int(np.flatnonzero(wrong)[0])
+                e, f = np.exp(curves["build"].points[j])
+                allowed = sorted({ref[segment[j]], ref[segment[j] + 1]})
+                rows.append(Row(name, f"{column} at {int(wrong.sum())} of {int(valid.sum())} build points (first at "
+                                f"{_fmt(e, f)})", " or ".join(allowed), got[j], float(wrong.sum()), 0.0, DISCREPANT))
+    compared = len(table["discrete"]) + len(table["stability"])
+    rows.append(Row(name, f"{compared} flags, counts and verdicts at matched positions (stability verdicts outside "
+                    "the band of a change)", "-", "-", 0.0, 0.0, WITHIN if not rows else DISCREPANT))
+    return rows
+
+
+def _check_markers(name: str, reference: dict, table: dict, curves: dict) -> list[Row]:
+    """Flags of the stored points next to an event: the same events, each within the longer of the
+    two stored segments around it (of either build) of the reference's."""
+    rows = []
+    c_ref, c_build = curves["reference"], curves["build"]
+    for column in sorted(table["marker"]):
+        if column not in reference:
+            rows.append(Row(name, f"{column} along the curve", "absent", "present", float("nan"), 0.0, DISCREPANT))
+            continue
+        ref_values = reference[column][c_ref.keep].astype(int)
+        build_values = np.asarray(table["marker"][column])[c_build.keep].astype(int)
+        ref_events, build_events = np.flatnonzero(ref_values), np.flatnonzero(build_values)
+        if len(ref_events) != len(build_events):
+            rows.append(Row(name, f"{column}: number of flagged points", str(len(ref_events)), str(len(build_events)),
+                            float(abs(len(ref_events) - len(build_events))), 0.0, DISCREPANT))
+            continue
+        if not len(build_events):
+            continue
+        _, segment, _, parameter = c_ref.match(c_build.points[build_events])
+        worst = (0.0, 0.0, 0)
+        for j, (p, seg) in enumerate(zip(parameter, segment)):
+            same = ref_events[ref_values[ref_events] == build_values[build_events[j]]]
+            gap = float(np.min(np.abs(c_ref.s[same] - p))) if len(same) else np.inf
+            around = lambda c, k: max(float(np.diff(c.s)[max(k - 1, 0):k + 1].max()), 0.0)  # noqa: E731
+            tolerance = max(around(c_ref, int(seg)), around(c_build, int(build_events[j])))
+            if gap / max(tolerance, 1e-300) >= worst[0] / max(worst[1], 1e-300):
+                worst = (gap, tolerance, j)
+        gap, tolerance, j = worst
+        e, f = np.exp(c_build.points[build_events[j]])
+        rows.append(Row(name, f"{column}: {len(build_events)} flagged points (worst at {_fmt(e, f)})",
+                        f"{len(ref_events)} flagged", f"{len(build_events)} flagged", gap, tolerance,
+                        _verdict(gap <= tolerance)))
+    return rows
+
+
+def _check_projection(name: str, kind: str, reference: dict, columns: dict, scales: dict, curves: dict, match: tuple,
+                      base: float) -> list[Row]:
+    """Every orbit fingerprint or smooth quantity at each build point, through the projection: the
+    build's value against the reference's interpolated at the point's position; tolerance = the
+    base accuracy of the values + the reference's interpolation error there (leave-one-out)."""
+    label = {"orbit": "orbits (harmonics, every signal)", "quantities": "smooth quantities",
+             "stability": "stability numbers (multipliers, margins; outside the band of a change)"}[kind]
+    missing = sorted(set(scales) - set(columns))
+    if missing:
+        return [Row(name, f"{label}: not compared, columns missing", "-", str(missing)[:60], float("nan"), 0.0,
+                    DISCREPANT)]
+    segment, parameter, skip = match
+    c_ref, c_build = curves["reference"], curves["build"]
+    if kind == "stability":
+        skip = skip | _band(reference, c_ref.keep)[segment]
+    value, size = projections(columns, scales)
+    value, size = value[c_build.keep], size[c_build.keep]
+    ref = np.asarray(reference[kind], dtype=float)[c_ref.keep]
+    expected = c_ref.values_at(ref, parameter, segment)
+    difference = np.abs(value - expected)
+    # three times the largest leave-one-out deviation of the segments around: an over-estimate of the cubic's
+    # error for smooth values, and it covers the noise of values sampled in time (x_max) or round-off
+    loo = c_ref.leave_one_out(ref)
+    around = np.max([c_ref.segment_error(np.clip(segment + k, 0, len(c_ref.s) - 2), loo) for k in (-1, 0, 1)], axis=0)
+    tolerance = base * size + LOO_FACTOR * around + 1e-12 * np.abs(expected)
+    ratio = np.where(skip, 0.0, difference / np.maximum(tolerance, 1e-300))
+    worst = int(np.argmax(ratio))
+    e, f = np.exp(c_build.points[worst])
+    return [Row(name, f"{label}: {len(scales)} columns at {int((~skip).sum())} build points (worst at {_fmt(e, f)})",
+                f"{expected[worst]:.10g}", f"{value[worst]:.10g}", float(difference[worst]), float(tolerance[worst]),
+                _verdict(ratio[worst] <= 1))]
+
+
+def _column(table: dict, column: str):
+    """A column of a point table, whatever its kind (None if absent)."""
+    return next((t[column] for t in table.values() if isinstance(t, dict) and column in t), None)
+
+
+def _check_ranges(name: str, entry: dict, table: dict, base: float) -> list[Row]:
+    """Each smooth quantity's least and largest value on the curve: within its largest change between
+    neighbouring stored points (either build) and its base accuracy. Names the variable of a change."""
+    rows = []
+    for column, (low, high, step) in sorted(entry.get("ranges", {}).items()):
+        values = _column(table, column)
+        if values is None:
+            continue
+        got_low, got_high, got_step = (float(np.min(values)), float(np.max(values)),
+                                       float(np.max(np.abs(np.diff(values)))) if len(values) > 1 else 0.0)
+        tolerance = max(step, got_step) + base * max(abs(low), abs(high))
+        difference = max(abs(got_low - low), abs(got_high - high))
+        if not difference <= tolerance:
+            rows.append(Row(name, f"{column}: range on the curve", f"[{low:.6g}, {high:.6g}]",
+                            f"[{got_low:.6g}, {got_high:.6g}]", difference, tolerance, DISCREPANT))
+    return rows
+
+
+def _check_bounds(name: str, entry: dict, table: dict) -> list[Row]:
+    """Accuracy estimates: at every stored point within ACCURACY_FACTOR of the reference's largest."""
+    rows, checked = [], 0
+    for column, largest in sorted(entry.get("bounds", {}).items()):
+        values = _column(table, column)
+        if values is None:
+            continue
+        checked += 1
+        worst = float(np.max(np.abs(values))) if len(values) else 0.0
+        bound = ACCURACY_FACTOR * largest
+        if not worst <= bound:
+            rows.append(Row(name, f"{column} (accuracy estimate: largest on the curve)", f"{largest:.3g}",
+                            f"{worst:.3g}", worst, bound, DISCREPANT))
+    if checked:
+        rows.append(Row(name, f"{checked} accuracy estimates (residuals, errors) within {ACCURACY_FACTOR:g} times "
+                        "the reference's largest", "-", "-", 0.0, 0.0, WITHIN if not rows else DISCREPANT))
+    return rows
+
+
+def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -> list[Row]:
+    """The curve and every variable along it (see the module docstring)."""
+    spec, base = entry["curve"], entry["base"]
+    reference = _reference_rows(reference_dir, spec)
+    table = point_table(ds)
+    if table is None:
+        return [Row(name, "frequency-energy curve", "present", "absent (no energy and frequency)", float("nan"), 0.0,
+                    DISCREPANT)]
+    curves = {
+        "reference": Curve(reference["energy"], reference["frequency"], reference.get("step")),
+        "build": Curve(table["curve"]["energy"], table["curve"]["frequency"], table.get("step")),
+    }
+    rows, past = _check_curve(name, curves, base)
+    rows += _check_located(name, entry, ds, curves, base)
+    _, segment, _, parameter = curves["reference"].match(curves["build"].points)
+    match = (segment, parameter, past)
+    rows += _check_discrete(name, reference, table, curves, match)
+    rows += _check_markers(name, reference, table, curves)
+    for kind, source in PROJECTIONS.items():
+        if kind in spec["scales"]:
+            rows += _check_projection(name, kind, reference, table[source], spec["scales"][kind], curves, match, base)
+    rows += _check_ranges(name, entry, table, base)
+    rows += _check_bounds(name, entry, table)
     return rows
 
 
 # --------------------------------------------------------------------------- verify
 
 
+def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, shared: dict) -> list[Row]:
+    """Every check of one NetCDF file; a check that fails to run is a discrepant row with its reason."""
+    try:
+        ds = open_checked(path)
+    except ValueError as error:
+        reason = str(error).replace(str(path), "the file")
+        return [Row(listed, "readable NetCDF", "readable", reason[:90], float("nan"), 0.0, DISCREPANT)]
+    relative = listed.removeprefix("results/")
+    located = [v for pair in LOCATED.values() for v in pair]
+    checks = [
+        ("finite values", lambda: _check_finite(listed, ds)),
+        ("structure", lambda: _check_structure(listed, ds, entry, shared)),
+        ("global attributes", lambda: _check_attributes(listed, ds, entry)),
+        ("values off the curve", lambda: _check_other_values(listed, ds, entry, skip=located + (
+            [str(v) for v in ds.variables if ds[v].dims == ("regime",)] if relative == REGIMES_NC else []))),
+    ]
+    if relative == REGIMES_NC:
+        checks.append(("regimes", lambda: _regime_rows(listed, ds, reference_dir)))
+    if entry.get("curve"):
+        checks.append(("curve", lambda: _check_points(listed, ds, entry, reference_dir)))
+    rows = []
+    for label, check in checks:
+        try:
+            with np.errstate(all="ignore"):  # a damaged value overflows; the rows say where
+                rows += check()
+        except Exception as error:  # a damaged file must not stop the table: the check fails, with why
+            rows.append(Row(listed, f"{label}: check could not run", "-", f"{type(error).__name__}: {error}"[:90],
+                            float("nan"), 0.0, DISCREPANT))
+    return rows
+
+
+def _load_reference(reference: Path) -> dict:
+    if not (reference / "MANIFEST.sha256").is_file():
+        raise ValueError(f"no reference manifest {reference / 'MANIFEST.sha256'}: regenerate it with "
+                         f"`python -m nnmstop.pipeline.verify --update-reference RESULTS_DIR --reference {reference}`")
+    try:
+        document = json.loads((reference / "files.json").read_text())
+    except (OSError, ValueError) as error:
+        raise ValueError(f"{reference / 'files.json'} cannot be read ({error}): regenerate the reference") from None
+    if document.get("format") != REFERENCE_FORMAT or not {"shared", "files"} <= set(document):
+        raise ValueError(f"{reference}/files.json is not of the format this verifier reads ({REFERENCE_FORMAT}): "
+                         "regenerate the reference (--update-reference)")
+    return document
+
+
 def verify(results_dir, reference_dir="reference") -> list[Row]:
     """Compare the build in ``results_dir`` with ``reference_dir``; one :class:`Row` per check.
 
     Every file of the reference manifest is first compared byte for byte, then without
-    its provenance attributes (:func:`data_digest`); a file that still differs is
-    checked by what it holds (curve, located points, table); a file with no
-    such check, or missing, is discrepant.
+    its provenance attributes (:func:`data_digest`); a file that still differs is checked
+    variable by variable; a file missing, unreadable or with no such check is discrepant.
 
     Raises
     ------
@@ -481,62 +764,50 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
     """
     results = _results_dir(results_dir)
     reference = Path(reference_dir)
-    if not (reference / "MANIFEST.sha256").is_file():
-        raise ValueError(f"no reference manifest {reference / 'MANIFEST.sha256'}: regenerate it with "
-                         f"`python -m nnmstop.pipeline.verify --update-reference RESULTS_DIR --reference {reference}`")
-    tolerances = json.loads((reference / "tolerances.json").read_text())
+    document = _load_reference(reference)
     data_digests = {line.split("  ")[1]: line.split("  ")[0] for line in (reference / "DATA.sha256").read_text().splitlines()}
-    located_ref = _read_csv(reference / "located.csv") if (reference / "located.csv").stat().st_size else {}
     rows = []
     for line in (reference / "MANIFEST.sha256").read_text().splitlines():
         digest, listed = line.split("  ")
         relative = listed.removeprefix("results/")
         path = results / relative
         if not path.is_file():
-            rows.append(Row(listed, "file", "present", "missing", float("nan"), 0.0, "discrepant"))
+            rows.append(Row(listed, "file", "present", "missing", float("nan"), 0.0, DISCREPANT))
             continue
         if _sha256(path) == digest:
             rows.append(Row(listed, "file (SHA-256)", digest[:12], digest[:12], 0.0, 0.0, "identical"))
             continue
-        if data_digest(path) == data_digests.get(listed):
+        try:
+            same_data = data_digest(path) == data_digests.get(listed)
+        except Exception:  # unreadable: the checks below say why
+            same_data = False
+        if same_data:
             rows.append(Row(listed, "content without provenance (SHA-256)", data_digests[listed][:12],
                             data_digests[listed][:12], 0.0, 0.0, "identical data"))
-            continue
-        if relative == REGIMES_CSV:
-            with xr.open_dataset(results / REGIMES_CSV.replace(".csv", ".nc")) as regimes:
-                build_sampling = _regime_sampling(regimes)
-            rows += _check_regimes(_read_csv(reference / "nnm1_regimes.csv"), _read_csv(reference / "nnm1_regimes_sampling.csv"),
-                                   _read_csv(path), build_sampling)
-        elif relative == COMPARE_NC:
-            with xr.open_dataset(path) as ds:
-                rows += _check_compare(reference, ds, tolerances)
-        elif relative == REGIMES_CSV.replace(".csv", ".nc"):
-            rows.append(Row(listed, "regime dataset: checked through its table", "-", "-", 0.0, 0.0, "within tolerance"))
-        elif "/stages/" in relative:
-            branch, stage = path.stem.split("_stage")
-            ref_table = _read_csv(reference / "curves" / _curve_name(f"hbm/{branch}.nc"))
-            keep = ref_table["stage"] == int(stage)
-            with xr.open_dataset(path) as ds:
-                rows += _check_curve(listed, {k: v[keep] for k, v in ref_table.items()}, _curve_table(ds),
-                                     tolerances[f"hbm/{branch}.nc"])
-        elif _is_curve(relative) and relative in tolerances:
-            ref_table = _read_csv(reference / "curves" / _curve_name(relative))
-            with xr.open_dataset(path) as ds:
-                build_table, build_located = _curve_table(ds), _located(ds)
-            base = tolerances[relative]
-            ref_located = [] if not located_ref else [
-                (k, e, f) for file, k, e, f in zip(located_ref["file"], located_ref["kind"], located_ref["energy"], located_ref["frequency"])
-                if file == relative]
-            rows += _check_curve(listed, ref_table, build_table, base)
-            rows += _check_located(listed, ref_located, build_located, ref_table, build_table, base)
+        elif relative == REGIMES_CSV:
+            rows += _regime_table_rows(listed, path, results, reference)
+        elif relative in document["files"]:
+            rows += _check_dataset(listed, path, document["files"][relative], reference, document["shared"])
         else:
-            rows.append(Row(listed, "file (SHA-256)", digest[:12], _sha256(path)[:12], float("nan"), 0.0, "discrepant"))
+            rows.append(Row(listed, "file (SHA-256)", digest[:12], _sha256(path)[:12], float("nan"), 0.0, DISCREPANT))
     return rows
+
+
+def _regime_table_rows(listed: str, path: Path, results: Path, reference: Path) -> list[Row]:
+    try:
+        table = read_csv(path)
+        with xr.open_dataset(results / REGIMES_NC) as regimes:
+            build_sampling = _regime_sampling(regimes.load())
+        return _check_regimes(listed, read_csv(reference / "nnm1_regimes.csv"),
+                              read_csv(reference / "nnm1_regimes_sampling.csv"), table, build_sampling)
+    except Exception as error:
+        return [Row(listed, "regime table: check could not run", "-", f"{type(error).__name__}: {error}"[:70],
+                    float("nan"), 0.0, DISCREPANT)]
 
 
 def file_verdicts(rows: list[Row]) -> dict[str, str]:
     """One verdict per file: the worst of its rows."""
-    order = ("identical", "identical data", "within tolerance", "discrepant")
+    order = ("identical", "identical data", WITHIN, DISCREPANT)
     verdicts: dict[str, str] = {}
     for row in rows:
         verdicts[row.file] = max(verdicts.get(row.file, "identical"), row.verdict, key=order.index)
@@ -547,13 +818,18 @@ def format_table(rows: list[Row]) -> str:
     """The rows as a text table, then the counts of files per verdict."""
     lines = ["Distances are in (ln E, ln f): relative differences. Curve tolerance = accuracy of the stored orbits "
              "(ANM Newton threshold, or 1e-9 for exact orbits) + interpolation error of the curve (leave-one-out "
-             "cubic deviation of the stored points around). Ends: one continuation step.",
+             "cubic deviation of the stored points around). Ends: one continuation step. Variables along the curve "
+             "are compared at matched positions (docs/reproducibility.md).",
              f"{'file':45s} {'quantity':70s} {'reference':32s} {'this build':32s} {'difference':>11s} {'tolerance':>10s}  verdict"]
     for r in rows:
         lines.append(f"{r.file:45s} {r.quantity:70s} {r.reference:32s} {r.build:32s} {r.difference:11.3e} {r.tolerance:10.3e}  {r.verdict}")
-    verdicts = list(file_verdicts(rows).values())
-    lines.append(f"files: {verdicts.count('identical')} identical, {verdicts.count('identical data')} identical data "
-                 f"(other git commit), {verdicts.count('within tolerance')} within tolerance, {verdicts.count('discrepant')} discrepant")
+    verdicts = file_verdicts(rows)
+    counts = list(verdicts.values())
+    lines.append(f"files: {counts.count('identical')} identical, {counts.count('identical data')} identical data "
+                 f"(other git commit), {counts.count(WITHIN)} within tolerance, {counts.count(DISCREPANT)} discrepant")
+    discrepant = sorted(name for name, verdict in verdicts.items() if verdict == DISCREPANT)
+    if discrepant:
+        lines.append("discrepant: " + ", ".join(discrepant))
     return "\n".join(lines)
 
 
@@ -573,7 +849,7 @@ def main(argv=None) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 2
     print(format_table(rows))
-    return 1 if any(r.verdict == "discrepant" for r in rows) else 0
+    return 1 if any(r.verdict == DISCREPANT for r in rows) else 0
 
 
 if __name__ == "__main__":

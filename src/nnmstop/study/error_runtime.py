@@ -28,15 +28,19 @@ from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.two_dof import ModelParameters
+from nnmstop.netcdf import check_up_to_date
 from nnmstop.settings import StageOneRun, StudySettings
 from nnmstop.study.runs import (
     ERROR_KEYS,
+    Status,
+    case_status,
+    flags,
+    floats,
     hbm_orbit_differences,
     match_energies,
     path_error,
     run_stage_one,
-    string_variable,
-    variable,
+    texts,
 )
 
 __all__ = [
@@ -47,18 +51,6 @@ __all__ = [
     "exact_cost_dataset",
     "gather_error_vs_runtime",
 ]
-
-_PER_ENERGY = {
-    "relative_frequency_difference": ("relative frequency difference (regularized minus exact) / exact", "1"),
-    "max_x_difference": ("largest |x_regularized - x_exact| over the period", "1"),
-    "max_u_difference": ("largest |u_regularized - u_exact| over the period", "1"),
-    "max_force_difference": (
-        "largest |f_HBM - f_piecewise(x_exact)| over the period (regularized contact force series vs the "
-        "piecewise-linear law on the exact orbit)",
-        "1",
-    ),
-    "force_max_exact": ("largest contact force over the exact orbit", "1"),
-}
 
 
 # --------------------------------------------------------------------------- settings
@@ -86,9 +78,7 @@ def case_run(settings: StudySettings, harmonics: int, eta: float, order=None, to
         continuation = replace(continuation, order=int(order))
     if tolerance is not None:
         continuation = replace(continuation, tolerance=float(tolerance))
-    return replace(
-        run, harmonics=int(harmonics), params=replace(run.params, eta=float(eta)), continuation=continuation
-    )
+    return replace(run, harmonics=int(harmonics), params=replace(run.params, eta=float(eta)), continuation=continuation)
 
 
 def _load_average() -> float:
@@ -133,8 +123,9 @@ def error_case_dataset(
         f", order {order}, tolerance {tolerance:g})" if order is not None else ")"
     )
     run = run_stage_one(case, label=label)
-    n_unknowns = 4 * (int(harmonics) + 1) + 1
-    compared, failure = False, run.failure
+    n_unknowns = case.system().n_unknowns
+    failure = run.failure
+    energy_status = np.full(energies.size, run.status, dtype=np.int8)
     values = {key: np.full(energies.size, np.nan) for key in ERROR_KEYS}
     orbits = np.full((energies.size, n_unknowns), np.nan)
     t_exact = t_reg = time_residual = path_residual = path_frequency = np.nan
@@ -142,38 +133,41 @@ def error_case_dataset(
         matched = match_energies(exact, run.dataset, energies, settings.phase_samples, settings.end_margin)
         values, t_exact, t_reg = matched.values, matched.exact_seconds_per_orbit, matched.regularized_seconds_per_orbit
         orbits = _orbit_matrix(matched.orbits, n_unknowns)
-        compared = matched.complete
+        energy_status = matched.status
         failure = matched.failure and f"not compared over the whole study range: {matched.failure}"
         time_residual = float(run.dataset["time_residual"].max())
         path_residual, path_frequency = path_error(case.system(), run.dataset)
+    status = case_status(run.status, energy_status)
     stats = run.stats
     count = (lambda name: getattr(stats, name)) if stats is not None else (lambda name: -1)
     e = ("energy",)
     data = {
-        "converged": ((), run.converged, {"long_name": "the continuation reached the end of stage 1 with every orbit resolved", "units": "1"}),
-        "compared": ((), compared, {"long_name": "converged and matched with the exact orbits at every study energy", "units": "1"}),
-        "failure": string_variable((), failure, "why the setting did not converge or was not compared ('' if it was)"),
-        "runtime": variable((), run.runtime, "wall-clock time of the continuation of NNM1 stage 1 (start point included)", "s"),
-        "cpu_time": variable((), run.cpu_time, "CPU time of the continuation of NNM1 stage 1 (all threads)", "s"),
-        "load_average": variable((), load, "1-minute load average of the machine when the job started", "1"),
-        "steps": ((), np.int32(count("steps")), {"long_name": "ANM steps (-1: unknown, the run failed)", "units": "1"}),
-        "factorizations": ((), np.int32(count("factorizations")), {"long_name": "LU factorizations of the bordered Jacobian (-1: unknown, the run failed)", "units": "1"}),
-        "newton_iterations": ((), np.int32(count("newton_iterations")), {"long_name": "Newton corrections of step ends (-1: unknown)", "units": "1"}),
-        "truncation": variable((), run.truncation, "largest truncation indicator met along the run (top share of x'' or f, at least two harmonics)"),
-        "time_residual": variable((), time_residual, "largest residual in time of Eq. (7) along the branch, relative to the largest restoring force"),
-        "path_residual": variable((), path_residual, "largest relative algebraic residual of the HBM system over the branch points (interior points of ANM steps included)"),
-        "path_frequency_error": variable((), path_frequency, "relative frequency shift of the worst branch point (largest residual) from the HBM solution at the same amplitude"),
-        "exact_seconds_per_orbit": variable((), t_exact, "mean time to solve one exact orbit at a prescribed energy (Newton on the closed form, validity checks)", "s"),
-        "regularized_seconds_per_orbit": variable((), t_reg, "mean time to solve one HBM orbit at a prescribed energy (Newton from the branch)", "s"),
-        "orbit": variable(("energy", "unknown"), orbits, "HBM unknown vector of the matched regularized orbit (layout of nnmstop.hbm.system, cosine basis)"),
+        "status": ((), flags(status)),
+        "energy_status": (e, flags(energy_status)),
+        "converged": ((), status not in (Status.UNRESOLVED, Status.CONTINUATION_ENDED)),
+        "compared": ((), status == Status.COMPUTED),
+        "failure": ((), texts(failure)),
+        "runtime": ((), floats(run.runtime)),
+        "cpu_time": ((), floats(run.cpu_time)),
+        "load_average": ((), floats(load)),
+        "steps": ((), np.int32(count("steps"))),
+        "factorizations": ((), np.int32(count("factorizations"))),
+        "newton_iterations": ((), np.int32(count("newton_iterations"))),
+        "truncation": ((), floats(run.truncation)),
+        "time_residual": ((), floats(time_residual)),
+        "path_residual": ((), floats(path_residual)),
+        "path_frequency_error": ((), floats(path_frequency)),
+        "exact_seconds_per_orbit": ((), floats(t_exact)),
+        "regularized_seconds_per_orbit": ((), floats(t_reg)),
+        "orbit": (("energy", "unknown"), floats(orbits)),
     }
-    for key, (long_name, units) in _PER_ENERGY.items():
-        data[key] = variable(e, values[key], long_name, units)
+    for key in ERROR_KEYS:
+        data[key] = (e, floats(values[key]))
     ds = xr.Dataset(
         data,
         coords={
-            "energy": ("energy", energies, {"long_name": "matched total energy", "units": "1"}),
-            "unknown": ("unknown", np.arange(n_unknowns), {"long_name": "index into the HBM unknown vector", "units": "1"}),
+            "energy": ("energy", energies),
+            "unknown": ("unknown", np.arange(n_unknowns)),
         },
     )
     ds.attrs = _case_common_attrs(case)
@@ -205,39 +199,47 @@ def reference_dataset(settings: StudySettings, exact: xr.Dataset, eta: float) ->
     values = {key: np.full(energies.size, np.nan) for key in ERROR_KEYS}
     orbits = np.full((energies.size, n_unknowns), np.nan)
     levels = np.full(energies.size, np.nan)
-    failure = seed.failure and f"seed continuation failed: {seed.failure}"
+    energy_status = np.full(energies.size, seed.status, dtype=np.int8)
+    failure = seed.failure and f"seed continuation ended early: {seed.failure}"
     if seed.converged:
         matched = match_energies(
             exact, _pad_harmonics(seed.dataset, H_ref), energies, settings.phase_samples, settings.end_margin
         )
-        values = matched.values
+        values, energy_status, failure = matched.values, matched.status, matched.failure
         orbits = _orbit_matrix(matched.orbits, n_unknowns)
-        failure = matched.failure
-        if matched.system is not None:
-            levels = np.array([np.nan if U is None else matched.system.truncation(U) for U in matched.orbits])
-            worst = np.nanmax(levels) if np.isfinite(levels).any() else np.nan
-            if not failure and worst > seed_run.max_truncation:
-                failure = (
-                    f"the reference with H_ref = {H_ref} harmonics is not resolved itself (truncation indicator "
-                    f"{worst:.3g} > {seed_run.max_truncation:g}); raise study.error_runtime.reference_harmonics"
-                )
+        levels = np.array([np.nan if U is None else matched.system.truncation(U) for U in matched.orbits])
+        # an orbit its harmonics do not resolve gives no number, only its indicator
+        unresolved = np.isfinite(levels) & (levels > seed_run.max_truncation)
+        if unresolved.any():
+            energy_status[unresolved] = Status.UNRESOLVED
+            for key in values:
+                values[key][unresolved] = np.nan
+            orbits[unresolved] = np.nan
+            failure = failure or (
+                f"the reference with H_ref = {H_ref} harmonics is not resolved itself at energy "
+                f"{energies[unresolved][0]:g} (truncation indicator {levels[unresolved][0]:.3g} > "
+                f"{seed_run.max_truncation:g}); raise study.error_runtime.reference_harmonics"
+            )
+    status = case_status(seed.status, energy_status)
     runtime = time.perf_counter() - start
-    ok = not failure
+    e = ("energy",)
     data = {
-        "converged": ((), ok, {"long_name": "every reference orbit was found and is resolved", "units": "1"}),
-        "failure": string_variable((), failure, "why the reference is incomplete ('' if it is complete)"),
-        "runtime": variable((), runtime, "wall-clock time of the reference (seed continuation and Newton at H_ref)", "s"),
-        "load_average": variable((), load, "1-minute load average of the machine when the job started", "1"),
-        "truncation": variable(("energy",), levels, "truncation indicator of each reference orbit"),
-        "orbit": variable(("energy", "unknown"), orbits, "HBM unknown vector of the reference orbit (H_ref harmonics, cosine basis)"),
+        "status": ((), flags(status)),
+        "energy_status": (e, flags(energy_status)),
+        "converged": ((), status == Status.COMPUTED),
+        "failure": ((), texts(failure)),
+        "runtime": ((), floats(runtime)),
+        "load_average": ((), floats(load)),
+        "truncation": (e, floats(levels)),
+        "orbit": (("energy", "unknown"), floats(orbits)),
     }
-    for key, (long_name, units) in _PER_ENERGY.items():
-        data[key] = variable(("energy",), values[key], "reference orbit vs exact: " + long_name, units)
+    for key in ERROR_KEYS:
+        data[key] = (e, floats(values[key]))
     ds = xr.Dataset(
         data,
         coords={
-            "energy": ("energy", energies, {"long_name": "matched total energy", "units": "1"}),
-            "unknown": ("unknown", np.arange(n_unknowns), {"long_name": "index into the HBM unknown vector", "units": "1"}),
+            "energy": ("energy", energies),
+            "unknown": ("unknown", np.arange(n_unknowns)),
         },
     )
     ds.attrs = {**_case_common_attrs(replace(seed_run, harmonics=H_ref)), "seed_harmonics": H_seed}
@@ -270,12 +272,12 @@ def exact_cost_dataset(params: ModelParameters, exact, phase_samples: int, repea
         history_times.append((time.perf_counter() - start) / 10)
     n = len(family)
     data = {
-        "family_seconds_per_orbit": variable((), min(family_times) / n, "time per orbit of the pseudo-arclength continuation of the exact family (closed form, validity checks, end location)", "s"),
-        "family_orbits": ((), np.int32(n), {"long_name": "orbits of the exact family", "units": "1"}),
-        "family_seconds": variable((), min(family_times), "time to follow the whole exact family (fastest of the repeats)", "s"),
-        "time_history_seconds": variable((), min(history_times), f"time to evaluate one exact orbit on {samples} phases (closed form)", "s"),
-        "max_residual": variable((), float(family.residual.max()), "largest residual of the quarter-period equations along the family"),
-        "load_average": variable((), load, "1-minute load average of the machine when the job started", "1"),
+        "family_seconds_per_orbit": ((), floats(min(family_times) / n)),
+        "family_orbits": ((), np.int32(n)),
+        "family_seconds": ((), floats(min(family_times))),
+        "time_history_seconds": ((), floats(min(history_times))),
+        "max_residual": ((), floats(float(family.residual.max()))),
+        "load_average": ((), floats(load)),
     }
     ds = xr.Dataset(data)
     ds.attrs = {**params.as_attrs(), "repeats": int(repeats), "measurement": "run times measured on this machine"}
@@ -287,13 +289,13 @@ def exact_cost_dataset(params: ModelParameters, exact, phase_samples: int, repea
 
 def _check_case(ds: xr.Dataset, label: str, settings: StudySettings, expect: dict) -> None:
     """Refuse a case dataset computed with other settings (a stale file)."""
-    for key, value in expect.items():
-        stored = ds.attrs.get(key)
-        if stored is None or not np.isclose(float(stored), float(value), rtol=1e-12, atol=0):
-            raise ValueError(f"{label}: {key} = {stored!r} in the dataset but {value!r} expected (stale study file?)")
+    check_up_to_date(ds, expect, source=label)
     energies = np.asarray(settings.energies, dtype=float)
     if ds.sizes.get("energy") != energies.size or not np.allclose(ds["energy"].values, energies, rtol=1e-12, atol=0):
-        raise ValueError(f"{label}: computed at the energies {ds['energy'].values.tolist()}, the configuration asks for {energies.tolist()}")
+        raise ValueError(
+            f"{label}: computed at the energies {ds['energy'].values.tolist()}, the configuration asks for "
+            f"{energies.tolist()}"
+        )
 
 
 def _system(settings: StudySettings, harmonics: int, eta: float) -> HarmonicBalanceSystem:
@@ -307,6 +309,126 @@ def _max_abs(values, axis=-1):
     return out
 
 
+def _grid(shape, fill=np.nan, dtype=float):
+    return np.full(shape, fill, dtype=dtype)
+
+
+def _references(settings: StudySettings, references: list) -> dict:
+    """The reference of each ``eta`` (checked), its per-energy errors against exact and its status."""
+    sweep, run = settings.sweep(), settings.run
+    base = {k: getattr(run.params, k) for k in ("alpha", "beta", "delta")}
+    for eta, ds in zip(sweep.eta, references):
+        _check_case(
+            ds, f"reference of eta = {eta:g}", settings, {**base, "eta": eta, "harmonics": sweep.reference_harmonics}
+        )
+    levels = [r["truncation"].values for r in references]
+    return {
+        "datasets": references,
+        "status": np.array([int(r["status"]) for r in references], dtype=np.int8),
+        "energy_status": np.array([r["energy_status"].values for r in references], dtype=np.int8),
+        "failure": [str(r["failure"].values) for r in references],
+        "runtime": np.array([float(r["runtime"]) for r in references]),
+        "truncation": np.array([np.max(v[np.isfinite(v)]) if np.isfinite(v).any() else np.nan for v in levels]),
+        "values": {key: np.array([r[key].values for r in references]) for key in ERROR_KEYS},
+    }
+
+
+_CASE_SCALARS = (
+    "runtime",
+    "cpu_time",
+    "load_average",
+    "truncation",
+    "time_residual",
+    "path_residual",
+    "path_frequency_error",
+    "exact_seconds_per_orbit",
+    "regularized_seconds_per_orbit",
+)
+_CASE_COUNTS = ("steps", "factorizations", "newton_iterations")
+
+
+def _cases(settings: StudySettings, cases: list, refs: dict) -> dict:
+    """The (H, eta) grid: each case's scalars, status, per-energy errors, and the truncation part
+    (the orbit with H against the reference orbit of the same eta, at each energy both have)."""
+    sweep, run = settings.sweep(), settings.run
+    Hs, etas, nE = sweep.harmonics, sweep.eta, len(settings.energies)
+    shape = (len(Hs), len(etas))
+    out = {
+        "scalars": {k: _grid(shape) for k in _CASE_SCALARS},
+        "counts": {k: _grid(shape, -1, np.int32) for k in _CASE_COUNTS},
+        "status": _grid(shape, 0, np.int8),
+        "energy_status": _grid(shape + (nE,), 0, np.int8),
+        "failure": np.full(shape, "", dtype=object),
+        "per_energy": {key: _grid(shape + (nE,)) for key in ERROR_KEYS},
+        "truncation_part": {key: _grid(shape + (nE,)) for key in ERROR_KEYS if key != "force_max_exact"},
+    }
+    base = {k: getattr(run.params, k) for k in ("alpha", "beta", "delta")}
+    expect = {**base, "order": run.continuation.order, "tolerance": run.continuation.tolerance}
+    datasets = iter(cases)
+    for j, eta in enumerate(etas):
+        ref_system = _system(settings, sweep.reference_harmonics, eta)
+        reference = refs["datasets"][j]
+        for i, H in enumerate(Hs):
+            ds = next(datasets)
+            _check_case(ds, f"case H = {H}, eta = {eta:g}", settings, {**expect, "eta": eta, "harmonics": H})
+            out["status"][i, j], out["failure"][i, j] = int(ds["status"]), str(ds["failure"].values)
+            out["energy_status"][i, j] = ds["energy_status"].values
+            for key in _CASE_SCALARS:
+                out["scalars"][key][i, j] = float(ds[key])
+            for key in _CASE_COUNTS:
+                out["counts"][key][i, j] = int(ds[key])
+            for key in ERROR_KEYS:
+                out["per_energy"][key][i, j] = ds[key].values
+            system = _system(settings, H, eta)
+            both = (ds["energy_status"].values == Status.COMPUTED) & (
+                reference["energy_status"].values == Status.COMPUTED
+            )
+            for k in np.flatnonzero(both):
+                U, U_ref = ds["orbit"].values[k], reference["orbit"].values[k]
+                diff = hbm_orbit_differences(system, U, ref_system, U_ref, settings.phase_samples)
+                for key in out["truncation_part"]:
+                    out["truncation_part"][key][i, j, k] = diff[key]
+    return out
+
+
+def _anm_cases(settings: StudySettings, anm_cases: list) -> dict:
+    """The (order, tolerance) grid at ``anm_harmonics`` and ``model.eta``."""
+    sweep, run = settings.sweep(), settings.run
+    shape = (len(sweep.anm_orders), len(sweep.anm_tolerances))
+    scalars = (
+        "runtime",
+        "cpu_time",
+        "load_average",
+        "path_residual",
+        "path_frequency_error",
+        "time_residual",
+        "truncation",
+    )
+    out = {
+        "scalars": {k: _grid(shape) for k in scalars},
+        "counts": {k: _grid(shape, -1, np.int32) for k in _CASE_COUNTS},
+        "errors": {key: _grid(shape) for key in ("relative_frequency_difference", "max_x_difference")},
+        "status": _grid(shape, 0, np.int8),
+        "failure": np.full(shape, "", dtype=object),
+    }
+    base = {k: getattr(run.params, k) for k in ("alpha", "beta", "delta", "eta")}
+    datasets = iter(anm_cases)
+    for i, order in enumerate(sweep.anm_orders):
+        for j, tol in enumerate(sweep.anm_tolerances):
+            ds = next(datasets)
+            expect = {**base, "harmonics": sweep.anm_harmonics, "order": order, "tolerance": tol}
+            _check_case(ds, f"ANM case order {order}, tolerance {tol:g}", settings, expect)
+            out["status"][i, j], out["failure"][i, j] = int(ds["status"]), str(ds["failure"].values)
+            for key in scalars:
+                out["scalars"][key][i, j] = float(ds[key])
+            for key in _CASE_COUNTS:
+                out["counts"][key][i, j] = int(ds[key])
+            if int(ds["status"]) == Status.COMPUTED:
+                for key in out["errors"]:
+                    out["errors"][key][i, j] = _max_abs(ds[key].values)
+    return out
+
+
 def gather_error_vs_runtime(
     settings: StudySettings, cases: list, anm_cases: list, references: list, exact_cost: xr.Dataset
 ) -> xr.Dataset:
@@ -316,12 +438,6 @@ def gather_error_vs_runtime(
     order of :func:`sweep_cases`; ``exact_cost`` the dataset of :func:`exact_cost_dataset`.
     Each is checked against the setting it stands for (a stale file is refused).
     """
-    sweep = settings.sweep()
-    Hs, etas, orders, tols = list(sweep.harmonics), list(sweep.eta), list(sweep.anm_orders), list(sweep.anm_tolerances)
-    energies = np.asarray(settings.energies, dtype=float)
-    nE, nH, nEta = energies.size, len(Hs), len(etas)
-    H_ref = sweep.reference_harmonics
-    run = settings.run
     expected = sweep_cases(settings)
     given = {"cases": list(cases), "anm_cases": list(anm_cases), "references": list(references)}
     for kind, datasets in given.items():
@@ -329,149 +445,142 @@ def gather_error_vs_runtime(
             raise ValueError(
                 f"{len(datasets)} {kind} datasets given, the configuration's sweep has {len(expected[kind])}"
             )
-    base = {k: getattr(run.params, k) for k in ("alpha", "beta", "delta")}
-    order, tolerance = run.continuation.order, run.continuation.tolerance
+    refs = _references(settings, given["references"])
+    grid = _cases(settings, given["cases"], refs)
+    anm = _anm_cases(settings, given["anm_cases"])
+    compared = grid["status"] == Status.COMPUTED
+    if not compared.any():
+        raise ValueError("no setting of the sweep was compared at every study energy: nothing to summarize")
+    ds = xr.Dataset(
+        {
+            **_case_variables(grid),
+            **_split_variables(settings, grid, refs),
+            **_anm_variables(anm),
+            **_exact_cost_variables(grid, exact_cost),
+        },
+        coords=_coordinates(settings),
+    )
+    ds.attrs = _gather_attrs(settings)
+    return ds
 
-    # references (regularization part)
-    refs = []
-    for eta, ds in zip(etas, given["references"]):
-        _check_case(ds, f"reference of eta = {eta:g}", settings, {**base, "eta": eta, "harmonics": H_ref})
-        refs.append(ds)
-    reg_part = {key: np.array([r[key].values for r in refs]) for key in ERROR_KEYS}
 
-    # the (H, eta) grid
-    shape = (nH, nEta)
-    scalars = {k: np.full(shape, np.nan) for k in ("runtime", "cpu_time", "load_average", "truncation", "time_residual", "path_residual", "path_frequency_error", "exact_seconds_per_orbit", "regularized_seconds_per_orbit")}
-    counts = {k: np.full(shape, -1, dtype=np.int32) for k in ("steps", "factorizations", "newton_iterations")}
-    converged = np.zeros(shape, dtype=bool)
-    compared = np.zeros(shape, dtype=bool)
-    failure = np.full(shape, "", dtype=object)
-    per_energy = {key: np.full(shape + (nE,), np.nan) for key in ERROR_KEYS}
-    trunc_part = {key: np.full(shape + (nE,), np.nan) for key in ERROR_KEYS if key != "force_max_exact"}
-    case_datasets = iter(given["cases"])
-    for j, eta in enumerate(etas):
-        ref_system = _system(settings, H_ref, eta)
-        for i, H in enumerate(Hs):
-            ds = next(case_datasets)
-            _check_case(ds, f"case H = {H}, eta = {eta:g}", settings, {**base, "eta": eta, "harmonics": H, "order": order, "tolerance": tolerance})
-            converged[i, j], compared[i, j] = bool(ds["converged"]), bool(ds["compared"])
-            failure[i, j] = str(ds["failure"].values)
-            for key in scalars:
-                scalars[key][i, j] = float(ds[key])
-            for key in counts:
-                counts[key][i, j] = int(ds[key])
-            for key in ERROR_KEYS:
-                per_energy[key][i, j] = ds[key].values
-            system = _system(settings, H, eta)
-            for k in range(nE):
-                U, U_ref = ds["orbit"].values[k], refs[j]["orbit"].values[k]
-                if np.all(np.isfinite(U)) and np.all(np.isfinite(U_ref)):
-                    diff = hbm_orbit_differences(system, U, ref_system, U_ref, settings.phase_samples)
-                    for key in trunc_part:
-                        trunc_part[key][i, j, k] = diff[key]
+def _summary(values, status):
+    """Largest |value| over the energies, where every energy was compared (NaN elsewhere)."""
+    return np.where(status == Status.COMPUTED, _max_abs(values), np.nan)
 
-    # the order/tolerance grid
-    ashape = (len(orders), len(tols))
-    anm = {k: np.full(ashape, np.nan) for k in ("runtime", "cpu_time", "load_average", "path_residual", "path_frequency_error", "time_residual", "truncation")}
-    anm_counts = {k: np.full(ashape, -1, dtype=np.int32) for k in ("steps", "factorizations", "newton_iterations")}
-    anm_err = {key: np.full(ashape, np.nan) for key in ("relative_frequency_difference", "max_x_difference")}
-    anm_conv = np.zeros(ashape, dtype=bool)
-    anm_failure = np.full(ashape, "", dtype=object)
-    anm_datasets = iter(given["anm_cases"])
-    for i, anm_order in enumerate(orders):
-        for j, tol in enumerate(tols):
-            ds = next(anm_datasets)
-            _check_case(ds, f"ANM case order {anm_order}, tolerance {tol:g}", settings, {**base, "eta": run.params.eta, "harmonics": sweep.anm_harmonics, "order": anm_order, "tolerance": tol})
-            anm_conv[i, j] = bool(ds["converged"])
-            anm_failure[i, j] = str(ds["failure"].values)
-            for key in anm:
-                anm[key][i, j] = float(ds[key])
-            for key in anm_counts:
-                anm_counts[key][i, j] = int(ds[key])
-            if bool(ds["compared"]):
-                for key in anm_err:
-                    anm_err[key][i, j] = _max_abs(ds[key].values)
 
-    cost = exact_cost
-
-    # summaries: maxima over the energies, only where every energy was compared
-    def summary(values):
-        out = _max_abs(values)
-        return np.where(compared, out, np.nan)
-
-    relative_force = per_energy["max_force_difference"] / per_energy["force_max_exact"]
-    hz, he = ("harmonics", "eta"), ("harmonics", "eta", "energy")
+def _run_variables(dims: tuple, grid: dict, prefix: str = "", label: str = "") -> dict:
+    """What every grid of settings stores about its runs: status, failure, times and counts, residuals
+    (names ``prefix + name``, long names ``label + long name``)."""
+    status, scalars, counts = grid["status"], grid["scalars"], grid["counts"]
+    ended = np.isin(status, (Status.UNRESOLVED, Status.CONTINUATION_ENDED))
     data = {
-        "converged": (hz, converged, {"long_name": "the continuation reached the end of NNM1 stage 1 with every orbit resolved", "units": "1"}),
-        "compared": (hz, compared, {"long_name": "converged and matched with the exact orbits at every study energy", "units": "1"}),
-        "failure": string_variable(hz, failure.astype(str), "why the setting did not converge or was not compared ('' if it was)"),
-        "runtime": variable(hz, scalars["runtime"], "wall-clock time of the continuation of NNM1 stage 1", "s"),
-        "cpu_time": variable(hz, scalars["cpu_time"], "CPU time of the continuation of NNM1 stage 1", "s"),
-        "load_average": variable(hz, scalars["load_average"], "1-minute load average when the job started (run times are measurements)"),
-        "steps": (hz, counts["steps"], {"long_name": "ANM steps (-1: unknown, the run failed)", "units": "1"}),
-        "factorizations": (hz, counts["factorizations"], {"long_name": "LU factorizations of the bordered Jacobian (-1: unknown, the run failed)", "units": "1"}),
-        "newton_iterations": (hz, counts["newton_iterations"], {"long_name": "Newton corrections of ANM step ends (-1: unknown)", "units": "1"}),
-        "truncation": variable(hz, scalars["truncation"], "largest truncation indicator along the run (top share of x'' or f, at least two harmonics)"),
-        "time_residual": variable(hz, scalars["time_residual"], "largest residual in time of Eq. (7) along the branch, relative to the largest restoring force"),
-        "path_residual": variable(hz, scalars["path_residual"], "largest relative algebraic residual over the branch points (ANM interior points included)"),
-        "path_frequency_error": variable(hz, scalars["path_frequency_error"], "relative frequency shift of the worst branch point from the HBM solution curve"),
-        "regularized_seconds_per_orbit": variable(hz, scalars["regularized_seconds_per_orbit"], "mean time to solve one HBM orbit at a prescribed energy", "s"),
-        "frequency_error": variable(hz, summary(per_energy["relative_frequency_difference"]), "largest |relative frequency error| against the exact orbits over the study energies"),
-        "x_error": variable(hz, summary(per_energy["max_x_difference"]), "largest |x_regularized - x_exact| over the period and the study energies"),
-        "u_error": variable(hz, summary(per_energy["max_u_difference"]), "largest |u_regularized - u_exact| over the period and the study energies"),
-        "force_error": variable(hz, summary(per_energy["max_force_difference"]), "largest |f_HBM - f_piecewise(x_exact)| over the period and the study energies"),
-        "relative_force_error": variable(hz, summary(relative_force), "largest contact-force error relative to the largest exact contact force, over the study energies"),
-        "frequency_error_truncation": variable(hz, summary(trunc_part["relative_frequency_difference"]), "truncation part of the frequency error: largest |f_H - f_Href| / f_Href over the study energies (same eta)"),
-        "x_error_truncation": variable(hz, summary(trunc_part["max_x_difference"]), "truncation part of the x error: largest |x_H - x_Href| over the period and the study energies"),
-        "u_error_truncation": variable(hz, summary(trunc_part["max_u_difference"]), "truncation part of the u error: largest |u_H - u_Href|"),
-        "force_error_truncation": variable(hz, summary(trunc_part["max_force_difference"]), "truncation part of the force error: largest |f_H - f_Href|"),
-        "reference_ratio": (("harmonics",), np.asarray(H_ref / np.asarray(Hs, dtype=float)), {"long_name": "H_ref / H: how much larger the reference is (the truncation part is underestimated when small)", "units": "1"}),
-        "frequency_error_regularization": variable(("eta",), _max_abs(reg_part["relative_frequency_difference"]), "regularization part of the frequency error: largest |relative frequency error| of the H_ref orbits against the exact ones"),
-        "x_error_regularization": variable(("eta",), _max_abs(reg_part["max_x_difference"]), "regularization part of the x error (H_ref orbits against the exact ones)"),
-        "u_error_regularization": variable(("eta",), _max_abs(reg_part["max_u_difference"]), "regularization part of the u error (H_ref orbits against the exact ones)"),
-        "force_error_regularization": variable(("eta",), _max_abs(reg_part["max_force_difference"]), "regularization part of the contact-force error (H_ref orbits against the exact ones)"),
-        "reference_converged": (("eta",), np.array([bool(r["converged"]) for r in refs]), {"long_name": "the H_ref reference of this eta is complete and resolved", "units": "1"}),
-        "reference_failure": string_variable(("eta",), [str(r["failure"].values) for r in refs], "why the reference is incomplete ('' if complete)"),
-        "reference_runtime": variable(("eta",), [float(r["runtime"]) for r in refs], "wall-clock time of the reference of this eta", "s"),
-        "reference_truncation": variable(("eta",), [np.nanmax(r["truncation"].values) if np.isfinite(r["truncation"].values).any() else np.nan for r in refs], "largest truncation indicator of the reference orbits"),
-        "anm_converged": (("order", "tolerance"), anm_conv, {"long_name": "ANM sweep: the continuation converged with every orbit resolved", "units": "1"}),
-        "anm_failure": string_variable(("order", "tolerance"), anm_failure.astype(str), "ANM sweep: why the setting failed ('' if it did not)"),
-        "anm_runtime": variable(("order", "tolerance"), anm["runtime"], "ANM sweep: wall-clock time of NNM1 stage 1", "s"),
-        "anm_cpu_time": variable(("order", "tolerance"), anm["cpu_time"], "ANM sweep: CPU time of NNM1 stage 1", "s"),
-        "anm_load_average": variable(("order", "tolerance"), anm["load_average"], "ANM sweep: 1-minute load average when the job started"),
-        "anm_steps": (("order", "tolerance"), anm_counts["steps"], {"long_name": "ANM sweep: steps (-1: unknown)", "units": "1"}),
-        "anm_factorizations": (("order", "tolerance"), anm_counts["factorizations"], {"long_name": "ANM sweep: LU factorizations (-1: unknown)", "units": "1"}),
-        "anm_newton_iterations": (("order", "tolerance"), anm_counts["newton_iterations"], {"long_name": "ANM sweep: Newton corrections of step ends (-1: unknown)", "units": "1"}),
-        "anm_path_residual": variable(("order", "tolerance"), anm["path_residual"], "ANM sweep: largest relative algebraic residual over the branch points, interior points of the steps included (accuracy of the path itself)"),
-        "anm_path_frequency_error": variable(("order", "tolerance"), anm["path_frequency_error"], "ANM sweep: relative frequency shift of the worst branch point (largest residual) from the HBM solution at the same amplitude (accuracy of the drawn curve)"),
-        "anm_time_residual": variable(("order", "tolerance"), anm["time_residual"], "ANM sweep: largest residual in time of Eq. (7) along the branch"),
-        "anm_frequency_error": variable(("order", "tolerance"), anm_err["relative_frequency_difference"], "ANM sweep: largest |relative frequency error| against the exact orbits (Newton-corrected matched orbits)"),
-        "anm_x_error": variable(("order", "tolerance"), anm_err["max_x_difference"], "ANM sweep: largest x error against the exact orbits (Newton-corrected matched orbits)"),
-        "exact_seconds_per_orbit": variable((), np.nanmedian(scalars["exact_seconds_per_orbit"]) if np.isfinite(scalars["exact_seconds_per_orbit"]).any() else np.nan, "exact solver: median time to solve one orbit at a prescribed energy (Newton on the closed form, validity checks)", "s"),
-        "exact_family_seconds_per_orbit": variable((), float(cost["family_seconds_per_orbit"]), "exact solver: time per orbit of the family continuation", "s"),
-        "exact_time_history_seconds": variable((), float(cost["time_history_seconds"]), cost["time_history_seconds"].attrs["long_name"], "s"),
-        "exact_max_residual": variable((), float(cost["max_residual"]), "exact solver: largest residual of the quarter-period equations along the family"),
+        "status": (dims, flags(status)),
+        "converged": (dims, ~ended),
+        "compared": (dims, status == Status.COMPUTED),
+        "failure": (dims, texts(grid["failure"].astype(str))),
+        "runtime": (dims, floats(scalars["runtime"])),
+        "cpu_time": (dims, floats(scalars["cpu_time"])),
+        "load_average": (dims, floats(scalars["load_average"])),
+        "truncation": (dims, floats(scalars["truncation"])),
+        "time_residual": (dims, floats(scalars["time_residual"])),
+        "path_residual": (dims, floats(scalars["path_residual"])),
+        "path_frequency_error": (dims, floats(scalars["path_frequency_error"])),
     }
-    for key, (long_name, units) in _PER_ENERGY.items():
-        data[f"{key}_at_energy"] = variable(he, per_energy[key], long_name, units)
-        if key != "force_max_exact":
-            data[f"{key}_regularization_at_energy"] = variable(("eta", "energy"), reg_part[key], "regularization part (H_ref vs exact): " + long_name, units)
-            data[f"{key}_truncation_at_energy"] = variable(he, trunc_part[key], "truncation part (H vs H_ref, same eta): " + long_name.replace("regularized", "H").replace("exact", "H_ref"), units)
-    coords = {
-        "harmonics": ("harmonics", np.asarray(Hs, dtype=np.int32), {"long_name": "number of harmonics H", "units": "1"}),
-        "eta": ("eta", np.asarray(etas), {"long_name": "regularization parameter eta", "units": "1"}),
-        "energy": ("energy", energies, {"long_name": "matched total energy (two-impact range of NNM1)", "units": "1"}),
-        "order": ("order", np.asarray(orders, dtype=np.int32), {"long_name": "ANM series order N (ANM sweep)", "units": "1"}),
-        "tolerance": ("tolerance", np.asarray(tols), {"long_name": "ANM step-length tolerance (ANM sweep)", "units": "1"}),
+    for key in _CASE_COUNTS:
+        data[key] = (dims, counts[key])
+    return {prefix + name: value for name, value in data.items()}
+
+
+def _case_variables(grid: dict) -> dict:
+    hz, he = ("harmonics", "eta"), ("harmonics", "eta", "energy")
+    status, per_energy = grid["status"], grid["per_energy"]
+    relative_force = per_energy["max_force_difference"] / per_energy["force_max_exact"]
+    data = {
+        **_run_variables(hz, grid),
+        "energy_status": (he, flags(grid["energy_status"])),
+        "regularized_seconds_per_orbit": (hz, floats(grid["scalars"]["regularized_seconds_per_orbit"])),
+        "frequency_error": (hz, floats(_summary(per_energy["relative_frequency_difference"], status))),
+        "x_error": (hz, floats(_summary(per_energy["max_x_difference"], status))),
+        "u_error": (hz, floats(_summary(per_energy["max_u_difference"], status))),
+        "force_error": (hz, floats(_summary(per_energy["max_force_difference"], status))),
+        "relative_force_error": (hz, floats(_summary(relative_force, status))),
     }
-    ds = xr.Dataset(data, coords=coords)
-    ds.attrs = {
-        **{k: float(v) for k, v in base.items()},
+    for key in ERROR_KEYS:
+        data[f"{key}_at_energy"] = (he, floats(per_energy[key]))
+    return data
+
+
+def _split_variables(settings: StudySettings, grid: dict, refs: dict) -> dict:
+    """The regularization part (reference against exact, per eta) and the truncation part (H against
+    the reference, per H and eta)."""
+    hz, he, ee = ("harmonics", "eta"), ("harmonics", "eta", "energy"), ("eta", "energy")
+    sweep = settings.sweep()
+    # the setting's own reason first, else its reference's
+    split_status = np.where(grid["status"] != Status.COMPUTED, grid["status"], refs["status"][None, :])
+    data = {
+        "reference_status": (("eta",), flags(refs["status"])),
+        "reference_energy_status": (ee, flags(refs["energy_status"])),
+        "reference_converged": (("eta",), refs["status"] == Status.COMPUTED),
+        "reference_failure": (("eta",), texts(refs["failure"])),
+        "reference_runtime": (("eta",), floats(refs["runtime"])),
+        "reference_truncation": (("eta",), floats(refs["truncation"])),
+        "reference_ratio": (("harmonics",), sweep.reference_harmonics / np.asarray(sweep.harmonics, dtype=float)),
+        "split_status": (hz, flags(split_status)),
+    }
+    names = {
+        "relative_frequency_difference": "frequency",
+        "max_x_difference": "x",
+        "max_u_difference": "u",
+        "max_force_difference": "force",
+    }
+    for key, short in names.items():
+        data[f"{short}_error_regularization"] = (("eta",), floats(_summary(refs["values"][key], refs["status"])))
+        data[f"{short}_error_truncation"] = (hz, floats(_summary(grid["truncation_part"][key], split_status)))
+        data[f"{key}_regularization_at_energy"] = (ee, floats(refs["values"][key]))
+        data[f"{key}_truncation_at_energy"] = (he, floats(grid["truncation_part"][key]))
+    return data
+
+
+def _anm_variables(anm: dict) -> dict:
+    ot = ("order", "tolerance")
+    return {
+        **_run_variables(ot, anm, "anm_", "ANM sweep: "),
+        "anm_frequency_error": (ot, floats(anm["errors"]["relative_frequency_difference"])),
+        "anm_x_error": (ot, floats(anm["errors"]["max_x_difference"])),
+    }
+
+
+def _exact_cost_variables(grid: dict, cost: xr.Dataset) -> dict:
+    per_orbit = grid["scalars"]["exact_seconds_per_orbit"]
+    return {
+        "exact_seconds_per_orbit": ((), floats(np.median(per_orbit[np.isfinite(per_orbit)]))),
+        "exact_family_seconds_per_orbit": ((), floats(float(cost["family_seconds_per_orbit"]))),
+        "exact_time_history_seconds": ((), floats(float(cost["time_history_seconds"]))),
+        "exact_max_residual": ((), floats(float(cost["max_residual"]))),
+    }
+
+
+def _coordinates(settings: StudySettings) -> dict:
+    sweep = settings.sweep()
+    return {
+        "harmonics": ("harmonics", np.asarray(sweep.harmonics, dtype=np.int32)),
+        "eta": ("eta", np.asarray(sweep.eta)),
+        "energy": ("energy", np.asarray(settings.energies)),
+        "order": ("order", np.asarray(sweep.anm_orders, dtype=np.int32)),
+        "tolerance": ("tolerance", np.asarray(sweep.anm_tolerances)),
+    }
+
+
+def _gather_attrs(settings: StudySettings) -> dict:
+    sweep, run = settings.sweep(), settings.run
+    return {
+        **{k: float(getattr(run.params, k)) for k in ("alpha", "beta", "delta")},
         "anm_sweep_eta": float(run.params.eta),
         "anm_sweep_harmonics": int(sweep.anm_harmonics),
-        "sweep_order": int(order),
-        "sweep_tolerance": float(tolerance),
-        "reference_harmonics": int(H_ref),
+        "sweep_order": int(run.continuation.order),
+        "sweep_tolerance": float(run.continuation.tolerance),
+        "reference_harmonics": int(sweep.reference_harmonics),
         "reference_seed_harmonics": int(sweep.reference_seed_harmonics),
         "max_truncation": float(run.max_truncation),
         "measurement": (
@@ -483,6 +592,3 @@ def gather_error_vs_runtime(
             "both at the same matched energies as the total error"
         ),
     }
-    return ds
-
-

@@ -1,31 +1,41 @@
-"""Shared pieces of the study: a guarded, timed continuation of NNM1 and matched-energy errors.
+"""Shared pieces of the study: a guarded, timed continuation of NNM1, matched-energy errors, and why
+a value is missing.
 
 * :func:`run_stage_one` continues stage 1 of the regularized NNM1 with the engine's
   :class:`~nnmstop.hbm.stages.TruncationGuard` (the study's own ``max_truncation``), an
   optional energy limit and no branch-point location, and measures its wall-clock and CPU
-  time and its cost counters; a numerical failure becomes ``StageRun.failure``, never an
-  exception.
+  time and its cost counters. The ends the method expects (the guard refuses an orbit: H too
+  small; the engine's :class:`~nnmstop.continuation.core.ContinuationError`: ``max_steps``
+  exhausted or a step it could not take) become :attr:`StageRun.status` and
+  :attr:`StageRun.failure`; any other exception propagates and fails the job.
 * :func:`match_energies` compares a regularized branch with the exact orbits at given
   energies through :mod:`nnmstop.compare.matching`, on the increasing-energy run chosen by
-  :func:`two_impact_arm`; :func:`hbm_orbit_differences` compares two HBM orbits (``H``
-  against a reference ``H``) the same way.
-* :func:`variable` stores a missing value as ``FILL_VALUE`` with ``_FillValue``, so that
-  readers get NaN, never a number that looks valid.
+  :func:`two_impact_arm`; an energy outside the common range, or where the comparison does not
+  apply (:class:`~nnmstop.compare.matching.NotComparableError`), gets its :class:`Status`;
+  :func:`hbm_orbit_differences` compares two HBM orbits (``H`` against a reference ``H``) the
+  same way.
+* :class:`~nnmstop.study.status.Status` says why a value was not computed. The datasets hold
+  plain arrays (:func:`floats`, :func:`texts`, :func:`flags`), NaN where a value was not
+  computed; their metadata, and which variables give the reason of each missing value, are in
+  :mod:`nnmstop.catalogue.study` (checked when written: a missing value with no reason is refused).
 
-Method notes (why the guard, why the increasing run): ``docs/methods/study.md``.
+Method notes (why the guard, why the increasing run, what each status means):
+``docs/methods/study.md``.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
 
 from nnmstop.compare.matching import (
     EnergyMatcher,
+    NotComparableError,
+    OutsideRangeError,
     exact_increasing_arm,
     largest_differences,
     orbit_differences,
@@ -37,27 +47,27 @@ from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.stages import TruncationGuard, stage_criterion, stage_dataset, start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.settings import StageOneRun
+from nnmstop.study.status import Status
 
 __all__ = [
-    "FILL_VALUE",
+    "Status",
     "UnresolvedBranchError",
     "TruncationGuard",
     "StageRun",
     "MatchedErrors",
     "format_number",
     "run_stage_one",
+    "case_status",
     "two_impact_arm",
     "match_energies",
     "hbm_orbit_differences",
     "path_error",
-    "variable",
-    "string_variable",
+    "floats",
+    "texts",
+    "flags",
 ]
 
 logger = logging.getLogger("nnmstop.study")
-
-#: Fill value of missing floats (netCDF default fill of doubles); read back as NaN.
-FILL_VALUE = 9.969209968386869e36
 
 #: Per-energy quantities of :func:`match_energies` (keys of :class:`MatchedErrors`).
 ERROR_KEYS = (
@@ -90,31 +100,34 @@ class StageRun:
     Attributes
     ----------
     dataset : xarray.Dataset or None
-        Branch dataset (layout of :mod:`nnmstop.hbm.dataset`); None when the run failed.
+        Branch dataset (layout of :mod:`nnmstop.hbm.dataset`); None when the run ended early.
+    status : Status
+        ``COMPUTED``, ``UNRESOLVED`` (the guard refused an orbit) or ``CONTINUATION_ENDED``.
     failure : str
-        Why the run failed ('' when it converged).
+        Why the run ended early ('' when it reached the end of its stage): the engine's message,
+        naming the step and the energy (and the truncation indicator and ``H`` for the guard).
     runtime, cpu_time : float
         Wall-clock and CPU seconds of the continuation (start point included).
     stats : ContinuationStats or None
-        Cost counters (None when the run failed: the engine does not return them then).
+        Cost counters (None when the run ended early: the engine does not return them then).
     truncation : float
         Largest truncation indicator (:meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.truncation`) met
-        along the run (up to the failure if any).
+        along the run (up to its end).
     harmonics : int
     """
 
     dataset: xr.Dataset | None
+    status: Status
     failure: str
     runtime: float
     cpu_time: float
     stats: ContinuationStats | None
     truncation: float
     harmonics: int
-    extra: dict = field(default_factory=dict)
 
     @property
     def converged(self) -> bool:
-        return self.dataset is not None and not self.failure
+        return self.status == Status.COMPUTED
 
 
 def run_stage_one(run: StageOneRun, label: str = "NNM1 stage 1", energy_limit: float | None = None) -> StageRun:
@@ -123,11 +136,10 @@ def run_stage_one(run: StageOneRun, label: str = "NNM1 stage 1", energy_limit: f
     ``energy_limit`` (optional) also ends the stage at the first orbit above that energy
     (past the range that will be compared), whichever comes first.
 
-    Never raises for a numerical failure: a :class:`~nnmstop.continuation.core.ContinuationError`
-    (a failed step, ``max_steps`` exhausted, an unresolved orbit), a
-    :class:`numpy.linalg.LinAlgError`, or a ``ValueError``/``FloatingPointError`` escaping
-    the engine (e.g. NaN reaching a linear solve) becomes ``StageRun.failure``;
-    ``StageRun.extra`` says whether it was an unresolved orbit (``unresolved``).
+    An orbit refused by the guard (:class:`~nnmstop.continuation.core.UnresolvedBranchError`) or
+    another :class:`~nnmstop.continuation.core.ContinuationError` of the engine (``max_steps``
+    exhausted, a step that cannot be taken) becomes ``StageRun.status`` and ``StageRun.failure``.
+    Any other exception (a bug, NaN reaching a solve outside the continuation loop) propagates.
     """
     system = run.system()
     spec = run.branch
@@ -141,26 +153,31 @@ def run_stage_one(run: StageOneRun, label: str = "NNM1 stage 1", energy_limit: f
 
     guard = TruncationGuard(system, inner, run.max_truncation, label, setting="study.max_truncation")
     wall, cpu = time.perf_counter(), time.process_time()
-    dataset, failure, stats = None, "", None
+    dataset, status, failure, stats = None, Status.COMPUTED, "", None
     try:
         U0, direction = start_point(system, spec.mode, spec.start_amplitude)
         branch = continue_anm(system, U0, direction, guard, run.continuation, label=label, progress_seconds=30.0)
         stats = branch.stats
-    except (ContinuationError, np.linalg.LinAlgError) as err:
-        failure = str(err) or type(err).__name__
-        unresolved = isinstance(err, UnresolvedBranchError)
-    except (ValueError, FloatingPointError) as err:  # the engine should have raised a ContinuationError
-        failure = f"{label}: the engine raised {type(err).__name__} (no step or energy given): {err}"
-        unresolved = False
-    else:
-        unresolved = False
+    except UnresolvedBranchError as err:
+        status, failure = Status.UNRESOLVED, str(err)
+    except ContinuationError as err:
+        status, failure = Status.CONTINUATION_ENDED, str(err)
     runtime, cpu_time = time.perf_counter() - wall, time.process_time() - cpu
-    if not failure:
+    if status == Status.COMPUTED:
         # the study compares orbits: branch points stay flagged, not located (costly, unused here)
         labels = {"branch": spec.name, "mode": int(spec.mode), "stages": len(spec.stages)}
         dataset = stage_dataset(system, branch, 1, run.branch_settings(), labels, located=[])
     logger.info("%s, H = %d: %s in %.2f s", label, system.H, failure or "converged", runtime)
-    return StageRun(dataset, failure, runtime, cpu_time, stats, guard.largest, system.H, {"unresolved": unresolved})
+    return StageRun(dataset, status, failure, runtime, cpu_time, stats, guard.largest, system.H)
+
+
+def case_status(run_status: Status, energy_status) -> Status:
+    """The status of a case: its run's when the run ended early, else the first energy's that was not
+    compared (``COMPUTED`` when every energy was)."""
+    if run_status != Status.COMPUTED:
+        return Status(run_status)
+    missing = [Status(s) for s in np.ravel(energy_status) if s != Status.COMPUTED]
+    return missing[0] if missing else Status.COMPUTED
 
 
 def path_error(system: HarmonicBalanceSystem, branch: xr.Dataset) -> tuple[float, float]:
@@ -170,16 +187,19 @@ def path_error(system: HarmonicBalanceSystem, branch: xr.Dataset) -> tuple[float
     Newton-corrected by the engine) is corrected by Newton's method at fixed amplitude
     ``x_c^1`` (as :func:`nnmstop.hbm.stages.start_point` does). Returns the largest relative
     algebraic residual and the relative frequency shift of that point.
+
+    Raises
+    ------
+    ContinuationError
+        If Newton's method does not bring that point onto the curve (the stored path is then
+        not the HBM branch it claims to be).
     """
     residual = np.asarray(branch["algebraic_residual"].values, dtype=float)
     k = int(np.argmax(residual))
     U = dataset_unknowns(branch, system)[k]
     direction = np.zeros(system.n_unknowns)
     direction[system.slices["x"].start + 1] = 1.0
-    try:
-        corrected, _ = newton_correct(system, U, direction, ContinuationStats(), tol=1e-13)
-    except ContinuationError:
-        return float(residual[k]), float("nan")
+    corrected, _ = newton_correct(system, U, direction, ContinuationStats(), tol=1e-13)
     f_point, f_curve = float(system.frequency_hz(U)), float(system.frequency_hz(corrected))
     return float(residual[k]), abs(f_point - f_curve) / f_curve
 
@@ -244,15 +264,17 @@ def two_impact_arm(branch: xr.Dataset, exact: xr.Dataset | None = None) -> xr.Da
 class MatchedErrors:
     """Errors of a regularized branch against the exact orbits at given energies.
 
-    ``values[key]`` (key in ``ERROR_KEYS``) holds one value per energy (NaN where the
-    energy could not be matched); ``orbits`` the matched HBM unknown vectors (None where
-    unmatched); ``failure`` the first matching failure ('' if all matched).
+    ``values[key]`` (key in ``ERROR_KEYS``) holds one value per energy (NaN where the energy
+    was not compared); ``orbits`` the matched HBM unknown vectors (None where not compared);
+    ``status`` one :class:`Status` per energy; ``failure`` the reason of the first energy not
+    compared ('' if all were).
     """
 
     energies: np.ndarray
     values: dict
     orbits: list
     system: HarmonicBalanceSystem | None
+    status: np.ndarray
     failure: str
     exact_seconds_per_orbit: float
     regularized_seconds_per_orbit: float
@@ -260,7 +282,11 @@ class MatchedErrors:
 
     @property
     def complete(self) -> bool:
-        return not self.failure
+        return not np.any(self.status != Status.COMPUTED)
+
+
+def _status_of(err: NotComparableError) -> Status:
+    return Status.OUTSIDE_COMMON_RANGE if isinstance(err, OutsideRangeError) else Status.NOT_APPLICABLE
 
 
 def match_energies(
@@ -272,23 +298,28 @@ def match_energies(
 ) -> MatchedErrors:
     """Match exact and regularized NNM1 orbits at ``energies`` with :mod:`nnmstop.compare.matching`.
 
-    ``branch`` is a regularized NNM1 dataset (its :func:`two_impact_arm` is used). Energies
-    that cannot be matched (outside the common range, Newton failure, an exact orbit whose
-    maximum of ``x`` is not on a symmetry axis so that the phase alignment of
-    :func:`nnmstop.compare.matching.orbit_differences` does not apply) get NaN and the first such
-    reason is recorded; nothing is raised for them.
+    ``branch`` is a regularized NNM1 dataset (its :func:`two_impact_arm` is used). An energy
+    outside the common range of the two (``OUTSIDE_COMMON_RANGE``), or where the comparison
+    does not apply (``NOT_APPLICABLE``: an orbit whose ``x`` is not positive at its turning point
+    in contact, so that the phase alignment of :func:`nnmstop.compare.matching.orbit_differences`
+    is undefined) gets NaN, its status and, for the first one, the reason. Anything else (a
+    Newton solve that fails inside the common range, bad input) raises.
     """
     energies = np.asarray(energies, dtype=float)
     values = {key: np.full(energies.size, np.nan) for key in ERROR_KEYS}
     orbits: list = [None] * energies.size
+    status = np.full(energies.size, Status.COMPUTED, dtype=np.int8)
     try:
         matcher = EnergyMatcher(exact, two_impact_arm(branch, exact), end_margin)
-    except ValueError as err:
-        return MatchedErrors(energies, values, orbits, None, f"no common two-impact range: {err}", np.nan, np.nan)
+    except NotComparableError as err:
+        status[:] = _status_of(err)
+        reason = f"no common two-impact range: {err}"
+        return MatchedErrors(energies, values, orbits, None, status, reason, np.nan, np.nan)
     failure = ""
-    t_exact, t_reg, n_exact, n_reg = 0.0, 0.0, 0, 0
-    for i, energy in enumerate(energies):
+    t_exact, t_reg, n = 0.0, 0.0, 0
+    for i, energy in enumerate(energies.tolist()):
         try:
+            matcher.check_energy(energy)
             start = time.perf_counter()
             matcher.exact_orbit(energy)
             seconds_exact = time.perf_counter() - start
@@ -296,13 +327,13 @@ def match_energies(
             pair = matcher.match(energy)  # solves the exact orbit again (cheap), then the HBM one
             seconds_match = time.perf_counter() - start
             diff = orbit_differences(pair, matcher.system, phase_samples)
-        except ValueError as err:  # outside the common range, Newton failure, no common phase alignment
+        except NotComparableError as err:
+            status[i] = _status_of(err)
             failure = failure or f"energy {energy:g}: {err}"
             continue
         t_exact += seconds_exact
-        n_exact += 1
         t_reg += max(seconds_match - seconds_exact, 0.0)
-        n_reg += 1
+        n += 1
         for key in ERROR_KEYS:
             values[key][i] = diff[key]
         orbits[i] = pair.regularized
@@ -311,9 +342,10 @@ def match_energies(
         values,
         orbits,
         matcher.system,
+        status,
         failure,
-        t_exact / n_exact if n_exact else np.nan,
-        t_reg / n_reg if n_reg else np.nan,
+        t_exact / n if n else np.nan,
+        t_reg / n if n else np.nan,
         matcher.energy_range,
     )
 
@@ -352,18 +384,16 @@ def hbm_orbit_differences(
 # --------------------------------------------------------------------------- dataset variables
 
 
-def variable(dims, values, long_name: str, units: str = "1", dtype=float, **extra):
-    """A labelled variable tuple; NaN floats become ``FILL_VALUE`` with ``_FillValue`` set."""
-    values = np.asarray(values, dtype=dtype)
-    attrs = {"long_name": long_name, "units": units, **extra}
-    if np.issubdtype(values.dtype, np.floating):
-        missing = ~np.isfinite(values)
-        if missing.any():
-            values = np.where(missing, FILL_VALUE, values)
-        attrs["_FillValue"] = FILL_VALUE
-    return (dims, values, attrs)
+def floats(values) -> np.ndarray:
+    """A float variable's values (NaN where not computed: the catalogue entry names the reason)."""
+    return np.asarray(values, dtype=float)
 
 
-def string_variable(dims, values, long_name: str):
-    """A labelled variable of strings (empty string: nothing to report)."""
-    return (dims, np.asarray(values, dtype=str), {"long_name": long_name, "units": "1"})
+def texts(values) -> np.ndarray:
+    """A text variable's values (an empty string: nothing to report)."""
+    return np.asarray(values, dtype=str)
+
+
+def flags(values) -> np.ndarray:
+    """A :class:`Status` variable's values (int8; flag meanings in the catalogue)."""
+    return np.asarray(values, dtype=np.int8)

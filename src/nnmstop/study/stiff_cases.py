@@ -26,19 +26,22 @@ import xarray as xr
 
 from nnmstop.checks.time_integration import integrate_nonsmooth
 from nnmstop.compare.matching import exact_increasing_arm
-from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
+from nnmstop.continuation.core import ContinuationStats, newton_correct
 from nnmstop.exact.dataset import two_impact_dataset
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem, first_grazing_orbit, high_energy_orbit
 from nnmstop.hbm.stages import start_point
 from nnmstop.models.two_dof import ModelParameters, linear_modes, stiffness_matrix
-from nnmstop.settings import StudySettings
+from nnmstop.settings import StageOneRun, StudySettings
 from nnmstop.study.runs import (
+    Status,
+    case_status,
+    flags,
+    floats,
     match_energies,
     run_stage_one,
-    string_variable,
-    variable,
+    texts,
 )
 
 __all__ = [
@@ -47,6 +50,7 @@ __all__ = [
     "periodicity_check",
     "stiff_exact_dataset",
     "exact_energies",
+    "harmonics_ladder",
     "stiff_branch_dataset",
     "energy_case",
     "energy_sweep_dataset",
@@ -170,17 +174,17 @@ def stiff_exact_dataset(params: ModelParameters, exact) -> xr.Dataset:
     """
     family, checks = exact_checks(params, exact.step, exact.max_points)
     ds = two_impact_dataset(family)
-    for key, long_name, units in (
-        ("relative_residual", "largest residual of the quarter-period equations, relative to max velocity * sqrt(1 + beta + alpha)", "1"),
-        ("periodicity_error", "middle orbit integrated over one period with event location: max |z(T) - z(0)| / max |z|", "1"),
-        ("integration_difference", "middle orbit: largest difference between integration and closed form / max |z|", "1"),
-        ("integration_seconds", "time of that integration", "s"),
-        ("seconds_per_orbit", "time per orbit of the family continuation", "s"),
-        ("step", "continuation step used", "1"),
+    for key in (
+        "relative_residual",
+        "periodicity_error",
+        "integration_difference",
+        "integration_seconds",
+        "seconds_per_orbit",
+        "step",
     ):
-        ds[f"check_{key}"] = variable((), checks[key], long_name, units)
-    ds["check_end_confirmed"] = ((), checks["end_confirmed"], {"long_name": "the end of the family was met again with a step 100 times smaller", "units": "1"})
-    ds["check_end_note"] = string_variable((), checks["end_check"], "how the end of the family was confirmed")
+        ds[f"check_{key}"] = ((), floats(checks[key]))
+    ds["check_end_confirmed"] = ((), checks["end_confirmed"])
+    ds["check_end_note"] = ((), texts(checks["end_check"]))
     return ds
 
 
@@ -201,76 +205,93 @@ def exact_energies(exact: xr.Dataset, count: int) -> np.ndarray:
     return arm[0] * (arm[-1] / arm[0]) ** fractions
 
 
-def stiff_branch_dataset(settings: StudySettings, exact: xr.Dataset, alpha, beta, delta, eta) -> xr.Dataset:
-    """Harmonics ladder for NNM1 stage 1 of one case, and errors against the exact family.
+def harmonics_ladder(base: StageOneRun, ladder, energy_limit: float | None, label: str) -> tuple:
+    """NNM1 stage 1 of ``base`` with each ``H`` of ``ladder`` in turn until one resolves the branch.
 
-    The ladder goes on to more harmonics only when an attempt is refused as unresolved;
-    any other failure (a step that fails, ``max_steps`` exhausted) is not a matter of
-    harmonics and ends it. Each attempt stops at the end of stage 1 or past
-    ``study.stiff.energy_limit_factor`` times the highest energy of the exact family.
+    The ladder goes on to more harmonics only when an attempt is refused as unresolved; any
+    other end (a step that fails, ``max_steps`` exhausted) is not a matter of harmonics and
+    ends it. Returns the last :class:`~nnmstop.study.runs.StageRun`, the text of every attempt,
+    their total wall-clock time, and the case's failure ('' when the last attempt converged).
+    """
+    attempts, total = [], 0.0
+    for H in ladder:
+        run = run_stage_one(replace(base, harmonics=H), energy_limit=energy_limit, label=f"{label}, H {H}")
+        total += run.runtime
+        outcome = run.failure or f"converged ({run.stats.steps} steps, {run.stats.factorizations} factorizations)"
+        attempts.append(f"H={H}: {outcome}")
+        if run.status != Status.UNRESOLVED:
+            break
+    if run.status == Status.UNRESOLVED:
+        failure = "no number of harmonics tried resolves the branch: " + " | ".join(attempts)
+    elif run.status == Status.CONTINUATION_ENDED:
+        failure = "the continuation ends for a reason more harmonics do not address: " + attempts[-1]
+    else:
+        failure = ""
+    return run, attempts, total, failure
+
+
+def stiff_branch_dataset(settings: StudySettings, exact: xr.Dataset, alpha, beta, delta, eta) -> xr.Dataset:
+    """Harmonics ladder for NNM1 stage 1 of one case (:func:`harmonics_ladder`), and its errors
+    against the exact family at :func:`exact_energies`.
+
+    Each attempt stops at the end of stage 1 or past ``study.stiff.energy_limit_factor`` times
+    the highest energy of the exact family.
     """
     stiff = settings.stiff_sweep()
-    ladder = list(stiff.harmonics)
     energies = exact_energies(exact, stiff.compare_count) if "energy" in exact else np.array([])
     energy_limit = stiff.energy_limit_factor * float(exact["energy"].max()) if "energy" in exact else None
     params = ModelParameters(alpha=float(alpha), beta=float(beta), delta=float(delta), eta=float(eta))
     base = replace(
         settings.run, params=params, continuation=replace(settings.run.continuation, max_steps=stiff.max_steps)
     )
-    attempts, run = [], None
-    total = 0.0
-    for H in ladder:
-        run = run_stage_one(
-            replace(base, harmonics=H), energy_limit=energy_limit,
-            label=f"NNM1 stage 1 (alpha {alpha:g}, beta {beta:g}, delta {delta:g}, eta {eta:g}, H {H})",
-        )
-        total += run.runtime
-        attempts.append(f"H={H}: " + (run.failure or f"converged ({run.stats.steps} steps, {run.stats.factorizations} factorizations)"))
-        if run.converged or not run.extra.get("unresolved"):
-            break
-    converged = run.converged
-    if converged:
-        failure = ""
-    elif run.extra.get("unresolved"):
-        failure = "no number of harmonics tried resolves the branch: " + " | ".join(attempts)
-    else:
-        failure = "the continuation fails for a reason more harmonics do not address: " + attempts[-1]
-    errors = {"relative_frequency_difference": np.nan, "max_x_difference": np.nan, "max_u_difference": np.nan, "max_force_difference": np.nan}
+    label = f"NNM1 stage 1 (alpha {alpha:g}, beta {beta:g}, delta {delta:g}, eta {eta:g})"
+    run, attempts, total, failure = harmonics_ladder(base, stiff.harmonics, energy_limit, label)
+    errors = dict.fromkeys(
+        ("relative_frequency_difference", "max_x_difference", "max_u_difference", "max_force_difference"), np.nan
+    )
     relative_force = np.nan
-    energy_range = (float(energies[0]), float(energies[-1])) if energies.size else (np.nan, np.nan)
-    compared = False
-    if converged:
+    energy_status = np.full(energies.size, run.status, dtype=np.int8)
+    if run.converged:
         matched = match_energies(exact, run.dataset, energies, settings.phase_samples, settings.end_margin)
+        energy_status = matched.status
         if matched.complete:
             for key in errors:
                 errors[key] = float(np.max(np.abs(matched.values[key])))
             relative_force = float(np.max(matched.values["max_force_difference"] / matched.values["force_max_exact"]))
-            compared = True
         else:
             failure = f"converged but not compared with the exact family: {matched.failure}"
-    stats = run.stats
+    status = case_status(run.status, energy_status)
+    energy_range = (float(energies[0]), float(energies[-1])) if energies.size else (np.nan, np.nan)
+    stats, converged = run.stats, run.converged
     data = {
-        "converged": ((), converged, {"long_name": "NNM1 stage 1 converged with every orbit resolved, for one of the harmonics tried", "units": "1"}),
-        "compared": ((), compared, {"long_name": "converged and compared with the exact family at every chosen energy", "units": "1"}),
-        "failure": string_variable((), failure, "why the case did not converge or was not compared ('' if it was)"),
-        "attempts": string_variable((), " | ".join(attempts), "every number of harmonics tried, with its outcome"),
-        "harmonics": ((), np.int32(run.harmonics if converged else -1), {"long_name": "smallest number of harmonics tried that resolves the branch (-1: none)", "units": "1"}),
-        "steps": ((), np.int32(stats.steps if converged else -1), {"long_name": "ANM steps of the resolving run (-1: none)", "units": "1"}),
-        "factorizations": ((), np.int32(stats.factorizations if converged else -1), {"long_name": "LU factorizations of the resolving run (-1: none)", "units": "1"}),
-        "runtime": variable((), run.runtime if converged else np.nan, "wall-clock time of the resolving run", "s"),
-        "total_runtime": variable((), total, "wall-clock time of every attempt together", "s"),
-        "truncation": variable((), run.truncation, "largest truncation indicator of the last attempt (up to its end or failure)"),
-        "frequency_error": variable((), errors["relative_frequency_difference"], "largest |relative frequency error| against the exact orbits at the compared energies"),
-        "x_error": variable((), errors["max_x_difference"], "largest |x_regularized - x_exact| over the period and the compared energies"),
-        "u_error": variable((), errors["max_u_difference"], "largest |u_regularized - u_exact| over the period and the compared energies"),
-        "force_error": variable((), errors["max_force_difference"], "largest contact-force difference over the period and the compared energies"),
-        "relative_force_error": variable((), relative_force, "largest contact-force difference relative to the largest exact force"),
-        "compared_energy_min": variable((), energy_range[0], "lowest compared energy (log-fraction 1/(n+1) of the exact increasing arm)"),
-        "compared_energy_max": variable((), energy_range[1], "highest compared energy (log-fraction n/(n+1) of the exact increasing arm)"),
+        "status": ((), flags(status)),
+        "converged": ((), converged),
+        "compared": ((), status == Status.COMPUTED),
+        "failure": ((), texts(failure)),
+        "attempts": ((), texts(" | ".join(attempts))),
+        "harmonics": ((), np.int32(run.harmonics if converged else -1)),
+        "steps": ((), np.int32(stats.steps if converged else -1)),
+        "factorizations": ((), np.int32(stats.factorizations if converged else -1)),
+        "runtime": ((), floats(run.runtime if converged else np.nan)),
+        "total_runtime": ((), floats(total)),
+        "truncation": ((), floats(run.truncation)),
+        "frequency_error": ((), floats(errors["relative_frequency_difference"])),
+        "x_error": ((), floats(errors["max_x_difference"])),
+        "u_error": ((), floats(errors["max_u_difference"])),
+        "force_error": ((), floats(errors["max_force_difference"])),
+        "relative_force_error": ((), floats(relative_force)),
+        "compared_energy_min": ((), floats(energy_range[0])),
+        "compared_energy_max": ((), floats(energy_range[1])),
     }
     ds = xr.Dataset(data)
-    ds.attrs = {"alpha": float(alpha), "beta": float(beta), "delta": float(delta), "eta": float(eta),
-                "harmonics_tried": ", ".join(str(h) for h in ladder), "max_truncation": float(base.max_truncation)}
+    ds.attrs = {
+        "alpha": float(alpha),
+        "beta": float(beta),
+        "delta": float(delta),
+        "eta": float(eta),
+        "harmonics_tried": ", ".join(str(h) for h in stiff.harmonics),
+        "max_truncation": float(base.max_truncation),
+    }
     return ds
 
 
@@ -286,16 +307,30 @@ def _linear_amplitude(params: ModelParameters, energy: float, limit: str) -> tup
     return float(np.sqrt(2.0 * energy / stiffness)), phi, float(omega[0])
 
 
-def _high_energy_at(params: ModelParameters, energy: float):
-    """Exact high-energy two-impact orbit at exactly ``energy`` (brentq on its turning point)."""
+def _high_energy_at(params: ModelParameters, energy: float) -> tuple:
+    """Exact high-energy two-impact orbit at exactly ``energy`` (brentq on its turning point), or
+    None, and why there is none.
+
+    :func:`nnmstop.exact.problem.high_energy_orbit` (Newton from the gap-0 mode, meant for turning
+    points ``x_max`` of about 10 and more) finds no orbit at some ``x_max``: the bracket of the
+    energy is searched among those where it finds one. No bracket, or no converged root, means
+    the solver finds no two-impact orbit at this energy.
+    """
     problem = TwoImpactProblem(params)
     omega, shapes = linear_modes(params, "gap_zero")
     phi = shapes[:, 0]
     k = float(phi @ stiffness_matrix(params, params.alpha) @ phi)
     guess = max(1.5, float(np.sqrt(2.0 * energy / k)) + 1.0)
 
+    def orbit(x_max):
+        try:
+            return high_energy_orbit(params, x_max)
+        except ValueError:  # its documented refusal: Newton from the gap-0 mode does not converge there
+            return None
+
     def mismatch(x_max):
-        return np.log(problem.energy(high_energy_orbit(params, x_max)) / energy)
+        y = orbit(x_max)
+        return np.nan if y is None else float(np.log(problem.energy(y) / energy))
 
     lo, hi = guess / 2.0 + 0.5, guess * 2.0
     for _ in range(20):
@@ -306,8 +341,33 @@ def _high_energy_at(params: ModelParameters, energy: float):
         if mismatch(hi) > 0:
             break
         hi *= 2.0
-    x_max = scipy.optimize.brentq(mismatch, lo, hi, xtol=1e-14 * hi, rtol=1e-15)
-    return high_energy_orbit(params, x_max)
+    refusal = (
+        f"the high-energy solver (Newton from the gap-0 mode) finds no two-impact orbit of energy {energy:g} "
+        f"for turning points x_max in [{lo:.6g}, {hi:.6g}]"
+    )
+    if not (mismatch(lo) < 0 < mismatch(hi)):
+        return None, refusal
+
+    def defined_mismatch(x_max):
+        value = mismatch(x_max)
+        if np.isnan(value):
+            raise _NoOrbitHere(x_max)
+        return value
+
+    try:
+        x_max, result = scipy.optimize.brentq(
+            defined_mismatch, lo, hi, xtol=1e-14 * hi, rtol=1e-15, full_output=True, disp=False
+        )
+    except _NoOrbitHere as gap:
+        return None, f"{refusal} (none at x_max = {gap.args[0]:.6g} inside the bracket)"
+    y = orbit(x_max)
+    if not result.converged or y is None:
+        return None, f"{refusal} (no converged turning point)"
+    return y, ""
+
+
+class _NoOrbitHere(Exception):
+    """The high-energy solver finds no orbit at this turning point (ends the root search)."""
 
 
 def _hbm_from_exact(system, params: ModelParameters, y) -> np.ndarray:
@@ -329,79 +389,116 @@ def _energy_run(settings: StudySettings, alpha: float):
     return replace(run, params=params, harmonics=stiff.energy_harmonics)
 
 
+def _exact_at_energy(params: ModelParameters, energy: float, family) -> tuple:
+    """``(kind, y, note)``: the exact orbit at ``energy`` (linear mode, family, high-energy segment)
+    and how it was found, or kind ``none``, ``y = None`` and why there is none."""
+    problem = TwoImpactProblem(params)
+    grazing = problem.energy(first_grazing_orbit(params))
+    if energy < grazing:
+        amplitude, phi, omega = _linear_amplitude(params, energy, "no_contact")
+        y = np.array([amplitude * omega, amplitude * omega * phi[1], 0.5 * np.pi / omega, 0.5 * np.pi / omega])
+        return (
+            "linear",
+            y,
+            f"below the grazing energy {grazing:.6g}: the linear mode (x amplitude {amplitude:.3g}), no impact",
+        )
+    if family.energy.min() <= energy <= family.energy.max():
+        i = int(np.argmin(np.abs(np.log(family.energy / energy))))
+        return "family", family.unknowns[i], f"first two-impact family, nearest orbit (energy {family.energy[i]:.9g})"
+    y, note = _high_energy_at(params, energy)
+    if y is not None:
+        check = assess_orbit(problem, y)
+        if check.valid:
+            return "high_energy", y, "high-energy two-impact segment, solved at exactly this energy"
+        note = f"the high-energy two-impact orbit at this energy violates {', '.join(check.violated)}"
+    return (
+        "none",
+        None,
+        (
+            f"{note}; outside the first two-impact family ({family.energy.min():.6g}..{family.energy.max():.6g}): the "
+            "exact solver has no two-impact orbit to offer at this energy"
+        ),
+    )
+
+
+def _hbm_at(run: StageOneRun, kind: str, y, energy: float) -> tuple:
+    """The regularized orbit where the exact one is: ``(U, truncation indicator)``.
+
+    Below grazing: the regularized linear mode of the same energy, corrected by Newton at fixed
+    amplitude; else the exact orbit's Fourier series corrected by Newton. A Newton failure raises.
+    """
+    system, params = run.system(), run.params
+    if kind == "linear":
+        amplitude, _, _ = _linear_amplitude(params, energy, "regularized")
+        if not amplitude < 1.0:  # cannot happen: the added stiffness eta only lowers the amplitude
+            raise ValueError(f"the regularized linear mode at energy {energy:g} has x amplitude {amplitude:.3g} >= 1")
+        U, _ = start_point(system, 1, amplitude)
+    else:
+        direction = np.zeros(system.n_unknowns)
+        direction[system.slices["x"].start + 1] = 1.0
+        U, _ = newton_correct(system, _hbm_from_exact(system, params, y), direction, ContinuationStats(), tol=1e-12)
+    return system, U
+
+
 def energy_case(settings: StudySettings, alpha: float, energy: float, family=None) -> dict:
-    """Exact solver and HBM at one energy (see the module docstring); never raises for numerics.
+    """Exact solver and HBM at one energy (see the module docstring).
 
     ``family`` is the first exact two-impact family of these parameters (followed here if None).
+    Where there is no exact two-impact orbit (``exact_status`` ``NO_EXACT_ORBIT``) or the HBM
+    orbit is not resolved (``hbm_status`` ``UNRESOLVED``), the values are NaN and the notes say
+    why; a solver failure anywhere else raises.
     """
     run = _energy_run(settings, alpha)
     params = run.params
     problem = TwoImpactProblem(params)
-    out = {"kind": "none", "exact_energy": np.nan, "exact_frequency": np.nan, "exact_residual": np.nan,
-           "periodicity_error": np.nan, "integration_difference": np.nan, "exact_note": "",
-           "hbm_converged": False, "hbm_failure": "", "hbm_frequency_difference": np.nan,
-           "hbm_energy_mismatch": np.nan, "hbm_truncation": np.nan}
-    grazing = problem.energy(first_grazing_orbit(params))
-    y = None
     if family is None:
         family = follow_two_impact_family(params, step=settings.exact.step, max_points=settings.exact.max_points)
-    if energy < grazing:
-        amplitude, phi, omega = _linear_amplitude(params, energy, "no_contact")
-        out.update(kind="linear", exact_energy=energy, exact_frequency=omega / (2 * np.pi), exact_residual=0.0,
-                   exact_note=f"below the grazing energy {grazing:.6g}: the linear mode (x amplitude {amplitude:.3g}), no impact")
-        y = np.array([amplitude * omega, amplitude * omega * phi[1], 0.5 * np.pi / omega, 0.5 * np.pi / omega])
-    elif family.energy.min() <= energy <= family.energy.max():
-        i = int(np.argmin(np.abs(np.log(family.energy / energy))))
-        y = family.unknowns[i]
-        out.update(kind="family", exact_note=f"first two-impact family, nearest orbit (energy {family.energy[i]:.9g})")
-    else:
-        try:
-            y = _high_energy_at(params, energy)
-            check = assess_orbit(problem, y)
-            if check.valid:
-                out.update(kind="high_energy", exact_note="high-energy two-impact segment, solved at exactly this energy")
-            else:
-                out["exact_note"] = f"the high-energy two-impact orbit at this energy violates {', '.join(check.violated)}"
-                y = None
-        except (ValueError, RuntimeError) as err:
-            out["exact_note"] = f"no high-energy two-impact orbit found: {err}"
-            y = None
-        if y is None:
-            out["exact_note"] += (
-                f"; outside the first two-impact family ({family.energy.min():.6g}..{family.energy.max():.6g}): no "
-                "two-impact orbit at this energy (multi-impact regime); the exact solver refuses"
-            )
+    kind, y, note = _exact_at_energy(params, energy, family)
+    out = {
+        "kind": kind,
+        "exact_note": note,
+        "exact_status": Status.COMPUTED,
+        "exact_energy": np.nan,
+        "exact_frequency": np.nan,
+        "exact_residual": np.nan,
+        "periodicity_error": np.nan,
+        "integration_difference": np.nan,
+        "hbm_status": Status.COMPUTED,
+        "hbm_failure": "",
+        "hbm_frequency_difference": np.nan,
+        "hbm_energy_mismatch": np.nan,
+        "hbm_truncation": np.nan,
+    }
     if y is None:
-        out["hbm_failure"] = "no exact two-impact orbit to compare with"
+        out.update(
+            exact_status=Status.NO_EXACT_ORBIT,
+            hbm_status=Status.NO_EXACT_ORBIT,
+            hbm_failure="no exact two-impact orbit to compare with",
+        )
         return out
-    if out["kind"] != "linear":
-        out.update(exact_energy=problem.energy(y), exact_frequency=1.0 / (4.0 * y[3]),
-                   exact_residual=float(np.linalg.norm(problem.residual(y))))
+    if kind == "linear":
+        omega = linear_modes(params, "no_contact")[0][0]
+        out.update(exact_energy=energy, exact_frequency=omega / (2 * np.pi), exact_residual=0.0)
+    else:
+        out.update(
+            exact_energy=problem.energy(y),
+            exact_frequency=1.0 / (4.0 * y[3]),
+            exact_residual=float(np.linalg.norm(problem.residual(y))),
+        )
     out.update({k: v for k, v in periodicity_check(params, y).items() if k != "integration_seconds"})
-    # the regularized orbit at the same place
-    system = run.system()
-    try:
-        if out["kind"] == "linear":
-            amplitude, _, _ = _linear_amplitude(params, energy, "regularized")
-            if not amplitude < 1.0:
-                raise ContinuationError(f"the regularized linear mode at energy {energy:g} has x amplitude {amplitude:.3g} >= 1")
-            U, _ = start_point(system, 1, amplitude)
-        else:
-            direction = np.zeros(system.n_unknowns)
-            direction[system.slices["x"].start + 1] = 1.0
-            U, _ = newton_correct(system, _hbm_from_exact(system, params, y), direction, ContinuationStats(), tol=1e-12)
-        level = system.truncation(U)
-        out["hbm_truncation"] = level
-        limit = run.max_truncation
-        if level > limit:  # no number for an unresolved orbit: only the indicator and the reason
-            out["hbm_failure"] = f"H = {system.H} does not resolve the orbit (truncation indicator {level:.4g} > {limit:g})"
-        else:
-            diag = system.diagnostics(U)
-            out.update(hbm_converged=True,
-                       hbm_frequency_difference=(diag["frequency"] - out["exact_frequency"]) / out["exact_frequency"],
-                       hbm_energy_mismatch=(diag["energy"] - out["exact_energy"]) / out["exact_energy"])
-    except (ContinuationError, np.linalg.LinAlgError, ValueError) as err:
-        out["hbm_failure"] = f"HBM orbit not found: {err}"
+    system, U = _hbm_at(run, kind, y, energy)
+    level = out["hbm_truncation"] = system.truncation(U)
+    if level > run.max_truncation:  # no number for an unresolved orbit: only the indicator and the reason
+        out["hbm_status"] = Status.UNRESOLVED
+        out["hbm_failure"] = (
+            f"H = {system.H} does not resolve the orbit (truncation indicator {level:.4g} > {run.max_truncation:g})"
+        )
+    else:
+        diag = system.diagnostics(U)
+        out.update(
+            hbm_frequency_difference=(diag["frequency"] - out["exact_frequency"]) / out["exact_frequency"],
+            hbm_energy_mismatch=(diag["energy"] - out["exact_energy"]) / out["exact_energy"],
+        )
     return out
 
 
@@ -415,20 +512,22 @@ def energy_sweep_dataset(settings: StudySettings, alpha: float) -> xr.Dataset:
     col = lambda key: [r[key] for r in rows]  # noqa: E731
     e = ("energy",)
     data = {
-        "kind": string_variable(e, col("kind"), f"exact orbit used: one of {', '.join(ENERGY_KINDS)} (none: no two-impact orbit)"),
-        "exact_note": string_variable(e, col("exact_note"), "how the exact orbit was found, or why there is none"),
-        "exact_energy": variable(e, col("exact_energy"), "energy of the exact orbit"),
-        "exact_frequency": variable(e, col("exact_frequency"), "frequency of the exact orbit", "Hz"),
-        "exact_residual": variable(e, col("exact_residual"), "norm of the quarter-period equations of the exact orbit"),
-        "periodicity_error": variable(e, col("periodicity_error"), "event-located integration over one period: max |z(T) - z(0)| / max |z|"),
-        "integration_difference": variable(e, col("integration_difference"), "largest difference between integration and closed form / max |z|"),
-        "hbm_converged": (e, np.array(col("hbm_converged"), dtype=bool), {"long_name": "an HBM orbit of the regularized model was found there and is resolved", "units": "1"}),
-        "hbm_failure": string_variable(e, col("hbm_failure"), "why there is no resolved HBM orbit ('' if there is)"),
-        "hbm_frequency_difference": variable(e, col("hbm_frequency_difference"), "(HBM frequency - exact frequency) / exact frequency"),
-        "hbm_energy_mismatch": variable(e, col("hbm_energy_mismatch"), "(HBM energy - exact energy) / exact energy (the HBM orbit keeps the x amplitude)"),
-        "hbm_truncation": variable(e, col("hbm_truncation"), "truncation indicator of the HBM orbit"),
+        "kind": (e, texts(col("kind"))),
+        "exact_status": (e, flags(col("exact_status"))),
+        "exact_note": (e, texts(col("exact_note"))),
+        "exact_energy": (e, floats(col("exact_energy"))),
+        "exact_frequency": (e, floats(col("exact_frequency"))),
+        "exact_residual": (e, floats(col("exact_residual"))),
+        "periodicity_error": (e, floats(col("periodicity_error"))),
+        "integration_difference": (e, floats(col("integration_difference"))),
+        "hbm_status": (e, flags(col("hbm_status"))),
+        "hbm_converged": (e, np.array(col("hbm_status")) == Status.COMPUTED),
+        "hbm_failure": (e, texts(col("hbm_failure"))),
+        "hbm_frequency_difference": (e, floats(col("hbm_frequency_difference"))),
+        "hbm_energy_mismatch": (e, floats(col("hbm_energy_mismatch"))),
+        "hbm_truncation": (e, floats(col("hbm_truncation"))),
     }
-    ds = xr.Dataset(data, coords={"energy": ("energy", energies, {"long_name": "requested total energy", "units": "1"})})
+    ds = xr.Dataset(data, coords={"energy": ("energy", energies)})
     ds.attrs = {**{k: float(v) for k, v in params.as_attrs().items()}, "harmonics": int(run.harmonics)}
     return ds
 
@@ -436,112 +535,94 @@ def energy_sweep_dataset(settings: StudySettings, alpha: float) -> xr.Dataset:
 # --------------------------------------------------------------------------- gather
 
 
+def _stacked(cases: np.ndarray, dims: tuple, prefix: str) -> dict:
+    """Every variable of the case datasets ``cases`` (an object array over the grid ``dims``) stacked
+    over that grid, named ``prefix + name`` (catalogue: :func:`nnmstop.catalogue.study.over`)."""
+    first = cases.flat[0]
+    out = {}
+    for key in first.data_vars:
+        values = np.array([c[key].values for c in cases.ravel()]).reshape(cases.shape + first[key].shape)
+        out[prefix + key] = (tuple(dims) + first[key].dims, texts(values) if values.dtype.kind in "OUS" else values)
+    return out
+
+
+def _exact_summary(family: xr.Dataset) -> xr.Dataset:
+    """The checks of one exact family (:func:`stiff_exact_dataset`) as scalar variables."""
+    data = {}
+    for key in ("relative_residual", "periodicity_error", "integration_difference", "seconds_per_orbit", "step"):
+        data[f"exact_{key}"] = ((), floats(float(family[f"check_{key}"])))
+    data.update(
+        {
+            "exact_max_residual": ((), floats(float(family.attrs["max_residual"]))),
+            "exact_orbits": ((), np.int32(family.sizes["point"])),
+            "exact_energy_min": ((), floats(float(family["energy"].min()))),
+            "exact_energy_max": ((), floats(float(family["energy"].max()))),
+            "exact_end_reason": ((), texts(family.attrs["end_reason"])),
+            "exact_end_confirmed": ((), bool(family["check_end_confirmed"])),
+            "exact_end_note": ((), texts(str(family["check_end_note"].values))),
+        }
+    )
+    return xr.Dataset(data)
+
+
+def _grid(lookup, shape) -> np.ndarray:
+    """An object array of ``shape`` holding ``lookup(index)`` at each index."""
+    out = np.empty(shape, dtype=object)
+    for index in np.ndindex(shape):
+        out[index] = lookup(index)
+    return out
+
+
 def gather_stiff_cases(settings: StudySettings, exact: list, branches: list, energy: list) -> xr.Dataset:
-    """Assemble the stiff-case datasets into ``stiff_cases`` (grids ``alpha x eta``, ``beta x delta``, ``energy``).
+    """Assemble the stiff-case datasets into ``stiff_cases`` (grids ``alpha x eta``, ``beta x delta``,
+    ``energy_alpha x energy``); the variables of the ``beta x delta`` grid start with ``ratio_``, those
+    of the energy sweep with ``energy_``.
 
     ``exact``, ``branches`` and ``energy`` are the datasets of the jobs in the order of
     :func:`stiff_case_parameters`.
     """
     stiff = settings.stiff_sweep()
-    model = settings.run.params
-    alphas, etas, ratios, energy_alphas = list(stiff.alpha), list(stiff.eta), list(stiff.ratios), list(stiff.energy_alpha)
+    a0, b0, d0, e0 = (float(getattr(settings.run.params, k)) for k in ("alpha", "beta", "delta", "eta"))
     expected = stiff_case_parameters(settings)
     for kind, datasets in (("exact", exact), ("branches", branches), ("energy", energy)):
         if len(datasets) != len(expected[kind]):
-            raise ValueError(f"{len(datasets)} stiff {kind} datasets given, the configuration has {len(expected[kind])} cases")
-    exact = dict(zip(expected["exact"], exact))
-    branches = dict(zip(expected["branches"], branches))
-
-    def branch(a, b, d, e):
-        return branches[(float(a), float(b), float(d), float(e))]
-
-    def fam(a, b, d):
-        return exact[(float(a), float(b), float(d))]
-
-    b0, d0, a0, e0 = model.beta, model.delta, model.alpha, model.eta
-    branch_scalars = ("runtime", "total_runtime", "truncation", "frequency_error", "x_error", "u_error", "force_error", "relative_force_error", "compared_energy_min", "compared_energy_max")
-    branch_ints = ("harmonics", "steps", "factorizations")
-    exact_scalars = ("check_relative_residual", "check_periodicity_error", "check_integration_difference", "check_seconds_per_orbit", "check_step")
-    data = {}
-
-    def put_branch(prefix, dims, grid):
-        shape = tuple(len(v) for v in grid.values())
-        cases = np.empty(shape, dtype=object)
-        for idx in np.ndindex(shape):
-            cases[idx] = grid_case(grid, idx)
-        get = lambda key, cast: np.vectorize(lambda c: cast(c[key].values), otypes=[object])(cases)  # noqa: E731
-        data[f"{prefix}converged"] = (dims, get("converged", bool).astype(bool), {"long_name": "NNM1 stage 1 converged with every orbit resolved for one of the harmonics tried", "units": "1"})
-        data[f"{prefix}compared"] = (dims, get("compared", bool).astype(bool), {"long_name": "converged and compared with the exact family at every chosen energy", "units": "1"})
-        data[f"{prefix}failure"] = string_variable(dims, get("failure", str).astype(str), "why the case did not converge or was not compared ('' if it was)")
-        data[f"{prefix}attempts"] = string_variable(dims, get("attempts", str).astype(str), "every number of harmonics tried, with its outcome")
-        for key in branch_ints:
-            src = next(iter(branches.values()))[key]
-            data[f"{prefix}{key}"] = (dims, get(key, int).astype(np.int32), dict(src.attrs))
-        for key in branch_scalars:
-            src = next(iter(branches.values()))[key]
-            values = get(key, float).astype(float)
-            data[f"{prefix}{key}"] = variable(dims, values, src.attrs["long_name"], src.attrs["units"])
-
-    def grid_case(grid, idx):
-        values = {name: vals[i] for (name, vals), i in zip(grid.items(), idx)}
-        return branch(values.get("alpha", a0), values.get("beta", b0), values.get("delta", d0), values.get("eta", e0))
-
-    put_branch("", ("alpha", "eta"), {"alpha": alphas, "eta": etas})
-    put_branch("ratio_", ("beta", "delta"), {"beta": ratios, "delta": ratios})
-
-    def put_exact(prefix, dims, cases):
-        shape = cases.shape
-        for key in exact_scalars:
-            src = next(iter(exact.values()))[key]
-            values = np.array([float(c[key]) for c in cases.ravel()]).reshape(shape)
-            data[f"{prefix}{key.replace('check_', 'exact_')}"] = variable(dims, values, "exact solver: " + src.attrs["long_name"], src.attrs["units"])
-        data[f"{prefix}exact_max_residual"] = variable(dims, np.array([float(c.attrs["max_residual"]) for c in cases.ravel()]).reshape(shape), "exact solver: largest residual norm of the quarter-period equations")
-        data[f"{prefix}exact_orbits"] = (dims, np.array([c.sizes["point"] for c in cases.ravel()], dtype=np.int32).reshape(shape), {"long_name": "exact solver: orbits of the two-impact family", "units": "1"})
-        data[f"{prefix}exact_energy_min"] = variable(dims, np.array([float(c["energy"].min()) for c in cases.ravel()]).reshape(shape), "exact solver: lowest energy of the two-impact family")
-        data[f"{prefix}exact_energy_max"] = variable(dims, np.array([float(c["energy"].max()) for c in cases.ravel()]).reshape(shape), "exact solver: highest energy of the two-impact family")
-        data[f"{prefix}exact_end_reason"] = string_variable(dims, np.array([c.attrs["end_reason"] for c in cases.ravel()]).reshape(shape), "exact solver: why the two-impact family ends")
-        data[f"{prefix}exact_end_confirmed"] = (dims, np.array([bool(c["check_end_confirmed"]) for c in cases.ravel()]).reshape(shape), {"long_name": "exact solver: the family end was met again with a step 100 times smaller (else recomputed with a 10 times smaller step)", "units": "1"})
-        data[f"{prefix}exact_end_note"] = string_variable(dims, np.array([str(c["check_end_note"].values) for c in cases.ravel()]).reshape(shape), "exact solver: how the family end was checked")
-
-    alpha_cases = np.empty(len(alphas), dtype=object)
-    for i, a in enumerate(alphas):
-        alpha_cases[i] = fam(a, b0, d0)
-    put_exact("", ("alpha",), alpha_cases)
-    ratio_cases = np.empty((len(ratios), len(ratios)), dtype=object)
-    for i, b in enumerate(ratios):
-        for j, d in enumerate(ratios):
-            ratio_cases[i, j] = fam(a0, b, d)
-    put_exact("ratio_", ("beta", "delta"), ratio_cases)
-
-    # energy sweep: (energy, energy_alpha)
-    dims = ("energy", "energy_alpha")
-    for key in energy[0].data_vars:
-        values = np.stack([ds[key].values for ds in energy], axis=-1)
-        attrs = dict(energy[0][key].attrs)
-        if values.dtype.kind in "US" or values.dtype == object:
-            data[f"energy_{key}"] = string_variable(dims, values.astype(str), attrs["long_name"])
-        elif values.dtype == bool:
-            data[f"energy_{key}"] = (dims, values, attrs)
-        else:
-            attrs.pop("_FillValue", None)
-            data[f"energy_{key}"] = variable(dims, values, attrs.pop("long_name"), attrs.pop("units"))
+            raise ValueError(
+                f"{len(datasets)} stiff {kind} datasets given, the configuration has {len(expected[kind])} cases"
+            )
+    family = {key: _exact_summary(ds) for key, ds in zip(expected["exact"], exact)}
+    branch = dict(zip(expected["branches"], branches))
+    alphas, etas, ratios = stiff.alpha, stiff.eta, stiff.ratios
+    shape, ratio_shape = (len(alphas), len(etas)), (len(ratios), len(ratios))
+    data = {
+        **_stacked(_grid(lambda ij: branch[(alphas[ij[0]], b0, d0, etas[ij[1]])], shape), ("alpha", "eta"), ""),
+        **_stacked(_grid(lambda ij: family[(alphas[ij[0]], b0, d0)], (len(alphas),)), ("alpha",), ""),
+        **_stacked(
+            _grid(lambda ij: branch[(a0, ratios[ij[0]], ratios[ij[1]], e0)], ratio_shape), ("beta", "delta"), "ratio_"
+        ),
+        **_stacked(
+            _grid(lambda ij: family[(a0, ratios[ij[0]], ratios[ij[1]])], ratio_shape), ("beta", "delta"), "ratio_"
+        ),
+        **_stacked(_grid(lambda i: energy[i[0]], (len(energy),)), ("energy_alpha",), "energy_"),
+    }
     coords = {
-        "alpha": ("alpha", np.asarray(alphas), {"long_name": "stop stiffness ratio alpha = K/k1", "units": "1"}),
-        "eta": ("eta", np.asarray(etas), {"long_name": "regularization parameter eta", "units": "1"}),
-        "beta": ("beta", np.asarray(ratios), {"long_name": "coupling stiffness ratio beta = k2/k1 (ratio sweep)", "units": "1"}),
-        "delta": ("delta", np.asarray(ratios), {"long_name": "mass ratio delta = m2/m1 (ratio sweep)", "units": "1"}),
-        "energy": ("energy", energy[0]["energy"].values, {"long_name": "requested total energy (energy sweep)", "units": "1"}),
-        "energy_alpha": ("energy_alpha", np.asarray(energy_alphas), {"long_name": "alpha of the energy sweep", "units": "1"}),
+        "alpha": ("alpha", np.asarray(alphas)),
+        "eta": ("eta", np.asarray(etas)),
+        "beta": ("beta", np.asarray(ratios)),
+        "delta": ("delta", np.asarray(ratios)),
+        "energy": ("energy", energy[0]["energy"].values),
+        "energy_alpha": ("energy_alpha", np.asarray(stiff.energy_alpha)),
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = {
-        "beta_of_alpha_eta_grid": b0, "delta_of_alpha_eta_grid": d0,
-        "alpha_of_ratio_grid": a0, "eta_of_ratio_grid": e0,
-        "energy_sweep_eta": float(stiff.energy_eta), "energy_sweep_harmonics": int(stiff.energy_harmonics),
+        "beta_of_alpha_eta_grid": b0,
+        "delta_of_alpha_eta_grid": d0,
+        "alpha_of_ratio_grid": a0,
+        "eta_of_ratio_grid": e0,
+        "energy_sweep_eta": float(stiff.energy_eta),
+        "energy_sweep_harmonics": int(stiff.energy_harmonics),
         "harmonics_tried": ", ".join(str(h) for h in stiff.harmonics),
-        "max_truncation": float(settings.run.max_truncation), "max_steps": int(stiff.max_steps),
+        "max_truncation": float(settings.run.max_truncation),
+        "max_steps": int(stiff.max_steps),
         "measurement": "run times are measurements of this machine; not reproducible byte for byte",
     }
     return ds
-
-

@@ -10,13 +10,13 @@ tables (atomically: no partial file is left behind a failure).
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
+from nnmstop.atomic import atomic_output
 from nnmstop.compare.dataset import comparison_dataset, empty_comparison_dataset
 from nnmstop.compare.matching import PARAMETER_KEYS, comparison_gap
 from nnmstop.compare.regimes import regime_error_dataset, regime_table
@@ -37,21 +37,12 @@ logger = logging.getLogger(__name__)
 
 
 def _checked_inputs(config: dict, inputs: dict):
-    """The exact family and NNM1 stage 1, refused when made with other parameters than the configuration's."""
-    exact, branch = read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"])
-    for key in PARAMETER_KEYS:
-        ds = branch if key == "eta" else exact
-        if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-12, atol=0):
-            raise ValueError(
-                f"model.{key} = {config['model'][key]!r} in the configuration but {ds.attrs[key]!r} in "
-                f"{inputs['nnm1'] if ds is branch else inputs['exact']} (stale dataset?)"
-            )
-    if int(branch.attrs["harmonics"]) != int(config["hbm"]["harmonics"]):
-        raise ValueError(
-            f"hbm.harmonics = {config['hbm']['harmonics']!r} in the configuration but {branch.attrs['harmonics']!r} in "
-            f"{inputs['nnm1']} (stale dataset?)"
-        )
-    return exact, branch
+    """The exact family and NNM1 stage 1, refused when made with other parameters than the configuration's
+    (:func:`nnmstop.netcdf.check_up_to_date`)."""
+    model = config["model"]
+    exact = read_dataset(inputs["exact"], expected={key: model[key] for key in PARAMETER_KEYS if key != "eta"})
+    settings = {**{key: model[key] for key in PARAMETER_KEYS}, "harmonics": config["hbm"]["harmonics"]}
+    return exact, read_dataset(inputs["nnm1"], expected=settings)
 
 
 def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
@@ -130,10 +121,8 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
 def write_table(table: pd.DataFrame, path) -> Path:
     """Write ``table`` as CSV under a temporary name, then rename (no partial file)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    table.to_csv(tmp, float_format="%.10g", lineterminator="\n")
-    os.replace(tmp, path)
+    with atomic_output(path) as tmp:
+        table.to_csv(tmp, float_format="%.10g", lineterminator="\n")
     return path
 
 
@@ -160,14 +149,9 @@ def read_exact_and_regularized(config: dict, inputs: dict) -> tuple[xr.Dataset, 
     for key in ("exact", "nnm1"):
         if key not in inputs:
             raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
-    exact, regularized = read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"])
-    for key in ("alpha", "beta", "delta", "eta"):
-        for ds in (exact, regularized) if key != "eta" else (regularized,):
-            if not np.isclose(float(ds.attrs[key]), float(config["model"][key]), rtol=1e-14, atol=0):
-                raise ValueError(
-                    f"{key} = {ds.attrs[key]} in the inputs differs from the configuration ({config['model'][key]}); "
-                    "rebuild them"
-                )
+    model = config["model"]
+    exact = read_dataset(inputs["exact"], expected={key: model[key] for key in ("alpha", "beta", "delta")})
+    regularized = read_dataset(inputs["nnm1"], expected={key: model[key] for key in ("alpha", "beta", "delta", "eta")})
     return exact, regularized
 
 

@@ -10,13 +10,10 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import numpy as np
-import xarray as xr
-
 from nnmstop.exact.dataset import exact_branch_dataset, two_impact_dataset, two_impact_unknowns
 from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impact_family
 from nnmstop.models.two_dof import ModelParameters
-from nnmstop.netcdf import write_dataset
+from nnmstop.netcdf import read_dataset, write_dataset
 
 __all__ = ["build_two_impact_dataset", "build_multi_impact_dataset"]
 
@@ -40,13 +37,21 @@ def build_two_impact_dataset(config: dict, output_path: str | Path) -> Path:
     -------
     Path
         The written file.
+
+    Raises
+    ------
+    nnmstop.continuation.confirm.EndNotConfirmed
+        When a restart with a ten times smaller step does not end where the family ends (the end is
+        then an artefact of the step: decrease ``exact.step``).
     """
     for key in ("model", "exact"):
         if key not in config:
             raise ValueError(f"config lacks the section {key!r}")
     params = ModelParameters.from_config(config["model"])
     exact = config["exact"]
-    family = follow_two_impact_family(params, step=float(exact["step"]), max_points=int(exact["max_points"]))
+    family = follow_two_impact_family(
+        params, step=float(exact["step"]), max_points=int(exact["max_points"]), confirm=True
+    )
     ds = two_impact_dataset(family)
     summary = (
         "Exact periodic orbits of the non-smooth 2-DOF oscillator with a bilateral elastic stop "
@@ -89,27 +94,24 @@ def build_multi_impact_dataset(config: dict, two_impact_path: str | Path, output
     Returns
     -------
     Path
+
+    Raises
+    ------
+    nnmstop.continuation.confirm.EndNotConfirmed
+        When the end of a segment is not met again by a restart with a ten times smaller step.
     """
     for key in ("model", "exact_multi"):
         if key not in config:
             raise ValueError(f"config lacks the section {key!r}")
     params = ModelParameters.from_config(config["model"])
     settings = FamilySettings.from_config(config["exact_multi"])
-    with xr.open_dataset(two_impact_path) as ds:
-        two = ds.load()
-    for name in ("alpha", "beta", "delta"):
-        if not np.isclose(float(two.attrs[name]), getattr(params, name), rtol=1e-14, atol=0):
-            raise ValueError(
-                f"{two_impact_path}: {name} = {two.attrs[name]} differs from the configuration "
-                f"({getattr(params, name)}); "
-                "rebuild the two-impact dataset"
-            )
+    two = read_dataset(two_impact_path, expected={name: getattr(params, name) for name in ("alpha", "beta", "delta")})
     if two.attrs.get("end_margin") != "opposite_stop":
         logger.warning("the two-impact family ends on %r, not on the opposite stop", two.attrs.get("end_margin"))
     y = two_impact_unknowns(two)
     if len(y) < 2:
         raise ValueError(f"{two_impact_path} holds fewer than two orbits")
-    segments = follow_branch(params, "FR", y[-1], y[-1] - y[-2], settings)
+    segments = follow_branch(params, "FR", y[-1], y[-1] - y[-2], settings, confirm=True)
     ds = exact_branch_dataset(two, segments, params)
     summary = (
         "Exact NNM1 of the non-smooth 2-DOF oscillator with a bilateral elastic stop (Eqs. 3-4) with any number "

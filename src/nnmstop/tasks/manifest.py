@@ -11,6 +11,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+from nnmstop.atomic import atomic_output
+
 __all__ = ["dataset_manifest"]
 
 
@@ -35,8 +37,8 @@ def dataset_manifest(config: dict, inputs: dict, outputs: dict) -> Path:
     paths = [datasets] if isinstance(datasets, (str, Path)) else list(datasets)
     lines = [f"{hashlib.sha256(Path(path).read_bytes()).hexdigest()}  {path}\n" for path in sorted(map(str, paths))]
     out = Path(outputs["manifest"])
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text("".join(lines))
+    with atomic_output(out) as tmp:
+        tmp.write_text("".join(lines))
     return out
 
 

@@ -3,8 +3,9 @@
 They read the sections a rule passes in the shape of the top-level configuration (``structure``,
 ``exact``, ``compare_count``, ``figures``, ``metadata``); the tube's rules pass its own section so shaped
 (:func:`nnmstop.tasks.tube.tube_config`). ``structure_exact``: the exact family of orbits with one impact
-per stop side per period (:mod:`nnmstop.exact.ndof`, from the grazing orbit of the first linear mode);
-``structure_compare``: exact against regularized NNM1 at matched energies
+per stop side per period (:mod:`nnmstop.exact.ndof`, from the grazing orbit of the first linear mode, its end
+confirmed); ``structure_compare``: exact against regularized NNM1 at matched energies, on the exact family's
+backbone (before its first internal resonance, :func:`nnmstop.exact.dataset.one_stop_backbone`)
 (:mod:`nnmstop.compare.structure_branches`); ``structure_figure``: the figures of
 :mod:`nnmstop.figures.structure`.
 """
@@ -23,25 +24,30 @@ def structure_exact(config, inputs, outputs, keywords: str = ""):
     from nnmstop.exact.ndof import follow_one_stop_family
 
     structure = structure_from_config(config)
-    family = follow_one_stop_family(structure, step=config["exact"]["step"], max_points=config["exact"]["max_points"])
+    family = follow_one_stop_family(
+        structure, step=config["exact"]["step"], max_points=config["exact"]["max_points"], confirm=True
+    )
+    ds = exact_family_dataset(structure, family)
     write_dataset(
-        exact_family_dataset(structure, family),
+        ds,
         outputs["dataset"],
         title=f"Exact NNM1 of the {structure.n_dofs}-DOF structure with a bilateral stop",
         summary="Exact periodic orbits of the non-smooth (piecewise-linear) structure with one impact on each side "
         "of its stop per period, from the grazing orbit of its first linear mode; closed-form phases (matrix "
-        f"exponentials). The family ends because {family.end_reason}.",
+        f"exponentials). Internal resonance: {ds.attrs['internal_resonance']}. The family ends because "
+        f"{family.end_reason}.",
         keywords=keywords,
         metadata=config.get("metadata"),
-        kind="one_impact_family",
+        kind="one_stop_family",
     )
 
 
 def structure_compare(config, inputs, outputs, keywords: str = ""):
     """Exact against regularized NNM1 at matched energies."""
     from nnmstop.compare.structure_branches import compare_at_energies
+    from nnmstop.exact.dataset import one_stop_backbone
 
-    exact = read_dataset(inputs["exact"])
+    exact = one_stop_backbone(read_dataset(inputs["exact"]))  # not its internal resonance: see the dataset
     regularized = read_dataset(inputs["nnm1"])
     ds = compare_at_energies(
         exact.energy.values,
