@@ -17,7 +17,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.floquet import GAUSS, PairInvariants, check_power_of_two, hamiltonian_expm, transition_matrix
+from nnmstop.floquet import (
+    CAYLEY_HAMILTON_MAX_DOF,
+    COMMUTATOR_FREE_WEIGHTS,
+    GAUSS,
+    PairInvariants,
+    check_power_of_two,
+    hamiltonian_expm,
+    oscillator_expm,
+    transition_matrix,
+)
 from nnmstop.hbm.shooting_refinement import refined_stability
 from nnmstop.hbm.variational import Linearization, halfwave_symmetric, is_reversible, stop_coefficients
 from nnmstop.netcdf import flag_variable
@@ -28,6 +37,7 @@ __all__ = [
     "REASONS",
     "variational_generators",
     "variational_step_matrices",
+    "commutator_free_step_matrices",
     "integrated_monodromy",
     "orbit_monodromy",
     "branch_monodromy",
@@ -235,9 +245,29 @@ def integrated_monodromy(linearization: Linearization, x_full, omega, H: int, st
     """
     k = _stiffness_at_nodes(linearization, x_full, H, steps, span < 2 * np.pi)
     h = (span / steps) / np.asarray(omega, dtype=float)
+    if linearization.n_dofs > CAYLEY_HAMILTON_MAX_DOF:
+        return transition_matrix(commutator_free_step_matrices(linearization, k, h[:, None]))
     generators = variational_generators(linearization, k, h[:, None], _balance(linearization, k))
     step_maps = hamiltonian_expm(generators, entry_first=True)
     return transition_matrix(np.ascontiguousarray(np.moveaxis(step_maps, (0, 1), (-2, -1))))
+
+
+def commutator_free_step_matrices(linearization: Linearization, stiffness_nodes, step):
+    """Fourth-order commutator-free Magnus step maps of ``z'' + B(t) z = 0`` in ``(z, z')``, for many DOF.
+
+    Each step is ``exp(h (b_2 A_1 + b_1 A_2)) exp(h (b_1 A_1 + b_2 A_2))``
+    (:data:`~nnmstop.floquet.COMMUTATOR_FREE_WEIGHTS`): two exponents without the commutator term, each
+    ``[[0, h/2 I], [-h/2 B', 0]]`` with a symmetric ``B' = B_0 + 2 sum_i (b k_i1 + b' k_i2) w_i w_i^T``,
+    exponentiated in closed form (:func:`~nnmstop.floquet.oscillator_expm`: one eigendecomposition of
+    ``B'``, no squarings however stiff the structure). Arguments as in :func:`variational_generators`;
+    returns ``(..., 2N, 2N)``.
+    """
+    k = np.asarray(stiffness_nodes, dtype=float)
+    b1, b2 = COMMUTATOR_FREE_WEIGHTS
+    half = 0.5 * np.broadcast_to(np.asarray(step, dtype=float), k.shape[1:-1])
+    first = oscillator_expm(linearization.stiffness_at(2.0 * (b1 * k[..., 0] + b2 * k[..., 1])), half)
+    second = oscillator_expm(linearization.stiffness_at(2.0 * (b2 * k[..., 0] + b1 * k[..., 1])), half)
+    return second @ first
 
 
 # --------------------------------------------------------------------------- orbits
