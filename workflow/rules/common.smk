@@ -204,4 +204,4 @@ def tube_branch_config(wildcards):
     """The tube section with only the rule's own branch (a branch reruns when its entry changes)."""
     tube = {key: value for key, value in config["tube"].items() if key not in ("branches", "figures", "study", "exact", "compare_count")}
     tube["branches"] = {wildcards.branch: config["tube"]["branches"][wildcards.branch]}
-    return {"tube": tube, "anm": config["anm"], "metadata": config.get("metadata", {})}
+    return {"tube": tube, "anm": config["anm"], "stability": config.get("stability", {}), "metadata": config.get("metadata", {})}

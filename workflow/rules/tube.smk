@@ -85,7 +85,7 @@ rule tube_study_case:
     benchmark:
         benchmarks("tube_study_gap{gap}_k{factor}.tsv")
     params:
-        config=task_config("anm", "metadata", "tube"),
+        config=task_config("anm", "metadata", "tube", "stability"),
     conda:
         "../envs/nnmstop.yaml"
     script:

@@ -23,7 +23,6 @@ from nnmstop.continuation.anm import ANMSettings, continue_anm
 from nnmstop.continuation.core import Branch, ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.bifurcation import locate_flagged_branch_points
 from nnmstop.hbm.dataset import energy_folds, located_branch_point_variables, located_fold_variables
-from nnmstop.hbm.structure_stability import StructureStability
 from nnmstop.hbm.system import HarmonicBalanceSystem, impacts_per_period
 from nnmstop.netcdf import flag_variable
 
@@ -321,7 +320,7 @@ def structure_branch_dataset(
     system: HarmonicBalanceSystem,
     branch: Branch,
     settings: ANMSettings,
-    stability: StructureStability,
+    stability,
     attrs: dict | None = None,
     dof_labels=None,
     node_coordinates=None,
@@ -330,7 +329,8 @@ def structure_branch_dataset(
 
     Variables on ``point``: ``omega_squared``, ``energy``, ``frequency``, ``period``, ``x_max`` (largest
     coordinate of the first stop over gap), ``impacts_per_period`` (all stops) and ``stop_impacts``
-    (per stop), residuals, truncation, branch-point and fold flags, Floquet stability; Fourier
+    (per stop), residuals, truncation, branch-point and fold flags, Floquet stability (``stability``: the
+    result of :func:`nnmstop.hbm.stability.orbit_stability`); Fourier
     coefficients ``q_cos``/``q_sin`` (point, dof, harmonic) and ``f_cos``/``f_sin`` (point, stop,
     harmonic). ``attrs``: global attributes to add (structure, mode, settings).
     """

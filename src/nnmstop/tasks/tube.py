@@ -119,18 +119,27 @@ def tube_exact(config, inputs, outputs):
 
 
 def run_tube_branch(
-    tube: dict, anm: dict, mode: int, start_amplitude: float, energy_max: float, label: str, pass_resonances: int = 0
+    tube: dict,
+    anm: dict,
+    mode: int,
+    start_amplitude: float,
+    energy_max: float,
+    label: str,
+    pass_resonances: int = 0,
+    stability: dict | None = None,
 ):
     """System, continued branch and its dataset for one NNM of the tube section ``tube``.
 
     ``pass_resonances``: internal resonance tongues the backbone is continued over
-    (:func:`nnmstop.hbm.structure_branch.continue_structure_nnm`).
+    (:func:`nnmstop.hbm.structure_branch.continue_structure_nnm`); ``stability``: the config's
+    ``stability`` section (:func:`nnmstop.hbm.stability.orbit_stability`, as for the 2-DOF branches).
     """
     from nnmstop.continuation.anm import ANMSettings
+    from nnmstop.hbm.stability import orbit_stability
     from nnmstop.hbm.structure_branch import continue_structure_nnm, structure_branch_dataset
-    from nnmstop.hbm.structure_stability import structure_stability
     from nnmstop.hbm.system import HarmonicBalanceSystem
     from nnmstop.models.beam import beam_structure
+    from nnmstop.tasks.hbm import stability_settings
 
     beam = tube_beam(tube["structure"])
     structure = beam_structure(beam)
@@ -146,8 +155,13 @@ def run_tube_branch(
         label=label,
         pass_resonances=pass_resonances,
     )
-    stability = structure_stability(
-        system, np.array(branch.points), steps=tube["stability"]["steps"], tolerance=tube["stability"]["tolerance"]
+    diagnostics = [d if d is not None else system.diagnostics(u) for u, d in zip(branch.points, branch.diagnostics)]
+    branch.diagnostics = diagnostics
+    stability = orbit_stability(
+        system,
+        np.array(branch.points),
+        stability_settings({"stability": stability} if stability is not None else {}),
+        time_residual=np.array([d["time_residual"] for d in diagnostics]),
     )
     attrs = {**_structure_attrs(beam, structure), **_mode_attrs(beam, mode), "branch": label}
     ds = structure_branch_dataset(
@@ -174,6 +188,7 @@ def tube_branch(config, inputs, outputs, branch: str):
         spec["energy_max"],
         branch,
         pass_resonances=spec.get("pass_resonances", 0),
+        stability=config.get("stability"),
     )
     write_dataset(
         ds,
@@ -228,7 +243,10 @@ def tube_study_case(config, inputs, outputs, gap, factor):
     """NNM1 of the tube for one (gap, stop stiffness factor) of ``tube.study``."""
     tube = study_case_config(config["tube"], float(gap), float(factor))
     nnm1 = tube["branches"]["nnm1"]
-    ds = run_tube_branch(tube, config["anm"], 1, nnm1["start_amplitude"], tube["study"]["energy_max"], "nnm1")
+    ds = run_tube_branch(
+        tube, config["anm"], 1, nnm1["start_amplitude"], tube["study"]["energy_max"], "nnm1",
+        stability=config.get("stability"),
+    )
     ds.attrs.update(study_gap_m=float(gap), study_stiffness_factor=float(factor))
     write_dataset(
         ds,
