@@ -51,6 +51,9 @@ REASONS = (
     "resolved", "integration_error", "orbit_error", "resolved_refined", "shooting_not_converged", "refined_at_type_change"
 )
 RESOLVED_REASONS = (0, 3)
+#: Default of :attr:`MonodromySettings.max_orbit_residual`: above the largest time residual (0.043) of the
+#: orbits on which the orbit-error estimate was calibrated.
+MAX_ORBIT_RESIDUAL = 0.05
 # Entries of the batched step matrices per chunk (4 MB an array: 2**15 matrices of 4 x 4), about the
 # fastest here (memory traffic).
 _CHUNK_ENTRIES = 2**19
@@ -86,6 +89,11 @@ class MonodromySettings:
     refine_max_change : float
         Largest relative change of the start state and period from the HBM orbit to the
         refined one; a shooting that goes farther has found another orbit (not converged).
+    max_orbit_residual : float
+        Largest ``time_residual`` of an orbit whose own verdict can be resolved: the estimate
+        "the orbit's error moves ``s`` by about its time residual" was calibrated on orbits whose
+        residuals reach 0.043 (the paper's H = 100 branches; ``docs/methods/monodromy.md``); an
+        orbit above this gets reason 2 whatever its margin, and is refined.
     """
 
     steps: int = 256
@@ -97,6 +105,7 @@ class MonodromySettings:
     refine_max_steps: int = 4096
     refine_tol: float = 1e-11
     refine_max_change: float = 1e-2
+    max_orbit_residual: float = MAX_ORBIT_RESIDUAL
 
     def __post_init__(self):
         for name in ("steps", "max_steps"):
@@ -121,13 +130,17 @@ class MonodromySettings:
             raise ValueError(
                 f"stability refine_max_change must be a number in (0, 0.5], got {self.refine_max_change!r}"
             )
+        if not (np.isfinite(self.max_orbit_residual) and 0 < self.max_orbit_residual <= 1):
+            raise ValueError(
+                f"stability max_orbit_residual must be a number in (0, 1], got {self.max_orbit_residual!r}"
+            )
 
     @classmethod
     def from_config(cls, stability: dict) -> MonodromySettings:
         """Settings from the (validated) ``stability`` section of the config."""
         keys = (
             "steps", "max_steps", "trace_tol", "resolution_factor",
-            "refine", "refine_steps", "refine_max_steps", "refine_tol", "refine_max_change",
+            "refine", "refine_steps", "refine_max_steps", "refine_tol", "refine_max_change", "max_orbit_residual",
         )
         return cls(**{k: stability[k] for k in keys if k in stability})
 
@@ -390,8 +403,8 @@ class BranchMonodromy:
         reason_attrs = {
             "long_name": "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within "
             f"{F} x stability_integration_error at the largest step count; 2 stability_margin within "
-            f"{F} x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it) and the "
-            "orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's "
+            f"{F} x stability_orbit_residual, or time_residual above {st.max_orbit_residual:g} (the HBM orbit's own "
+            "error; more steps would not resolve it) and the orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's "
             f"margin was within {F} x its error; stability variables from the refined orbit); 4 the shooting did not "
             f"converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within {F} x its "
             "integration error at the largest step count or below trace_tol: the non-trivial pair sits at +1 (a "
@@ -492,6 +505,15 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     reason = np.zeros(n, dtype=np.int8)
     reason[margin <= F * err] = 1
     reason[margin <= F * orbit_error] = 2  # the orbit's error decides whatever the steps
+    # beyond the calibrated range of the estimate the orbit's error decides whatever the margin
+    beyond = time_residual > settings.max_orbit_residual
+    reason[beyond] = 2
+    if beyond.any():
+        logger.warning(
+            "%d of %d orbits have a time residual above max_orbit_residual = %g (largest %.3g): their own verdicts "
+            "are not resolved%s", beyond.sum(), n, settings.max_orbit_residual, time_residual.max(),
+            " (refined by shooting where it converges)" if settings.refine else "",
+        )
     refinement = _refine(system, U_array, found, err, steps, reason, halfwave, settings)
     margin, critical = found.margin(halfwave)
     return BranchMonodromy(

@@ -65,7 +65,9 @@ def orbit_stability(system, U_array, settings: StabilitySettings, time_residual=
     U_array : array_like, shape (n, n_unknowns)
     settings : StabilitySettings
     time_residual : array_like, shape (n,), optional
-        The orbits' residuals of Eq. (7), if already at hand (monodromy method).
+        The orbits' time residuals (:meth:`HarmonicBalanceSystem.diagnostics`), if already at hand;
+        an orbit whose residual exceeds ``settings.monodromy.max_orbit_residual`` gets no resolved
+        verdict of its own (either method).
 
     Returns
     -------
@@ -76,7 +78,12 @@ def orbit_stability(system, U_array, settings: StabilitySettings, time_residual=
         raise ValueError(f"settings must be a StabilitySettings, got {type(settings).__name__}")
     if settings.method == "monodromy":
         return branch_monodromy(system, U_array, settings.monodromy, time_residual=time_residual)
-    return branch_hill(system, U_array, tol=settings.hill_tol)
+    result = branch_hill(system, U_array, tol=settings.hill_tol)
+    if time_residual is None:
+        time_residual = [system.diagnostics(U)["time_residual"] for U in np.asarray(U_array, dtype=float)]
+    # no verdict of its own on an orbit beyond the calibrated range of the orbit-error estimate
+    result.resolved &= np.asarray(time_residual, dtype=float) <= settings.monodromy.max_orbit_residual
+    return result
 
 
 @dataclass
