@@ -215,8 +215,8 @@ def branch_hill(
     ):
         raise ValueError(f"blas_threads must be None or an integer >= 1, got {blas_threads!r}")
     n = len(U_array)
-    mult = np.empty((n, 4), dtype=complex)
-    expo = np.empty((n, 4), dtype=complex)
+    mult = np.empty((n, 2 * system.n_dofs), dtype=complex)
+    expo = np.empty((n, 2 * system.n_dofs), dtype=complex)
     stable = np.empty(n, dtype=bool)
     max_mu, resid, margin, tailf = (np.empty(n) for _ in range(4))
     resolved = np.empty(n, dtype=bool)
