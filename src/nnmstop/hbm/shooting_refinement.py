@@ -130,7 +130,10 @@ class RegularizedDynamics:
         y2 /= s
         y2 /= s
         y2 += 1.0
-        np.divide(w[velocities], y2, out=out[stops])
+        if isinstance(stops, slice):
+            np.divide(w[velocities], y2, out=out[stops])
+        else:  # fancy indexing gives a copy: assign
+            out[stops] = w[velocities] / y2
         return out
 
     def contact_stiffness(self, y):
@@ -161,8 +164,9 @@ class RegularizedDynamics:
         q = states[..., :N]
         acceleration = q @ self.linear[N:, :N].T
         for i, (dof, gap, law) in enumerate(zip(self.stop_dofs, self.gaps, self.laws)):
-            acceleration = acceleration - (gap * regularized_contact_force(q[..., dof] / gap, law))[..., None] * (
-                self.mass_inverse_stops[:, i]
+            acceleration = (
+                acceleration
+                - (gap * regularized_contact_force(q[..., dof] / gap, law))[..., None] * (self.mass_inverse_stops[:, i])
             )
         return np.concatenate([states[..., N:], acceleration], axis=-1)
 
@@ -589,8 +593,18 @@ def refined_stability(
     x_phase, x_slope_phase = _quarter_period_samples(system, U_array, _GRID_SAMPLES)
     states_at, period = _hbm_states_at(system, U_array)
     return shooting_stability(
-        system.structure, period, x_phase, x_slope_phase, states_at, steps, max_steps, tol, resolution_factor,
-        max_change, floor, max_iter,
+        system.structure,
+        period,
+        x_phase,
+        x_slope_phase,
+        states_at,
+        steps,
+        max_steps,
+        tol,
+        resolution_factor,
+        max_change,
+        floor,
+        max_iter,
     )
 
 
@@ -707,4 +721,3 @@ def shooting_stability(
         initial_period=initial_period,
         initial_energy=dynamics.energy_at_rest(initial_start),
     )
-
