@@ -54,6 +54,8 @@ __all__ = [
 LINEARIZATIONS = ("model", "recast")
 METHODS = ("auto", "reversible", "companion")
 DEFAULT_TOL = 1e-6
+# Distance modulo i (theta units) below which two exponents are taken as members of one family.
+FAMILY_TOL = 1e-6
 # Safety factor of the `resolved` flag: distance of mu_1 to the collision points over
 # the orbit residual (chosen against exact orbits, docs/methods/hill.md).
 RESOLUTION_FACTOR = 5.0
@@ -314,6 +316,27 @@ def _orbit_residual(op):
     return float(np.sqrt(np.sum(w * r * r)) / scale) if scale > 0 else 0.0
 
 
+def _one_per_family(order, sigma, count):
+    """The first ``count`` indices of ``order`` whose exponents are of distinct families.
+
+    Two members of one family differ by an integer times ``i`` (up to the truncation error), and the
+    problem in ``sigma**2`` holds ``sigma`` and ``-sigma`` as one eigenvalue: a candidate within
+    :data:`FAMILY_TOL` of an accepted one (or of its opposite) modulo ``i`` is another member of its family
+    (the odd block of a half-wave symmetric orbit has two centred members at ``kappa = +-1``). Should fewer
+    than ``count`` families be found, the nearest duplicates fill in.
+    """
+    picks, duplicates = [], []
+    for j in order:
+        same = any(
+            min(_family_distance(sigma[j], sigma[a]), _family_distance(sigma[j], -sigma[a])) <= FAMILY_TOL
+            for a in picks
+        )
+        (duplicates if same else picks).append(j)
+        if len(picks) == count:
+            return np.array(picks, dtype=int)
+    return np.array((picks + duplicates)[:count], dtype=int)
+
+
 def _pairs_first(exponents, kappa, tails):
     """Exponent pairs ``s, -s`` ordered by decreasing multiplier modulus, as arrays of ``2 (N - 1)``."""
     order = np.argsort(-np.abs(np.exp(2 * np.pi * exponents.real)), kind="stable")
@@ -340,7 +363,8 @@ def _solve_companion(op, tol):
     rest = [j for j in cand if j not in trivial]
     firsts, seconds = [], []
     for _ in range(N - 1):
-        n1 = min(rest, key=lambda j: (round(abs(kappa[j]), 6), -sigma[j].real))
+        fresh = [j for j in rest if all(_family_distance(sigma[j], sigma[a]) > FAMILY_TOL for a in firsts + seconds)]
+        n1 = min(fresh or rest, key=lambda j: (round(abs(kappa[j]), 6), -sigma[j].real))
         rest.remove(n1)
         n2 = min(rest, key=lambda j: (_family_distance(sigma[j], -sigma[n1]), abs(kappa[j])))
         rest.remove(n2)
@@ -427,8 +451,9 @@ def _solve_reversible(op, tol, halfwave):
     P[si] = Z[nc:] * sigma
     kappa, tail = _spectral_shape(P, op.H, op.n_dofs)
     # Centred members: smallest |kappa| (<= 1/2 with all harmonics; <= 1 within the odd block, whose
-    # members are 2i apart; the shift below centres them either way), one per family: the N - 1 first.
-    picks = np.lexsort((-sigma.real, np.round(np.abs(kappa), 6)))[: op.n_dofs - 1]
+    # members are 2i apart; the shift below centres them either way), one per family.
+    order = np.lexsort((-sigma.real, np.round(np.abs(kappa), 6)))
+    picks = _one_per_family(order, sigma, op.n_dofs - 1)
     s = sigma[picks] + 1j * np.round(kappa[picks])
     kap = kappa[picks] - np.round(kappa[picks])
     flip = s.real < 0  # larger multiplier first
