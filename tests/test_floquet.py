@@ -81,8 +81,9 @@ def test_hamiltonian_expm_matches_scipy(N, h):
 
 def test_entry_first_layout_is_the_same_numbers():
     X = _hamiltonian(2, 0.3, np.random.default_rng(0))
-    np.testing.assert_array_equal(np.moveaxis(hamiltonian_expm(np.moveaxis(X, 0, 2), entry_first=True), 2, 0),
-                                  hamiltonian_expm(X))
+    np.testing.assert_array_equal(
+        np.moveaxis(hamiltonian_expm(np.moveaxis(X, 0, 2), entry_first=True), 2, 0), hamiltonian_expm(X)
+    )
 
 
 def test_exponentials_name_bad_shapes():
@@ -136,14 +137,17 @@ def test_a_complex_quartet_is_a_complex_invariant():
     phi[2, 5] = 0.3
     trivial, s, krein = symplectic_invariants(phi[None])
     assert abs(trivial[0] - 2.0) < 1e-13
-    np.testing.assert_allclose(sorted(s[0], key=lambda z: z.imag), sorted([mu + 1 / mu, np.conj(mu + 1 / mu)],
-                                                                           key=lambda z: z.imag), atol=1e-12)
+    np.testing.assert_allclose(
+        sorted(s[0], key=lambda z: z.imag),
+        sorted([mu + 1 / mu, np.conj(mu + 1 / mu)], key=lambda z: z.imag),
+        atol=1e-12,
+    )
     assert np.all(krein == 0)
 
 
 def test_periodic_floquet_of_a_damped_oscillator():
-    """Constant generator: multipliers exp(lambda T) of q'' + 2 zeta q' + q = 0, lambda = -zeta +- i sqrt(1 - zeta**2).
-    """
+    """Constant generator: the multipliers exp(lambda T) of q'' + 2 zeta q' + q = 0, lambda the roots of
+    lambda**2 + 2 zeta lambda + 1."""
     zeta = 0.05
     A = np.array([[0.0, 1.0], [-1.0, -2 * zeta]])
     T = np.array([2.0, 7.0])
@@ -171,6 +175,7 @@ def test_periodic_floquet_of_a_damped_mathieu_equation_matches_dop853():
 
     result = periodic_floquet(generator, np.full(len(cases), np.pi), steps=64, max_steps=2048, tol=1e-11)
     for i, (a, b) in enumerate(cases):
+
         def rhs(t, y, a=a, b=b):
             Y = y.reshape(2, 2)
             return (np.array([[0.0, 1.0], [-(a + 2 * b * np.cos(2 * t)), -c]]) @ Y).ravel()

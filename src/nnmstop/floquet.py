@@ -627,8 +627,10 @@ class PairInvariants:
     @classmethod
     def empty(cls, n: int, pairs: int) -> PairInvariants:
         return cls(
-            np.zeros((n, pairs), dtype=complex), np.zeros((n, pairs), dtype=complex),
-            np.zeros((n, pairs), dtype=int), np.zeros(n),
+            np.zeros((n, pairs), dtype=complex),
+            np.zeros((n, pairs), dtype=complex),
+            np.zeros((n, pairs), dtype=int),
+            np.zeros(n),
         )
 
     def stable(self, trace_tol: float):

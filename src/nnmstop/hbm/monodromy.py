@@ -48,7 +48,12 @@ logger = logging.getLogger(__name__)
 # Codes of `stability_reason`: why a verdict is resolved or not (dataset flag values).
 # 3-5 only where the HBM orbit's error decided (2) and the orbit was refined by shooting.
 REASONS = (
-    "resolved", "integration_error", "orbit_error", "resolved_refined", "shooting_not_converged", "refined_at_type_change"
+    "resolved",
+    "integration_error",
+    "orbit_error",
+    "resolved_refined",
+    "shooting_not_converged",
+    "refined_at_type_change",
 )
 RESOLVED_REASONS = (0, 3)
 #: Default of :attr:`MonodromySettings.max_orbit_residual`: above the largest time residual (0.043) of the
@@ -115,7 +120,9 @@ class MonodromySettings:
         if not (np.isfinite(self.trace_tol) and self.trace_tol >= 0):
             raise ValueError(f"stability trace_tol must be a finite number >= 0, got {self.trace_tol!r}")
         if not (np.isfinite(self.resolution_factor) and self.resolution_factor >= 1):
-            raise ValueError(f"stability resolution_factor must be a finite number >= 1, got {self.resolution_factor!r}")
+            raise ValueError(
+                f"stability resolution_factor must be a finite number >= 1, got {self.resolution_factor!r}"
+            )
         if not isinstance(self.refine, (bool, np.bool_)):
             raise ValueError(f"stability refine must be true or false, got {self.refine!r}")
         for name in ("refine_steps", "refine_max_steps"):
@@ -139,8 +146,16 @@ class MonodromySettings:
     def from_config(cls, stability: dict) -> MonodromySettings:
         """Settings from the (validated) ``stability`` section of the config."""
         keys = (
-            "steps", "max_steps", "trace_tol", "resolution_factor",
-            "refine", "refine_steps", "refine_max_steps", "refine_tol", "refine_max_change", "max_orbit_residual",
+            "steps",
+            "max_steps",
+            "trace_tol",
+            "resolution_factor",
+            "refine",
+            "refine_steps",
+            "refine_max_steps",
+            "refine_tol",
+            "refine_max_change",
+            "max_orbit_residual",
         )
         return cls(**{k: stability[k] for k in keys if k in stability})
 
@@ -204,7 +219,9 @@ def variational_step_matrices(linearization: Linearization, stiffness_nodes, ste
     """
     k = np.asarray(stiffness_nodes, dtype=float)
     balance = _balance(linearization, k)
-    mats = np.moveaxis(hamiltonian_expm(variational_generators(linearization, k, step, balance), True), (0, 1), (-2, -1))
+    mats = np.moveaxis(
+        hamiltonian_expm(variational_generators(linearization, k, step, balance), True), (0, 1), (-2, -1)
+    )
     N = linearization.n_dofs
     mats[..., :N, N:] /= balance  # exp(Omega) = T exp(Omega_balanced) T^-1, T = diag(I, balance I)
     mats[..., N:, :N] *= balance
@@ -415,39 +432,115 @@ class BranchMonodromy:
         }
         return {
             "stable": flag_variable(
-                "point", self.stable,
+                "point",
+                self.stable,
                 f"orbit linearly stable (1) or unstable (0): |mu + 1/mu| of the non-trivial pair <= 2 + {st.trace_tol:g}",
-                "unstable stable", comment=note,
+                "unstable stable",
+                comment=note,
             ),
-            "multiplier_real": (("point", "multiplier"), self.multipliers.real, {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note}),
-            "multiplier_imag": (("point", "multiplier"), self.multipliers.imag, {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note}),
-            "max_multiplier": ("point", self.max_multiplier, {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"}),
-            "stability_orbit_residual": ("point", self.orbit_error, {"long_name": "estimate of the change of floquet_invariant due to the orbit's error: larger of time_residual and stability_trivial_deviation", "units": "1"}),
-            "stability_trivial_deviation": ("point", self.trivial_deviation, {"long_name": "distance of the trivial pair's invariant mu + 1/mu to 2 in the computed monodromy (exactly 0 on an exact orbit)", "units": "1"}),
+            "multiplier_real": (
+                ("point", "multiplier"),
+                self.multipliers.real,
+                {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note},
+            ),
+            "multiplier_imag": (
+                ("point", "multiplier"),
+                self.multipliers.imag,
+                {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note},
+            ),
+            "max_multiplier": (
+                "point",
+                self.max_multiplier,
+                {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"},
+            ),
+            "stability_orbit_residual": (
+                "point",
+                self.orbit_error,
+                {
+                    "long_name": "estimate of the change of floquet_invariant due to the orbit's error: larger of time_residual and stability_trivial_deviation",
+                    "units": "1",
+                },
+            ),
+            "stability_trivial_deviation": (
+                "point",
+                self.trivial_deviation,
+                {
+                    "long_name": "distance of the trivial pair's invariant mu + 1/mu to 2 in the computed monodromy (exactly 0 on an exact orbit)",
+                    "units": "1",
+                },
+            ),
             "stability_resolved": flag_variable(
-                "point", self.resolved,
+                "point",
+                self.resolved,
                 "stability verdict resolved (1): stability_margin larger than the error estimates (stability_reason)",
                 "unresolved resolved",
             ),
             "stability_reason": ("point", self.reason.astype(np.int8), reason_attrs),
-            "floquet_invariant": ("point", self.invariant, {"long_name": "invariant mu + 1/mu of the non-trivial Floquet pair (in [-2, 2] when elliptic)", "units": "1"}),
-            "stability_margin": ("point", self.margin, {"long_name": "distance of floquet_invariant to the values where the non-trivial pair changes type (2, and -2 unless half-wave symmetric)", "units": "1"}),
-            "stability_integration_error": ("point", self.integration_error, {"long_name": "change of floquet_invariant between the last two step counts of the monodromy integration", "units": "1"}),
-            "stability_steps": ("point", self.steps.astype(np.int32), {"long_name": "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric); on refined orbits (stability_reason 3-5) Runge-Kutta steps over a quarter period", "units": "1"}),
+            "floquet_invariant": (
+                "point",
+                self.invariant,
+                {
+                    "long_name": "invariant mu + 1/mu of the non-trivial Floquet pair (in [-2, 2] when elliptic)",
+                    "units": "1",
+                },
+            ),
+            "stability_margin": (
+                "point",
+                self.margin,
+                {
+                    "long_name": "distance of floquet_invariant to the values where the non-trivial pair changes type (2, and -2 unless half-wave symmetric)",
+                    "units": "1",
+                },
+            ),
+            "stability_integration_error": (
+                "point",
+                self.integration_error,
+                {
+                    "long_name": "change of floquet_invariant between the last two step counts of the monodromy integration",
+                    "units": "1",
+                },
+            ),
+            "stability_steps": (
+                "point",
+                self.steps.astype(np.int32),
+                {
+                    "long_name": "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric); on refined orbits (stability_reason 3-5) Runge-Kutta steps over a quarter period",
+                    "units": "1",
+                },
+            ),
             "stability_refined": flag_variable(
-                "point", self.refined,
+                "point",
+                self.refined,
                 "orbit refined by shooting into a periodic orbit of (7) for its verdict (stability_reason 3-5)",
                 "no yes",
             ),
-            "stability_refined_frequency_change": ("point", self.refined_frequency_change, {
-                "long_name": "relative change of the frequency from the HBM orbit to the shooting-refined orbit "
-                "(0 where stability_refined = 0 or stability_reason = 4)", "units": "1"}),
-            "stability_refined_energy_change": ("point", self.refined_energy_change, {
-                "long_name": "relative change of the energy at t = 0 (start at rest) from the HBM orbit to the "
-                "shooting-refined orbit (0 where stability_refined = 0 or stability_reason = 4)", "units": "1"}),
-            "stability_refined_residual": ("point", self.refined_residual, {
-                "long_name": "closure of the shooting conditions x = u = 0 at a quarter period relative to the "
-                "amplitude (0 where stability_refined = 0; 1 where the shooting diverged at once)", "units": "1"}),
+            "stability_refined_frequency_change": (
+                "point",
+                self.refined_frequency_change,
+                {
+                    "long_name": "relative change of the frequency from the HBM orbit to the shooting-refined orbit "
+                    "(0 where stability_refined = 0 or stability_reason = 4)",
+                    "units": "1",
+                },
+            ),
+            "stability_refined_energy_change": (
+                "point",
+                self.refined_energy_change,
+                {
+                    "long_name": "relative change of the energy at t = 0 (start at rest) from the HBM orbit to the "
+                    "shooting-refined orbit (0 where stability_refined = 0 or stability_reason = 4)",
+                    "units": "1",
+                },
+            ),
+            "stability_refined_residual": (
+                "point",
+                self.refined_residual,
+                {
+                    "long_name": "closure of the shooting conditions x = u = 0 at a quarter period relative to the "
+                    "amplitude (0 where stability_refined = 0; 1 where the shooting diverged at once)",
+                    "units": "1",
+                },
+            ),
         }
 
 
@@ -511,7 +604,11 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     if beyond.any():
         logger.warning(
             "%d of %d orbits have a time residual above max_orbit_residual = %g (largest %.3g): their own verdicts "
-            "are not resolved%s", beyond.sum(), n, settings.max_orbit_residual, time_residual.max(),
+            "are not resolved%s",
+            beyond.sum(),
+            n,
+            settings.max_orbit_residual,
+            time_residual.max(),
             " (refined by shooting where it converges)" if settings.refine else "",
         )
     refinement = _refine(system, U_array, found, err, steps, reason, halfwave, settings)
@@ -519,7 +616,9 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     return BranchMonodromy(
         stable=found.stable(settings.trace_tol),
         multipliers=found.multipliers(),
-        invariant=np.take_along_axis(found.s.real, critical[:, None], axis=-1)[:, 0] if found.s.shape[1] else np.full(n, 2.0),
+        invariant=np.take_along_axis(found.s.real, critical[:, None], axis=-1)[:, 0]
+        if found.s.shape[1]
+        else np.full(n, 2.0),
         margin=margin,
         integration_error=err,
         trivial_deviation=trivial_deviation,
@@ -582,8 +681,14 @@ def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave
     start = time.perf_counter()
     F = settings.resolution_factor
     r = refined_stability(
-        system, U_array[idx], settings.refine_steps, settings.refine_max_steps, settings.refine_tol, F,
-        settings.refine_max_change, floor=settings.trace_tol,
+        system,
+        U_array[idx],
+        settings.refine_steps,
+        settings.refine_max_steps,
+        settings.refine_tol,
+        F,
+        settings.refine_max_change,
+        floor=settings.trace_tol,
     )
     ok = r.converged
     done = idx[ok]
@@ -603,7 +708,11 @@ def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave
     out["refine_seconds"] = time.perf_counter() - start
     logger.info(
         "refined %d orbits by shooting in %.2f s: %d resolved, %d at a type change, %d not converged",
-        len(idx), out["refine_seconds"], np.sum(reason[idx] == 3), np.sum(reason[idx] == 5), np.sum(reason[idx] == 4),
+        len(idx),
+        out["refine_seconds"],
+        np.sum(reason[idx] == 3),
+        np.sum(reason[idx] == 5),
+        np.sum(reason[idx] == 4),
     )
     return out
 

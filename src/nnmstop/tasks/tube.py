@@ -244,7 +244,12 @@ def tube_study_case(config, inputs, outputs, gap, factor):
     tube = study_case_config(config["tube"], float(gap), float(factor))
     nnm1 = tube["branches"]["nnm1"]
     ds = run_tube_branch(
-        tube, config["anm"], 1, nnm1["start_amplitude"], tube["study"]["energy_max"], "nnm1",
+        tube,
+        config["anm"],
+        1,
+        nnm1["start_amplitude"],
+        tube["study"]["energy_max"],
+        "nnm1",
         stability=config.get("stability"),
     )
     ds.attrs.update(study_gap_m=float(gap), study_stiffness_factor=float(factor))
