@@ -624,13 +624,13 @@ def shooting_stability(
 ):
     """Periodic orbits of the regularized equations by shooting from approximate ones, and their Floquet invariants.
 
-    Multiple shooting (:func:`shoot`) with ``N = steps`` Runge-Kutta steps per quarter period,
-    then the invariants with ``2N`` steps from the corrected start, compared with the ``N``-step
-    ones. Where the margin (:meth:`nnmstop.floquet.PairInvariants.margin`) is within
-    ``resolution_factor`` times that difference, ``N`` is doubled (shooting again from the corrected
-    orbit) up to ``max_steps``, unless that bound is already below ``floor`` (the stability tolerance
-    on ``s``: the pair sits at the type change within it, and more steps cannot change the verdict
-    by more).
+    Multiple shooting (:func:`shoot`) with ``K = steps`` Runge-Kutta steps per quarter period, then
+    again with ``2K`` steps from the corrected orbit (usually converged at once); the invariants of the
+    ``2K``-step orbit are kept and compared with the ``K``-step ones. Where the margin
+    (:meth:`nnmstop.floquet.PairInvariants.margin`) is within ``resolution_factor`` times that
+    difference, the steps are doubled again (shooting from the corrected orbit) up to ``max_steps``,
+    unless that bound is already below ``floor`` (the stability tolerance on ``s``: the pair sits at the
+    type change within it, and more steps cannot change the verdict by more).
 
     Parameters
     ----------
@@ -681,6 +681,7 @@ def shooting_stability(
     converged = np.zeros(n, dtype=bool)
     todo = np.arange(n)
     K = steps
+    previous = PairInvariants.empty(n, N - 1)
     while len(todo):
         phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], K, width)
         z, T, res, conv, Q = shoot(dynamics, states[todo], period[todo], phases, tol, max_iter)
@@ -688,22 +689,21 @@ def shooting_stability(
         ok = todo[conv]
         if not len(ok):
             break
-        coarse = _half_period_invariants(dynamics, Q[conv])
-        # the fine invariants from one trajectory over the quarter period, started at the converged
-        # start: integrated anew at 2K steps everywhere (joints restarted from the K-step orbit would
-        # keep its integration error there and hide it from the estimate)
-        fine_phases = step_phases(x_phase[ok], x_slope_phase[ok], joints[ok], 2 * K, width)
-        start = np.concatenate([states[ok, 0, :N], np.zeros((len(ok), N))], axis=1)
-        _, Q_fine = segment_flow(dynamics, start, period[ok], fine_phases)
-        fine = _half_period_invariants(dynamics, Q_fine)
-        found.assign(ok, fine)
-        err[ok] = fine.change_from(coarse)
-        used[ok] = 2 * K
-        if 2 * K >= max_steps:
-            break
-        margin, _ = fine.margin(np.ones(len(ok), dtype=bool))
-        bound = resolution_factor * err[ok]
-        todo = ok[(margin <= bound) & (bound > floor)]
+        # each level's invariants from the orbit converged at its own step count (started from the
+        # previous level's orbit, so usually converged at once): the change between levels bounds the
+        # error of the orbit's states as well as of its monodromy
+        level = _half_period_invariants(dynamics, Q[conv])
+        if K > steps:
+            found.assign(ok, level)
+            err[ok] = level.change_from(previous.select(ok))
+            used[ok] = K
+            if K >= max_steps:
+                break
+            margin, _ = level.margin(np.ones(len(ok), dtype=bool))
+            bound = resolution_factor * err[ok]
+            ok = ok[(margin <= bound) & (bound > floor)]
+        previous.assign(todo[conv], level)
+        todo = ok
         K *= 2
     start = states[:, 0, :N]
     amplitude = np.abs(initial_start).max(axis=1)
