@@ -41,12 +41,19 @@ PAPER_FIGURES = paper_figure_files()
 
 include: "workflow/rules/manifest.smk"
 include: "workflow/rules/verify.smk"
+include: "workflow/rules/explorer.smk"
 
 
 if "tube" in config:  # the finite-element tube (issue 14); a configuration may leave it out
 
     include: "workflow/rules/tube.smk"
+
+
+if "forced" in config:  # forced responses (issue 23); a configuration may leave them out
+
+    include: "workflow/rules/forced.smk"
 include: "workflow/rules/bundle.smk"
+include: "workflow/rules/docs.smk"
 
 
 rule all:

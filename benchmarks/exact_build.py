@@ -43,12 +43,18 @@ def _children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def tasks(nnm1_stage1: Path | None) -> tuple:
-    """``(task, extra arguments, output)`` of the timed tasks, ``compare_nnm1`` when a stage-1 file is given."""
-    if nnm1_stage1 is None:
-        return TASKS
-    compare = ["--input", "exact=two_impacts.nc", "--input", f"nnm1={nnm1_stage1.resolve()}"]
-    return (*TASKS, ("compare_nnm1", compare, "compare.nc"))
+def tasks(nnm1_stage1: Path | None, only: tuple | None = None) -> tuple:
+    """``(task, extra arguments, output)`` of the timed tasks, ``compare_nnm1`` when a stage-1 file is given.
+
+    ``only`` keeps the tasks it names (and those they read from).
+    """
+    chosen = TASKS
+    if nnm1_stage1 is not None:
+        compare = ["--input", "exact=two_impacts.nc", "--input", f"nnm1={nnm1_stage1.resolve()}"]
+        chosen = (*TASKS, ("compare_nnm1", compare, "compare.nc"))
+    if only is None:
+        return chosen
+    return tuple(t for t in chosen if t[0] in only or t[0] == "exact_two_impacts")
 
 
 def _timed(command: list, tree: Path, env: dict) -> tuple:
@@ -57,12 +63,16 @@ def _timed(command: list, tree: Path, env: dict) -> tuple:
     return time.perf_counter() - wall0, _children_cpu() - cpu0
 
 
-def run_tasks(tree: Path, nnm1_stage1: Path | None = None) -> dict:
-    """Run the tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``, and the ``start-up`` alone."""
+def run_tasks(tree: Path, nnm1_stage1: Path | None = None, configfile: Path | None = None, only=None) -> dict:
+    """Run the tasks in ``tree``; ``{task: (wall seconds, cpu seconds)}``, and the ``start-up`` alone.
+
+    ``configfile`` replaces the tree's own ``config/config.yaml``.
+    """
     env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     times = {"start-up": _timed([sys.executable, "-m", "nnmstop.pipeline.run", "--help"], tree, env)}
-    for task, extra, output in tasks(nnm1_stage1):
-        command = [sys.executable, "-m", "nnmstop.pipeline.run", task, *extra, "--output", f"dataset={output}"]
+    config = ["--config", str(Path(configfile).resolve())] if configfile else []
+    for task, extra, output in tasks(nnm1_stage1, only):
+        command = [sys.executable, "-m", "nnmstop.pipeline.run", task, *config, *extra, "--output", f"dataset={output}"]
         times[task] = _timed([*command, "--log", "task.log"], tree, env)
     return times
 
@@ -72,6 +82,8 @@ def main(argv=None) -> int:
     parser.add_argument("--compare", nargs=2, metavar=("A", "B"), default=("main", "HEAD"))
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--nnm1-stage1", type=Path, default=None, help="time compare_nnm1 on this stage-1 dataset")
+    parser.add_argument("--configfile", type=Path, help="a configuration to run with instead of each tree's own")
+    parser.add_argument("--tasks", nargs="+", choices=("exact_two_impacts", "exact_nnm1", "compare_nnm1"))
     args = parser.parse_args(argv)
     if args.repeat < 1:
         raise ValueError(f"--repeat must be >= 1, got {args.repeat}")
@@ -85,7 +97,7 @@ def main(argv=None) -> int:
         best = {ref: {} for ref in args.compare}
         for _ in range(args.repeat):
             for ref in args.compare:
-                for task, (wall, cpu) in run_tasks(trees[ref], args.nnm1_stage1).items():
+                for task, (wall, cpu) in run_tasks(trees[ref], args.nnm1_stage1, args.configfile, args.tasks).items():
                     old = best[ref].get(task, (float("inf"), float("inf")))
                     best[ref][task] = (min(old[0], wall), min(old[1], cpu))
         a, b = args.compare
@@ -93,7 +105,7 @@ def main(argv=None) -> int:
 
         print(f"| task | {a} wall [s] | {b} wall [s] | ratio | {a} CPU [s] | {b} CPU [s] | ratio | same data |")
         print("|---|---|---|---|---|---|---|---|")
-        for task, _, output in (("start-up", None, None), *tasks(args.nnm1_stage1)):
+        for task, _, output in (("start-up", None, None), *tasks(args.nnm1_stage1, args.tasks)):
             (wa, ca), (wb, cb) = best[a][task], best[b][task]
             same = "" if output is None else data_digest(trees[a] / output) == data_digest(trees[b] / output)
             print(f"| {task} | {wa:.1f} | {wb:.1f} | {wb / wa:.2f} | {ca:.1f} | {cb:.1f} | {cb / ca:.2f} | {same} |")

@@ -45,8 +45,8 @@ from nnmstop.exact.family import FamilySettings, follow_branch, follow_two_impac
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.netcdf import read_dataset
 
-points, energies, stage1 = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
-config = load_config("config/config.yaml")
+points, energies, stage1, config_file = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3], sys.argv[4]
+config = load_config(config_file)
 params = ModelParameters.from_config(config["model"])
 settings = dataclasses.replace(FamilySettings.from_config(config["exact_multi"]), max_points=points)
 times, digest = {}, hashlib.sha256()
@@ -79,10 +79,14 @@ print(json.dumps({"times": times, "digest": digest.hexdigest()}))
 """
 
 
-def run_slice(tree: Path, points: int, energies: int, stage1: Path) -> dict:
-    """One slice in ``tree``: ``{"times": {part: cpu seconds}, "digest": str}``."""
+def run_slice(tree: Path, points: int, energies: int, stage1: Path, configfile: Path | None = None) -> dict:
+    """One slice in ``tree``: ``{"times": {part: cpu seconds}, "digest": str}``.
+
+    ``configfile`` replaces the tree's own ``config/config.yaml`` (it must be the one ``stage1`` was built with).
+    """
     env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    command = [sys.executable, "-c", SLICE, str(points), str(energies), str(stage1.resolve())]
+    config = str(Path(configfile).resolve()) if configfile else "config/config.yaml"
+    command = [sys.executable, "-c", SLICE, str(points), str(energies), str(stage1.resolve()), config]
     out = subprocess.run(command, cwd=tree, env=env, check=True, capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -94,6 +98,7 @@ def main(argv=None) -> int:
     parser.add_argument("--slices", type=int, default=8, help="slices per commit (alternating)")
     parser.add_argument("--points", type=int, default=800, help="orbits of the exact branch per slice")
     parser.add_argument("--energies", type=int, default=10, help="compared energies per slice")
+    parser.add_argument("--configfile", type=Path, help="the configuration --nnm1-stage1 was built with")
     args = parser.parse_args(argv)
     for name in ("slices", "points", "energies"):
         if getattr(args, name) < 2:
@@ -107,7 +112,9 @@ def main(argv=None) -> int:
             tracked_copy(trees[ref], ref)
         for _ in range(args.slices):
             for ref in args.compare:
-                results[ref].append(run_slice(trees[ref], args.points, args.energies, args.nnm1_stage1))
+                results[ref].append(
+                    run_slice(trees[ref], args.points, args.energies, args.nnm1_stage1, args.configfile)
+                )
     finally:
         for tree in trees.values():
             shutil.rmtree(tree, ignore_errors=True)

@@ -4,7 +4,9 @@
 Usage::
 
     python benchmarks/fe_scaling.py [--dofs 50 100 200 400] [--harmonics 50 100] [--repeat 2]
-        [--structure tube|chain] [--output benchmarks/fe_scaling.md]
+        [--structure tube|chain] [--methods sparse dense] [--output benchmarks/fe_scaling.md]
+    python benchmarks/fe_scaling.py --methods sparse --repeat 7     # the sparse cases alone
+    python benchmarks/fe_scaling.py --tiny --output /tmp/fe.md      # seconds: 10 DOF, H = 5 (the tests)
 
 Structures: the paper's 2-DOF oscillator (``two_dof_structure``), then the default tube of
 ``nnmstop.models.beam`` (``default_tube_parameters``: clamped-free Euler-Bernoulli beam, one
@@ -29,8 +31,8 @@ Methods, each case in its own subprocess with one BLAS thread (peak resident mem
 
 The largest dense case (400 DOF, H = 100: 13 GB, tens of minutes) starts first, in the
 background, while the others run one after the other. Ends with one line: the exponent of the
-sparse cost per step fitted between 50 and 400 DOF at the largest H, and the measured
-dense/sparse ratio at 400 DOF for that H.
+sparse cost per step fitted between the smallest and largest ``--dofs`` at the largest H, and the
+measured dense/sparse ratio at the largest DOF for that H (when both methods ran).
 """
 
 from __future__ import annotations
@@ -42,6 +44,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+from timing import emit_report
 
 ROOT = Path(__file__).resolve().parents[1]
 START_AMPLITUDE = 0.5  # of the gap: NNM1 before contact, reached by Newton from the linear mode
@@ -101,7 +105,7 @@ def run_case(method: str, dofs: int, harmonics: int, repeat: int, kind: str) -> 
     import numpy as np
 
     from nnmstop.continuation.core import ContinuationStats, newton_correct, unit_tangent
-    from nnmstop.hbm.factorization import DenseBorderedLU
+    from nnmstop.continuation.linear import BorderedFactorization
     from nnmstop.hbm.system import HarmonicBalanceSystem
 
     system = HarmonicBalanceSystem(structure_of(dofs, kind), harmonics, linear_algebra="sparse")
@@ -120,7 +124,7 @@ def run_case(method: str, dofs: int, harmonics: int, repeat: int, kind: str) -> 
     def timed_factorize(U0, t):
         t0 = time.perf_counter()
         lu = (
-            DenseBorderedLU(dense_bordered(system, U0, t), overwrite=True)
+            BorderedFactorization.of_matrix(dense_bordered(system, U0, t), overwrite=True)
             if method == "dense"
             else sparse_factorize(U0, t)
         )
@@ -183,8 +187,8 @@ def case_result(name, returncode, stdout, stderr) -> dict:
     return json.loads(stdout.strip().splitlines()[-1])
 
 
-def fitted_exponent(rows, harmonics, lo=50, hi=400) -> float:
-    """Slope of log(sparse step time) against log(DOF) between ``lo`` and ``hi`` DOF."""
+def fitted_exponent(rows, harmonics, lo, hi) -> float | None:
+    """Slope of log(sparse step time) against log(DOF) between ``lo`` and ``hi`` DOF (None below two sizes)."""
     import numpy as np
 
     points = sorted(
@@ -192,6 +196,8 @@ def fitted_exponent(rows, harmonics, lo=50, hi=400) -> float:
         for r in rows
         if r["method"] == "sparse" and r["harmonics"] == harmonics and lo <= r["dofs"] <= hi
     )
+    if len({dofs for dofs, _ in points}) < 2:
+        return None
     n, cost = np.log(np.array(points)).T
     return float(np.polyfit(n, cost, 1)[0])
 
@@ -210,8 +216,12 @@ def main(argv=None):
     )
     parser.add_argument("--blas-threads", type=int, default=1)
     parser.add_argument("--output", type=Path, default=Path(__file__).with_name("fe_scaling.md"))
+    parser.add_argument("--methods", nargs="+", choices=("sparse", "dense"), default=["sparse", "dense"])
+    parser.add_argument("--tiny", action="store_true", help="10 DOF, H = 5, one run: checks that the script works")
     parser.add_argument("--case", nargs=3, metavar=("METHOD", "DOFS", "H"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.tiny:
+        args.dofs, args.harmonics, args.repeat = [10], [5], 1
     if args.case:
         method, dofs, harmonics = args.case[0], int(args.case[1]), int(args.case[2])
         print(json.dumps(run_case(method, dofs, harmonics, args.repeat, args.structure)))
@@ -220,10 +230,9 @@ def main(argv=None):
     for harmonics in args.harmonics:
         for dofs in [2] + args.dofs:
             unknowns = (dofs + 2) * (harmonics + 1) + 1
-            for method in ("sparse", "dense"):
+            for method in args.methods:
                 repeat = 1 if method == "dense" and unknowns > args.dense_repeat_max_unknowns else args.repeat
                 cases.append((method, dofs, harmonics, repeat, unknowns))
-    load_start = os.getloadavg()[0]
     started = time.time()
     background = {}  # the largest dense cases first, while the others run one after the other
     for case in cases:
@@ -256,7 +265,10 @@ def main(argv=None):
     top, largest = max(args.harmonics), max(args.dofs)
 
     def find(method, dofs, harmonics):
-        return next(r for r in rows if (r["method"], r["dofs"], r["harmonics"]) == (method, dofs, harmonics))
+        return next((r for r in rows if (r["method"], r["dofs"], r["harmonics"]) == (method, dofs, harmonics)), None)
+
+    def cells(row, keys):
+        return [f"{row[k]:.4g}" if row else "-" for k in keys]
 
     structure = (
         "the default tube (clamped-free Euler-Bernoulli beam, one stop at 0.6 L), N / 2 elements"
@@ -273,7 +285,8 @@ def main(argv=None):
         f"dense cases above {args.dense_repeat_max_unknowns} unknowns one run (column 'dense runs'); "
         f"{args.blas_threads} BLAS thread(s), each case in its own process; peak memory = max RSS of that process "
         "(interpreter included). The dense cases above "
-        f"{BACKGROUND_UNKNOWNS} unknowns ran in the background, on the second core, while the others ran.",
+        f"{BACKGROUND_UNKNOWNS} unknowns ran in the background, on the second core, while the others ran. "
+        f"Whole run {elapsed / 60:.1f} min; on a shared machine absolute times stretch, the side-by-side ratios hold.",
         "",
         "| DOF | H | unknowns | sparse step (s) | sparse factorization (s) | dense step (s) | dense factorization (s) "
         "| speed-up | sparse peak (MB) | dense peak (MB) | dense runs |",
@@ -282,31 +295,37 @@ def main(argv=None):
     for harmonics in args.harmonics:
         for dofs in [2] + args.dofs:
             sparse, dense = find("sparse", dofs, harmonics), find("dense", dofs, harmonics)
+            unknowns = (sparse or dense)["unknowns"]
+            speedup = f"{dense['step'] / sparse['step']:.0f}" if sparse and dense else "-"
             lines.append(
-                f"| {dofs} | {harmonics} | {sparse['unknowns']} | {sparse['step']:.4g} | "
-                f"{sparse['factor']:.4g} | {dense['step']:.4g} | {dense['factor']:.4g} | "
-                f"{dense['step'] / sparse['step']:.0f} | {sparse['peak_mb']:.0f} | {dense['peak_mb']:.0f} | "
-                f"{dense['repeat']} |"
+                "| "
+                + " | ".join(
+                    [
+                        str(dofs),
+                        str(harmonics),
+                        str(unknowns),
+                        *cells(sparse, ["step", "factor"]),
+                        *cells(dense, ["step", "factor"]),
+                        speedup,
+                        *[f"{r['peak_mb']:.0f}" if r else "-" for r in (sparse, dense)],
+                        str(dense["repeat"]) if dense else "-",
+                    ]
+                )
+                + " |"
             )
-    exponents = ", ".join(f"H = {h}: {fitted_exponent(rows, h):.2f}" for h in args.harmonics)
+    lo = min(args.dofs)
+    exponents = {h: fitted_exponent(rows, h, lo, largest) for h in args.harmonics}
     factorizations = sorted({r["factorizations"] for r in rows})
-    lines += [
-        "",
-        f"Fitted exponent of the sparse cost per step, 50-{largest} DOF: {exponents}. "
-        f"Factorizations per step in all cases: {factorizations}.",
-        f"Load average (1 min) at the start and end of the run: {load_start:.1f}, {os.getloadavg()[0]:.1f} "
-        f"on {os.cpu_count()} CPUs; whole run {elapsed / 60:.0f} min. On a shared machine absolute times "
-        "stretch; the side-by-side ratios hold.",
-        "",
-    ]
-    speedup = find("dense", largest, top)["step"] / find("sparse", largest, top)["step"]
     summary = (
-        f"exponent of sparse cost per step (50-{largest} DOF, H = {top}): {fitted_exponent(rows, top):.2f}; "
-        f"measured speed-up over dense LU at {largest} DOF, H = {top}: {speedup:.0f}x"
+        f"Fitted exponent of the sparse cost per step, {lo}-{largest} DOF: "
+        + ", ".join(f"H = {h}: " + (f"{e:.2f}" if e is not None else "n/a (one size)") for h, e in exponents.items())
+        + f". Factorizations per step in all cases: {factorizations}."
     )
-    lines.append(summary)
-    args.output.write_text("\n".join(lines) + "\n")
-    print(summary)
+    if "sparse" in args.methods and "dense" in args.methods:
+        speedup = find("dense", largest, top)["step"] / find("sparse", largest, top)["step"]
+        summary += f" Measured speed-up over dense LU at {largest} DOF, H = {top}: {speedup:.0f}x."
+    lines += ["", summary]
+    emit_report("\n".join(lines), args.output)
 
 
 if __name__ == "__main__":

@@ -59,7 +59,7 @@ def rule_inputs(name: str, config: dict, results: Path) -> dict:
     return inputs
 
 
-def worker(name: str, tree: Path, results: Path, outputs: Path) -> None:
+def worker(name: str, tree: Path, results: Path, outputs: Path, configfile: Path | None = None) -> None:
     """In a fresh process: import the tree's figure tasks, then run ``paper_<name>``; print JSON.
 
     The JSON holds the times and the layout each format was saved with: the position of every
@@ -72,7 +72,7 @@ def worker(name: str, tree: Path, results: Path, outputs: Path) -> None:
         from nnmstop.config import load_config
         from nnmstop.tasks.figures import TASKS
 
-        return Figure, TASKS, load_config(tree / "config" / "config.yaml")
+        return Figure, TASKS, load_config(configfile or tree / "config" / "config.yaml")
 
     (figure_class, tasks, config), import_cpu, _ = timed(load)
     layouts = {}
@@ -90,10 +90,11 @@ def worker(name: str, tree: Path, results: Path, outputs: Path) -> None:
     print(json.dumps({"imports": import_cpu, "cpu": cpu, "wall": wall, "layouts": layouts}))
 
 
-def measure(name: str, tree: Path, results: Path, outputs: Path) -> dict:
+def measure(name: str, tree: Path, results: Path, outputs: Path, configfile: Path | None = None) -> dict:
     """Times and layouts of one figure task in a fresh process of the extracted tree ``tree``."""
     env = {**os.environ, "PYTHONPATH": str(tree / "src"), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     command = [sys.executable, __file__, "--worker", name, "--tree", str(tree), "--results", str(results)]
+    command += ["--configfile", str(configfile)] if configfile else []
     run = subprocess.run([*command, "--out", str(outputs)], env=env, capture_output=True, text=True, cwd=tree)
     if run.returncode != 0:
         raise RuntimeError(f"{name} failed in {tree}:\n{run.stderr[-3000:]}")
@@ -163,13 +164,17 @@ def main(argv=None) -> int:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--results", type=Path, default=Path("results"), help="datasets the figures read")
     parser.add_argument("--output", type=Path, help="also write the report here")
+    parser.add_argument(
+        "--configfile", type=Path, help="the configuration of the --results build (default: each tree's)"
+    )
     parser.add_argument("--worker", choices=FIGURES, help=argparse.SUPPRESS)
     parser.add_argument("--tree", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     results = args.results.resolve()
+    configfile = args.configfile.resolve() if args.configfile else None
     if args.worker:
-        worker(args.worker, args.tree, results, args.out)
+        worker(args.worker, args.tree, results, args.out, configfile)
         return 0
     check_repeat(args.repeat)
     if not (results / "hbm" / "nnm2.nc").is_file():
@@ -186,7 +191,7 @@ def main(argv=None) -> int:
         for _ in range(args.repeat):
             for name in args.figures:
                 for ref, tree, out in zip(args.compare, trees, outputs):
-                    times = measure(name, tree, results, out)
+                    times = measure(name, tree, results, out, configfile)
                     kept = best.setdefault((ref, name), times)
                     best[ref, name] = {key: min(kept[key], times[key]) for key in ("imports", "cpu", "wall")}
                     best[ref, name]["layouts"] = times["layouts"]

@@ -73,6 +73,8 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="nnmstop-stability-") as tmp:
         sources = {}
         for ref in args.compare:
+            if ref in sources:  # a ref against itself: the noise of the measurement
+                continue
             sources[ref] = Path(tmp) / ref.replace("/", "_")
             sources[ref].mkdir()
             tracked_copy(sources[ref], ref)

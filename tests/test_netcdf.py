@@ -8,12 +8,40 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from nnmstop import catalogue
+from nnmstop.catalogue import DatasetKind, Variable
 from nnmstop.netcdf import cf_variable, check_up_to_date, flag_variable, read_dataset, write_dataset
+
+#: A dataset kind for these tests only (the catalogue's own kinds describe the pipeline's files).
+TEST_KIND = DatasetKind(
+    "netcdf_test",
+    "test datasets",
+    (),
+    "Datasets of tests/test_netcdf.py.",
+    (
+        Variable("point", ("point",), "index of the orbit", optional=True),
+        Variable("frequency", ("point",), "frequency", units="Hz", optional=True),
+        Variable("error", ("case",), "error", missing="where a case failed", optional=True),
+    ),
+)
+
+
+@pytest.fixture(autouse=True)
+def test_kind(monkeypatch):
+    monkeypatch.setitem(catalogue.KINDS, TEST_KIND.name, TEST_KIND)
+    required = TEST_KIND.extended("netcdf_required", "t", (), "t", Variable("frequency", ("point",), "f"))
+    monkeypatch.setitem(catalogue.KINDS, required.name, required)
+
 
 WRITE_TWICE_EMPTY = """
 import sys
 import numpy as np, xarray as xr
+from nnmstop import catalogue
+from nnmstop.catalogue import DatasetKind, Variable
 from nnmstop.netcdf import write_dataset
+dims = {"a": "p", "p": "p", "b": "first_empty", "c": "second_empty"}
+variables = tuple(Variable(n, (d,), n, optional=True) for n, d in dims.items())
+catalogue.KINDS["netcdf_test"] = DatasetKind("netcdf_test", "t", (), "t", variables)
 ds = xr.Dataset(
     {"a": ("p", np.arange(3.0), {"long_name": "a", "units": "1"}),
      "b": ("first_empty", np.zeros(0), {"long_name": "b", "units": "1"}),
@@ -22,7 +50,7 @@ ds = xr.Dataset(
 )
 ds.to_netcdf(sys.argv[1] + ".in.nc")
 with xr.open_dataset(sys.argv[1] + ".in.nc") as back:  # zero-length dims come back as unlimited
-    write_dataset(back.load(), sys.argv[1], title="t", summary="s")
+    write_dataset(back.load(), sys.argv[1], title="t", summary="s", kind="netcdf_test")
 """
 
 
@@ -58,7 +86,7 @@ def test_cf_variable_labels_and_converts():
 def test_cf_variable_marks_missing_values_so_they_read_back_as_nan(tmp_path):
     ds = xr.Dataset({"error": cf_variable("case", [1e-3, np.nan], "error", fill_value=-9.0e33)})
     assert ds["error"].values[1] == -9.0e33  # nothing non-finite reaches the writer
-    write_dataset(ds, tmp_path / "study.nc", title="t", summary="s")
+    write_dataset(ds, tmp_path / "study.nc", title="t", summary="s", kind="netcdf_test")
     back = read_dataset(tmp_path / "study.nc")
     assert back["error"].values[0] == 1e-3 and np.isnan(back["error"].values[1])
 
@@ -69,20 +97,44 @@ def test_flag_variable_holds_cf_flags():
     assert attrs["flag_values"].tolist() == [0, 1] and attrs["flag_meanings"] == "unstable stable"
 
 
-def test_write_refuses_nan_and_unlabelled_variables(tmp_path):
+def test_write_refuses_nan_and_variables_outside_the_catalogue(tmp_path):
     ds = labelled()
     ds["frequency"].values[1] = np.nan
-    with pytest.raises(ValueError, match="'frequency' holds NaN"):
-        write_dataset(ds, tmp_path / "nan.nc", title="t", summary="s")
+    with pytest.raises(ValueError, match="'frequency' of a 'netcdf_test' dataset holds 1 NaN"):
+        write_dataset(ds, tmp_path / "nan.nc", title="t", summary="s", kind="netcdf_test")
     ds = labelled()
     ds["energy"] = ("point", [1.0, 2.0])
-    with pytest.raises(ValueError, match="'energy' lacks the attribute"):
-        write_dataset(ds, tmp_path / "unlabelled.nc", title="t", summary="s")
+    with pytest.raises(ValueError, match="'energy' is not in the catalogue's dataset kind 'netcdf_test'"):
+        write_dataset(ds, tmp_path / "unlisted.nc", title="t", summary="s", kind="netcdf_test")
+    ds = labelled().rename_dims(point="orbit")
+    with pytest.raises(ValueError, match=r"dimensions \('orbit',\), the catalogue says \('point',\)"):
+        write_dataset(ds, tmp_path / "dims.nc", title="t", summary="s", kind="netcdf_test")
+    with pytest.raises(ValueError, match="unknown dataset kind 'nowhere'"):
+        write_dataset(labelled(), tmp_path / "kind.nc", title="t", summary="s", kind="nowhere")
+    ds = xr.Dataset({"error": ("case", [1.0])})
+    with pytest.raises(ValueError, match=r"must hold \['frequency'\]"):
+        write_dataset(ds, tmp_path / "required.nc", title="t", summary="s", kind="netcdf_required")
     assert not list(tmp_path.iterdir())  # no partial file either
 
 
+def test_write_takes_the_metadata_from_the_catalogue(tmp_path):
+    ds = labelled()
+    ds["frequency"].attrs = {"long_name": "something else", "comment": "kept"}
+    path = write_dataset(ds, tmp_path / "described.nc", title="t", summary="s", kind="netcdf_test")
+    back = read_dataset(path)
+    assert back["frequency"].attrs["long_name"] == "frequency" and back["frequency"].attrs["units"] == "Hz"
+    assert back["frequency"].attrs["comment"] == "kept" and back.attrs["dataset_kind"] == "netcdf_test"
+
+
+def test_missing_values_only_where_the_catalogue_allows_them(tmp_path):
+    ds = xr.Dataset({"error": ("case", [1e-3, np.nan])})
+    path = write_dataset(ds, tmp_path / "missing.nc", title="t", summary="s", kind="netcdf_test")
+    back = read_dataset(path)
+    assert back["error"].values[0] == 1e-3 and np.isnan(back["error"].values[1])
+
+
 def test_read_dataset_loads_and_closes_the_file(tmp_path):
-    path = write_dataset(labelled(alpha=30.0), tmp_path / "branch.nc", title="t", summary="s")
+    path = write_dataset(labelled(alpha=30.0), tmp_path / "branch.nc", title="t", summary="s", kind="netcdf_test")
     ds = read_dataset(path, required=("frequency",), expected={"alpha": 30.0})
     path.unlink()  # the data were read into memory and the file closed
     assert ds["frequency"].values.tolist() == [0.1, 0.2]
@@ -91,7 +143,7 @@ def test_read_dataset_loads_and_closes_the_file(tmp_path):
 def test_read_dataset_refuses_a_missing_file_or_variable(tmp_path):
     with pytest.raises(ValueError, match="no dataset at"):
         read_dataset(tmp_path / "absent.nc")
-    path = write_dataset(labelled(), tmp_path / "branch.nc", title="t", summary="s")
+    path = write_dataset(labelled(), tmp_path / "branch.nc", title="t", summary="s", kind="netcdf_test")
     with pytest.raises(ValueError, match=r"lacks the variable\(s\) \['energy'\]"):
         read_dataset(path, required=("frequency", "energy"))
 
@@ -107,3 +159,27 @@ def test_stale_dataset_is_refused_naming_the_setting():
         check_up_to_date(ds, {"eta": 0.1})
     with pytest.raises(ValueError, match="sequence"):
         check_up_to_date(ds, {"sequence": "FRF"})
+
+
+def test_float_coordinate_variables_carry_no_fill_value(tmp_path, monkeypatch):
+    """CF forbids missing values in coordinate variables: the IOOS checker finds nothing to say about them."""
+    import netCDF4
+
+    from nnmstop.pipeline.compliance import checker_findings
+
+    sweep = DatasetKind(
+        "netcdf_sweep",
+        "t",
+        (),
+        "t",
+        (
+            Variable("energy", ("energy",), "total energy"),
+            Variable("frequency", ("energy",), "frequency", units="Hz"),
+        ),
+    )
+    monkeypatch.setitem(catalogue.KINDS, sweep.name, sweep)
+    ds = xr.Dataset({"frequency": ("energy", [0.1, 0.2, 0.3])}, coords={"energy": ("energy", [0.5, 1.0, 2.0])})
+    path = write_dataset(ds, tmp_path / "study" / "sweep.nc", title="t", summary="s", kind="netcdf_sweep")
+    with netCDF4.Dataset(path) as nc:
+        assert "_FillValue" not in nc["energy"].ncattrs()
+    assert not [f for f in checker_findings(path) if f.startswith("cf:") or "_FillValue" in f]

@@ -212,7 +212,39 @@ def test_report_holds_the_figures(built):
     snakemake(built, "--report", str(report))
     text = report.read_text(errors="replace")
     assert report.stat().st_size > 10_000
-    assert "fig06" in text
+    figures = sorted(p.name for p in (built / "paper_figures").glob("*.png"))
+    assert figures and all(name in text for name in figures), [n for n in figures if n not in text]
+
+
+def test_every_figure_rule_puts_its_png_in_the_report():
+    """Each rule output that is a figure (a PNG under paper_figures/) is wrapped in report(): `--report` shows it."""
+    unreported = [
+        f"{path.name}: {line.strip()}"
+        for path in sorted((REPO / "workflow" / "rules").glob("*.smk"))
+        for line in path.read_text().splitlines()
+        if re.match(r"\s+\w+=.*paper_figures.*\.png", line)
+        and "report(" not in line
+        and "input" not in line
+        and "rules." not in line
+    ]
+    assert not unreported, unreported
+
+
+def test_docs_pages_are_generated_from_the_build(built):
+    """`snakemake docs` writes the results page from the build's datasets (the digests it lists are theirs)."""
+    from nnmstop.docpages.results import page_inputs
+    from nnmstop.pipeline.verify import data_digest
+
+    snakemake(built, "--cores", "1", "docs")
+    page = (built / "docs" / "results.md").read_text()
+    listed = page_inputs(page)
+    assert listed and all(data_digest(built / "results" / path) == digest for path, digest in listed.items())
+    nnm1 = xr.open_dataset(built / "results" / "hbm" / "nnm1.nc")
+    assert f"| regularized NNM1 (`hbm/nnm1.nc`) | {nnm1.sizes['point']} |" in page
+    assert "nan" not in page.lower()
+    assert (built / "docs" / "nnm1_frequency_energy.png").read_bytes() == (
+        built / "paper_figures" / "fig02.png"
+    ).read_bytes()
 
 
 def test_workflow_lint_is_clean():
@@ -286,6 +318,7 @@ def test_bundle_describes_the_run_and_every_file(built, bundle, tmp_path):
     assert run["instrument"].id == "Snakefile"
     assert [entity.id for entity in run["object"]] == ["config/config.yaml"]
     produced = {str(p.relative_to(built)) for p in outputs(built) if p.suffix in (".nc", ".pdf", ".png")}
+    produced.add("dist/explorer.html")  # the explorer page is a result of the run too
     assert {entity.id for entity in run["result"]} == produced
     files = [entity for entity in crate.data_entities if "File" in entity.type]
     assert {entity.id for entity in files} == set(names) - {"ro-crate-metadata.json"}
@@ -298,6 +331,24 @@ def test_bundle_describes_the_run_and_every_file(built, bundle, tmp_path):
     used = yaml.safe_load((tmp_path / "config/config.yaml").read_text())
     assert used["hbm"]["harmonics"] == 16 and used["metadata"]["license"]
     assert verify_bundle(bundle) == []
+
+
+def readme_python_blocks() -> list[str]:
+    """The ```python blocks of README.md, in order."""
+    return re.findall(r"^```python\n(.*?)^```", (REPO / "README.md").read_text(), flags=re.MULTILINE | re.DOTALL)
+
+
+def test_readme_python_snippets_run_from_the_repository_root(bundle, tmp_path):
+    """Every Python block of README runs as written in a built tree (results/ and dist/ where README says)."""
+    blocks = readme_python_blocks()
+    assert blocks, "README.md has no python block"
+    workdir = tmp_path / "root"  # a copy of the build's root: the snippets extract into it
+    shutil.copytree(bundle.parents[1] / "results", workdir / "results")
+    shutil.copytree(bundle.parent, workdir / "dist")
+    for block in blocks:
+        run = subprocess.run([sys.executable, "-c", block], cwd=workdir, capture_output=True, text=True, timeout=120)
+        assert run.returncode == 0, f"README block failed:\n{block}\n{run.stderr[-2000:]}"
+        assert run.stdout.strip()
 
 
 def test_bundle_check_fails_on_missing_or_altered_file(bundle, tmp_path):
@@ -351,6 +402,12 @@ def cffconvert_command() -> str | None:
             shutil.rmtree(venv, ignore_errors=True)
             return None
     return str(executable)
+
+
+def test_bundle_ships_the_repository_citation(bundle):
+    """The bundle's CITATION.cff is the repository's own file, byte for byte (one citation, not two)."""
+    with zipfile.ZipFile(bundle) as archive:
+        assert archive.read("CITATION.cff") == (REPO / "CITATION.cff").read_bytes()
 
 
 def test_bundle_citation_is_valid_cff(bundle, tmp_path):

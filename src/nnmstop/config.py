@@ -87,7 +87,19 @@ def validate_config(config: dict) -> dict:
             )
     if "tube" in config:
         _check_tube(config["tube"])
+    if "forced" in config:
+        _check_forced(config)
     return config
+
+
+def _check_forced(config: dict) -> None:
+    """Frequency ranges increasing, force DOFs on the model (nnmstop.tasks.forced builds the scenes)."""
+    from nnmstop.forced.scenes import forced_scenes
+
+    try:
+        forced_scenes(config)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"config key 'forced': {err}") from None
 
 
 def _check_tube(tube: dict) -> None:

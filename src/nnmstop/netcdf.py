@@ -27,6 +27,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop import __version__
+from nnmstop.catalogue import describe
 
 __all__ = [
     "PAPER_AUTHORS",
@@ -214,31 +215,45 @@ def check_labelled(ds: xr.Dataset) -> None:
 
 
 def write_dataset(
-    ds: xr.Dataset, path: str | Path, title: str, summary: str, keywords: str = "", metadata: dict | None = None
+    ds: xr.Dataset,
+    path: str | Path,
+    title: str,
+    summary: str,
+    keywords: str = "",
+    metadata: dict | None = None,
+    *,
+    kind: str,
 ) -> Path:
-    """Validate ``ds``, add the global attributes and write it atomically to ``path``.
+    """Describe ``ds`` from the variable catalogue, add the global attributes and write it atomically to ``path``.
 
-    Existing global attributes of ``ds`` (model parameters, settings) are kept, except those this
-    function writes (title, summary, id, history, ...: they may come from an input file), and so is a
+    ``kind`` names the dataset's layout in :mod:`nnmstop.catalogue`: every variable gets its ``long_name``,
+    ``units`` and flag attributes from there, and a variable the kind does not list, other dimensions, a
+    missing required variable or a NaN where the catalogue allows none are refused
+    (:func:`nnmstop.catalogue.describe`).
+
+    Existing global attributes of ``ds`` (model parameters, settings) are kept, except those this function
+    writes (title, summary, id, history, ...: they may come from an input file), and so is a
     ``coverage_content_type`` a variable already carries; the others get one (``coordinate``,
     ``qualityInformation`` for flags, ``modelResult``). ``metadata`` is the configuration's
     ``metadata`` section (see :func:`global_attributes`).
     """
-    check_labelled(ds)
+    described_ds = describe(ds, kind)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    out = ds.copy()
+    out = described_ds.copy()
     # Zero-length dimensions read back from NetCDF-4 are marked unlimited in the encoding, as
     # a set: written unlimited, their order in the file would follow string hashing.
     out.encoding = {k: v for k, v in out.encoding.items() if k != "unlimited_dims"}
     # The attributes written here describe this file; those of the same name that ``ds`` carries over
     # from an input it was read from (a stage's title, id) are replaced. The rest (physics, settings) stay.
     described = {**global_attributes(title, summary, keywords, metadata), "id": dataset_id(path)}
-    out.attrs = {**described, **{key: value for key, value in ds.attrs.items() if key not in described}}
+    out.attrs = {**described, **{key: value for key, value in described_ds.attrs.items() if key not in described}}
     for name in out.variables:
         var = out[name]
         var.attrs.setdefault("coverage_content_type", _coverage_content_type(var, name in out.coords))
     encoding = {name: {"zlib": False} for name in out.data_vars}
+    # CF: a coordinate variable holds no missing values, so it gets no _FillValue (xarray's default on floats)
+    encoding.update({name: {"_FillValue": None} for name in out.coords if name in out.dims})
     tmp = path.with_name(path.name + ".tmp")
     out.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
     os.replace(tmp, path)

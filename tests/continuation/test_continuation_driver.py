@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from nnmstop.continuation.anm import ANMSettings, ANMStepper, continue_anm
+from nnmstop.continuation.branch_points import locate_branch_point
 from nnmstop.continuation.core import (
     ContinuationError,
     ContinuationStats,
@@ -22,7 +23,7 @@ from nnmstop.continuation.corrected_path import CorrectedPath
 from nnmstop.continuation.driver import continue_branch
 from nnmstop.continuation.linear import BorderedFactorization
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, continue_pseudo_arclength
-from nnmstop.hbm.bifurcation import locate_branch_point, locate_flagged_branch_points
+from nnmstop.hbm.bifurcation import locate_flagged_branch_points
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters

@@ -16,7 +16,9 @@ from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.models.two_dof import ModelParameters, piecewise_contact_force, regularized_contact_force, total_energy
-from nnmstop.study.runs import case_config, match_energies, run_stage_one, two_impact_arm
+from nnmstop.settings import study_settings
+from nnmstop.study.error_runtime import case_run
+from nnmstop.study.runs import match_energies, run_stage_one, two_impact_arm
 from nnmstop.study.stiff_cases import _confirm_end, exact_checks
 
 EPS = np.finfo(float).eps
@@ -189,7 +191,7 @@ def test_sharp_stop_continuation_matches_the_exact_orbits_within_the_study_error
     the shot orbit against the exact non-smooth orbit, with the eta scaling and the knee force of
     the model's cubic."""
     energies = [3.0, 12.0]
-    run = run_stage_one(case_config(config, harmonics=100, eta=1e-3), max_truncation=1e-3, energy_limit=13.0)
+    run = run_stage_one(case_run(study_settings(config), 100, 1e-3), energy_limit=13.0)
     assert run.converged, run.failure
     matched = match_energies(exact_family_dataset, run.dataset, energies, phase_samples=1024)
     assert matched.complete, matched.failure
@@ -250,7 +252,7 @@ def test_sharp_stop_continuation_matches_the_exact_orbits_within_the_study_error
 
 
 def test_too_few_harmonics_for_a_sharp_stop_is_refused_plainly(config):
-    run = run_stage_one(case_config(config, harmonics=10, eta=1e-3), max_truncation=1e-3)
+    run = run_stage_one(case_run(study_settings(config), 10, 1e-3))
     assert not run.converged and run.dataset is None
     assert "truncation indicator" in run.failure and "H = 10" in run.failure and "energy" in run.failure
     assert "eta = 0.001" in run.failure
@@ -259,7 +261,14 @@ def test_too_few_harmonics_for_a_sharp_stop_is_refused_plainly(config):
 def test_stiff_stop_with_the_paper_harmonics_is_refused_plainly(config):
     """alpha = 1e4 with H = 100: every algebraic residual at round-off, yet the contact (~0.03 of a
     period of ~7) is far from resolved; the guard stops at the first orbit that shows it."""
-    run = run_stage_one(case_config(config, harmonics=100, alpha=1.0e4, eta=0.1, max_steps=60), max_truncation=1e-3)
+    base = case_run(study_settings(config), 100, 0.1)
+    run = run_stage_one(
+        dataclasses.replace(
+            base,
+            params=dataclasses.replace(base.params, alpha=1.0e4),
+            continuation=dataclasses.replace(base.continuation, max_steps=60),
+        )
+    )
     assert not run.converged
     assert "H = 100" in run.failure and "alpha = 10000" in run.failure
 
@@ -268,12 +277,12 @@ def test_stiff_case_dataset_reports_every_attempt(config, tmp_path):
     from nnmstop.netcdf import write_dataset
     from nnmstop.study.stiff_cases import stiff_branch_dataset
 
-    cfg = case_config(config)
-    cfg["study"]["stiff"]["harmonics"] = [10, 20]
-    ds = stiff_branch_dataset(cfg, xr.Dataset(), 1.0e4, 1.0, 1.0, 1e-3)
+    settings = study_settings(config)
+    settings = dataclasses.replace(settings, stiff=dataclasses.replace(settings.stiff, harmonics=(10, 20)))
+    ds = stiff_branch_dataset(settings, xr.Dataset(), 1.0e4, 1.0, 1.0, 1e-3)
     assert not bool(ds["converged"]) and int(ds["harmonics"]) == -1
     assert "H=10:" in str(ds["attempts"].values) and "H=20:" in str(ds["attempts"].values)
-    path = write_dataset(ds, tmp_path / "case.nc", title="t", summary="s")
+    path = write_dataset(ds, tmp_path / "case.nc", title="t", summary="s", kind="stiff_nnm1")
     with xr.open_dataset(path) as back:
         assert np.isnan(float(back["frequency_error"])) and np.isnan(float(back["runtime"]))
         assert "no number of harmonics tried resolves the branch" in str(back["failure"].values)

@@ -18,15 +18,16 @@ import pytest
 import xarray as xr
 import yaml
 
-from nnmstop.config import ConfigError, load_config
+from nnmstop.config import load_config
 from nnmstop.continuation.core import ContinuationError
 from nnmstop.figures.study import pareto_front
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
 from nnmstop.netcdf import write_dataset
+from nnmstop.settings import study_settings
 from nnmstop.study import error_runtime as er
-from nnmstop.study.runs import FILL_VALUE, case_config, format_number
+from nnmstop.study.runs import FILL_VALUE, format_number
 from nnmstop.tasks import study as ts
 from nnmstop.tasks.figures import build_error_vs_runtime_figure
 
@@ -70,9 +71,11 @@ def exact(config):
 def gathered(small, exact, tmp_path_factory):
     """Every small sweep file written through the pipeline builders, then gathered."""
     root = tmp_path_factory.mktemp("study")
-    exact_path = write_dataset(exact, root / "exact.nc", title="exact", summary="exact family")
+    exact_path = write_dataset(
+        exact, root / "exact.nc", title="exact", summary="exact family", kind="two_impact_family"
+    )
     inputs = {"exact": str(exact_path)}
-    cases = er.sweep_cases(small)
+    cases = er.sweep_cases(study_settings(small))
     out = {kind: [] for kind in ("cases", "anm_cases", "references")}
     for H, eta in cases["cases"]:
         path = ts.build_error_case(small, inputs, root / f"H{H}_eta{eta:g}.nc", str(H), format_number(eta))
@@ -110,28 +113,14 @@ def test_format_number_for_wildcards():
         format_number(float("nan"))
 
 
-def test_case_config_validates_overrides(config):
-    assert case_config(config, harmonics=20, eta=0.01)["hbm"]["harmonics"] == 20
-    assert config["hbm"]["harmonics"] == 100  # the original is left alone
-    with pytest.raises(ConfigError, match="'model.alpha'.*-1.0"):
-        case_config(config, alpha=-1.0)
-    with pytest.raises(ConfigError, match="'model.eta'"):
-        case_config(config, eta=50.0)
-    with pytest.raises(ValueError, match="unknown study override 'gamma'"):
-        case_config(config, gamma=1.0)
-
-
-def test_study_settings_refuse_inconsistent_values(config):
-    bad = copy.deepcopy(config)
-    bad["study"]["error_runtime"]["reference_harmonics"] = 400
-    with pytest.raises(ValueError, match="reference_harmonics = 400"):
-        er.study_settings(bad)
-    bad = copy.deepcopy(config)
-    bad["study"]["energies"] = [3.0, 1.0]
-    with pytest.raises(ValueError, match=r"study.energies.*\[3.0, 1.0\]"):
-        er.study_settings(bad)
-    with pytest.raises(ValueError, match="section 'study'"):
-        er.study_settings({k: v for k, v in config.items() if k != "study"})
+def test_case_run_varies_the_settings_not_the_configuration(config):
+    settings = study_settings(config)
+    run = er.case_run(settings, 20, 0.01, order=10)
+    assert (run.harmonics, run.params.eta, run.continuation.order) == (20, 0.01, 10)
+    assert run.params.alpha == config["model"]["alpha"] and run.continuation.tolerance == config["anm"]["tolerance"]
+    assert settings.run.params.eta == config["model"]["eta"]  # the base is left alone
+    with pytest.raises(ValueError, match="eta must be smaller than alpha"):
+        er.case_run(settings, 20, 50.0)
 
 
 def test_truncation_indicator_sees_the_odd_top_harmonic():
@@ -150,7 +139,7 @@ def test_truncation_indicator_sees_the_odd_top_harmonic():
 
 
 def test_unresolved_case_is_reported_not_computed(small, exact):
-    ds = er.error_case_dataset(small, exact, 10, 0.01)
+    ds = er.error_case_dataset(study_settings(small), exact, 10, 0.01)
     assert not bool(ds["converged"]) and not bool(ds["compared"])
     failure = str(ds["failure"].values)
     assert "truncation indicator" in failure and "H = 10" in failure and "eta = 0.01" in failure
@@ -161,7 +150,7 @@ def test_unresolved_case_is_reported_not_computed(small, exact):
 def test_setting_compared_on_part_of_the_energies_says_which(small, exact):
     cfg = copy.deepcopy(small)
     cfg["study"]["energies"] = [3.0, 80.0]  # the exact family ends at 55.9
-    ds = er.error_case_dataset(cfg, exact, 30, 0.1)
+    ds = er.error_case_dataset(study_settings(cfg), exact, 30, 0.1)
     assert bool(ds["converged"]) and not bool(ds["compared"])
     assert "energy 80" in str(ds["failure"].values)
     assert np.isfinite(ds["max_x_difference"].values[0]) and ds["max_x_difference"].values[1] == FILL_VALUE
@@ -259,7 +248,7 @@ def test_stiff_gather_and_figure(small, tmp_path):
         max_steps=150,
         compare_count=2,
     )
-    cases = sc.stiff_case_parameters(cfg)
+    cases = sc.stiff_case_parameters(study_settings(cfg))
     assert len(cases["exact"]) == 2 and len(cases["branches"]) == 2
     inputs = {"exact": [], "branches": [], "energy": []}
     for a, b, d in cases["exact"]:
@@ -319,7 +308,8 @@ def test_numerical_failure_mid_branch_names_step_and_energy_and_leaves_no_datase
         return real_step(*args, **kwargs)
 
     monkeypatch.setattr(anm, "anm_step", failing_step)
-    cfg = case_config(config, harmonics=10)
+    cfg = copy.deepcopy(config)
+    cfg["hbm"]["harmonics"] = 10
     output = tmp_path / "results/hbm/stages/nnm1_stage1.nc"
     with pytest.raises(ContinuationError, match=r"nnm1 stage 1 .*: step 3 failed at energy [0-9.e+-]+ \(frequency"):
         run_task(
@@ -412,3 +402,12 @@ def test_interrupted_run_restarts_to_the_outputs_of_a_clean_run(repo_root, tmp_p
         assert (clean / target).read_bytes() == (broken / target).read_bytes(), target
     if interrupted:  # the rerun job replaced the leftover temporary file by the dataset
         assert not stale.exists()
+
+
+def test_study_datasets_pass_the_cf_and_acdd_checkers(gathered):
+    """The gathered study dataset and its case files pass cf:1.10 and acdd:1.3 but for the documented exclusions."""
+    from nnmstop.pipeline.compliance import checker_findings
+
+    root, out, _ = gathered
+    for path in [root / "results/study/error_vs_runtime.nc", out["cases"][0], out["references"][0], out["exact_cost"]]:
+        assert checker_findings(path) == [], path

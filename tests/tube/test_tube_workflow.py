@@ -57,3 +57,11 @@ def test_a_tube_figure_alone_plans_only_what_it_needs(tmp_path):
     out = snakemake(tmp_path, "-n", "--forceall", "paper_figures/tube_shapes.pdf")
     assert set(re.findall(r"^(?:local)?rule (\w+):", out, flags=re.MULTILINE)) == {"tube_branch", "tube_figure"}
     assert "results/tube/nnm2.nc" not in out and "exact_nnm1" not in out
+
+
+def test_tube_datasets_pass_the_cf_and_acdd_checkers(built):
+    """Every tube dataset passes cf:1.10 and acdd:1.3 but for the documented exclusions (docs/pipeline.md)."""
+    from nnmstop.pipeline.compliance import checker_findings
+
+    for path in sorted((built / "results" / "tube").rglob("*.nc")):
+        assert checker_findings(path) == [], path

@@ -12,10 +12,12 @@ localrules:
 rule bundle:
     """dist/nnmstop-results.zip, described by its ro-crate-metadata.json (Workflow Run Crate)."""
     input:
-        datasets=PAPER_DATASETS,
-        figures=PAPER_FIGURES,
+        datasets=PAPER_DATASETS + (forced_datasets() if "forced" in config else []),
+        # the explorer page is a result of the run too
+        figures=[*PAPER_FIGURES, rules.explorer.output.page, *(forced_figures() if "forced" in config else [])],
         manifest=rules.dataset_manifest.output.manifest,
         environment_lock=os.path.join(workflow.basedir, "environment.lock"),
+        citation=os.path.join(workflow.basedir, "CITATION.cff"),
         workflow_files=[
             os.path.join(workflow.basedir, "Snakefile"),
             *sorted(glob.glob(os.path.join(workflow.basedir, "workflow", "rules", "*.smk"))),

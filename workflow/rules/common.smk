@@ -2,6 +2,7 @@
 # workflow's files is named here once; a rule names its outputs with these helpers and its
 # inputs with `rules.<rule>.output.<name>`, so a path is written in one place only.
 
+from nnmstop.settings import study_settings
 from nnmstop.study.error_runtime import sweep_cases
 from nnmstop.study.runs import format_number
 from nnmstop.study.stiff_cases import stiff_case_parameters
@@ -154,7 +155,7 @@ def paper_figure_files():
 
 def study_case_files():
     """Files of the error-against-run-time jobs, by kind, in the order the gather expects."""
-    cases, n = sweep_cases(config), format_number
+    cases, n = sweep_cases(study_settings(config)), format_number
     return {
         "cases": [results(f"study/cases/H{H}_eta{n(eta)}.nc") for H, eta in cases["cases"]],
         "anm_cases": [results(f"study/cases/anm_N{order}_tol{n(tol)}.nc") for order, tol in cases["anm_cases"]],
@@ -165,7 +166,7 @@ def study_case_files():
 
 def stiff_case_files():
     """Files of the stiff-case jobs, by kind, in the order the gather expects."""
-    cases, n = stiff_case_parameters(config), format_number
+    cases, n = stiff_case_parameters(study_settings(config)), format_number
     return {
         "exact": [results(f"study/stiff/exact_a{n(a)}_b{n(b)}_d{n(d)}.nc") for a, b, d in cases["exact"]],
         "branches": [results(f"study/stiff/nnm1_a{n(a)}_b{n(b)}_d{n(d)}_e{n(e)}.nc") for a, b, d, e in cases["branches"]],
@@ -205,3 +206,15 @@ def tube_branch_config(wildcards):
     tube = {key: value for key, value in config["tube"].items() if key not in ("branches", "figures", "study", "exact", "compare_count")}
     tube["branches"] = {wildcards.branch: config["tube"]["branches"][wildcards.branch]}
     return {"tube": tube, "anm": config["anm"], "stability": config.get("stability", {}), "metadata": config.get("metadata", {})}
+
+
+# --------------------------------------------------------------------------- explorer
+
+
+def explorer_branches():
+    """Datasets drawn by the explorer, by kind of branch (nnmstop.explorer.extract.KINDS)."""
+    exact = rules.exact_nnm1.output.dataset if "exact_multi" in config else rules.exact_two_impacts.output.dataset
+    regularized = [branch_file("nnm1"), branch_file("nnm2"), *[bifurcated_file(name) for name in config.get("bifurcations", {})]]
+    if config.get("explorer", {}).get("tube", False) and "tube" in config:  # the tube's branches, built for it
+        regularized += [tube_file(name) for name in config["tube"]["branches"]]
+    return {"regularized": regularized, "exact": [exact]}

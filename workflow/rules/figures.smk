@@ -227,7 +227,7 @@ rule regime_error_figure:
         dataset=rules.compare_regimes.output.dataset,
     output:
         pdf=paper_figures("extra_regime_error.pdf"),
-        png=paper_figures("extra_regime_error.png"),
+        png=report(paper_figures("extra_regime_error.png"), category="Beyond the paper"),
     log:
         logs("figures/extra_regime_error.log"),
     benchmark:
@@ -248,7 +248,7 @@ rule stability_figure:
         dataset=rules.compare_stability.output.dataset,
     output:
         pdf=paper_figures("extra_stability.pdf"),
-        png=paper_figures("extra_stability.png"),
+        png=report(paper_figures("extra_stability.png"), category="Beyond the paper"),
     log:
         logs("figures/extra_stability.log"),
     benchmark:

@@ -12,9 +12,18 @@
 STUDY_CASES = study_case_files() if "study" in config else {"cases": [], "anm_cases": [], "references": [], "exact_cost": []}
 STIFF_CASES = stiff_case_files() if "study" in config else {"exact": [], "branches": [], "energy": []}
 STUDY_NUMBER = r"[0-9][0-9.e-]*"
-# The study reruns whole continuations with overrides and validates that configuration again,
-# so its tasks read every section the schema requires (nnmstop.study.runs.case_config).
-STUDY_SECTIONS = ("model", "exact", "hbm", "anm", "stability", "branches", "study", "metadata")
+# The configuration each kind of job reads (nnmstop.settings.study_settings), and nothing else: a job
+# reruns when its part changes, and only then (not for an edit of branches.nnm2, say).
+STUDY_COMMON = dict(hbm=["time_samples"], branches=["nnm1"])
+STUDY_RUNS = ("model", "anm", "stability", "exact", "metadata")
+ERROR_SWEEP_CONFIG = task_config(
+    *STUDY_RUNS, **STUDY_COMMON,
+    study=["energies", "end_margin", "phase_samples", "max_truncation", "points_per_step", "error_runtime"],
+)
+STIFF_CONFIG = task_config(
+    *STUDY_RUNS, **STUDY_COMMON,
+    study=["energies", "end_margin", "phase_samples", "max_truncation", "points_per_step", "stiff"],
+)
 
 # Gathers and figures are light: on a cluster they run on the submitting node.
 localrules:
@@ -39,7 +48,7 @@ rule study_error_case:
     benchmark:
         benchmarks("study_H{harmonics}_eta{eta}.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=ERROR_SWEEP_CONFIG,
     resources:
         runtime=30,
         mem_mb=2000,
@@ -63,7 +72,7 @@ rule study_anm_case:
     benchmark:
         benchmarks("study_anm_N{order}_tol{tolerance}.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=ERROR_SWEEP_CONFIG,
     resources:
         runtime=30,
         mem_mb=2000,
@@ -86,7 +95,7 @@ rule study_reference:
     benchmark:
         benchmarks("study_reference_eta{eta}.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=ERROR_SWEEP_CONFIG,
     resources:
         runtime=60,
         mem_mb=4000,
@@ -105,7 +114,7 @@ rule study_exact_cost:
     benchmark:
         benchmarks("study_exact_cost.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=task_config("model", "exact", "metadata", study=["phase_samples"]),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -126,7 +135,7 @@ rule study_error_vs_runtime:
     benchmark:
         benchmarks("study_error_vs_runtime.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=ERROR_SWEEP_CONFIG,
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -139,13 +148,13 @@ rule study_error_vs_runtime_figure:
         dataset=rules.study_error_vs_runtime.output.dataset,
     output:
         pdf=paper_figures("error_vs_runtime.pdf"),
-        png=paper_figures("error_vs_runtime.png"),
+        png=report(paper_figures("error_vs_runtime.png"), category="Study"),
     log:
         logs("study/error_vs_runtime_figure.log"),
     benchmark:
         benchmarks("study_error_vs_runtime_figure.tsv")
     params:
-        config=task_config("study"),
+        config=task_config(study=["png_dpi"]),
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -165,7 +174,7 @@ rule study_stiff_exact:
     benchmark:
         benchmarks("study_stiff_exact_a{alpha}_b{beta}_d{delta}.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=task_config("model", "exact", "metadata"),
     resources:
         runtime=30,
         mem_mb=2000,
@@ -191,7 +200,7 @@ rule study_stiff_branch:
     benchmark:
         benchmarks("study_stiff_nnm1_a{alpha}_b{beta}_d{delta}_e{eta}.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=STIFF_CONFIG,
     resources:
         runtime=60,
         mem_mb=2000,
@@ -212,7 +221,7 @@ rule study_stiff_energy:
     benchmark:
         benchmarks("study_stiff_energy_a{alpha}.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=STIFF_CONFIG,
     resources:
         runtime=30,
         mem_mb=2000,
@@ -235,7 +244,7 @@ rule study_stiff_cases:
     benchmark:
         benchmarks("study_stiff_cases.tsv")
     params:
-        config=task_config(*STUDY_SECTIONS),
+        config=STIFF_CONFIG,
     conda:
         "../envs/nnmstop.yaml"
     script:
@@ -248,13 +257,13 @@ rule study_stiff_cases_figure:
         dataset=rules.study_stiff_cases.output.dataset,
     output:
         pdf=paper_figures("stiff_cases.pdf"),
-        png=paper_figures("stiff_cases.png"),
+        png=report(paper_figures("stiff_cases.png"), category="Study"),
     log:
         logs("study/stiff_cases_figure.log"),
     benchmark:
         benchmarks("study_stiff_cases_figure.tsv")
     params:
-        config=task_config("study"),
+        config=task_config(study=["png_dpi"]),
     conda:
         "../envs/nnmstop.yaml"
     script:

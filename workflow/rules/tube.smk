@@ -61,7 +61,7 @@ rule tube_figure:
         unpack(lambda wildcards: {key: TUBE_DATASETS[key] for key in TUBE_FIGURE_INPUTS[wildcards.figure]}),
     output:
         pdf=paper_figures("tube_{figure}.pdf"),
-        png=paper_figures("tube_{figure}.png"),
+        png=report(paper_figures("tube_{figure}.png"), category="Tube", subcategory="{figure}"),
     wildcard_constraints:
         figure="|".join(TUBE_FIGURE_INPUTS),
     log:
@@ -98,7 +98,7 @@ rule tube_study:
         cases=tube_study_files(),
     output:
         pdf=paper_figures("tube_study.pdf"),
-        png=paper_figures("tube_study.png"),
+        png=report(paper_figures("tube_study.png"), category="Tube"),
     log:
         logs("tube/study.log"),
     benchmark:

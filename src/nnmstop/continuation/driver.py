@@ -11,7 +11,7 @@ step, behind the small :class:`Stepper` interface: the ANM with Padé
 
 Each step returns a :class:`StepResult` with a *path* ``a -> U(a)`` over the step, on the
 branch all along it, so that branch points (and folds) can be located afterwards whatever
-the method (:func:`nnmstop.hbm.bifurcation.locate_branch_point`).
+the method (:func:`nnmstop.continuation.branch_points.locate_branch_point`).
 Method notes: ``docs/methods/continuation.md``.
 """
 

@@ -188,6 +188,12 @@ class HarmonicBalanceSystem:
         self._pair_rows, self._pair_cols = pattern.row.astype(int), pattern.col.astype(int)
         self._pair_mass = np.asarray(self._mass[self._pair_rows, self._pair_cols]).ravel()
         self._pair_stiffness = np.asarray(self._stiffness[self._pair_rows, self._pair_cols]).ravel()
+        self._set_velocity_matrix(self._mass)
+
+    def _set_velocity_matrix(self, matrix):
+        """The matrix ``V`` of the full basis' velocity term ``nu V D q``: ``M`` (unfolding), ``C`` (forced, damped)."""
+        self._velocity = sp.csr_matrix(matrix, dtype=float)
+        self._pair_velocity = np.asarray(self._velocity[self._pair_rows, self._pair_cols]).ravel()
 
     @property
     def params(self) -> ModelParameters:
@@ -279,13 +285,22 @@ class HarmonicBalanceSystem:
         r_q = (self._mass * lam) @ (Q * self._d2) + self._stiffness @ Q
         r_q[self.stop_dofs] += self.gaps[:, None] * F
         if self.full:
-            r_q += (self._mass * nu) @ self.derivative(Q)
+            r_q += (self._velocity * nu) @ self.derivative(Q)
         r_f = F - self.etas[:, None] * X - products[:s]
         r_z = Z - products[s:]
         parts = [r_q.ravel(), r_f.ravel(), r_z.ravel()]
         if self.full:
-            parts.append([np.dot(self.k, Q[self.phase_dof, self.H + 1 :])])
+            parts.append([self._closing_residual(Q, lam, nu)])
         return np.concatenate(parts)
+
+    def _closing_residual(self, Q, lam, nu) -> float:
+        """Last equation of the full basis: the phase condition ``q_{d_1}'(0) = 0``."""
+        return np.dot(self.k, Q[self.phase_dof, self.H + 1 :])
+
+    def _closing_entries(self, Q, lam, nu) -> list:
+        """Jacobian entries of :meth:`_closing_residual` (one group)."""
+        phase = self.phase_dof * self.nc + np.arange(self.H + 1, 2 * self.H + 1)
+        return [(np.full(self.H, self.n_equations - 1), phase, self.k)]
 
     def _jacobian_entries(self, U):
         """``(rows, columns, values)`` of the Jacobian, in groups that never share a position."""
@@ -299,8 +314,9 @@ class HarmonicBalanceSystem:
             (pi[:, None] * nc + diagonal, pj[:, None] * nc + diagonal, (m_ij * lam)[:, None] * self._d2 + k_ij[:, None])
         )
         if self.full:
-            inertial = m_ij != 0.0
-            pi, pj, mn = pi[inertial], pj[inertial], m_ij[inertial] * nu
+            velocity = self._pair_velocity
+            inertial = velocity != 0.0
+            pi, pj, mn = pi[inertial], pj[inertial], velocity[inertial] * nu
             cos, sin = np.arange(1, H + 1), np.arange(H + 1, 2 * H + 1)
             # D maps the sine coefficient of harmonic k to k times its cosine one, and back with -k
             groups.append((pi[:, None] * nc + cos, pj[:, None] * nc + sin, mn[:, None] * self.k))
@@ -326,9 +342,8 @@ class HarmonicBalanceSystem:
         q_rows = np.arange(N * nc)
         groups.append((q_rows, np.full(N * nc, self.i_lam), (self._mass @ (Q * self._d2)).ravel()))
         if self.full:
-            groups.append((q_rows, np.full(N * nc, self.i_nu), (self._mass @ self.derivative(Q)).ravel()))
-            phase = self.phase_dof * nc + np.arange(H + 1, 2 * H + 1)
-            groups.append((np.full(H, self.n_equations - 1), phase, self.k))
+            groups.append((q_rows, np.full(N * nc, self.i_nu), (self._velocity @ self.derivative(Q)).ravel()))
+            groups.extend(self._closing_entries(Q, lam, nu))
         return groups
 
     def jacobian(self, U, sparse: bool | None = None):
@@ -432,7 +447,7 @@ class HarmonicBalanceSystem:
         q_out[filled] = np.add.reduceat(terms, starts[filled], axis=0)
         if self.full:
             nu = series[1:p, self.i_nu]
-            q_out += mass @ self.derivative((nu @ right[:, :nq]).reshape(N, nc))
+            q_out += self._velocity @ self.derivative((nu @ right[:, :nq]).reshape(N, nc))
         # channels (f, g | z, g) of every stop: the products f z and g g in one sum over the orders
         t = cache.samples
         np.einsum("rkm,rkm->km", t[1:p, : 2 * s], t[p - 1 : 0 : -1, 2 * s :], out=cache.products)
@@ -541,7 +556,7 @@ class HarmonicBalanceSystem:
         qdd = self.to_time(self.to_full(lam * Q * self._d2), m)
         # the rows of the stop DOFs: elsewhere the equations are linear and balanced exactly
         restoring = (self._stiffness @ q)[self.stop_dofs] + self.gaps[:, None] * f_true
-        eq_residual = (self._mass @ qdd)[self.stop_dofs] + restoring
+        eq_residual = (self._mass @ qdd)[self.stop_dofs] + restoring + self._other_forces_at_stops(U, h)
         scale = max(float(np.max(np.abs(restoring))), 1e-300)
         f_hbm = np.reshape(h["f"], f_true.shape)
         force_error = float(np.max(np.abs(f_hbm - f_true)) / max(float(np.max(np.abs(f_true))), 1e-300))
@@ -561,6 +576,10 @@ class HarmonicBalanceSystem:
             out["q_max"] = float(np.abs(q).max())
         out["truncation"] = self.truncation(U)
         return out
+
+    def _other_forces_at_stops(self, U, history):
+        """Terms of the equations of motion of the stop DOFs besides inertia, stiffness and contact (none here)."""
+        return 0.0
 
     def truncation(self, U) -> float:
         """Truncation indicator of an orbit: :meth:`truncation_indicator` of the stop DOFs' ``q''`` and of ``f``.

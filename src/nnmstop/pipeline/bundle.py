@@ -2,14 +2,14 @@
 
 :func:`build_bundle` packs the datasets and figures of a run with what is needed to
 trust and reuse them (SHA-256 manifest, the configuration used, ``environment.lock``,
-the workflow, a ``CITATION.cff``) and describes them in ``ro-crate-metadata.json``
+the workflow, the repository's ``CITATION.cff``) and describes them in ``ro-crate-metadata.json``
 (RO-Crate 1.1, Workflow Run Crate profile) written with the ``rocrate`` library.
 :func:`verify_bundle` opens an archive with ``rocrate`` and checks every listed file
 against its recorded size and SHA-256.
 
 The archive is byte-reproducible: entries sorted, fixed timestamps and permissions, and
-no wall-clock date anywhere (``datePublished`` and ``date-released`` are the commit date
-that :func:`nnmstop.netcdf.provenance` gives the datasets).
+no wall-clock date anywhere (``datePublished`` is the commit date that
+:func:`nnmstop.netcdf.provenance` gives the datasets).
 """
 
 from __future__ import annotations
@@ -22,15 +22,16 @@ from pathlib import Path
 import yaml
 
 from nnmstop import __version__
-from nnmstop.netcdf import PAPER_AUTHORS, PAPER_TITLE, provenance
+from nnmstop.netcdf import provenance
 
-__all__ = ["ENCODING_FORMATS", "build_bundle", "citation", "verify_bundle"]
+__all__ = ["ENCODING_FORMATS", "build_bundle", "verify_bundle"]
 
 # Media types of the bundled files, by suffix (IANA where one exists).
 ENCODING_FORMATS = {
     ".nc": "application/x-netcdf",
     ".pdf": "application/pdf",
     ".png": "image/png",
+    ".html": "text/html",  # dist/explorer.html
     ".sha256": "text/plain",
     ".lock": "text/plain",
     ".yaml": "application/yaml",
@@ -68,38 +69,6 @@ def _file_properties(path: Path, name: str) -> dict:
     }
 
 
-def citation(metadata: dict, date_released: str) -> dict:
-    """The ``CITATION.cff`` (Citation File Format 1.2.0) of a bundle, as a dict.
-
-    Parameters
-    ----------
-    metadata
-        The configuration's ``metadata`` section (creator, license, project).
-    date_released
-        ``YYYY-MM-DD``; the commit date of the code, not the day the bundle was made.
-    """
-    author = {"name": metadata["creator_name"], "email": metadata["creator_email"], "website": metadata["creator_url"]}
-    return {
-        "cff-version": "1.2.0",
-        "message": "If you use these results, please cite them as below, and cite the paper they reproduce.",
-        "type": "dataset",
-        "title": f"{metadata['project']}: datasets and figures (nnmstop {__version__})",
-        "authors": [author],
-        "version": __version__,
-        "date-released": date_released,
-        "license": metadata["license"],
-        "url": metadata["creator_url"],
-        "keywords": ["nonlinear normal modes", "vibro-impact", "elastic stop", "harmonic balance", "RO-Crate"],
-        "references": [
-            {
-                "type": "article",
-                "title": PAPER_TITLE,
-                "authors": [{"family-names": family, "given-names": given} for given, family in PAPER_AUTHORS],
-            }
-        ],
-    }
-
-
 def build_bundle(
     config: dict,
     datasets: list,
@@ -109,6 +78,7 @@ def build_bundle(
     workflow_files: list,
     output,
     root=".",
+    citation_file="CITATION.cff",
 ) -> Path:
     """Write the result bundle ``output`` (a zip archive) and return its path.
 
@@ -116,7 +86,7 @@ def build_bundle(
     ----------
     config
         The validated configuration of the run; written as ``config/config.yaml`` and used
-        for the crate's and the citation's metadata (section ``metadata``).
+        for the crate's metadata (section ``metadata``).
     datasets, figures
         Paths of the run's datasets (``*.nc``) and figures, relative to ``root``; each keeps
         that relative path in the archive and is a ``result`` of the run's ``CreateAction``.
@@ -131,6 +101,9 @@ def build_bundle(
         The archive to write, e.g. ``dist/nnmstop-results.zip``.
     root
         Folder the relative paths of ``datasets``, ``figures`` and ``manifest`` start from.
+    citation_file
+        The repository's ``CITATION.cff``, stored unchanged as ``CITATION.cff`` (how to cite
+        the software and the paper).
 
     Raises
     ------
@@ -153,6 +126,9 @@ def build_bundle(
             raise ValueError(f"bundle input {path} does not exist under {root}")
     if len(set(relative)) != len(relative):
         raise ValueError("a dataset or figure is listed twice")
+    citation_file = Path(citation_file)
+    if not citation_file.is_file():
+        raise ValueError(f"bundle input {citation_file} (CITATION.cff) does not exist")
     date_created = provenance()["date_created"]
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
@@ -162,10 +138,6 @@ def build_bundle(
         generated.mkdir()
         config_copy = generated / "config.yaml"
         config_copy.write_text(yaml.safe_dump(config, sort_keys=False, allow_unicode=True))
-        citation_file = generated / "CITATION.cff"
-        citation_file.write_text(
-            yaml.safe_dump(citation(metadata, date_created[:10]), sort_keys=False, allow_unicode=True)
-        )
 
         crate = ROCrate(version="1.1")
         crate.name = f"{metadata['project']}: result bundle"
@@ -242,7 +214,7 @@ def build_bundle(
             properties=_file_properties(Path(environment_lock), "locked Python environment (pip-compile)"),
         )
         crate.add_file(
-            citation_file, "CITATION.cff", properties=_file_properties(citation_file, "how to cite this bundle")
+            citation_file, "CITATION.cff", properties=_file_properties(citation_file, "how to cite the software")
         )
         crate.add_action(
             workflow,

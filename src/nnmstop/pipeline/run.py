@@ -55,8 +55,11 @@ TASK_INDEX = {
     ),
     "manifest": ("dataset_manifest",),
     "bundle": ("bundle",),
+    "docs": ("docs",),
+    "explorer": ("explorer",),
     "verify": ("verify", "update_reference"),
     "tube": ("tube_exact", "tube_branch", "tube_compare", "tube_figure", "tube_study_case", "tube_study"),
+    "forced": ("forced_exact", "forced_regularized", "forced_backbone", "forced_figure"),
 }
 TASK_MODULES = tuple(TASK_INDEX)
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 import time
+from dataclasses import replace
 
 import numpy as np
 import xarray as xr
@@ -26,11 +27,10 @@ import xarray as xr
 from nnmstop.exact.family import follow_two_impact_family
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
+from nnmstop.settings import StageOneRun, StudySettings
 from nnmstop.study.runs import (
     ERROR_KEYS,
-    case_config,
     hbm_orbit_differences,
     match_energies,
     path_error,
@@ -38,11 +38,10 @@ from nnmstop.study.runs import (
     string_variable,
     variable,
 )
-from nnmstop.tasks.hbm import system_from_config
 
 __all__ = [
-    "study_settings",
     "sweep_cases",
+    "case_run",
     "error_case_dataset",
     "reference_dataset",
     "exact_cost_dataset",
@@ -65,43 +64,31 @@ _PER_ENERGY = {
 # --------------------------------------------------------------------------- settings
 
 
-def study_settings(config: dict) -> dict:
-    """The ``study`` section of a validated configuration, with cross-checks.
-
-    Raises
-    ------
-    ValueError
-        If the section is missing, the energies are not increasing, or the reference does
-        not have more harmonics than every swept ``H``.
-    """
-    if "study" not in config:
-        raise ValueError("config lacks the section 'study' (see config/config.yaml)")
-    study = config["study"]
-    energies = np.asarray(study["energies"], dtype=float)
-    if energies.size < 1 or np.any(energies <= 0) or np.any(np.diff(energies) <= 0):
-        raise ValueError(f"study.energies must be positive and strictly increasing, got {study['energies']!r}")
-    sweep = study["error_runtime"]
-    largest = max(sweep["harmonics"] + [sweep["anm_harmonics"], sweep["reference_seed_harmonics"]])
-    if sweep["reference_harmonics"] <= largest:
-        raise ValueError(
-            f"study.error_runtime.reference_harmonics = {sweep['reference_harmonics']!r} must exceed every swept "
-            f"number of harmonics (largest {largest})"
-        )
-    return study
-
-
-def sweep_cases(config: dict) -> dict:
+def sweep_cases(settings: StudySettings) -> dict:
     """The settings of the sweep jobs, in the order the gather expects their datasets.
 
     ``cases``: ``(H, eta)`` pairs (``eta`` outer); ``anm_cases``: ``(order, tolerance)``
     pairs (``order`` outer); ``references``: one ``eta`` each.
     """
-    sweep = study_settings(config)["error_runtime"]
+    sweep = settings.sweep()
     return {
-        "cases": [(int(H), float(eta)) for eta in sweep["eta"] for H in sweep["harmonics"]],
-        "anm_cases": [(int(order), float(tol)) for order in sweep["anm_orders"] for tol in sweep["anm_tolerances"]],
-        "references": [float(eta) for eta in sweep["eta"]],
+        "cases": [(H, eta) for eta in sweep.eta for H in sweep.harmonics],
+        "anm_cases": [(order, tol) for order in sweep.anm_orders for tol in sweep.anm_tolerances],
+        "references": list(sweep.eta),
     }
+
+
+def case_run(settings: StudySettings, harmonics: int, eta: float, order=None, tolerance=None) -> StageOneRun:
+    """The study's NNM1 stage-1 run with ``H``, ``eta`` and optionally another ANM ``order`` and ``tolerance``."""
+    run = settings.run
+    continuation = run.continuation
+    if order is not None:
+        continuation = replace(continuation, order=int(order))
+    if tolerance is not None:
+        continuation = replace(continuation, tolerance=float(tolerance))
+    return replace(
+        run, harmonics=int(harmonics), params=replace(run.params, eta=float(eta)), continuation=continuation
+    )
 
 
 def _load_average() -> float:
@@ -118,55 +105,47 @@ def _orbit_matrix(orbits, n_unknowns: int) -> np.ndarray:
     return np.array([np.full(n_unknowns, np.nan) if U is None else U for U in orbits])
 
 
-def _case_common_attrs(config: dict) -> dict:
-    model = config["model"]
+def _case_common_attrs(run: StageOneRun) -> dict:
     return {
-        **{k: float(model[k]) for k in ("alpha", "beta", "delta", "eta")},
-        "harmonics": int(config["hbm"]["harmonics"]),
-        "time_samples": int(config["hbm"]["time_samples"]),
-        "order": int(config["anm"]["order"]),
-        "tolerance": float(config["anm"]["tolerance"]),
-        "newton_threshold": float(config["anm"]["newton_threshold"]),
-        "points_per_step": int(config["hbm"]["points_per_step"]),
+        **run.attrs(),
         "blas_threads": os.environ.get("OPENBLAS_NUM_THREADS", os.environ.get("OMP_NUM_THREADS", "unset")),
         "measurement": "run times measured on this machine; not reproducible byte for byte",
     }
 
 
-def error_case_dataset(config: dict, exact: xr.Dataset, harmonics: int, eta: float, order=None, tolerance=None) -> xr.Dataset:
+def error_case_dataset(
+    settings: StudySettings, exact: xr.Dataset, harmonics: int, eta: float, order=None, tolerance=None
+) -> xr.Dataset:
     """Run one sweep setting and return its case dataset (dimension ``energy``).
 
     Parameters
     ----------
-    config : dict
-        Validated configuration with a ``study`` section.
+    settings : StudySettings
     exact : xarray.Dataset
         The exact two-impact NNM1 family (``results/exact/nnm1_two_impacts.nc``).
     harmonics, eta : int, float
         The setting; ``order`` and ``tolerance`` override the ANM settings if given.
     """
-    study = study_settings(config)
-    energies = np.asarray(study["energies"], dtype=float)
-    cfg = case_config(config, harmonics=harmonics, eta=eta, order=order, tolerance=tolerance,
-                      points_per_step=study["points_per_step"])
+    energies = np.asarray(settings.energies, dtype=float)
+    case = case_run(settings, harmonics, eta, order, tolerance)
     load = _load_average()
     label = f"NNM1 stage 1 (H = {harmonics}, eta = {eta:g}" + (
         f", order {order}, tolerance {tolerance:g})" if order is not None else ")"
     )
-    run = run_stage_one(cfg, float(study["max_truncation"]), label=label)
+    run = run_stage_one(case, label=label)
     n_unknowns = 4 * (int(harmonics) + 1) + 1
     compared, failure = False, run.failure
     values = {key: np.full(energies.size, np.nan) for key in ERROR_KEYS}
     orbits = np.full((energies.size, n_unknowns), np.nan)
     t_exact = t_reg = time_residual = path_residual = path_frequency = np.nan
     if run.converged:
-        matched = match_energies(exact, run.dataset, energies, int(study["phase_samples"]), float(study["end_margin"]))
+        matched = match_energies(exact, run.dataset, energies, settings.phase_samples, settings.end_margin)
         values, t_exact, t_reg = matched.values, matched.exact_seconds_per_orbit, matched.regularized_seconds_per_orbit
         orbits = _orbit_matrix(matched.orbits, n_unknowns)
         compared = matched.complete
         failure = matched.failure and f"not compared over the whole study range: {matched.failure}"
         time_residual = float(run.dataset["time_residual"].max())
-        path_residual, path_frequency = path_error(system_from_config(cfg), run.dataset)
+        path_residual, path_frequency = path_error(case.system(), run.dataset)
     stats = run.stats
     count = (lambda name: getattr(stats, name)) if stats is not None else (lambda name: -1)
     e = ("energy",)
@@ -197,7 +176,7 @@ def error_case_dataset(config: dict, exact: xr.Dataset, harmonics: int, eta: flo
             "unknown": ("unknown", np.arange(n_unknowns), {"long_name": "index into the HBM unknown vector", "units": "1"}),
         },
     )
-    ds.attrs = {**_case_common_attrs(cfg), "max_truncation": float(study["max_truncation"])}
+    ds.attrs = _case_common_attrs(case)
     return ds
 
 
@@ -213,24 +192,23 @@ def _pad_harmonics(branch: xr.Dataset, harmonics: int) -> xr.Dataset:
     return out
 
 
-def reference_dataset(config: dict, exact: xr.Dataset, eta: float) -> xr.Dataset:
+def reference_dataset(settings: StudySettings, exact: xr.Dataset, eta: float) -> xr.Dataset:
     """Matched orbits with ``H_ref`` harmonics for one ``eta`` (see the module docstring)."""
-    study = study_settings(config)
-    sweep = study["error_runtime"]
-    energies = np.asarray(study["energies"], dtype=float)
-    H_ref, H_seed = int(sweep["reference_harmonics"]), int(sweep["reference_seed_harmonics"])
-    cfg = case_config(config, harmonics=H_seed, eta=eta, points_per_step=study["points_per_step"])
+    sweep = settings.sweep()
+    energies = np.asarray(settings.energies, dtype=float)
+    H_ref, H_seed = sweep.reference_harmonics, sweep.reference_seed_harmonics
+    seed_run = case_run(settings, H_seed, eta)
     n_unknowns = 4 * (H_ref + 1) + 1
     load = _load_average()
     start = time.perf_counter()
-    seed = run_stage_one(cfg, float(study["max_truncation"]), label=f"reference seed (H = {H_seed}, eta = {eta:g})")
+    seed = run_stage_one(seed_run, label=f"reference seed (H = {H_seed}, eta = {eta:g})")
     values = {key: np.full(energies.size, np.nan) for key in ERROR_KEYS}
     orbits = np.full((energies.size, n_unknowns), np.nan)
     levels = np.full(energies.size, np.nan)
     failure = seed.failure and f"seed continuation failed: {seed.failure}"
     if seed.converged:
         matched = match_energies(
-            exact, _pad_harmonics(seed.dataset, H_ref), energies, int(study["phase_samples"]), float(study["end_margin"])
+            exact, _pad_harmonics(seed.dataset, H_ref), energies, settings.phase_samples, settings.end_margin
         )
         values = matched.values
         orbits = _orbit_matrix(matched.orbits, n_unknowns)
@@ -238,10 +216,10 @@ def reference_dataset(config: dict, exact: xr.Dataset, eta: float) -> xr.Dataset
         if matched.system is not None:
             levels = np.array([np.nan if U is None else matched.system.truncation(U) for U in matched.orbits])
             worst = np.nanmax(levels) if np.isfinite(levels).any() else np.nan
-            if not failure and worst > float(study["max_truncation"]):
+            if not failure and worst > seed_run.max_truncation:
                 failure = (
                     f"the reference with H_ref = {H_ref} harmonics is not resolved itself (truncation indicator "
-                    f"{worst:.3g} > {study['max_truncation']:g}); raise study.error_runtime.reference_harmonics"
+                    f"{worst:.3g} > {seed_run.max_truncation:g}); raise study.error_runtime.reference_harmonics"
                 )
     runtime = time.perf_counter() - start
     ok = not failure
@@ -262,29 +240,28 @@ def reference_dataset(config: dict, exact: xr.Dataset, eta: float) -> xr.Dataset
             "unknown": ("unknown", np.arange(n_unknowns), {"long_name": "index into the HBM unknown vector", "units": "1"}),
         },
     )
-    ds.attrs = {**_case_common_attrs(case_config(cfg, harmonics=H_ref)), "seed_harmonics": H_seed}
+    ds.attrs = {**_case_common_attrs(replace(seed_run, harmonics=H_ref)), "seed_harmonics": H_seed}
     return ds
 
 
 # --------------------------------------------------------------------------- exact cost
 
 
-def exact_cost_dataset(config: dict, repeats: int = 3) -> xr.Dataset:
+def exact_cost_dataset(params: ModelParameters, exact, phase_samples: int, repeats: int = 3) -> xr.Dataset:
     """Cost of the exact solver: family continuation per orbit and time history per orbit.
 
-    The family is followed ``repeats`` times with the ``exact`` settings of the
-    configuration; the fastest run is kept (the least disturbed by other jobs).
+    The family is followed ``repeats`` times with the settings ``exact``
+    (:class:`~nnmstop.exact.family.FamilySettings`: ``step``, ``max_points``); the fastest run is
+    kept (the least disturbed by other jobs). Each time history has ``phase_samples`` phases.
     """
     if int(repeats) != repeats or repeats < 1:
         raise ValueError(f"repeats must be an integer >= 1, got {repeats!r}")
-    params = ModelParameters.from_config(config["model"])
-    exact = config["exact"]
-    samples = int(study_settings(config)["phase_samples"])
+    samples = int(phase_samples)
     load = _load_average()
     family_times, history_times = [], []
     for _ in range(int(repeats)):
         start = time.perf_counter()
-        family = follow_two_impact_family(params, step=float(exact["step"]), max_points=int(exact["max_points"]))
+        family = follow_two_impact_family(params, step=exact.step, max_points=exact.max_points)
         family_times.append(time.perf_counter() - start)
         y = family.unknowns[len(family) // 2]
         start = time.perf_counter()
@@ -308,20 +285,19 @@ def exact_cost_dataset(config: dict, repeats: int = 3) -> xr.Dataset:
 # --------------------------------------------------------------------------- gather
 
 
-def _check_case(ds: xr.Dataset, label: str, config: dict, expect: dict) -> None:
+def _check_case(ds: xr.Dataset, label: str, settings: StudySettings, expect: dict) -> None:
     """Refuse a case dataset computed with other settings (a stale file)."""
     for key, value in expect.items():
         stored = ds.attrs.get(key)
         if stored is None or not np.isclose(float(stored), float(value), rtol=1e-12, atol=0):
             raise ValueError(f"{label}: {key} = {stored!r} in the dataset but {value!r} expected (stale study file?)")
-    energies = np.asarray(config["study"]["energies"], dtype=float)
+    energies = np.asarray(settings.energies, dtype=float)
     if ds.sizes.get("energy") != energies.size or not np.allclose(ds["energy"].values, energies, rtol=1e-12, atol=0):
         raise ValueError(f"{label}: computed at the energies {ds['energy'].values.tolist()}, the configuration asks for {energies.tolist()}")
 
 
-def _system(config: dict, harmonics: int, eta: float) -> HarmonicBalanceSystem:
-    model = {**config["model"], "eta": eta}
-    return HarmonicBalanceSystem(two_dof_structure(ModelParameters.from_config(model)), int(harmonics), time_samples=0)
+def _system(settings: StudySettings, harmonics: int, eta: float) -> HarmonicBalanceSystem:
+    return case_run(settings, harmonics, eta).system()
 
 
 def _max_abs(values, axis=-1):
@@ -332,7 +308,7 @@ def _max_abs(values, axis=-1):
 
 
 def gather_error_vs_runtime(
-    config: dict, cases: list, anm_cases: list, references: list, exact_cost: xr.Dataset
+    settings: StudySettings, cases: list, anm_cases: list, references: list, exact_cost: xr.Dataset
 ) -> xr.Dataset:
     """Assemble the sweep datasets into ``error_vs_runtime`` (see the module docstring).
 
@@ -340,29 +316,26 @@ def gather_error_vs_runtime(
     order of :func:`sweep_cases`; ``exact_cost`` the dataset of :func:`exact_cost_dataset`.
     Each is checked against the setting it stands for (a stale file is refused).
     """
-    study = study_settings(config)
-    sweep = study["error_runtime"]
-    Hs = [int(h) for h in sweep["harmonics"]]
-    etas = [float(e) for e in sweep["eta"]]
-    orders = [int(n) for n in sweep["anm_orders"]]
-    tols = [float(t) for t in sweep["anm_tolerances"]]
-    energies = np.asarray(study["energies"], dtype=float)
+    sweep = settings.sweep()
+    Hs, etas, orders, tols = list(sweep.harmonics), list(sweep.eta), list(sweep.anm_orders), list(sweep.anm_tolerances)
+    energies = np.asarray(settings.energies, dtype=float)
     nE, nH, nEta = energies.size, len(Hs), len(etas)
-    H_ref = int(sweep["reference_harmonics"])
-    expected = sweep_cases(config)
+    H_ref = sweep.reference_harmonics
+    run = settings.run
+    expected = sweep_cases(settings)
     given = {"cases": list(cases), "anm_cases": list(anm_cases), "references": list(references)}
     for kind, datasets in given.items():
         if len(datasets) != len(expected[kind]):
             raise ValueError(
                 f"{len(datasets)} {kind} datasets given, the configuration's sweep has {len(expected[kind])}"
             )
-    model = config["model"]
-    base = {k: model[k] for k in ("alpha", "beta", "delta")}
+    base = {k: getattr(run.params, k) for k in ("alpha", "beta", "delta")}
+    order, tolerance = run.continuation.order, run.continuation.tolerance
 
     # references (regularization part)
     refs = []
     for eta, ds in zip(etas, given["references"]):
-        _check_case(ds, f"reference of eta = {eta:g}", config, {**base, "eta": eta, "harmonics": H_ref})
+        _check_case(ds, f"reference of eta = {eta:g}", settings, {**base, "eta": eta, "harmonics": H_ref})
         refs.append(ds)
     reg_part = {key: np.array([r[key].values for r in refs]) for key in ERROR_KEYS}
 
@@ -377,10 +350,10 @@ def gather_error_vs_runtime(
     trunc_part = {key: np.full(shape + (nE,), np.nan) for key in ERROR_KEYS if key != "force_max_exact"}
     case_datasets = iter(given["cases"])
     for j, eta in enumerate(etas):
-        ref_system = _system(config, H_ref, eta)
+        ref_system = _system(settings, H_ref, eta)
         for i, H in enumerate(Hs):
             ds = next(case_datasets)
-            _check_case(ds, f"case H = {H}, eta = {eta:g}", config, {**base, "eta": eta, "harmonics": H, "order": config["anm"]["order"], "tolerance": config["anm"]["tolerance"]})
+            _check_case(ds, f"case H = {H}, eta = {eta:g}", settings, {**base, "eta": eta, "harmonics": H, "order": order, "tolerance": tolerance})
             converged[i, j], compared[i, j] = bool(ds["converged"]), bool(ds["compared"])
             failure[i, j] = str(ds["failure"].values)
             for key in scalars:
@@ -389,11 +362,11 @@ def gather_error_vs_runtime(
                 counts[key][i, j] = int(ds[key])
             for key in ERROR_KEYS:
                 per_energy[key][i, j] = ds[key].values
-            system = _system(config, H, eta)
+            system = _system(settings, H, eta)
             for k in range(nE):
                 U, U_ref = ds["orbit"].values[k], refs[j]["orbit"].values[k]
                 if np.all(np.isfinite(U)) and np.all(np.isfinite(U_ref)):
-                    diff = hbm_orbit_differences(system, U, ref_system, U_ref, int(study["phase_samples"]))
+                    diff = hbm_orbit_differences(system, U, ref_system, U_ref, settings.phase_samples)
                     for key in trunc_part:
                         trunc_part[key][i, j, k] = diff[key]
 
@@ -405,10 +378,10 @@ def gather_error_vs_runtime(
     anm_conv = np.zeros(ashape, dtype=bool)
     anm_failure = np.full(ashape, "", dtype=object)
     anm_datasets = iter(given["anm_cases"])
-    for i, order in enumerate(orders):
+    for i, anm_order in enumerate(orders):
         for j, tol in enumerate(tols):
             ds = next(anm_datasets)
-            _check_case(ds, f"ANM case order {order}, tolerance {tol:g}", config, {**base, "eta": model["eta"], "harmonics": sweep["anm_harmonics"], "order": order, "tolerance": tol})
+            _check_case(ds, f"ANM case order {anm_order}, tolerance {tol:g}", settings, {**base, "eta": run.params.eta, "harmonics": sweep.anm_harmonics, "order": anm_order, "tolerance": tol})
             anm_conv[i, j] = bool(ds["converged"])
             anm_failure[i, j] = str(ds["failure"].values)
             for key in anm:
@@ -493,14 +466,14 @@ def gather_error_vs_runtime(
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs = {
-        **{k: float(model[k]) for k in ("alpha", "beta", "delta")},
-        "anm_sweep_eta": float(model["eta"]),
-        "anm_sweep_harmonics": int(sweep["anm_harmonics"]),
-        "sweep_order": int(config["anm"]["order"]),
-        "sweep_tolerance": float(config["anm"]["tolerance"]),
-        "reference_harmonics": H_ref,
-        "reference_seed_harmonics": int(sweep["reference_seed_harmonics"]),
-        "max_truncation": float(study["max_truncation"]),
+        **{k: float(v) for k, v in base.items()},
+        "anm_sweep_eta": float(run.params.eta),
+        "anm_sweep_harmonics": int(sweep.anm_harmonics),
+        "sweep_order": int(order),
+        "sweep_tolerance": float(tolerance),
+        "reference_harmonics": int(H_ref),
+        "reference_seed_harmonics": int(sweep.reference_seed_harmonics),
+        "max_truncation": float(run.max_truncation),
         "measurement": (
             "run times are wall-clock measurements of each Snakemake job (one BLAS thread); they depend on the "
             "machine and its load and are not reproducible byte for byte"

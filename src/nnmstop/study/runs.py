@@ -17,7 +17,6 @@ Method notes (why the guard, why the increasing run): ``docs/methods/study.md``.
 
 from __future__ import annotations
 
-import copy
 import logging
 import time
 from dataclasses import dataclass, field
@@ -32,13 +31,12 @@ from nnmstop.compare.matching import (
     orbit_differences,
     regularized_orbit_on_phase,
 )
-from nnmstop.config import validate_config
-from nnmstop.continuation.anm import ANMSettings, continue_anm
+from nnmstop.continuation.anm import continue_anm
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, UnresolvedBranchError, newton_correct
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.stages import TruncationGuard, stage_criterion, stage_dataset, start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.tasks.hbm import branch_settings, system_from_config
+from nnmstop.settings import StageOneRun
 
 __all__ = [
     "FILL_VALUE",
@@ -46,7 +44,6 @@ __all__ = [
     "TruncationGuard",
     "StageRun",
     "MatchedErrors",
-    "case_config",
     "format_number",
     "run_stage_one",
     "two_impact_arm",
@@ -81,46 +78,6 @@ def format_number(value: float) -> str:
     if not np.isfinite(value):
         raise ValueError(f"cannot format the non-finite value {value!r} for a file name")
     return f"{value:g}".replace("e+", "e")
-
-
-def case_config(config: dict, **overrides) -> dict:
-    """Deep copy of ``config`` with study overrides, validated again.
-
-    Keywords ``harmonics``, ``alpha``, ``beta``, ``delta``, ``eta``, ``order``,
-    ``tolerance``, ``max_steps``, ``points_per_step`` and ``start_amplitude`` (NNM1)
-    override the corresponding keys; ``None`` leaves a key alone.
-
-    Raises
-    ------
-    nnmstop.config.ConfigError
-        If an override makes the configuration invalid (naming the key and the value).
-    ValueError
-        For an unknown keyword.
-    """
-    places = {
-        "harmonics": ("hbm", "harmonics"),
-        "alpha": ("model", "alpha"),
-        "beta": ("model", "beta"),
-        "delta": ("model", "delta"),
-        "eta": ("model", "eta"),
-        "order": ("anm", "order"),
-        "tolerance": ("anm", "tolerance"),
-        "max_steps": ("anm", "max_steps"),
-        "points_per_step": ("hbm", "points_per_step"),
-    }
-    out = copy.deepcopy(config)
-    for key, value in overrides.items():
-        if value is None:
-            continue
-        if key == "start_amplitude":
-            out["branches"]["nnm1"]["start_amplitude"] = float(value)
-        elif key in places:
-            section, name = places[key]
-            cast = int if key in ("harmonics", "order", "max_steps", "points_per_step") else float
-            out[section][name] = cast(value)
-        else:
-            raise ValueError(f"unknown study override {key!r} (allowed: {sorted(places) + ['start_amplitude']})")
-    return validate_config(out)
 
 
 # --------------------------------------------------------------------------- one guarded run
@@ -160,14 +117,8 @@ class StageRun:
         return self.dataset is not None and not self.failure
 
 
-def _settings(config: dict) -> ANMSettings:
-    return ANMSettings.from_config(config["anm"], points_per_step=config["hbm"].get("points_per_step", 1))
-
-
-def run_stage_one(
-    config: dict, max_truncation: float, label: str = "NNM1 stage 1", energy_limit: float | None = None
-) -> StageRun:
-    """Continue NNM1 stage 1 of ``config`` with a :class:`TruncationGuard`; time it.
+def run_stage_one(run: StageOneRun, label: str = "NNM1 stage 1", energy_limit: float | None = None) -> StageRun:
+    """Continue stage 1 of ``run.branch`` with a :class:`TruncationGuard` at ``run.max_truncation``; time it.
 
     ``energy_limit`` (optional) also ends the stage at the first orbit above that energy
     (past the range that will be compared), whichever comes first.
@@ -178,10 +129,9 @@ def run_stage_one(
     the engine (e.g. NaN reaching a linear solve) becomes ``StageRun.failure``;
     ``StageRun.extra`` says whether it was an unresolved orbit (``unresolved``).
     """
-    system = system_from_config(config)
-    spec = config["branches"]["nnm1"]
-    until = spec["stages"][0]["until"]
-    inner = stage_criterion(until, system.params, spec["mode"])
+    system = run.system()
+    spec = run.branch
+    inner = stage_criterion(spec.stages[0].until, system.params, spec.mode)
     if energy_limit is not None:
         stage_end, limit = inner, float(energy_limit)
 
@@ -189,12 +139,12 @@ def run_stage_one(
             past = diag["energy"] > limit
             return stage_end(U, diag) or (f"energy above {limit:g} (past the compared range)" if past else "")
 
-    guard = TruncationGuard(system, inner, max_truncation, label, setting="study.max_truncation")
+    guard = TruncationGuard(system, inner, run.max_truncation, label, setting="study.max_truncation")
     wall, cpu = time.perf_counter(), time.process_time()
     dataset, failure, stats = None, "", None
     try:
-        U0, direction = start_point(system, spec["mode"], spec["start_amplitude"])
-        branch = continue_anm(system, U0, direction, guard, _settings(config), label=label, progress_seconds=30.0)
+        U0, direction = start_point(system, spec.mode, spec.start_amplitude)
+        branch = continue_anm(system, U0, direction, guard, run.continuation, label=label, progress_seconds=30.0)
         stats = branch.stats
     except (ContinuationError, np.linalg.LinAlgError) as err:
         failure = str(err) or type(err).__name__
@@ -207,8 +157,8 @@ def run_stage_one(
     runtime, cpu_time = time.perf_counter() - wall, time.process_time() - cpu
     if not failure:
         # the study compares orbits: branch points stay flagged, not located (costly, unused here)
-        labels = {"branch": "nnm1", "mode": int(spec["mode"]), "stages": len(spec["stages"])}
-        dataset = stage_dataset(system, branch, 1, branch_settings(config), labels, located=[])
+        labels = {"branch": spec.name, "mode": int(spec.mode), "stages": len(spec.stages)}
+        dataset = stage_dataset(system, branch, 1, run.branch_settings(), labels, located=[])
     logger.info("%s, H = %d: %s in %.2f s", label, system.H, failure or "converged", runtime)
     return StageRun(dataset, failure, runtime, cpu_time, stats, guard.largest, system.H, {"unresolved": unresolved})
 

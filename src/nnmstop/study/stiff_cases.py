@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 
 import numpy as np
 import scipy.optimize
@@ -32,15 +33,13 @@ from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem, first_grazing_orbit, high_energy_orbit
 from nnmstop.hbm.stages import start_point
 from nnmstop.models.two_dof import ModelParameters, linear_modes, stiffness_matrix
-from nnmstop.study.error_runtime import study_settings
+from nnmstop.settings import StudySettings
 from nnmstop.study.runs import (
-    case_config,
     match_energies,
     run_stage_one,
     string_variable,
     variable,
 )
-from nnmstop.tasks.hbm import system_from_config
 
 __all__ = [
     "stiff_case_parameters",
@@ -62,25 +61,19 @@ ENERGY_KINDS = ("linear", "family", "high_energy", "none")
 # --------------------------------------------------------------------------- the cases
 
 
-def stiff_case_parameters(config: dict) -> dict:
+def stiff_case_parameters(settings: StudySettings) -> dict:
     """The settings of the stiff-case jobs, in the order the gather expects their datasets.
 
     ``branches``: ``(alpha, beta, delta, eta)`` of the ``alpha x eta`` and ``beta x delta``
     grids (unique, sorted); ``exact``: their ``(alpha, beta, delta)`` (unique, sorted);
     ``energy``: the ``alpha`` of each energy sweep.
     """
-    stiff = study_settings(config)["stiff"]
-    model = config["model"]
-    combos = {(float(a), float(model["beta"]), float(model["delta"]), float(e)) for a in stiff["alpha"] for e in stiff["eta"]}
-    combos |= {(float(model["alpha"]), float(b), float(d), float(model["eta"])) for b in stiff["ratios"] for d in stiff["ratios"]}
+    stiff, model = settings.stiff_sweep(), settings.run.params
+    combos = {(a, model.beta, model.delta, e) for a in stiff.alpha for e in stiff.eta}
+    combos |= {(model.alpha, b, d, model.eta) for b in stiff.ratios for d in stiff.ratios}
     branches = sorted(combos)
     exact = sorted({(a, b, d) for a, b, d, _ in branches})
-    return {"exact": exact, "branches": branches, "energy": [float(a) for a in stiff["energy_alpha"]]}
-
-
-def _params(config: dict, alpha, beta, delta, eta=None) -> ModelParameters:
-    eta = float(config["model"]["eta"] if eta is None else eta)
-    return ModelParameters(alpha=float(alpha), beta=float(beta), delta=float(delta), eta=eta)
+    return {"exact": exact, "branches": branches, "energy": list(stiff.energy_alpha)}
 
 
 # --------------------------------------------------------------------------- exact solver checks
@@ -170,10 +163,12 @@ def _confirm_end(params: ModelParameters, family) -> tuple[bool, str]:
     )
 
 
-def stiff_exact_dataset(config: dict, alpha, beta, delta) -> xr.Dataset:
-    """The exact family of one ``(alpha, beta, delta)`` with its checks as scalar variables."""
-    params = _params(config, alpha, beta, delta)
-    family, checks = exact_checks(params, float(config["exact"]["step"]), int(config["exact"]["max_points"]))
+def stiff_exact_dataset(params: ModelParameters, exact) -> xr.Dataset:
+    """The exact family of ``params`` with its checks as scalar variables.
+
+    ``exact``: the continuation settings of the family (:class:`~nnmstop.exact.family.FamilySettings`).
+    """
+    family, checks = exact_checks(params, exact.step, exact.max_points)
     ds = two_impact_dataset(family)
     for key, long_name, units in (
         ("relative_residual", "largest residual of the quarter-period equations, relative to max velocity * sqrt(1 + beta + alpha)", "1"),
@@ -206,7 +201,7 @@ def exact_energies(exact: xr.Dataset, count: int) -> np.ndarray:
     return arm[0] * (arm[-1] / arm[0]) ** fractions
 
 
-def stiff_branch_dataset(config: dict, exact: xr.Dataset, alpha, beta, delta, eta) -> xr.Dataset:
+def stiff_branch_dataset(settings: StudySettings, exact: xr.Dataset, alpha, beta, delta, eta) -> xr.Dataset:
     """Harmonics ladder for NNM1 stage 1 of one case, and errors against the exact family.
 
     The ladder goes on to more harmonics only when an attempt is refused as unresolved;
@@ -214,18 +209,19 @@ def stiff_branch_dataset(config: dict, exact: xr.Dataset, alpha, beta, delta, et
     harmonics and ends it. Each attempt stops at the end of stage 1 or past
     ``study.stiff.energy_limit_factor`` times the highest energy of the exact family.
     """
-    study = study_settings(config)
-    stiff = study["stiff"]
-    ladder = [int(h) for h in stiff["harmonics"]]
-    energies = exact_energies(exact, int(stiff["compare_count"])) if "energy" in exact else np.array([])
-    energy_limit = float(stiff["energy_limit_factor"]) * float(exact["energy"].max()) if "energy" in exact else None
+    stiff = settings.stiff_sweep()
+    ladder = list(stiff.harmonics)
+    energies = exact_energies(exact, stiff.compare_count) if "energy" in exact else np.array([])
+    energy_limit = stiff.energy_limit_factor * float(exact["energy"].max()) if "energy" in exact else None
+    params = ModelParameters(alpha=float(alpha), beta=float(beta), delta=float(delta), eta=float(eta))
+    base = replace(
+        settings.run, params=params, continuation=replace(settings.run.continuation, max_steps=stiff.max_steps)
+    )
     attempts, run = [], None
     total = 0.0
     for H in ladder:
-        cfg = case_config(config, harmonics=H, alpha=alpha, beta=beta, delta=delta, eta=eta, max_steps=stiff["max_steps"],
-                          points_per_step=study["points_per_step"])
         run = run_stage_one(
-            cfg, float(study["max_truncation"]), energy_limit=energy_limit,
+            replace(base, harmonics=H), energy_limit=energy_limit,
             label=f"NNM1 stage 1 (alpha {alpha:g}, beta {beta:g}, delta {delta:g}, eta {eta:g}, H {H})",
         )
         total += run.runtime
@@ -244,7 +240,7 @@ def stiff_branch_dataset(config: dict, exact: xr.Dataset, alpha, beta, delta, et
     energy_range = (float(energies[0]), float(energies[-1])) if energies.size else (np.nan, np.nan)
     compared = False
     if converged:
-        matched = match_energies(exact, run.dataset, energies, int(study["phase_samples"]), float(study["end_margin"]))
+        matched = match_energies(exact, run.dataset, energies, settings.phase_samples, settings.end_margin)
         if matched.complete:
             for key in errors:
                 errors[key] = float(np.max(np.abs(matched.values[key])))
@@ -274,7 +270,7 @@ def stiff_branch_dataset(config: dict, exact: xr.Dataset, alpha, beta, delta, et
     }
     ds = xr.Dataset(data)
     ds.attrs = {"alpha": float(alpha), "beta": float(beta), "delta": float(delta), "eta": float(eta),
-                "harmonics_tried": ", ".join(str(h) for h in ladder), "max_truncation": float(study["max_truncation"])}
+                "harmonics_tried": ", ".join(str(h) for h in ladder), "max_truncation": float(base.max_truncation)}
     return ds
 
 
@@ -325,14 +321,21 @@ def _hbm_from_exact(system, params: ModelParameters, y) -> np.ndarray:
     return system.pack(x, u, f, z, (2.0 * np.pi / (4.0 * y[3])) ** 2)
 
 
-def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
+def _energy_run(settings: StudySettings, alpha: float):
+    """The run (parameters, harmonics) of the energy sweep of one ``alpha``."""
+    stiff = settings.stiff_sweep()
+    run = settings.run
+    params = replace(run.params, alpha=float(alpha), eta=stiff.energy_eta)
+    return replace(run, params=params, harmonics=stiff.energy_harmonics)
+
+
+def energy_case(settings: StudySettings, alpha: float, energy: float, family=None) -> dict:
     """Exact solver and HBM at one energy (see the module docstring); never raises for numerics.
 
     ``family`` is the first exact two-impact family of these parameters (followed here if None).
     """
-    stiff = study_settings(config)["stiff"]
-    eta = float(stiff["energy_eta"])
-    params = _params(config, alpha, config["model"]["beta"], config["model"]["delta"], eta)
+    run = _energy_run(settings, alpha)
+    params = run.params
     problem = TwoImpactProblem(params)
     out = {"kind": "none", "exact_energy": np.nan, "exact_frequency": np.nan, "exact_residual": np.nan,
            "periodicity_error": np.nan, "integration_difference": np.nan, "exact_note": "",
@@ -341,7 +344,7 @@ def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
     grazing = problem.energy(first_grazing_orbit(params))
     y = None
     if family is None:
-        family = follow_two_impact_family(params, step=float(config["exact"]["step"]), max_points=int(config["exact"]["max_points"]))
+        family = follow_two_impact_family(params, step=settings.exact.step, max_points=settings.exact.max_points)
     if energy < grazing:
         amplitude, phi, omega = _linear_amplitude(params, energy, "no_contact")
         out.update(kind="linear", exact_energy=energy, exact_frequency=omega / (2 * np.pi), exact_residual=0.0,
@@ -376,8 +379,7 @@ def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
                    exact_residual=float(np.linalg.norm(problem.residual(y))))
     out.update({k: v for k, v in periodicity_check(params, y).items() if k != "integration_seconds"})
     # the regularized orbit at the same place
-    cfg = case_config(config, harmonics=int(stiff["energy_harmonics"]), alpha=params.alpha, eta=params.eta)
-    system = system_from_config(cfg)
+    system = run.system()
     try:
         if out["kind"] == "linear":
             amplitude, _, _ = _linear_amplitude(params, energy, "regularized")
@@ -390,7 +392,7 @@ def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
             U, _ = newton_correct(system, _hbm_from_exact(system, params, y), direction, ContinuationStats(), tol=1e-12)
         level = system.truncation(U)
         out["hbm_truncation"] = level
-        limit = float(study_settings(config)["max_truncation"])
+        limit = run.max_truncation
         if level > limit:  # no number for an unresolved orbit: only the indicator and the reason
             out["hbm_failure"] = f"H = {system.H} does not resolve the orbit (truncation indicator {level:.4g} > {limit:g})"
         else:
@@ -403,13 +405,13 @@ def energy_case(config: dict, alpha: float, energy: float, family=None) -> dict:
     return out
 
 
-def energy_sweep_dataset(config: dict, alpha: float) -> xr.Dataset:
+def energy_sweep_dataset(settings: StudySettings, alpha: float) -> xr.Dataset:
     """Every energy of ``study.stiff.energies`` for one ``alpha`` (dimension ``energy``)."""
-    stiff = study_settings(config)["stiff"]
-    energies = np.asarray(stiff["energies"], dtype=float)
-    params = _params(config, alpha, config["model"]["beta"], config["model"]["delta"], stiff["energy_eta"])
-    family = follow_two_impact_family(params, step=float(config["exact"]["step"]), max_points=int(config["exact"]["max_points"]))
-    rows = [energy_case(config, float(alpha), float(e), family) for e in energies]
+    energies = np.asarray(settings.stiff_sweep().energies, dtype=float)
+    run = _energy_run(settings, alpha)
+    params = run.params
+    family = follow_two_impact_family(params, step=settings.exact.step, max_points=settings.exact.max_points)
+    rows = [energy_case(settings, float(alpha), float(e), family) for e in energies]
     col = lambda key: [r[key] for r in rows]  # noqa: E731
     e = ("energy",)
     data = {
@@ -427,28 +429,23 @@ def energy_sweep_dataset(config: dict, alpha: float) -> xr.Dataset:
         "hbm_truncation": variable(e, col("hbm_truncation"), "truncation indicator of the HBM orbit"),
     }
     ds = xr.Dataset(data, coords={"energy": ("energy", energies, {"long_name": "requested total energy", "units": "1"})})
-    ds.attrs = {"alpha": float(alpha), "beta": float(config["model"]["beta"]), "delta": float(config["model"]["delta"]),
-                "eta": float(stiff["energy_eta"]), "harmonics": int(stiff["energy_harmonics"])}
+    ds.attrs = {**{k: float(v) for k, v in params.as_attrs().items()}, "harmonics": int(run.harmonics)}
     return ds
 
 
 # --------------------------------------------------------------------------- gather
 
 
-def gather_stiff_cases(config: dict, exact: list, branches: list, energy: list) -> xr.Dataset:
+def gather_stiff_cases(settings: StudySettings, exact: list, branches: list, energy: list) -> xr.Dataset:
     """Assemble the stiff-case datasets into ``stiff_cases`` (grids ``alpha x eta``, ``beta x delta``, ``energy``).
 
     ``exact``, ``branches`` and ``energy`` are the datasets of the jobs in the order of
     :func:`stiff_case_parameters`.
     """
-    study = study_settings(config)
-    stiff = study["stiff"]
-    model = config["model"]
-    alphas = [float(a) for a in stiff["alpha"]]
-    etas = [float(e) for e in stiff["eta"]]
-    ratios = [float(r) for r in stiff["ratios"]]
-    energy_alphas = [float(a) for a in stiff["energy_alpha"]]
-    expected = stiff_case_parameters(config)
+    stiff = settings.stiff_sweep()
+    model = settings.run.params
+    alphas, etas, ratios, energy_alphas = list(stiff.alpha), list(stiff.eta), list(stiff.ratios), list(stiff.energy_alpha)
+    expected = stiff_case_parameters(settings)
     for kind, datasets in (("exact", exact), ("branches", branches), ("energy", energy)):
         if len(datasets) != len(expected[kind]):
             raise ValueError(f"{len(datasets)} stiff {kind} datasets given, the configuration has {len(expected[kind])} cases")
@@ -461,7 +458,7 @@ def gather_stiff_cases(config: dict, exact: list, branches: list, energy: list) 
     def fam(a, b, d):
         return exact[(float(a), float(b), float(d))]
 
-    b0, d0, a0, e0 = float(model["beta"]), float(model["delta"]), float(model["alpha"]), float(model["eta"])
+    b0, d0, a0, e0 = model.beta, model.delta, model.alpha, model.eta
     branch_scalars = ("runtime", "total_runtime", "truncation", "frequency_error", "x_error", "u_error", "force_error", "relative_force_error", "compared_energy_min", "compared_energy_max")
     branch_ints = ("harmonics", "steps", "factorizations")
     exact_scalars = ("check_relative_residual", "check_periodicity_error", "check_integration_difference", "check_seconds_per_orbit", "check_step")
@@ -540,9 +537,9 @@ def gather_stiff_cases(config: dict, exact: list, branches: list, energy: list) 
     ds.attrs = {
         "beta_of_alpha_eta_grid": b0, "delta_of_alpha_eta_grid": d0,
         "alpha_of_ratio_grid": a0, "eta_of_ratio_grid": e0,
-        "energy_sweep_eta": float(stiff["energy_eta"]), "energy_sweep_harmonics": int(stiff["energy_harmonics"]),
-        "harmonics_tried": ", ".join(str(h) for h in stiff["harmonics"]),
-        "max_truncation": float(study["max_truncation"]), "max_steps": int(stiff["max_steps"]),
+        "energy_sweep_eta": float(stiff.energy_eta), "energy_sweep_harmonics": int(stiff.energy_harmonics),
+        "harmonics_tried": ", ".join(str(h) for h in stiff.harmonics),
+        "max_truncation": float(settings.run.max_truncation), "max_steps": int(stiff.max_steps),
         "measurement": "run times are measurements of this machine; not reproducible byte for byte",
     }
     return ds

@@ -26,8 +26,8 @@ def bundle(config: dict, inputs: dict, outputs: dict) -> Path:
         The whole validated configuration (stored in the bundle; its ``metadata`` section
         describes the crate and the citation).
     inputs : dict
-        ``datasets``, ``figures``, ``workflow_files`` (lists of paths), ``manifest`` and
-        ``environment_lock``.
+        ``datasets``, ``figures``, ``workflow_files`` (lists of paths), ``manifest``,
+        ``environment_lock`` and ``citation`` (the repository's ``CITATION.cff``).
     outputs : dict
         ``bundle``: the zip archive to write.
     """
@@ -41,6 +41,7 @@ def bundle(config: dict, inputs: dict, outputs: dict) -> Path:
         environment_lock=inputs["environment_lock"],
         workflow_files=_as_list(inputs["workflow_files"]),
         output=outputs["bundle"],
+        citation_file=inputs["citation"],
     )
 
 

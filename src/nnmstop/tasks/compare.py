@@ -22,6 +22,7 @@ from nnmstop.compare.matching import PARAMETER_KEYS
 from nnmstop.compare.regimes import regime_error_dataset, regime_table
 from nnmstop.compare.stability import stability_comparison_dataset, stability_table
 from nnmstop.netcdf import read_dataset, write_dataset
+from nnmstop.settings import compare_settings
 
 __all__ = [
     "build_comparison_dataset",
@@ -57,7 +58,7 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
     for key in ("exact", "nnm1"):
         if key not in inputs:
             raise ValueError(f"the comparison needs the input {key!r}, got {sorted(inputs)}")
-    spec = config["compare"]
+    spec = compare_settings(config)
     exact, branch = read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"])
     for key in PARAMETER_KEYS:
         ds = branch if key == "eta" else exact
@@ -71,14 +72,14 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
             f"hbm.harmonics = {config['hbm']['harmonics']!r} in the configuration but {branch.attrs['harmonics']!r} in "
             f"{inputs['nnm1']} (stale dataset?)"
         )
-    marked = {label: spec["points"][label] for label in ("a", "b")}
+    marked = {label: spec.points[label] for label in ("a", "b")}
     ds = comparison_dataset(
         exact,
         branch,
-        count=spec["energy_count"],
+        count=spec.energy_count,
         marked=marked,
-        phase_samples=spec["phase_samples"],
-        end_margin=spec["end_margin"],
+        phase_samples=spec.phase_samples,
+        end_margin=spec.end_margin,
     )
     p = ds.attrs
     summary = (
@@ -90,6 +91,7 @@ def build_comparison_dataset(config: dict, inputs: dict, output_path) -> Path:
     path = write_dataset(
         ds,
         output_path,
+        kind="exact_vs_regularized",
         title="NNM1: exact non-smooth vs regularized orbits at matched energies",
         summary=summary,
         keywords="exact solution, regularization, comparison",
@@ -182,6 +184,7 @@ def build_regime_error_dataset(config: dict, inputs: dict, outputs: dict) -> Pat
     path = write_dataset(
         ds,
         outputs["dataset"],
+        kind="regime_errors",
         title="Regularized vs exact NNM1: frequency error per impact regime, whole branch",
         summary=(
             "Frequency of the regularized NNM1 (HBM with "
@@ -219,6 +222,7 @@ def build_stability_comparison(config: dict, inputs: dict, outputs: dict) -> Pat
     path = write_dataset(
         ds,
         outputs["dataset"],
+        kind="stability_comparison",
         title="Exact vs regularized NNM1: Floquet stability per impact regime",
         summary=(
             "Agreement of the stability verdicts of the exact NNM1 (non-smooth model, monodromy from the linear "

@@ -57,6 +57,7 @@ def build_two_impact_dataset(config: dict, output_path: str | Path) -> Path:
     path = write_dataset(
         ds,
         output_path,
+        kind="two_impact_family",
         title="NNM1 of the non-smooth system: two impacts per period (exact)",
         summary=summary,
         keywords="exact solution, piecewise linear",
@@ -121,6 +122,7 @@ def build_multi_impact_dataset(config: dict, two_impact_path: str | Path, output
     path = write_dataset(
         ds,
         output_path,
+        kind="exact_nnm1",
         title="NNM1 of the non-smooth system: all impact regimes (exact)",
         summary=summary,
         keywords="exact solution, piecewise linear, grazing bifurcation",

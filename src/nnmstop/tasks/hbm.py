@@ -1,8 +1,9 @@
 """Tasks of the regularized branches (``workflow/rules`` HBM rules): configuration in, datasets out.
 
 The only place of the HBM side that reads the configuration dict and writes files. The
-configuration becomes the settings of :mod:`nnmstop.hbm.stages` (:func:`branch_settings`,
-:func:`branch_spec`, :func:`bifurcation_spec`); :func:`build_stage` and :func:`build_bifurcated`
+configuration becomes the settings of :mod:`nnmstop.hbm.stages` through :mod:`nnmstop.settings`
+(``branch_settings``, ``branch_spec``, ``bifurcation_spec``, ``system_from_config``, imported here
+for the callers that know them from this module); :func:`build_stage` and :func:`build_bifurcated`
 return the datasets in memory (tests and studies use them); the tasks ``hbm_stage``,
 ``hbm_bifurcated`` and ``hbm_branch`` (dispatched by :mod:`nnmstop.pipeline.run`) read their inputs
 and write their outputs; the configured paths come from the workflow's rules, never from the library.
@@ -14,30 +15,18 @@ from __future__ import annotations
 
 import xarray as xr
 
-from nnmstop.continuation.anm import ANMSettings
 from nnmstop.hbm.dataset import summarize_bifurcated
-from nnmstop.hbm.monodromy import MonodromySettings
-from nnmstop.hbm.stability import StabilitySettings
-from nnmstop.hbm.stages import (
-    BifurcationSpec,
-    BranchSettings,
-    BranchSpec,
-    StageSpec,
-    bifurcated_branch,
-    combine_stages,
-    continue_stage,
-)
-from nnmstop.hbm.system import HarmonicBalanceSystem
-from nnmstop.models.structure import two_dof_structure
-from nnmstop.models.two_dof import ModelParameters
+from nnmstop.hbm.stages import bifurcated_branch, combine_stages, continue_stage
 from nnmstop.netcdf import write_dataset
+from nnmstop.settings import (  # noqa: F401 - re-exported: the HBM tasks' settings live in nnmstop.settings
+    bifurcation_spec,
+    branch_settings,
+    branch_spec,
+    stability_settings,
+    system_from_config,
+)
 
 __all__ = [
-    "system_from_config",
-    "branch_settings",
-    "stability_settings",
-    "branch_spec",
-    "bifurcation_spec",
     "build_stage",
     "build_bifurcated",
     "hbm_stage",
@@ -45,46 +34,6 @@ __all__ = [
     "hbm_branch",
     "main",
 ]
-
-
-def system_from_config(config: dict, harmonics: int | None = None, eta: float | None = None) -> HarmonicBalanceSystem:
-    """The HBM system of the configuration (optionally with other ``H`` or ``eta``)."""
-    model = dict(config["model"])
-    if eta is not None:
-        model["eta"] = eta
-    params = ModelParameters.from_config(model)
-    H = config["hbm"]["harmonics"] if harmonics is None else harmonics
-    return HarmonicBalanceSystem(two_dof_structure(params), H, time_samples=config["hbm"]["time_samples"])
-
-
-def stability_settings(config: dict) -> StabilitySettings:
-    """Stability settings from the ``stability`` section (the monodromy method when it is absent)."""
-    spec = config.get("stability", {"method": "monodromy"})
-    hill = {"hill_tol": spec["hill_tol"]} if "hill_tol" in spec else {}
-    return StabilitySettings(
-        method=spec.get("method", "monodromy"), monodromy=MonodromySettings.from_config(spec), **hill
-    )
-
-
-def branch_settings(config: dict) -> BranchSettings:
-    """Continuation, truncation and stability settings of the configuration."""
-    continuation = ANMSettings.from_config(config["anm"], points_per_step=config["hbm"].get("points_per_step", 1))
-    return BranchSettings(continuation, config["hbm"]["max_truncation"], stability_settings(config))
-
-
-def branch_spec(config: dict, name: str) -> BranchSpec:
-    """The branch ``branches.<name>`` of the configuration."""
-    spec = config["branches"][name]
-    stages = tuple(StageSpec(stage["name"], dict(stage["until"])) for stage in spec["stages"])
-    return BranchSpec(name, int(spec["mode"]), spec["start_amplitude"], stages)
-
-
-def bifurcation_spec(config: dict, name: str) -> BifurcationSpec:
-    """The switched branch ``bifurcations.<name>`` of the configuration."""
-    spec = config["bifurcations"][name]
-    return BifurcationSpec(
-        name, spec["parent"], spec["resonance"], spec["stage"], tuple(spec["energy_range"]), spec["switch_step"]
-    )
 
 
 def build_stage(config: dict, branch: str, stage: int, previous: xr.Dataset | None = None) -> xr.Dataset:
@@ -115,6 +64,7 @@ def hbm_stage(config, inputs, outputs, branch: str, stage: str | int):
     write_dataset(
         ds,
         outputs["dataset"],
+        kind="nnm_branch",
         title=f"Regularized {branch.upper()}, stage {stage} ({name}): HBM-ANM continuation",
         summary=(
             f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "
@@ -132,6 +82,7 @@ def hbm_bifurcated(config, inputs, outputs, bifurcation: str):
     write_dataset(
         ds,
         outputs["dataset"],
+        kind="switched_branch",
         title=f"Branch bifurcating from regularized {parent_name} at the {n}:1 internal resonance ({bifurcation})",
         summary=(
             f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop on the curve "
@@ -149,6 +100,7 @@ def hbm_branch(config, inputs, outputs, branch: str):
     write_dataset(
         combined,
         outputs["dataset"],
+        kind="nnm_branch",
         title=f"Regularized {branch.upper()}: HBM-ANM continuation, whole branch",
         summary=(
             f"Periodic orbits of the regularized 2-DOF oscillator with a bilateral elastic stop along "

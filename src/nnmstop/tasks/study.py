@@ -1,7 +1,8 @@
 """Tasks of ``workflow/rules/study.smk``: read the input datasets, run one study job, write its dataset.
 
-The study's numerics (:mod:`nnmstop.study.error_runtime`, :mod:`nnmstop.study.stiff_cases`)
-take the configuration and datasets and return datasets; the file names of the jobs are the
+The configuration becomes :class:`~nnmstop.settings.StudySettings` (:func:`nnmstop.settings.study_settings`);
+the study's numerics (:mod:`nnmstop.study.error_runtime`, :mod:`nnmstop.study.stiff_cases`)
+take those settings and datasets and return datasets; the file names of the jobs are the
 rules' (``study.smk`` builds them from :func:`~nnmstop.study.error_runtime.sweep_cases` and
 :func:`~nnmstop.study.stiff_cases.stiff_case_parameters`). The gathers receive the job files in
 that order and hand their datasets on. The outputs are measurements (run times): exempt from
@@ -11,9 +12,11 @@ byte-identical reruns and never read by the paper's figures.
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 
 from nnmstop.netcdf import read_dataset, write_dataset
+from nnmstop.settings import exact_settings, model_parameters, study_settings
 from nnmstop.study import error_runtime, stiff_cases
 
 __all__ = [
@@ -42,7 +45,7 @@ def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, or
     exact = read_dataset(inputs["exact"])
     order = None if order is None else int(order)
     tolerance = None if tolerance is None else float(tolerance)
-    ds = error_runtime.error_case_dataset(config, exact, int(harmonics), float(eta), order, tolerance)
+    ds = error_runtime.error_case_dataset(study_settings(config), exact, int(harmonics), float(eta), order, tolerance)
     logger.info(
         "converged %s, compared %s, runtime %.3f s; %s",
         bool(ds["converged"]),
@@ -53,6 +56,7 @@ def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, or
     return write_dataset(
         ds,
         output_path,
+        kind="study_case",
         title="Study case: regularized NNM1 stage 1 against the exact orbits, timed",
         summary="One setting of the error-against-run-time study (measurement; not part of the paper's figures).",
         keywords="study, run time",
@@ -62,10 +66,11 @@ def build_error_case(config: dict, inputs: dict, output_path, harmonics, eta, or
 
 def build_reference(config: dict, inputs: dict, output_path, eta) -> Path:
     """The large-H reference orbits of one ``eta`` (input ``exact``)."""
-    ds = error_runtime.reference_dataset(config, read_dataset(inputs["exact"]), float(eta))
+    ds = error_runtime.reference_dataset(study_settings(config), read_dataset(inputs["exact"]), float(eta))
     return write_dataset(
         ds,
         output_path,
+        kind="study_reference",
         title="Study reference: regularized NNM1 orbits with many harmonics at the study energies",
         summary="Large-H reference of the error-against-run-time study (measurement; not part of the paper's figures).",
         keywords="study, reference",
@@ -74,10 +79,12 @@ def build_reference(config: dict, inputs: dict, output_path, eta) -> Path:
 
 
 def build_exact_cost(config: dict, inputs: dict, output_path) -> Path:
-    """The exact solver's cost per orbit."""
+    """The exact solver's cost per orbit (sections ``model``, ``exact``, ``study.phase_samples``)."""
+    samples = int(config["study"]["phase_samples"])
     return write_dataset(
-        error_runtime.exact_cost_dataset(config),
+        error_runtime.exact_cost_dataset(model_parameters(config), exact_settings(config), samples),
         output_path,
+        kind="exact_cost",
         title="Study: cost of the exact two-impact solver",
         summary="Run time per orbit of the closed-form exact solver (measurement).",
         keywords="study, run time",
@@ -89,7 +96,7 @@ def build_error_vs_runtime(config: dict, inputs: dict, output_path) -> Path:
     """Gather the sweep: inputs ``cases``, ``anm_cases``, ``references`` (in the order of
     :func:`~nnmstop.study.error_runtime.sweep_cases`) and ``exact_cost``."""
     ds = error_runtime.gather_error_vs_runtime(
-        config,
+        study_settings(config),
         _read_all(inputs["cases"]),
         _read_all(inputs["anm_cases"]),
         _read_all(inputs["references"]),
@@ -98,6 +105,7 @@ def build_error_vs_runtime(config: dict, inputs: dict, output_path) -> Path:
     return write_dataset(
         ds,
         output_path,
+        kind="error_vs_runtime",
         title="Error against run time of the regularized NNM1 (HBM + ANM) on its two-impact range",
         summary=(
             "Errors of the regularized NNM1 against the exact non-smooth orbits at matched energies, split into "
@@ -114,11 +122,13 @@ def build_error_vs_runtime(config: dict, inputs: dict, output_path) -> Path:
 
 
 def build_stiff_exact(config: dict, inputs: dict, output_path, alpha, beta, delta) -> Path:
-    """Exact family and checks of one ``(alpha, beta, delta)``."""
-    ds = stiff_cases.stiff_exact_dataset(config, float(alpha), float(beta), float(delta))
+    """Exact family and checks of one ``(alpha, beta, delta)`` (sections ``model``, ``exact``)."""
+    params = replace(model_parameters(config), alpha=float(alpha), beta=float(beta), delta=float(delta))
+    ds = stiff_cases.stiff_exact_dataset(params, exact_settings(config))
     return write_dataset(
         ds,
         output_path,
+        kind="stiff_exact",
         title="Study (stiff cases): exact two-impact NNM1 family with exactness checks",
         summary="Exact family, residuals, periodicity by event-located integration (measurement of the study).",
         keywords="study, stiff cases",
@@ -129,7 +139,8 @@ def build_stiff_exact(config: dict, inputs: dict, output_path, alpha, beta, delt
 def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, delta, eta) -> Path:
     """Harmonics ladder of one stiff case against its exact family (input ``exact``)."""
     exact = read_dataset(inputs["exact"])
-    out = stiff_cases.stiff_branch_dataset(config, exact, float(alpha), float(beta), float(delta), float(eta))
+    settings = study_settings(config)
+    out = stiff_cases.stiff_branch_dataset(settings, exact, float(alpha), float(beta), float(delta), float(eta))
     logger.info(
         "converged %s with H = %d; %s",
         bool(out["converged"]),
@@ -139,6 +150,7 @@ def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, del
     return write_dataset(
         out,
         output_path,
+        kind="stiff_nnm1",
         title="Study (stiff cases): regularized NNM1 stage 1, harmonics needed and error",
         summary="Harmonics ladder of a guarded continuation against the exact family (measurement of the study).",
         keywords="study, stiff cases",
@@ -149,8 +161,9 @@ def build_stiff_branch(config: dict, inputs: dict, output_path, alpha, beta, del
 def build_stiff_energy(config: dict, inputs: dict, output_path, alpha) -> Path:
     """The energy sweep of one ``alpha``."""
     return write_dataset(
-        stiff_cases.energy_sweep_dataset(config, float(alpha)),
+        stiff_cases.energy_sweep_dataset(study_settings(config), float(alpha)),
         output_path,
+        kind="stiff_energy",
         title="Study (stiff cases): exact solver and HBM at energies from 1e-6 to 1e6",
         summary="Exact orbits and their periodicity by integration, and HBM orbits, at extreme energies (study).",
         keywords="study, stiff cases",
@@ -162,11 +175,12 @@ def build_stiff_cases(config: dict, inputs: dict, output_path) -> Path:
     """Gather the stiff cases: inputs ``exact``, ``branches``, ``energy`` (in the order of
     :func:`~nnmstop.study.stiff_cases.stiff_case_parameters`)."""
     ds = stiff_cases.gather_stiff_cases(
-        config, _read_all(inputs["exact"]), _read_all(inputs["branches"]), _read_all(inputs["energy"])
+        study_settings(config), _read_all(inputs["exact"]), _read_all(inputs["branches"]), _read_all(inputs["energy"])
     )
     return write_dataset(
         ds,
         output_path,
+        kind="stiff_cases",
         title="Stiff and extreme cases: exactness of the exact solver, convergence of the continuation, errors",
         summary=(
             "For stiff stops (alpha up to 1e4), sharp regularizations (eta down to 1e-3), extreme energies "
@@ -189,8 +203,9 @@ def study_error_case(config, inputs, outputs, harmonics, eta):
 
 def study_anm_case(config, inputs, outputs, order, tolerance):
     """One ANM (order, tolerance) setting at ``study.error_runtime.anm_harmonics`` and ``model.eta``."""
-    H = config["study"]["error_runtime"]["anm_harmonics"]
-    build_error_case(config, inputs, outputs["dataset"], H, config["model"]["eta"], order, tolerance)
+    settings = study_settings(config)
+    H, eta = settings.sweep().anm_harmonics, settings.run.params.eta
+    build_error_case(config, inputs, outputs["dataset"], H, eta, order, tolerance)
 
 
 def study_reference(config, inputs, outputs, eta):

@@ -109,6 +109,7 @@ def tube_exact(config, inputs, outputs):
     write_dataset(
         ds,
         outputs["dataset"],
+        kind="tube_exact_family",
         title="Exact NNM1 of the finite-element tube with a bilateral stop",
         summary="Exact periodic orbits of the non-smooth (piecewise-linear) finite-element tube with one "
         "impact on each side of its stop per period, from the grazing orbit of its first linear "
@@ -193,6 +194,7 @@ def tube_branch(config, inputs, outputs, branch: str):
     write_dataset(
         ds,
         outputs["dataset"],
+        kind="structure_branch",
         title=f"Regularized {branch.upper()} of the finite-element tube",
         summary=f"Periodic orbits of the regularized finite-element tube along its {branch.upper()}, by the "
         f"harmonic balance method (H = {tube['harmonics']}) and the asymptotic numerical method, "
@@ -220,6 +222,7 @@ def tube_compare(config, inputs, outputs):
     write_dataset(
         ds,
         outputs["dataset"],
+        kind="tube_comparison",
         title="Exact against regularized NNM1 of the finite-element tube",
         summary="Frequencies of the exact non-smooth and the regularized NNM1 of the tube where each branch "
         "first reaches log-spaced energies of their common range.",
@@ -256,6 +259,7 @@ def tube_study_case(config, inputs, outputs, gap, factor):
     write_dataset(
         ds,
         outputs["dataset"],
+        kind="structure_branch",
         title=f"Tube NNM1, gap {gap} m, stop stiffness factor {factor}",
         summary="One case of the tube's parameter study over gap and stop stiffness.",
         keywords=KEYWORDS,

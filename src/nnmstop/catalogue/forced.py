@@ -1,0 +1,122 @@
+"""Dataset kinds of the forced responses (issue 23; see :mod:`nnmstop.catalogue` and docs/forced.md)."""
+
+from nnmstop.catalogue import DatasetKind, Variable
+from nnmstop.forced.stability_changes import KINDS as CHANGE_KINDS
+from nnmstop.forced.stability_changes import REGIMES
+
+RESPONSE_VARIABLES = (
+    Variable("frequency", ("point",), "frequency of the force and of the periodic response", units="Hz"),
+    Variable("x_amplitude", ("point",), "largest |q| over the period of the DOF of the first stop (x)"),
+    Variable("u_amplitude", ("point",), "largest |q| over the period of the first forced DOF (u)"),
+    Variable("amplitude", ("point", "dof"), "largest |q| over the period of each degree of freedom"),
+    Variable(
+        "phase_lag",
+        ("point", "dof"),
+        "lag of the fundamental harmonic of each DOF behind the force cos(Omega t) (90 at phase resonance)",
+        units="degree",
+    ),
+    Variable(
+        "stable", ("point",), "Floquet stability: all multipliers inside the unit circle", flags=("unstable", "stable")
+    ),
+    Variable("multiplier_real", ("point", "multiplier"), "real part of the Floquet multipliers over one period"),
+    Variable("multiplier_imag", ("point", "multiplier"), "imaginary part of the Floquet multipliers over one period"),
+    Variable(
+        "regime",
+        ("point",),
+        "what the response is where the periodic one is unstable (no periodic response claimed where it is not stable)",
+        flags=REGIMES,
+    ),
+    Variable("segment", ("point",), "index of the continued piece of the response"),
+    Variable("dof_label", ("dof",), "name of the degree of freedom"),
+    Variable("change_frequency", ("change",), "frequency of the located stability change", units="Hz"),
+    Variable("change_amplitude", ("change", "dof"), "largest |q| of each DOF at the located stability change"),
+    Variable("change_kind", ("change",), "kind of the located stability change", flags=CHANGE_KINDS),
+)
+
+FORCED_EXACT = DatasetKind(
+    "forced_exact",
+    "Exact forced response of the non-smooth system",
+    ("forced/exact_F<F>.nc",),
+    "Periodic responses of the damped structure with the piecewise-linear stop to F cos(Omega t) on the forced "
+    "DOFs: the non-impacting (linear) response and the symmetric responses with one contact per stop per period, "
+    "in closed form per phase (nnmstop.exact.forced); multipliers from the products of the phase exponentials.",
+    RESPONSE_VARIABLES
+    + (
+        Variable(
+            "contact_unknowns",
+            ("contact_point", "unknown"),
+            "unknowns of the one-contact responses: state (q, qdot) entering the right stop, its phase Omega t, "
+            "the phase duration of the contact, Omega",
+            optional=True,
+        ),
+        Variable("contact_point_index", ("contact_point",), "index of the point of the response", optional=True),
+    ),
+)
+
+FORCED_REGULARIZED = DatasetKind(
+    "forced_regularized",
+    "Regularized forced response by harmonic balance",
+    ("forced/regularized_F<F>.nc", "forced/regularized_tube_F<F>.nc"),
+    "Periodic responses of the damped structure with the regularized stop law to F cos(Omega t), by harmonic "
+    "balance and the ANM (nnmstop.hbm.forced); multipliers of the damped variational equation (nnmstop.floquet).",
+    RESPONSE_VARIABLES
+    + (
+        Variable("harmonic", ("harmonic",), "harmonic number"),
+        Variable("q_cos", ("point", "dof", "harmonic"), "cosine coefficients of the displacements in Omega t"),
+        Variable("q_sin", ("point", "dof", "harmonic"), "sine coefficients of the displacements in Omega t"),
+        Variable("f_cos", ("point", "stop", "harmonic"), "cosine coefficients of the regularized contact force / gap"),
+        Variable("f_sin", ("point", "stop", "harmonic"), "sine coefficients of the regularized contact force / gap"),
+        Variable("z_cos", ("point", "stop", "harmonic"), "cosine coefficients of the auxiliary z of the recast"),
+        Variable("z_sin", ("point", "stop", "harmonic"), "sine coefficients of the auxiliary z of the recast"),
+        Variable(
+            "truncation", ("point",), "share of the mean square of x'' or f carried by the top tenth of the harmonics"
+        ),
+        Variable(
+            "time_residual",
+            ("point",),
+            "largest residual in time of the equations of the stop DOFs relative to the largest restoring force",
+        ),
+        Variable("step", ("point",), "index of the ANM step that produced the point"),
+        Variable(
+            "multiplier_error",
+            ("point",),
+            "largest change of a Floquet multiplier between the last two Magnus step counts (error estimate)",
+        ),
+    ),
+)
+
+FORCED_BACKBONE = DatasetKind(
+    "forced_backbone",
+    "NNM backbones and the resonance peaks they predict",
+    ("forced/backbone.nc",),
+    "NNM1 and NNM2 of the regularized oscillator (HBM + ANM) over the forced range with the force whose resonance "
+    "peak each orbit is (energy balance), and the peaks predicted at each force level (nnmstop.forced.backbone).",
+    (
+        Variable("backbone_frequency", ("backbone_point",), "frequency of the NNM orbit", units="Hz"),
+        Variable("backbone_amplitude", ("backbone_point", "dof"), "largest |q| of each DOF over the NNM orbit"),
+        Variable("backbone_mode", ("backbone_point",), "index of the NNM"),
+        Variable(
+            "required_force",
+            ("backbone_point",),
+            "force amplitude whose resonance peak is the NNM orbit (damping work = work of the force in quadrature)",
+        ),
+        Variable("forcing_amplitude", ("level",), "force amplitude F"),
+        Variable("mode", ("mode",), "index of the NNM"),
+        Variable(
+            "predicted_frequency",
+            ("level", "mode"),
+            "frequency of the resonance peak predicted by the backbone",
+            units="Hz",
+            missing="where the computed backbone does not reach the force level",
+        ),
+        Variable(
+            "predicted_amplitude",
+            ("level", "mode", "dof"),
+            "largest |q| of each DOF at the predicted resonance peak",
+            missing="where the computed backbone does not reach the force level",
+        ),
+        Variable("dof_label", ("dof",), "name of the degree of freedom"),
+    ),
+)
+
+KINDS = (FORCED_EXACT, FORCED_REGULARIZED, FORCED_BACKBONE)

@@ -1,0 +1,322 @@
+"""Datasets -> the explorer's data: the one module that knows the datasets' layout.
+
+A branch of the explorer is one dataset of a kind listed in :data:`KINDS` (``"regularized"``: an
+HBM branch, whole or switched; ``"exact"``: the exact NNM1 of the non-smooth model). Adding a kind
+of branch is one entry there: a function from the opened dataset to a :class:`Branch` record.
+Everything the page shows comes from the record: per-point columns with their CF ``long_name``
+and ``units``, the Fourier coefficients that the page synthesizes into orbits (float32, harmonics
+that vanish at float32 resolution over the whole branch dropped), the Floquet multipliers, the
+located branch points and folds, and the dataset's path and SHA-256.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["Branch", "ExplorerSettings", "KINDS", "read_manifest", "file_sha256", "extract_branch"]
+
+
+@dataclass(frozen=True)
+class ExplorerSettings:
+    """Settings of the explorer (configuration section ``explorer``).
+
+    Parameters
+    ----------
+    time_samples : int
+        Instants per period at which the page synthesizes an orbit.
+    exact_harmonics : int
+        Harmonics of the cosine series that represent an exact (non-smooth) orbit.
+    tube : bool
+        The workflow's rule also draws the finite-element tube's regularized branches (and builds them).
+    """
+
+    time_samples: int = 512
+    exact_harmonics: int = 64
+    tube: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.tube, bool):
+            raise ValueError(f"explorer.tube must be true or false, got {self.tube!r}")
+        for name in ("time_samples", "exact_harmonics"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 8:
+                raise ValueError(f"explorer.{name} must be an integer >= 8, got {value!r}")
+
+    @classmethod
+    def from_config(cls, section: dict | None) -> ExplorerSettings:
+        return cls(**(section or {}))
+
+
+@dataclass
+class Branch:
+    """What the page needs of one branch; arrays are numpy arrays indexed by point first."""
+
+    kind: str
+    columns: dict  # name -> array (numbers) or list of str (text), one entry per point
+    meta: dict  # name -> {"long_name", "units"[, "flag_values", "flag_meanings"]}
+    numbers: list  # names of the columns listed for a selected point, in order
+    piece: str  # column whose changes split the curve (stage, segment)
+    orbit: (
+        dict  # "harmonics", "omega", "fields"/"sines": {name: coefficients (point, kept harmonic)}, "force", "labels"
+    )
+    multipliers: dict  # "real", "imag": (point, multiplier)
+    marks: dict = field(default_factory=dict)  # "branch_points"/"folds": {"energy", "frequency"}
+    attrs: dict = field(default_factory=dict)  # "model" parameters; "family": the NNM (nnm1, ...) it belongs to
+
+
+def read_manifest(path) -> dict:
+    """``results/MANIFEST.sha256`` as ``{relative path: sha256}`` (``sha256sum`` format)."""
+    entries = {}
+    for number, line in enumerate(Path(path).read_text().splitlines(), start=1):
+        if not line.strip():
+            continue
+        digest, _, name = line.partition("  ")
+        if len(digest) != 64 or not name:
+            raise ValueError(f"{path}:{number}: not a sha256sum line: {line!r}")
+        entries[name.strip()] = digest
+    return entries
+
+
+def file_sha256(path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _meta(ds: xr.Dataset, name: str) -> dict:
+    attrs = ds[name].attrs
+    out = {"long_name": str(attrs.get("long_name", name)), "units": str(attrs.get("units", ""))}
+    if "flag_values" in attrs and "flag_meanings" in attrs:
+        out["flag_values"] = [int(v) for v in np.atleast_1d(attrs["flag_values"])]
+        out["flag_meanings"] = str(attrs["flag_meanings"]).split()
+    return out
+
+
+def _columns(ds: xr.Dataset, names) -> tuple[dict, dict]:
+    columns, meta = {}, {}
+    for name in names:
+        if name not in ds:
+            continue
+        values = ds[name].values
+        columns[name] = [str(v) for v in values] if values.dtype.kind in "US" else values
+        meta[name] = _meta(ds, name)
+    return columns, meta
+
+
+def _kept_harmonics(fields: dict) -> np.ndarray:
+    """Harmonics not zero at float32 resolution in some field: largest |coefficient| (cosine or sine) over
+    the branch above 2^-24 times the field's largest coefficient."""
+    keep = np.zeros(next(iter(fields.values()))[0].shape[1], dtype=bool)
+    for cos, sin in fields.values():
+        peak = np.maximum(np.abs(cos).max(axis=0), np.abs(sin).max(axis=0))
+        keep |= peak > np.finfo(np.float32).eps / 2 * peak.max()
+    return np.flatnonzero(keep)
+
+
+def _orbit(fields: dict, omega, force: str, labels: dict) -> dict:
+    """``fields``: name -> (cos, sin) over (point, harmonic); sines are carried only where some is not zero."""
+    kept = _kept_harmonics(fields)
+    return {
+        "labels": labels,
+        "harmonics": kept.astype(np.int32),
+        "omega": np.asarray(omega, dtype=float),
+        "fields": {name: cos[:, kept].astype(np.float32) for name, (cos, _) in fields.items()},
+        "sines": {name: sin[:, kept].astype(np.float32) for name, (_, sin) in fields.items() if np.any(sin != 0.0)},
+        "force": force,
+    }
+
+
+def _located(ds: xr.Dataset, energy: str, frequency: str) -> dict:
+    if energy not in ds:
+        return {"energy": np.empty(0), "frequency": np.empty(0)}
+    return {"energy": ds[energy].values, "frequency": ds[frequency].values}
+
+
+def _model(ds: xr.Dataset) -> dict:
+    """Model parameters of the page: the attributes alpha, beta, delta, eta; the first stop's gap and stiffness."""
+    model = {name: float(ds.attrs[name]) for name in ("alpha", "beta", "delta", "eta") if name in ds.attrs}
+    model["gap"] = float(ds["stop_gap"].values[0]) if "stop_gap" in ds else 1.0  # 2-DOF: the gap is the unit
+    if "stop_stiffness" in ds:
+        model["alpha"] = float(ds["stop_stiffness"].values[0])
+    return model
+
+
+_COEFFICIENTS = "cosine Fourier coefficients of "
+
+
+def _time_label(ds: xr.Dataset) -> str:
+    return f"t [{ds['period'].attrs.get('units', '')}]"
+
+
+def _two_dof_fields(ds: xr.Dataset) -> tuple[dict, dict]:
+    """The 2-DOF layout (``x_cos``, ``u_cos``, ``f_cos`` over point, harmonic)."""
+    fields, labels = {}, {"t": _time_label(ds)}
+    for name in ("x", "u", "f"):
+        fields[name] = (ds[f"{name}_cos"].values, ds[f"{name}_sin"].values)
+        labels[name] = str(ds[f"{name}_cos"].attrs.get("long_name", name)).removeprefix(_COEFFICIENTS)
+    return fields, labels
+
+
+def _shown_dofs(ds: xr.Dataset, labels: list) -> tuple[int, int]:
+    """The degrees of freedom drawn as x and u: the first stop's (``stop_dof``, else the label ``x``, else
+    ``w<node>`` of the ``stop_nodes`` attribute), and ``u``, else the last translation ``w...``, else the last
+    other degree of freedom (the far end of a chain)."""
+    if "stop_dof" in ds:
+        x = int(ds["stop_dof"].values[0])
+    elif "x" in labels:
+        x = labels.index("x")
+    else:
+        node = int(np.atleast_1d(ds.attrs.get("stop_nodes", [-1]))[0])
+        if f"w{node}" not in labels:
+            raise ValueError(f"{ds.attrs.get('id')}: cannot tell the first stop's degree of freedom among {labels}")
+        x = labels.index(f"w{node}")
+    others = [i for i in range(len(labels)) if i != x]
+    translations = [i for i in others if labels[i].startswith("w")]
+    u = labels.index("u") if "u" in labels else (translations or others)[-1]
+    return x, u
+
+
+def _generic_fields(ds: xr.Dataset) -> tuple[dict, dict]:
+    """The structure layout (``q_cos`` over point, dof, harmonic with ``dof_label``; ``f_cos`` over point, stop,
+    harmonic): the first stop's degree of freedom as x, a second one as u, the first stop's force as f."""
+    labels = [str(v) for v in ds["dof_label"].values]
+    x, u = _shown_dofs(ds, labels)
+    q_cos, q_sin = ds["q_cos"].values, ds["q_sin"].values
+    fields = {
+        "x": (q_cos[:, x], q_sin[:, x]),
+        "u": (q_cos[:, u], q_sin[:, u]),
+        "f": (ds["f_cos"].values[:, 0], ds["f_sin"].values[:, 0]),
+    }
+    names = {"x": labels[x], "u": labels[u], "f": "force of the first stop"}
+    if "node_coordinate" in ds:  # where along the structure: the node of a w<node> label
+        where = {key: re.fullmatch(r"[a-z]+(\d+)", names[key]) for key in ("x", "u")}
+        for key, match in where.items():
+            if match and int(match.group(1)) < ds.sizes["node"]:
+                names[key] += f" at s/L = {float(ds['node_coordinate'][int(match.group(1))]):.3g}"
+    return fields, {"t": _time_label(ds), **names}
+
+
+def _branch_fields(ds: xr.Dataset) -> tuple[dict, dict]:
+    """Coefficients over (point, harmonic) of the fields x, u and f of a regularized branch, and their labels."""
+    return _generic_fields(ds) if "q_cos" in ds else _two_dof_fields(ds)
+
+
+REGULARIZED_NUMBERS = (
+    "energy", "frequency", "x_max", "u_max", "impacts_per_period", "algebraic_residual", "time_residual",
+    "truncation", "stable", "stability_reason", "max_multiplier", "stage", "segment",
+)  # fmt: skip
+
+
+def regularized_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
+    """An HBM branch: ``results/hbm/<branch>.nc``, ``results/hbm/bifurcated/<name>.nc``, ``results/tube/nnm<k>.nc``."""
+    fields, labels = _branch_fields(ds)
+    columns, meta = _columns(ds, REGULARIZED_NUMBERS)
+    return Branch(
+        kind="regularized",
+        columns=columns,
+        meta=meta,
+        numbers=list(columns),
+        piece="stage" if "stage" in ds else "segment" if "segment" in ds else "",
+        orbit=_orbit(fields, np.sqrt(ds["omega_squared"].values), "coefficients", labels),
+        multipliers={"real": ds["multiplier_real"].values, "imag": ds["multiplier_imag"].values},
+        marks={
+            "branch_points": _located(ds, "branch_point_energy", "branch_point_frequency"),
+            "folds": _located(ds, "fold_energy", "fold_frequency"),
+        },
+        attrs={"model": _model(ds), "family": str(ds.attrs.get("branch", ds.attrs.get("id", "")))},
+    )
+
+
+EXACT_NUMBERS = (
+    "energy", "frequency", "x_max", "impacts_per_period", "phase_sequence", "residual", "validity_margin",
+    "stable", "multiplier_modulus", "segment",
+)  # fmt: skip
+
+
+def exact_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
+    """The exact NNM1 (``results/exact/nnm1.nc``): orbits rebuilt in closed form from the stored start
+    velocities and phase sequences (:mod:`nnmstop.explorer.exact_orbits`)."""
+    from nnmstop.exact.problem import SequenceProblem
+    from nnmstop.explorer.exact_orbits import orbit_coefficients, orbit_unknowns
+    from nnmstop.models.two_dof import ModelParameters
+
+    model = _model(ds)
+    params = ModelParameters(alpha=model["alpha"], beta=model["beta"], delta=model["delta"])
+    sequences = ds["phase_sequence"].values if "phase_sequence" in ds else np.full(ds.sizes["point"], "FR")
+    xdot0, udot0, period = (ds[name].values for name in ("xdot0", "udot0", "period"))
+    problems, x, u = {}, [], []
+    for sequence, a, b, T in zip(sequences, xdot0, udot0, period):
+        problem = problems.setdefault(str(sequence), SequenceProblem(params, str(sequence)))
+        series = orbit_coefficients(problem, orbit_unknowns(problem, a, b, T / 4.0), settings.exact_harmonics)
+        x.append(series["x"])
+        u.append(series["u"])
+    columns, meta = _columns(ds, EXACT_NUMBERS)
+    # the piecewise-linear force has no phase with multipliers stored one by one: the pair is (mu, 1/mu)
+    mu = ds["multiplier_real"].values + 1j * ds["multiplier_imag"].values
+    pair = np.stack([mu, 1.0 / mu], axis=1)
+    return Branch(
+        kind="exact",
+        columns=columns,
+        meta=meta,
+        numbers=list(columns),
+        piece="segment" if "segment" in ds else "",
+        orbit=_orbit(
+            {name: (np.array(c), np.zeros_like(np.array(c))) for name, c in (("x", x), ("u", u))},
+            2.0 * np.pi / period,
+            "piecewise_law",
+            {"t": _time_label(ds), "x": "x", "u": "u", "f": "contact force (piecewise-linear law)"},
+        ),
+        multipliers={"real": pair.real, "imag": pair.imag},
+        attrs={"model": model, "family": "nnm1"},  # the exact family starts at the first mode's grazing orbit
+    )
+
+
+#: Kinds of branch the explorer draws: the function that reads a dataset of that kind.
+KINDS: dict[str, Callable[[xr.Dataset, ExplorerSettings], Branch]] = {
+    "regularized": regularized_branch,
+    "exact": exact_branch,
+}
+
+
+def extract_branch(kind: str, path, manifest: dict, settings: ExplorerSettings, root=".") -> dict:
+    """The explorer's record of the dataset ``path`` (relative to ``root``) of kind ``kind``.
+
+    The record holds the dataset's path, SHA-256 and identification (``id``, ``title``, ``source``).
+    A dataset listed in ``manifest`` must have the listed SHA-256 (else the manifest is stale).
+    """
+    if kind not in KINDS:
+        raise ValueError(f"unknown kind of branch {kind!r}; known kinds: {sorted(KINDS)}")
+    path = Path(path)
+    digest = file_sha256(Path(root) / path)
+    listed = manifest.get(path.as_posix())
+    if listed is not None and listed != digest:
+        raise ValueError(f"{path}: SHA-256 {digest} differs from the manifest's {listed}; rebuild the manifest")
+    with xr.open_dataset(Path(root) / path) as ds:
+        ds.load()
+        branch = KINDS[kind](ds, settings)
+        identity = {name: str(ds.attrs.get(name, "")) for name in ("id", "title", "source")}
+    return {
+        "kind": branch.kind,
+        "path": path.as_posix(),
+        "sha256": digest,
+        "in_manifest": listed is not None,
+        **identity,
+        **branch.attrs,
+        "points": len(branch.columns["energy"]),
+        "columns": branch.columns,
+        "meta": branch.meta,
+        "numbers": branch.numbers,
+        "piece": branch.piece,
+        "orbit": branch.orbit,
+        "multipliers": branch.multipliers,
+        "marks": branch.marks,
+    }

@@ -1,0 +1,135 @@
+"""Stability changes along a forced-response curve: detected, located on the curve and typed.
+
+Floquet multipliers ``mu`` of a periodic response of period ``T``; for responses with the half-period
+symmetry ``q(t + T/2) = -q(t)``, multipliers ``nu`` of the half-period map, ``mu = nu**2``. A change of the
+number of multipliers outside the unit circle between two points of the curve is located by bisection
+on the continuation path between them (the path of the step, on the curve all along) and typed by the
+multiplier that crosses the circle there:
+
+* ``fold``: a real multiplier through +1 (``nu`` through +1 on the symmetric responses): the curve turns
+  back in ``Omega`` (a saddle-node of periodic responses, where the response jumps);
+* ``symmetry_breaking``: ``nu`` through -1 (``mu`` through +1 without a fold): responses without the
+  half-period symmetry branch off;
+* ``period_doubling``: ``mu`` through -1 (``nu`` through ``+-i``): a response of period ``2T`` branches off;
+* ``neimark_sacker``: a complex pair through the unit circle elsewhere: a quasi-periodic response.
+
+Per point, :func:`regimes` says what is known of the response where the periodic one is unstable, so
+that no periodic response is claimed where there is none. Method notes: docs/forced.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nnmstop.continuation.newton import bisect_sign_change
+
+__all__ = [
+    "KINDS",
+    "REGIMES",
+    "StabilityChange",
+    "unstable_count",
+    "crossing_kind",
+    "locate_stability_changes",
+    "regimes",
+]
+
+#: Kinds of located stability changes (dataset flag values 1..4).
+KINDS = ("fold", "symmetry_breaking", "period_doubling", "neimark_sacker")
+#: Regime of each point (dataset flag values 0..4).
+REGIMES = ("stable_periodic", "unstable_jump", "symmetry_broken", "period_doubled", "quasi_periodic")
+# A multiplier this close to the real axis (relative to its modulus) counts as real.
+_REAL = 1e-7
+
+
+def unstable_count(multipliers, tol: float = 1e-12) -> int:
+    """Number of multipliers outside the unit circle (beyond ``1 + tol``)."""
+    return int(np.count_nonzero(np.abs(multipliers) > 1.0 + tol))
+
+
+def crossing_kind(multipliers, half_period: bool) -> str:
+    """Kind (:data:`KINDS`) of the multiplier nearest to the unit circle, at a located change."""
+    m = np.asarray(multipliers)
+    crossing = m[np.argmin(np.abs(np.abs(m) - 1.0))]
+    real = abs(crossing.imag) <= _REAL * abs(crossing)
+    if half_period:
+        if real:
+            return "fold" if crossing.real > 0 else "symmetry_breaking"
+        return "period_doubling" if abs(crossing.real) <= 1e-3 * abs(crossing) else "neimark_sacker"
+    if real:
+        return "fold" if crossing.real > 0 else "period_doubling"
+    return "neimark_sacker"
+
+
+@dataclass(frozen=True)
+class StabilityChange:
+    """A located stability change: the point of the curve, its index bracket and its kind."""
+
+    U: np.ndarray
+    after_point: int
+    kind: str
+    multipliers: np.ndarray
+
+
+def locate_stability_changes(
+    points, multipliers, multipliers_of, path_between, half_period: bool, rel_tol: float = 1e-10
+) -> list:
+    """Locate every change of :func:`unstable_count` between consecutive ``points``.
+
+    Parameters
+    ----------
+    points : ndarray (n, m)
+        The curve's points, in order.
+    multipliers : ndarray (n, k)
+        Multipliers of each point (``nu`` when ``half_period``).
+    multipliers_of : callable
+        ``U -> multipliers`` at any point of the curve.
+    path_between : callable
+        ``(i) -> (path, length)``: the curve from ``points[i]`` to ``points[i + 1]`` as ``a -> U(a)``.
+    half_period : bool
+        The multipliers are those of the half-period map.
+    """
+    counts = [unstable_count(m) for m in multipliers]
+    changes = []
+    for i in np.flatnonzero(np.diff(counts) != 0):
+        path, length = path_between(int(i))
+        found = bisect_sign_change(
+            lambda a, path=path: unstable_count(multipliers_of(path(a))),
+            0.0,
+            length,
+            tol=rel_tol * length,
+            side=lambda c: c,
+            f_a=counts[i],
+            f_b=counts[i + 1],
+        )
+        U = path(found.midpoint)
+        at = np.asarray(multipliers_of(U))
+        changes.append(StabilityChange(np.asarray(U), int(i), crossing_kind(at, half_period), at))
+    return changes
+
+
+def regimes(multipliers, half_period: bool, tol: float = 1e-12) -> np.ndarray:
+    """Index in :data:`REGIMES` of each point from its multipliers (rows).
+
+    Stable: ``stable_periodic``. Unstable through a real multiplier > 1 only (between folds): ``unstable_jump``
+    (the response jumps to another one). A ``nu`` < -1 only: ``symmetry_broken`` (a periodic response without
+    the half-period symmetry). A multiplier ``mu`` < -1: ``period_doubled``; a complex pair outside:
+    ``quasi_periodic``. Where several apply the last of these wins.
+    """
+    out = np.zeros(len(multipliers), dtype=np.int8)
+    for i, m in enumerate(np.asarray(multipliers)):
+        outside = m[np.abs(m) > 1.0 + tol]
+        if not outside.size:
+            continue
+        real = np.abs(outside.imag) <= _REAL * np.abs(outside)
+        mu = outside**2 if half_period else outside
+        if np.any(~real & (np.abs(mu.imag) > _REAL * np.abs(mu))):
+            out[i] = REGIMES.index("quasi_periodic")
+        elif np.any(mu.real < 0):
+            out[i] = REGIMES.index("period_doubled")
+        elif half_period and np.any(real & (outside.real < 0)):
+            out[i] = REGIMES.index("symmetry_broken")
+        else:
+            out[i] = REGIMES.index("unstable_jump")
+    return out

@@ -1,0 +1,276 @@
+r"""Harmonic balance of the forced, damped structure: the regularized frequency response.
+
+``M q'' + C q' + K q + sum_i gap_i f_i e_{d_i} = F cos(Omega t) b`` balanced on ``H`` harmonics of
+``theta = Omega t`` in the full basis. :class:`ForcedHarmonicBalanceSystem` is the NNM system
+(:class:`~nnmstop.hbm.system.HarmonicBalanceSystem`, same unknown layout, same recast of the contact law,
+same Jacobian, same ANM series products) with three changes:
+
+* the velocity term of the full basis is the damping, ``Omega C D q``, where the NNM system has the
+  unfolding term ``nu M D q``: the slot ``nu`` of the unknowns holds ``Omega``;
+* the force ``F b`` enters the first cosine coefficients (the force fixes the phase: no phase condition);
+* the closing equation is ``lam - Omega**2 = 0`` (quadratic, so the ANM applies as it is), where the NNM
+  system has the phase condition.
+
+``Omega`` is the continuation parameter: :func:`continue_frequency_response` starts from the linear
+response at the lower end of a frequency range (regularized contact stiffness ``eta`` near rest) and
+follows the curve by the ANM through its folds until it leaves the range, under the truncation guard
+of the NNMs. Method notes: docs/forced.md.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nnmstop import fourier
+from nnmstop.continuation.anm import ANMSettings, continue_anm
+from nnmstop.continuation.core import Branch, ContinuationStats, newton_correct
+from nnmstop.floquet import periodic_floquet
+from nnmstop.hbm.stages import TruncationGuard
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.excitation import Excitation, linear_response
+from nnmstop.models.two_dof import regularized_contact_stiffness
+
+__all__ = [
+    "ForcedHarmonicBalanceSystem",
+    "forced_start_point",
+    "continue_frequency_response",
+    "series_extremes",
+    "response_amplitudes",
+    "phase_lags",
+    "forced_multipliers",
+]
+
+
+class ForcedHarmonicBalanceSystem(HarmonicBalanceSystem):
+    """Balanced system of the periodic responses of period ``2 pi / Omega`` to the harmonic force.
+
+    Unknowns ``U = [q_1..q_N, f_1..f_s, z_1..z_s, lam, Omega]`` (full basis, ``lam = Omega**2``);
+    ``n_equations = n_unknowns - 1``.
+
+    Parameters
+    ----------
+    excitation : Excitation
+        Structure, damping and force.
+    harmonics, time_samples, linear_algebra
+        As for :class:`~nnmstop.hbm.system.HarmonicBalanceSystem`.
+
+    Examples
+    --------
+    >>> from nnmstop.models.structure import two_dof_structure
+    >>> from nnmstop.models.two_dof import ModelParameters
+    >>> from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
+    >>> structure = two_dof_structure(ModelParameters())
+    >>> excitation = Excitation(structure, Damping.from_modal_ratios(structure, [0.01, 0.01]), HarmonicForce(0.05, [1]))
+    >>> system = ForcedHarmonicBalanceSystem(excitation, harmonics=5)
+    >>> system.n_unknowns, system.n_equations
+    (46, 45)
+    """
+
+    def __init__(self, excitation: Excitation, harmonics: int, time_samples: int = 0, linear_algebra: str = "auto"):
+        if not isinstance(excitation, Excitation):
+            raise TypeError(f"excitation must be an Excitation, got {type(excitation).__name__}")
+        super().__init__(excitation.structure, harmonics, time_samples, basis="full", linear_algebra=linear_algebra)
+        self.excitation = excitation
+        self._set_velocity_matrix(excitation.damping_matrix)
+        self.load = excitation.load
+        # rows of the first cosine coefficient of every DOF, where F b enters
+        self._load_rows = np.arange(self.n_dofs) * self.nc + 1
+        self.i_omega = self.i_nu
+
+    def residual(self, U):
+        r = super().residual(U)
+        r[self._load_rows] -= self.load
+        return r
+
+    def _closing_residual(self, Q, lam, nu) -> float:
+        return lam - nu * nu
+
+    def _closing_entries(self, Q, lam, nu) -> list:
+        row = self.n_equations - 1
+        return [(np.array([row, row]), np.array([self.i_lam, self.i_nu]), np.array([1.0, -2.0 * nu]))]
+
+    def series_products(self, series, p: int, cache=None):
+        out = super().series_products(series, p, cache)
+        if p >= 2:
+            omega = np.asarray(series, dtype=float)[1:p, self.i_nu]
+            out[-1] = -np.dot(omega, omega[::-1])
+        return out
+
+    def _other_forces_at_stops(self, U, history):
+        """Damping and the external force on the stop DOFs, at the samples of ``history``."""
+        omega = self.split(U)[-1]
+        damping = (self._velocity @ history["qdot"])[self.stop_dofs]
+        return damping - np.outer(self.load[self.stop_dofs], np.cos(omega * history["t"]))
+
+    def omega(self, U):
+        """``Omega``, the angular frequency of the force (rad per unit time)."""
+        return self.split(U)[-1]
+
+    def frequency_hz(self, U):
+        return self.split(U)[-1] / (2 * np.pi)
+
+    def linear_guess(self, omega: float):
+        """Unknowns of the linear response at ``omega`` with each stop's near-rest stiffness ``eta_i``.
+
+        ``f_i = eta_i x_i`` and ``z_i = (f_i / alpha_i - x_i)**2``: exact for the linear structure, the first
+        guess of Newton for the regularized one.
+        """
+        extra = np.zeros((self.n_dofs, self.n_dofs))
+        extra[self.stop_dofs, self.stop_dofs] = self.etas
+        amplitude = linear_response(self.excitation, omega, extra)
+        Q = np.zeros((self.n_dofs, self.nc))
+        Q[:, 1], Q[:, self.H + 1] = amplitude.real, -amplitude.imag
+        X = self.stop_coordinates(Q)
+        F = self.etas[:, None] * X
+        g_t = self.to_time(F / self.alphas[:, None] - X)
+        Z = self.to_coefficients(g_t * g_t)
+        return self.pack(*Q, *F, *Z, omega * omega, omega)
+
+    def diagnostics(self, U, samples: int | None = None):
+        """The NNM system's diagnostics (``energy`` is the mean total energy over the period) and the
+        amplitudes ``x_amplitude`` (first stop's DOF, in its gap) and ``q_amplitude`` (largest ``|q|``)."""
+        out = super().diagnostics(U, samples)
+        Q = self._fields(U)[0]
+        x_low, x_high = series_extremes(self.stop_coordinates(Q)[0], self.H)
+        out["x_amplitude"] = max(-x_low, x_high)
+        return out
+
+
+def forced_start_point(system: ForcedHarmonicBalanceSystem, frequency: float):
+    """A point of the response at ``frequency`` (Hz) from the linear response, and the direction of growing
+    ``Omega``: the linear guess corrected by Newton with ``Omega`` held fixed."""
+    if not (np.isfinite(frequency) and frequency > 0):
+        raise ValueError(f"start frequency must be finite and > 0 Hz, got {frequency!r}")
+    U0 = system.linear_guess(2 * np.pi * frequency)
+    direction = np.zeros(system.n_unknowns)
+    direction[system.i_nu] = 1.0
+    # below the ANM's series tolerance by far; the round-off floor of a large (sparse) system is near 1e-12
+    U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=1e-11)
+    return U0, direction
+
+
+def continue_frequency_response(
+    system: ForcedHarmonicBalanceSystem,
+    frequency_range,
+    settings: ANMSettings,
+    max_truncation: float,
+    label: str = "forced response",
+    setting: str = "forced.max_truncation",
+) -> Branch:
+    """The frequency response over ``frequency_range = (low, high)`` Hz by the ANM, through its folds.
+
+    Starts at ``low`` and ends at the first point outside the range (``end_reason`` says which side);
+    :class:`~nnmstop.hbm.stages.TruncationGuard` refuses orbits the harmonics do not resolve.
+    """
+    low, high = (float(v) for v in frequency_range)
+    if not (0 < low < high):
+        raise ValueError(f"frequency range must satisfy 0 < low < high (Hz), got [{low!r}, {high!r}]")
+    U0, direction = forced_start_point(system, low)
+
+    def outside(U, diag):
+        f = diag["frequency"]
+        if f > high:
+            return f"frequency above {high:g} Hz"
+        return f"frequency below {low:g} Hz" if f < low * (1 - 1e-12) else ""
+
+    stop = TruncationGuard(system, outside, max_truncation, label, setting)
+    return continue_anm(system, U0, direction, stop, settings, label=label)
+
+
+def series_extremes(c, harmonics: int, samples: int = 0):
+    """Smallest and largest value over the period of the Fourier series ``c`` (last axis, full layout).
+
+    The extreme samples on ``max(16 H, 256)`` phases are refined by Newton on the derivative (closed form), so
+    the values are exact to round-off (where an extremum is simple).
+    """
+    c = fourier.to_full(np.asarray(c, dtype=float), harmonics)
+    H = int(harmonics)
+    m = samples or max(16 * H, 256)
+    values = fourier.to_time(c, H, m)
+    k = np.arange(1, H + 1)
+    a, b = c[..., 1 : H + 1], c[..., H + 1 :]
+    out = []
+    for pick in (np.argmin, np.argmax):
+        theta = 2 * np.pi * pick(values, axis=-1) / m
+        for _ in range(6):
+            kt = np.multiply.outer(theta, k)
+            d1 = np.sum(k * (-a * np.sin(kt) + b * np.cos(kt)), axis=-1)
+            d2 = np.sum(-k * k * (a * np.cos(kt) + b * np.sin(kt)), axis=-1)
+            theta = theta - np.where(d2 != 0, d1 / np.where(d2 != 0, d2, 1.0), 0.0)
+        kt = np.multiply.outer(theta, k)
+        out.append(c[..., 0] + np.sum(a * np.cos(kt) + b * np.sin(kt), axis=-1))
+    return out[0], out[1]
+
+
+def response_amplitudes(system: HarmonicBalanceSystem, U_array) -> np.ndarray:
+    """``max |q_j|`` over the period of every DOF of every orbit, shape (points, N)."""
+    Q = np.asarray(U_array, dtype=float)[:, : system.n_dofs * system.nc].reshape(-1, system.n_dofs, system.nc)
+    low, high = series_extremes(Q, system.H)
+    return np.maximum(-low, high)
+
+
+def phase_lags(system: HarmonicBalanceSystem, U_array) -> np.ndarray:
+    """Lag (radians, in ``[0, 2 pi)``) of the fundamental of every DOF behind the force ``cos(Omega t)``.
+
+    ``q_j ~ A cos(Omega t - phi_j)``, so ``phi_j = atan2(q_s^1, q_c^1)``: ``pi / 2`` at phase resonance.
+    Shape (points, N).
+    """
+    Q = np.asarray(U_array, dtype=float)[:, : system.n_dofs * system.nc].reshape(-1, system.n_dofs, system.nc)
+    return np.mod(np.arctan2(Q[..., system.H + 1], Q[..., 1]), 2 * np.pi)
+
+
+def _contact_stiffness(system: HarmonicBalanceSystem, x):
+    """``f_i'(x_i)`` of every stop (regularized law) at stop coordinates ``x`` (s, ...)."""
+    out = np.empty_like(x)
+    for i, law in enumerate(system._stop_laws):
+        out[i] = regularized_contact_stiffness(x[i], law)
+    return out
+
+
+def forced_multipliers(
+    system: ForcedHarmonicBalanceSystem, U_array, steps: int = 128, max_steps: int = 2048, tol: float = 1e-8
+):
+    """Floquet multipliers of the forced responses ``U_array`` (points, n_unknowns), by decreasing modulus.
+
+    The variational equation ``M dq'' + C dq' + (K + sum_i k_i(t) e_i e_i^T) dq = 0`` (``k_i`` the regularized
+    contact stiffness of stop ``i`` on the orbit) is not Hamiltonian and has no trivial multiplier: its
+    monodromy over ``T = 2 pi / Omega`` comes from the general path of the package's Floquet module
+    (:func:`nnmstop.floquet.periodic_floquet`: fourth-order Magnus steps, step doubling until the multipliers
+    move by less than ``tol``). Returns the multipliers (points, 2N) and the error estimates (points,).
+    """
+    U = np.atleast_2d(np.asarray(U_array, dtype=float))
+    N = system.n_dofs
+    mass, stiffness = system.structure.dense_matrices()
+    m_inv = np.linalg.inv(mass)
+    damping = system._velocity.toarray()
+    A0 = np.block([[np.zeros((N, N)), np.eye(N)], [-m_inv @ stiffness, -m_inv @ damping]])
+    columns = m_inv[:, system.stop_dofs]  # d(gap f(q / gap))/dq = f'(x) on the stop DOF
+    Q = U[:, : N * system.nc].reshape(len(U), N, system.nc)
+    X = system.stop_coordinates(np.moveaxis(Q, 0, 1))  # (s, points, nc) in each stop's coordinate
+    omega = U[:, system.i_nu]
+    H = system.H
+
+    def stop_coordinate(systems, t):
+        """``x_i(t)`` of every stop for the orbits ``systems`` at the times ``t`` (k, m) -> (s, k, m)."""
+        out = np.empty((system.n_stops,) + t.shape)
+        # exp(i k theta) by powers of exp(i theta), a chunk of orbits at a time (bounded memory)
+        per_chunk = max(1, 2**22 // (t.shape[1] * H))
+        for start in range(0, len(systems), per_chunk):
+            chunk = slice(start, start + per_chunk)
+            phase = np.exp(1j * omega[systems[chunk], None] * t[chunk])[..., None]
+            powers = np.cumprod(np.broadcast_to(phase, phase.shape[:-1] + (H,)), axis=-1)
+            c = X[:, systems[chunk]]  # (s, k, nc)
+            series = c[..., 1 : H + 1] - 1j * c[..., H + 1 :]
+            out[:, chunk] = c[..., :1] + np.einsum("kmh,skh->skm", powers, series).real
+        return out
+
+    def generator(systems, t):
+        q = stop_coordinate(systems, t)
+        stiff = _contact_stiffness(system, q)  # (s, k, m)
+        A = np.broadcast_to(A0, t.shape + A0.shape).copy()
+        for i, dof in enumerate(system.stop_dofs):
+            A[..., N:, dof] -= stiff[i][..., None] * columns[:, i]
+        return A
+
+    result = periodic_floquet(generator, 2 * np.pi / omega, steps=steps, max_steps=max_steps, tol=tol)
+    return result.multipliers, result.error

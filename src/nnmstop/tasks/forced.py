@@ -1,0 +1,173 @@
+"""Tasks of the forced responses (workflow/rules/forced.smk): configuration in, datasets and figures out.
+
+``forced_exact`` (exact response of the non-smooth system at one force level), ``forced_regularized``
+(harmonic-balance response at one force level, or the tube's), ``forced_figure`` (``paper_figures/forced_*``).
+:func:`forced_scenes` turns the ``forced`` section into the scenes (an :class:`~nnmstop.models.excitation.Excitation`
+and a frequency range each); the numerics live in :mod:`nnmstop.forced` and the modules it uses.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from nnmstop.continuation.anm import ANMSettings
+from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
+from nnmstop.forced.backbone import nnm_backbone, predicted_peaks, required_force
+from nnmstop.forced.dataset import backbone_dataset, base_attributes, exact_dataset, regularized_dataset
+from nnmstop.forced.regularized import regularized_stability
+from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
+from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, scene_name
+from nnmstop.hbm.forced import response_amplitudes
+from nnmstop.netcdf import read_dataset, write_dataset
+
+__all__ = ["forced_exact", "forced_regularized", "forced_backbone", "forced_figure", "TASKS"]
+
+logger = logging.getLogger("nnmstop.tasks.forced")
+
+KEYWORDS = "forced response, frequency response, harmonic balance, non-smooth, Floquet stability"
+
+
+# --------------------------------------------------------------------------- computations
+
+
+def exact_response_dataset(config: dict, scene: Scene):
+    """The exact response of ``scene`` as a dataset (:mod:`nnmstop.forced.responses`)."""
+
+    spec = config["forced"]["exact"]
+    settings = ExactSettings(
+        PseudoArclengthSettings(
+            tolerance=spec["tolerance"],
+            initial_step=spec["initial_step"],
+            max_step=max(spec["max_step"], spec["initial_step"]),
+        ),
+        int(spec["frequency_samples"]),
+    )
+    pieces = exact_response(scene.excitation, scene.frequency_range, settings)
+    return exact_dataset(scene.excitation, pieces, scene.frequency_range)
+
+
+def regularized_response_dataset(config: dict, scene: Scene):
+    """The harmonic-balance response of ``scene`` with its multipliers and located changes, as a dataset."""
+
+    anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
+    settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
+    system, branch = regularized_response(scene.excitation, scene.frequency_range, settings, label=scene.name)
+    multipliers, errors, changes = regularized_stability(system, branch, anm, scene.stability)
+    ds = regularized_dataset(system, branch, multipliers, False, changes, scene.frequency_range)
+    ds["multiplier_error"] = ("point", np.asarray(errors, dtype=float))
+    ds.attrs.update({f"stability_{key}": value for key, value in scene.stability.items()})
+    return ds
+
+
+def _write(ds, path, scene: Scene, law: str, config: dict):
+    what = "exact (piecewise-linear contact law)" if law == "piecewise_linear" else "regularized (harmonic balance)"
+    force = scene.excitation.force
+    summary = (
+        f"Periodic responses of the damped structure with bilateral elastic stops to the force {force.amplitude:g} "
+        f"cos(Omega t) on DOF(s) {list(force.dofs)}, {what}, over {scene.frequency_range[0]:g}..."
+        f"{scene.frequency_range[1]:g} Hz of the nondimensional time, with Floquet multipliers and the located "
+        "stability changes (folds, symmetry breaking, period doubling, Neimark-Sacker)."
+    )
+    write_dataset(
+        ds,
+        path,
+        title=f"Forced response {scene.name} ({law})",
+        summary=summary,
+        keywords=KEYWORDS,
+        metadata=config.get("metadata"),
+        kind="forced_exact" if law == "piecewise_linear" else "forced_regularized",
+    )
+    logger.info("wrote %s (%d points)", path, ds.sizes["point"])
+
+
+def backbone_prediction_dataset(config: dict):
+    """NNM1 and NNM2 backbones of the regularized oscillator over the forced range, and the peaks they predict
+    at every force level (:mod:`nnmstop.forced.backbone`)."""
+    forced = config["forced"]
+    scenes = forced_scenes(config, "oscillator")
+    excitation = scenes[0].excitation
+    forces = [scene.excitation.force.amplitude for scene in scenes]
+    anm = ANMSettings.from_config(config["anm"], points_per_step=int(forced["points_per_step"]))
+    backbones, predictions = {}, {}
+    for mode in (1, 2):
+        system, branch = nnm_backbone(
+            excitation, mode, scenes[0].harmonics, anm, float(forced["max_truncation"]), force_limit=1.5 * max(forces)
+        )
+        U = np.asarray(branch.points)
+        backbones[mode] = (
+            system.frequency_hz(U),
+            response_amplitudes(system, U),
+            np.array([required_force(system, excitation, u) for u in U]),
+        )
+        predictions[mode] = predicted_peaks(system, excitation, branch, anm, forces)
+    ds = backbone_dataset(excitation, backbones, forces, predictions)
+    ds.attrs.update(base_attributes(excitation, "regularized", scenes[0].frequency_range))
+    ds.attrs["harmonics"] = int(scenes[0].harmonics)
+    return ds
+
+
+# --------------------------------------------------------------------------- the rules' tasks
+
+
+def forced_exact(config, inputs, outputs, scene: str):
+    """Exact response of the non-smooth oscillator at one force level (wildcard ``scene``)."""
+    scene = find_scene(config, scene)
+    _write(exact_response_dataset(config, scene), outputs["dataset"], scene, "piecewise_linear", config)
+
+
+def forced_regularized(config, inputs, outputs, scene: str):
+    """Regularized (HBM + ANM) response at one force level, or the tube's (wildcard ``scene``)."""
+    scene = find_scene(config, scene)
+    _write(regularized_response_dataset(config, scene), outputs["dataset"], scene, "regularized", config)
+
+
+def forced_backbone(config, inputs, outputs):
+    """NNM backbones and the resonance peaks they predict (energy balance)."""
+    ds = backbone_prediction_dataset(config)
+    summary = (
+        "Backbones (NNM1, NNM2) of the regularized oscillator by harmonic balance + ANM over the forced frequency "
+        "range, with the force amplitude whose resonance peak each NNM orbit is (damping work over the orbit = "
+        "work of the force in quadrature) and the peaks predicted at each force level."
+    )
+    write_dataset(
+        ds,
+        outputs["dataset"],
+        title="NNM backbones and predicted resonance peaks",
+        summary=summary,
+        keywords=KEYWORDS,
+        metadata=config.get("metadata"),
+        kind="forced_backbone",
+    )
+
+
+def forced_figure(config, inputs, outputs, figure: str):
+    """paper_figures/forced_<figure>.{pdf,png} from the datasets it draws (named inputs of the rule)."""
+    from nnmstop.exact.forced import SymmetricContactProblem
+    from nnmstop.figures import forced as draw
+
+    spec = config["forced"]["figures"]
+    dpi = int(spec["png_dpi"])
+
+    def read(key):
+        paths = inputs[key] if isinstance(inputs[key], (list, tuple)) else [inputs[key]]
+        return [read_dataset(path) for path in paths]
+
+    if figure == "frequency_response":
+        draw.frequency_response_figure(read("exact"), read("regularized"), read("backbone")[0], outputs["pdf"], dpi)
+    elif figure == "phase_lag":
+        draw.phase_lag_figure(read("exact"), read("regularized"), outputs["pdf"], dpi)
+    elif figure == "orbits":
+        exact, regularized = read("exact")[0], read("regularized")[0]
+        scene = find_scene(config, scene_name(float(exact.attrs["forcing_amplitude"])))
+        problem = SymmetricContactProblem(scene.excitation)
+        draw.orbits_figure(exact, regularized, problem, spec["orbit_frequencies"], outputs["pdf"], dpi)
+    elif figure == "tube":
+        draw.tube_figure(read("regularized"), outputs["pdf"], dpi)
+    else:
+        raise ValueError(f"unknown forced figure {figure!r}")
+
+
+#: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
+TASKS = {f.__name__: f for f in (forced_exact, forced_regularized, forced_backbone, forced_figure)}

@@ -1,0 +1,171 @@
+"""Regularized forced responses (harmonic balance + ANM) against independent references.
+
+The closed-form linear response at small amplitude; DOP853 integration of the regularized law (the HBM
+orbit is periodic within its truncation error); the backbone's prediction of the peak (error falling at
+least linearly with the damping, phase resonance at the peak).
+"""
+
+import numpy as np
+import pytest
+
+from nnmstop.checks.forced_integration import integrate_forced_regularized
+from nnmstop.continuation.anm import ANMSettings
+from nnmstop.forced.backbone import locate_peak, nnm_backbone, predicted_peaks
+from nnmstop.hbm.forced import (
+    ForcedHarmonicBalanceSystem,
+    continue_frequency_response,
+    phase_lags,
+    response_amplitudes,
+)
+from nnmstop.models.excitation import linear_response
+
+from .conftest import oscillator_excitation
+
+SETTINGS = ANMSettings(points_per_step=1)
+
+
+def test_small_force_gives_the_linear_response_with_the_contact_stiffness_eta():
+    """Far inside the gap the regularized law is f = eta x (1 + O(x**2)): the response is the linear one of
+    K + eta e_x e_x^T to O(x**2)."""
+    excitation = oscillator_excitation(1e-4)
+    system = ForcedHarmonicBalanceSystem(excitation, harmonics=3)
+    branch = continue_frequency_response(system, (0.05, 0.35), SETTINGS, max_truncation=0.5)
+    U = np.asarray(branch.points)
+    omega = U[:, system.i_omega]
+    extra = np.diag([excitation.structure.stops[0].eta, 0.0])
+    expected = np.abs(linear_response(excitation, omega, extra))
+    amplitude = response_amplitudes(system, U)
+    assert branch.end_reason.startswith("frequency above")
+    # rtol: the O(x**2) of the law (x < 0.02); atol: the continuation's accuracy, a residual of 1e-7 relative to
+    # |U| ~ 5 (Omega**2 and Omega are unknowns), where an amplitude is small (antiresonance of x)
+    np.testing.assert_allclose(amplitude, expected, rtol=1e-4, atol=1e-8)
+
+
+@pytest.mark.numerics
+def test_hbm_response_is_periodic_under_time_integration_within_its_truncation_error():
+    excitation = oscillator_excitation(0.05, alpha=3.0, eta=0.3)
+    defects = {}
+    for H in (6, 12):
+        system = ForcedHarmonicBalanceSystem(excitation, harmonics=H)
+        branch = continue_frequency_response(system, (0.09, 0.16), SETTINGS, max_truncation=0.5)
+        U = np.asarray(branch.points)
+        amplitude = response_amplitudes(system, U)[:, 0]
+        U = U[np.argmin(np.abs(amplitude - 1.5))]  # an orbit deep in contact
+        omega = U[system.i_omega]
+        h = system.time_history(U, 64)
+        z0 = np.concatenate([h["q"][:, 0], h["qdot"][:, 0]])
+        end = integrate_forced_regularized(excitation, omega, z0, [0.0, 2 * np.pi / omega], rtol=1e-10, atol=1e-11)[-1]
+        defects[H] = np.abs(end - z0).max() / np.abs(z0).max()
+    assert defects[12] < 1e-3
+    assert defects[12] < 0.2 * defects[6]  # the defect is the truncation error: it falls with H
+
+
+def _peak_and_prediction(zeta: float):
+    excitation = oscillator_excitation(0.05 * zeta / 0.01, zeta=zeta, alpha=3.0, eta=0.3)
+    force = excitation.force.amplitude
+    backbone_system, backbone = nnm_backbone(excitation, 1, 12, SETTINGS, 0.5, 2 * force)
+    ((frequency, amplitude, _),) = predicted_peaks(backbone_system, excitation, backbone, SETTINGS, [force])
+    system = ForcedHarmonicBalanceSystem(excitation, harmonics=12)
+    branch = continue_frequency_response(system, (0.09, 0.16), SETTINGS, max_truncation=0.5)
+    peak = locate_peak(system, branch, SETTINGS, dof=0)
+    lag = np.degrees(phase_lags(system, peak[None])[0])
+    peak_amplitude = response_amplitudes(system, peak[None])[0]
+    return frequency, amplitude, peak[system.i_omega] / (2 * np.pi), peak_amplitude, lag
+
+
+@pytest.mark.numerics
+def test_backbone_predicts_the_peak_with_an_error_falling_with_the_damping():
+    """F proportional to the damping keeps the peak on the same backbone orbit; the energy balance's error in
+    the peak's frequency and amplitude falls at least linearly with the damping, and the forced DOF's lag
+    behind the force at the peak is 90 degrees within 40 zeta radians (first order in the damping)."""
+    errors = []
+    for zeta in (0.02, 0.01, 0.005):
+        f_pred, a_pred, f_peak, a_peak, lag = _peak_and_prediction(zeta)
+        errors.append((abs(f_peak - f_pred) / f_pred, abs(a_peak[0] - a_pred[0]) / a_pred[0]))
+        assert abs(lag[1] - 90.0) <= np.degrees(40 * zeta)
+    errors = np.array(errors)
+    assert np.all(errors[1:] <= 0.55 * errors[:-1]), errors
+
+
+def _exact_response_at(excitation, frequency):
+    """The exact one-contact response at ``frequency`` (Hz): first crossing of the family from grazing, then
+    Newton with Omega fixed (round-off)."""
+    from nnmstop.continuation.newton import newton_solve
+    from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
+    from nnmstop.exact.forced import SymmetricContactProblem, follow_contact_family, grazing_frequencies
+
+    problem = SymmetricContactProblem(excitation)
+    grazing = grazing_frequencies(excitation, 2 * np.pi * 0.05, 2 * np.pi * 0.35)
+    direction = np.zeros(problem.n_unknowns)
+    direction[-2] = 1.0
+    settings = PseudoArclengthSettings(tolerance=1e-12, initial_step=0.02, max_step=0.1)
+    Y = follow_contact_family(problem, problem.grazing_start(grazing[0]), direction, settings, (0.05, 0.35)).unknowns
+    i = np.flatnonzero(np.diff(np.sign(Y[:, -1] / (2 * np.pi) - frequency)))[0]
+    omega = 2 * np.pi * frequency
+    result = newton_solve(
+        lambda y: np.append(problem.residual(y), y[-1] - omega),
+        lambda y: np.vstack([problem.jacobian(y), np.eye(len(y))[-1]]),
+        Y[i],
+        tol=1e-13,
+        max_iter=30,
+    )
+    assert result.converged
+    return problem.amplitudes(result.y)
+
+
+def _regularized_response_at(excitation, frequency, harmonics=24):
+    """The regularized response at ``frequency`` (Hz): first crossing of the ANM continuation, located on the ANM
+    step (bisection of Omega along the series, no interpolation)."""
+    from nnmstop.continuation.anm import ANMStepper
+    from nnmstop.continuation.newton import bisect_sign_change
+    from nnmstop.forced.responses import path_between
+
+    system = ForcedHarmonicBalanceSystem(excitation, harmonics)
+    U = np.asarray(continue_frequency_response(system, (0.09, 0.16), SETTINGS, max_truncation=1e-3).points)
+    j = np.flatnonzero(np.diff(np.sign(U[:, system.i_omega] / (2 * np.pi) - frequency)))[0]
+    path, length = path_between(system, ANMStepper(SETTINGS), U, j)
+    found = bisect_sign_change(
+        lambda a: path(a)[system.i_omega] - 2 * np.pi * frequency, 0.0, length, tol=1e-12 * length
+    )
+    return response_amplitudes(system, path(found.midpoint)[None])[0]
+
+
+@pytest.mark.numerics
+def test_regularized_response_converges_to_the_exact_one_at_first_order_in_eta():
+    """On the upper branch past grazing (0.115 Hz, F = 0.05, alpha = 3), the regularized law differs from the
+    piecewise-linear one by O(eta): the amplitudes converge to the exact response at first order."""
+    exact = _exact_response_at(oscillator_excitation(0.05, alpha=3.0, eta=0.1), 0.115)
+    errors = np.array(
+        [
+            np.abs(_regularized_response_at(oscillator_excitation(0.05, alpha=3.0, eta=eta), 0.115) - exact) / exact
+            for eta in (0.1, 0.05, 0.025)
+        ]
+    )
+    orders = np.log2(errors[:-1] / errors[1:])
+    assert np.all(orders > 0.8), (errors, orders)
+    assert errors[-1, 0] < 0.04
+
+
+@pytest.mark.numerics
+def test_time_integration_leaves_an_unstable_hbm_response_at_its_largest_multiplier():
+    """From the most unstable regularized response (between the folds) a perturbation grows by the largest
+    Floquet multiplier of the damped variational equation per period; from a stable one it decays."""
+    from nnmstop.hbm.forced import forced_multipliers
+
+    excitation = oscillator_excitation(0.05, alpha=3.0, eta=0.3)
+    system = ForcedHarmonicBalanceSystem(excitation, harmonics=16)
+    U = np.asarray(continue_frequency_response(system, (0.09, 0.16), SETTINGS, max_truncation=1e-3).points)
+    largest = np.abs(forced_multipliers(system, U)[0]).max(axis=1)
+    for index in (int(np.argmax(largest)), int(np.argmin(largest))):
+        omega = U[index, system.i_omega]
+        history = system.time_history(U[index], 64)
+        z0 = np.concatenate([history["q"][:, 0], history["qdot"][:, 0]])
+        t = np.arange(17) * 2 * np.pi / omega
+        states = integrate_forced_regularized(
+            excitation, omega, z0 + 1e-7 * np.array([1.0, 0.5, -0.3, 0.2]), t, rtol=1e-11, atol=1e-12
+        )
+        distance = np.linalg.norm(states - z0, axis=1)
+        if largest[index] > 1:
+            assert (distance[-1] / distance[-9]) ** 0.125 == pytest.approx(largest[index], rel=0.03)
+        else:
+            assert distance[-1] < distance[0]

@@ -1,0 +1,131 @@
+# Forced, damped responses around the NNMs (issue 23): exact responses of the non-smooth system and
+# regularized ones by harmonic balance + ANM, their stability, the backbones' prediction of the peaks, the
+# figures paper_figures/forced_*. `snakemake --cores 2 forced` builds all of it; a figure asked for alone
+# builds only the datasets it draws. Thin rules: the tasks are in nnmstop.tasks.forced.
+
+
+def forced_scene_names(which="all"):
+    """File stems of the forced responses of the configuration (`F0.05`, ..., `tube_F0.5`)."""
+    from nnmstop.forced.scenes import forced_scenes
+
+    return [scene.name for scene in forced_scenes(config, which)] if "forced" in config else []
+
+
+def forced_file(kind, scene):
+    """The dataset of one forced response: kind `exact` or `regularized`."""
+    return results(f"forced/{kind}_{scene}.nc")
+
+
+FORCED_CONFIG = task_config("model", "anm", "forced", "metadata", tube=["structure"])
+
+
+rule forced_exact:
+    """Exact response of the non-smooth oscillator at one force level."""
+    output:
+        dataset=results("forced/exact_{scene}.nc"),
+    log:
+        logs("forced/exact_{scene}.log"),
+    benchmark:
+        benchmarks("forced_exact_{scene}.tsv")
+    params:
+        config=FORCED_CONFIG,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule forced_regularized:
+    """Regularized response (harmonic balance + ANM) at one force level, or the tube's."""
+    output:
+        dataset=results("forced/regularized_{scene}.nc"),
+    log:
+        logs("forced/regularized_{scene}.log"),
+    benchmark:
+        benchmarks("forced_regularized_{scene}.tsv")
+    params:
+        config=FORCED_CONFIG,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule forced_backbone:
+    """Regularized NNM backbones over the forced frequency range and the peaks they predict at each force level."""
+    output:
+        dataset=results("forced/backbone.nc"),
+    log:
+        logs("forced/backbone.log"),
+    benchmark:
+        benchmarks("forced_backbone.tsv")
+    params:
+        config=FORCED_CONFIG,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+# Datasets each forced figure draws (the keys are the figure task's named inputs).
+FORCED_FIGURE_INPUTS = {
+    "frequency_response": lambda: {
+        "exact": [forced_file("exact", s) for s in forced_scene_names("oscillator")],
+        "regularized": [forced_file("regularized", s) for s in forced_scene_names("oscillator")],
+        "backbone": rules.forced_backbone.output.dataset,
+    },
+    "phase_lag": lambda: {
+        "exact": [forced_file("exact", s) for s in forced_scene_names("oscillator")],
+        "regularized": [forced_file("regularized", s) for s in forced_scene_names("oscillator")],
+    },
+    "orbits": lambda: {
+        "exact": [forced_file("exact", forced_scene_names("oscillator")[-1])],
+        "regularized": [forced_file("regularized", forced_scene_names("oscillator")[-1])],
+    },
+    "tube": lambda: {"regularized": [forced_file("regularized", s) for s in forced_scene_names("tube")]},
+}
+
+
+rule forced_figure:
+    """paper_figures/forced_<figure>.{pdf,png}; reads only the datasets its figure draws."""
+    input:
+        unpack(lambda wildcards: FORCED_FIGURE_INPUTS[wildcards.figure]()),
+    output:
+        pdf=paper_figures("forced_{figure}.pdf"),
+        png=paper_figures("forced_{figure}.png"),
+    wildcard_constraints:
+        figure="|".join(FORCED_FIGURE_INPUTS),
+    log:
+        logs("forced/figure_{figure}.log"),
+    benchmark:
+        benchmarks("forced_figure_{figure}.tsv")
+    params:
+        config=FORCED_CONFIG,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+def forced_datasets():
+    """Every dataset of the forced target."""
+    names = forced_scene_names()
+    oscillator = forced_scene_names("oscillator")
+    return (
+        [forced_file("exact", s) for s in oscillator]
+        + [forced_file("regularized", s) for s in names]
+        + [rules.forced_backbone.output.dataset]
+    )
+
+
+def forced_figures():
+    """The forced figures of the configuration (the tube's only when it is configured)."""
+    figures = [f for f in FORCED_FIGURE_INPUTS if f != "tube" or forced_scene_names("tube")]
+    return expand(paper_figures("forced_{figure}.{ext}"), figure=figures, ext=("pdf", "png"))
+
+
+rule forced:
+    """Everything of the forced responses: datasets and figures (not in the default target)."""
+    input:
+        forced_datasets(),
+        forced_figures(),
