@@ -14,7 +14,8 @@ from nnmstop.hbm.stages import start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import linear_modes
-from nnmstop.tasks.hbm import build_stage, stability_settings, system_from_config
+from nnmstop.settings import stability_settings
+from nnmstop.tasks.hbm import build_stage, system_from_config
 
 
 @pytest.mark.parametrize("method", ["hill", "monodromy"])

@@ -1,6 +1,7 @@
 """Dataset kinds of the tube datasets (see :mod:`nnmstop.catalogue`)."""
 
 from nnmstop.catalogue import DatasetKind, Variable
+from nnmstop.catalogue.branch import STABILITY_VARIABLES
 
 TUBE_EXACT_FAMILY_VARIABLES = (
     Variable("energy", ("orbit",), "total energy of the non-smooth model"),
@@ -114,29 +115,11 @@ STRUCTURE_BRANCH_VARIABLES = (
         "frequency where the predictor over the tongue landed on the backbone beyond it",
         units="Hz",
     ),
-    Variable("multiplier_real", ("point", "multiplier"), "real part of the Floquet multipliers"),
-    Variable("multiplier_imag", ("point", "multiplier"), "imaginary part of the Floquet multipliers"),
-    Variable("max_multiplier", ("point",), "largest modulus of the Floquet multipliers"),
-    Variable(
-        "stable",
-        ("point",),
-        "1 where the orbit is stable (largest multiplier modulus within the tolerance of 1)",
-        flags=("unstable", "stable"),
-    ),
-    Variable(
-        "stability_error", ("point",), "change of the largest multiplier modulus when the Magnus steps are doubled"
-    ),
-    Variable(
-        "stability_resolved",
-        ("point",),
-        "1 where the verdict's margin exceeds twice the integration error",
-        flags=("unresolved", "resolved"),
-    ),
+    *STABILITY_VARIABLES,
     Variable("point", ("point",), "index of the point along the branch"),
     Variable("dof", ("dof",), "index of the degree of freedom"),
     Variable("stop", ("stop",), "index of the stop"),
     Variable("harmonic", ("harmonic",), "harmonic number k (0 is the mean)"),
-    Variable("multiplier", ("multiplier",), "index of the Floquet multiplier, by decreasing modulus"),
     Variable(
         "dof_label", ("dof",), "degree of freedom: w<node> displacement over gap, theta<node> rotation over gap/length"
     ),

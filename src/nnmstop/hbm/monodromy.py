@@ -29,12 +29,10 @@ from nnmstop.floquet import (
 )
 from nnmstop.hbm.shooting_refinement import refined_stability
 from nnmstop.hbm.variational import Linearization, halfwave_symmetric, is_reversible, stop_coefficients
-from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "MonodromySettings",
     "BranchMonodromy",
-    "REASONS",
     "variational_generators",
     "variational_step_matrices",
     "commutator_free_step_matrices",
@@ -45,16 +43,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-# Codes of `stability_reason`: why a verdict is resolved or not (dataset flag values).
-# 3-5 only where the HBM orbit's error decided (2) and the orbit was refined by shooting.
-REASONS = (
-    "resolved",
-    "integration_error",
-    "orbit_error",
-    "resolved_refined",
-    "shooting_not_converged",
-    "refined_at_type_change",
-)
+# Codes of `stability_reason` (their meanings: the catalogue, nnmstop.catalogue.branch) that are resolved
+# verdicts; 3-5 only where the HBM orbit's error decided (2) and the orbit was refined by shooting.
 RESOLVED_REASONS = (0, 3)
 #: Default of :attr:`MonodromySettings.max_orbit_residual`: above the largest time residual (0.043) of the
 #: orbits on which the orbit-error estimate was calibrated.
@@ -350,7 +340,9 @@ class BranchMonodromy:
     steps : ndarray of int
         Steps of the stored (finer) integration.
     reason : ndarray of int
-        Index in :data:`REASONS`.
+        Code of ``stability_reason`` (meanings in :mod:`nnmstop.catalogue.branch`): 0 resolved,
+        1 integration error, 2 the orbit's own error, 3 resolved on the refined orbit, 4 shooting not
+        converged, 5 refined orbit at a type change.
     halfwave : ndarray of bool
     settings : MonodromySettings
     seconds_per_point : float
@@ -406,141 +398,26 @@ class BranchMonodromy:
         return np.abs(self.multipliers[:, 2])
 
     def data_vars(self) -> dict:
-        """Variables for a branch dataset (same names as Hill's for the shared ones)."""
-        st = self.settings
-        note = (
-            "Floquet multipliers from the monodromy matrix of the variational equation of (7) along the HBM orbit "
-            f"(4th-order Magnus steps, {2 * st.steps} to {st.max_steps} per integrated interval, checked against half as many), non-trivial pair from the "
-            "invariant s = mu + 1/mu of the symplectic matrix, ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|; "
-            "where stability_refined = 1 and the shooting converged, from the monodromy of the periodic orbit of (7) "
-            f"refined by shooting (8th-order Runge-Kutta, {st.refine_steps} to {st.refine_max_steps} steps per quarter "
-            "period, checked against half as many)"
-        )
-        F = f"{st.resolution_factor:g}"
-        reason_attrs = {
-            "long_name": "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within "
-            f"{F} x stability_integration_error at the largest step count; 2 stability_margin within "
-            f"{F} x stability_orbit_residual, or time_residual above {st.max_orbit_residual:g} (the HBM orbit's own "
-            "error; more steps would not resolve it) and the orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's "
-            f"margin was within {F} x its error; stability variables from the refined orbit); 4 the shooting did not "
-            f"converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within {F} x its "
-            "integration error at the largest step count or below trace_tol: the non-trivial pair sits at +1 (a "
-            "stability change, e.g. an energy fold)",
-            "units": "1",
-            "flag_values": np.arange(len(REASONS), dtype=np.int8),
-            "flag_meanings": " ".join(REASONS),
-        }
+        """Variables for a branch dataset, ``{name: (dims, values)}`` (same names as Hill's for the shared ones;
+        long names and units: :mod:`nnmstop.catalogue.branch`, ``STABILITY_VARIABLES``)."""
+        point, flag = ("point",), np.int8
         return {
-            "stable": flag_variable(
-                "point",
-                self.stable,
-                f"orbit linearly stable (1) or unstable (0): |mu + 1/mu| of the non-trivial pair <= 2 + {st.trace_tol:g}",
-                "unstable stable",
-                comment=note,
-            ),
-            "multiplier_real": (
-                ("point", "multiplier"),
-                self.multipliers.real,
-                {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note},
-            ),
-            "multiplier_imag": (
-                ("point", "multiplier"),
-                self.multipliers.imag,
-                {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note},
-            ),
-            "max_multiplier": (
-                "point",
-                self.max_multiplier,
-                {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"},
-            ),
-            "stability_orbit_residual": (
-                "point",
-                self.orbit_error,
-                {
-                    "long_name": "estimate of the change of floquet_invariant due to the orbit's error: larger of time_residual and stability_trivial_deviation",
-                    "units": "1",
-                },
-            ),
-            "stability_trivial_deviation": (
-                "point",
-                self.trivial_deviation,
-                {
-                    "long_name": "distance of the trivial pair's invariant mu + 1/mu to 2 in the computed monodromy (exactly 0 on an exact orbit)",
-                    "units": "1",
-                },
-            ),
-            "stability_resolved": flag_variable(
-                "point",
-                self.resolved,
-                "stability verdict resolved (1): stability_margin larger than the error estimates (stability_reason)",
-                "unresolved resolved",
-            ),
-            "stability_reason": ("point", self.reason.astype(np.int8), reason_attrs),
-            "floquet_invariant": (
-                "point",
-                self.invariant,
-                {
-                    "long_name": "invariant mu + 1/mu of the non-trivial Floquet pair (in [-2, 2] when elliptic)",
-                    "units": "1",
-                },
-            ),
-            "stability_margin": (
-                "point",
-                self.margin,
-                {
-                    "long_name": "distance of floquet_invariant to the values where the non-trivial pair changes type (2, and -2 unless half-wave symmetric)",
-                    "units": "1",
-                },
-            ),
-            "stability_integration_error": (
-                "point",
-                self.integration_error,
-                {
-                    "long_name": "change of floquet_invariant between the last two step counts of the monodromy integration",
-                    "units": "1",
-                },
-            ),
-            "stability_steps": (
-                "point",
-                self.steps.astype(np.int32),
-                {
-                    "long_name": "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric); on refined orbits (stability_reason 3-5) Runge-Kutta steps over a quarter period",
-                    "units": "1",
-                },
-            ),
-            "stability_refined": flag_variable(
-                "point",
-                self.refined,
-                "orbit refined by shooting into a periodic orbit of (7) for its verdict (stability_reason 3-5)",
-                "no yes",
-            ),
-            "stability_refined_frequency_change": (
-                "point",
-                self.refined_frequency_change,
-                {
-                    "long_name": "relative change of the frequency from the HBM orbit to the shooting-refined orbit "
-                    "(0 where stability_refined = 0 or stability_reason = 4)",
-                    "units": "1",
-                },
-            ),
-            "stability_refined_energy_change": (
-                "point",
-                self.refined_energy_change,
-                {
-                    "long_name": "relative change of the energy at t = 0 (start at rest) from the HBM orbit to the "
-                    "shooting-refined orbit (0 where stability_refined = 0 or stability_reason = 4)",
-                    "units": "1",
-                },
-            ),
-            "stability_refined_residual": (
-                "point",
-                self.refined_residual,
-                {
-                    "long_name": "closure of the shooting conditions x = u = 0 at a quarter period relative to the "
-                    "amplitude (0 where stability_refined = 0; 1 where the shooting diverged at once)",
-                    "units": "1",
-                },
-            ),
+            "stable": (point, self.stable.astype(flag)),
+            "multiplier_real": (("point", "multiplier"), self.multipliers.real),
+            "multiplier_imag": (("point", "multiplier"), self.multipliers.imag),
+            "max_multiplier": (point, self.max_multiplier),
+            "stability_orbit_residual": (point, self.orbit_error),
+            "stability_trivial_deviation": (point, self.trivial_deviation),
+            "stability_resolved": (point, self.resolved.astype(flag)),
+            "stability_reason": (point, self.reason.astype(flag)),
+            "floquet_invariant": (point, self.invariant),
+            "stability_margin": (point, self.margin),
+            "stability_integration_error": (point, self.integration_error),
+            "stability_steps": (point, self.steps.astype(np.int32)),
+            "stability_refined": (point, self.refined.astype(flag)),
+            "stability_refined_frequency_change": (point, self.refined_frequency_change),
+            "stability_refined_energy_change": (point, self.refined_energy_change),
+            "stability_refined_residual": (point, self.refined_residual),
         }
 
 

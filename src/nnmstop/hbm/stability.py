@@ -22,9 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from nnmstop.hbm.hill import DEFAULT_TOL, RESOLUTION_FACTOR, check_harmonics, check_tolerance, floquet
+from nnmstop.hbm.hill import DEFAULT_TOL, check_harmonics, check_tolerance, floquet
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
-from nnmstop.netcdf import flag_variable
 
 __all__ = ["STABILITY_METHODS", "StabilitySettings", "BranchHill", "branch_hill", "orbit_stability"]
 
@@ -120,56 +119,17 @@ class BranchHill:
     seconds_per_point: float = 0.0
 
     def data_vars(self) -> dict:
-        """Variables for a branch dataset, ``{name: (dims, values, attrs)}``.
-
-        Dimensions ``point`` and ``multiplier`` (0..3, layout of
-        :attr:`nnmstop.hbm.hill.FloquetResult.multipliers`); complex values are split into real and
-        imaginary parts (netCDF has no complex type).
+        """Variables for a branch dataset, ``{name: (dims, values)}``: dimensions ``point`` and ``multiplier``
+        (layout of :attr:`nnmstop.hbm.hill.FloquetResult.multipliers`); complex values split into real and
+        imaginary parts (netCDF has no complex type). Long names and units: :mod:`nnmstop.catalogue.branch`.
         """
-        note = (
-            f"Floquet multipliers by Hill's method ({self.method} solver, {self.harmonics} harmonics on the "
-            f"perturbation), ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|"
-        )
         return {
-            "stable": flag_variable(
-                "point",
-                self.stable,
-                "orbit linearly stable (1) or unstable (0): largest |multiplier| of the non-trivial pair <= 1 + "
-                f"{self.tol:g}",
-                "unstable stable",
-                comment=note,
-            ),
-            "multiplier_real": (
-                ("point", "multiplier"),
-                self.multipliers.real,
-                {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note},
-            ),
-            "multiplier_imag": (
-                ("point", "multiplier"),
-                self.multipliers.imag,
-                {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note},
-            ),
-            "max_multiplier": (
-                "point",
-                self.max_multiplier,
-                {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"},
-            ),
-            "stability_orbit_residual": (
-                "point",
-                self.orbit_residual,
-                {
-                    "long_name": "relative residual of the orbit velocity in the linearized equations (accuracy of the "
-                    "orbit for the stability analysis)",
-                    "units": "1",
-                },
-            ),
-            "stability_resolved": flag_variable(
-                "point",
-                self.resolved,
-                f"stability verdict resolved (1): distance of mu_1 to the collision point(s) > {RESOLUTION_FACTOR:g} x "
-                "stability_orbit_residual",
-                "unresolved resolved",
-            ),
+            "stable": ("point", self.stable.astype(np.int8)),
+            "multiplier_real": (("point", "multiplier"), self.multipliers.real),
+            "multiplier_imag": (("point", "multiplier"), self.multipliers.imag),
+            "max_multiplier": ("point", self.max_multiplier),
+            "stability_orbit_residual": ("point", self.orbit_residual),
+            "stability_resolved": ("point", self.resolved.astype(np.int8)),
         }
 
 

@@ -140,7 +140,7 @@ def run_tube_branch(
     from nnmstop.hbm.structure_branch import continue_structure_nnm, structure_branch_dataset
     from nnmstop.hbm.system import HarmonicBalanceSystem
     from nnmstop.models.beam import beam_structure
-    from nnmstop.tasks.hbm import stability_settings
+    from nnmstop.settings import stability_settings
 
     beam = tube_beam(tube["structure"])
     structure = beam_structure(beam)
