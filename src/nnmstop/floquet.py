@@ -636,10 +636,14 @@ class PairInvariants:
         )
 
     def stable(self, trace_tol: float):
-        """Every non-trivial pair elliptic: real ``|s| <= 2 + trace_tol``."""
-        return np.all((self.s.imag == 0) & (np.abs(self.s.real) <= 2.0 + trace_tol), axis=-1)
+        """Every non-trivial pair elliptic to within ``trace_tol``: ``|Im s|`` at most, ``|Re s| <= 2 + trace_tol``.
 
-    def margin(self, halfwave):
+        (Where two pairs sit at +1 together, a type change, the pairing of the four nearly equal eigenvalues
+        of ``W`` can leave round-off imaginary parts, about 1e-13, on their invariants.)
+        """
+        return np.all((np.abs(self.s.imag) <= trace_tol) & (np.abs(self.s.real) <= 2.0 + trace_tol), axis=-1)
+
+    def margin(self, halfwave, tol: float = 0.0):
         """Distance of the invariants to where the verdict can change, and the pair that sets it.
 
         Stable orbits (every pair elliptic): the nearest of ``s = 2`` (a pair meeting +1), ``s = -2``
@@ -648,7 +652,8 @@ class PairInvariants:
         quartet where they meet; pairs of equal sign cannot). Unstable orbits: the largest distance
         of an unstable pair's ``s`` to the elliptic segment ``[-2, 2]`` (every one would have to come
         back for the verdict to change). Half-wave symmetric orbits meet as pairs of the half-period
-        map: their distance ``|sigma_i - sigma_j| (|sigma_i| + |sigma_j|)`` is ``|s_i - s_j|`` there.
+        map: their distance ``|sigma_i - sigma_j| (|sigma_i| + |sigma_j|)`` is ``|s_i - s_j|`` there. An
+        invariant within ``tol`` of the real axis counts as real (as in :meth:`stable`).
 
         Returns
         -------
@@ -659,7 +664,7 @@ class PairInvariants:
         s, sigma, halfwave = self.s, self.integrated, np.asarray(halfwave)[:, None]
         if not s.shape[-1]:  # one degree of freedom: only the trivial pair
             return np.full(len(s), np.inf), np.zeros(len(s), dtype=int)
-        elliptic = (s.imag == 0) & (np.abs(s.real) <= 2.0)
+        elliptic = (np.abs(s.imag) <= tol) & (np.abs(s.real) <= 2.0)
         to_type_change = np.where(halfwave, np.abs(s - 2.0), np.minimum(np.abs(s - 2.0), np.abs(s + 2.0)))
         meet = np.where(
             halfwave[..., None],

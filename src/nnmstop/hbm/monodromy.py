@@ -470,7 +470,7 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
                 err[idx], steps[idx] = integration[1:]
     trivial_deviation = found.trivial_deviation.copy()  # the HBM orbit's, also where refined
     orbit_error = np.maximum(time_residual, trivial_deviation)
-    margin, _ = found.margin(halfwave)
+    margin, _ = found.margin(halfwave, settings.trace_tol)
     F = settings.resolution_factor
     reason = np.zeros(n, dtype=np.int8)
     reason[margin <= F * err] = 1
@@ -489,7 +489,7 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
             " (refined by shooting where it converges)" if settings.refine else "",
         )
     refinement = _refine(system, U_array, found, err, steps, reason, halfwave, settings)
-    margin, critical = found.margin(halfwave)
+    margin, critical = found.margin(halfwave, settings.trace_tol)
     return BranchMonodromy(
         stable=found.stable(settings.trace_tol),
         multipliers=found.multipliers(),
@@ -530,7 +530,7 @@ def _integrate(linearization, x, omega, H: int, halfwave: bool, time_residual, s
         # More steps where the integration error could decide the verdict and exceeds the orbit's
         # own error (beyond that they cannot make the verdict better), unless s within its error
         # bound stays within F x the orbit's residual: reason 2 (and the refinement) whatever the steps.
-        margin, _ = fine.margin(np.full(len(todo), halfwave))
+        margin, _ = fine.margin(np.full(len(todo), halfwave), settings.trace_tol)
         residual = time_residual[todo]
         undecided = (margin <= F * err[todo]) & (err[todo] > np.maximum(residual, fine.trivial_deviation))
         undecided &= margin + err[todo] > F * residual
@@ -571,7 +571,7 @@ def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave
     done = idx[ok]
     found.assign(done, r.invariants.select(ok))
     err[done], steps[done] = r.integration_error[ok], r.steps[ok]
-    margin, _ = r.invariants.select(ok).margin(np.ones(len(done), dtype=bool))
+    margin, _ = r.invariants.select(ok).margin(np.ones(len(done), dtype=bool), settings.trace_tol)
     # Error of the refined s: the integration error, and the orbit's closure error (which moves s by
     # about as much, as the HBM orbit's time residual does); a margin below trace_tol is a pair at +1.
     bound = F * np.maximum(err[done], r.residual[ok])  # converged: both finite

@@ -699,7 +699,7 @@ def shooting_stability(
             used[ok] = K
             if K >= max_steps:
                 break
-            margin, _ = level.margin(np.ones(len(ok), dtype=bool))
+            margin, _ = level.margin(np.ones(len(ok), dtype=bool), floor)
             bound = resolution_factor * err[ok]
             ok = ok[(margin <= bound) & (bound > floor)]
         previous.assign(todo[conv], level)
