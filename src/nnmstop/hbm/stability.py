@@ -1,17 +1,20 @@
-"""Floquet stability of the orbits of a branch: Hill's method or the monodromy matrix, and the verdict variables.
+"""Floquet stability of the orbits of a branch of any structure: Hill's method or the monodromy matrix.
 
-:func:`orbit_stability` is what dataset assembly calls: it dispatches on
-:attr:`StabilitySettings.method` (config ``stability.method``) to
+:func:`orbit_stability` is the one interface, for every :class:`~nnmstop.models.structure.Structure`
+(the paper's oscillator, the finite-element tube, a user's matrices) and what dataset assembly calls:
+it dispatches on :attr:`StabilitySettings.method` (config ``stability.method``) to
 
 * ``"monodromy"`` (default): :func:`nnmstop.hbm.monodromy.branch_monodromy`
   (``docs/methods/monodromy.md``), or
 * ``"hill"``: :func:`branch_hill`, Hill's method of :mod:`nnmstop.hbm.hill` on every orbit
   (``docs/methods/hill.md``).
 
-Both return an object whose ``data_vars()`` gives the dataset variables: ``stable``,
+Both return an object whose ``data_vars()`` gives the dataset variables as plain arrays: ``stable``,
 ``multiplier_real``/``multiplier_imag(point, multiplier)``, ``max_multiplier``,
 ``stability_orbit_residual``, ``stability_resolved`` (and for the monodromy its reason code and
-error estimates).
+error estimates); their long names and units are in :mod:`nnmstop.catalogue.branch`. Damped and
+forced systems (no Hamiltonian structure, no trivial pair) use the general path
+:func:`nnmstop.floquet.periodic_floquet`.
 """
 
 from __future__ import annotations
@@ -61,6 +64,7 @@ def orbit_stability(system, U_array, settings: StabilitySettings, time_residual=
     Parameters
     ----------
     system : HarmonicBalanceSystem
+        Of any structure: ``N`` degrees of freedom, any stops.
     U_array : array_like, shape (n, n_unknowns)
     settings : StabilitySettings
     time_residual : array_like, shape (n,), optional
@@ -71,7 +75,24 @@ def orbit_stability(system, U_array, settings: StabilitySettings, time_residual=
     Returns
     -------
     BranchMonodromy or BranchHill
-        Its ``data_vars()`` are the dataset variables.
+        Its ``data_vars()`` are the dataset variables; ``multipliers`` has ``2N`` columns, the trivial
+        pair first.
+
+    Examples
+    --------
+    The 3-DOF example (a grounded chain with one stop), two orbits near rest: every pair elliptic.
+
+    >>> import numpy as np
+    >>> from nnmstop.hbm.structure_branch import structure_start_point
+    >>> from nnmstop.hbm.system import HarmonicBalanceSystem
+    >>> from nnmstop.models.structure import Stop, Structure
+    >>> chain = Structure(np.eye(3), [[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]],
+    ...                   [Stop(dof=0, gap=1.0, stiffness=30.0, eta=0.1)])
+    >>> system = HarmonicBalanceSystem(chain, 8)
+    >>> U = np.array([structure_start_point(system, 1, a)[0] for a in (1e-3, 2e-3)])
+    >>> result = orbit_stability(system, U, StabilitySettings())
+    >>> result.multipliers.shape, result.stable.tolist(), result.resolved.tolist()
+    ((2, 6), [True, True], [True, True])
     """
     if not isinstance(settings, StabilitySettings):
         raise ValueError(f"settings must be a StabilitySettings, got {type(settings).__name__}")
