@@ -440,21 +440,9 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     -------
     BranchMonodromy
     """
-    settings = MonodromySettings() if settings is None else settings
-    if not isinstance(settings, MonodromySettings):
-        raise ValueError(f"settings must be a MonodromySettings, got {type(settings).__name__}")
-    U_array = np.asarray(U_array, dtype=float)
-    if U_array.ndim != 2 or U_array.shape[1] != system.n_unknowns:
-        raise ValueError(f"U_array must have shape (n, {system.n_unknowns}), got {U_array.shape}")
-    if not np.all(np.isfinite(U_array)):
-        raise ValueError("U_array must be finite")
     start = time.perf_counter()
+    settings, U_array, time_residual = _checked(system, U_array, settings, time_residual)
     n = len(U_array)
-    if time_residual is None:
-        time_residual = [system.diagnostics(U)["time_residual"] for U in U_array]
-    time_residual = np.asarray(time_residual, dtype=float)
-    if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
-        raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
     linearization = Linearization.of(system)
     found = PairInvariants.empty(n, system.n_dofs - 1)
     err = np.zeros(n)
@@ -508,6 +496,25 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
         invariants=found,
         **refinement,
     )
+
+
+def _checked(system, U_array, settings, time_residual):
+    """The arguments of :func:`branch_monodromy` checked (ValueError naming the bad one), residuals computed."""
+    settings = MonodromySettings() if settings is None else settings
+    if not isinstance(settings, MonodromySettings):
+        raise ValueError(f"settings must be a MonodromySettings, got {type(settings).__name__}")
+    U_array = np.asarray(U_array, dtype=float)
+    if U_array.ndim != 2 or U_array.shape[1] != system.n_unknowns:
+        raise ValueError(f"U_array must have shape (n, {system.n_unknowns}), got {U_array.shape}")
+    if not np.all(np.isfinite(U_array)):
+        raise ValueError("U_array must be finite")
+    n = len(U_array)
+    if time_residual is None:
+        time_residual = [system.diagnostics(U)["time_residual"] for U in U_array]
+    time_residual = np.asarray(time_residual, dtype=float)
+    if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
+        raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
+    return settings, U_array, time_residual
 
 
 def _integrate(linearization, x, omega, H: int, halfwave: bool, time_residual, settings: MonodromySettings):

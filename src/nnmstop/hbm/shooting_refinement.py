@@ -674,37 +674,8 @@ def shooting_stability(
         raise ValueError(f"states_at must return shape {(n, _SEGMENTS, 2 * N)}, got {states.shape}")
     states[:, 0, N:] = 0.0
     initial_start, initial_period = states[:, 0, :N].copy(), period.copy()
-    found = PairInvariants.empty(n, N - 1)
-    err = np.full(n, np.inf)
-    used = np.zeros(n, dtype=int)
-    residual = np.full(n, np.inf)
-    converged = np.zeros(n, dtype=bool)
-    todo = np.arange(n)
-    K = steps
-    previous = PairInvariants.empty(n, N - 1)
-    while len(todo):
-        phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], K, width)
-        z, T, res, conv, Q = shoot(dynamics, states[todo], period[todo], phases, tol, max_iter)
-        states[todo], period[todo], residual[todo], converged[todo] = z, T, res, conv
-        ok = todo[conv]
-        if not len(ok):
-            break
-        # each level's invariants from the orbit converged at its own step count (started from the
-        # previous level's orbit, so usually converged at once): the change between levels bounds the
-        # error of the orbit's states as well as of its monodromy
-        level = _half_period_invariants(dynamics, Q[conv])
-        if K > steps:
-            found.assign(ok, level)
-            err[ok] = level.change_from(previous.select(ok))
-            used[ok] = K
-            if K >= max_steps:
-                break
-            margin, _ = level.margin(np.ones(len(ok), dtype=bool), floor)
-            bound = resolution_factor * err[ok]
-            ok = ok[(margin <= bound) & (bound > floor)]
-        previous.assign(todo[conv], level)
-        todo = ok
-        K *= 2
+    levels = _Levels(dynamics, n, (x_phase, x_slope_phase, joints, width), steps, max_steps, resolution_factor, floor)
+    found, err, used, residual, converged = levels.run(states, period, tol, max_iter)
     start = states[:, 0, :N]
     amplitude = np.abs(initial_start).max(axis=1)
     change = np.maximum(np.abs(start - initial_start).max(axis=1) / amplitude, np.abs(period / initial_period - 1.0))
@@ -721,3 +692,50 @@ def shooting_stability(
         initial_period=initial_period,
         initial_energy=dynamics.energy_at_rest(initial_start),
     )
+
+
+class _Levels:
+    """The levels of steps of :func:`shooting_stability`: a converged orbit at each, compared with the previous.
+
+    Each level's invariants come from the orbit converged at its own step count (started from the
+    previous level's orbit, so usually converged at once): the change between levels bounds the error
+    of the orbit's states as well as of its monodromy. ``grid``: ``(x_phase, x_slope_phase, joints,
+    width)`` of :func:`step_phases`.
+    """
+
+    def __init__(self, dynamics, n, grid, steps, max_steps, resolution_factor, floor):
+        self.dynamics, self.grid = dynamics, grid
+        self.steps, self.max_steps, self.factor, self.floor = steps, max_steps, resolution_factor, floor
+        pairs = dynamics.n_dofs - 1
+        self.found, self.previous = PairInvariants.empty(n, pairs), PairInvariants.empty(n, pairs)
+        self.err, self.used = np.full(n, np.inf), np.zeros(n, dtype=int)
+        self.residual, self.converged = np.full(n, np.inf), np.zeros(n, dtype=bool)
+
+    def run(self, states, period, tol, max_iter):
+        """Shoot level after level (``states``, ``period`` corrected in place) while the margin needs it."""
+        x_phase, x_slope_phase, joints, width = self.grid
+        todo, K = np.arange(len(period)), self.steps
+        while len(todo):
+            phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], K, width)
+            z, T, res, conv, Q = shoot(self.dynamics, states[todo], period[todo], phases, tol, max_iter)
+            states[todo], period[todo], self.residual[todo], self.converged[todo] = z, T, res, conv
+            ok = todo[conv]
+            if not len(ok):
+                break
+            level = _half_period_invariants(self.dynamics, Q[conv])
+            if K > self.steps:
+                ok = self._compare(ok, level, K)
+                if K >= self.max_steps:
+                    break
+            self.previous.assign(todo[conv], level)
+            todo, K = ok, 2 * K
+        return self.found, self.err, self.used, self.residual, self.converged
+
+    def _compare(self, ok, level, K):
+        """Keep ``level`` for the orbits ``ok`` with its change from the previous level; those to refine further."""
+        self.found.assign(ok, level)
+        self.err[ok] = level.change_from(self.previous.select(ok))
+        self.used[ok] = K
+        margin, _ = level.margin(np.ones(len(ok), dtype=bool), self.floor)
+        bound = self.factor * self.err[ok]
+        return ok[(margin <= bound) & (bound > self.floor)]
