@@ -11,7 +11,8 @@ linear mode up to ``--energy-max`` (25: about 160 points). Then, each in a fresh
   ``config/config.yaml`` (shooting refinement included).
 
 The two run alternately, best of ``--repeat`` (CPU time, ``time.process_time``; wall time beside it). The report
-(``--output``) gives the commits, machine, load, points, seconds, the ratio, and the points whose verdicts differ.
+(``--output``) gives the commits, machine and load (:func:`timing.run_header`), the points, seconds, the ratio,
+and the points whose verdicts differ.
 
 Usage::
 
@@ -24,7 +25,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -33,9 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from cold_build import REPO, tracked_copy
-from timing import check_repeat, emit_report
+from timing import check_repeat, emit_report, git_commit
 
-HARMONICS = 50
+HARMONICS = 50  # of the issue's example (--harmonics changes it, for tiny runs)
 
 # The 3-DOF example, built in every interpreter from the same numbers.
 _STRUCTURE = """
@@ -107,28 +107,6 @@ def run(code: str, source: Path) -> dict:
     return json.loads(lines[-1]) if lines else {}
 
 
-def commit_of(ref: str) -> str:
-    return subprocess.run(
-        ["git", "-C", str(REPO), "rev-parse", "--short", ref], capture_output=True, text=True, check=True
-    ).stdout.strip()
-
-
-def machine() -> str:
-    model = "unknown CPU"
-    cpuinfo = Path("/proc/cpuinfo")
-    if cpuinfo.exists():
-        model = next(
-            (
-                line.split(":", 1)[1].strip()
-                for line in cpuinfo.read_text().splitlines()
-                if line.startswith("model name")
-            ),
-            model,
-        )
-    system = f"{platform.system()} {platform.release()}"
-    return f"{model}, {os.cpu_count()} cores, {system}, Python {platform.python_version()}"
-
-
 def differences(reference: dict, this: dict, energy) -> list[str]:
     """Table rows of the points whose verdicts differ."""
     rows = []
@@ -143,17 +121,13 @@ def differences(reference: dict, this: dict, energy) -> list[str]:
     return rows
 
 
-def report(args, commits, points, best, last, energy, load) -> str:
+def report(args, commits, points, best, last, energy) -> str:
     ref, this = best["reference"], best["this"]
     same = sum(a == b for a, b in zip(last["reference"]["stable"], last["this"]["stable"]))
     lines = [
-        f"Generic stability of NNM1 of the 3-DOF example (H = {HARMONICS}, {points} points up to energy "
-        f"{args.energy_max:g}), side by side in one run, best of {args.repeat}, CPU seconds (wall in parentheses). "
-        "Command: `OPENBLAS_NUM_THREADS=1 python benchmarks/structure_stability.py --output "
-        "benchmarks/structure_stability.md`.",
+        f"Generic stability of NNM1 of the 3-DOF example (H = {args.harmonics}, {points} points up to energy "
+        f"{args.energy_max:g}), side by side in one run, best of {args.repeat}, CPU seconds (wall in parentheses).",
         "",
-        f"- machine: {machine()}",
-        f"- load average (1, 5, 15 min) before: {load[0]}, after: {load[1]}",
         f"- reference: `{commits['reference']}` (`structure_stability`, its defaults); this: `{commits['this']}` "
         f"(`orbit_stability`, config/config.yaml's `stability`; {last['this']['refined']} orbits refined by shooting)",
         "",
@@ -185,23 +159,26 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reference", default="fc5e57b", help="git ref of the code before the change")
     parser.add_argument("--energy-max", type=float, default=25.0)
+    parser.add_argument("--harmonics", type=int, default=HARMONICS)
     parser.add_argument("--config", type=Path, default=REPO / "config/config.yaml")
     parser.add_argument("--repeat", type=int, default=1, help="best of this many runs of each")
     parser.add_argument("--output", type=Path, help="also write the Markdown report here")
     args = parser.parse_args(argv)
     check_repeat(args.repeat)
     config = str(args.config.resolve())
-    load_before = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     with tempfile.TemporaryDirectory(prefix="nnmstop-structure-stability-") as tmp:
         reference = Path(tmp) / "reference"
         reference.mkdir()
         tracked_copy(reference, args.reference)
         points_file = str(Path(tmp) / "points.npz")
-        run(_CONTINUE.format(harmonics=HARMONICS, config=config, energy_max=args.energy_max, points=points_file), REPO)
+        run(
+            _CONTINUE.format(harmonics=args.harmonics, config=config, energy_max=args.energy_max, points=points_file),
+            REPO,
+        )
         data = np.load(points_file)
         codes = {
-            "reference": (_REFERENCE.format(harmonics=HARMONICS, points=points_file), reference),
-            "this": (_THIS.format(harmonics=HARMONICS, config=config, points=points_file), REPO),
+            "reference": (_REFERENCE.format(harmonics=args.harmonics, points=points_file), reference),
+            "this": (_THIS.format(harmonics=args.harmonics, config=config, points=points_file), REPO),
         }
         best, last = {}, {}
         for _ in range(args.repeat):
@@ -209,10 +186,8 @@ def main(argv=None) -> int:
                 last[name] = run(code, source)
                 old = best.get(name, (float("inf"), float("inf")))
                 best[name] = (min(old[0], last[name]["cpu"]), min(old[1], last[name]["wall"]))
-    load_after = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    dirty = subprocess.run(["git", "-C", str(REPO), "status", "--porcelain", "src"], capture_output=True, text=True)
-    commits = {"reference": commit_of(args.reference), "this": commit_of("HEAD") + ("+" if dirty.stdout else "")}
-    text = report(args, commits, len(data["U"]), best, last, data["energy"], (load_before, load_after))
+    commits = {"reference": git_commit(args.reference), "this": git_commit()}
+    text = report(args, commits, len(data["U"]), best, last, data["energy"])
     return emit_report(text, args.output)
 
 
