@@ -285,3 +285,16 @@ def test_the_two_dof_oscillator_in_the_other_order_has_the_same_stability():
     np.testing.assert_array_equal(a.stable, b.stable)
     np.testing.assert_array_equal(a.reason, b.reason)
     np.testing.assert_allclose(a.invariant, b.invariant, atol=1e-9)
+
+
+def test_orbits_of_a_structure_too_stiff_for_the_refinement_keep_the_orbit_verdict(caplog):
+    """The refinement's explicit Runge-Kutta scheme must resolve the stiffest mode (h omega_max <= 0.25) at two
+    levels of steps within refine_max_steps; for the 5-element beam (omega_max 425 times the first) it cannot:
+    an orbit whose own error decides (a time residual beyond max_orbit_residual, given here) keeps reason 2,
+    unrefined, and the log says why."""
+    system = HarmonicBalanceSystem(small_beam(), 8)
+    U, _ = structure_start_point(system, 1, 1e-3)
+    with caplog.at_level("WARNING", logger="nnmstop.hbm.monodromy"):
+        result = branch_monodromy(system, U[None], MonodromySettings(), time_residual=[0.1])
+    assert result.reason[0] == 2 and not result.refined[0] and not result.resolved[0]
+    assert "not refined" in caplog.text and "stiffest mode" in caplog.text

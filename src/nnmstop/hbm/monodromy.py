@@ -27,7 +27,7 @@ from nnmstop.floquet import (
     oscillator_expm,
     transition_matrix,
 )
-from nnmstop.hbm.shooting_refinement import refined_stability
+from nnmstop.hbm.shooting_refinement import explicit_steps, refined_stability
 from nnmstop.hbm.variational import Linearization, halfwave_symmetric, is_reversible, stop_coefficients
 
 __all__ = [
@@ -562,12 +562,25 @@ def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave
     idx = np.array([i for i in candidates if is_reversible(system, U_array[i])], dtype=int)
     if not len(idx):
         return out
+    # the explicit integrator must resolve the stiffest mode at two levels of steps at least
+    period = 2 * np.pi / np.sqrt(np.asarray(system.split(U_array[idx])[-2], dtype=float))
+    needed = explicit_steps(system.structure, period)
+    stiff = 2 * needed > settings.refine_max_steps
+    if stiff.any():
+        logger.warning(
+            "%d orbits not refined: the structure's stiffest mode needs %d Runge-Kutta steps a quarter period "
+            "(h omega_max <= 0.25), above refine_max_steps / 2 = %d; their verdicts stay the HBM orbits' (reason 2)",
+            stiff.sum(), needed.max(), settings.refine_max_steps // 2,
+        )
+        idx, needed = idx[~stiff], needed[~stiff]
+    if not len(idx):
+        return out
     start = time.perf_counter()
     F = settings.resolution_factor
     r = refined_stability(
         system,
         U_array[idx],
-        settings.refine_steps,
+        max(settings.refine_steps, int(needed.max())),
         settings.refine_max_steps,
         settings.refine_tol,
         F,
