@@ -10,9 +10,10 @@ linear mode up to ``--energy-max`` (25: about 160 points). Then, each in a fresh
 * this tree's one interface ``nnmstop.hbm.stability.orbit_stability`` with the ``stability`` section of
   ``config/config.yaml`` (shooting refinement included).
 
-The two run alternately, best of ``--repeat`` (CPU time, ``time.process_time``; wall time beside it). The report
-(``--output``) gives the commits, machine and load (:func:`timing.run_header`), the points, seconds, the ratio,
-and the points whose verdicts differ.
+With ``--tube results/tube/nnm1.nc`` the orbits of a built tube branch instead (the reference with the
+tube's former settings, 128 and 256 steps a period). The two run alternately, best of ``--repeat`` (CPU time,
+``time.process_time``; wall time beside it). The report (``--output``) gives the commits, machine and load
+(:func:`timing.run_header`), the points, seconds, the ratio, and the points whose verdicts differ.
 
 Usage::
 
@@ -47,6 +48,16 @@ structure = Structure(np.eye(3), np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], 
 system = HarmonicBalanceSystem(structure, {harmonics})
 """
 
+# The tube of config/config.yaml (read without validation: the commits' schemas differ), with --tube.
+_TUBE = """
+import numpy as np, yaml
+from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.models.beam import beam_structure
+from nnmstop.tasks.tube import tube_beam
+structure = beam_structure(tube_beam(yaml.safe_load(open({config!r}))["tube"]["structure"]))
+system = HarmonicBalanceSystem(structure, {harmonics})
+"""
+
 _CONTINUE = (
     _STRUCTURE
     + """
@@ -63,28 +74,23 @@ np.savez({points!r}, U=U, time_residual=[d["time_residual"] for d in diagnostics
 """
 )
 
-_REFERENCE = (
-    _STRUCTURE
-    + """
+_REFERENCE = """
 import json, time
 from nnmstop.hbm.structure_stability import structure_stability
 data = np.load({points!r})
 cpu, wall = time.process_time(), time.perf_counter()
-r = structure_stability(system, data["U"])
+r = structure_stability(system, data["U"], **{reference_settings!r})
 cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
 print(json.dumps(dict(cpu=cpu, wall=wall, stable=r.stable.tolist(), resolved=r.resolved.tolist(),
                       max_multiplier=r.max_multiplier.tolist(), error=r.error.tolist())))
 """
-)
 
-_THIS = (
-    _STRUCTURE
-    + """
+_THIS = """
 import json, time
-from nnmstop.config import load_config
+import yaml
 from nnmstop.hbm.monodromy import MonodromySettings
 from nnmstop.hbm.stability import StabilitySettings, orbit_stability
-config = load_config({config!r})
+config = yaml.safe_load(open({config!r}))
 settings = StabilitySettings(monodromy=MonodromySettings.from_config(config["stability"]))
 data = np.load({points!r})
 cpu, wall = time.process_time(), time.perf_counter()
@@ -94,7 +100,6 @@ print(json.dumps(dict(cpu=cpu, wall=wall, stable=r.stable.tolist(), resolved=r.r
                       max_multiplier=r.max_multiplier.tolist(), reason=r.reason.tolist(), margin=r.margin.tolist(),
                       error=r.integration_error.tolist(), refined=int(r.refined.sum()))))
 """
-)
 
 
 def run(code: str, source: Path) -> dict:
@@ -124,11 +129,17 @@ def differences(reference: dict, this: dict, energy) -> list[str]:
 def report(args, commits, points, best, last, energy) -> str:
     ref, this = best["reference"], best["this"]
     same = sum(a == b for a, b in zip(last["reference"]["stable"], last["this"]["stable"]))
+    what = (
+        f"the tube's orbits of `{args.tube}` (H = {args.harmonics}, {points} points)"
+        if args.tube
+        else f"NNM1 of the 3-DOF example (H = {args.harmonics}, {points} points up to energy {args.energy_max:g})"
+    )
+    settings = "steps 128, tolerance 1e-4: the tube's" if args.tube else "its defaults"
     lines = [
-        f"Generic stability of NNM1 of the 3-DOF example (H = {args.harmonics}, {points} points up to energy "
-        f"{args.energy_max:g}), side by side in one run, best of {args.repeat}, CPU seconds (wall in parentheses).",
+        f"Generic stability of {what}, side by side in one run, best of {args.repeat}, CPU seconds (wall in "
+        "parentheses).",
         "",
-        f"- reference: `{commits['reference']}` (`structure_stability`, its defaults); this: `{commits['this']}` "
+        f"- reference: `{commits['reference']}` (`structure_stability`, {settings}); this: `{commits['this']}` "
         f"(`orbit_stability`, config/config.yaml's `stability`; {last['this']['refined']} orbits refined by shooting)",
         "",
         "| code | points | seconds | points per second |",
@@ -155,11 +166,38 @@ def report(args, commits, points, best, last, energy) -> str:
     return "\n".join(lines)
 
 
+def tube_points(dataset: Path, points_file: str) -> int:
+    """The orbits of a built tube branch dataset as unknown vectors (DOF blocks and omega**2: all either code
+    reads) with their time residuals and energies, into ``points_file``; returns H."""
+    import xarray as xr
+
+    from nnmstop.config import load_config
+    from nnmstop.hbm.system import HarmonicBalanceSystem
+    from nnmstop.models.beam import beam_structure
+    from nnmstop.tasks.tube import tube_beam
+
+    with xr.open_dataset(dataset) as ds:
+        harmonics = int(ds.attrs["harmonics"])
+        structure = beam_structure(tube_beam(load_config(REPO / "config/config.yaml")["tube"]["structure"]))
+        system = HarmonicBalanceSystem(structure, harmonics)
+        U = np.zeros((ds.sizes["point"], system.n_unknowns))
+        for j in range(system.n_dofs):
+            U[:, system.slices[f"q{j}"]] = ds["q_cos"].values[:, j, : system.nc]
+        U[:, system.i_lam] = ds["omega_squared"].values
+        np.savez(points_file, U=U, time_residual=ds["time_residual"].values, energy=ds["energy"].values)
+    return harmonics
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reference", default="fc5e57b", help="git ref of the code before the change")
     parser.add_argument("--energy-max", type=float, default=25.0)
     parser.add_argument("--harmonics", type=int, default=HARMONICS)
+    parser.add_argument(
+        "--tube",
+        type=Path,
+        help="a built tube branch dataset (results/tube/nnm1.nc): its orbits instead of the 3-DOF's",
+    )
     parser.add_argument("--config", type=Path, default=REPO / "config/config.yaml")
     parser.add_argument("--repeat", type=int, default=1, help="best of this many runs of each")
     parser.add_argument("--output", type=Path, help="also write the Markdown report here")
@@ -171,14 +209,24 @@ def main(argv=None) -> int:
         reference.mkdir()
         tracked_copy(reference, args.reference)
         points_file = str(Path(tmp) / "points.npz")
-        run(
-            _CONTINUE.format(harmonics=args.harmonics, config=config, energy_max=args.energy_max, points=points_file),
-            REPO,
-        )
+        if args.tube:
+            args.harmonics = tube_points(args.tube, points_file)
+            structure = _TUBE.format(config=config, harmonics=args.harmonics)
+            reference_settings = {"steps": 128, "tolerance": 1e-4}  # the reference's tube.stability
+        else:
+            structure = _STRUCTURE.format(harmonics=args.harmonics)
+            reference_settings = {}  # structure_stability's defaults
+            continuation = _CONTINUE.format(
+                harmonics=args.harmonics, config=config, energy_max=args.energy_max, points=points_file
+            )
+            run(continuation, REPO)
         data = np.load(points_file)
         codes = {
-            "reference": (_REFERENCE.format(harmonics=args.harmonics, points=points_file), reference),
-            "this": (_THIS.format(harmonics=args.harmonics, config=config, points=points_file), REPO),
+            "reference": (
+                structure + _REFERENCE.format(points=points_file, reference_settings=reference_settings),
+                reference,
+            ),
+            "this": (structure + _THIS.format(config=config, points=points_file), REPO),
         }
         best, last = {}, {}
         for _ in range(args.repeat):
