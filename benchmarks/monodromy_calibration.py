@@ -17,12 +17,16 @@ from __future__ import annotations
 import argparse
 import sys
 
+import numpy as np
 import xarray as xr
 
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
 from nnmstop.config import load_config
+from nnmstop.floquet import PairInvariants
 from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, trace_invariants
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
+from nnmstop.hbm.variational import Linearization
+from nnmstop.models.structure import two_dof_parameters
 from nnmstop.tasks.hbm import system_from_config
 
 
@@ -41,14 +45,18 @@ def main(argv=None) -> int:
         system, U, MonodromySettings.from_config(config.get("stability", {})), time_residual=residual
     )
     near, far, wrong, failed = [], [], [], 0
+    # monodromies of (x, u, x', u') to mass-normalized coordinates, where they are symplectic for the standard J
+    normalize = np.kron(np.eye(2), Linearization.of(system).mass_factor.T)
+    params = two_dof_parameters(system.structure, "the calibration against the shooting of the 2-DOF oscillator")
     for i, orbit in enumerate(U):
         z0, period = orbit_initial_state(system, orbit)
         try:
-            z, period = refine_orbit(system.params, z0, period)
+            z, period = refine_orbit(params, z0, period)
         except RuntimeError:
             failed += 1
             continue
-        s_exact = float(trace_invariants(monodromy(system.params, z, period).matrix)[0])
+        matrix = normalize @ monodromy(params, z, period).matrix @ np.linalg.inv(normalize)
+        s_exact = float(PairInvariants.of(matrix[None], halfwave=False).s[0, 0].real)
         ratio = abs(mono.invariant[i] - s_exact) / residual[i]
         (near if mono.margin[i] < 0.05 else far).append(ratio)
         if (abs(s_exact) <= 2) != bool(mono.stable[i]):

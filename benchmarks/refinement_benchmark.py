@@ -23,8 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from branch_orbits import branch_orbits
+from nnmstop.catalogue import kind
 from nnmstop.config import load_config
-from nnmstop.hbm.monodromy import REASONS, MonodromySettings, branch_monodromy
+from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
 from timing import check_repeat, emit_report, timed
 
 DEFAULT_DATASETS = [
@@ -67,7 +68,8 @@ def main(argv=None) -> int:
         plain, refined = results["plain"], results["refined"]
         count = int(refined.refined.sum())
         added = f"{1e3 * (best['refined'][0] - best['plain'][0]) / count:.1f}" if count else "-"
-        reasons = ", ".join(f"{code} {REASONS[code]}: {n}" for code, n in enumerate(np.bincount(refined.reason)) if n)
+        meanings = kind("nnm_branch")["stability_reason"].flags
+        reasons = ", ".join(f"{code} {meanings[code]}: {n}" for code, n in enumerate(np.bincount(refined.reason)) if n)
         converged = refined.refined & (refined.reason != 4)
         df = float(np.abs(refined.refined_frequency_change[converged]).max()) if converged.any() else 0.0
         de = float(np.abs(refined.refined_energy_change[converged]).max()) if converged.any() else 0.0

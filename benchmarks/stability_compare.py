@@ -33,16 +33,18 @@ _CHILD = """
 import json, sys
 sys.path.insert(0, {benchmarks!r})
 from branch_orbits import branch_orbits
-from nnmstop.config import load_config
+import yaml
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
 from timing import timed
-config = load_config({config!r})
+# read without validation: each commit's schema may name keys the other's does not (settings take their own)
+config = yaml.safe_load(open({config!r}))
 settings = MonodromySettings.from_config(config.get("stability", {{}}))
 out = {{}}
 for path, system, U, residual in branch_orbits({datasets!r}, config):
     result, cpu, wall = timed(lambda: branch_monodromy(system, U, settings, time_residual=residual))
     out[path.name] = dict(points=len(U), cpu=cpu, wall=wall, refined=int(result.refined.sum()),
-                          stable=result.stable.astype(int).tolist(), reason=result.reason.astype(int).tolist())
+                          stable=result.stable.astype(int).tolist(), reason=result.reason.astype(int).tolist(),
+                          invariant=result.invariant.tolist())
 print(json.dumps(out))
 """
 
@@ -88,22 +90,24 @@ def main(argv=None) -> int:
         f"Monodromy stability (branch_monodromy, refinement included) of `{a}` and `{b}`, best of {args.repeat}, "
         "alternating, CPU time (wall time in parentheses):",
         "",
-        f"| dataset | points | refined | `{a}` (s) | `{b}` (s) | CPU ratio | same verdicts and reasons |",
-        "|---|---:|---:|---:|---:|---:|---|",
+        f"| dataset | points | refined | `{a}` (s) | `{b}` (s) | CPU ratio | same verdicts and reasons | "
+        "largest change of floquet_invariant |",
+        "|---|---:|---:|---:|---:|---:|---|---:|",
     ]
     total = {a: [0.0, 0.0], b: [0.0, 0.0]}
     for name, row in last[a].items():
         for ref in (a, b):
             total[ref] = [total[ref][0] + best[ref][name][0], total[ref][1] + best[ref][name][1]]
         same = row["stable"] == last[b][name]["stable"] and row["reason"] == last[b][name]["reason"]
+        change = max((abs(x - y) for x, y in zip(row["invariant"], last[b][name]["invariant"])), default=0.0)
         lines.append(
             f"| {name} | {row['points']} | {row['refined']} | {best[a][name][0]:.2f} ({best[a][name][1]:.2f}) | "
             f"{best[b][name][0]:.2f} ({best[b][name][1]:.2f}) | {best[b][name][0] / best[a][name][0]:.2f} | "
-            f"{'yes' if same else 'NO'} |"
+            f"{'yes' if same else 'NO'} | {change:.1e} |"
         )
     lines.append(
         f"| total | | | {total[a][0]:.2f} ({total[a][1]:.2f}) | {total[b][0]:.2f} ({total[b][1]:.2f}) | "
-        f"{total[b][0] / total[a][0]:.2f} | |"
+        f"{total[b][0] / total[a][0]:.2f} | | |"
     )
     return emit_report("\n".join(lines), args.output)
 

@@ -50,14 +50,13 @@ TINY_RUNS = {
                             "--output", "{out}"],
     "stability_compare": ["{build}/" + NNM2, "--compare", "HEAD", "HEAD", "--config", SMALL, "--repeat", "1",
                           "--output", "{out}"],
+    "structure_stability": ["--reference", "fc5e57b", "--energy-max", "0.05", "--harmonics", "8", "--output", "{out}"],
 }
 # fmt: on
 
 
 #: Scripts whose tiny run fails on this commit, with why: strict, so the test says when one runs again.
-BROKEN = {
-    "monodromy_calibration": "uses trace_invariants and system.params, gone from nnmstop.hbm.monodromy in ee16e1c",
-}
+BROKEN = {}
 
 
 def scripts() -> list[str]:

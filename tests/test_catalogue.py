@@ -33,9 +33,6 @@ def test_no_long_name_is_written_outside_the_catalogue_in_new_code(repo_root):
     legacy = {
         "exact/dataset.py",
         "exact/stability.py",
-        "hbm/monodromy.py",
-        "hbm/stability.py",
-        "hbm/structure_stability.py",
         "netcdf.py",
     }
     # the explorer reads the datasets' attributes into its page: it writes no dataset

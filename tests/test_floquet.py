@@ -146,7 +146,8 @@ def test_a_complex_quartet_is_a_complex_invariant():
 
 
 def test_periodic_floquet_of_a_damped_oscillator():
-    """Constant generator, multipliers exp(lambda T): q'' + 2 zeta q' + q = 0, lambda = -zeta +- i sqrt(1-zeta^2)."""
+    """Constant generator: the multipliers exp(lambda T) of q'' + 2 zeta q' + q = 0, lambda the roots of
+    lambda**2 + 2 zeta lambda + 1."""
     zeta = 0.05
     A = np.array([[0.0, 1.0], [-1.0, -2 * zeta]])
     T = np.array([2.0, 7.0])

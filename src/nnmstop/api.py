@@ -13,16 +13,14 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from nnmstop.catalogue import describe
+from nnmstop.catalogue import describe, kind
 from nnmstop.continuation.anm import ANMSettings
-from nnmstop.hbm.stages import BranchSettings, BranchSpec, MagnusStability, StageSpec, continue_stage
+from nnmstop.hbm.stability import StabilitySettings
+from nnmstop.hbm.stages import BranchSettings, BranchSpec, StageSpec, continue_stage
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import Structure
 
 __all__ = ["continue_nnm", "stability", "exact_family", "exact_family_dataset"]
-
-#: Floquet multipliers of the API's branches: fourth-order Magnus steps over a period, any structure.
-DEFAULT_STABILITY = MagnusStability(steps=128, tolerance=1e-4)
 
 
 def continue_nnm(
@@ -35,6 +33,7 @@ def continue_nnm(
     max_truncation: float = 1e-3,
     pass_resonances: int = 0,
     continuation: ANMSettings | None = None,
+    stability: StabilitySettings | None = None,
 ) -> xr.Dataset:
     """Continue the regularized NNM ``mode`` of ``structure`` from its linear mode and return its dataset.
 
@@ -63,6 +62,9 @@ def continue_nnm(
         Internal resonance tongues passed onto the backbone beyond (``docs/methods/tube_resonance.md``).
     continuation : ANMSettings, optional
         Series order, tolerance, Newton threshold, steps, points per step.
+    stability : StabilitySettings, optional
+        How the Floquet multipliers are computed (:func:`nnmstop.hbm.stability.orbit_stability`; default: the
+        monodromy with Magnus steps, error estimates and shooting refinement, ``docs/methods/monodromy.md``).
 
     Returns
     -------
@@ -84,7 +86,7 @@ def continue_nnm(
     settings = BranchSettings(
         continuation or ANMSettings(points_per_step=2),
         max_truncation,
-        DEFAULT_STABILITY,
+        stability or StabilitySettings(),
         truncation_setting="max_truncation",
     )
     stage = StageSpec("api", until or {"energy_above": float(energy_max)}, pass_resonances=pass_resonances)
@@ -92,33 +94,42 @@ def continue_nnm(
     return continue_stage(system, settings, spec, 1)
 
 
-def stability(structure: Structure, branch: xr.Dataset, steps: int = 128, tolerance: float = 1e-4) -> xr.Dataset:
-    """Floquet multipliers of the orbits of a branch dataset of ``structure``, recomputed.
+def stability(structure: Structure, branch: xr.Dataset, settings: StabilitySettings | None = None) -> xr.Dataset:
+    """Floquet stability of the orbits of a branch dataset of ``structure``, recomputed.
 
-    Fourth-order Magnus steps over a period of the variational equation (``steps`` and twice as many,
-    their difference the integration error); an orbit is stable when its largest multiplier modulus is
-    at most ``1 + tolerance``.
+    The one interface of every branch (:func:`nnmstop.hbm.stability.orbit_stability`): by default the
+    monodromy matrix of the variational equation by Magnus steps, with its integration and orbit error
+    estimates, the orbits whose own error decides the verdict refined by shooting
+    (``docs/methods/monodromy.md``); ``settings`` chooses the method (``hill``) and its tolerances. An
+    orbit whose ``time_residual`` exceeds ``settings.monodromy.max_orbit_residual`` gets no resolved verdict.
 
     Returns
     -------
     xarray.Dataset
-        ``multiplier_real``, ``multiplier_imag(point, multiplier)``, ``max_multiplier``, ``stable``,
-        ``stability_error``, ``stability_resolved``.
+        ``stable``, ``multiplier_real``, ``multiplier_imag(point, multiplier)``, ``max_multiplier``,
+        ``stability_resolved`` and the method's error estimates (names and meanings: ``docs/datasets.md``).
 
     Examples
     --------
     >>> from nnmstop import two_dof_structure, continue_nnm, stability
     >>> s = two_dof_structure()
-    >>> verdicts = stability(s, continue_nnm(s, harmonics=10, energy_max=0.05), steps=64)
-    >>> bool(verdicts.stable.all())  # NNM1 below grazing: linear, stable
-    True
+    >>> verdicts = stability(s, continue_nnm(s, harmonics=10, energy_max=0.05))
+    >>> bool(verdicts.stable.all()), bool(verdicts.stability_resolved.all())  # NNM1 below grazing: linear, stable
+    (True, True)
     """
     from nnmstop.hbm.dataset import dataset_unknowns
-    from nnmstop.hbm.structure_stability import structure_stability
+    from nnmstop.hbm.stability import orbit_stability
 
     system = HarmonicBalanceSystem(structure, int(branch.attrs["harmonics"]), basis=str(branch.attrs["basis"]))
-    verdicts = structure_stability(system, dataset_unknowns(branch, system), steps=steps, tolerance=tolerance)
-    return xr.Dataset(verdicts.data_vars(), coords={"point": branch["point"].values})
+    residual = branch["time_residual"].values if "time_residual" in branch else None
+    verdicts = orbit_stability(
+        system, dataset_unknowns(branch, system), settings or StabilitySettings(), time_residual=residual
+    )
+    ds = xr.Dataset(verdicts.data_vars(), coords={"point": branch["point"].values})
+    spec = kind("nnm_branch")  # labelled as in a branch dataset (not one: no orbits)
+    for name in ds.variables:
+        ds[name].attrs = spec[name].attrs()
+    return ds
 
 
 def exact_family_dataset(structure: Structure, family) -> xr.Dataset:

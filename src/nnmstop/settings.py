@@ -35,7 +35,7 @@ from nnmstop.continuation.anm import ANMSettings
 from nnmstop.exact.family import FamilySettings
 from nnmstop.hbm.monodromy import MonodromySettings
 from nnmstop.hbm.stability import StabilitySettings
-from nnmstop.hbm.stages import BifurcationSpec, BranchSettings, BranchSpec, MagnusStability, StageSpec
+from nnmstop.hbm.stages import BifurcationSpec, BranchSettings, BranchSpec, StageSpec
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import Structure, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
@@ -121,11 +121,9 @@ def anm_settings(config: dict, points_per_step: int = 1) -> ANMSettings:
     return ANMSettings.from_config(_section(config, "anm"), points_per_step=int(points_per_step))
 
 
-def stability_settings(config: dict) -> StabilitySettings | MagnusStability:
-    """Stability settings from the ``stability`` section (the monodromy method when it is absent)."""
+def stability_settings(config: dict) -> StabilitySettings:
+    """Stability settings from the ``stability`` section (the monodromy method when it is absent), any structure."""
     spec = config.get("stability", {"method": "monodromy"})
-    if spec.get("method") == "magnus":
-        return MagnusStability(steps=int(spec["steps"]), tolerance=float(spec["tolerance"]))
     hill = {"hill_tol": spec["hill_tol"]} if "hill_tol" in spec else {}
     return StabilitySettings(
         method=spec.get("method", "monodromy"), monodromy=MonodromySettings.from_config(spec), **hill

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from fixed_energy import orbit_at_energy
+from nnmstop.catalogue import kind
 from nnmstop.checks.shooting import monodromy, orbit_initial_state, refine_orbit
 from nnmstop.compare.matching import regularized_monotone_part
 from nnmstop.hbm.dataset import dataset_unknowns
@@ -312,8 +313,9 @@ def test_branch_hill_layout(system, nnm1):
     assert set(data) >= {"stable", "multiplier_real", "multiplier_imag", "max_multiplier"}
     assert data["multiplier_real"][0] == ("point", "multiplier")
     assert data["stable"][1].dtype == np.int8
-    for _dims, values, attrs in data.values():
-        assert "long_name" in attrs and "units" in attrs
+    catalogue = kind("nnm_branch")  # plain arrays; long names and units from the catalogue
+    for name, (dims, values) in data.items():
+        assert name in catalogue and catalogue[name].dims == tuple(np.atleast_1d(dims))
         assert np.shape(values)[0] == 5
 
 

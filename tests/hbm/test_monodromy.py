@@ -32,7 +32,7 @@ from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.hbm.variational import Linearization
 from nnmstop.models.structure import two_dof_parameters, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
-from nnmstop.tasks.hbm import stability_settings
+from nnmstop.settings import stability_settings
 
 
 @pytest.fixture(scope="module")

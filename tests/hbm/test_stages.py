@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from nnmstop.catalogue import describe
 from nnmstop.config import load_config
 from nnmstop.continuation.core import ContinuationError, ContinuationStats, newton_correct
 from nnmstop.hbm.dataset import dataset_unknowns
@@ -47,7 +48,7 @@ def test_nnm2_approaches_gap_zero_mode_from_below(small_config):
     # hardening all the way: frequency grows with energy along NNM2
     order = np.argsort(ds["energy"].values)
     assert np.all(np.diff(freq[order]) > -1e-9)
-    check_labelled(ds)
+    check_labelled(describe(ds, "nnm_branch"))  # long names and units come from the catalogue when written
 
 
 def test_stage_ends_where_its_criterion_is_first_met(nnm1_stages):

@@ -110,7 +110,7 @@ rule tube_study_case:
     benchmark:
         benchmarks("tube_study_gap{gap}_k{factor}.tsv")
     params:
-        config=task_config("anm", "metadata", tube=["structure", "hbm", "anm", "stability", "branches", "exact", "compare_count", "figures", "study"]),
+        config=task_config("anm", "stability", "metadata", tube=["structure", "hbm", "anm", "stability", "branches", "exact", "compare_count", "figures", "study"]),
     conda:
         "../envs/nnmstop.yaml"
     script:

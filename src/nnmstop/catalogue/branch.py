@@ -4,9 +4,9 @@ The paper's oscillator, the finite-element tube and a structure of one's own sha
 (:mod:`nnmstop.hbm.dataset`): ``q_cos``/``q_sin(point, dof, harmonic)`` with the coordinate ``dof_label``
 (``x``, ``u`` for the paper's oscillator), the stop forces and internal variables per ``stop``, the
 diagnostics, located branch points, folds and resonance tongues, the stops and linear limits of the
-structure, and the Floquet verdicts. The stability variables depend on ``stability.method``: the
-monodromy (default for the paper's oscillator) writes the optional ones marked so, Magnus steps over a
-period (``magnus``) ``stability_error``.
+structure, and the Floquet verdicts of :func:`nnmstop.hbm.stability.orbit_stability` (any structure): the
+variables marked optional beyond the first six stability variables exist with the monodromy method
+(``stability.method: monodromy``, the default) only.
 """
 
 from nnmstop.catalogue import DatasetKind, Variable
@@ -179,21 +179,31 @@ LOCATED_VARIABLES = (
     ),
 )
 
+#: Floquet stability of the orbits of a branch, any structure (:func:`nnmstop.hbm.stability.orbit_stability`):
+#: the 2-DOF branches', the tube's and a user's structure's. The first six with either method; the others
+#: with the monodromy method only.
 STABILITY_VARIABLES = (
     Variable(
         "stable",
         ("point",),
-        "orbit linearly stable (1) or unstable (0), by the stability method of the configuration",
+        "orbit linearly stable (1) or unstable (0), by the stability method of the configuration: every non-trivial "
+        "Floquet multiplier pair on the unit circle",
         flags=("unstable", "stable"),
     ),
     Variable("multiplier_real", ("point", "multiplier"), "real part of the Floquet multipliers"),
     Variable("multiplier_imag", ("point", "multiplier"), "imaginary part of the Floquet multipliers"),
-    Variable("max_multiplier", ("point",), "largest modulus of the non-trivial Floquet multiplier pair"),
+    Variable("max_multiplier", ("point",), "largest modulus of the non-trivial Floquet multipliers"),
     Variable(
         "stability_orbit_residual",
         ("point",),
         "estimate of the change of floquet_invariant due to the orbit's error: larger of time_residual and stability_trivial_deviation",
-        optional=True,
+    ),
+    Variable(
+        "stability_resolved",
+        ("point",),
+        "stability verdict resolved (1): stability_margin larger than the error estimates (stability_reason), and "
+        "time_residual within stability.max_orbit_residual",
+        flags=("unresolved", "resolved"),
     ),
     Variable(
         "stability_trivial_deviation",
@@ -202,15 +212,16 @@ STABILITY_VARIABLES = (
         optional=True,
     ),
     Variable(
-        "stability_resolved",
-        ("point",),
-        "stability verdict resolved (1): stability_margin larger than the error estimates (stability_reason)",
-        flags=("unresolved", "resolved"),
-    ),
-    Variable(
         "stability_reason",
         ("point",),
-        "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within 2 x stability_integration_error at the largest step count; 2 stability_margin within 2 x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it) and the orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's margin was within 2 x its error; stability variables from the refined orbit); 4 the shooting did not converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within 2 x its integration error at the largest step count or below trace_tol: the non-trivial pair sits at +1 (a stability change, e.g. an energy fold)",
+        "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within resolution_factor (2) x "
+        "stability_integration_error at the largest step count; 2 stability_margin within 2 x stability_orbit_residual, or "
+        "time_residual above stability.max_orbit_residual (the HBM orbit's own error; more steps would not resolve it), "
+        "and the orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of the regularized "
+        "equations of motion (the HBM orbit's own error decided; stability variables from the refined orbit); 4 the "
+        "shooting did not converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within 2 x its "
+        "integration error at the largest step count or below trace_tol: a non-trivial pair sits at +1 (a stability "
+        "change, e.g. an energy fold)",
         flags=(
             "resolved",
             "integration_error",
@@ -224,31 +235,37 @@ STABILITY_VARIABLES = (
     Variable(
         "floquet_invariant",
         ("point",),
-        "invariant mu + 1/mu of the non-trivial Floquet pair (in [-2, 2] when elliptic)",
+        "invariant mu + 1/mu of the non-trivial Floquet pair that sets stability_margin (in [-2, 2] when elliptic; "
+        "its real part for a complex quartet)",
         optional=True,
     ),
     Variable(
         "stability_margin",
         ("point",),
-        "distance of floquet_invariant to the values where the non-trivial pair changes type (2, and -2 unless half-wave symmetric)",
+        "distance of the non-trivial pairs' invariants mu + 1/mu to where the verdict can change: for a stable orbit to 2 "
+        "(and -2 unless half-wave symmetric) and to another elliptic pair of opposite Krein sign, for an unstable one "
+        "the largest distance of an unstable pair to [-2, 2]",
         optional=True,
     ),
     Variable(
         "stability_integration_error",
         ("point",),
-        "change of floquet_invariant between the last two step counts of the monodromy integration",
+        "largest change of a pair's invariant mu + 1/mu between the last two step counts of the integration",
         optional=True,
     ),
     Variable(
         "stability_steps",
         ("point",),
-        "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric); on refined orbits (stability_reason 3-5) Runge-Kutta steps over a quarter period",
+        "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric; "
+        "commutator-free above 3 degrees of freedom); on refined orbits (stability_reason 3-5) Runge-Kutta steps over "
+        "a quarter period",
         optional=True,
     ),
     Variable(
         "stability_refined",
         ("point",),
-        "orbit refined by shooting into a periodic orbit of (7) for its verdict (stability_reason 3-5)",
+        "orbit refined by shooting into a periodic orbit of the regularized equations of motion for its verdict "
+        "(stability_reason 3-5)",
         flags=("no", "yes"),
         optional=True,
     ),
@@ -267,16 +284,16 @@ STABILITY_VARIABLES = (
     Variable(
         "stability_refined_residual",
         ("point",),
-        "closure of the shooting conditions x = u = 0 at a quarter period relative to the amplitude (0 where stability_refined = 0; 1 where the shooting diverged at once)",
+        "closure of the shooting conditions q = 0 at a quarter period relative to the amplitude (0 where "
+        "stability_refined = 0; 1 where the shooting diverged at once)",
         optional=True,
     ),
     Variable(
-        "stability_error",
-        ("point",),
-        "change of the largest multiplier modulus when the Magnus steps are doubled (stability.method magnus)",
-        optional=True,
+        "multiplier",
+        ("multiplier",),
+        "index of the Floquet multiplier: 0, 1 the trivial pair; then each non-trivial pair mu, 1/mu (the larger "
+        "first), pairs by decreasing largest modulus (2, 3 for the paper's oscillator)",
     ),
-    Variable("multiplier", ("multiplier",), "index of the Floquet multiplier"),
 )
 
 NNM_BRANCH_VARIABLES = (

@@ -1,15 +1,16 @@
-r"""Floquet stability of an HBM orbit by Hill's method.
+r"""Floquet stability of an HBM orbit of any structure by Hill's method.
 
-The perturbation of an orbit of the regularized equations (7) is a Floquet exponent times a
-Fourier series; its Galerkin projection is a quadratic eigenproblem in the exponent, linearized
-with the contact slope ``k(t) = f'(x(t))`` of the model on the HBM ``x(t)`` (symmetric, so the
-Hamiltonian structure is kept exactly). Two solvers:
+The perturbation of an orbit of the regularized equations of a structure (``N`` degrees of
+freedom, any stops; mass-normalized coordinates, :mod:`nnmstop.hbm.variational`) is a Floquet
+exponent times a Fourier series; its Galerkin projection is a quadratic eigenproblem in the
+exponent, linearized with the contact slopes ``k_i(t) = f_i'(x_i(t))`` of the model on the HBM
+orbit (symmetric, so the Hamiltonian structure is kept exactly). Two solvers:
 
 * ``"reversible"`` (orbits even in time): a real eigenproblem in ``sigma**2`` of half the size,
   halved again by the half-wave symmetry of the NNMs, with the trivial pair deflated exactly;
 * ``"companion"`` (any orbit): the first-order companion form.
 
-The non-trivial pair is picked by the spectral centroid of the eigenvectors. :func:`floquet`
+The ``N - 1`` non-trivial pairs are picked by the spectral centroid of the eigenvectors. :func:`floquet`
 handles one orbit; :func:`nnmstop.hbm.stability.branch_hill` runs it along a branch and builds the
 dataset variables. Method notes: ``docs/methods/hill.md``; independent reference:
 :mod:`nnmstop.checks.shooting`.
@@ -23,8 +24,15 @@ import numpy as np
 from scipy.linalg import eig
 
 from nnmstop import fourier
-from nnmstop.models.structure import two_dof_parameters
-from nnmstop.models.two_dof import regularized_contact_stiffness, stiffness_matrix
+from nnmstop.hbm.variational import (
+    Linearization,
+    check_unknowns,
+    dof_coefficients,
+    halfwave_symmetric,
+    is_halfwave_symmetric,
+    is_reversible,
+    stop_coefficients,
+)
 
 __all__ = [
     "FloquetResult",
@@ -46,11 +54,8 @@ __all__ = [
 LINEARIZATIONS = ("model", "recast")
 METHODS = ("auto", "reversible", "companion")
 DEFAULT_TOL = 1e-6
-# Relative size of sine coefficients below which a full-basis orbit is taken as
-# time-reversible.
-REVERSIBLE_TOL = 1e-10
-# Relative size of even harmonics below which an orbit is taken as half-wave symmetric.
-HALFWAVE_TOL = 1e-7
+# Distance modulo i (theta units) below which two exponents are taken as members of one family.
+FAMILY_TOL = 1e-6
 # Safety factor of the `resolved` flag: distance of mu_1 to the collision points over
 # the orbit residual (chosen against exact orbits, docs/methods/hill.md).
 RESOLUTION_FACTOR = 5.0
@@ -65,17 +70,17 @@ class FloquetResult:
 
     Attributes
     ----------
-    multipliers : ndarray of complex, shape (4,)
-        ``[trivial, trivial, mu_1, mu_2]``: the trivial pair first (exactly ``1, 1``
-        with the reversible solver), then the non-trivial pair, ``mu_1`` the larger
-        in modulus (``mu_1 mu_2 = 1``).
-    exponents : ndarray of complex, shape (4,)
+    multipliers : ndarray of complex, shape (2N,)
+        ``[trivial, trivial, mu_1, 1/mu_1, mu_2, ...]``: the trivial pair first (exactly
+        ``1, 1`` with the reversible solver), then the ``N - 1`` non-trivial pairs by decreasing
+        largest modulus, each with the larger in modulus first (``[.., mu_1, mu_2]`` for 2 DOF).
+    exponents : ndarray of complex, shape (2N,)
         Centred Floquet exponents ``s`` in units of the nondimensional time, same
         order (``multipliers = exp(s T)``; defined modulo ``i omega``).
     stable : bool
         ``max_multiplier <= 1 + tol``.
     max_multiplier : float
-        Largest modulus of the non-trivial pair.
+        Largest modulus of the non-trivial pairs.
     tol : float
         Tolerance used for ``stable``.
     period : float
@@ -91,18 +96,19 @@ class FloquetResult:
         ``max |mu - 1|`` over the trivial pair as computed (0 for the reversible
         solver, which makes it exact).
     pairing_error : float
-        ``|mu_1 mu_2 - 1|`` (0 for the reversible solver, where it is exact).
-    centroids : ndarray, shape (4,)
+        Largest ``|mu mu' - 1|`` of a non-trivial pair (0 for the reversible solver, where it is exact).
+    centroids : ndarray, shape (2N,)
         Spectral centroid ``kappa`` of each selected (centred) eigenvector.
     tail_fraction : float
-        Share of the non-trivial eigenvector's power in the top tenth of the
+        Largest share of a non-trivial eigenvector's power in the top tenth of the
         harmonics (small: resolved by ``H_p``).
     halfwave : bool
         Whether the half-wave symmetry was used (reversible solver only).
     margin : float
-        Distance of ``mu_1`` to the points where the non-trivial pair can change
-        type: ``|mu_1 - 1|`` for half-wave symmetric orbits (their pair crosses -1
-        freely, see docs/methods/hill.md), ``min |mu_1 -+ 1|`` otherwise.
+        Distance of the non-trivial pairs to the points where a pair can change type,
+        the smallest over the pairs: ``|mu - 1|`` for half-wave symmetric orbits (their pairs
+        cross -1 freely, see docs/methods/hill.md), ``min |mu -+ 1|`` otherwise. (Collisions of
+        two pairs are not in it: docs/methods/hill.md.)
     resolved : bool
         ``margin > 5 orbit_residual``: the verdict does not hinge on the orbit's
         error (a heuristic factor, docs/methods/hill.md).
@@ -127,21 +133,6 @@ class FloquetResult:
 
 
 # --------------------------------------------------------------------------- checks
-
-
-def check_unknowns(system, U):
-    """``U`` as one finite unknown vector of ``system`` with ``omega**2 > 0`` (ValueError otherwise)."""
-    U = np.asarray(U, dtype=float)
-    if U.shape != (system.n_unknowns,):
-        raise ValueError(
-            f"U must be one unknown vector of length {system.n_unknowns} for this system, got shape {U.shape}"
-        )
-    if not np.all(np.isfinite(U)):
-        raise ValueError("U must be finite")
-    lam = system.split(U)[4]
-    if not lam > 0:
-        raise ValueError(f"omega**2 must be > 0 on a periodic orbit, got {lam!r}")
-    return U
 
 
 def check_harmonics(harmonics, default):
@@ -175,7 +166,7 @@ def _grid_size(harmonics_orbit, harmonics_perturbation):
 
 
 def contact_stiffness_series(system, U, linearization: str = "model", samples: int | None = None):
-    """Samples of ``k(t) = f'(x(t))`` over one period, on ``samples`` equispaced phases.
+    """Samples of every stop's ``k_i(t) = f_i'(x_i(t))`` over one period, on ``samples`` equispaced phases.
 
     Parameters
     ----------
@@ -183,15 +174,15 @@ def contact_stiffness_series(system, U, linearization: str = "model", samples: i
     U : array_like
         Unknown vector of an orbit (cosine or full basis).
     linearization : {"model", "recast"}
-        ``"model"``: :func:`nnmstop.models.two_dof.regularized_contact_stiffness` of the HBM
-        ``x(t)``; ``"recast"``: ``(eta - 2 f g) / (1 - z - 2 f g / alpha)`` on the HBM
-        fields (see docs/methods/hill.md).
+        ``"model"``: the model's slope (:meth:`Linearization.contact_stiffness`) on the HBM
+        ``x_i(t)``; ``"recast"``: ``(eta - 2 f g) / (1 - z - 2 f g / alpha)`` on the HBM fields of
+        each stop, ``g = f / alpha - x`` (see docs/methods/hill.md).
     samples : int, optional
         Number of samples (default: 8 per harmonic of the orbit, power of two).
 
     Returns
     -------
-    ndarray, shape (samples,)
+    ndarray, shape (s, samples)
     """
     if linearization not in LINEARIZATIONS:
         raise ValueError(f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}")
@@ -199,111 +190,65 @@ def contact_stiffness_series(system, U, linearization: str = "model", samples: i
     n = _grid_size(system.H, system.H) if samples is None else samples
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < system.nfull:
         raise ValueError(f"samples must be an integer >= 2H+1 = {system.nfull}, got {samples!r}")
-    p = two_dof_parameters(system.structure, "Hill's method")
-    x, _, f, z, _, _ = system.split(U)
+    x = system.to_time(stop_coefficients(system, U[None])[0], int(n))
     if linearization == "model":
-        return regularized_contact_stiffness(system.to_time(x, int(n)), p)
-    g = f / p.alpha - x
-    f_t, z_t, g_t = system.to_time(np.stack([f, z, g]), int(n))
-    fg = f_t * g_t
-    return (p.eta - 2.0 * fg) / (1.0 - z_t - 2.0 * fg / p.alpha)
-
-
-def is_reversible(system, U) -> bool:
-    """Whether an orbit is even in time (no sine content in ``x`` and ``u``).
-
-    Always true in the cosine basis; in the full basis, true when the sine
-    coefficients are below ``1e-10`` of the largest coefficient.
-    """
-    if not system.full:
-        return True
-    U = check_unknowns(system, U)
-    x, u = system.split(U)[:2]
-    H = system.H
-    scale = max(np.max(np.abs(x)), np.max(np.abs(u)), 1e-300)
-    odd = max(np.max(np.abs(x[H + 1 :])), np.max(np.abs(u[H + 1 :])))
-    return bool(odd <= REVERSIBLE_TOL * scale)
-
-
-def is_halfwave_symmetric(system, U) -> bool:
-    """Whether an orbit has the half-wave symmetry ``(x, u)(t + T/2) = -(x, u)(t)``.
-
-    True when the even harmonics (mean included) of ``x`` and ``u`` are below
-    ``1e-7`` of the largest coefficient. The contact force being odd, the symmetric
-    orbits form an invariant subspace of the HBM system (``x, u, f`` odd harmonics,
-    ``z`` even ones); continued branches keep it up to round-off drift (about
-    ``2e-10`` along the H = 100 NNM1 branch).
-    """
-    return bool(halfwave_symmetric(system, check_unknowns(system, U)[None])[0])
-
-
-def halfwave_symmetric(system, U_array) -> np.ndarray:
-    """:func:`is_halfwave_symmetric` for each row of ``U_array`` (shape (n, n_unknowns), checked by the caller)."""
-    x, u = (system.to_full(c) for c in system.split(np.asarray(U_array, dtype=float))[:2])
-    H = system.H
-    even = np.r_[0, np.arange(2, H + 1, 2), H + np.arange(2, H + 1, 2)]
-    scale = np.maximum(np.maximum(np.abs(x).max(axis=-1), np.abs(u).max(axis=-1)), 1e-300)
-    even_max = np.maximum(np.abs(x[:, even]).max(axis=-1), np.abs(u[:, even]).max(axis=-1))
-    return even_max <= HALFWAVE_TOL * scale
+        return Linearization.of(system).contact_stiffness(x)
+    blocks = system.split(U)
+    N, s = system.n_dofs, system.n_stops
+    f_t, z_t = (system.to_time(np.stack(blocks[N + i * s : N + (i + 1) * s]), int(n)) for i in (0, 1))
+    alpha, eta = np.asarray(system.alphas)[:, None], np.asarray(system.etas)[:, None]
+    fg = f_t * (f_t / alpha - x)
+    return (eta - 2.0 * fg) / (1.0 - z_t - 2.0 * fg / alpha)
 
 
 @dataclass
 class _HillOperator:
-    """Pieces of the quadratic Hill problem ``sigma**2 p + 2 sigma D p + Kt p = 0``."""
+    """Pieces of the quadratic Hill problem ``sigma**2 p + 2 sigma D p + Kt p = 0`` (mass-normalized)."""
 
-    Kt: np.ndarray  # (2m, 2m)
+    Kt: np.ndarray  # (N m, N m)
     H: int
     omega: float
-    delta: float
-    velocity: np.ndarray  # orbit d/dtheta of (x, u) on the perturbation layout, (2m,)
+    n_dofs: int
+    velocity: np.ndarray  # orbit d/dtheta of z = L^T q on the perturbation layout, (N m,)
 
     @property
     def m(self):
         return 2 * self.H + 1
 
     def weights(self):
-        """L2 (mass) weights of the perturbation coefficients, (2m,)."""
-        w = np.r_[1.0, np.full(2 * self.H, 0.5)]
-        return np.concatenate([w, self.delta * w])
+        """L2 weights of the perturbation coefficients (the mass is the identity), (N m,)."""
+        return np.tile(np.r_[1.0, np.full(2 * self.H, 0.5)], self.n_dofs)
 
     def k_squared(self):
         k = np.arange(1, self.H + 1, dtype=float)
-        k2 = np.r_[0.0, k * k, k * k]
-        return np.concatenate([k2, k2])
+        return np.tile(np.r_[0.0, k * k, k * k], self.n_dofs)
 
 
-def _orbit_velocity(system, U, H):
-    """``d/dtheta`` of ``(x, u)`` as a perturbation vector with ``H`` harmonics."""
-    x, u = system.split(U)[:2]
+def _orbit_velocity(system, U, H, linearization: Linearization):
+    """``d/dtheta`` of ``z = L^T q`` as a perturbation vector with ``H`` harmonics per DOF."""
     Hs = system.H
     h = min(H, Hs)
-    out = []
-    for c in (x, u):
-        full = system.derivative(system.to_full(c))
-        v = np.zeros(2 * H + 1)
-        v[1 : h + 1] = full[1 : h + 1]
-        v[H + 1 : H + 1 + h] = full[Hs + 1 : Hs + 1 + h]
-        out.append(v)
-    return np.concatenate(out)
+    q = system.derivative(dof_coefficients(system, U[None])[0])  # (N, 2 Hs + 1)
+    z = linearization.mass_factor.T @ q
+    v = np.zeros((system.n_dofs, 2 * H + 1))
+    v[:, 1 : h + 1] = z[:, 1 : h + 1]
+    v[:, H + 1 : H + 1 + h] = z[:, Hs + 1 : Hs + 1 + h]
+    return v.ravel()
 
 
 def _hill_operator(system, U, harmonics, linearization, even, halfwave=False):
     U = check_unknowns(system, U)
     Hp = check_harmonics(harmonics, system.H)
-    p = two_dof_parameters(system.structure, "Hill's method")
-    lam = float(system.split(U)[4])
-    a = contact_stiffness_series(system, U, linearization, _grid_size(system.H, Hp))
+    lam = float(system.split(U)[-2])
+    lin = Linearization.of(system)
+    slopes = contact_stiffness_series(system, U, linearization, _grid_size(system.H, Hp))
     m = 2 * Hp + 1
-    T = fourier.multiplication_matrix(a, Hp, even, halfwave)
     d2 = -(np.r_[0.0, np.arange(1, Hp + 1), np.arange(1, Hp + 1)] ** 2)
-    K = stiffness_matrix(p)
-    eye = np.eye(m)
-    Kt = np.empty((2 * m, 2 * m))
-    Kt[:m, :m] = np.diag(d2) + (K[0, 0] * eye + T) / lam
-    Kt[:m, m:] = (K[0, 1] / lam) * eye
-    Kt[m:, :m] = (K[1, 0] / (p.delta * lam)) * eye
-    Kt[m:, m:] = np.diag(d2) + (K[1, 1] / (p.delta * lam)) * eye
-    return _HillOperator(Kt=Kt, H=Hp, omega=float(np.sqrt(lam)), delta=p.delta, velocity=_orbit_velocity(system, U, Hp))
+    Kt = np.kron(np.eye(system.n_dofs), np.diag(d2)) + np.kron(lin.stiffness / lam, np.eye(m))
+    for outer, a in zip(lin.stop_outer, slopes):
+        Kt += np.kron(outer / lam, fourier.multiplication_matrix(a, Hp, even, halfwave))
+    velocity = _orbit_velocity(system, U, Hp, lin)
+    return _HillOperator(Kt=Kt, H=Hp, omega=float(np.sqrt(lam)), n_dofs=system.n_dofs, velocity=velocity)
 
 
 def hill_matrix(system, U, harmonics: int | None = None, linearization: str = "model"):
@@ -311,7 +256,8 @@ def hill_matrix(system, U, harmonics: int | None = None, linearization: str = "m
 
     Its eigenvalues are the Floquet exponents ``sigma = s / omega`` (all shifts
     ``sigma + i m`` included); eigenvectors are ``[p; sigma p]`` with ``p`` the
-    perturbation coefficients ``[p_x; p_u]`` in the full layout.
+    perturbation coefficients of the mass-normalized coordinates ``z = L^T q``, DOF after DOF,
+    each in the full layout.
 
     Parameters
     ----------
@@ -325,7 +271,7 @@ def hill_matrix(system, U, harmonics: int | None = None, linearization: str = "m
 
     Returns
     -------
-    A : ndarray, shape (4 (2 H_p + 1), 4 (2 H_p + 1))
+    A : ndarray, shape (2 N (2 H_p + 1), 2 N (2 H_p + 1))
     omega : float
     """
     op = _hill_operator(system, U, harmonics, linearization, even=False)
@@ -333,25 +279,22 @@ def hill_matrix(system, U, harmonics: int | None = None, linearization: str = "m
 
 
 def _companion(op):
-    m, Hp = op.m, op.H
-    D = fourier.derivative(np.eye(m), Hp).T  # d/dtheta on the full layout, (c_k, s_k) -> (k s_k, -k c_k)
-    A = np.zeros((4 * m, 4 * m))
-    A[: 2 * m, 2 * m :] = np.eye(2 * m)
-    A[2 * m :, : 2 * m] = -op.Kt
-    A[2 * m : 3 * m, 2 * m : 3 * m] = -2.0 * D
-    A[3 * m :, 3 * m :] = -2.0 * D
+    n = op.n_dofs * op.m
+    D = fourier.derivative(np.eye(op.m), op.H).T  # d/dtheta on the full layout, (c_k, s_k) -> (k s_k, -k c_k)
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -op.Kt
+    A[n:, n:] = np.kron(np.eye(op.n_dofs), -2.0 * D)
     return A
 
 
 # --------------------------------------------------------------------------- selection helpers
 
 
-def _spectral_shape(P, H, delta):
-    """Centroid ``kappa`` and top-tenth power share of perturbation vectors (columns of ``P``, 2m rows)."""
+def _spectral_shape(P, H, n_dofs):
+    """Centroid ``kappa`` and top-tenth power share of perturbation vectors (columns of ``P``, N m rows)."""
     m = 2 * H + 1
-    px = fourier.complex_amplitudes(P[:m].T, H)
-    pu = fourier.complex_amplitudes(P[m : 2 * m].T, H)
-    power = np.abs(px) ** 2 + delta * np.abs(pu) ** 2
+    power = sum(np.abs(fourier.complex_amplitudes(P[i * m : (i + 1) * m].T, H)) ** 2 for i in range(n_dofs))
     k = np.arange(-H, H + 1)
     total = power.sum(axis=1)
     total = np.where(total > 0, total, 1.0)
@@ -373,29 +316,66 @@ def _orbit_residual(op):
     return float(np.sqrt(np.sum(w * r * r)) / scale) if scale > 0 else 0.0
 
 
+def _one_per_family(order, sigma, count):
+    """The first ``count`` indices of ``order`` whose exponents are of distinct families.
+
+    Two members of one family differ by an integer times ``i`` (up to the truncation error), and the
+    problem in ``sigma**2`` holds ``sigma`` and ``-sigma`` as one eigenvalue: a candidate within
+    :data:`FAMILY_TOL` of an accepted one (or of its opposite) modulo ``i`` is another member of its family
+    (the odd block of a half-wave symmetric orbit has two centred members at ``kappa = +-1``). Should fewer
+    than ``count`` families be found, the nearest duplicates fill in.
+    """
+    picks, duplicates = [], []
+    for j in order:
+        same = any(
+            min(_family_distance(sigma[j], sigma[a]), _family_distance(sigma[j], -sigma[a])) <= FAMILY_TOL
+            for a in picks
+        )
+        (duplicates if same else picks).append(j)
+        if len(picks) == count:
+            return np.array(picks, dtype=int)
+    return np.array((picks + duplicates)[:count], dtype=int)
+
+
+def _pairs_first(exponents, kappa, tails):
+    """Exponent pairs ``s, -s`` ordered by decreasing multiplier modulus, as arrays of ``2 (N - 1)``."""
+    order = np.argsort(-np.abs(np.exp(2 * np.pi * exponents.real)), kind="stable")
+    s, k = exponents[order], kappa[order]
+    return np.ravel(np.column_stack([s, -s])), np.ravel(np.column_stack([k, -k])), float(np.max(tails, initial=0.0))
+
+
 # --------------------------------------------------------------------------- solvers
 
 
 def _solve_companion(op, tol):
     A = _companion(op)
+    N = op.n_dofs
     sigma, V = eig(A, overwrite_a=True, check_finite=False)
-    kappa, tail = _spectral_shape(V[: 2 * op.m], op.H, op.delta)
-    # Centred candidates: |kappa| <= 1/2, plus a margin for truncation; at least 4.
+    kappa, tail = _spectral_shape(V[: N * op.m], op.H, N)
+    # Centred candidates: |kappa| <= 1/2, plus a margin for truncation; at least the 2N needed.
     order = np.argsort(np.abs(kappa), kind="stable")
     n_central = int(np.count_nonzero(np.abs(kappa) <= 0.75))
-    cand = list(order[: min(max(n_central, 4), 8)])
+    cand = list(order[: min(max(n_central, 2 * N), 4 * N)])
     centred = sigma + 1j * np.round(kappa)
-    # Trivial pair: the two centred exponents closest to 0.
+    # Trivial pair: the two centred exponents closest to 0; then each pair's member of larger real
+    # part with the smallest |kappa|, and its partner nearest to the family of its opposite.
     trivial = sorted(cand, key=lambda j: abs(centred[j]))[:2]
     rest = [j for j in cand if j not in trivial]
-    n1 = min(rest, key=lambda j: (round(abs(kappa[j]), 6), -sigma[j].real))
-    n2 = min((j for j in rest if j != n1), key=lambda j: (_family_distance(sigma[j], -sigma[n1]), abs(kappa[j])))
-    idx = np.array(trivial + [n1, n2])
+    firsts, seconds = [], []
+    for _ in range(N - 1):
+        fresh = [j for j in rest if all(_family_distance(sigma[j], sigma[a]) > FAMILY_TOL for a in firsts + seconds)]
+        n1 = min(fresh or rest, key=lambda j: (round(abs(kappa[j]), 6), -sigma[j].real))
+        rest.remove(n1)
+        n2 = min(rest, key=lambda j: (_family_distance(sigma[j], -sigma[n1]), abs(kappa[j])))
+        rest.remove(n2)
+        if np.exp(2 * np.pi * centred[n2].real) > np.exp(2 * np.pi * centred[n1].real):
+            n1, n2 = n2, n1
+        firsts.append(n1)
+        seconds.append(n2)
+    order = np.argsort([-centred[j].real for j in firsts], kind="stable")
+    idx = np.array(trivial + [j for i in order for j in (firsts[i], seconds[i])])
     s = centred[idx]
     mu = np.exp(2 * np.pi * s)
-    if abs(mu[3]) > abs(mu[2]):
-        idx[[2, 3]] = idx[[3, 2]]
-        s, mu = s[[0, 1, 3, 2]], mu[[0, 1, 3, 2]]
     return _result(
         op,
         tol,
@@ -404,19 +384,24 @@ def _solve_companion(op, tol):
         s,
         kappa[idx] - np.round(kappa[idx]),
         trivial_deviation=float(np.max(np.abs(mu[:2] - 1.0))),
-        pairing_error=float(abs(mu[2] * mu[3] - 1.0)),
-        tail_fraction=float(tail[idx[2]]),
+        pairing_error=float(np.max(np.abs(mu[2::2] * mu[3::2] - 1.0), initial=0.0)),
+        tail_fraction=float(np.max(tail[idx[2::2]], initial=0.0)),
         halfwave=False,
     )
 
 
-def _solve_reversible(op, tol, halfwave):
-    m, Hp = op.m, op.H
+def _reversible_problem(op, halfwave):
+    """The real problem in ``mu = sigma**2`` of a reversible orbit, its trivial pair deflated.
+
+    Returns ``(HSH, h, ci, si, nc)``: the deflated matrix (its first row and column hold the
+    trivial pair), the Householder vector, the cosine and sine entries kept and their count.
+    """
+    m, Hp, N = op.m, op.H, op.n_dofs
     # Retained harmonics: all, or the odd ones only (half-wave symmetric orbit).
     ks = np.arange(1, Hp + 1, 2) if halfwave else np.arange(0, Hp + 1)
     ks_pos = ks[ks > 0]
-    ci = np.concatenate([ks, m + ks])  # cosine entries of x then u (index k is c_k, 0 is the mean)
-    si = np.concatenate([Hp + ks_pos, m + Hp + ks_pos])  # sine entries s_k
+    ci = np.concatenate([i * m + ks for i in range(N)])  # cosine entries of each DOF (index k is c_k, 0 the mean)
+    si = np.concatenate([i * m + Hp + ks_pos for i in range(N)])  # sine entries s_k
     nc, ns = len(ci), len(si)
     Kc = op.Kt[np.ix_(ci, ci)]
     Ks = op.Kt[np.ix_(si, si)].copy()
@@ -430,9 +415,9 @@ def _solve_reversible(op, tol, halfwave):
     wv, wr = ws * v, ws * r
     Ks -= (np.outer(r, wv) + np.outer(v, wr)) / c - (float(v @ wr) / c**2) * np.outer(v, wv)
     # D maps s_k to c_k with factor k, c_k to s_k with -k: Dcs = k, Dsc = -Dcs^T.
-    kk = np.concatenate([ks_pos, ks_pos]).astype(float)  # harmonic of each sine entry
+    kk = np.tile(ks_pos, N).astype(float)  # harmonic of each sine entry
     row = np.searchsorted(ks, ks_pos)
-    cos_of_sin = np.concatenate([row, len(ks) + row])  # position of c_k in the cosine block
+    cos_of_sin = np.concatenate([i * len(ks) + row for i in range(N)])  # position of c_k in the cosine block
     # S = -[[Kc - 4 Dcs Dsc, -2 Dcs Ks], [2 Dsc, Ks]]  (eigenvalue mu = sigma**2)
     n = nc + ns
     S = np.zeros((n, n))
@@ -448,7 +433,11 @@ def _solve_reversible(op, tol, halfwave):
     h[0] += 1.0  # e[0] = 0, so h != 0 and H e = -e_0
     h /= np.linalg.norm(h)
     SH = S - 2.0 * np.outer(S @ h, h)
-    HSH = SH - 2.0 * np.outer(h, h @ SH)
+    return SH - 2.0 * np.outer(h, h @ SH), h, ci, si, nc
+
+
+def _solve_reversible(op, tol, halfwave):
+    HSH, h, ci, si, nc = _reversible_problem(op, halfwave)
     mu_sq, Y = eig(HSH[1:, 1:], check_finite=False)
     # Back to eigenvectors of S: z = H [alpha; y], alpha = (HSH)[0, 1:] y / mu.
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -457,19 +446,20 @@ def _solve_reversible(op, tol, halfwave):
     Z = np.vstack([alpha, Y])
     Z = Z - 2.0 * np.outer(h, h @ Z)
     sigma = np.sqrt(mu_sq.astype(complex))
-    P = np.zeros((2 * m, len(sigma)), dtype=complex)
+    P = np.zeros((op.n_dofs * op.m, len(sigma)), dtype=complex)
     P[ci] = Z[:nc]
     P[si] = Z[nc:] * sigma
-    kappa, tail = _spectral_shape(P, Hp, op.delta)
-    # Centred member: smallest |kappa| (<= 1/2 with all harmonics; <= 1 within the odd
-    # block, whose members are 2i apart; the shift below centres it either way).
+    kappa, tail = _spectral_shape(P, op.H, op.n_dofs)
+    # Centred members: smallest |kappa| (<= 1/2 with all harmonics; <= 1 within the odd block, whose
+    # members are 2i apart; the shift below centres them either way), one per family.
     order = np.lexsort((-sigma.real, np.round(np.abs(kappa), 6)))
-    j = order[0]
-    s = sigma[j] + 1j * np.round(kappa[j])
-    kap = kappa[j] - np.round(kappa[j])
-    if s.real < 0:  # larger multiplier first
-        s, kap = -s, -kap
-    exps = np.array([0.0, 0.0, s, -s], dtype=complex)
+    picks = _one_per_family(order, sigma, op.n_dofs - 1)
+    s = sigma[picks] + 1j * np.round(kappa[picks])
+    kap = kappa[picks] - np.round(kappa[picks])
+    flip = s.real < 0  # larger multiplier first
+    s, kap = np.where(flip, -s, s), np.where(flip, -kap, kap)
+    pairs, centroids, tail_fraction = _pairs_first(s, kap, tail[picks])
+    exps = np.concatenate([[0.0, 0.0], pairs]).astype(complex)
     mu = np.exp(2 * np.pi * exps)
     mu[:2] = 1.0
     return _result(
@@ -478,18 +468,20 @@ def _solve_reversible(op, tol, halfwave):
         "reversible",
         mu,
         exps,
-        np.array([0.0, 0.0, kap, -kap]),
+        np.concatenate([[0.0, 0.0], centroids]),
         trivial_deviation=0.0,
         pairing_error=0.0,
-        tail_fraction=float(tail[j]),
+        tail_fraction=tail_fraction,
         halfwave=halfwave,
     )
 
 
 def _result(op, tol, method, mu, sigma, kappa, trivial_deviation, pairing_error, tail_fraction, halfwave):
-    max_mu = float(np.max(np.abs(mu[2:])))
+    larger = mu[2::2]  # the larger member of each non-trivial pair
+    max_mu = float(np.max(np.abs(mu[2:]), initial=1.0))
     residual = _orbit_residual(op)
-    margin = float(abs(mu[2] - 1.0) if halfwave else min(abs(mu[2] - 1.0), abs(mu[2] + 1.0)))
+    distance = np.abs(larger - 1.0) if halfwave else np.minimum(np.abs(larger - 1.0), np.abs(larger + 1.0))
+    margin = float(np.min(distance, initial=np.inf))
     return FloquetResult(
         multipliers=mu,
         exponents=sigma * op.omega,

@@ -17,17 +17,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.floquet import GAUSS, PairInvariants, check_power_of_two, hamiltonian_expm, transition_matrix
-from nnmstop.hbm.shooting_refinement import refined_stability
+from nnmstop.floquet import (
+    CAYLEY_HAMILTON_MAX_DOF,
+    COMMUTATOR_FREE_WEIGHTS,
+    GAUSS,
+    PairInvariants,
+    check_power_of_two,
+    hamiltonian_expm,
+    oscillator_expm,
+    transition_matrix,
+)
+from nnmstop.hbm.shooting_refinement import explicit_steps, refined_stability
 from nnmstop.hbm.variational import Linearization, halfwave_symmetric, is_reversible, stop_coefficients
-from nnmstop.netcdf import flag_variable
 
 __all__ = [
     "MonodromySettings",
     "BranchMonodromy",
-    "REASONS",
     "variational_generators",
     "variational_step_matrices",
+    "commutator_free_step_matrices",
     "integrated_monodromy",
     "orbit_monodromy",
     "branch_monodromy",
@@ -35,12 +43,12 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-# Codes of `stability_reason`: why a verdict is resolved or not (dataset flag values).
-# 3-5 only where the HBM orbit's error decided (2) and the orbit was refined by shooting.
-REASONS = (
-    "resolved", "integration_error", "orbit_error", "resolved_refined", "shooting_not_converged", "refined_at_type_change"
-)
+# Codes of `stability_reason` (their meanings: the catalogue, nnmstop.catalogue.branch) that are resolved
+# verdicts; 3-5 only where the HBM orbit's error decided (2) and the orbit was refined by shooting.
 RESOLVED_REASONS = (0, 3)
+#: Default of :attr:`MonodromySettings.max_orbit_residual`: above the largest time residual (0.043) of the
+#: orbits on which the orbit-error estimate was calibrated.
+MAX_ORBIT_RESIDUAL = 0.05
 # Entries of the batched step matrices per chunk (4 MB an array: 2**15 matrices of 4 x 4), about the
 # fastest here (memory traffic).
 _CHUNK_ENTRIES = 2**19
@@ -76,6 +84,11 @@ class MonodromySettings:
     refine_max_change : float
         Largest relative change of the start state and period from the HBM orbit to the
         refined one; a shooting that goes farther has found another orbit (not converged).
+    max_orbit_residual : float
+        Largest ``time_residual`` of an orbit whose own verdict can be resolved: the estimate
+        "the orbit's error moves ``s`` by about its time residual" was calibrated on orbits whose
+        residuals reach 0.043 (the paper's H = 100 branches; ``docs/methods/monodromy.md``); an
+        orbit above this gets reason 2 whatever its margin, and is refined.
     """
 
     steps: int = 256
@@ -87,6 +100,7 @@ class MonodromySettings:
     refine_max_steps: int = 4096
     refine_tol: float = 1e-11
     refine_max_change: float = 1e-2
+    max_orbit_residual: float = MAX_ORBIT_RESIDUAL
 
     def __post_init__(self):
         for name in ("steps", "max_steps"):
@@ -96,7 +110,9 @@ class MonodromySettings:
         if not (np.isfinite(self.trace_tol) and self.trace_tol >= 0):
             raise ValueError(f"stability trace_tol must be a finite number >= 0, got {self.trace_tol!r}")
         if not (np.isfinite(self.resolution_factor) and self.resolution_factor >= 1):
-            raise ValueError(f"stability resolution_factor must be a finite number >= 1, got {self.resolution_factor!r}")
+            raise ValueError(
+                f"stability resolution_factor must be a finite number >= 1, got {self.resolution_factor!r}"
+            )
         if not isinstance(self.refine, (bool, np.bool_)):
             raise ValueError(f"stability refine must be true or false, got {self.refine!r}")
         for name in ("refine_steps", "refine_max_steps"):
@@ -111,13 +127,25 @@ class MonodromySettings:
             raise ValueError(
                 f"stability refine_max_change must be a number in (0, 0.5], got {self.refine_max_change!r}"
             )
+        if not (np.isfinite(self.max_orbit_residual) and 0 < self.max_orbit_residual <= 1):
+            raise ValueError(
+                f"stability max_orbit_residual must be a number in (0, 1], got {self.max_orbit_residual!r}"
+            )
 
     @classmethod
     def from_config(cls, stability: dict) -> MonodromySettings:
         """Settings from the (validated) ``stability`` section of the config."""
         keys = (
-            "steps", "max_steps", "trace_tol", "resolution_factor",
-            "refine", "refine_steps", "refine_max_steps", "refine_tol", "refine_max_change",
+            "steps",
+            "max_steps",
+            "trace_tol",
+            "resolution_factor",
+            "refine",
+            "refine_steps",
+            "refine_max_steps",
+            "refine_tol",
+            "refine_max_change",
+            "max_orbit_residual",
         )
         return cls(**{k: stability[k] for k in keys if k in stability})
 
@@ -181,7 +209,9 @@ def variational_step_matrices(linearization: Linearization, stiffness_nodes, ste
     """
     k = np.asarray(stiffness_nodes, dtype=float)
     balance = _balance(linearization, k)
-    mats = np.moveaxis(hamiltonian_expm(variational_generators(linearization, k, step, balance), True), (0, 1), (-2, -1))
+    mats = np.moveaxis(
+        hamiltonian_expm(variational_generators(linearization, k, step, balance), True), (0, 1), (-2, -1)
+    )
     N = linearization.n_dofs
     mats[..., :N, N:] /= balance  # exp(Omega) = T exp(Omega_balanced) T^-1, T = diag(I, balance I)
     mats[..., N:, :N] *= balance
@@ -235,9 +265,29 @@ def integrated_monodromy(linearization: Linearization, x_full, omega, H: int, st
     """
     k = _stiffness_at_nodes(linearization, x_full, H, steps, span < 2 * np.pi)
     h = (span / steps) / np.asarray(omega, dtype=float)
+    if linearization.n_dofs > CAYLEY_HAMILTON_MAX_DOF:
+        return transition_matrix(commutator_free_step_matrices(linearization, k, h[:, None]))
     generators = variational_generators(linearization, k, h[:, None], _balance(linearization, k))
     step_maps = hamiltonian_expm(generators, entry_first=True)
     return transition_matrix(np.ascontiguousarray(np.moveaxis(step_maps, (0, 1), (-2, -1))))
+
+
+def commutator_free_step_matrices(linearization: Linearization, stiffness_nodes, step):
+    """Fourth-order commutator-free Magnus step maps of ``z'' + B(t) z = 0`` in ``(z, z')``, for many DOF.
+
+    Each step is ``exp(h (b_2 A_1 + b_1 A_2)) exp(h (b_1 A_1 + b_2 A_2))``
+    (:data:`~nnmstop.floquet.COMMUTATOR_FREE_WEIGHTS`): two exponents without the commutator term, each
+    ``[[0, h/2 I], [-h/2 B', 0]]`` with a symmetric ``B' = B_0 + 2 sum_i (b k_i1 + b' k_i2) w_i w_i^T``,
+    exponentiated in closed form (:func:`~nnmstop.floquet.oscillator_expm`: one eigendecomposition of
+    ``B'``, no squarings however stiff the structure). Arguments as in :func:`variational_generators`;
+    returns ``(..., 2N, 2N)``.
+    """
+    k = np.asarray(stiffness_nodes, dtype=float)
+    b1, b2 = COMMUTATOR_FREE_WEIGHTS
+    half = 0.5 * np.broadcast_to(np.asarray(step, dtype=float), k.shape[1:-1])
+    first = oscillator_expm(linearization.stiffness_at(2.0 * (b1 * k[..., 0] + b2 * k[..., 1])), half)
+    second = oscillator_expm(linearization.stiffness_at(2.0 * (b2 * k[..., 0] + b1 * k[..., 1])), half)
+    return second @ first
 
 
 # --------------------------------------------------------------------------- orbits
@@ -290,7 +340,9 @@ class BranchMonodromy:
     steps : ndarray of int
         Steps of the stored (finer) integration.
     reason : ndarray of int
-        Index in :data:`REASONS`.
+        Code of ``stability_reason`` (meanings in :mod:`nnmstop.catalogue.branch`): 0 resolved,
+        1 integration error, 2 the orbit's own error, 3 resolved on the refined orbit, 4 shooting not
+        converged, 5 refined orbit at a type change.
     halfwave : ndarray of bool
     settings : MonodromySettings
     seconds_per_point : float
@@ -346,65 +398,26 @@ class BranchMonodromy:
         return np.abs(self.multipliers[:, 2])
 
     def data_vars(self) -> dict:
-        """Variables for a branch dataset (same names as Hill's for the shared ones)."""
-        st = self.settings
-        note = (
-            "Floquet multipliers from the monodromy matrix of the variational equation of (7) along the HBM orbit "
-            f"(4th-order Magnus steps, {2 * st.steps} to {st.max_steps} per integrated interval, checked against half as many), non-trivial pair from the "
-            "invariant s = mu + 1/mu of the symplectic matrix, ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|; "
-            "where stability_refined = 1 and the shooting converged, from the monodromy of the periodic orbit of (7) "
-            f"refined by shooting (8th-order Runge-Kutta, {st.refine_steps} to {st.refine_max_steps} steps per quarter "
-            "period, checked against half as many)"
-        )
-        F = f"{st.resolution_factor:g}"
-        reason_attrs = {
-            "long_name": "why the stability verdict is or is not resolved: 0 resolved; 1 stability_margin within "
-            f"{F} x stability_integration_error at the largest step count; 2 stability_margin within "
-            f"{F} x stability_orbit_residual (the HBM orbit's own error; more steps would not resolve it) and the "
-            "orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of (7) (the HBM orbit's "
-            f"margin was within {F} x its error; stability variables from the refined orbit); 4 the shooting did not "
-            f"converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within {F} x its "
-            "integration error at the largest step count or below trace_tol: the non-trivial pair sits at +1 (a "
-            "stability change, e.g. an energy fold)",
-            "units": "1",
-            "flag_values": np.arange(len(REASONS), dtype=np.int8),
-            "flag_meanings": " ".join(REASONS),
-        }
+        """Variables for a branch dataset, ``{name: (dims, values)}`` (same names as Hill's for the shared ones;
+        long names and units: :mod:`nnmstop.catalogue.branch`, ``STABILITY_VARIABLES``)."""
+        point, flag = ("point",), np.int8
         return {
-            "stable": flag_variable(
-                "point", self.stable,
-                f"orbit linearly stable (1) or unstable (0): |mu + 1/mu| of the non-trivial pair <= 2 + {st.trace_tol:g}",
-                "unstable stable", comment=note,
-            ),
-            "multiplier_real": (("point", "multiplier"), self.multipliers.real, {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note}),
-            "multiplier_imag": (("point", "multiplier"), self.multipliers.imag, {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note}),
-            "max_multiplier": ("point", self.max_multiplier, {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"}),
-            "stability_orbit_residual": ("point", self.orbit_error, {"long_name": "estimate of the change of floquet_invariant due to the orbit's error: larger of time_residual and stability_trivial_deviation", "units": "1"}),
-            "stability_trivial_deviation": ("point", self.trivial_deviation, {"long_name": "distance of the trivial pair's invariant mu + 1/mu to 2 in the computed monodromy (exactly 0 on an exact orbit)", "units": "1"}),
-            "stability_resolved": flag_variable(
-                "point", self.resolved,
-                "stability verdict resolved (1): stability_margin larger than the error estimates (stability_reason)",
-                "unresolved resolved",
-            ),
-            "stability_reason": ("point", self.reason.astype(np.int8), reason_attrs),
-            "floquet_invariant": ("point", self.invariant, {"long_name": "invariant mu + 1/mu of the non-trivial Floquet pair (in [-2, 2] when elliptic)", "units": "1"}),
-            "stability_margin": ("point", self.margin, {"long_name": "distance of floquet_invariant to the values where the non-trivial pair changes type (2, and -2 unless half-wave symmetric)", "units": "1"}),
-            "stability_integration_error": ("point", self.integration_error, {"long_name": "change of floquet_invariant between the last two step counts of the monodromy integration", "units": "1"}),
-            "stability_steps": ("point", self.steps.astype(np.int32), {"long_name": "Magnus steps of the stored monodromy over the integrated interval (half a period if half-wave symmetric); on refined orbits (stability_reason 3-5) Runge-Kutta steps over a quarter period", "units": "1"}),
-            "stability_refined": flag_variable(
-                "point", self.refined,
-                "orbit refined by shooting into a periodic orbit of (7) for its verdict (stability_reason 3-5)",
-                "no yes",
-            ),
-            "stability_refined_frequency_change": ("point", self.refined_frequency_change, {
-                "long_name": "relative change of the frequency from the HBM orbit to the shooting-refined orbit "
-                "(0 where stability_refined = 0 or stability_reason = 4)", "units": "1"}),
-            "stability_refined_energy_change": ("point", self.refined_energy_change, {
-                "long_name": "relative change of the energy at t = 0 (start at rest) from the HBM orbit to the "
-                "shooting-refined orbit (0 where stability_refined = 0 or stability_reason = 4)", "units": "1"}),
-            "stability_refined_residual": ("point", self.refined_residual, {
-                "long_name": "closure of the shooting conditions x = u = 0 at a quarter period relative to the "
-                "amplitude (0 where stability_refined = 0; 1 where the shooting diverged at once)", "units": "1"}),
+            "stable": (point, self.stable.astype(flag)),
+            "multiplier_real": (("point", "multiplier"), self.multipliers.real),
+            "multiplier_imag": (("point", "multiplier"), self.multipliers.imag),
+            "max_multiplier": (point, self.max_multiplier),
+            "stability_orbit_residual": (point, self.orbit_error),
+            "stability_trivial_deviation": (point, self.trivial_deviation),
+            "stability_resolved": (point, self.resolved.astype(flag)),
+            "stability_reason": (point, self.reason.astype(flag)),
+            "floquet_invariant": (point, self.invariant),
+            "stability_margin": (point, self.margin),
+            "stability_integration_error": (point, self.integration_error),
+            "stability_steps": (point, self.steps.astype(np.int32)),
+            "stability_refined": (point, self.refined.astype(flag)),
+            "stability_refined_frequency_change": (point, self.refined_frequency_change),
+            "stability_refined_energy_change": (point, self.refined_energy_change),
+            "stability_refined_residual": (point, self.refined_residual),
         }
 
 
@@ -427,21 +440,9 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
     -------
     BranchMonodromy
     """
-    settings = MonodromySettings() if settings is None else settings
-    if not isinstance(settings, MonodromySettings):
-        raise ValueError(f"settings must be a MonodromySettings, got {type(settings).__name__}")
-    U_array = np.asarray(U_array, dtype=float)
-    if U_array.ndim != 2 or U_array.shape[1] != system.n_unknowns:
-        raise ValueError(f"U_array must have shape (n, {system.n_unknowns}), got {U_array.shape}")
-    if not np.all(np.isfinite(U_array)):
-        raise ValueError("U_array must be finite")
     start = time.perf_counter()
+    settings, U_array, time_residual = _checked(system, U_array, settings, time_residual)
     n = len(U_array)
-    if time_residual is None:
-        time_residual = [system.diagnostics(U)["time_residual"] for U in U_array]
-    time_residual = np.asarray(time_residual, dtype=float)
-    if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
-        raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
     linearization = Linearization.of(system)
     found = PairInvariants.empty(n, system.n_dofs - 1)
     err = np.zeros(n)
@@ -457,17 +458,32 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
                 err[idx], steps[idx] = integration[1:]
     trivial_deviation = found.trivial_deviation.copy()  # the HBM orbit's, also where refined
     orbit_error = np.maximum(time_residual, trivial_deviation)
-    margin, _ = found.margin(halfwave)
+    margin, _ = found.margin(halfwave, settings.trace_tol)
     F = settings.resolution_factor
     reason = np.zeros(n, dtype=np.int8)
     reason[margin <= F * err] = 1
     reason[margin <= F * orbit_error] = 2  # the orbit's error decides whatever the steps
+    # beyond the calibrated range of the estimate the orbit's error decides whatever the margin
+    beyond = time_residual > settings.max_orbit_residual
+    reason[beyond] = 2
+    if beyond.any():
+        logger.warning(
+            "%d of %d orbits have a time residual above max_orbit_residual = %g (largest %.3g): their own verdicts "
+            "are not resolved%s",
+            beyond.sum(),
+            n,
+            settings.max_orbit_residual,
+            time_residual.max(),
+            " (refined by shooting where it converges)" if settings.refine else "",
+        )
     refinement = _refine(system, U_array, found, err, steps, reason, halfwave, settings)
-    margin, critical = found.margin(halfwave)
+    margin, critical = found.margin(halfwave, settings.trace_tol)
     return BranchMonodromy(
         stable=found.stable(settings.trace_tol),
         multipliers=found.multipliers(),
-        invariant=np.take_along_axis(found.s.real, critical[:, None], axis=-1)[:, 0] if found.s.shape[1] else np.full(n, 2.0),
+        invariant=np.take_along_axis(found.s.real, critical[:, None], axis=-1)[:, 0]
+        if found.s.shape[1]
+        else np.full(n, 2.0),
         margin=margin,
         integration_error=err,
         trivial_deviation=trivial_deviation,
@@ -480,6 +496,25 @@ def branch_monodromy(system, U_array, settings: MonodromySettings | None = None,
         invariants=found,
         **refinement,
     )
+
+
+def _checked(system, U_array, settings, time_residual):
+    """The arguments of :func:`branch_monodromy` checked (ValueError naming the bad one), residuals computed."""
+    settings = MonodromySettings() if settings is None else settings
+    if not isinstance(settings, MonodromySettings):
+        raise ValueError(f"settings must be a MonodromySettings, got {type(settings).__name__}")
+    U_array = np.asarray(U_array, dtype=float)
+    if U_array.ndim != 2 or U_array.shape[1] != system.n_unknowns:
+        raise ValueError(f"U_array must have shape (n, {system.n_unknowns}), got {U_array.shape}")
+    if not np.all(np.isfinite(U_array)):
+        raise ValueError("U_array must be finite")
+    n = len(U_array)
+    if time_residual is None:
+        time_residual = [system.diagnostics(U)["time_residual"] for U in U_array]
+    time_residual = np.asarray(time_residual, dtype=float)
+    if time_residual.shape != (n,) or not np.all(np.isfinite(time_residual)) or np.any(time_residual < 0):
+        raise ValueError(f"time_residual must be {n} finite numbers >= 0, got shape {time_residual.shape}")
+    return settings, U_array, time_residual
 
 
 def _integrate(linearization, x, omega, H: int, halfwave: bool, time_residual, settings: MonodromySettings):
@@ -502,7 +537,7 @@ def _integrate(linearization, x, omega, H: int, halfwave: bool, time_residual, s
         # More steps where the integration error could decide the verdict and exceeds the orbit's
         # own error (beyond that they cannot make the verdict better), unless s within its error
         # bound stays within F x the orbit's residual: reason 2 (and the refinement) whatever the steps.
-        margin, _ = fine.margin(np.full(len(todo), halfwave))
+        margin, _ = fine.margin(np.full(len(todo), halfwave), settings.trace_tol)
         residual = time_residual[todo]
         undecided = (margin <= F * err[todo]) & (err[todo] > np.maximum(residual, fine.trivial_deviation))
         undecided &= margin + err[todo] > F * residual
@@ -527,17 +562,36 @@ def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave
     idx = np.array([i for i in candidates if is_reversible(system, U_array[i])], dtype=int)
     if not len(idx):
         return out
+    # the explicit integrator must resolve the stiffest mode at two levels of steps at least
+    period = 2 * np.pi / np.sqrt(np.asarray(system.split(U_array[idx])[-2], dtype=float))
+    needed = explicit_steps(system.structure, period)
+    stiff = 2 * needed > settings.refine_max_steps
+    if stiff.any():
+        logger.warning(
+            "%d orbits not refined: the structure's stiffest mode needs %d Runge-Kutta steps a quarter period "
+            "(h omega_max <= 0.25), above refine_max_steps / 2 = %d; their verdicts stay the HBM orbits' (reason 2)",
+            stiff.sum(), needed.max(), settings.refine_max_steps // 2,
+        )
+        idx, needed = idx[~stiff], needed[~stiff]
+    if not len(idx):
+        return out
     start = time.perf_counter()
     F = settings.resolution_factor
     r = refined_stability(
-        system, U_array[idx], settings.refine_steps, settings.refine_max_steps, settings.refine_tol, F,
-        settings.refine_max_change, floor=settings.trace_tol,
+        system,
+        U_array[idx],
+        max(settings.refine_steps, int(needed.max())),
+        settings.refine_max_steps,
+        settings.refine_tol,
+        F,
+        settings.refine_max_change,
+        floor=settings.trace_tol,
     )
     ok = r.converged
     done = idx[ok]
     found.assign(done, r.invariants.select(ok))
     err[done], steps[done] = r.integration_error[ok], r.steps[ok]
-    margin, _ = r.invariants.select(ok).margin(np.ones(len(done), dtype=bool))
+    margin, _ = r.invariants.select(ok).margin(np.ones(len(done), dtype=bool), settings.trace_tol)
     # Error of the refined s: the integration error, and the orbit's closure error (which moves s by
     # about as much, as the HBM orbit's time residual does); a margin below trace_tol is a pair at +1.
     bound = F * np.maximum(err[done], r.residual[ok])  # converged: both finite
@@ -551,7 +605,11 @@ def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave
     out["refine_seconds"] = time.perf_counter() - start
     logger.info(
         "refined %d orbits by shooting in %.2f s: %d resolved, %d at a type change, %d not converged",
-        len(idx), out["refine_seconds"], np.sum(reason[idx] == 3), np.sum(reason[idx] == 5), np.sum(reason[idx] == 4),
+        len(idx),
+        out["refine_seconds"],
+        np.sum(reason[idx] == 3),
+        np.sum(reason[idx] == 5),
+        np.sum(reason[idx] == 4),
     )
     return out
 

@@ -35,6 +35,7 @@ __all__ = [
     "step_phases",
     "shoot",
     "refined_stability",
+    "explicit_steps",
     "shooting_stability",
 ]
 
@@ -54,6 +55,11 @@ _CHUNK_ENTRIES = 2**17
 # Segments of the quarter period (multiple shooting): the sequential step loop, whose cost is
 # numpy's per-call overhead, is 8 times shorter over 8 times as many columns.
 _SEGMENTS = 8
+#: Largest step times the stiffest angular frequency of the structure for the explicit scheme: at
+#: h omega = 0.25 DOP853 damps an undamped mode by about 2e-14 a step (its stability polynomial on the
+#: imaginary axis: 1 - |R(i y)| = 2.4e-8 y**10 for small y), so the stiffest pairs stay on the unit circle to
+#: well below the verdict's tolerance; stiffer steps would turn them into spurious quartets.
+MAX_STEP_STIFFNESS = 0.25
 
 
 class RegularizedDynamics:
@@ -130,7 +136,10 @@ class RegularizedDynamics:
         y2 /= s
         y2 /= s
         y2 += 1.0
-        np.divide(w[velocities], y2, out=out[stops])
+        if isinstance(stops, slice):
+            np.divide(w[velocities], y2, out=out[stops])
+        else:  # fancy indexing gives a copy: assign
+            out[stops] = w[velocities] / y2
         return out
 
     def contact_stiffness(self, y):
@@ -173,6 +182,13 @@ class RegularizedDynamics:
         for dof, gap, law in zip(self.stop_dofs, self.gaps, self.laws):
             energy = energy + gap * gap * regularized_contact_potential(q[:, dof] / gap, law)
         return energy
+
+    def stiffest_frequency(self) -> float:
+        """Largest angular frequency of the linearization with every stop fully engaged (``f' <= alpha``)."""
+        stiffness = self.stiffness.copy()
+        stiffness[self.stop_dofs, self.stop_dofs] += [law.alpha for law in self.laws]
+        L = self.mass_factor
+        return float(np.sqrt(np.linalg.eigvalsh(np.linalg.solve(L, np.linalg.solve(L, stiffness).T).T)[-1]))
 
     def width(self):
         """Width in ``x`` of each stop's contact transition, ``sqrt(2 eps)``."""
@@ -559,6 +575,14 @@ class RefinedStability:
     initial_energy: np.ndarray
 
 
+def explicit_steps(structure, period) -> np.ndarray:
+    """Fewest Runge-Kutta steps per quarter period (powers of two, multiples of the segments) that keep
+    ``h omega_max <= MAX_STEP_STIFFNESS`` for the stiffest mode of ``structure``, per period."""
+    omega = RegularizedDynamics(structure).stiffest_frequency()
+    need = np.maximum(np.asarray(period, dtype=float) / 4.0 * omega / MAX_STEP_STIFFNESS, _SEGMENTS)
+    return (2 ** np.ceil(np.log2(need))).astype(int)
+
+
 def refined_stability(
     system,
     U_array,
@@ -621,13 +645,13 @@ def shooting_stability(
 ):
     """Periodic orbits of the regularized equations by shooting from approximate ones, and their Floquet invariants.
 
-    Multiple shooting (:func:`shoot`) with ``N = steps`` Runge-Kutta steps per quarter period,
-    then the invariants with ``2N`` steps from the corrected start, compared with the ``N``-step
-    ones. Where the margin (:meth:`nnmstop.floquet.PairInvariants.margin`) is within
-    ``resolution_factor`` times that difference, ``N`` is doubled (shooting again from the corrected
-    orbit) up to ``max_steps``, unless that bound is already below ``floor`` (the stability tolerance
-    on ``s``: the pair sits at the type change within it, and more steps cannot change the verdict
-    by more).
+    Multiple shooting (:func:`shoot`) with ``K = steps`` Runge-Kutta steps per quarter period, then
+    again with ``2K`` steps from the corrected orbit (usually converged at once); the invariants of the
+    ``2K``-step orbit are kept and compared with the ``K``-step ones. Where the margin
+    (:meth:`nnmstop.floquet.PairInvariants.margin`) is within ``resolution_factor`` times that
+    difference, the steps are doubled again (shooting from the corrected orbit) up to ``max_steps``,
+    unless that bound is already below ``floor`` (the stability tolerance on ``s``: the pair sits at the
+    type change within it, and more steps cannot change the verdict by more).
 
     Parameters
     ----------
@@ -671,37 +695,8 @@ def shooting_stability(
         raise ValueError(f"states_at must return shape {(n, _SEGMENTS, 2 * N)}, got {states.shape}")
     states[:, 0, N:] = 0.0
     initial_start, initial_period = states[:, 0, :N].copy(), period.copy()
-    found = PairInvariants.empty(n, N - 1)
-    err = np.full(n, np.inf)
-    used = np.zeros(n, dtype=int)
-    residual = np.full(n, np.inf)
-    converged = np.zeros(n, dtype=bool)
-    todo = np.arange(n)
-    K = steps
-    while len(todo):
-        phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], K, width)
-        z, T, res, conv, Q = shoot(dynamics, states[todo], period[todo], phases, tol, max_iter)
-        states[todo], period[todo], residual[todo], converged[todo] = z, T, res, conv
-        ok = todo[conv]
-        if not len(ok):
-            break
-        coarse = _half_period_invariants(dynamics, Q[conv])
-        # the fine invariants from one trajectory over the quarter period, started at the converged
-        # start: integrated anew at 2K steps everywhere (joints restarted from the K-step orbit would
-        # keep its integration error there and hide it from the estimate)
-        fine_phases = step_phases(x_phase[ok], x_slope_phase[ok], joints[ok], 2 * K, width)
-        start = np.concatenate([states[ok, 0, :N], np.zeros((len(ok), N))], axis=1)
-        _, Q_fine = segment_flow(dynamics, start, period[ok], fine_phases)
-        fine = _half_period_invariants(dynamics, Q_fine)
-        found.assign(ok, fine)
-        err[ok] = fine.change_from(coarse)
-        used[ok] = 2 * K
-        if 2 * K >= max_steps:
-            break
-        margin, _ = fine.margin(np.ones(len(ok), dtype=bool))
-        bound = resolution_factor * err[ok]
-        todo = ok[(margin <= bound) & (bound > floor)]
-        K *= 2
+    levels = _Levels(dynamics, n, (x_phase, x_slope_phase, joints, width), steps, max_steps, resolution_factor, floor)
+    found, err, used, residual, converged = levels.run(states, period, tol, max_iter)
     start = states[:, 0, :N]
     amplitude = np.abs(initial_start).max(axis=1)
     change = np.maximum(np.abs(start - initial_start).max(axis=1) / amplitude, np.abs(period / initial_period - 1.0))
@@ -718,3 +713,50 @@ def shooting_stability(
         initial_period=initial_period,
         initial_energy=dynamics.energy_at_rest(initial_start),
     )
+
+
+class _Levels:
+    """The levels of steps of :func:`shooting_stability`: a converged orbit at each, compared with the previous.
+
+    Each level's invariants come from the orbit converged at its own step count (started from the
+    previous level's orbit, so usually converged at once): the change between levels bounds the error
+    of the orbit's states as well as of its monodromy. ``grid``: ``(x_phase, x_slope_phase, joints,
+    width)`` of :func:`step_phases`.
+    """
+
+    def __init__(self, dynamics, n, grid, steps, max_steps, resolution_factor, floor):
+        self.dynamics, self.grid = dynamics, grid
+        self.steps, self.max_steps, self.factor, self.floor = steps, max_steps, resolution_factor, floor
+        pairs = dynamics.n_dofs - 1
+        self.found, self.previous = PairInvariants.empty(n, pairs), PairInvariants.empty(n, pairs)
+        self.err, self.used = np.full(n, np.inf), np.zeros(n, dtype=int)
+        self.residual, self.converged = np.full(n, np.inf), np.zeros(n, dtype=bool)
+
+    def run(self, states, period, tol, max_iter):
+        """Shoot level after level (``states``, ``period`` corrected in place) while the margin needs it."""
+        x_phase, x_slope_phase, joints, width = self.grid
+        todo, K = np.arange(len(period)), self.steps
+        while len(todo):
+            phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], K, width)
+            z, T, res, conv, Q = shoot(self.dynamics, states[todo], period[todo], phases, tol, max_iter)
+            states[todo], period[todo], self.residual[todo], self.converged[todo] = z, T, res, conv
+            ok = todo[conv]
+            if not len(ok):
+                break
+            level = _half_period_invariants(self.dynamics, Q[conv])
+            if K > self.steps:
+                ok = self._compare(ok, level, K)
+                if K >= self.max_steps:
+                    break
+            self.previous.assign(todo[conv], level)
+            todo, K = ok, 2 * K
+        return self.found, self.err, self.used, self.residual, self.converged
+
+    def _compare(self, ok, level, K):
+        """Keep ``level`` for the orbits ``ok`` with its change from the previous level; those to refine further."""
+        self.found.assign(ok, level)
+        self.err[ok] = level.change_from(self.previous.select(ok))
+        self.used[ok] = K
+        margin, _ = level.margin(np.ones(len(ok), dtype=bool), self.floor)
+        bound = self.factor * self.err[ok]
+        return ok[(margin <= bound) & (bound > self.floor)]

@@ -1,17 +1,20 @@
-"""Floquet stability of the orbits of a branch: Hill's method or the monodromy matrix, and the verdict variables.
+"""Floquet stability of the orbits of a branch of any structure: Hill's method or the monodromy matrix.
 
-:func:`orbit_stability` is what dataset assembly calls: it dispatches on
-:attr:`StabilitySettings.method` (config ``stability.method``) to
+:func:`orbit_stability` is the one interface, for every :class:`~nnmstop.models.structure.Structure`
+(the paper's oscillator, the finite-element tube, a user's matrices) and what dataset assembly calls:
+it dispatches on :attr:`StabilitySettings.method` (config ``stability.method``) to
 
 * ``"monodromy"`` (default): :func:`nnmstop.hbm.monodromy.branch_monodromy`
   (``docs/methods/monodromy.md``), or
 * ``"hill"``: :func:`branch_hill`, Hill's method of :mod:`nnmstop.hbm.hill` on every orbit
   (``docs/methods/hill.md``).
 
-Both return an object whose ``data_vars()`` gives the dataset variables: ``stable``,
+Both return an object whose ``data_vars()`` gives the dataset variables as plain arrays: ``stable``,
 ``multiplier_real``/``multiplier_imag(point, multiplier)``, ``max_multiplier``,
 ``stability_orbit_residual``, ``stability_resolved`` (and for the monodromy its reason code and
-error estimates).
+error estimates); their long names and units are in :mod:`nnmstop.catalogue.branch`. Damped and
+forced systems (no Hamiltonian structure, no trivial pair) use the general path
+:func:`nnmstop.floquet.periodic_floquet`.
 """
 
 from __future__ import annotations
@@ -22,9 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from nnmstop.hbm.hill import DEFAULT_TOL, RESOLUTION_FACTOR, check_harmonics, check_tolerance, floquet
+from nnmstop.hbm.hill import DEFAULT_TOL, check_harmonics, check_tolerance, floquet
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy
-from nnmstop.netcdf import flag_variable
 
 __all__ = ["STABILITY_METHODS", "StabilitySettings", "BranchHill", "branch_hill", "orbit_stability"]
 
@@ -62,21 +64,46 @@ def orbit_stability(system, U_array, settings: StabilitySettings, time_residual=
     Parameters
     ----------
     system : HarmonicBalanceSystem
+        Of any structure: ``N`` degrees of freedom, any stops.
     U_array : array_like, shape (n, n_unknowns)
     settings : StabilitySettings
     time_residual : array_like, shape (n,), optional
-        The orbits' residuals of Eq. (7), if already at hand (monodromy method).
+        The orbits' time residuals (:meth:`HarmonicBalanceSystem.diagnostics`), if already at hand;
+        an orbit whose residual exceeds ``settings.monodromy.max_orbit_residual`` gets no resolved
+        verdict of its own (either method).
 
     Returns
     -------
     BranchMonodromy or BranchHill
-        Its ``data_vars()`` are the dataset variables.
+        Its ``data_vars()`` are the dataset variables; ``multipliers`` has ``2N`` columns, the trivial
+        pair first.
+
+    Examples
+    --------
+    The 3-DOF example (a grounded chain with one stop), two orbits near rest: every pair elliptic.
+
+    >>> import numpy as np
+    >>> from nnmstop.hbm.stages import start_point
+    >>> from nnmstop.hbm.system import HarmonicBalanceSystem
+    >>> from nnmstop.models.structure import Stop, Structure
+    >>> chain = Structure(np.eye(3), [[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]],
+    ...                   [Stop(dof=0, gap=1.0, stiffness=30.0, eta=0.1)])
+    >>> system = HarmonicBalanceSystem(chain, 8)
+    >>> U = np.array([start_point(system, 1, a)[0] for a in (1e-3, 2e-3)])
+    >>> result = orbit_stability(system, U, StabilitySettings())
+    >>> result.multipliers.shape, result.stable.tolist(), result.resolved.tolist()
+    ((2, 6), [True, True], [True, True])
     """
     if not isinstance(settings, StabilitySettings):
         raise ValueError(f"settings must be a StabilitySettings, got {type(settings).__name__}")
     if settings.method == "monodromy":
         return branch_monodromy(system, U_array, settings.monodromy, time_residual=time_residual)
-    return branch_hill(system, U_array, tol=settings.hill_tol)
+    result = branch_hill(system, U_array, tol=settings.hill_tol)
+    if time_residual is None:
+        time_residual = [system.diagnostics(U)["time_residual"] for U in np.asarray(U_array, dtype=float)]
+    # no verdict of its own on an orbit beyond the calibrated range of the orbit-error estimate
+    result.resolved &= np.asarray(time_residual, dtype=float) <= settings.monodromy.max_orbit_residual
+    return result
 
 
 @dataclass
@@ -113,56 +140,17 @@ class BranchHill:
     seconds_per_point: float = 0.0
 
     def data_vars(self) -> dict:
-        """Variables for a branch dataset, ``{name: (dims, values, attrs)}``.
-
-        Dimensions ``point`` and ``multiplier`` (0..3, layout of
-        :attr:`nnmstop.hbm.hill.FloquetResult.multipliers`); complex values are split into real and
-        imaginary parts (netCDF has no complex type).
+        """Variables for a branch dataset, ``{name: (dims, values)}``: dimensions ``point`` and ``multiplier``
+        (layout of :attr:`nnmstop.hbm.hill.FloquetResult.multipliers`); complex values split into real and
+        imaginary parts (netCDF has no complex type). Long names and units: :mod:`nnmstop.catalogue.branch`.
         """
-        note = (
-            f"Floquet multipliers by Hill's method ({self.method} solver, {self.harmonics} harmonics on the "
-            f"perturbation), ordered [trivial, trivial, mu_1, mu_2], |mu_1| >= |mu_2|"
-        )
         return {
-            "stable": flag_variable(
-                "point",
-                self.stable,
-                "orbit linearly stable (1) or unstable (0): largest |multiplier| of the non-trivial pair <= 1 + "
-                f"{self.tol:g}",
-                "unstable stable",
-                comment=note,
-            ),
-            "multiplier_real": (
-                ("point", "multiplier"),
-                self.multipliers.real,
-                {"long_name": "real part of the Floquet multipliers", "units": "1", "comment": note},
-            ),
-            "multiplier_imag": (
-                ("point", "multiplier"),
-                self.multipliers.imag,
-                {"long_name": "imaginary part of the Floquet multipliers", "units": "1", "comment": note},
-            ),
-            "max_multiplier": (
-                "point",
-                self.max_multiplier,
-                {"long_name": "largest modulus of the non-trivial Floquet multiplier pair", "units": "1"},
-            ),
-            "stability_orbit_residual": (
-                "point",
-                self.orbit_residual,
-                {
-                    "long_name": "relative residual of the orbit velocity in the linearized equations (accuracy of the "
-                    "orbit for the stability analysis)",
-                    "units": "1",
-                },
-            ),
-            "stability_resolved": flag_variable(
-                "point",
-                self.resolved,
-                f"stability verdict resolved (1): distance of mu_1 to the collision point(s) > {RESOLUTION_FACTOR:g} x "
-                "stability_orbit_residual",
-                "unresolved resolved",
-            ),
+            "stable": ("point", self.stable.astype(np.int8)),
+            "multiplier_real": (("point", "multiplier"), self.multipliers.real),
+            "multiplier_imag": (("point", "multiplier"), self.multipliers.imag),
+            "max_multiplier": ("point", self.max_multiplier),
+            "stability_orbit_residual": ("point", self.orbit_residual),
+            "stability_resolved": ("point", self.resolved.astype(np.int8)),
         }
 
 
@@ -208,8 +196,8 @@ def branch_hill(
     ):
         raise ValueError(f"blas_threads must be None or an integer >= 1, got {blas_threads!r}")
     n = len(U_array)
-    mult = np.empty((n, 4), dtype=complex)
-    expo = np.empty((n, 4), dtype=complex)
+    mult = np.empty((n, 2 * system.n_dofs), dtype=complex)
+    expo = np.empty((n, 2 * system.n_dofs), dtype=complex)
     stable = np.empty(n, dtype=bool)
     max_mu, resid, margin, tailf = (np.empty(n) for _ in range(4))
     resolved = np.empty(n, dtype=bool)

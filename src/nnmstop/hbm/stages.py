@@ -55,7 +55,6 @@ from nnmstop.hbm.dataset import (
     skipped_stage_dataset,
 )
 from nnmstop.hbm.stability import StabilitySettings, orbit_stability
-from nnmstop.hbm.structure_stability import structure_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.hbm.tongues import joined_segments, over_the_tongue
 from nnmstop.models.structure import check_grounded
@@ -63,7 +62,6 @@ from nnmstop.models.structure import check_grounded
 __all__ = [
     "CRITERIA",
     "BranchSettings",
-    "MagnusStability",
     "StageSpec",
     "BranchSpec",
     "BifurcationSpec",
@@ -82,18 +80,6 @@ logger = logging.getLogger("nnmstop.hbm.stages")
 
 
 @dataclass(frozen=True)
-class MagnusStability:
-    """Multipliers by fourth-order Magnus steps over a period (``structure_stability``).
-
-    The stability of structures other than the paper's oscillator until
-    :func:`nnmstop.hbm.stability.orbit_stability` takes any structure.
-    """
-
-    steps: int = 128
-    tolerance: float = 1e-4
-
-
-@dataclass(frozen=True)
 class BranchSettings:
     """Numerical settings shared by every stage and bifurcated branch.
 
@@ -103,8 +89,8 @@ class BranchSettings:
         Settings of the ANM continuation (``points_per_step`` included).
     max_truncation : float
         Largest truncation indicator accepted along a branch (:class:`TruncationGuard`), in (0, 1).
-    stability : StabilitySettings or MagnusStability
-        How the Floquet verdicts are computed.
+    stability : StabilitySettings
+        How the Floquet verdicts are computed (:func:`nnmstop.hbm.stability.orbit_stability`, any structure).
     start_tolerance : float
         Relative residual to which the start point is corrected (:func:`start_point`).
     truncation_setting : str
@@ -113,7 +99,7 @@ class BranchSettings:
 
     continuation: ANMSettings
     max_truncation: float
-    stability: StabilitySettings | MagnusStability = field(default_factory=StabilitySettings)
+    stability: StabilitySettings = field(default_factory=StabilitySettings)
     start_tolerance: float = 1e-13
     truncation_setting: str = "hbm.max_truncation"
 
@@ -203,15 +189,11 @@ def stage_criterion(until: dict, system, mode: int):
     return lambda U, d: condition(U, d, system)
 
 
-def _branch_stability(system, U, settings, time_residual):
+def _branch_stability(system, U, settings: StabilitySettings, time_residual):
     started = time.perf_counter()
-    if isinstance(settings, MagnusStability):
-        stability = structure_stability(system, U, steps=settings.steps, tolerance=settings.tolerance)
-    else:
-        stability = orbit_stability(system, U, settings, time_residual=time_residual)
+    stability = orbit_stability(system, U, settings, time_residual=time_residual)
     # Wall time in the log only (datasets stay byte-reproducible); benchmarks/cold_build.py reads it.
-    method = getattr(settings, "method", "magnus")
-    logger.info("stability of %d points in %.2f s (%s)", len(U), time.perf_counter() - started, method)
+    logger.info("stability of %d points in %.2f s (%s)", len(U), time.perf_counter() - started, settings.method)
     return stability
 
 

@@ -21,13 +21,15 @@ KEYWORDS = "finite element, Euler-Bernoulli beam, steam-generator tube, support 
 
 
 def tube_config(config: dict) -> dict:
-    """The ``tube`` section as the sections the structure and HBM tasks read (``structure``, ``hbm``, ...)."""
+    """The ``tube`` section as the sections the structure and HBM tasks read (``structure``, ``hbm``, ...).
+
+    ``tube.anm`` and ``tube.stability`` replace keys of the top-level ``anm`` and ``stability`` sections."""
     tube = config["tube"]
     return {
         "structure": {"kind": "beam", "beam": tube["structure"]},
         "hbm": tube["hbm"],
         "anm": {**config["anm"], **tube.get("anm", {})},
-        "stability": tube["stability"],
+        "stability": {**config.get("stability", {}), **tube.get("stability", {})},
         "branches": tube["branches"],
         "exact": tube["exact"],
         "compare_count": tube["compare_count"],
