@@ -27,6 +27,19 @@ RESPONSE_VARIABLES = (
         flags=REGIMES,
     ),
     Variable("segment", ("point",), "index of the continued piece of the response"),
+    Variable(
+        "stability_margin",
+        ("point",),
+        "distance of the multipliers to the unit circle (min | |mu| - 1 |): how far the verdict and the number of "
+        "multipliers outside the circle are from changing",
+    ),
+    Variable(
+        "stability_resolved",
+        ("point",),
+        "stability verdict resolved (1): stability_margin larger than the resolution factor (attribute "
+        "stability_resolution_factor) times the multipliers' error estimates",
+        flags=("unresolved", "resolved"),
+    ),
     Variable("dof_label", ("dof",), "name of the degree of freedom"),
     Variable("change_frequency", ("change",), "frequency of the located stability change", units="Hz"),
     Variable("change_amplitude", ("change", "dof"), "largest |q| of each DOF at the located stability change"),
@@ -50,6 +63,12 @@ FORCED_EXACT = DatasetKind(
             optional=True,
         ),
         Variable("contact_point_index", ("contact_point",), "index of the point of the response", optional=True),
+        Variable(
+            "multiplier_error",
+            ("point",),
+            "difference of the multipliers from the eigen-decomposed phase exponentials and from scipy's expm "
+            "(error estimate)",
+        ),
     ),
 )
 
@@ -82,6 +101,13 @@ FORCED_REGULARIZED = DatasetKind(
             ("point",),
             "largest change of a Floquet multiplier between the last two Magnus step counts (error estimate)",
         ),
+        Variable(
+            "stability_orbit_error",
+            ("point",),
+            "estimate of the change of the largest multiplier modulus due to the HBM orbit's own error "
+            "(time_residual x max(1, max |mu|))",
+        ),
+        Variable("stability_steps", ("point",), "Magnus steps per period of the kept multipliers"),
     ),
 )
 

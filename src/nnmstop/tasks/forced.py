@@ -16,7 +16,7 @@ from nnmstop.continuation.anm import ANMSettings
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
 from nnmstop.forced.backbone import nnm_backbone, predicted_peaks, required_force
 from nnmstop.forced.dataset import backbone_dataset, base_attributes, exact_dataset, regularized_dataset
-from nnmstop.forced.regularized import regularized_stability
+from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stability
 from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
 from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, scene_name
 from nnmstop.hbm.forced import response_amplitudes
@@ -45,7 +45,8 @@ def exact_response_dataset(config: dict, scene: Scene):
         int(spec["frequency_samples"]),
     )
     pieces = exact_response(scene.excitation, scene.frequency_range, settings)
-    return exact_dataset(scene.excitation, pieces, scene.frequency_range)
+    factor = float(scene.stability["resolution_factor"])
+    return exact_dataset(scene.excitation, pieces, scene.frequency_range, factor)
 
 
 def regularized_response_dataset(config: dict, scene: Scene):
@@ -54,9 +55,10 @@ def regularized_response_dataset(config: dict, scene: Scene):
     anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
     settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
     system, branch = regularized_response(scene.excitation, scene.frequency_range, settings, label=scene.name)
-    multipliers, errors, changes = regularized_stability(system, branch, anm, scene.stability)
-    ds = regularized_dataset(system, branch, multipliers, False, changes, scene.frequency_range)
-    ds["multiplier_error"] = ("point", np.asarray(errors, dtype=float))
+    stability_settings = ForcedStabilitySettings.from_config(scene.stability)
+    stability, changes = regularized_stability(system, branch, anm, stability_settings)
+    ds = regularized_dataset(system, branch, stability.multipliers, False, changes, scene.frequency_range)
+    ds.update(stability.data_vars())
     ds.attrs.update({f"stability_{key}": value for key, value in scene.stability.items()})
     return ds
 
