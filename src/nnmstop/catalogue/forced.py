@@ -145,4 +145,37 @@ FORCED_BACKBONE = DatasetKind(
     ),
 )
 
-KINDS = (FORCED_EXACT, FORCED_REGULARIZED, FORCED_BACKBONE)
+FORCED_PREDICTION = DatasetKind(
+    "forced_prediction",
+    "The backbone's prediction of the resonance peak against the damping",
+    ("forced/prediction_error.nc",),
+    "At damping ratios going to zero with the force in proportion (one backbone orbit predicts every peak): the "
+    "peak of NNM1 predicted by the energy balance on the regularized backbone and the peak of the regularized "
+    "response located on its ANM steps (nnmstop.forced.backbone.prediction_errors), their relative errors and "
+    "the phase lag at the peak.",
+    (
+        Variable("damping_ratio", ("level",), "damping ratio of both linear modes (Rayleigh damping)"),
+        Variable("forcing_amplitude", ("level",), "force amplitude F (proportional to the damping ratio)"),
+        Variable("predicted_frequency", ("level",), "frequency of the peak predicted by the backbone", units="Hz"),
+        Variable("peak_frequency", ("level",), "frequency of the located peak of the response", units="Hz"),
+        Variable("predicted_amplitude", ("level", "dof"), "largest |q| of each DOF at the predicted peak"),
+        Variable("peak_amplitude", ("level", "dof"), "largest |q| of each DOF at the located peak"),
+        Variable(
+            "frequency_error", ("level",), "relative error of the predicted peak frequency: |f_pred - f_peak| / f_pred"
+        ),
+        Variable(
+            "amplitude_error",
+            ("level",),
+            "relative error of the predicted peak amplitude of the stop DOF: |a_pred - a_peak| / a_pred",
+        ),
+        Variable(
+            "peak_phase_lag",
+            ("level", "dof"),
+            "lag of each DOF's fundamental behind the force at the peak",
+            units="degree",
+        ),
+        Variable("dof_label", ("dof",), "name of the degree of freedom"),
+    ),
+)
+
+KINDS = (FORCED_EXACT, FORCED_REGULARIZED, FORCED_BACKBONE, FORCED_PREDICTION)

@@ -26,7 +26,7 @@ import numpy as np
 from nnmstop.continuation.anm import ANMSettings, ANMStepper
 from nnmstop.floquet import check_power_of_two, match_nearest
 from nnmstop.forced.responses import path_between
-from nnmstop.forced.stability_changes import locate_stability_changes
+from nnmstop.forced.stability_changes import locate_stability_changes, unstable_count
 from nnmstop.hbm.forced import ForcedLinearization
 
 __all__ = [
@@ -115,12 +115,38 @@ def verdict_stability(linearization: ForcedLinearization, U_array, time_residual
     return ForcedStability(multipliers, margin, error, orbit_error, steps, resolved)
 
 
+def _common_precision(linearization, U, stability: ForcedStability, time_residual, factor: float):
+    """Recompute, in place, the less precise end of every step where the number of unstable multipliers changes
+    with the other end's Magnus steps, until the counts of each such pair come from one precision: a change
+    is then located at that precision, and one that does not survive it is none."""
+    while True:
+        counts = np.array([unstable_count(m) for m in stability.multipliers])
+        pending = [
+            (j, int(max(stability.steps[i], stability.steps[i + 1])))
+            for i in np.flatnonzero(np.diff(counts) != 0)
+            for j in (i, i + 1)
+            if stability.steps[j] < max(stability.steps[i], stability.steps[i + 1])
+        ]
+        if not pending:
+            return
+        for j, steps in pending:
+            fine = linearization.multipliers(U[j][None], steps)
+            coarse = linearization.multipliers(U[j][None], steps // 2)
+            stability.multipliers[j], stability.steps[j] = fine[0], steps
+            stability.integration_error[j] = np.abs(fine - match_nearest(fine, coarse)).max()
+            stability.margin[j] = circle_distance(fine)[0]
+            stability.orbit_error[j] = time_residual[j] * max(1.0, np.abs(fine[0, 0]))
+            error = max(stability.integration_error[j], stability.orbit_error[j])
+            stability.resolved[j] = stability.margin[j] > factor * error
+
+
 def regularized_stability(system, branch, anm: ANMSettings, settings: ForcedStabilitySettings):
     """:class:`ForcedStability` of every point of ``branch`` and the located stability changes."""
     U = np.asarray(branch.points)
     linearization = ForcedLinearization(system)
-    time_residual = [d["time_residual"] for d in branch.diagnostics]
+    time_residual = np.array([d["time_residual"] for d in branch.diagnostics], dtype=float)
     stability = verdict_stability(linearization, U, time_residual, settings)
+    _common_precision(linearization, U, stability, time_residual, settings.resolution_factor)
     stepper = ANMStepper(anm)
 
     def multipliers_at(i):
