@@ -119,7 +119,8 @@ def prediction_error_dataset(config: dict):
 
     forced = config["forced"]
     excitations, window = prediction_excitations(config)
-    anm = ANMSettings.from_config(config["anm"], points_per_step=int(forced["points_per_step"]))
+    # the peaks are located on the ANM steps: the step ends are enough
+    anm = ANMSettings.from_config(config["anm"], points_per_step=1)
     found = prediction_errors(excitations, 1, window, int(forced["harmonics"]), anm, float(forced["max_truncation"]))
     stop = excitations[0].structure.stops[0].dof
     ds = xr.Dataset(
