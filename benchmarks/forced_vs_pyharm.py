@@ -81,9 +81,17 @@ def ours(config, scene, excitation) -> dict:
     (stability, changes), s_cpu, s_wall = timed(lambda: regularized_stability(system, branch, anm, stability_settings))
     kinds = {kind: sum(c.kind == kind for c in changes) for kind in KINDS}
     return dict(
-        system=system, branch=branch, cpu=cpu, wall=wall, stability_cpu=s_cpu, stability_wall=s_wall,
-        points=len(branch.points), factorizations=branch.stats.factorizations, steps=branch.stats.steps,
-        unresolved=int(np.sum(~stability.resolved)), changes=kinds,
+        system=system,
+        branch=branch,
+        cpu=cpu,
+        wall=wall,
+        stability_cpu=s_cpu,
+        stability_wall=s_wall,
+        points=len(branch.points),
+        factorizations=branch.stats.factorizations,
+        steps=branch.stats.steps,
+        unresolved=int(np.sum(~stability.resolved)),
+        changes=kinds,
     )
 
 
@@ -98,16 +106,28 @@ def pyharm(python: Path, scene, excitation, args) -> dict:
     problem = dict(
         law_file=str(REPO / "src" / "nnmstop" / "models" / "two_dof.py"),
         stop=dict(alpha=stop.stiffness, eta=stop.eta, gap=stop.gap, dof=stop.dof),
-        M=M.tolist(), C=C.tolist(), K=K.tolist(), harmonics=scene.harmonics, time_samples=args.time_samples,
-        force_dof=int(excitation.force.dofs[0]), force=excitation.force.amplitude,
+        M=M.tolist(),
+        C=C.tolist(),
+        K=K.tolist(),
+        harmonics=scene.harmonics,
+        time_samples=args.time_samples,
+        force_dof=int(excitation.force.dofs[0]),
+        force=excitation.force.amplitude,
         continuation=dict(
-            puls_inf=2 * np.pi * low, puls_sup=2 * np.pi * high, ds0=args.ds0, ds_max=args.ds_max, ds_min=1e-8,
-            solver="NewtonRaphson", solver_options=dict(tol_residual=args.newton_tol, tol_delta_x=args.newton_tol),
+            puls_inf=2 * np.pi * low,
+            puls_sup=2 * np.pi * high,
+            ds0=args.ds0,
+            ds_max=args.ds_max,
+            ds_min=1e-8,
+            solver="NewtonRaphson",
+            solver_options=dict(tol_residual=args.newton_tol, tol_delta_x=args.newton_tol),
         ),
     )
     run = subprocess.run(
         [python, str(Path(__file__).with_name("pyharm_side.py"))],
-        input=json.dumps(problem), capture_output=True, text=True,
+        input=json.dumps(problem),
+        capture_output=True,
+        text=True,
     )
     if run.returncode:
         raise RuntimeError(f"pyHarm run failed: {run.stderr.strip()[-2000:]}")
@@ -144,11 +164,15 @@ def curve_distance(mine: dict, theirs: dict) -> dict:
             if i not in paths:
                 paths[i] = path_between(system, stepper, U, int(i))
             path, length = paths[i]
-            at = bisect_sign_change(lambda a, p=path: p(a)[system.i_omega] - w, 0.0, length, tol=1e-13 * length)
+            at = bisect_sign_change(lambda a, p=path, w=w: p(a)[system.i_omega] - w, 0.0, length, tol=1e-13 * length)
             found.append(response_amplitudes(system, path(at.midpoint)[None])[0])
         distance[k] = np.min(np.abs(np.array(found) - theirs_amplitude[k]), axis=0)
-    return dict(largest=distance.max(axis=0), compared=len(theirs["omega"]) - outside, outside=outside,
-                largest_amplitude=theirs_amplitude.max(axis=0))
+    return dict(
+        largest=distance.max(axis=0),
+        compared=len(theirs["omega"]) - outside,
+        outside=outside,
+        largest_amplitude=theirs_amplitude.max(axis=0),
+    )
 
 
 def report(args, mine, theirs, distance) -> str:

@@ -92,11 +92,20 @@ def run(problem: dict) -> dict:
     n = len(matrices["M"])
     data = {
         "analysis": {"frf": {"study": "frf", **problem["continuation"], "verbose": False}},
-        "system": {"type": "Base", "nh": problem["harmonics"], "nti": problem["time_samples"], "adim": {"status": False}},
+        "system": {
+            "type": "Base",
+            "nh": problem["harmonics"],
+            "nti": problem["time_samples"],
+            "adim": {"status": False},
+        },
         "substructures": {"oscillator": {"matrix": matrices, "ndofs": 1}},
         "connectors": {
-            "force": {"type": "CosinusForcing", "connect": {"oscillator": [problem["force_dof"]]}, "dirs": [0],
-                      "amp": problem["force"]},
+            "force": {
+                "type": "CosinusForcing",
+                "connect": {"oscillator": [problem["force_dof"]]},
+                "dirs": [0],
+                "amp": problem["force"],
+            },
             "stop": {"type": "RegularizedStop", "connect": {"oscillator": [stop["dof"]]}, "dirs": [0]},
         },
     }
