@@ -287,7 +287,7 @@ def forced_datasets():
     return (
         [forced_file("exact", s) for s in oscillator]
         + [forced_file("regularized", s) for s in names]
-        + [rules.forced_backbone.output.dataset]
+        + [rules.forced_backbone.output.dataset, rules.forced_prediction.output.dataset]
     )
 
 

@@ -57,6 +57,22 @@ rule forced_backbone:
         "../scripts/run_task.py"
 
 
+rule forced_prediction:
+    """The backbone's prediction of the NNM1 peak against the located peak as the damping goes to zero."""
+    output:
+        dataset=results("forced/prediction_error.nc"),
+    log:
+        logs("forced/prediction_error.log"),
+    benchmark:
+        benchmarks("forced_prediction.tsv")
+    params:
+        config=FORCED_CONFIG,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
 # Datasets each forced figure draws (the keys are the figure task's named inputs).
 FORCED_FIGURE_INPUTS = {
     "frequency_response": lambda: {
@@ -72,6 +88,7 @@ FORCED_FIGURE_INPUTS = {
         "exact": [forced_file("exact", forced_scene_names("oscillator")[-1])],
         "regularized": [forced_file("regularized", forced_scene_names("oscillator")[-1])],
     },
+    "prediction_error": lambda: {"prediction": rules.forced_prediction.output.dataset},
     "tube": lambda: {"regularized": [forced_file("regularized", s) for s in forced_scene_names("tube")]},
 }
 

@@ -27,6 +27,19 @@ RESPONSE_VARIABLES = (
         flags=REGIMES,
     ),
     Variable("segment", ("point",), "index of the continued piece of the response"),
+    Variable(
+        "stability_margin",
+        ("point",),
+        "distance of the multipliers to the unit circle (min | |mu| - 1 |): how far the verdict and the number of "
+        "multipliers outside the circle are from changing",
+    ),
+    Variable(
+        "stability_resolved",
+        ("point",),
+        "stability verdict resolved (1): stability_margin larger than the resolution factor (attribute "
+        "stability_resolution_factor) times the multipliers' error estimates",
+        flags=("unresolved", "resolved"),
+    ),
     Variable("dof_label", ("dof",), "name of the degree of freedom"),
     Variable("change_frequency", ("change",), "frequency of the located stability change", units="Hz"),
     Variable("change_amplitude", ("change", "dof"), "largest |q| of each DOF at the located stability change"),
@@ -50,6 +63,12 @@ FORCED_EXACT = DatasetKind(
             optional=True,
         ),
         Variable("contact_point_index", ("contact_point",), "index of the point of the response", optional=True),
+        Variable(
+            "multiplier_error",
+            ("point",),
+            "difference of the multipliers from the eigen-decomposed phase exponentials and from scipy's expm "
+            "(error estimate)",
+        ),
     ),
 )
 
@@ -82,6 +101,13 @@ FORCED_REGULARIZED = DatasetKind(
             ("point",),
             "largest change of a Floquet multiplier between the last two Magnus step counts (error estimate)",
         ),
+        Variable(
+            "stability_orbit_error",
+            ("point",),
+            "estimate of the change of the largest multiplier modulus due to the HBM orbit's own error "
+            "(time_residual x max(1, max |mu|))",
+        ),
+        Variable("stability_steps", ("point",), "Magnus steps per period of the kept multipliers"),
     ),
 )
 
@@ -119,4 +145,37 @@ FORCED_BACKBONE = DatasetKind(
     ),
 )
 
-KINDS = (FORCED_EXACT, FORCED_REGULARIZED, FORCED_BACKBONE)
+FORCED_PREDICTION = DatasetKind(
+    "forced_prediction",
+    "The backbone's prediction of the resonance peak against the damping",
+    ("forced/prediction_error.nc",),
+    "At damping ratios going to zero with the force in proportion (one backbone orbit predicts every peak): the "
+    "peak of NNM1 predicted by the energy balance on the regularized backbone and the peak of the regularized "
+    "response located on its ANM steps (nnmstop.forced.backbone.prediction_errors), their relative errors and "
+    "the phase lag at the peak.",
+    (
+        Variable("damping_ratio", ("level",), "damping ratio of both linear modes (Rayleigh damping)"),
+        Variable("forcing_amplitude", ("level",), "force amplitude F (proportional to the damping ratio)"),
+        Variable("predicted_frequency", ("level",), "frequency of the peak predicted by the backbone", units="Hz"),
+        Variable("peak_frequency", ("level",), "frequency of the located peak of the response", units="Hz"),
+        Variable("predicted_amplitude", ("level", "dof"), "largest |q| of each DOF at the predicted peak"),
+        Variable("peak_amplitude", ("level", "dof"), "largest |q| of each DOF at the located peak"),
+        Variable(
+            "frequency_error", ("level",), "relative error of the predicted peak frequency: |f_pred - f_peak| / f_pred"
+        ),
+        Variable(
+            "amplitude_error",
+            ("level",),
+            "relative error of the predicted peak amplitude of the stop DOF: |a_pred - a_peak| / a_pred",
+        ),
+        Variable(
+            "peak_phase_lag",
+            ("level", "dof"),
+            "lag of each DOF's fundamental behind the force at the peak",
+            units="degree",
+        ),
+        Variable("dof_label", ("dof",), "name of the degree of freedom"),
+    ),
+)
+
+KINDS = (FORCED_EXACT, FORCED_REGULARIZED, FORCED_BACKBONE, FORCED_PREDICTION)

@@ -32,12 +32,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 import scipy.optimize
 
 from nnmstop.continuation.core import ContinuationStats, unit_tangent
 from nnmstop.continuation.newton import bisect_sign_change
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthStepper, continue_pseudo_arclength
 from nnmstop.exact.grazing import MarginChecks
+from nnmstop.floquet import match_nearest
 from nnmstop.models.excitation import Excitation
 
 __all__ = [
@@ -343,6 +345,16 @@ class SymmetricContactProblem:
         nu = np.linalg.eigvals(self.half_period_map(y))
         nu = nu[np.argsort(-np.abs(nu), kind="stable")]
         return nu * nu, nu
+
+    def multiplier_error(self, y) -> float:
+        """Error estimate of ``nu``: their difference from the eigenvalues of the half-period map built with
+        :func:`scipy.linalg.expm` (a second route to the same matrix exponentials)."""
+        _, _, delta, omega = self.split(y)
+        second = -scipy.linalg.expm(self.phases["F"].A * ((np.pi - delta) / omega)) @ scipy.linalg.expm(
+            self.phases["R"].A * (delta / omega)
+        )
+        nu = self.multipliers(y)[1]
+        return float(np.abs(nu - match_nearest(nu[None], np.linalg.eigvals(second)[None])[0]).max())
 
     def assess(self, y) -> ContactAssessment:
         """Margins of the assumptions of the construction (each > 0 when it holds), :data:`CONTACT_MARGINS`."""

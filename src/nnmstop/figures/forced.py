@@ -5,7 +5,8 @@
   stability changes marked by kind, the NNM backbones (grey) and the peaks they predict (stars);
 * :func:`phase_lag_figure`: the lag of the forced DOF's fundamental behind the force;
 * :func:`orbits_figure`: exact and regularized orbits and contact force at chosen frequencies past grazing;
-* :func:`tube_figure`: the tube's response at its stop and at the forced DOF.
+* :func:`tube_figure`: the tube's response at its stop and at the forced DOF;
+* :func:`prediction_error_figure`: the backbone's prediction error and the phase lag at the peak against damping.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from nnmstop import fourier
 from nnmstop.figures.common import save_figure
 from nnmstop.forced.stability_changes import KINDS
 
-__all__ = ["frequency_response_figure", "phase_lag_figure", "orbits_figure", "tube_figure"]
+__all__ = ["frequency_response_figure", "phase_lag_figure", "orbits_figure", "tube_figure", "prediction_error_figure"]
 
 #: Marker of each kind of located stability change.
 CHANGE_MARKERS = {"fold": "^", "symmetry_breaking": "D", "period_doubling": "s", "neimark_sacker": "o"}
@@ -38,14 +39,27 @@ def _runs(values):
     return [slice(a, b) for a, b in zip(starts, ends)]
 
 
+#: Line style of each stability class of a point: unstable, stable, verdict unresolved.
+CLASS_STYLES = {0: "--", 1: "-", 2: ":"}
+
+
+def _stability_classes(ds: xr.Dataset) -> np.ndarray:
+    """Per point: 1 stable, 0 unstable, 2 where the verdict is unresolved (``stability_resolved = 0``)."""
+    classes = ds["stable"].values.astype(int)
+    if "stability_resolved" in ds:
+        classes = np.where(ds["stability_resolved"].values.astype(bool), classes, 2)
+    return classes
+
+
 def _draw_response(ax, ds: xr.Dataset, y, color, lw: float, zorder: float):
-    """A response curve: solid where stable, dashed where unstable, one piece (segment) at a time."""
+    """A response curve: solid where stable, dashed where unstable, dotted where the verdict is unresolved, one
+    piece (segment) at a time."""
+    classes = _stability_classes(ds)
     for piece in _runs(ds["segment"].values):
-        for run in _runs(ds["stable"].values[piece]):
-            sl = slice(piece.start + run.start, piece.start + run.stop + 1)
-            sl = slice(sl.start, min(sl.stop, piece.stop))
-            stable = bool(ds["stable"].values[sl.start])
-            ax.plot(ds["frequency"].values[sl], y[sl], color=color, lw=lw, ls="-" if stable else "--", zorder=zorder)
+        for run in _runs(classes[piece]):
+            sl = slice(piece.start + run.start, min(piece.start + run.stop + 1, piece.stop))
+            style = CLASS_STYLES[int(classes[sl.start])]
+            ax.plot(ds["frequency"].values[sl], y[sl], color=color, lw=lw, ls=style, zorder=zorder)
 
 
 def _draw_changes(ax, ds: xr.Dataset, dof: int, color, size: float = 5):
@@ -89,6 +103,7 @@ def _legend_handles(colors, regularized) -> list:
     handles += [
         Line2D([], [], color=EXACT_LINE, lw=0.7, label="exact (piecewise-linear law)"),
         Line2D([], [], color="0.3", lw=1.0, ls="--", label="unstable"),
+        Line2D([], [], color="0.3", lw=1.0, ls=":", label="stability unresolved"),
         Line2D([], [], color="0.6", lw=1.0, label="NNM backbones (regularized)"),
         Line2D([], [], ls="", marker="*", color="0.5", mec="black", ms=10, label="peak predicted by the backbone"),
     ]
@@ -223,4 +238,32 @@ def tube_figure(regularized: list, pdf_path, png_dpi: int = 150):
     ax.set_xlabel("forcing frequency (Hz, nondimensional time)")
     ax.set_ylabel("max |q| over the period (gaps)")
     ax.legend(fontsize=7)
+    return save_figure(fig, pdf_path, png_dpi)
+
+
+def prediction_error_figure(ds: xr.Dataset, pdf_path, png_dpi: int = 150):
+    """Relative errors of the backbone's predicted peak (frequency, amplitude of the stop DOF) and the forced DOF's
+    lag behind the force at the peak minus 90 degrees, against the damping ratio (log-log), with a slope-1 line."""
+    fig, axes = plt.subplots(1, 2, figsize=(9.0, 3.8), layout="constrained")
+    zeta = ds["damping_ratio"].values
+    forced = int(np.atleast_1d(ds.attrs["forcing_dofs"])[0])
+    label = str(ds["dof_label"].values[forced])
+    ax = axes[0]
+    ax.loglog(zeta, ds["frequency_error"].values, "o-", label="peak frequency")
+    ax.loglog(
+        zeta,
+        ds["amplitude_error"].values,
+        "s-",
+        label=f"peak max |{ds['dof_label'].values[int(ds.attrs['stop_dof'])]}|",
+    )
+    top = max(ds["frequency_error"].values.max(), ds["amplitude_error"].values.max())
+    ax.loglog(zeta, top * zeta / zeta.max(), color="0.5", ls=":", label="slope 1 (first order)")
+    ax.set_xlabel("damping ratio of the linear modes (force in proportion)")
+    ax.set_ylabel("relative error of the backbone's prediction")
+    ax.legend(fontsize=7)
+    ax = axes[1]
+    ax.loglog(zeta, np.abs(ds["peak_phase_lag"].values[:, forced] - 90.0), "o-", color="tab:green")
+    ax.set_xlabel("damping ratio of the linear modes (force in proportion)")
+    ax.set_ylabel(f"|lag of {label} at the peak - 90| (degrees)")
+    fig.suptitle(f"NNM1 peak, F / damping ratio = {float(ds.attrs['force_per_ratio']):g}, H = {ds.attrs['harmonics']}")
     return save_figure(fig, pdf_path, png_dpi)

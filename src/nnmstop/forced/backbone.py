@@ -26,7 +26,7 @@ from nnmstop.hbm.stages import TruncationGuard, start_point
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.excitation import Excitation
 
-__all__ = ["required_force", "nnm_backbone", "predicted_peaks", "locate_peak"]
+__all__ = ["required_force", "nnm_backbone", "predicted_peaks", "locate_peak", "prediction_errors"]
 
 
 def required_force(system: HarmonicBalanceSystem, excitation: Excitation, U) -> float:
@@ -120,3 +120,38 @@ def locate_peak(system, branch, settings: ANMSettings, dof: int, rel_tol: float 
             found = bisect_sign_change(slope, h, length - h, tol=rel_tol * length, f_a=low, f_b=high)
             return path(found.midpoint)
     return U[i]
+
+
+def prediction_errors(
+    excitations, mode: int, frequency_window, harmonics: int, settings: ANMSettings, max_truncation: float
+) -> dict:
+    """The backbone's predicted peak against the located peak of the response, for each excitation.
+
+    ``excitations`` share the structure and differ in damping and force, with ``F`` proportional to the
+    damping (Rayleigh coefficients in proportion), so that every prediction is the same backbone orbit. The NNM
+    ``mode`` backbone (regularized, cosine basis) is continued once; per excitation its predicted peak
+    (:func:`predicted_peaks`) and the response by harmonic balance over ``frequency_window`` (Hz) with its peak
+    of the first stop's DOF located on the ANM steps (:func:`locate_peak`). Returns arrays over the
+    excitations: ``predicted_frequency``, ``peak_frequency`` (Hz), ``predicted_amplitude``, ``peak_amplitude``
+    (points, N) and ``peak_phase_lag`` (degrees, points, N).
+    """
+    from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, continue_frequency_response, phase_lags
+
+    first = excitations[0]
+    system, backbone = nnm_backbone(first, mode, harmonics, settings, max_truncation, 2 * first.force.amplitude)
+    keys = ("predicted_frequency", "predicted_amplitude", "peak_frequency", "peak_amplitude", "peak_phase_lag")
+    out = {key: [] for key in keys}
+    for excitation in excitations:
+        force = excitation.force.amplitude
+        (prediction,) = predicted_peaks(system, excitation, backbone, settings, [force])
+        if prediction is None:
+            raise ValueError(f"the NNM{mode} backbone does not reach the force level {force:g}")
+        forced = ForcedHarmonicBalanceSystem(excitation, harmonics)
+        branch = continue_frequency_response(forced, frequency_window, settings, max_truncation)
+        peak = locate_peak(forced, branch, settings, dof=excitation.structure.stops[0].dof)
+        out["predicted_frequency"].append(prediction[0])
+        out["predicted_amplitude"].append(prediction[1])
+        out["peak_frequency"].append(forced.frequency_hz(peak))
+        out["peak_amplitude"].append(response_amplitudes(forced, peak[None])[0])
+        out["peak_phase_lag"].append(np.degrees(phase_lags(forced, peak[None])[0]))
+    return {key: np.array(value, dtype=float) for key, value in out.items()}

@@ -106,20 +106,33 @@ def _exact_lags(piece, problem) -> np.ndarray:
     return np.array(lags)
 
 
-def exact_dataset(excitation: Excitation, pieces: list, frequency_range) -> xr.Dataset:
+def exact_verdicts(mu, error, resolution_factor: float) -> dict:
+    """``multiplier_error``, ``stability_margin``, ``stability_resolved`` of exact multipliers ``mu`` (points, 2N)."""
+    margin = np.abs(np.abs(np.asarray(mu)) - 1.0).min(axis=1)
+    error = np.asarray(error, dtype=float)
+    return {
+        "multiplier_error": ("point", error),
+        "stability_margin": ("point", margin),
+        "stability_resolved": ("point", (margin > resolution_factor * error).astype(np.int8)),
+    }
+
+
+def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolution_factor: float = 2.0) -> xr.Dataset:
     """Dataset of the exact response (:func:`nnmstop.forced.responses.exact_response`), pieces one after the other.
 
     The contact families' unknowns (``z1``, ``theta1``, contact phase duration, ``Omega``) are kept in
-    ``contact_unknowns(contact_point, unknown)`` with ``contact_point_index`` into ``point``.
+    ``contact_unknowns(contact_point, unknown)`` with ``contact_point_index`` into ``point``. A verdict is
+    resolved where its margin exceeds ``resolution_factor`` times the multipliers' error estimate (of ``mu``).
     """
     problem = SymmetricContactProblem(excitation)
     parts, changes, offset = [], [], 0
     contact_rows, contact_index = [], []
     for k, piece in enumerate(pieces):
         half = piece.kind == "one_contact"
-        multipliers = piece.multipliers
+        multipliers, error = piece.multipliers, piece.multiplier_error
         if half:  # nu of the half-period map (the piece holds mu = nu**2)
             multipliers = np.array([problem.multipliers(y)[1] for y in piece.unknowns])
+            error = 2 * np.abs(multipliers).max(axis=1) * error  # of mu = nu**2
             contact_rows.append(piece.unknowns)
             contact_index.append(offset + np.arange(len(piece.frequency)))
         variables = response_variables(
@@ -131,6 +144,7 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range) -> xr.D
             half,
             np.full(len(piece.frequency), k),
         )
+        variables.update(exact_verdicts(piece.multipliers, error, resolution_factor))
         parts.append(xr.Dataset(variables))
         changes += piece.changes
         offset += len(piece.frequency)
@@ -141,6 +155,7 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range) -> xr.D
         ds["contact_unknowns"] = (("contact_point", "unknown"), np.concatenate(contact_rows))
         ds["contact_point_index"] = ("contact_point", np.concatenate(contact_index).astype(np.int32))
     ds.attrs.update(base_attributes(excitation, "piecewise_linear", frequency_range))
+    ds.attrs["stability_resolution_factor"] = float(resolution_factor)
     ds.attrs["segment_kinds"] = " ".join(p.kind for p in pieces)
     ds.attrs["segment_end_reasons"] = "; ".join(f"{k}: {p.end_reason}" for k, p in enumerate(pieces))
     return ds

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from nnmstop.continuation.anm import ANMSettings
 from nnmstop.continuation.core import ContinuationStats, unit_tangent
@@ -24,6 +25,7 @@ from nnmstop.exact.forced import (
     grazing_frequencies,
     non_impacting_response,
 )
+from nnmstop.floquet import match_nearest
 from nnmstop.forced.stability_changes import locate_stability_changes
 from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, continue_frequency_response
 from nnmstop.models.excitation import Excitation
@@ -54,7 +56,8 @@ class ExactSettings:
 class ExactPiece:
     """One piece of the exact response: ``kind`` ("non_impacting" or "one_contact"), its frequencies (Hz),
     amplitudes ``max |q_j|`` (points, N), multipliers ``mu`` (points, 2N), the unknowns of the contact family
-    (empty for the non-impacting piece), the located stability changes and why the piece ends."""
+    (empty for the non-impacting piece), the located stability changes, why the piece ends and the multipliers'
+    error estimates (points,): their difference from a second computation with :func:`scipy.linalg.expm`."""
 
     kind: str
     frequency: np.ndarray
@@ -63,6 +66,7 @@ class ExactPiece:
     unknowns: np.ndarray
     changes: list
     end_reason: str
+    multiplier_error: np.ndarray
 
 
 def path_between(system, stepper, points, i: int):
@@ -81,6 +85,8 @@ def _non_impacting_pieces(excitation: Excitation, low: float, high: float, sampl
     inside = amplitude[:, stop.dof] <= stop.gap * (1 + 1e-12)
     period = 2 * np.pi / (2 * np.pi * grid)
     multipliers = np.exp(np.multiply.outer(period, problem_phase.eigenvalues))
+    second = np.linalg.eigvals(scipy.linalg.expm(np.multiply.outer(period, problem_phase.A)))
+    errors = np.abs(multipliers - match_nearest(multipliers, second)).max(axis=-1)
     pieces, start = [], None
     for i in range(len(grid) + 1):
         if i < len(grid) and inside[i]:
@@ -91,7 +97,14 @@ def _non_impacting_pieces(excitation: Excitation, low: float, high: float, sampl
             ends = "frequency range ends" if i == len(grid) else "grazing: the stop DOF reaches the stop"
             pieces.append(
                 ExactPiece(
-                    "non_impacting", grid[sl], amplitude[sl], multipliers[sl], np.zeros((i - start, 0)), [], ends
+                    "non_impacting",
+                    grid[sl],
+                    amplitude[sl],
+                    multipliers[sl],
+                    np.zeros((i - start, 0)),
+                    [],
+                    ends,
+                    errors[sl],
                 )
             )
             start = None
@@ -119,13 +132,22 @@ def exact_response(excitation: Excitation, frequency_range, settings: ExactSetti
         changes = locate_stability_changes(
             Y,
             nus,
-            lambda y: problem.multipliers(y)[1],
+            lambda i: lambda v: problem.multipliers(v)[1],
             lambda i, Y=Y: path_between(problem, stepper, Y, i),
             half_period=True,
         )
         amplitude = np.array([problem.amplitudes(y) for y in Y])
         pieces.append(
-            ExactPiece("one_contact", Y[:, -1] / (2 * np.pi), amplitude, nus**2, Y, changes, family.end_reason)
+            ExactPiece(
+                "one_contact",
+                Y[:, -1] / (2 * np.pi),
+                amplitude,
+                nus**2,
+                Y,
+                changes,
+                family.end_reason,
+                np.array([problem.multiplier_error(y) for y in Y]),
+            )
         )
     return pieces
 

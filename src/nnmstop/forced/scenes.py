@@ -11,7 +11,7 @@ from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
 from nnmstop.models.structure import Structure, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
 
-__all__ = ["Scene", "scene_name", "forced_scenes", "find_scene"]
+__all__ = ["Scene", "scene_name", "forced_scenes", "find_scene", "prediction_excitations"]
 
 
 @dataclass(frozen=True)
@@ -111,6 +111,20 @@ def _tube_scene(config: dict) -> Scene:
         int(spec.get("points_per_step", forced["points_per_step"])),
         dict(spec.get("stability", forced["stability"])),
     )
+
+
+def prediction_excitations(config: dict) -> tuple:
+    """The excitations of ``forced.prediction`` (the oscillator, damping ratio ``r`` on the damped modes of
+    ``forced.damping``, ``F = force_per_ratio r`` on the forced DOFs) and its frequency window (Hz)."""
+    forced, spec = config["forced"], config["forced"]["prediction"]
+    structure = two_dof_structure(ModelParameters.from_config(config["model"]))
+    dofs = tuple(_dof_indices(structure, forced["force"]["dofs"], "forced.force.dofs"))
+    modes = forced["damping"].get("modes", [1, 2])
+    excitations = []
+    for ratio in spec["ratios"]:
+        damping = Damping.from_modal_ratios(structure, [float(ratio)] * len(modes), modes)
+        excitations.append(Excitation(structure, damping, HarmonicForce(float(spec["force_per_ratio"]) * ratio, dofs)))
+    return excitations, _frequency_range(spec["frequency_window"], "forced.prediction.frequency_window")
 
 
 def find_scene(config: dict, name: str) -> Scene:

@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.optimize
 
 from nnmstop.continuation.newton import bisect_sign_change
 
@@ -73,9 +74,13 @@ class StabilityChange:
 
 
 def locate_stability_changes(
-    points, multipliers, multipliers_of, path_between, half_period: bool, rel_tol: float = 1e-10
+    points, multipliers, multipliers_at, path_between, half_period: bool, rel_tol: float = 1e-10
 ) -> list:
     """Locate every change of :func:`unstable_count` between consecutive ``points``.
+
+    Where the count goes from ``n`` to more (or back), the ``n + 1``-th largest modulus crosses 1: a continuous
+    function of the path parameter, whose root Brent's method finds to ``rel_tol`` of the step in a few
+    evaluations. (Should the moduli recomputed at the ends not bracket it, the count itself is bisected.)
 
     Parameters
     ----------
@@ -83,8 +88,9 @@ def locate_stability_changes(
         The curve's points, in order.
     multipliers : ndarray (n, k)
         Multipliers of each point (``nu`` when ``half_period``).
-    multipliers_of : callable
-        ``U -> multipliers`` at any point of the curve.
+    multipliers_at : callable
+        ``(i) -> (U -> multipliers)``: the multipliers at any point of the curve between ``points[i]`` and
+        ``points[i + 1]`` (at one fixed precision along that step).
     path_between : callable
         ``(i) -> (path, length)``: the curve from ``points[i]`` to ``points[i + 1]`` as ``a -> U(a)``.
     half_period : bool
@@ -94,19 +100,28 @@ def locate_stability_changes(
     changes = []
     for i in np.flatnonzero(np.diff(counts) != 0):
         path, length = path_between(int(i))
-        found = bisect_sign_change(
-            lambda a, path=path: unstable_count(multipliers_of(path(a))),
-            0.0,
-            length,
-            tol=rel_tol * length,
-            side=lambda c: c,
-            f_a=counts[i],
-            f_b=counts[i + 1],
-        )
-        U = path(found.midpoint)
+        multipliers_of = multipliers_at(int(i))
+        a = _crossing(path, length, multipliers_of, min(counts[i], counts[i + 1]), rel_tol)
+        U = path(a)
         at = np.asarray(multipliers_of(U))
         changes.append(StabilityChange(np.asarray(U), int(i), crossing_kind(at, half_period), at))
     return changes
+
+
+def _crossing(path, length: float, multipliers_of, n: int, rel_tol: float) -> float:
+    """Path parameter where the ``n + 1``-th largest multiplier modulus is 1 (Brent), else where the count changes."""
+
+    def excess(a):
+        moduli = np.sort(np.abs(np.asarray(multipliers_of(path(a)))))[::-1]
+        return moduli[n] - 1.0
+
+    ends = excess(0.0), excess(length)
+    if ends[0] * ends[1] < 0:
+        return scipy.optimize.brentq(excess, 0.0, length, xtol=rel_tol * length, rtol=4 * np.finfo(float).eps)
+    found = bisect_sign_change(
+        lambda a: unstable_count(multipliers_of(path(a))), 0.0, length, tol=rel_tol * length, side=lambda c: c
+    )
+    return found.midpoint
 
 
 def regimes(multipliers, half_period: bool, tol: float = 1e-12) -> np.ndarray:

@@ -20,11 +20,12 @@ of the NNMs. Method notes: docs/forced.md.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 
 from nnmstop import fourier
 from nnmstop.continuation.anm import ANMSettings, continue_anm
 from nnmstop.continuation.core import Branch, ContinuationStats, newton_correct
-from nnmstop.floquet import periodic_floquet
+from nnmstop.floquet import GAUSS, check_power_of_two, magnus_monodromy, match_nearest
 from nnmstop.hbm.stages import TruncationGuard
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.excitation import Excitation, linear_response
@@ -38,7 +39,12 @@ __all__ = [
     "response_amplitudes",
     "phase_lags",
     "forced_multipliers",
+    "stop_coordinates_at_nodes",
+    "ForcedLinearization",
 ]
+
+# Entries of the batched generator arrays per chunk of orbits (bounded memory: 32 MB an array).
+_CHUNK_ENTRIES = 2**22
 
 
 class ForcedHarmonicBalanceSystem(HarmonicBalanceSystem):
@@ -227,50 +233,98 @@ def _contact_stiffness(system: HarmonicBalanceSystem, x):
     return out
 
 
+def stop_coordinates_at_nodes(system: HarmonicBalanceSystem, U_array, steps: int) -> np.ndarray:
+    """``x_i`` of every stop at the two Gauss nodes of each of ``steps`` uniform steps over the period.
+
+    The nodes of one kind (first or second of every step) are a uniform grid of ``steps`` phases
+    ``2 pi (j + g) / steps``; on such a grid the series ``sum_k d_k exp(i k theta)`` equals the FFT of its
+    coefficients shifted by ``exp(2 pi i k g / steps)`` and folded modulo ``steps`` (exact for any ``H``, no
+    aliasing error). Returns shape (s, points, steps, 2).
+    """
+    U = np.atleast_2d(np.asarray(U_array, dtype=float))
+    N, nc, H = system.n_dofs, system.nc, system.H
+    Q = U[:, : N * nc].reshape(len(U), N, nc)
+    X = fourier.to_full(system.stop_coordinates(np.moveaxis(Q, 0, 1)), H)  # (s, points, 2H + 1)
+    k = np.arange(1, H + 1)
+    d = X[..., 1 : H + 1] - 1j * X[..., H + 1 :]
+    out = np.empty(X.shape[:2] + (steps, 2))
+    for node, fraction in enumerate(GAUSS):
+        shifted = d * np.exp(2j * np.pi * k * fraction / steps)
+        folded = np.zeros(X.shape[:2] + (steps,), dtype=complex)
+        for start in range(0, H, steps):  # within a block of ``steps`` harmonics the folded indices are distinct
+            block = slice(start, start + steps)
+            folded[..., k[block] % steps] += shifted[..., block]
+        out[..., node] = X[..., :1] + steps * np.fft.ifft(folded, axis=-1).real
+    return out
+
+
+class ForcedLinearization:
+    """The variational equation ``M dq'' + C dq' + (K + sum_i k_i(t) e_i e_i^T) dq = 0`` of a forced system.
+
+    ``k_i`` is the regularized contact stiffness of stop ``i`` on the orbit. :meth:`monodromy` gives the
+    monodromy matrices over ``T = 2 pi / Omega`` by fourth-order Magnus steps
+    (:func:`nnmstop.floquet.magnus_monodromy`), the generator at the Gauss nodes from :func:`stop_coordinates_at_nodes`.
+    """
+
+    def __init__(self, system: ForcedHarmonicBalanceSystem):
+        mass, stiffness = system.structure.dense_matrices()
+        damping = system._velocity.toarray()
+        # Scaled modal coordinates q = Phi Omega^-1 s_1, qdot = Phi s_2 (Phi^T M Phi = I): a similarity, so the
+        # multipliers are those of (q, qdot), but the generator's norm is of the order of the highest
+        # frequency instead of its square (fewer squarings in each step's exponential; a mesh's fast modes).
+        omega2, shapes = scipy.linalg.eigh(stiffness, mass)
+        scale = np.where(omega2 > 0, np.sqrt(np.abs(omega2)), 1.0)
+        modal_damping = shapes.T @ damping @ shapes
+        self.system = system
+        self.A0 = np.block([[np.zeros_like(modal_damping), np.diag(scale)], [-np.diag(omega2 / scale), -modal_damping]])
+        # the stop stiffness k_i acts as -k_i e_d e_d^T on q: in (s_1, s_2) as -phi_d phi_d^T / scale_col
+        self.rows = shapes[system.stop_dofs].T  # (N, s): phi_d of each stop DOF
+        self.cols = shapes[system.stop_dofs] / scale  # (s, N)
+
+    def monodromy(self, U_array, steps: int) -> np.ndarray:
+        """Monodromy matrices (points, 2N, 2N) of the orbits ``U_array`` with ``steps`` Magnus steps."""
+        U = np.atleast_2d(np.asarray(U_array, dtype=float))
+        system, n = self.system, self.A0.shape[0]
+        N = system.n_dofs
+        out = np.empty((len(U), n, n))
+        per_chunk = max(1, _CHUNK_ENTRIES // (2 * steps * n * n))
+        for start in range(0, len(U), per_chunk):
+            chunk = U[start : start + per_chunk]
+            stiff = _contact_stiffness(system, stop_coordinates_at_nodes(system, chunk, steps))  # (s, p, steps, 2)
+            A = np.broadcast_to(self.A0, stiff.shape[1:] + self.A0.shape).copy()
+            for i in range(len(system.stop_dofs)):
+                A[..., N:, :N] -= stiff[i][..., None, None] * np.outer(self.rows[:, i], self.cols[i])
+            period = 2 * np.pi / chunk[:, system.i_omega]
+            out[start : start + len(chunk)] = magnus_monodromy(A, (period / steps)[:, None])
+        return out
+
+    def multipliers(self, U_array, steps: int) -> np.ndarray:
+        """Floquet multipliers (points, 2N) by decreasing modulus, with ``steps`` Magnus steps."""
+        mu = np.linalg.eigvals(self.monodromy(U_array, steps))
+        return np.take_along_axis(mu, np.argsort(-np.abs(mu), axis=-1, kind="stable"), axis=-1)
+
+
 def forced_multipliers(
     system: ForcedHarmonicBalanceSystem, U_array, steps: int = 128, max_steps: int = 2048, tol: float = 1e-8
 ):
     """Floquet multipliers of the forced responses ``U_array`` (points, n_unknowns), by decreasing modulus.
 
-    The variational equation ``M dq'' + C dq' + (K + sum_i k_i(t) e_i e_i^T) dq = 0`` (``k_i`` the regularized
-    contact stiffness of stop ``i`` on the orbit) is not Hamiltonian and has no trivial multiplier: its
-    monodromy over ``T = 2 pi / Omega`` comes from the general path of the package's Floquet module
-    (:func:`nnmstop.floquet.periodic_floquet`: fourth-order Magnus steps, step doubling until the multipliers
-    move by less than ``tol``). Returns the multipliers (points, 2N) and the error estimates (points,).
+    The damped variational equation has no trivial multiplier (:class:`ForcedLinearization`). Each orbit with
+    ``steps`` and ``2 steps`` Magnus steps, doubled where the multipliers moved by more than ``tol`` (relative to
+    ``max(1, |mu|)``), up to ``max_steps``. Returns the multipliers (points, 2N) and the error estimates (points,):
+    the largest change of a multiplier between the last two step counts.
     """
+    check_power_of_two("steps", steps, 16)
+    check_power_of_two("max_steps", max_steps, 32)
+    linearization = ForcedLinearization(system)
     U = np.atleast_2d(np.asarray(U_array, dtype=float))
-    N = system.n_dofs
-    mass, stiffness = system.structure.dense_matrices()
-    m_inv = np.linalg.inv(mass)
-    damping = system._velocity.toarray()
-    A0 = np.block([[np.zeros((N, N)), np.eye(N)], [-m_inv @ stiffness, -m_inv @ damping]])
-    columns = m_inv[:, system.stop_dofs]  # d(gap f(q / gap))/dq = f'(x) on the stop DOF
-    Q = U[:, : N * system.nc].reshape(len(U), N, system.nc)
-    X = system.stop_coordinates(np.moveaxis(Q, 0, 1))  # (s, points, nc) in each stop's coordinate
-    omega = U[:, system.i_nu]
-    H = system.H
-
-    def stop_coordinate(systems, t):
-        """``x_i(t)`` of every stop for the orbits ``systems`` at the times ``t`` (k, m) -> (s, k, m)."""
-        out = np.empty((system.n_stops,) + t.shape)
-        # exp(i k theta) by powers of exp(i theta), a chunk of orbits at a time (bounded memory)
-        per_chunk = max(1, 2**22 // (t.shape[1] * H))
-        for start in range(0, len(systems), per_chunk):
-            chunk = slice(start, start + per_chunk)
-            phase = np.exp(1j * omega[systems[chunk], None] * t[chunk])[..., None]
-            powers = np.cumprod(np.broadcast_to(phase, phase.shape[:-1] + (H,)), axis=-1)
-            c = X[:, systems[chunk]]  # (s, k, nc)
-            series = c[..., 1 : H + 1] - 1j * c[..., H + 1 :]
-            out[:, chunk] = c[..., :1] + np.einsum("kmh,skh->skm", powers, series).real
-        return out
-
-    def generator(systems, t):
-        q = stop_coordinate(systems, t)
-        stiff = _contact_stiffness(system, q)  # (s, k, m)
-        A = np.broadcast_to(A0, t.shape + A0.shape).copy()
-        for i, dof in enumerate(system.stop_dofs):
-            A[..., N:, dof] -= stiff[i][..., None] * columns[:, i]
-        return A
-
-    result = periodic_floquet(generator, 2 * np.pi / omega, steps=steps, max_steps=max_steps, tol=tol)
-    return result.multipliers, result.error
+    coarse = linearization.multipliers(U, steps)
+    multipliers, errors = coarse.copy(), np.full(len(U), np.inf)
+    todo, n = np.arange(len(U)), steps
+    while len(todo) and 2 * n <= max_steps:
+        fine = linearization.multipliers(U[todo], 2 * n)
+        errors[todo] = np.abs(fine - match_nearest(fine, coarse)).max(axis=-1)
+        multipliers[todo] = fine
+        again = errors[todo] > tol * np.maximum(1.0, np.abs(fine[:, 0]))
+        todo, coarse, n = todo[again], fine[again], 2 * n
+    return multipliers, errors

@@ -16,13 +16,13 @@ from nnmstop.continuation.anm import ANMSettings
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
 from nnmstop.forced.backbone import nnm_backbone, predicted_peaks, required_force
 from nnmstop.forced.dataset import backbone_dataset, base_attributes, exact_dataset, regularized_dataset
-from nnmstop.forced.regularized import regularized_stability
+from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stability
 from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
-from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, scene_name
+from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, prediction_excitations, scene_name
 from nnmstop.hbm.forced import response_amplitudes
 from nnmstop.netcdf import read_dataset, write_dataset
 
-__all__ = ["forced_exact", "forced_regularized", "forced_backbone", "forced_figure", "TASKS"]
+__all__ = ["forced_exact", "forced_regularized", "forced_backbone", "forced_prediction", "forced_figure", "TASKS"]
 
 logger = logging.getLogger("nnmstop.tasks.forced")
 
@@ -45,7 +45,8 @@ def exact_response_dataset(config: dict, scene: Scene):
         int(spec["frequency_samples"]),
     )
     pieces = exact_response(scene.excitation, scene.frequency_range, settings)
-    return exact_dataset(scene.excitation, pieces, scene.frequency_range)
+    factor = float(scene.stability["resolution_factor"])
+    return exact_dataset(scene.excitation, pieces, scene.frequency_range, factor)
 
 
 def regularized_response_dataset(config: dict, scene: Scene):
@@ -54,9 +55,10 @@ def regularized_response_dataset(config: dict, scene: Scene):
     anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
     settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
     system, branch = regularized_response(scene.excitation, scene.frequency_range, settings, label=scene.name)
-    multipliers, errors, changes = regularized_stability(system, branch, anm, scene.stability)
-    ds = regularized_dataset(system, branch, multipliers, False, changes, scene.frequency_range)
-    ds["multiplier_error"] = ("point", np.asarray(errors, dtype=float))
+    stability_settings = ForcedStabilitySettings.from_config(scene.stability)
+    stability, changes = regularized_stability(system, branch, anm, stability_settings)
+    ds = regularized_dataset(system, branch, stability.multipliers, False, changes, scene.frequency_range)
+    ds.update(stability.data_vars())
     ds.attrs.update({f"stability_{key}": value for key, value in scene.stability.items()})
     return ds
 
@@ -108,6 +110,49 @@ def backbone_prediction_dataset(config: dict):
     return ds
 
 
+def prediction_error_dataset(config: dict):
+    """The backbone's predicted NNM1 peak against the located peak at each damping level of ``forced.prediction``."""
+    import xarray as xr
+
+    from nnmstop.forced.backbone import prediction_errors
+    from nnmstop.forced.dataset import dof_label_variable
+
+    forced = config["forced"]
+    excitations, window = prediction_excitations(config)
+    # the peaks are located on the ANM steps: the step ends are enough
+    anm = ANMSettings.from_config(config["anm"], points_per_step=1)
+    found = prediction_errors(excitations, 1, window, int(forced["harmonics"]), anm, float(forced["max_truncation"]))
+    stop = excitations[0].structure.stops[0].dof
+    ds = xr.Dataset(
+        {
+            "damping_ratio": ("level", np.array([e.damping.ratios[0] for e in excitations], dtype=float)),
+            "forcing_amplitude": ("level", np.array([e.force.amplitude for e in excitations], dtype=float)),
+            "predicted_frequency": ("level", found["predicted_frequency"]),
+            "peak_frequency": ("level", found["peak_frequency"]),
+            "predicted_amplitude": (("level", "dof"), found["predicted_amplitude"]),
+            "peak_amplitude": (("level", "dof"), found["peak_amplitude"]),
+            "frequency_error": (
+                "level",
+                np.abs(found["predicted_frequency"] - found["peak_frequency"]) / found["predicted_frequency"],
+            ),
+            "amplitude_error": (
+                "level",
+                np.abs(found["predicted_amplitude"][:, stop] - found["peak_amplitude"][:, stop])
+                / found["predicted_amplitude"][:, stop],
+            ),
+            "peak_phase_lag": (("level", "dof"), found["peak_phase_lag"]),
+            "dof_label": dof_label_variable(excitations[0].structure),
+        }
+    )
+    ds.attrs.update(base_attributes(excitations[0], "regularized", window))
+    ds.attrs.update(
+        harmonics=int(forced["harmonics"]), mode=1, force_per_ratio=float(forced["prediction"]["force_per_ratio"])
+    )
+    for name in ("damping_ratio", "rayleigh_mass_coefficient", "rayleigh_stiffness_coefficient", "forcing_amplitude"):
+        ds.attrs.pop(name, None)  # per level: variables
+    return ds
+
+
 # --------------------------------------------------------------------------- the rules' tasks
 
 
@@ -142,6 +187,24 @@ def forced_backbone(config, inputs, outputs):
     )
 
 
+def forced_prediction(config, inputs, outputs):
+    """The backbone's prediction error against the damping (``forced.prediction``)."""
+    summary = (
+        "Peak of the NNM1 primary resonance predicted by the energy balance on the regularized backbone against the "
+        "peak of the regularized response (harmonic balance + ANM, located on its steps) at damping ratios going "
+        "to zero with the force in proportion; relative errors and the phase lag at the peak."
+    )
+    write_dataset(
+        prediction_error_dataset(config),
+        outputs["dataset"],
+        title="The backbone's prediction of the resonance peak against the damping",
+        summary=summary,
+        keywords=KEYWORDS,
+        metadata=config.get("metadata"),
+        kind="forced_prediction",
+    )
+
+
 def forced_figure(config, inputs, outputs, figure: str):
     """paper_figures/forced_<figure>.{pdf,png} from the datasets it draws (named inputs of the rule)."""
     from nnmstop.exact.forced import SymmetricContactProblem
@@ -163,6 +226,8 @@ def forced_figure(config, inputs, outputs, figure: str):
         scene = find_scene(config, scene_name(float(exact.attrs["forcing_amplitude"])))
         problem = SymmetricContactProblem(scene.excitation)
         draw.orbits_figure(exact, regularized, problem, spec["orbit_frequencies"], outputs["pdf"], dpi)
+    elif figure == "prediction_error":
+        draw.prediction_error_figure(read("prediction")[0], outputs["pdf"], dpi)
     elif figure == "tube":
         draw.tube_figure(read("regularized"), outputs["pdf"], dpi)
     else:
@@ -170,4 +235,4 @@ def forced_figure(config, inputs, outputs, figure: str):
 
 
 #: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
-TASKS = {f.__name__: f for f in (forced_exact, forced_regularized, forced_backbone, forced_figure)}
+TASKS = {f.__name__: f for f in (forced_exact, forced_regularized, forced_backbone, forced_prediction, forced_figure)}

@@ -1,0 +1,241 @@
+"""The regularized frequency response with this project and with pyHarm, side by side in one run.
+
+Same equations: the paper's oscillator with the damping of the default forced scene (``forced`` in
+config/config.yaml), the force on ``u`` at one level (``--force``), the regularized stop law (Eq. 5 corrected:
+``benchmarks/pyharm_side.py`` gives pyHarm an element for it, as it has none), ``H`` harmonics (100), the
+scene's frequency range. This project: harmonic balance of the quadratic recast + ANM (Padé), the
+configuration's ``anm`` settings; pyHarm (PyPI ``pyharm-os``, installed by this script into a venv of its
+own, ``--venv``): alternating frequency-time with ``--time-samples`` instants, tangent predictor,
+arc-length corrector, Newton-Raphson to ``--newton-tol``, its accepted-step size rule.
+
+Reported: wall and CPU time, points, factorizations (here: LU of the bordered Jacobian; pyHarm: its Newton
+solves, each an LU of the dense Jacobian, and its Jacobian evaluations); the largest distance between the two
+curves, in ``max |x|`` and ``max |u|`` over the period (both from the harmonics, extremes located to round-off)
+at pyHarm's points, against this project's curve at the same frequency (located on the ANM steps, no
+interpolation; the nearest branch where the curve folds); and what this project adds: the multipliers, the
+verdicts and the located folds, period doublings and Neimark-Sacker points, timed apart.
+
+Usage::
+
+    python benchmarks/forced_vs_pyharm.py [--force 0.1] [--output benchmarks/forced_vs_pyharm.md]
+
+Skipped, with the reason in the report, where pyHarm cannot be installed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+import numpy as np
+
+from timing import REPO, emit_report, timed
+
+PYHARM = "pyharm-os==1.2.2"
+# what pyHarm imports (its declared requirements also pull Jupyter, which it does not need to compute)
+PYHARM_IMPORTS = ("numpy", "scipy", "pandas", "numba", "jax", "tomli_w", "psutil")
+DEFAULT_VENV = Path.home() / ".cache" / "nnmstop" / "pyharm-venv"
+
+
+def pyharm_python(venv_dir: Path) -> Path:
+    """The venv's interpreter with pyHarm importable; the venv is made and pyHarm installed on first use."""
+    python = venv_dir / "bin" / "python"
+    if python.exists() and subprocess.run([python, "-c", "import pyHarm"], capture_output=True).returncode == 0:
+        return python
+    venv.create(venv_dir, with_pip=True, clear=True)
+    for args in (["--no-deps", PYHARM], list(PYHARM_IMPORTS)):
+        run = subprocess.run([python, "-m", "pip", "install", "-q", *args], capture_output=True, text=True)
+        if run.returncode:
+            raise RuntimeError(f"pip install {' '.join(args)} failed: {run.stderr.strip()[-500:]}")
+    check = subprocess.run([python, "-c", "import pyHarm"], capture_output=True, text=True)
+    if check.returncode:
+        raise RuntimeError(f"pyHarm does not import: {check.stderr.strip()[-500:]}")
+    return python
+
+
+def scene_problem(force: float):
+    """The default scene's excitation at ``force``, its frequency range and ``H`` (config/config.yaml)."""
+    from nnmstop.config import load_config
+    from nnmstop.forced.scenes import forced_scenes
+
+    config = load_config(REPO / "config" / "config.yaml")
+    scene = forced_scenes(config, "oscillator")[0]
+    return config, scene, scene.excitation.with_amplitude(force)
+
+
+def ours(config, scene, excitation) -> dict:
+    """The response by harmonic balance + ANM; then, timed apart, its stability and located changes."""
+    from nnmstop.continuation.anm import ANMSettings
+    from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stability
+    from nnmstop.forced.responses import RegularizedSettings, regularized_response
+    from nnmstop.forced.stability_changes import KINDS
+
+    anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
+    settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
+    (system, branch), cpu, wall = timed(lambda: regularized_response(excitation, scene.frequency_range, settings))
+    stability_settings = ForcedStabilitySettings.from_config(scene.stability)
+    (stability, changes), s_cpu, s_wall = timed(lambda: regularized_stability(system, branch, anm, stability_settings))
+    kinds = {kind: sum(c.kind == kind for c in changes) for kind in KINDS}
+    return dict(
+        system=system,
+        branch=branch,
+        cpu=cpu,
+        wall=wall,
+        stability_cpu=s_cpu,
+        stability_wall=s_wall,
+        points=len(branch.points),
+        factorizations=branch.stats.factorizations,
+        steps=branch.stats.steps,
+        unresolved=int(np.sum(~stability.resolved)),
+        changes=kinds,
+    )
+
+
+def pyharm(python: Path, scene, excitation, args) -> dict:
+    """pyHarm's response (``pyharm_side.py`` in the venv) for the same equations."""
+    structure = excitation.structure
+    M, K = structure.dense_matrices()
+    C = excitation.damping_matrix
+    C = C.toarray() if hasattr(C, "toarray") else np.asarray(C)
+    stop = structure.stops[0]
+    low, high = scene.frequency_range
+    problem = dict(
+        law_file=str(REPO / "src" / "nnmstop" / "models" / "two_dof.py"),
+        stop=dict(alpha=stop.stiffness, eta=stop.eta, gap=stop.gap, dof=stop.dof),
+        M=M.tolist(),
+        C=C.tolist(),
+        K=K.tolist(),
+        harmonics=scene.harmonics,
+        time_samples=args.time_samples,
+        force_dof=int(excitation.force.dofs[0]),
+        force=excitation.force.amplitude,
+        continuation=dict(
+            puls_inf=2 * np.pi * low,
+            puls_sup=2 * np.pi * high,
+            ds0=args.ds0,
+            ds_max=args.ds_max,
+            ds_min=1e-8,
+            solver="NewtonRaphson",
+            solver_options=dict(tol_residual=args.newton_tol, tol_delta_x=args.newton_tol),
+        ),
+    )
+    run = subprocess.run(
+        [python, str(Path(__file__).with_name("pyharm_side.py"))],
+        input=json.dumps(problem),
+        capture_output=True,
+        text=True,
+    )
+    if run.returncode:
+        raise RuntimeError(f"pyHarm run failed: {run.stderr.strip()[-2000:]}")
+    return json.loads(run.stdout)
+
+
+def curve_distance(mine: dict, theirs: dict) -> dict:
+    """Largest distance in ``max |x|`` and ``max |u|`` between pyHarm's points and this project's curve at their
+    frequencies (every crossing of the frequency on the ANM steps located by bisection; the nearest one)."""
+    from nnmstop.continuation.anm import ANMStepper
+    from nnmstop.continuation.newton import bisect_sign_change
+    from nnmstop.forced.responses import path_between
+    from nnmstop.hbm.forced import response_amplitudes, series_extremes
+
+    system, U = mine["system"], np.asarray(mine["branch"].points)
+    stepper, paths = ANMStepper(mine["branch_settings"]), {}
+    omega = U[:, system.i_omega]
+    H = system.H
+    amplitudes = []
+    for coefficients in theirs["coefficients"]:  # pyHarm's [c_0, c_1, s_1, ...] -> [c_0, c_1..c_H, s_1..s_H]
+        c = np.asarray(coefficients)
+        low, high = series_extremes(np.concatenate([c[:, :1], c[:, 1::2], c[:, 2::2]], axis=1), H)
+        amplitudes.append(np.maximum(-low, high))
+    theirs_amplitude = np.stack(amplitudes, axis=1)  # (points, N)
+    distance = np.zeros_like(theirs_amplitude)
+    outside = 0
+    for k, w in enumerate(theirs["omega"]):
+        crossings = np.flatnonzero(np.sign(omega[:-1] - w) != np.sign(omega[1:] - w))
+        if not crossings.size:
+            outside += 1
+            continue
+        found = []
+        for i in crossings:
+            if i not in paths:
+                paths[i] = path_between(system, stepper, U, int(i))
+            path, length = paths[i]
+            at = bisect_sign_change(lambda a, p=path, w=w: p(a)[system.i_omega] - w, 0.0, length, tol=1e-13 * length)
+            found.append(response_amplitudes(system, path(at.midpoint)[None])[0])
+        distance[k] = np.min(np.abs(np.array(found) - theirs_amplitude[k]), axis=0)
+    return dict(
+        largest=distance.max(axis=0),
+        compared=len(theirs["omega"]) - outside,
+        outside=outside,
+        largest_amplitude=theirs_amplitude.max(axis=0),
+    )
+
+
+def report(args, mine, theirs, distance) -> str:
+    ratio_wall, ratio_cpu = theirs["wall_seconds"] / mine["wall"], theirs["cpu_seconds"] / mine["cpu"]
+    labels = [str(label) for label in mine["system"].structure.dof_labels]
+    lines = [
+        "# Regularized frequency response: this project against pyHarm",
+        "",
+        f"The paper's oscillator (regularized law, alpha, eta of `model`), the default forced scene's damping, "
+        f"F = {args.force:g} on u, H = {mine['system'].H}, {mine['range'][0]:g}..{mine['range'][1]:g} Hz. "
+        f"pyHarm {PYHARM.split('==')[1]}: AFT with {args.time_samples} instants, Newton-Raphson to "
+        f"{args.newton_tol:g}, ds0 = {args.ds0:g}, ds_max = {args.ds_max:g}.",
+        "",
+        "| | wall (s) | CPU (s) | points | factorizations | other counts |",
+        "|---|---|---|---|---|---|",
+        f"| this project (HBM + ANM) | {mine['wall']:.2f} | {mine['cpu']:.2f} | {mine['points']} | "
+        f"{mine['factorizations']} | {mine['steps']} ANM steps |",
+        f"| pyHarm | {theirs['wall_seconds']:.2f} | {theirs['cpu_seconds']:.2f} | {theirs['points']} | "
+        f"{theirs['linear_solves']} | {theirs['jacobian_evaluations']} Jacobian, "
+        f"{theirs['residual_evaluations']} residual evaluations |",
+        "",
+        f"Speed-up (pyHarm / this project): **{ratio_cpu:.1f}x** in CPU time, {ratio_wall:.1f}x in wall time "
+        f"(target: 20x) -> {'met' if min(ratio_cpu, ratio_wall) >= 20 else 'NOT met'}.",
+        "",
+        f"Largest distance between the curves at pyHarm's {distance['compared']} points "
+        f"({distance['outside']} outside this project's range): "
+        + ", ".join(
+            f"max |{label}| {d:.2e} (largest value {a:.3g})"
+            for label, d, a in zip(labels, distance["largest"], distance["largest_amplitude"])
+        )
+        + ".",
+        "",
+        f"What pyHarm does not give, computed here in {mine['stability_cpu']:.2f} s CPU "
+        f"({mine['stability_wall']:.2f} s wall) more: Floquet multipliers of every point with their error "
+        f"estimates ({mine['unresolved']} of {mine['points']} verdicts unresolved), and the located stability "
+        "changes: " + ", ".join(f"{n} {kind.replace('_', ' ')}" for kind, n in mine["changes"].items()) + ".",
+    ]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--force", type=float, default=0.1)
+    parser.add_argument("--time-samples", type=int, default=1024)
+    parser.add_argument("--newton-tol", type=float, default=1e-9)
+    parser.add_argument("--ds0", type=float, default=0.01)
+    parser.add_argument("--ds-max", type=float, default=0.1)
+    parser.add_argument("--venv", type=Path, default=DEFAULT_VENV)
+    parser.add_argument("--output", type=Path)
+    args = parser.parse_args(argv)
+    try:
+        python = pyharm_python(args.venv)
+    except (RuntimeError, OSError) as error:
+        return emit_report(f"# Regularized frequency response against pyHarm\n\nSkipped: {error}", args.output)
+    config, scene, excitation = scene_problem(args.force)
+    mine = ours(config, scene, excitation)
+    mine["range"] = scene.frequency_range
+    from nnmstop.continuation.anm import ANMSettings
+
+    mine["branch_settings"] = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
+    theirs = pyharm(python, scene, excitation, args)
+    return emit_report(report(args, mine, theirs, curve_distance(mine, theirs)), args.output)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
