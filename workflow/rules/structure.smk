@@ -55,7 +55,7 @@ rule structure_figure:
         unpack(lambda wildcards: {key: STRUCTURE_DATASETS[key] for key in structure_figure_inputs()[wildcards.figure]}),
     output:
         pdf=paper_figures("structure_{figure}.pdf"),
-        png=paper_figures("structure_{figure}.png"),
+        png=report(paper_figures("structure_{figure}.png"), category="Structure", subcategory="{figure}"),
     wildcard_constraints:
         figure="|".join(TUBE_FIGURE_INPUTS),
     log:
