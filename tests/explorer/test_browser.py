@@ -91,7 +91,7 @@ def test_clicked_nnm1_point_shows_its_dataset_values(browser_page, small_build):
     # the page's orbit: the dataset's float32 coefficients synthesized on the page's grid
     samples = page.evaluate("window.explorer.samples")
     _, synthesized = shown(page, "x-max-synthesized")
-    cos = ds["x_cos"].values[i]
+    cos = ds["q_cos"].values[i, list(ds["dof_label"].values).index("x")]
     H = cos.size - 1
     page_grid = fourier.to_time(cos.astype(np.float32).astype(float), H, samples).max()
     assert synthesized == pytest.approx(page_grid, rel=1e-9)

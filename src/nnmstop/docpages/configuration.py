@@ -75,6 +75,8 @@ def _rows(schema: dict, root: dict, config: dict, path: list, required: bool) ->
     schema = _resolve(schema, root)
     key = ".".join(path)
     rows = []
+    if ("oneOf" in schema or "anyOf" in schema) and "properties" not in schema:  # forms, not required-key choices
+        return _alternative_rows(schema, root, config, path, required)
     children = schema.get("properties", {})
     item = _resolve(schema.get("items", {}), root) if schema.get("type") == "array" else {}
     if schema.get("type") == "object" or children:
@@ -102,6 +104,21 @@ def _rows(schema: dict, root: dict, config: dict, path: list, required: bool) ->
             schema.get("description", ""),
         )
     )
+    return rows
+
+
+def _alternative_rows(schema: dict, root: dict, config: dict, path: list, required: bool) -> list:
+    """Rows of a key that takes one of several forms (``oneOf``/``anyOf``): the key with its plain forms, then
+    the keys of its mapping forms."""
+    forms = [_resolve(form, root) for form in schema.get("oneOf", schema.get("anyOf", []))]
+    mappings = [form for form in forms if form.get("type") == "object"]
+    allowed = [_allowed(form, root) for form in forms if form not in mappings] + ["mapping"] * bool(mappings)
+    description = schema.get("description") or "; ".join(f["description"] for f in forms if f.get("description"))
+    rows = [(".".join(path), " or ".join(allowed), "yes" if required else "no", _shipped(config, path), description)]
+    for form in mappings:
+        needed = set(form.get("required", []))
+        for name, child in form.get("properties", {}).items():
+            rows += _rows(child, root, config, [*path, name], name in needed)
     return rows
 
 
