@@ -22,6 +22,9 @@ __all__ = [
     "NNM2_COLOR",
     "RESONANCE_COLOR",
     "EXACT_OVERLAY_COLOR",
+    "GAP_ZERO_STYLE",
+    "NONDIMENSIONAL",
+    "unit_text",
     "frequency_energy_axes",
     "plot_branch",
     "stability_legend_handles",
@@ -35,6 +38,8 @@ REGULARIZED_COLOR = "tab:blue"  # regularized NNM1
 NNM2_COLOR = "tab:green"
 RESONANCE_COLOR = "tab:red"  # f2/5 curve, as in the paper's Figs 9-10
 EXACT_OVERLAY_COLOR = "black"  # optional exact multi-impact NNM1 on Figs 7-11
+#: The gap-0 linear modes (every stop engaged): dash-dot, unlike the dashes of unstable orbits.
+GAP_ZERO_STYLE = {"color": "0.35", "ls": (0, (7, 2, 1.5, 2)), "lw": 0.9}
 
 plt.rcParams.update(
     {
@@ -83,6 +88,16 @@ def orbit(ds: xr.Dataset, point: int, samples: int = 512) -> dict:
     return {"t": t, **fields_at_phases(omega * t, omega, series, velocities=tuple(series)[:-1])}
 
 
+#: How an axis label states a nondimensional quantity (dataset units "1": gap = 1, first mass = 1, k1 = 1).
+NONDIMENSIONAL = "(nondim.)"
+
+
+def unit_text(ds: xr.Dataset, name: str) -> str:
+    """The units of variable ``name`` of ``ds`` for an axis label: ``(nondim.)`` for "1", else ``(units)``."""
+    units = str(ds[name].attrs.get("units", "1")) if name in ds else "1"
+    return NONDIMENSIONAL if units == "1" else f"({units})"
+
+
 STABILITY_LINESTYLES = {"stable": "-", "unstable": "--", "unresolved": ":"}
 
 
@@ -124,11 +139,15 @@ def stability_legend_handles(drawn: set, color="0.3", lw: float = 1.2) -> list:
     ]
 
 
-def save_figure(fig, pdf_path, png_dpi: int = 150, description: str | None = None) -> tuple[Path, Path]:
+def save_figure(
+    fig, pdf_path, png_dpi: int = 150, description: str | None = None, after_layout=None
+) -> tuple[Path, Path]:
     """Save ``fig`` as PDF and PNG (same stem), byte-reproducibly, and close it.
 
     ``description``: what the figure shows and what it could not (its title text), stored in the files
     (PDF ``Subject``, PNG text chunk ``Description``) so that a reader or a test finds it without the picture.
+    ``after_layout``: called with ``fig`` once the layout is fixed, before saving (e.g.
+    :func:`nnmstop.figures.labels.place_labels`, which needs the final axes).
 
     No creation date, creator or software tags: two runs give identical files. The
     figure's layout engine (constrained layout) runs once, on the PNG's renderer, and is
@@ -149,6 +168,9 @@ def save_figure(fig, pdf_path, png_dpi: int = 150, description: str | None = Non
         fig.set_dpi(png_dpi)  # text measured as the PNG draws it
         engine.execute(fig)
         fig.set_layout_engine(None)  # None, not "none": savefig then skips its draw without output
+    if after_layout is not None:
+        fig.set_dpi(png_dpi)
+        after_layout(fig)
     for path, meta, kwargs in (
         (pdf_path, {"CreationDate": None, "ModDate": None, "Creator": None, "Producer": None, **text("Subject")}, {}),
         (png_path, {"Software": None, **text("Description")}, {"dpi": png_dpi}),

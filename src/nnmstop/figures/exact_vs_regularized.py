@@ -30,7 +30,15 @@ import xarray as xr
 
 from nnmstop.compare.matching import MAX_IMPACTS
 from nnmstop.exact.problem import TwoImpactProblem
-from nnmstop.figures.common import EXACT_COLOR, REGULARIZED_COLOR, frequency_energy_axes, orbit_series, save_figure
+from nnmstop.figures.common import (
+    EXACT_COLOR,
+    GAP_ZERO_STYLE,
+    NONDIMENSIONAL,
+    REGULARIZED_COLOR,
+    frequency_energy_axes,
+    orbit_series,
+    save_figure,
+)
 from nnmstop.fourier import fields_at_phases
 from nnmstop.models.two_dof import ModelParameters, linear_modes, piecewise_contact_force
 
@@ -48,7 +56,6 @@ logger = logging.getLogger("nnmstop.figures")
 FIGURES = ("fig02", "fig03", "fig04")
 LABELS = ("a", "b")
 STOP_STYLE = {"color": "0.55", "lw": 0.7, "ls": ":", "zorder": 0}
-GAP_ZERO_STYLE = {"color": "0.35", "ls": (0, (5, 3)), "lw": 0.8}
 REG_LINE = {"color": REGULARIZED_COLOR, "lw": 1.3, "zorder": 3}
 EXACT_LINE = {"color": EXACT_COLOR, "lw": 1.3, "ls": (0, (5, 2.2)), "zorder": 4}
 
@@ -364,8 +371,8 @@ def figure_03(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
             ax = axes[row, col]
             ax.plot(reg[a], reg[b], **REG_LINE)
             ax.plot(exact[a], exact[b], **EXACT_LINE)
-            ax.set_xlabel(la)
-            ax.set_ylabel(lb)
+            ax.set_xlabel(f"{la} {NONDIMENSIONAL}")
+            ax.set_ylabel(f"{lb} {NONDIMENSIONAL}")
             if a == "x":
                 for stop in (-1.0, 1.0):
                     ax.axvline(stop, **STOP_STYLE)
@@ -397,7 +404,7 @@ def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
         ax.plot(phase, exact["f"], **EXACT_LINE)
         ax.set_xlim(phase[0], phase[-1])
         ax.set_xlabel("t / T   (t = 0 at the turning point in contact)")
-        ax.set_ylabel("contact force f")
+        ax.set_ylabel(f"contact force f {NONDIMENSIONAL}")
         ax.set_title(_title(comparison, label, i), fontsize=8.5)
         ax = axes[1, col]
         xmax = 1.08 * max(np.abs(reg["x"]).max(), np.abs(exact["x"]).max())
@@ -409,8 +416,8 @@ def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
         fmax = 1.25 * max(np.abs(reg["f"]).max(), np.abs(exact["f"]).max())
         ax.set_xlim(-xmax, xmax)
         ax.set_ylim(-fmax, fmax)
-        ax.set_xlabel("x")
-        ax.set_ylabel("f")
+        ax.set_xlabel(f"x {NONDIMENSIONAL}")
+        ax.set_ylabel(f"f {NONDIMENSIONAL}")
     handles = [
         plt.Line2D([], [], **{**EXACT_LINE, "zorder": None}, label="piecewise law (exact orbit)"),
         plt.Line2D([], [], **{**REG_LINE, "zorder": None}, label="regularized (HBM)"),

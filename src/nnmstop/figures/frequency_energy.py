@@ -8,7 +8,7 @@ focus stages and labels (:func:`energy_window`), so that the paper's scene at it
 analogous scene at others. What does not exist for the parameters at hand (a label's feature, a stage
 that was not continued, a branch point to switch at) is said in the title and the figure is drawn
 anyway. NNM1 is blue, NNM2 green, the NNM2 curve divided by 5 red (as in the paper); frequencies in Hz
-of the nondimensional time, energies on a logarithmic axis; the dashed lines are the gap-0 linear modes
+of the nondimensional time, energies on a logarithmic axis; the dash-dotted lines are the gap-0 linear modes
 (every stop engaged) stored in the datasets.
 
 * Fig 5: NNM1 and NNM2 over the whole energy range; Fig 6: NNM2 with modal lines a)-f).
@@ -29,10 +29,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 from matplotlib.lines import Line2D
+from matplotlib.patches import Patch, Rectangle
 from matplotlib.ticker import LogFormatterSciNotation
 
 from nnmstop.figures.common import (
     EXACT_OVERLAY_COLOR,
+    GAP_ZERO_STYLE,
     NNM2_COLOR,
     REGULARIZED_COLOR,
     RESONANCE_COLOR,
@@ -41,6 +43,7 @@ from nnmstop.figures.common import (
     save_figure,
     stability_legend_handles,
 )
+from nnmstop.figures.labels import mark_obstacle, place_labels
 from nnmstop.figures.modal_lines import draw_modal_line, label_specs, locate_label, mark_point, modal_line_dofs
 
 __all__ = [
@@ -63,7 +66,6 @@ __all__ = [
 logger = logging.getLogger("nnmstop.figures")
 
 NNM1_COLOR = REGULARIZED_COLOR
-GAP_ZERO_STYLE = {"color": "0.25", "ls": (0, (5, 3)), "lw": 0.9}
 BIFURCATED_COLOR = "black"
 BRANCH_POINT_STYLES = {
     "resonance": {"marker": "x", "ms": 5, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5},
@@ -71,6 +73,9 @@ BRANCH_POINT_STYLES = {
     "breaking": {"marker": "+", "ms": 7, "mew": 1.1, "color": "black", "ls": "none", "zorder": 5},
     "fold": {"marker": "D", "ms": 3, "mew": 0.8, "mfc": "none", "color": "0.35", "ls": "none", "zorder": 4.5},
 }
+#: The NNM2 curve at f2/n of Figs 8-10: a band this wide (points) and pale, drawn under the branches.
+RESONANCE_BAND_WIDTH = 7.0
+RESONANCE_BAND_ALPHA = 0.3
 #: Global attributes (and stop variables) that must agree between the datasets of one figure.
 STRUCTURE_KEYS = ("structure", "alpha", "beta", "delta", "eta", "dofs", "stops")
 #: Relative widening of an automatic energy window on each side, in log energy.
@@ -86,7 +91,7 @@ class _FigureKind:
     resonance: int | None = None  # n: the NNM2 curve at f2/n is drawn
     resonance_color: str = NNM2_COLOR
     gap_zero_modes: tuple[int, ...] = (1,)
-    inset_gap_zero_mode: int | None = None  # draw this gap-0 modal line (dashed) in the insets
+    inset_gap_zero_mode: int | None = None  # draw this gap-0 modal line (dash-dotted) in the insets
 
 
 PAPER_FIGURES = {
@@ -237,10 +242,10 @@ def _bifurcation_markers(ax, ds: xr.Dataset) -> set:
         resonance = ds["branch_point_resonance"].values > 0
         for kind, mask in (("resonance", resonance), ("breaking", ~resonance)):
             if mask.any():
-                ax.plot(e[mask], f[mask], **BRANCH_POINT_STYLES[kind])
+                mark_obstacle(ax.plot(e[mask], f[mask], **BRANCH_POINT_STYLES[kind])[0])
                 drawn.add(kind)
     if ds.sizes.get("located_fold", 0):
-        ax.plot(ds["fold_energy"].values, ds["fold_frequency"].values, **BRANCH_POINT_STYLES["fold"])
+        mark_obstacle(ax.plot(ds["fold_energy"].values, ds["fold_frequency"].values, **BRANCH_POINT_STYLES["fold"])[0])
         drawn.add("fold")
     return drawn
 
@@ -367,8 +372,13 @@ def _companions(ax, kind: _FigureKind, nnm2, exact, bifurcated) -> list:
         )
     if kind.resonance is not None:
         n = kind.resonance
-        ax.plot(nnm2["energy"].values, nnm2["frequency"].values / n, color=kind.resonance_color, lw=1.2, zorder=2)
-        handles.append(Line2D([], [], color=kind.resonance_color, lw=1.2, label=f"NNM2 frequency / {n} (same energy)"))
+        band = {"color": kind.resonance_color, "alpha": RESONANCE_BAND_ALPHA, "lw": RESONANCE_BAND_WIDTH}
+        # wide and pale under everything: where the switched branch runs on it, both stay visible
+        ax.plot(nnm2["energy"].values, nnm2["frequency"].values / n, zorder=1.5, solid_capstyle="butt", **band)
+        switched = any(ds.sizes["point"] for ds in bifurcated)
+        text = f"NNM2 frequency / {n} at the same energy (pale band"
+        text += ";\nthe switched branch runs on it where they coincide)" if switched else ")"
+        handles.append(Line2D([], [], label=text, **band))
     for ds in bifurcated:
         if ds.sizes["point"] == 0:
             continue
@@ -391,7 +401,7 @@ def _gap_zero_lines(ax, kind: _FigureKind, branch: xr.Dataset, frequency_range) 
             ax.axhline(value, zorder=1, **GAP_ZERO_STYLE)
             text = f"gap-0 linear mode {mode} ({value:.4f} Hz)"
             if kind.inset_gap_zero_mode == mode:
-                text += ";\nits modal line dashed in the insets"
+                text += ";\nits modal line dash-dotted in the insets"
             handles.append(Line2D([], [], label=text, **GAP_ZERO_STYLE))
     return handles
 
@@ -504,19 +514,23 @@ def _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=None, png_dpi=15
     placed = _inside_window(branch, placed, missing, _range(spec, "energy_range", where))
     color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
     rows, cols = _inset_grid(max(len(placed), 1))
+    below = spec.get("legend") == "below"
     fig = plt.figure(figsize=(7.5, 4.4 + 2.3 * rows), layout="constrained")
     try:
         fig.get_layout_engine().set(h_pad=0.06, w_pad=0.06, hspace=0.04, wspace=0.06)
-        grid = fig.add_gridspec(1 + rows, cols, height_ratios=[4.0] + [2.3] * rows)
+        top = 2 if below else 1  # the first row of modal lines, under the plot and its legend row
+        grid = fig.add_gridspec(top + rows, cols, height_ratios=[4.0] + [1.0] * (top - 1) + [2.3] * rows)
         ax = fig.add_subplot(grid[0, :])
         branch_label = extra.get("branch_label") or kind.branch.upper()
         handles, _ = _draw_fep(ax, kind, branch, nnm2, spec, where, branch_label, window, exact, bifurcated)
         slope = _inset_slope(kind, branch)
         for i, (label, point) in enumerate(placed):
             mark_point(ax, branch, point, label)
-            inset = fig.add_subplot(grid[1 + i // cols, i % cols])
+            inset = fig.add_subplot(grid[top + i // cols, i % cols])
             draw_modal_line(inset, branch, point, label, color, reference_slope=slope)
-        if handles:
+        if handles and below:
+            _legend_below(fig, grid, handles)
+        elif handles:
             ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=7.5, framealpha=0.9)
         notes = _missing_notes(branch, extra.get("stages") or [], bifurcated, missing)
         title = _title(kind, branch, _scene_line(branch, window, kind.resonance), notes)
@@ -524,7 +538,24 @@ def _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=None, png_dpi=15
     except Exception:
         plt.close(fig)
         raise
-    return save_figure(fig, pdf_path, png_dpi=png_dpi, description=title)
+    return save_figure(fig, pdf_path, png_dpi=png_dpi, description=title, after_layout=place_labels)
+
+
+def _legend_below(fig, grid, handles) -> None:
+    """The legend in two columns in its own row under the frequency-energy plot, off the data.
+
+    The row is as high as the legend measures (the height ratios of the grid are in inches).
+    """
+    holder = fig.add_subplot(grid[1, :])
+    holder.axis("off")
+    legend = holder.legend(handles=handles, loc="center", ncols=2, fontsize=7.5, frameon=False, borderaxespad=0.0)
+    legend.set_in_layout(False)  # sized below: the layout must not squeeze the columns to fit it
+    height = legend.get_window_extent(fig.canvas.get_renderer()).height / fig.dpi
+    ratios = list(grid.get_height_ratios())
+    ratios[1] = height
+    grid.set_height_ratios(ratios)
+    width, total = fig.get_size_inches()
+    fig.set_size_inches(width, total + height)
 
 
 def _wrapped(title: str, width: int = 118) -> str:
@@ -560,28 +591,85 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
         _check_branch(ds, branch, where)
     check_same_structure(nnm1, nnm2, where=where)
     energy_range = _range(spec, "energy_range", where)
-    fig, ax = plt.subplots(figsize=(7.5, 4.8), layout="constrained")
+    gap_zero = gap_zero_frequencies(nnm1)[[m - 1 for m in kind.gap_zero_modes]]
+    fig, (ax, zoom) = plt.subplots(2, 1, figsize=(7.5, 8.0), layout="constrained", height_ratios=[1.1, 1.0])
+    try:
+        zoom_window = _fig05_zoom_window(nnm1, energy_range)
+        zoom_range = _auto_limits([nnm1], zoom_window, gap_zero[:1])
+        handles = _fig05_whole(ax, nnm1, nnm2, kind, gap_zero, (zoom_window, zoom_range))
+        frequency_range = _range(spec, "frequency_range", where) or _auto_limits([nnm1, nnm2], energy_range, gap_zero)
+        ax.set_ylim(*frequency_range)
+        if energy_range is not None:
+            ax.set_xlim(*energy_range)
+        ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=8, framealpha=0.9)
+        zoom_handles = _fig05_nnm1(zoom, nnm1, gap_zero[0], kind.gap_zero_modes[0])
+        zoom.set_xlim(*zoom_window)
+        zoom.set_ylim(*zoom_range)
+        _label_minor_decades(zoom)
+        zoom.legend(handles=zoom_handles, loc="best", fontsize=7.5, framealpha=0.9)
+        notes = [f"NNM1 {nnm1.attrs['skip_reason']}"] if "skip_reason" in nnm1.attrs else []
+        title = _title(kind, nnm1, "", notes)
+        fig.suptitle(_wrapped(title), fontsize=9.0, linespacing=1.4)
+    except Exception:
+        plt.close(fig)
+        raise
+    return save_figure(fig, pdf_path, png_dpi=png_dpi, description=title)
+
+
+def _fig05_zoom_window(nnm1: xr.Dataset, energy_range) -> tuple[float, float]:
+    """Energy window of Fig 5 (b): from half the lowest located branch point or fold of NNM1 to its end.
+
+    The whole branch (or ``energy_range``) when NNM1 holds none of them.
+    """
+    energy = nnm1["energy"].values
+    features = np.concatenate([nnm1["branch_point_energy"].values, nnm1["fold_energy"].values])
+    lo = float(features.min()) / 2.0 if features.size else float(energy.min())
+    hi = float(energy.max())
+    if energy_range is not None:
+        lo, hi = max(lo, energy_range[0]), min(hi, energy_range[1])
+    pad = WINDOW_MARGIN * max(np.log(hi / lo), np.log(2.0)) / 2.0
+    return float(lo * np.exp(-pad)), float(hi * np.exp(pad))
+
+
+def _fig05_whole(ax, nnm1, nnm2, kind: _FigureKind, gap_zero, zoom) -> list:
+    """Panel (a) of Fig 5: both NNMs, the gap-0 modes and the frame enlarged in (b); legend handles."""
     handles, drawn = [], set()
-    for ds, color, label in ((nnm1, NNM1_COLOR, "NNM1"), (nnm2, NNM2_COLOR, "NNM2")):
+    for ds, color, label in ((nnm1, NNM1_COLOR, "NNM1 (enlarged in (b))"), (nnm2, NNM2_COLOR, "NNM2")):
         drawn |= plot_branch(ax, ds, color, lw=1.3, zorder=3)
         handles.append(Line2D([], [], color=color, lw=1.3, label=label))
     handles.extend(stability_legend_handles(drawn, lw=1.3))
-    gap_zero = gap_zero_frequencies(nnm1)[[m - 1 for m in kind.gap_zero_modes]]
-    for value in gap_zero:
-        ax.axhline(value, zorder=1, **GAP_ZERO_STYLE)
-    handles.append(Line2D([], [], label="gap-0 linear modes", **GAP_ZERO_STYLE))
-    handles.extend(_bifurcation_legend(_bifurcation_markers(ax, nnm1) | _bifurcation_markers(ax, nnm2)))
+    _fig05_gap_zero(ax, kind.gap_zero_modes, gap_zero)
+    handles.append(Line2D([], [], label="gap-0 linear modes (every stop engaged)", **GAP_ZERO_STYLE))
+    (e0, e1), (f0, f1) = zoom
+    frame = {"fill": False, "ec": "0.3", "lw": 0.8, "ls": (0, (2, 1.5))}
+    ax.add_patch(Rectangle((e0, f0), e1 - e0, f1 - f0, zorder=2.5, **frame))
+    handles.append(Patch(label="part enlarged in (b)", **frame))
+    handles.extend(_bifurcation_legend(_bifurcation_markers(ax, nnm2)))
     frequency_energy_axes(ax)
-    if energy_range is not None:
-        ax.set_xlim(*energy_range)
-    frequency_range = _range(spec, "frequency_range", where) or _auto_limits([nnm1, nnm2], energy_range, gap_zero)
-    ax.set_ylim(*frequency_range)
-    # label the dashed lines at the right edge, just above them (the branches reach them from below)
-    right = ax.get_xlim()[1]
-    for mode, value in zip(kind.gap_zero_modes, gap_zero):
+    ax.set_title("(a) whole energy range", fontsize=8.5, loc="left")
+    return handles
+
+
+def _fig05_nnm1(ax, nnm1, gap_zero: float, mode: int) -> list:
+    """Panel (b) of Fig 5: NNM1 alone on its own frequency scale, with its branch points and folds."""
+    drawn = plot_branch(ax, nnm1, NNM1_COLOR, lw=1.2, zorder=3)
+    handles = [Line2D([], [], color=NNM1_COLOR, lw=1.2, label="NNM1")]
+    handles.extend(stability_legend_handles(drawn, color=NNM1_COLOR))
+    _fig05_gap_zero(ax, (mode,), [gap_zero])
+    handles.extend(_bifurcation_legend(_bifurcation_markers(ax, nnm1)))
+    frequency_energy_axes(ax)
+    ax.set_title("(b) NNM1 from its first branch point or fold on (frame in (a))", fontsize=8.5, loc="left")
+    return handles
+
+
+def _fig05_gap_zero(ax, modes, values) -> None:
+    """The gap-0 linear modes as horizontal lines, named at the right edge just above them."""
+    for mode, value in zip(modes, values):
+        ax.axhline(value, zorder=1, **GAP_ZERO_STYLE)
         ax.annotate(
             f"gap-0 linear mode {mode}: {value:.4f} Hz",
-            xy=(right, value),
+            xy=(1.0, value),
+            xycoords=("axes fraction", "data"),
             xytext=(-4, 3),
             textcoords="offset points",
             fontsize=7.5,
@@ -589,11 +677,6 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
             va="bottom",
             ha="right",
         )
-    ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=8, framealpha=0.9)
-    notes = [f"NNM1 {nnm1.attrs['skip_reason']}"] if "skip_reason" in nnm1.attrs else []
-    title = _title(kind, nnm1, "", notes)
-    fig.suptitle(_wrapped(title), fontsize=9.0, linespacing=1.4)
-    return save_figure(fig, pdf_path, png_dpi=png_dpi, description=title)
 
 
 def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
@@ -647,5 +730,5 @@ def figure_10(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, 
 
 
 def figure_11(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, stages=None):
-    """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dashed)."""
+    """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dash-dotted)."""
     return _nnm1_figure("fig11", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact, stages=stages)

@@ -28,7 +28,8 @@ import numpy as np
 import xarray as xr
 from matplotlib.ticker import MaxNLocator
 
-from nnmstop.figures.common import orbit
+from nnmstop.figures.common import GAP_ZERO_STYLE, orbit, unit_text
+from nnmstop.figures.labels import add_label, mark_obstacle
 
 __all__ = [
     "ANCHORS",
@@ -307,23 +308,17 @@ def modal_line_dofs(ds: xr.Dataset) -> tuple[int, int]:
 
 
 def mark_point(ax, ds: xr.Dataset, point: int, spec: LabelSpec) -> None:
-    """Marker and letter of a labelled point on a frequency-energy plot."""
+    """A small dot on a labelled point and its letter in a circle beside it, joined by a short leader.
+
+    The letter goes at ``spec.offset`` if that spot is free, else at the nearest free spot around
+    the point (:func:`nnmstop.figures.labels.place_labels`, once the figure is laid out): it never
+    covers the point, a branch point or fold marker, or another letter.
+    """
     e = float(ds["energy"].values[point])
     f = float(ds["frequency"].values[point])
-    ax.plot([e], [f], marker="o", ms=4.5, mfc="white", mec="black", mew=1.0, ls="none", zorder=6)
-    ax.annotate(
-        f"{spec.label})",
-        xy=(e, f),
-        xytext=spec.offset,
-        textcoords="offset points",
-        fontsize=9,
-        fontweight="bold",
-        ha="center",
-        va="center",
-        zorder=7,
-        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.85},
-        arrowprops={"arrowstyle": "-", "lw": 0.6, "color": "black", "shrinkA": 0, "shrinkB": 3},
-    )
+    (dot,) = ax.plot([e], [f], marker="o", ms=2.8, mfc="black", mec="none", ls="none", zorder=4.4)
+    mark_obstacle(dot)
+    add_label(ax, f"{spec.label}", (e, f), spec.offset)
 
 
 def draw_modal_line(
@@ -346,7 +341,7 @@ def draw_modal_line(
     ----------
     reference_slope : float, optional
         If given, the straight modal line of a linear mode (e.g. of the gap-0 system) of this slope
-        is drawn dashed for comparison.
+        is drawn dash-dotted for comparison.
     """
     a, b = modal_line_dofs(ds)
     names = [str(v) for v in ds["dof_label"].values]
@@ -364,10 +359,8 @@ def draw_modal_line(
         ax.plot(
             [-xlim, xlim],
             [-reference_slope * xlim, reference_slope * xlim],
-            color="0.3",
-            lw=0.8,
-            ls=(0, (4, 2.5)),
             zorder=1,
+            **GAP_ZERO_STYLE,
         )
     ax.plot(x, u, color=color, lw=1.1, zorder=2)
     ax.set_xlim(-xlim, xlim)
@@ -378,8 +371,9 @@ def draw_modal_line(
     ax.xaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
     ax.yaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
     ax.tick_params(labelsize=6.5, length=2, pad=1.5)
-    ax.set_xlabel(names[a], fontsize=7.5, labelpad=1)
-    ax.set_ylabel(names[b], fontsize=7.5, labelpad=1, rotation=0)
+    unit = unit_text(ds, "q_cos")
+    ax.set_xlabel(f"{names[a]} {unit}", fontsize=7.5, labelpad=1)
+    ax.set_ylabel(f"{names[b]} {unit}", fontsize=7.5, labelpad=1)
     noun = "impact" if impacts == 1 else "impacts"
     ax.set_title(
         f"{spec.label}) {impacts} {noun}/period\nE = {e:.4g}, f = {f:.4f} Hz\n"
