@@ -371,3 +371,73 @@ def test_branch_line_styles_follow_stability_and_resolution():
     assert drawn == {"stable", "unstable", "unresolved"}
     assert styles == ["-", "--", ":", "-"]
     assert starts == [1.0, 3.0, 4.0, 5.0]  # each run starts where the previous one ended
+
+
+@pytest.fixture
+def drawn_figures(monkeypatch):
+    """The figures the figure functions save, caught after their labels are placed (to inspect the artists)."""
+    from nnmstop.figures.labels import label_overlaps
+
+    caught = []
+    real = fe.save_figure
+
+    def spy(fig, pdf_path, png_dpi=150, description=None, after_layout=None):
+        def inspect(figure):
+            if after_layout is not None:
+                after_layout(figure)
+            caught.append((figure, label_overlaps(figure)))
+
+        return real(fig, pdf_path, png_dpi, description=description, after_layout=inspect)
+
+    monkeypatch.setattr(fe, "save_figure", spy)
+    return caught
+
+
+def test_letters_of_crowded_points_cover_no_mark_and_no_other_letter(nnm1_stages, nnm2, drawn_figures, tmp_path):
+    """Letters asked at neighbouring points, all at one offset, land apart and off the marks."""
+    stage = nnm1_stages[1]
+    middle = stage.sizes["point"] // 2
+    labels = [
+        {"label": letter, "energy": float(stage["energy"].values[middle + k]), "stage": 2, "offset": [0, 0]}
+        for k, letter in enumerate("defg")
+    ]
+    spec = {"nnm1_stages": [1, 2], "labels": labels, "legend": "best"}
+    fe.figure_08(combine_stages(nnm1_stages[:2]), nnm2, spec, tmp_path / "fig08.pdf", PNG_DPI)
+    fig, overlaps = drawn_figures[-1]
+    assert overlaps == []
+    top = fig.axes[0]
+    assert sorted(t.get_text() for t in top.texts if t.get_gid() == "point-label") == list("defg")
+
+
+def test_fig05_enlarges_nnm1_in_its_own_panel(nnm1_stages, nnm2, drawn_figures, tmp_path):
+    """Panel (b) holds the NNM1 curve alone on a frequency scale finer than panel (a)'s."""
+    nnm1 = combine_stages(nnm1_stages)
+    fe.figure_05(nnm1, nnm2, {}, tmp_path / "fig05.pdf", PNG_DPI)
+    fig, _ = drawn_figures[-1]
+    whole, zoom = fig.axes[:2]
+    assert zoom.get_title(loc="left").startswith("(b)")
+    curves = [line for line in zoom.get_lines() if np.size(line.get_xdata()) > 1]
+    drawn = np.concatenate([line.get_ydata() for line in curves if line.get_color() == fe.NNM1_COLOR])
+    assert np.isin(drawn, nnm1["frequency"].values).all() and drawn.size >= nnm1.sizes["point"]
+    assert not any(np.isin(line.get_ydata(), nnm2["frequency"].values).any() for line in curves)
+    assert np.ptp(zoom.get_ylim()) < 0.5 * np.ptp(whole.get_ylim())
+    low, high = zoom.get_ylim()
+    assert low <= nnm1["frequency"].values.max() <= high
+
+
+def test_the_nnm2_curve_at_f2_over_n_is_a_pale_band_under_the_branch(nnm1_stages, nnm2, specs, drawn_figures, tmp_path):
+    fe.figure_08(combine_stages(nnm1_stages[:2]), nnm2, specs["fig08"], tmp_path / "fig08.pdf", PNG_DPI)
+    fig, _ = drawn_figures[-1]
+    lines = fig.axes[0].get_lines()
+    target = nnm2["frequency"].values / 3
+    band = [
+        line for line in lines if np.shape(line.get_ydata()) == target.shape and np.allclose(line.get_ydata(), target)
+    ]
+    branch = [line for line in lines if line.get_color() == fe.NNM1_COLOR and np.size(line.get_xdata()) > 1]
+    assert len(band) == 1 and branch
+    assert band[0].get_linewidth() >= 4 * max(line.get_linewidth() for line in branch)
+    assert band[0].get_alpha() < 0.5
+    assert band[0].get_zorder() < min(line.get_zorder() for line in branch)
+    legend = [text.get_text() for text in fig.legends[0].get_texts()] if fig.legends else []
+    legend += [text.get_text() for ax in fig.axes if ax.get_legend() for text in ax.get_legend().get_texts()]
+    assert any("NNM2 frequency / 3" in text and "band" in text for text in legend)
