@@ -26,6 +26,7 @@ __all__ = [
     "NONDIMENSIONAL",
     "unit_text",
     "frequency_energy_axes",
+    "label_minor_decades",
     "plot_branch",
     "stability_legend_handles",
     "orbit",
@@ -61,6 +62,29 @@ def frequency_energy_axes(ax, title: str | None = None):
     if title:
         ax.set_title(title)
     return ax
+
+
+def label_minor_decades(ax) -> None:
+    """Label some minor ticks of a logarithmic x axis spanning few decades, as plain numbers.
+
+    A window of one or two decades would otherwise show one or two labelled ticks. Over at most
+    0.6 decades every minor tick is labelled, up to 1.2 decades those at 2, 3 and 5 x 10^n, up to 2.5
+    decades those at 2 and 5 x 10^n; wider axes keep their decades only.
+    """
+    from matplotlib.ticker import FuncFormatter
+
+    def minor_label(value, _position):
+        low, high = ax.get_xlim()
+        decades = np.log10(high / low) if low > 0 and high > low else np.inf
+        mantissa = value / 10.0 ** np.floor(np.log10(value) + 1e-9)
+        digit = int(round(mantissa))
+        if decades > 2.5 or abs(mantissa - digit) > 1e-6:
+            return ""
+        kept = range(2, 10) if decades <= 0.6 else (2, 3, 5) if decades <= 1.2 else (2, 5)
+        return f"{value:g}" if digit in kept else ""
+
+    ax.xaxis.set_minor_formatter(FuncFormatter(minor_label))
+    ax.tick_params(axis="x", which="minor", labelsize=7)
 
 
 def orbit_series(p: xr.Dataset) -> dict:

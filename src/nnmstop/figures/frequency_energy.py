@@ -30,7 +30,6 @@ import numpy as np
 import xarray as xr
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Rectangle
-from matplotlib.ticker import LogFormatterSciNotation
 
 from nnmstop.figures.common import (
     EXACT_OVERLAY_COLOR,
@@ -39,6 +38,7 @@ from nnmstop.figures.common import (
     REGULARIZED_COLOR,
     RESONANCE_COLOR,
     frequency_energy_axes,
+    label_minor_decades,
     plot_branch,
     save_figure,
     stability_legend_handles,
@@ -281,12 +281,6 @@ def _auto_limits(ds_list, energy_range, levels=()):
     return float(f.min()) - 0.05 * span, float(f.max()) + 0.1 * span
 
 
-def _label_minor_decades(ax) -> None:
-    """Label some minor ticks of the energy axis when it spans fewer than two decades."""
-    ax.xaxis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(2, 0.5)))
-    ax.tick_params(axis="x", which="minor", labelsize=7)
-
-
 # --------------------------------------------------------------------------- what the data say
 
 
@@ -424,7 +418,7 @@ def _draw_fep(ax, kind: _FigureKind, branch, nnm2, spec, where, branch_label, wi
     handles.extend(_gap_zero_lines(ax, kind, branch, frequency_range))
     handles.extend(_bifurcation_legend(_bifurcation_markers(ax, branch)))
     frequency_energy_axes(ax)
-    _label_minor_decades(ax)
+    label_minor_decades(ax)
     if window is not None:
         ax.set_xlim(*window)
     if frequency_range is not None:
@@ -605,7 +599,7 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
         zoom_handles = _fig05_nnm1(zoom, nnm1, gap_zero[0], kind.gap_zero_modes[0])
         zoom.set_xlim(*zoom_window)
         zoom.set_ylim(*zoom_range)
-        _label_minor_decades(zoom)
+        label_minor_decades(zoom)
         zoom.legend(handles=zoom_handles, loc="best", fontsize=7.5, framealpha=0.9)
         notes = [f"NNM1 {nnm1.attrs['skip_reason']}"] if "skip_reason" in nnm1.attrs else []
         title = _title(kind, nnm1, "", notes)

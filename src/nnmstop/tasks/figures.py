@@ -233,7 +233,7 @@ def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, 
             raise ValueError(f"missing input {key!r}; inputs are {sorted(inputs)}")
     figures = config.get("figures", {})
     dpi = int(figures.get("png_dpi", 150))
-    zoom = figures.get("extra_stability", {}).get("zoom_energy", stability_drawing.ZOOM_ENERGY)
+    zoom = figures.get("extra_stability", {}).get("zoom_energy")  # None: where the changes crowd
     fig = stability_drawing.stability_figure(
         read_dataset(inputs["exact"]), read_dataset(inputs["nnm1"]), read_dataset(inputs["dataset"]), zoom_energy=zoom
     )
