@@ -139,3 +139,20 @@ def test_figure_zoom_windows_are_checked_and_optional():
     assert len(stability_figure(exact, reg, zoom_energy=[[2.0, 5.0]]).axes) == 2
     with pytest.raises(ValueError, match="low < high"):
         stability_figure(exact, reg, zoom_energy=[[5.0, 2.0]])
+
+
+def test_default_zooms_hold_every_stability_change():
+    """Without configured windows the zoomed panels are where the changes are: each change in one of them."""
+    from nnmstop.figures.stability import change_clusters
+
+    exact, reg = _monotone_case(reg_threshold=7.0)
+    fig = stability_figure(exact, reg)
+    changes = [
+        c["energy"]
+        for ds in (exact, reg)
+        for c in sc.stability_changes(ds["energy"].values, ds["frequency"].values, sc.verdicts(ds))
+    ]
+    windows = [ax.get_xlim() for ax in fig.axes[1:] if ax.axison]
+    assert windows and all(any(lo < e < hi for lo, hi in windows) for e in changes)
+    far = change_clusters([1.0, 1.2, 100.0, 130.0, 1.0e4])
+    assert len(far) == 3 and all(lo < e < hi for e, (lo, hi) in zip([1.1, 115.0, 1.0e4], far))
