@@ -12,13 +12,18 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import LinearSegmentedColormap, Normalize
+from matplotlib.patches import Rectangle
 
 from nnmstop import fourier
-from nnmstop.figures.common import save_figure
+from nnmstop.figures.common import label_minor_decades, save_figure
 
 __all__ = ["STRUCTURE_FIGURES", "draw_structure_figure", "draw_study_figure", "point_at_energy", "branch_segments"]
 
 REGULARIZED, EXACT = "tab:blue", "tab:red"
+#: Colours of the deformed shapes from t = 0 (red) to T/2 (blue), with their colour bar.
+SHAPE_COLORS = LinearSegmentedColormap.from_list("half_period", [(0.85, 0.3, 0.15), (0.15, 0.3, 0.85)])
 
 #: A located point whose Jacobian's smallest singular value is below this fraction of the second
 #: smallest is drawn as a branch point. A determinant sign change across a jump of the continuation
@@ -83,35 +88,26 @@ def _impact_labels(ax, ds):
         )
 
 
-def _resonance_inset(ax, ds, segment, color):
-    """Zoom on the first tongue passed: the segments before and after it, their frequency maximum and fold."""
-    f_tongue = float(ds.passed_resonance_frequency.values[0])
-    after = segment == 1
-    e_lo = 0.97 * float(ds.energy.values[after].min())
-    e_hi = float(ds.energy.values[after].max())
-    f_hi = float(ds.frequency.values[after].max())
-    inset = ax.inset_axes([0.3, 0.2, 0.33, 0.3])
-    for k in (0, 1):
-        part = segment == k
-        inset.plot(ds.energy.values[part], ds.frequency.values[part], ".-", color=color, ms=2, lw=0.8)
-    inset.plot(ds.passed_resonance_energy.values[:1], [f_tongue], "v", color="tab:purple", ms=5)
-    if ds.fold_energy.size:
-        inset.plot(ds.fold_energy.values, ds.fold_frequency.values, "o", mfc="none", mec="k", ms=4)
-    inset.set_xlim(e_lo, e_hi)
-    inset.set_ylim(f_tongue - 0.25 * (f_hi - f_tongue), f_hi)
-    inset.tick_params(labelsize=6)
-    inset.set_title("over the tongue (segments 0 and 1)", fontsize=6)
-
-
-def _passed_resonances(ax, ds, segment, color) -> None:
-    """The tongues passed, marked with their n:1, and a zoom on the first."""
+def _passed_resonances(ax, ds, label_them: bool) -> None:
+    """The tongues passed, marked (and, if ``label_them``, named with their n:1)."""
     if not ds.passed_resonance_frequency.size:
         return
     energy, frequency = ds.passed_resonance_energy.values, ds.passed_resonance_frequency.values
     ax.plot(energy, frequency, "v", color="tab:purple", ms=6, label="internal resonance passed (tongue)")
-    for e, f, n in zip(energy, frequency, ds.passed_resonance_harmonic.values):
-        ax.annotate(f"{int(n)}:1", (e, f), xytext=(6, -10), textcoords="offset points", fontsize=7, color="tab:purple")
-    _resonance_inset(ax, ds, segment, color)
+    if label_them:
+        for e, f, n in zip(energy, frequency, ds.passed_resonance_harmonic.values):
+            ax.annotate(
+                f"{int(n)}:1", (e, f), xytext=(6, -10), textcoords="offset points", fontsize=7, color="tab:purple"
+            )
+
+
+def _feature_window(ds):
+    """Energy window around NNM1's branch points, folds and tongues (None when it holds none)."""
+    energies = np.concatenate([ds.branch_point_energy.values, ds.fold_energy.values, ds.passed_resonance_energy.values])
+    if energies.size == 0:
+        return None
+    low, high = float(energies.min()) / 1.3, max(float(energies.max()), float(ds.energy.max())) * 1.05
+    return low, high
 
 
 def _located_points(ax, ds) -> None:
@@ -138,29 +134,55 @@ def _linear_lines(ax, ds) -> None:
         ax.axhline(analytical, color="0.4", lw=0.8, ls="-.", label="linear, Euler-Bernoulli")
 
 
-def _frequency_energy(fig, data, spec):
-    """One panel per NNM (their frequencies differ by a factor of about six), the exact NNM1 on the first."""
-    names = sorted(name for name in data if name.startswith("nnm"))
-    axes = fig.subplots(1, len(names), squeeze=False)[0]
-    for ax, name in zip(axes, names):
-        ds = data[name]
-        color = REGULARIZED if name == "nnm1" else "tab:green"
-        segment = branch_segments(ds)
-        for k in np.unique(segment):
-            part = segment == k
-            label = f"{name.upper()} regularized (H = {ds.attrs['harmonics']})" if k == segment[0] else None
-            _line_segments(ax, ds.energy.values[part], ds.frequency.values[part], ds.stable.values[part], color, label)
-        _impact_labels(ax, ds)
-        _passed_resonances(ax, ds, segment, color)
-        _located_points(ax, ds)
-        _linear_lines(ax, ds)
-        if name == "nnm1" and "exact" in data:
-            _exact_curves(ax, data["exact"])
-        ax.set_xscale("log")
-        ax.set_xlabel("energy (nondimensional)")
+def _branch_panel(ax, name, data, window=None) -> None:
+    """One NNM: its segments (never joined across a tongue), marks, linear lines (the exact NNM1 with NNM1)."""
+    ds = data[name]
+    color = REGULARIZED if name == "nnm1" else "tab:green"
+    segment = branch_segments(ds)
+    for k in np.unique(segment):
+        part = segment == k
+        label = f"{name.upper()} regularized (H = {ds.attrs['harmonics']})" if k == segment[0] else None
+        _line_segments(ax, ds.energy.values[part], ds.frequency.values[part], ds.stable.values[part], color, label)
+    _impact_labels(ax, ds)
+    _passed_resonances(ax, ds, label_them=window is not None or _feature_window(ds) is None)
+    _located_points(ax, ds)
+    _linear_lines(ax, ds)
+    if name == "nnm1" and "exact" in data:
+        _exact_curves(ax, data["exact"])
+    ax.set_xscale("log")
+    ax.set_xlabel("energy (nondimensional)")
+    ax.set_ylabel("frequency (Hz of the nondimensional time)")
+    if window is None:
         ax.set_title(f"{name.upper()}: dashed where unstable; numbers: impacts per period", fontsize=9)
         ax.legend(fontsize=7, loc="best")
-    axes[0].set_ylabel("frequency (Hz of the nondimensional time)")
+        return
+    inside = (ds.energy.values >= window[0]) & (ds.energy.values <= window[1])
+    low, high = float(ds.frequency.values[inside].min()), float(ds.frequency.values[inside].max())
+    pad = 0.06 * (high - low)
+    ax.set_xlim(*window)
+    ax.set_ylim(low - pad, high + pad)
+    label_minor_decades(ax)
+    ax.set_title(
+        f"{name.upper()} enlarged where its branch points, folds and tongues lie (frame in the panel above); "
+        "the parts before and after a tongue are separate curves",
+        fontsize=9,
+    )
+
+
+def _frequency_energy(fig, data, spec):
+    """One panel per NNM (their frequencies differ by a factor of about six), the exact NNM1 on the first;
+    under them NNM1 enlarged where its marks crowd, if it has any."""
+    names = sorted(name for name in data if name.startswith("nnm"))
+    window = _feature_window(data["nnm1"]) if "nnm1" in data else None
+    layout = [names] + ([["zoom"] * len(names)] if window else [])
+    axes = fig.subplot_mosaic(layout)
+    for name in names:
+        _branch_panel(axes[name], name, data)
+    if window:
+        _branch_panel(axes["zoom"], "nnm1", data, window)
+        (e0, e1), (f0, f1) = axes["zoom"].get_xlim(), axes["zoom"].get_ylim()
+        frame = Rectangle((e0, f0), e1 - e0, f1 - f0, fill=False, ec="0.3", lw=0.8, ls=(0, (2, 1.5)), zorder=6)
+        axes["nnm1"].add_patch(frame)
     fig.suptitle(f"{_structure_name(data[names[0]])}: frequency-energy plots", fontsize=10)
 
 
@@ -208,17 +230,19 @@ def _shapes(fig, data, spec):
         q, _ = _orbit_samples(ds, i, max(m, 2 * int(ds.attrs["harmonics"]) + 2))
         step = q.shape[1] // m
         w = _deflection(ds, q[:, : q.shape[1] // 2 + 1 : step].T, s)
-        colors = np.linspace(0.15, 0.85, len(w))
-        for wk, c in zip(w, colors):
-            ax.plot(wk, s, color=(c, 0.3, 1 - c), lw=0.9)
+        for wk, phase in zip(w, np.linspace(0.0, 0.5, len(w))):
+            ax.plot(wk, s, color=SHAPE_COLORS(2.0 * phase), lw=0.9)
         ax.axhline(s_stop, color="0.6", lw=0.6)
         ax.plot([-1, -1], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
         ax.plot([1, 1], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
-        ax.set_title(f"E = {ds.energy.values[i]:.3g}, {int(ds.impacts_per_period.values[i])} impacts/T", fontsize=9)
-        ax.set_xlabel("w / gap")
-    axes[0].set_ylabel("s / L (foot at 0)")
+        impacts = int(ds.impacts_per_period.values[i])
+        ax.set_title(f"E = {ds.energy.values[i]:.3g} (nondim.), {impacts} impacts per period", fontsize=9)
+        ax.set_xlabel("deflection w / gap")
+    axes[0].set_ylabel("position s / L (foot at 0)")
+    bar = fig.colorbar(ScalarMappable(Normalize(0.0, 0.5), SHAPE_COLORS), ax=list(axes), fraction=0.025)
+    bar.set_label("instant t / T (half a period)")
     fig.suptitle(
-        f"{_structure_name(ds)}, NNM1: deformed shapes over half a period (stop: black bars at +-gap)", fontsize=10
+        f"{_structure_name(ds)}, NNM1: deformed shapes over half a period (stop: black bars at ± gap)", fontsize=10
     )
 
 
@@ -230,38 +254,55 @@ def _contact_force(fig, data, spec):
     for target in _energies(ds, spec):
         i = point_at_energy(ds.energy.values, target)
         _, f = _orbit_samples(ds, i, samples)
-        ax.plot(t, f[0], lw=1.0, label=f"E = {ds.energy.values[i]:.3g}")
-    ax.set_xlabel("t / T")
+        ax.plot(t, f[0], lw=1.0, label=f"E = {ds.energy.values[i]:.3g} (nondim.)")
+    ax.set_xlabel("instant t / T")
     ax.set_ylabel("regularized stop force f (nondimensional)")
     ax.set_title(f"{_structure_name(ds)}, NNM1: force of the first stop over one period", fontsize=10)
     ax.legend(fontsize=8)
 
 
 def _exact_vs_regularized(fig, data, spec):
-    comparison = data["comparison"]
+    """Both NNM1 curves and their difference, over the energies of the exact family (where they compare)."""
+    comparison, exact, nnm1 = data["comparison"], data["exact"], data["nnm1"]
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
-    _exact_curves(ax1, data["exact"])
-    nnm1 = data["nnm1"]
+    _exact_curves(ax1, exact)
     segment = branch_segments(nnm1)
     for k in np.unique(segment):
         part = segment == k
-        label = "regularized" if k == segment[0] else None
+        label = "NNM1 regularized" if k == segment[0] else None
         ax1.plot(nnm1.energy.values[part], nnm1.frequency.values[part], color=REGULARIZED, label=label)
+    low, high = float(exact.energy.min()), float(exact.energy.max())
+    pad = 0.1 * max(np.log(high / low), np.log(2.0))
+    window = (low * np.exp(-pad), high * np.exp(pad))
+    inside = [
+        ds.frequency.values[(ds.energy.values >= window[0]) & (ds.energy.values <= window[1])] for ds in (exact, nnm1)
+    ]
+    frequencies = np.concatenate(inside)
+    spread = float(np.ptp(frequencies)) or 1e-3 * float(frequencies.max())
+    ax1.set_ylim(frequencies.min() - 0.08 * spread, frequencies.max() + 0.08 * spread)
     ax1.set_xscale("log")
-    ax1.set_ylabel("frequency (Hz)")
-    ax1.legend(fontsize=8)
-    ax2.plot(comparison.energy.values, np.abs(comparison.relative_difference.values), "o-", color="k", ms=3)
-    ax2.set_yscale("log")
+    ax1.set_xlim(*window)
+    ax1.set_ylabel("frequency (Hz, nondim. time)")
+    fig.legend(handles=ax1.get_legend_handles_labels()[0], loc="outside lower center", ncols=2, fontsize=8)
+    difference = np.abs(comparison.relative_difference.values)
+    ax2.plot(comparison.energy.values, difference, "o-", color="k", ms=3)
+    if difference.size and difference.min() > 0 and difference.max() / difference.min() > 10.0:
+        ax2.set_yscale("log")
     ax2.set_xlabel("energy (nondimensional)")
     ax2.set_ylabel("|f_reg - f_exact| / f_exact")
-    fig.suptitle(f"{_structure_name(nnm1)}, NNM1: exact against regularized at matched energies", fontsize=10)
+    label_minor_decades(ax2)
+    fig.suptitle(
+        f"{_structure_name(nnm1)}, NNM1: exact against regularized at matched energies\n"
+        f"(drawn over the exact family's energies, {low:.3g} to {high:.3g}; the regularized branch goes on beyond)",
+        fontsize=10,
+    )
 
 
 STRUCTURE_FIGURES = {
-    "frequency_energy": (_frequency_energy, (11.0, 4.8)),
+    "frequency_energy": (_frequency_energy, (11.0, 9.0)),
     "shapes": (_shapes, (10.0, 4.5)),
     "contact_force": (_contact_force, (7.0, 4.0)),
-    "exact_vs_regularized": (_exact_vs_regularized, (7.0, 6.0)),
+    "exact_vs_regularized": (_exact_vs_regularized, (7.5, 6.8)),
 }
 
 
@@ -279,10 +320,9 @@ def draw_structure_figure(name: str, data: dict, spec: dict, pdf_path) -> None:
     if name not in STRUCTURE_FIGURES:
         raise ValueError(f"structure figure must be one of {sorted(STRUCTURE_FIGURES)}, got {name!r}")
     draw, size = STRUCTURE_FIGURES[name]
-    fig = plt.figure(figsize=size)
+    fig = plt.figure(figsize=size, layout="constrained")
     try:
         draw(fig, data, spec)
-        fig.tight_layout()
     except Exception:
         plt.close(fig)
         raise
@@ -293,7 +333,7 @@ def draw_study_figure(cases: list, spec: dict, pdf_path) -> None:
     """NNM1 backbones of the study cases: physical frequency against the largest displacement at the plate."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.0, 5.0))
+    fig, ax = plt.subplots(figsize=(7.0, 5.0), layout="constrained")
     factors = sorted({float(ds.attrs["study_stiffness_factor"]) for ds in cases})
     gaps = sorted({float(ds.attrs["study_gap_m"]) for ds in cases})
     styles = ["-", "--", ":", "-."]
@@ -309,9 +349,13 @@ def draw_study_figure(cases: list, spec: dict, pdf_path) -> None:
             label=f"k = {factor:g} x 3EI/a^3, gap = {gap * 1e3:g} mm",
         )
     ax.set_xscale("log")
-    ax.set_xlabel("largest displacement at the plate (mm)")
-    ax.set_ylabel("frequency (Hz)")
-    ax.set_title("Tube NNM1 over gap and plate stiffness (regularized, H from the config)", fontsize=10)
+    ax.set_xlabel("largest displacement at the plate (mm, physical)")
+    ax.set_ylabel("frequency (Hz, physical time)")
+    harmonics = sorted({int(ds.attrs["harmonics"]) for ds in cases})
+    ax.set_title(
+        f"Tube NNM1 over gap and plate stiffness (regularized, H = {', '.join(map(str, harmonics))})\n"
+        "in physical units, unlike the other tube figures: x_max x gap, frequency x the time unit's rad/s",
+        fontsize=9,
+    )
     ax.legend(fontsize=7)
-    fig.tight_layout()
     save_figure(fig, pdf_path, spec["png_dpi"])
