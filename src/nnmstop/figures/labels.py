@@ -32,20 +32,29 @@ def mark_obstacle(artist) -> None:
     artist.set_gid(MARK_GID)
 
 
-def add_label(ax, text: str, xy, offset=(6.0, 6.0), fontsize: float = 9.0):
-    """A letter in a circle beside the data point ``xy``, with a short leader; placed by :func:`place_labels`."""
+def add_label(ax, text: str, xy, offset=(6.0, 6.0), fontsize: float = 9.0, circled: bool = True, color="black"):
+    """A label beside the data point ``xy`` with a short leader, placed by :func:`place_labels`.
+
+    ``circled``: a bold letter in a circle (the labelled points of the paper's figures); else plain
+    text on a pale box (tick-like labels of data points, such as a setting's ``H``).
+    """
+    if circled:
+        box = {"boxstyle": "circle,pad=0.12", "fc": "white", "ec": color, "lw": 0.7}
+    else:
+        box = {"boxstyle": "square,pad=0.05", "fc": "white", "ec": "none", "alpha": 0.7}
     label = ax.annotate(
         text,
         xy=xy,
         xytext=tuple(float(v) for v in offset),
         textcoords="offset points",
         fontsize=fontsize,
-        fontweight="bold",
+        fontweight="bold" if circled else "normal",
+        color=color,
         ha="center",
         va="center",
         zorder=7,
-        bbox={"boxstyle": "circle,pad=0.12", "fc": "white", "ec": "black", "lw": 0.7},
-        arrowprops={"arrowstyle": "-", "lw": 0.6, "color": "black", "shrinkA": 0, "shrinkB": 2.5},
+        bbox=box,
+        arrowprops={"arrowstyle": "-", "lw": 0.6 if circled else 0.4, "color": color, "shrinkA": 0, "shrinkB": 2.5},
         annotation_clip=False,
     )
     label.set_gid(LABEL_GID)

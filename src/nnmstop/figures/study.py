@@ -31,6 +31,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
+from nnmstop.figures.labels import add_label, mark_obstacle
 from nnmstop.study.status import status_words
 
 __all__ = [
@@ -114,19 +115,19 @@ def _sweep_panel(ax, ds: xr.Dataset, key: str, summary: str, ylabel: str) -> Non
     for j, eta in enumerate(etas):
         color = _ETA_COLORS[j % len(_ETA_COLORS)]
         ok, part = compared[:, j], drawn_partial[:, j]
-        ax.plot(time[ok, j], full[ok, j], "o-", color=color, ms=4, lw=0.8, label=f"eta = {eta:g}")
-        ax.plot(time[part, j], partial[part, j], "o", mfc="none", color=color, ms=5)
-        ax.plot(time[:, j], truncation[:, j], "v", color=color, ms=3, alpha=0.6)
+        mark_obstacle(ax.plot(time[ok, j], full[ok, j], "o-", color=color, ms=4, lw=0.8, label=f"eta = {eta:g}")[0])
+        mark_obstacle(ax.plot(time[part, j], partial[part, j], "o", mfc="none", color=color, ms=5)[0])
+        mark_obstacle(ax.plot(time[:, j], truncation[:, j], "v", color=color, ms=3, alpha=0.6)[0])
         _floor(ax, ds, key, summary, j, color)
         for i, H in enumerate(Hs):
             if ok[i] or part[i]:
                 y = full[i, j] if ok[i] else partial[i, j]
-                ax.annotate(f"{H}", (time[i, j], y), textcoords="offset points", xytext=(3, 2), fontsize=6, color=color)
+                add_label(ax, f"{H}", (time[i, j], y), offset=(0, 7), fontsize=6, circled=False, color=color)
     cost = np.where(compared, time, np.nan).ravel()
     front = pareto_front(cost, np.where(compared, full, np.nan).ravel())
     if front.size:
         ax.step(cost[front], full.ravel()[front], where="post", color="k", lw=0.8, alpha=0.6, label="Pareto front")
-        ax.plot(cost[front], full.ravel()[front], "o", mfc="none", mec="k", ms=9, mew=0.8)
+        mark_obstacle(ax.plot(cost[front], full.ravel()[front], "o", mfc="none", mec="k", ms=9, mew=0.8)[0])
     ax.plot([], [], "o", mfc="none", color="gray", ms=5, label="part of the energies (hollow)")
     ax.plot([], [], "v", color="gray", ms=3, label="truncation part (H vs H_ref)")
     ax.plot([], [], "--", color="gray", lw=0.8, label="regularization part (H_ref vs exact)")
@@ -164,29 +165,36 @@ def _anm_panel(ax, ds: xr.Dataset) -> list[str]:
     markers, notes = "osD^v<>p", {}
     for j, tol in enumerate(tols):
         ok = np.isfinite(residual[:, j])
-        ax.plot(time[ok, j], residual[ok, j], markers[j % len(markers)] + "-", ms=4, lw=0.8, label=f"tol {tol:g}")
+        (line,) = ax.plot(
+            time[ok, j], residual[ok, j], markers[j % len(markers)] + "-", ms=4, lw=0.8, label=f"tol {tol:g}"
+        )
+        mark_obstacle(line)
         for i, order in enumerate(orders):
             if ok[i]:
-                ax.annotate(
-                    f"N{order}",
-                    (time[i, j], residual[i, j]),
-                    textcoords="offset points",
-                    xytext=(3, 2 + 5 * (j % 2)),
-                    fontsize=6,
-                )
+                xy = (time[i, j], residual[i, j])
+                add_label(ax, f"N{order}", xy, offset=(0, 7), fontsize=6, circled=False, color=line.get_color())
             if words[i, j]:
                 drawn = "drawn (its path is measured)" if ok[i] else "not drawn"
                 _add(notes, f"{words[i, j]}, {drawn}", f"N{order}", f"tol {tol:g}")
     ok = np.isfinite(residual)
     front = pareto_front(np.where(ok, time, np.nan).ravel(), np.where(ok, residual, np.nan).ravel())
     if front.size:
-        ax.plot(
-            time.ravel()[front], residual.ravel()[front], "o", mfc="none", mec="k", ms=9, mew=0.8, label="Pareto front"
+        mark_obstacle(
+            ax.plot(
+                time.ravel()[front],
+                residual.ravel()[front],
+                "o",
+                mfc="none",
+                mec="k",
+                ms=9,
+                mew=0.8,
+                label="Pareto front",
+            )[0]
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("run time (CPU s of the job, 1 BLAS thread)")
-    ax.set_ylabel("frequency error of the worst stored point vs the HBM curve")
+    ax.set_ylabel("relative frequency error of the worst stored point\n(against the HBM solution curve)")
     ax.set_title(
         f"(c) ANM order N and tolerance (H = {ds.attrs.get('anm_sweep_harmonics', '?')}, eta = "
         f"{ds.attrs.get('anm_sweep_eta', '?')})",
@@ -205,7 +213,7 @@ def error_vs_runtime_figure(ds: xr.Dataset):
     grid = fig.add_gridspec(2, 3, height_ratios=[1.0, 0.28])
     axes = [fig.add_subplot(grid[0, k]) for k in range(3)]
     _sweep_panel(axes[0], ds, "relative_frequency_difference", "frequency_error", "largest |relative frequency error|")
-    _sweep_panel(axes[1], ds, "max_x_difference", "x_error", "largest |x error| over the orbit")
+    _sweep_panel(axes[1], ds, "max_x_difference", "x_error", "largest |x error| over the orbit (nondim.)")
     axes[0].set_title("(a) frequency against the exact orbits (labels: H)", fontsize=8)
     axes[1].set_title("(b) displacement x against the exact orbits (labels: H)", fontsize=8)
     axes[0].legend(fontsize=6.5, loc="lower left")
@@ -223,7 +231,11 @@ def _harmonics_panel(ax, ds: xr.Dataset) -> None:
     H = ds["harmonics"].values.astype(float)
     converged = ds["converged"].values
     shown = np.where(converged, np.log2(np.where(H > 0, H, np.nan)), np.nan)
-    ax.imshow(shown.T, origin="lower", cmap="viridis", aspect="auto", vmin=np.log2(16), vmax=np.log2(1024))
+    image = ax.imshow(shown.T, origin="lower", cmap="viridis", aspect="auto", vmin=np.log2(16), vmax=np.log2(1024))
+    bar = ax.figure.colorbar(image, ax=ax, fraction=0.05)
+    ticks = np.arange(4, 11)
+    bar.set_ticks(ticks, labels=[f"{2**k}" for k in ticks])
+    bar.set_label("harmonics H needed (white: not resolved)")
     tried = ds.attrs.get("harmonics_tried", "?").split(",")[-1].strip()
     words = status_words(ds["status"])
     for i in range(alphas.size):
@@ -244,22 +256,24 @@ def _harmonics_panel(ax, ds: xr.Dataset) -> None:
 
 
 def _exact_panel(ax, ds: xr.Dataset) -> None:
-    labels = [f"a={a:g}" for a in ds["alpha"].values]
+    labels = [f"α = {a:g}" for a in ds["alpha"].values]
     res, per = list(ds["exact_relative_residual"].values), list(ds["exact_periodicity_error"].values)
     for b in ds["beta"].values:
         for d in ds["delta"].values:
-            labels.append(f"b={b:g},d={d:g}")
+            labels.append(f"β = {b:g}, δ = {d:g}")
             res.append(float(ds["ratio_exact_relative_residual"].sel(beta=b, delta=d)))
             per.append(float(ds["ratio_exact_periodicity_error"].sel(beta=b, delta=d)))
     x = np.arange(len(labels))
     ax.bar(x - 0.2, np.maximum(res, 1e-18), width=0.4, label="relative residual of the closed form")
     ax.bar(x + 0.2, np.maximum(per, 1e-18), width=0.4, label="periodicity error by event-located integration")
     ax.set_yscale("log")
-    ax.set_xticks(x, labels, rotation=60, ha="right", fontsize=6)
+    ax.set_xticks(x, labels, rotation=60, ha="right", fontsize=7)
     ax.axhline(np.finfo(float).eps, color="k", lw=0.6, ls=":")
     ax.set_ylabel("relative error of the exact orbits")
     ax.set_title("(b) exact solver: residuals and periodicity (dotted: machine epsilon)", fontsize=8)
-    ax.legend(fontsize=7)
+    low, high = ax.get_ylim()
+    ax.set_ylim(low, high * (high / low) ** 0.5)  # headroom: the legend above the bars, off them
+    ax.legend(fontsize=7, loc="upper left")
 
 
 def _error_panel(ax, ds: xr.Dataset) -> list[str]:
@@ -274,6 +288,17 @@ def _error_panel(ax, ds: xr.Dataset) -> list[str]:
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xticks(alphas, [f"{a:g}" for a in alphas])
+    missing = [a for i, a in enumerate(alphas) if not np.isfinite(ds["frequency_error"].values[i]).any()]
+    for a in missing:  # a column with no point says so where the points would be
+        ax.annotate(
+            "no point:\nnot compared\n(see below)",
+            (a, 0.5),
+            xycoords=("data", "axes fraction"),
+            ha="center",
+            va="center",
+            fontsize=7,
+            color="0.35",
+        )
     ax.set_xlabel("alpha")
     ax.set_ylabel("largest |relative frequency error|")
     ax.set_title("(c) regularized vs exact NNM1 with the H of (a)", fontsize=8)
@@ -317,7 +342,7 @@ def _energy_panel(ax, ds: xr.Dataset) -> list[str]:
                     _add(groups, f"{what}: {word}", f"alpha = {a:g}", f"E = {e:g}")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("energy")
+    ax.set_xlabel("energy (nondimensional)")
     ax.set_ylabel("relative error (periodicity; frequency)")
     ax.set_title(f"(d) extreme energies (eta = {ds.attrs.get('energy_sweep_eta', '?')})", fontsize=8)
     ax.legend(fontsize=6)

@@ -20,6 +20,7 @@ from nnmstop.figures import frequency_energy as fep
 from nnmstop.figures import regime_errors as regime_error_drawing
 from nnmstop.figures import stability as stability_drawing
 from nnmstop.figures.common import save_figure
+from nnmstop.figures.labels import place_labels
 from nnmstop.figures.study import error_vs_runtime_figure, stiff_cases_figure
 from nnmstop.hbm.dataset import is_skipped
 from nnmstop.hbm.stages import combine_stages
@@ -243,7 +244,7 @@ def build_stability_figure(config: dict, inputs: dict, pdf_path) -> tuple[Path, 
 def build_error_vs_runtime_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
     """The study's error-against-run-time figure and its PNG (resolution ``study.png_dpi``)."""
     fig = error_vs_runtime_figure(read_dataset(dataset_path))
-    return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]))
+    return save_figure(fig, pdf_path, png_dpi=int(config["study"]["png_dpi"]), after_layout=place_labels)
 
 
 def build_stiff_cases_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:
