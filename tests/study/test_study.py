@@ -337,6 +337,26 @@ def test_error_vs_runtime_figure(gathered, small, tmp_path):
     assert pdf.stat().st_size > 1000 and png.stat().st_size > 1000
 
 
+def test_error_vs_runtime_labels_cover_no_marker_and_no_other_label(gathered, tmp_path):
+    """The H and N labels beside their settings: off every marker, Pareto ring, legend and other label."""
+    from nnmstop.figures.common import save_figure
+    from nnmstop.figures.labels import label_overlaps, place_labels
+    from nnmstop.figures.study import error_vs_runtime_figure
+    from nnmstop.netcdf import read_dataset
+
+    root, _, _ = gathered
+    fig = error_vs_runtime_figure(read_dataset(root / "results/study/error_vs_runtime.nc"))
+    found = {}
+
+    def check(figure):
+        place_labels(figure)
+        found["labels"] = sum(t.get_gid() == "point-label" for ax in figure.axes for t in ax.texts)
+        found["overlaps"] = label_overlaps(figure)
+
+    save_figure(fig, tmp_path / "evr.pdf", png_dpi=60, after_layout=check)
+    assert found["labels"] > 0 and found["overlaps"] == []
+
+
 def test_stiff_gather_tables_and_figure(small, gathered, tmp_path, capsys):
     from nnmstop.study import stiff_cases as sc
     from nnmstop.tasks.figures import build_stiff_cases_figure

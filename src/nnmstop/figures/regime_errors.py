@@ -54,6 +54,8 @@ def regime_error_figure(ds: xr.Dataset):
     )
     if zero:
         title += f"; {zero} orbits with zero error not shown"
+    if int(ds.attrs.get("unpaired_points", 0)):  # a regime without exact counterpart: said, not a silent gap
+        title += f"\nnot compared (no exact regime to pair with): {ds.attrs.get('unpaired_regimes', '?')}"
     ax.set_title(title, fontsize=9)
     # outside the axes: the regimes overlap in energy and a legend inside would hide orbits
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), title="regime", title_fontsize=7)
