@@ -426,6 +426,13 @@ def _draw_fep(ax, kind: _FigureKind, branch, nnm2, spec, where, branch_label, wi
     return handles, frequency_range
 
 
+def _inset_line(branch: xr.Dataset) -> str:
+    """What the modal-line panels show, in words (their plane and the grey lines of the first stop)."""
+    a, b = (str(branch["dof_label"].values[k]) for k in modal_line_dofs(branch))
+    gap = float(branch["stop_gap"].values[0])
+    return f"modal lines below: one period in the ({a}, {b}) plane; grey verticals: the stop at {a} = ±{gap:g}"
+
+
 def _inset_grid(n: int) -> tuple[int, int]:
     """(rows, columns) of the modal-line panels: one row up to 4, else rows of 3."""
     if n <= 4:
@@ -527,7 +534,10 @@ def _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=None, png_dpi=15
         elif handles:
             ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=7.5, framealpha=0.9)
         notes = _missing_notes(branch, extra.get("stages") or [], bifurcated, missing)
-        title = _title(kind, branch, _scene_line(branch, window, kind.resonance), notes)
+        scene = _scene_line(branch, window, kind.resonance)
+        if placed:
+            scene += ("\n" if scene else "") + _inset_line(branch)
+        title = _title(kind, branch, scene, notes)
         fig.suptitle(_wrapped(title), fontsize=8.5, linespacing=1.35)
     except Exception:
         plt.close(fig)
