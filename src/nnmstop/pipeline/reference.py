@@ -182,7 +182,9 @@ def json_value(value):
 
 def _signals(ds: xr.Dataset) -> dict[str, np.ndarray]:
     """Orbit fingerprints per stored point: for each signal (``x`` of ``x_cos`` and ``x_sin``, or one
-    degree of freedom of ``q_cos``), sqrt(sum over harmonics k of (1 + k**4) (cos**2 + sin**2))."""
+    degree of freedom of ``q_cos``, named by its ``dof_label``: ``x``, ``u`` of the paper's oscillator in
+    either layout), sqrt(sum over harmonics k of (1 + k**4) (cos**2 + sin**2))."""
+    labels = [str(v) for v in ds["dof_label"].values] if "dof_label" in ds.variables else None
     sums: dict[str, np.ndarray] = {}
     for name, variable in ds.variables.items():
         if POINT not in variable.dims or "harmonic" not in variable.dims or variable.dtype.kind != "f":
@@ -193,8 +195,9 @@ def _signals(ds: xr.Dataset) -> dict[str, np.ndarray]:
         with np.errstate(over="ignore", invalid="ignore"):  # a damaged coefficient gives inf, which the check reports
             energy = (values**2 * (1.0 + np.asarray(k, dtype=float) ** 4)).sum(axis=-1)
         energy = energy.reshape(values.shape[0], -1)
+        by_label = labels is not None and signal == "q" and variable.dims[1:] == ("dof", "harmonic")
         for j in range(energy.shape[1]):
-            key = signal if energy.shape[1] == 1 else f"{signal}[{j}]"
+            key = labels[j] if by_label else signal if energy.shape[1] == 1 else f"{signal}[{j}]"
             sums[key] = sums.get(key, 0.0) + energy[:, j]
     return {key: np.sqrt(total) for key, total in sums.items()}
 
