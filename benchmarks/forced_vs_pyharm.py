@@ -28,6 +28,7 @@ import argparse
 import json
 import subprocess
 import sys
+import tempfile
 import venv
 from pathlib import Path
 
@@ -123,12 +124,14 @@ def pyharm(python: Path, scene, excitation, args) -> dict:
             solver_options=dict(tol_residual=args.newton_tol, tol_delta_x=args.newton_tol),
         ),
     )
-    run = subprocess.run(
-        [python, str(Path(__file__).with_name("pyharm_side.py"))],
-        input=json.dumps(problem),
-        capture_output=True,
-        text=True,
-    )
+    with tempfile.TemporaryDirectory() as scratch:  # pyHarm writes a .pyHarm/ context where it runs
+        run = subprocess.run(
+            [python, str(Path(__file__).with_name("pyharm_side.py"))],
+            input=json.dumps(problem),
+            capture_output=True,
+            text=True,
+            cwd=scratch,
+        )
     if run.returncode:
         raise RuntimeError(f"pyHarm run failed: {run.stderr.strip()[-2000:]}")
     return json.loads(run.stdout)

@@ -202,7 +202,7 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
 
 
 def backbone_dataset(excitation: Excitation, backbones: dict, forces, predictions: dict) -> xr.Dataset:
-    """NNM backbones (``backbone_point``, with ``backbone_mode``) and the peaks they predict (``level``, ``mode``).
+    """NNM backbones (``point``, with ``backbone_mode``) and the peaks they predict (``level``, ``mode``).
 
     ``backbones``: mode -> (frequency Hz, amplitudes (points, N), required force); ``predictions``: mode -> one
     :func:`nnmstop.forced.backbone.predicted_peaks` entry per level (None where the backbone does not reach it:
@@ -222,10 +222,10 @@ def backbone_dataset(excitation: Excitation, backbones: dict, forces, prediction
                 peak_frequency[i, j], peak_amplitude[i, j] = found[0], found[1]
     return xr.Dataset(
         {
-            "backbone_frequency": ("backbone_point", frequency),
-            "backbone_amplitude": (("backbone_point", "dof"), amplitude),
-            "backbone_mode": ("backbone_point", which.astype(np.int32)),
-            "required_force": ("backbone_point", required),
+            "backbone_frequency": ("point", frequency),
+            "backbone_amplitude": (("point", "dof"), amplitude),
+            "backbone_mode": ("point", which.astype(np.int32)),
+            "required_force": ("point", required),
             "forcing_amplitude": ("level", np.asarray(forces, dtype=float)),
             "mode": ("mode", np.array(modes, dtype=np.int32)),
             "predicted_frequency": (("level", "mode"), peak_frequency),

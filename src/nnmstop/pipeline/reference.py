@@ -39,6 +39,7 @@ from nnmstop.netcdf import PROVENANCE_ATTRIBUTES
 
 __all__ = [
     "CURVE_COORDINATES",
+    "SAMPLED_DIMENSIONS",
     "REFERENCE_FORMAT",
     "variable_kind",
     "attribute_kind",
@@ -57,8 +58,20 @@ __all__ = [
 REFERENCE_FORMAT = 3
 POINT = "point"
 
-#: Pairs (energy, frequency) that make a file's stored points a frequency-energy curve, first found first.
-CURVE_COORDINATES = (("energy", "frequency"), ("energy", "frequency_regularized"))
+#: Pairs (energy, frequency) that make a file's stored points a frequency-energy curve, first found first. A
+#: forced response is a curve of the stop DOF's amplitude against the frequency of the force, a backbone one of
+#: the force whose peak each NNM orbit is against the orbit's frequency: there the first of the pair plays the
+#: role of the energy (positive, compared in logarithm).
+CURVE_COORDINATES = (
+    ("energy", "frequency"),
+    ("energy", "frequency_regularized"),
+    ("x_amplitude", "frequency"),
+    ("required_force", "backbone_frequency"),
+)
+#: Dimensions of variables kept at some of the stored points only (the exact forced response's contact points,
+#: ``contact_point``): their sizes and values follow the steps like the points'; the same orbits are compared
+#: along the curve through the per-point variables (amplitudes, phase lags, multipliers).
+SAMPLED_DIMENSIONS = frozenset({"contact_point"})
 
 #: Variables that follow the continuation's steps, not the curve: not compared (indices of stored
 #: points, step numbers and counts of integration steps, arclength summed over the steps).
@@ -69,7 +82,9 @@ SAMPLING_VARIABLES = frozenset(
 #: stored point carries the flag follows the steps; compared as events along the curve.
 MARKER_VARIABLES = frozenset({"branch_point", "energy_fold", "grazing", "marked"})
 #: Stability verdicts: compared outside the band of a change of verdict or resolution.
-STABILITY_VARIABLES = frozenset({"stable", "stability_resolved", "stability_reason", "stability_refined"})
+STABILITY_VARIABLES = frozenset(
+    {"stable", "stability_resolved", "stability_reason", "stability_refined", "regime"}  # regime: forced responses
+)
 #: Stability numbers (Floquet multipliers and what is made of them): where two multipliers collide (a change
 #: of stability) they vary as a square root along the curve and cannot be interpolated; compared outside
 #: the band of a change, like the verdicts.
@@ -86,7 +101,7 @@ ZERO_LEVEL = 1e-12
 #: not reproducible point by point; each must stay within ACCURACY_FACTOR of the reference's largest.
 ACCURACY_PATTERN = re.compile(
     r"(residual|_deviation|integration_error|_change|_shift|energy_spread|force_error|^unfolding|"
-    r"trivial_multiplier_distance|singular_ratio|stability_tolerance)$"
+    r"trivial_multiplier_distance|singular_ratio|stability_tolerance|multiplier_error|orbit_error)$"
 )
 ACCURACY_FACTOR = 10.0
 
@@ -279,12 +294,12 @@ def profile(ds: xr.Dataset, shared: dict) -> dict:
         variables[str(name)] = [list(variable.dims), str(variable.dtype), attrs]
     entry = {
         "global": {k: json_value(v) for k, v in ds.attrs.items() if k not in PROVENANCE_ATTRIBUTES},
-        "dims": {str(k): int(v) for k, v in ds.sizes.items() if k != POINT},
+        "dims": {str(k): int(v) for k, v in ds.sizes.items() if k != POINT and k not in SAMPLED_DIMENSIONS},
         "variables": share(shared, variables),
         "values": {},
     }
     for name, variable in ds.variables.items():
-        if POINT in variable.dims:
+        if POINT in variable.dims or SAMPLED_DIMENSIONS & set(variable.dims):
             continue
         values = np.asarray(variable.values)
         if values.size <= 256:

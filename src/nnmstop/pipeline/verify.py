@@ -48,7 +48,7 @@ from nnmstop.pipeline.reference import (
     write_csv,
 )
 
-__all__ = ["Row", "data_digest", "update_reference", "verify", "file_verdicts", "format_table", "main"]
+__all__ = ["Row", "data_digest", "build_manifests", "update_reference", "verify", "file_verdicts", "format_table", "main"]
 
 REGIMES_CSV = "compare/nnm1_regimes.csv"
 REGIMES_NC = "compare/nnm1_regimes.nc"
@@ -58,6 +58,9 @@ EXACT_BASE_TOLERANCE = 1e-9
 # A number derived at a located point (a tangent angle) or a regime statistic without a rule of its
 # own: relative tolerance, at least this and ten times the file's base accuracy.
 DERIVED_TOLERANCE = 1e-6
+# Relative differences of two computed values (the backbone's prediction errors, off the curve): each value is
+# accurate to the relative tolerance of derived numbers, so their relative difference is, in absolute value.
+DIFFERENCE_VARIABLES = frozenset({"frequency_error", "amplitude_error"})
 # Numbers of configured settings (global attributes): written from the configuration, so equal.
 SETTING_TOLERANCE = 1e-12
 LOCATED = {"branch point": ("branch_point_energy", "branch_point_frequency"), "fold": ("fold_energy", "fold_frequency")}
@@ -192,10 +195,24 @@ def _compact_json(format_version: int, shared: dict, files: dict) -> str:
             f'"files": {{\n{block(files)}\n}}}}\n')
 
 
-def update_reference(results_dir, reference_dir="reference") -> Path:
+#: Manifests of a build, relative to its results directory: the paper's datasets (required) and the forced
+#: responses' (``snakemake forced``; recorded when present).
+MANIFEST = "MANIFEST.sha256"
+FORCED_MANIFEST = "forced/MANIFEST.sha256"
+
+
+def build_manifests(results_dir) -> list[str]:
+    """The manifests of the build in ``results_dir`` that a reference records: :data:`MANIFEST` and, where the
+    forced responses were built, :data:`FORCED_MANIFEST`."""
+    results = Path(results_dir)
+    return [MANIFEST] + ([FORCED_MANIFEST] if (results / FORCED_MANIFEST).is_file() else [])
+
+
+def update_reference(results_dir, reference_dir="reference", manifests=None) -> Path:
     """Regenerate ``reference_dir`` from the build in ``results_dir``.
 
-    Writes ``MANIFEST.sha256`` (the build's manifest plus the regime table), ``DATA.sha256``
+    ``manifests`` (paths relative to ``results_dir``; default :func:`build_manifests`) list the datasets
+    recorded. Writes ``MANIFEST.sha256`` (the build's manifests plus the regime table), ``DATA.sha256``
     (the same files' :func:`data_digest`), ``files.json`` (each dataset's profile, see
     :func:`nnmstop.pipeline.reference.profile`, and its base tolerance), one curve CSV per
     branch and family (``curves/``) and the regime table with its sampling steps.
@@ -203,17 +220,21 @@ def update_reference(results_dir, reference_dir="reference") -> Path:
     Raises
     ------
     ValueError
-        If ``results_dir`` or its manifest is missing, or a dataset cannot be read.
+        If ``results_dir`` or one of its manifests is missing, or a dataset cannot be read.
     """
     results = _results_dir(results_dir)
-    manifest = results / "MANIFEST.sha256"
-    if not manifest.is_file():
-        raise ValueError(f"{manifest} is missing: build the default target first (`snakemake --cores 2`)")
+    manifests = build_manifests(results) if manifests is None else list(manifests)
+    lines = []
+    for name in manifests:
+        manifest = results / name
+        if not manifest.is_file():
+            target = "forced" if name == FORCED_MANIFEST else "the default target"
+            raise ValueError(f"{manifest} is missing: build {target} first (`snakemake --cores 2`)")
+        lines += manifest.read_text().splitlines()
     reference = Path(reference_dir)
     if reference.exists():
         shutil.rmtree(reference)
     (reference / "curves").mkdir(parents=True)
-    lines = manifest.read_text().splitlines()
     if (results / REGIMES_CSV).is_file():
         lines.append(f"{_sha256(results / REGIMES_CSV)}  results/{REGIMES_CSV}")
     lines = sorted(lines, key=lambda line: line.split("  ")[1])
@@ -384,10 +405,11 @@ def _check_other_values(name: str, ds: xr.Dataset, entry: dict, skip=()) -> list
                             f"{worst:.3g}", worst, bound, _verdict(worst <= bound)))
             continue
         tolerance = max(DERIVED_TOLERANCE, 10 * entry["base"])
-        difference = np.abs(values - reference) / np.maximum(np.abs(reference), 1e-300)
+        scale = 1.0 if var in DIFFERENCE_VARIABLES else np.maximum(np.abs(reference), 1e-300)
+        difference = np.abs(values - reference) / scale
         worst = float(np.max(difference)) if difference.size else 0.0
         if worst > tolerance:
-            rows.append(Row(name, f"variable {var} (relative)", str(reference.tolist())[:60], str(values.tolist())[:60],
+            rows.append(Row(name, f"variable {var} ({'absolute' if var in DIFFERENCE_VARIABLES else 'relative'})", str(reference.tolist())[:60], str(values.tolist())[:60],
                             worst, tolerance, DISCREPANT))
     return rows
 

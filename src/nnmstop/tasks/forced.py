@@ -60,6 +60,7 @@ def regularized_response_dataset(config: dict, scene: Scene):
     ds = regularized_dataset(system, branch, stability.multipliers, False, changes, scene.frequency_range)
     ds.update(stability.data_vars())
     ds.attrs.update({f"stability_{key}": value for key, value in scene.stability.items()})
+    ds.attrs["newton_threshold"] = anm.newton_threshold  # the stored points' accuracy (the verifier's base)
     return ds
 
 
@@ -107,6 +108,7 @@ def backbone_prediction_dataset(config: dict):
     ds = backbone_dataset(excitation, backbones, forces, predictions)
     ds.attrs.update(base_attributes(excitation, "regularized", scenes[0].frequency_range))
     ds.attrs["harmonics"] = int(scenes[0].harmonics)
+    ds.attrs["newton_threshold"] = anm.newton_threshold
     return ds
 
 
@@ -146,7 +148,10 @@ def prediction_error_dataset(config: dict):
     )
     ds.attrs.update(base_attributes(excitations[0], "regularized", window))
     ds.attrs.update(
-        harmonics=int(forced["harmonics"]), mode=1, force_per_ratio=float(forced["prediction"]["force_per_ratio"])
+        harmonics=int(forced["harmonics"]),
+        mode=1,
+        force_per_ratio=float(forced["prediction"]["force_per_ratio"]),
+        newton_threshold=anm.newton_threshold,
     )
     for name in ("damping_ratio", "rayleigh_mass_coefficient", "rayleigh_stiffness_coefficient", "forcing_amplitude"):
         ds.attrs.pop(name, None)  # per level: variables
@@ -234,5 +239,15 @@ def forced_figure(config, inputs, outputs, figure: str):
         raise ValueError(f"unknown forced figure {figure!r}")
 
 
+def forced_manifest(config, inputs, outputs):
+    """SHA-256 manifest of the forced datasets (as the paper's, :func:`nnmstop.tasks.manifest.dataset_manifest`)."""
+    from nnmstop.tasks.manifest import dataset_manifest
+
+    dataset_manifest(config, inputs, outputs)
+
+
 #: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
-TASKS = {f.__name__: f for f in (forced_exact, forced_regularized, forced_backbone, forced_prediction, forced_figure)}
+TASKS = {
+    f.__name__: f
+    for f in (forced_exact, forced_regularized, forced_backbone, forced_prediction, forced_figure, forced_manifest)
+}
