@@ -143,3 +143,15 @@ def test_altered_forced_responses_are_discrepant_with_their_reason(forced_refere
     assert all(v in PASSING for name, v in verdicts.items() if name != f"results/{relative}"), verdicts
     found = [r.quantity for r in rows if r.file == f"results/{relative}" and r.verdict == "discrepant"]
     assert any(reason in quantity for quantity in found), found
+
+
+def test_stored_multipliers_follow_the_multipliers_not_round_off():
+    """A complex pair whose moduli differ by round-off is stored in one order whichever comes first (the order
+    of the multiplier columns is compared by the verifier), positive imaginary part first."""
+    from nnmstop.forced.dataset import canonical_order
+
+    pair = 0.9 * np.exp(0.7j)
+    rows = np.array([[-1.2, pair, np.conj(pair) * (1 + 1e-15), 0.1], [-1.2, np.conj(pair), pair * (1 + 1e-15), 0.1]])
+    ordered = canonical_order(rows)
+    np.testing.assert_allclose(ordered[0], ordered[1], rtol=1e-14)
+    np.testing.assert_allclose(ordered[0], [-1.2, pair, np.conj(pair), 0.1], rtol=1e-14)

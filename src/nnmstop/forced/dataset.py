@@ -21,6 +21,7 @@ from nnmstop.hbm.forced import phase_lags, response_amplitudes
 from nnmstop.models.excitation import Excitation
 
 __all__ = [
+    "canonical_order",
     "response_variables",
     "change_variables",
     "base_attributes",
@@ -34,6 +35,19 @@ __all__ = [
 SEGMENT_KINDS = ("non_impacting", "one_contact")
 
 
+def canonical_order(mu) -> np.ndarray:
+    """Multipliers (rows) by decreasing modulus, each complex-conjugate pair with its positive imaginary part
+    first: the stored order then follows the multipliers, not round-off (a pair's moduli are equal to it)."""
+    mu = np.array(mu, dtype=complex)
+    mu = np.take_along_axis(mu, np.argsort(-np.abs(mu), axis=-1, kind="stable"), axis=-1)
+    for j in range(mu.shape[-1] - 1):
+        a, b = mu[:, j], mu[:, j + 1]
+        pair = np.abs(a - np.conj(b)) <= 1e-8 * np.maximum(np.abs(a), 1.0)
+        swap = pair & (a.imag < b.imag)
+        mu[swap, j], mu[swap, j + 1] = b[swap], a[swap]
+    return mu
+
+
 def response_variables(
     excitation: Excitation, frequency, amplitude, lags, multipliers, half_period: bool, segment
 ) -> dict:
@@ -41,7 +55,7 @@ def response_variables(
     structure = excitation.structure
     x_dof, u_dof = structure.stops[0].dof, excitation.force.dofs[0]
     multipliers = np.asarray(multipliers)
-    mu = multipliers**2 if half_period else multipliers
+    mu = canonical_order(multipliers**2 if half_period else multipliers)
     stable = np.all(np.abs(mu) <= 1.0 + 1e-12, axis=1)
     amplitude = np.asarray(amplitude, dtype=float)
     return {
