@@ -46,7 +46,8 @@ def tracked_copy(destination: Path, ref: str = "HEAD") -> None:
 
 
 def rule_of(benchmark_file: Path) -> str:
-    """Rule name of a benchmark file (``hbm_nnm1_stage2.tsv`` -> ``hbm_stage``, ``forced_exact_F0.1.tsv`` -> ``forced_exact``)."""
+    """Rule name of a benchmark file (``hbm_nnm1_stage2.tsv`` -> ``hbm_stage``, ``forced_exact_F0.1.tsv`` ->
+    ``forced_exact``)."""
     stem = benchmark_file.stem
     if re.fullmatch(r"hbm_nnm\d_stage\d+", stem):
         return "hbm_stage"
