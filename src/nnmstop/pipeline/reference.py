@@ -40,6 +40,8 @@ from nnmstop.netcdf import PROVENANCE_ATTRIBUTES
 __all__ = [
     "CURVE_COORDINATES",
     "SAMPLED_DIMENSIONS",
+    "STABILITY_ERROR_VARIABLES",
+    "weight",
     "REFERENCE_FORMAT",
     "variable_kind",
     "attribute_kind",
@@ -104,6 +106,13 @@ ACCURACY_PATTERN = re.compile(
     r"trivial_multiplier_distance|singular_ratio|stability_tolerance|multiplier_error|orbit_error)$"
 )
 ACCURACY_FACTOR = 10.0
+#: Error estimates of the stability numbers (absolute, per stored point) where a file stores them (the forced
+#: responses: integration error and the orbit's own error): the multipliers of two builds differ within them.
+STABILITY_ERROR_VARIABLES = ("multiplier_error", "stability_orbit_error")
+#: Variables compared as accuracy estimates in the datasets of one kind (attribute ``dataset_kind``): a forced
+#: response's truncation indicator (the share of its top harmonics, 1e-10 away from the stop) moves by several
+#: per cent between CPUs where it is smallest, as the residuals do; it bounds the truncation error.
+ACCURACY_BY_DATASET_KIND = {"forced_regularized": frozenset({"truncation"})}
 
 #: Global attributes that count stored points or steps, or restate where a range ended: they follow the
 #: continuation's steps (the data they describe are compared as curves).
@@ -141,11 +150,11 @@ def curve_coordinates(ds: xr.Dataset) -> tuple[str, str] | None:
     return None
 
 
-def variable_kind(name: str, variable: xr.Variable | xr.DataArray, coordinates=()) -> str:
+def variable_kind(name: str, variable: xr.Variable | xr.DataArray, coordinates=(), accuracy=frozenset()) -> str:
     """How a variable along ``point`` is compared: ``curve`` (the coordinates), ``sampling``,
-    ``marker``, ``stability`` (verdicts), ``stability_value``, ``accuracy``, ``interpolated``,
-    ``orbit`` (harmonics), ``discrete`` or ``smooth``; ``other`` for a variable without the ``point``
-    dimension."""
+    ``marker``, ``stability`` (verdicts), ``stability_value``, ``accuracy`` (also the names in
+    ``accuracy``), ``interpolated``, ``orbit`` (harmonics), ``discrete`` or ``smooth``; ``other`` for a
+    variable without the ``point`` dimension."""
     if POINT not in variable.dims:
         return "other"
     if name in coordinates:
@@ -161,7 +170,7 @@ def variable_kind(name: str, variable: xr.Variable | xr.DataArray, coordinates=(
     kind = variable.dtype.kind
     if kind not in "fc":
         return "discrete"  # integers, flags, labels
-    if ACCURACY_PATTERN.search(name):
+    if ACCURACY_PATTERN.search(name) or name in accuracy:
         return "accuracy"
     if name in INTERPOLATED_VARIABLES:
         return "interpolated"
@@ -240,15 +249,16 @@ def point_table(ds: xr.Dataset) -> dict:
     for name in ("step", "stage"):
         if name in ds.variables and ds[name].dims == (POINT,):
             table[name] = ds[name].values
+    accuracy = ACCURACY_BY_DATASET_KIND.get(ds.attrs.get("dataset_kind"), frozenset())
     for name, variable in ds.variables.items():
-        kind = variable_kind(str(name), variable, coordinates)
+        kind = variable_kind(str(name), variable, coordinates, accuracy)
         if kind in table and kind != "curve":
             table[kind].update(_columns(ds, str(name)))
     table["orbit"] = _signals(ds)
     return table
 
 
-def _weight(name: str) -> float:
+def weight(name: str) -> float:
     """A fixed weight in [1, 2) of a column of a projection, from a hash of its name."""
     return 1.0 + int(hashlib.sha256(name.encode()).hexdigest()[:8], 16) / 2**32
 
@@ -257,9 +267,9 @@ def projections(columns: dict[str, np.ndarray], scales: dict[str, float]) -> tup
     """The projection of ``columns`` (one value per stored point each) with the reference's ``scales``:
     sum over columns of weight * value / scale, divided by the sum of the weights; and the same sum of
     weight * |value| / scale (the magnitude a relative accuracy applies to)."""
-    total = sum(_weight(name) for name in scales)
-    value = sum(_weight(name) * np.asarray(columns[name], dtype=float) / scale for name, scale in scales.items())
-    size = sum(_weight(name) * np.abs(np.asarray(columns[name], dtype=float)) / scale for name, scale in scales.items())
+    total = sum(weight(name) for name in scales)
+    value = sum(weight(name) * np.asarray(columns[name], dtype=float) / scale for name, scale in scales.items())
+    size = sum(weight(name) * np.abs(np.asarray(columns[name], dtype=float)) / scale for name, scale in scales.items())
     return value / total, size / total
 
 

@@ -38,6 +38,7 @@ from nnmstop.pipeline.reference import (
     PROJECTIONS,
     REFERENCE_FORMAT,
     SAMPLING_VARIABLES,
+    STABILITY_ERROR_VARIABLES,
     attribute_kind,
     json_value,
     point_table,
@@ -45,6 +46,7 @@ from nnmstop.pipeline.reference import (
     projected_columns,
     projections,
     read_csv,
+    weight,
     write_csv,
 )
 
@@ -627,10 +629,12 @@ def _check_markers(name: str, reference: dict, table: dict, curves: dict) -> lis
 
 
 def _check_projection(name: str, kind: str, reference: dict, columns: dict, scales: dict, curves: dict, match: tuple,
-                      base: float) -> list[Row]:
+                      base: float, error=None) -> list[Row]:
     """Every orbit fingerprint or smooth quantity at each build point, through the projection: the
     build's value against the reference's interpolated at the point's position; tolerance = the
-    base accuracy of the values + the reference's interpolation error there (leave-one-out)."""
+    base accuracy of the values + the reference's interpolation error there (leave-one-out) + twice the
+    values' own error estimate where the file stores one (``error``, per build point: either build's
+    values are within it)."""
     label = {"orbit": "orbits (harmonics, every signal)", "quantities": "smooth quantities",
              "stability": "stability numbers (multipliers, margins; outside the band of a change)"}[kind]
     missing = sorted(set(scales) - set(columns))
@@ -651,6 +655,10 @@ def _check_projection(name: str, kind: str, reference: dict, columns: dict, scal
     loo = c_ref.leave_one_out(ref)
     around = np.max([c_ref.segment_error(np.clip(segment + k, 0, len(c_ref.s) - 2), loo) for k in (-1, 0, 1)], axis=0)
     tolerance = base * size + LOO_FACTOR * around + 1e-12 * np.abs(expected)
+    if error is not None:  # each column is uncertain by twice the error estimate, at most its whole scale
+        error = np.asarray(error, dtype=float)[c_build.keep]
+        shares = [weight(column) * np.minimum(2.0 * error / scale, 1.0) for column, scale in scales.items()]
+        tolerance = tolerance + np.sum(shares, axis=0) / sum(map(weight, scales))
     ratio = np.where(skip, 0.0, difference / np.maximum(tolerance, 1e-300))
     worst = int(np.argmax(ratio))
     e, f = np.exp(c_build.points[worst])
@@ -719,9 +727,12 @@ def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -
     match = (segment, parameter, past)
     rows += _check_discrete(name, reference, table, curves, match)
     rows += _check_markers(name, reference, table, curves)
+    estimates = [table["accuracy"][c] for c in STABILITY_ERROR_VARIABLES if c in table["accuracy"]]
     for kind, source in PROJECTIONS.items():
         if kind in spec["scales"]:
-            rows += _check_projection(name, kind, reference, table[source], spec["scales"][kind], curves, match, base)
+            error = np.sum(estimates, axis=0) if kind == "stability" and estimates else None
+            rows += _check_projection(name, kind, reference, table[source], spec["scales"][kind], curves, match, base,
+                                      error)
     rows += _check_ranges(name, entry, table, base)
     rows += _check_bounds(name, entry, table)
     return rows
