@@ -276,9 +276,7 @@ class ForcedLinearization:
         scale = np.where(omega2 > 0, np.sqrt(np.abs(omega2)), 1.0)
         modal_damping = shapes.T @ damping @ shapes
         self.system = system
-        self.A0 = np.block(
-            [[np.zeros_like(modal_damping), np.diag(scale)], [-np.diag(omega2 / scale), -modal_damping]]
-        )
+        self.A0 = np.block([[np.zeros_like(modal_damping), np.diag(scale)], [-np.diag(omega2 / scale), -modal_damping]])
         # the stop stiffness k_i acts as -k_i e_d e_d^T on q: in (s_1, s_2) as -phi_d phi_d^T / scale_col
         self.rows = shapes[system.stop_dofs].T  # (N, s): phi_d of each stop DOF
         self.cols = shapes[system.stop_dofs] / scale  # (s, N)

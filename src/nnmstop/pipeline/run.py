@@ -147,6 +147,8 @@ def configure_logging(log_path: str | None) -> None:
         root.removeHandler(old)
     root.addHandler(handler)
     root.setLevel(logging.INFO)
+    # a numerical warning that escapes a task lands in its log, beside the step that raised it, not on the terminal
+    logging.captureWarnings(True)
 
 
 class Interrupted(BaseException):
