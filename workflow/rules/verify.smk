@@ -2,15 +2,8 @@
 # Both rules have no output (and so no benchmark: it would be one), so they run whenever they
 # are asked for; the tasks (nnmstop.tasks.verify) print the verifier's table and fail on a
 # discrepant file (docs/reproducibility.md). Both cover the paper's datasets (results/MANIFEST.sha256) and,
-# where the configuration has them, the forced responses (results/forced/MANIFEST.sha256).
-
-
-def verified_inputs(wildcards):
-    """The datasets and manifests that verify checks and update_reference records."""
-    inputs = dict(datasets=PAPER_DATASETS, manifest=rules.dataset_manifest.output.manifest)
-    if "forced" in config:
-        inputs.update(forced_datasets=forced_datasets(), forced_manifest=rules.forced_manifest.output.manifest)
-    return inputs
+# where the configuration has them, the forced responses (results/forced/MANIFEST.sha256): verified_inputs in
+# common.smk.
 
 
 rule verify:
