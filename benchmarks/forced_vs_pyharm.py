@@ -26,15 +26,23 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
 import venv
 from pathlib import Path
 
-import numpy as np
+# One BLAS thread on both sides, as the pipeline's jobs run (config `numerics`): on 2 shared cores a second
+# OpenBLAS thread costs more than it gives (this project's response: 3x the CPU time). Set before numpy loads;
+# the pyHarm process inherits it. Override with OPENBLAS_NUM_THREADS.
+BLAS_THREADS = os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+for _name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, BLAS_THREADS)
 
-from timing import REPO, emit_report, timed
+import numpy as np  # noqa: E402
+
+from timing import REPO, emit_report, timed  # noqa: E402
 
 PYHARM = "pyharm-os==1.2.2"
 # what pyHarm imports (its declared requirements also pull Jupyter, which it does not need to compute)
@@ -187,7 +195,8 @@ def report(args, mine, theirs, distance) -> str:
         f"The paper's oscillator (regularized law, alpha, eta of `model`), the default forced scene's damping, "
         f"F = {args.force:g} on u, H = {mine['system'].H}, {mine['range'][0]:g}..{mine['range'][1]:g} Hz. "
         f"pyHarm {PYHARM.split('==')[1]}: AFT with {args.time_samples} instants, Newton-Raphson to "
-        f"{args.newton_tol:g}, ds0 = {args.ds0:g}, ds_max = {args.ds_max:g}.",
+        f"{args.newton_tol:g}, ds0 = {args.ds0:g}, ds_max = {args.ds_max:g}. Both sides with "
+        f"OPENBLAS_NUM_THREADS = {BLAS_THREADS} (the pipeline's jobs use one BLAS thread).",
         "",
         "| | wall (s) | CPU (s) | points | factorizations | other counts |",
         "|---|---|---|---|---|---|",
