@@ -17,7 +17,7 @@ verdicts and the located folds, period doublings and Neimark-Sacker points, time
 
 Usage::
 
-    python benchmarks/forced_vs_pyharm.py [--force 0.1] [--output benchmarks/forced_vs_pyharm.md]
+    python benchmarks/forced_vs_pyharm.py [--force 0.1] [--profile] [--output benchmarks/forced_vs_pyharm.md]
 
 Skipped, with the reason in the report, where pyHarm cannot be installed.
 """
@@ -30,6 +30,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 import venv
 from pathlib import Path
 
@@ -102,6 +103,37 @@ def ours(config, scene, excitation) -> dict:
         unresolved=int(np.sum(~stability.resolved)),
         changes=kinds,
     )
+
+
+#: Where this project's time goes (``--profile``): part -> (module path suffix, function) whose cumulative time it is.
+PROFILE_PARTS = {
+    "Jacobian assembly and LU factorization (bordered)": ("continuation/linear.py", "factorize_bordered"),
+    "triangular solves (one per series order)": ("continuation/linear.py", "solve"),
+    "series products of the quadratic recast": ("hbm/forced.py", "series_products"),
+    "Pade approximants and step lengths": ("continuation/anm.py", "_pade_path"),
+    "per-point diagnostics (truncation, time residual)": ("hbm/forced.py", "diagnostics"),
+    "whole response": ("forced/responses.py", "regularized_response"),
+}
+
+
+def profile_ours(config, scene, excitation) -> dict:
+    """Cumulative CPU seconds of the parts of :data:`PROFILE_PARTS` in one more run of the response, under cProfile
+    (its own overhead included: shares, not timings)."""
+    import cProfile
+    import pstats
+
+    from nnmstop.continuation.anm import ANMSettings
+    from nnmstop.forced.responses import RegularizedSettings, regularized_response
+
+    anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
+    settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
+    profiler = cProfile.Profile(time.process_time)
+    profiler.runcall(regularized_response, excitation, scene.frequency_range, settings)
+    stats = pstats.Stats(profiler).stats
+    parts = {}
+    for part, (path, function) in PROFILE_PARTS.items():
+        parts[part] = sum(v[3] for (file, _, name), v in stats.items() if file.endswith(path) and name == function)
+    return parts
 
 
 def pyharm(python: Path, scene, excitation, args) -> dict:
@@ -222,6 +254,21 @@ def report(args, mine, theirs, distance) -> str:
         f"estimates ({mine['unresolved']} of {mine['points']} verdicts unresolved), and the located stability "
         "changes: " + ", ".join(f"{n} {kind.replace('_', ' ')}" for kind, n in mine["changes"].items()) + ".",
     ]
+    if mine.get("profile"):
+        total = mine["profile"]["whole response"]
+        lines += [
+            "",
+            f"Where this project's time goes (`--profile`: one more run under cProfile, {total:.2f} s CPU with its "
+            "overhead):",
+            "",
+            "| part | CPU (s) | share |",
+            "|---|---:|---:|",
+        ]
+        lines += [
+            f"| {part} | {seconds:.2f} | {100 * seconds / total:.0f} % |"
+            for part, seconds in mine["profile"].items()
+            if part != "whole response"
+        ]
     return "\n".join(lines)
 
 
@@ -233,6 +280,7 @@ def main(argv=None) -> int:
     parser.add_argument("--ds0", type=float, default=0.01)
     parser.add_argument("--ds-max", type=float, default=0.1)
     parser.add_argument("--venv", type=Path, default=DEFAULT_VENV)
+    parser.add_argument("--profile", action="store_true", help="also report where this project's time goes")
     parser.add_argument("--output", type=Path)
     args = parser.parse_args(argv)
     try:
@@ -245,6 +293,8 @@ def main(argv=None) -> int:
     from nnmstop.continuation.anm import ANMSettings
 
     mine["branch_settings"] = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
+    if args.profile:
+        mine["profile"] = profile_ours(config, scene, excitation)
     theirs = pyharm(python, scene, excitation, args)
     return emit_report(report(args, mine, theirs, curve_distance(mine, theirs)), args.output)
 
