@@ -147,6 +147,25 @@ def _write_archive(staged: Path, output: Path) -> None:
             archive.writestr(info, member.read_bytes(), compresslevel=6)
 
 
+def _add_workflow(crate, workflow_files: list):
+    """The main Snakefile (the crate's ``ComputationalWorkflow``, returned) and its rule files."""
+    main_workflow, *rule_files = workflow_files
+    workflow = crate.add_workflow(
+        main_workflow,
+        "Snakefile",
+        main=True,
+        lang="snakemake",
+        properties=_file_properties(main_workflow, "Snakemake workflow of the nnmstop pipeline"),
+    )
+    for rule_file in sorted(rule_files):
+        crate.add_file(
+            rule_file,
+            f"workflow/rules/{rule_file.name}",
+            properties=_file_properties(rule_file, f"Snakemake rules {rule_file.name}"),
+        )
+    return workflow
+
+
 def build_bundle(
     config: dict,
     datasets: list,
@@ -202,20 +221,7 @@ def build_bundle(
         config_copy = generated / "config.yaml"
         config_copy.write_text(yaml.safe_dump(config, sort_keys=False, allow_unicode=True))
         crate = _described_crate(metadata)
-        main_workflow, *rule_files = (Path(p) for p in workflow_files)
-        workflow = crate.add_workflow(
-            main_workflow,
-            "Snakefile",
-            main=True,
-            lang="snakemake",
-            properties=_file_properties(main_workflow, "Snakemake workflow of the nnmstop pipeline"),
-        )
-        for rule_file in sorted(rule_files):
-            crate.add_file(
-                rule_file,
-                f"workflow/rules/{rule_file.name}",
-                properties=_file_properties(rule_file, f"Snakemake rules {rule_file.name}"),
-            )
+        workflow = _add_workflow(crate, [Path(p) for p in workflow_files])
         configuration = crate.add_file(
             config_copy,
             "config/config.yaml",
