@@ -77,7 +77,14 @@ TASK_INDEX = {
     "explorer": ("explorer",),
     "verify": ("verify", "update_reference"),
     "tube": ("tube_stage", "tube_exact", "tube_branch", "tube_compare", "tube_figure", "tube_study_case", "tube_study"),
-    "forced": ("forced_exact", "forced_regularized", "forced_backbone", "forced_prediction", "forced_figure"),
+    "forced": (
+        "forced_exact",
+        "forced_regularized",
+        "forced_backbone",
+        "forced_prediction",
+        "forced_figure",
+        "forced_manifest",
+    ),
 }
 TASK_MODULES = tuple(TASK_INDEX)
 
