@@ -41,7 +41,6 @@ PAPER_FIGURES = paper_figure_files()
 
 
 include: "workflow/rules/manifest.smk"
-include: "workflow/rules/verify.smk"
 include: "workflow/rules/explorer.smk"
 
 
@@ -53,6 +52,9 @@ if "tube" in config:  # the finite-element tube (issue 14); a configuration may 
 if "forced" in config:  # forced responses (issue 23); a configuration may leave them out
 
     include: "workflow/rules/forced.smk"
+
+
+include: "workflow/rules/verify.smk"  # after the forced rules: it checks their datasets too
 include: "workflow/rules/bundle.smk"
 include: "workflow/rules/docs.smk"
 

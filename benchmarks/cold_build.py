@@ -46,7 +46,8 @@ def tracked_copy(destination: Path, ref: str = "HEAD") -> None:
 
 
 def rule_of(benchmark_file: Path) -> str:
-    """Rule name of a benchmark file (``hbm_nnm1_stage2.tsv`` -> ``hbm_stage``)."""
+    """Rule name of a benchmark file (``hbm_nnm1_stage2.tsv`` -> ``hbm_stage``, ``forced_exact_F0.1.tsv`` ->
+    ``forced_exact``)."""
     stem = benchmark_file.stem
     if re.fullmatch(r"hbm_nnm\d_stage\d+", stem):
         return "hbm_stage"
@@ -54,6 +55,9 @@ def rule_of(benchmark_file: Path) -> str:
         return "hbm_branch"
     if stem.startswith("hbm_bifurcated_"):
         return "hbm_bifurcated"
+    forced = re.fullmatch(r"(forced_(?:exact|regularized|figure))_.+", stem)  # one job per scene or figure
+    if forced:
+        return forced.group(1)
     return stem
 
 

@@ -17,7 +17,7 @@ verdicts and the located folds, period doublings and Neimark-Sacker points, time
 
 Usage::
 
-    python benchmarks/forced_vs_pyharm.py [--force 0.1] [--output benchmarks/forced_vs_pyharm.md]
+    python benchmarks/forced_vs_pyharm.py [--force 0.1] [--profile] [--output benchmarks/forced_vs_pyharm.md]
 
 Skipped, with the reason in the report, where pyHarm cannot be installed.
 """
@@ -26,14 +26,24 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
+import tempfile
+import time
 import venv
 from pathlib import Path
 
-import numpy as np
+# One BLAS thread on both sides, as the pipeline's jobs run (config `numerics`): on 2 shared cores a second
+# OpenBLAS thread costs more than it gives (this project's response: 3x the CPU time). Set before numpy loads;
+# the pyHarm process inherits it. Override with OPENBLAS_NUM_THREADS.
+BLAS_THREADS = os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+for _name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, BLAS_THREADS)
 
-from timing import REPO, emit_report, timed
+import numpy as np  # noqa: E402
+
+from timing import REPO, emit_report, timed  # noqa: E402
 
 PYHARM = "pyharm-os==1.2.2"
 # what pyHarm imports (its declared requirements also pull Jupyter, which it does not need to compute)
@@ -95,6 +105,37 @@ def ours(config, scene, excitation) -> dict:
     )
 
 
+#: Where this project's time goes (``--profile``): part -> (module path suffix, function) whose cumulative time it is.
+PROFILE_PARTS = {
+    "Jacobian assembly and LU factorization (bordered)": ("continuation/linear.py", "factorize_bordered"),
+    "triangular solves (one per series order)": ("continuation/linear.py", "solve"),
+    "series products of the quadratic recast": ("hbm/forced.py", "series_products"),
+    "Pade approximants and step lengths": ("continuation/anm.py", "_pade_path"),
+    "per-point diagnostics (truncation, time residual)": ("hbm/forced.py", "diagnostics"),
+    "whole response": ("forced/responses.py", "regularized_response"),
+}
+
+
+def profile_ours(config, scene, excitation) -> dict:
+    """Cumulative CPU seconds of the parts of :data:`PROFILE_PARTS` in one more run of the response, under cProfile
+    (its own overhead included: shares, not timings)."""
+    import cProfile
+    import pstats
+
+    from nnmstop.continuation.anm import ANMSettings
+    from nnmstop.forced.responses import RegularizedSettings, regularized_response
+
+    anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
+    settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
+    profiler = cProfile.Profile(time.process_time)
+    profiler.runcall(regularized_response, excitation, scene.frequency_range, settings)
+    stats = pstats.Stats(profiler).stats
+    parts = {}
+    for part, (path, function) in PROFILE_PARTS.items():
+        parts[part] = sum(v[3] for (file, _, name), v in stats.items() if file.endswith(path) and name == function)
+    return parts
+
+
 def pyharm(python: Path, scene, excitation, args) -> dict:
     """pyHarm's response (``pyharm_side.py`` in the venv) for the same equations."""
     structure = excitation.structure
@@ -123,12 +164,14 @@ def pyharm(python: Path, scene, excitation, args) -> dict:
             solver_options=dict(tol_residual=args.newton_tol, tol_delta_x=args.newton_tol),
         ),
     )
-    run = subprocess.run(
-        [python, str(Path(__file__).with_name("pyharm_side.py"))],
-        input=json.dumps(problem),
-        capture_output=True,
-        text=True,
-    )
+    with tempfile.TemporaryDirectory() as scratch:  # pyHarm writes a .pyHarm/ context where it runs
+        run = subprocess.run(
+            [python, str(Path(__file__).with_name("pyharm_side.py"))],
+            input=json.dumps(problem),
+            capture_output=True,
+            text=True,
+            cwd=scratch,
+        )
     if run.returncode:
         raise RuntimeError(f"pyHarm run failed: {run.stderr.strip()[-2000:]}")
     return json.loads(run.stdout)
@@ -184,7 +227,8 @@ def report(args, mine, theirs, distance) -> str:
         f"The paper's oscillator (regularized law, alpha, eta of `model`), the default forced scene's damping, "
         f"F = {args.force:g} on u, H = {mine['system'].H}, {mine['range'][0]:g}..{mine['range'][1]:g} Hz. "
         f"pyHarm {PYHARM.split('==')[1]}: AFT with {args.time_samples} instants, Newton-Raphson to "
-        f"{args.newton_tol:g}, ds0 = {args.ds0:g}, ds_max = {args.ds_max:g}.",
+        f"{args.newton_tol:g}, ds0 = {args.ds0:g}, ds_max = {args.ds_max:g}. Both sides with "
+        f"OPENBLAS_NUM_THREADS = {BLAS_THREADS} (the pipeline's jobs use one BLAS thread).",
         "",
         "| | wall (s) | CPU (s) | points | factorizations | other counts |",
         "|---|---|---|---|---|---|",
@@ -210,6 +254,21 @@ def report(args, mine, theirs, distance) -> str:
         f"estimates ({mine['unresolved']} of {mine['points']} verdicts unresolved), and the located stability "
         "changes: " + ", ".join(f"{n} {kind.replace('_', ' ')}" for kind, n in mine["changes"].items()) + ".",
     ]
+    if mine.get("profile"):
+        total = mine["profile"]["whole response"]
+        lines += [
+            "",
+            f"Where this project's time goes (`--profile`: one more run under cProfile, {total:.2f} s CPU with its "
+            "overhead):",
+            "",
+            "| part | CPU (s) | share |",
+            "|---|---:|---:|",
+        ]
+        lines += [
+            f"| {part} | {seconds:.2f} | {100 * seconds / total:.0f} % |"
+            for part, seconds in mine["profile"].items()
+            if part != "whole response"
+        ]
     return "\n".join(lines)
 
 
@@ -221,6 +280,7 @@ def main(argv=None) -> int:
     parser.add_argument("--ds0", type=float, default=0.01)
     parser.add_argument("--ds-max", type=float, default=0.1)
     parser.add_argument("--venv", type=Path, default=DEFAULT_VENV)
+    parser.add_argument("--profile", action="store_true", help="also report where this project's time goes")
     parser.add_argument("--output", type=Path)
     args = parser.parse_args(argv)
     try:
@@ -233,6 +293,8 @@ def main(argv=None) -> int:
     from nnmstop.continuation.anm import ANMSettings
 
     mine["branch_settings"] = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
+    if args.profile:
+        mine["profile"] = profile_ours(config, scene, excitation)
     theirs = pyharm(python, scene, excitation, args)
     return emit_report(report(args, mine, theirs, curve_distance(mine, theirs)), args.output)
 

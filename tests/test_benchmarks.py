@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parents[1]
 BENCHMARKS = REPO / "benchmarks"
 SMALL_CONFIG = REPO / "tests" / "data" / "small_config.yaml"
 #: Helper modules of the scripts (imported by them, not run).
-HELPERS = {"timing", "branch_orbits"}
+HELPERS = {"timing", "branch_orbits", "pyharm_side"}
 NNM2 = "results/hbm/nnm2.nc"
 NNM1_STAGE1 = "results/hbm/stages/nnm1_stage1.nc"
 SMALL = str(SMALL_CONFIG)
@@ -39,7 +39,8 @@ TINY_RUNS = {
     "explorer": None,  # times a built dist/explorer.html in Chromium: its --help here; the page has its own tests
     "exact_slices": ["--compare", "HEAD", "HEAD", "--nnm1-stage1", "{build}/" + NNM1_STAGE1, "--configfile", SMALL,
                      "--slices", "2", "--points", "20", "--energies", "2"],
-    "forced_build": None,  # a cold build of the forced target (over a minute): its --help; tests/forced build it
+    "forced_build": None,  # a cold build of the forced target (over a minute): its --help
+    "forced_vs_pyharm": None,  # installs pyHarm into a venv of its own: its --help
     "fe_scaling": ["--tiny", "--output", "{out}"],
     "figure_cost": ["--figures", "fig06", "--repeat", "1", "--results", "{build}/results", "--configfile", SMALL,
                     "--output", "{out}"],

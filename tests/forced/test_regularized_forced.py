@@ -228,7 +228,7 @@ def test_neimark_sacker_points_of_the_hbm_converge_to_the_exact_ones_as_eta_goes
     past grazing and regains it through another; the regularized response (H = 100) has both, located by its
     monodromy, and they approach the exact ones as eta goes to zero, at the first order of the law's error (the
     convergence test of the amplitudes above): the distance falls at least twice when eta falls 3 times, and is
-    within a few per mil at eta = 0.01."""
+    below 2 eta."""
     from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stability
     from nnmstop.forced.responses import exact_response
 
@@ -245,4 +245,5 @@ def test_neimark_sacker_points_of_the_hbm_converge_to_the_exact_ones_as_eta_goes
         assert len(found) == 2, found
         distances.append(np.abs(np.array(found) - exact) / np.array(exact))
     assert np.all(distances[1] <= 0.5 * distances[0]), distances
-    assert np.all(distances[1] < 5e-3), distances
+    # first order: the relative distance is of the order of eta itself
+    assert np.all(distances[0] < 2 * 0.03) and np.all(distances[1] < 2 * 0.01), distances

@@ -423,3 +423,19 @@ def test_cosine_and_full_bases_give_the_same_orbit(both_bases):
         # the full-basis point corrected at the same amplitude is the cosine orbit to round-off
         U_full, _ = newton_correct(full_system, U, amplitude_direction(full_system), ContinuationStats(), 1e-13)
         assert abs(full_system.frequency_hz(U_full) - f_cosine) <= 1e-12 * f_cosine
+
+
+def test_an_overflowing_trial_point_gives_a_non_finite_residual_without_warnings():
+    """A diverging step's trial point overflows in the products: the residual is non-finite (which Newton and
+    the ANM take as a failed correction) and no RuntimeWarning reaches the terminal; a point on the branch is
+    untouched."""
+    import warnings
+
+    system = HarmonicBalanceSystem(two_dof_structure(PARAMS), 5)
+    U, _ = start_point(system, 1, 0.5)
+    far = U * 1e160
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert not np.all(np.isfinite(system.residual(far)))
+        assert not np.isfinite(relative_residual(system, far))
+        assert relative_residual(system, U) < 1e-12

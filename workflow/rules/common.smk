@@ -295,3 +295,12 @@ def forced_figures():
     """The forced figures of the configuration (the tube's only when it is configured)."""
     figures = [f for f in FORCED_FIGURE_INPUTS if f != "tube" or forced_scene_names("tube")]
     return expand(paper_figures("forced_{figure}.{ext}"), figure=figures, ext=("pdf", "png"))
+
+
+def verified_inputs(wildcards):
+    """What verify checks and update_reference record (workflow/rules/verify.smk): the paper's datasets and
+    their manifest and, where the configuration has them, the forced datasets and their manifest."""
+    inputs = dict(datasets=PAPER_DATASETS, manifest=rules.dataset_manifest.output.manifest)
+    if "forced" in config:
+        inputs.update(forced_datasets=forced_datasets(), forced_manifest=rules.forced_manifest.output.manifest)
+    return inputs

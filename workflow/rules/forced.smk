@@ -116,8 +116,27 @@ rule forced_figure:
 
 
 
+rule forced_manifest:
+    """results/forced/MANIFEST.sha256 over every forced dataset (recorded by update_reference, checked by verify)."""
+    input:
+        datasets=forced_datasets(),
+    output:
+        manifest=results("forced/MANIFEST.sha256"),
+    log:
+        logs("forced/manifest.log"),
+    benchmark:
+        benchmarks("forced_manifest.tsv")
+    params:
+        config=FORCED_CONFIG,
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
 rule forced:
-    """Everything of the forced responses: datasets and figures (not in the default target)."""
+    """Everything of the forced responses: datasets, their manifest and figures (not in the default target)."""
     input:
         forced_datasets(),
+        rules.forced_manifest.output.manifest,
         forced_figures(),

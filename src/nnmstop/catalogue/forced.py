@@ -118,12 +118,12 @@ FORCED_BACKBONE = DatasetKind(
     "NNM1 and NNM2 of the regularized oscillator (HBM + ANM) over the forced range with the force whose resonance "
     "peak each orbit is (energy balance), and the peaks predicted at each force level (nnmstop.forced.backbone).",
     (
-        Variable("backbone_frequency", ("backbone_point",), "frequency of the NNM orbit", units="Hz"),
-        Variable("backbone_amplitude", ("backbone_point", "dof"), "largest |q| of each DOF over the NNM orbit"),
-        Variable("backbone_mode", ("backbone_point",), "index of the NNM"),
+        Variable("backbone_frequency", ("point",), "frequency of the NNM orbit", units="Hz"),
+        Variable("backbone_amplitude", ("point", "dof"), "largest |q| of each DOF over the NNM orbit"),
+        Variable("backbone_mode", ("point",), "index of the NNM"),
         Variable(
             "required_force",
-            ("backbone_point",),
+            ("point",),
             "force amplitude whose resonance peak is the NNM orbit (damping work = work of the force in quadrature)",
         ),
         Variable("forcing_amplitude", ("level",), "force amplitude F"),

@@ -137,6 +137,26 @@ def integrate_regularized(params: ModelParameters, z0, t_eval, rtol: float = 1e-
     return Trajectory(t_eval, sol.y.T, np.empty(0))
 
 
+def _checked_start(z0, t_eval, n: int):
+    """``z0`` (2N finite numbers) and ``t_eval`` (non-empty, finite, increasing) as float arrays."""
+    z0, t_eval = np.asarray(z0, dtype=float), np.asarray(t_eval, dtype=float)
+    if z0.shape != (2 * n,) or not np.all(np.isfinite(z0)):
+        raise ValueError(f"z0 must be 2N = {2 * n} finite numbers (q, qdot), got shape {z0.shape}")
+    if t_eval.ndim != 1 or t_eval.size < 1 or np.any(np.diff(t_eval) < 0) or not np.all(np.isfinite(t_eval)):
+        raise ValueError("t_eval must be a non-empty 1-D array of finite increasing times")
+    return z0, t_eval
+
+
+def _crossing_event(dof: int, level: float, direction: float):
+    """A terminal event of ``solve_ivp``: ``q[dof]`` crosses ``level`` in ``direction``."""
+
+    def event(_t, z):
+        return z[dof] - level
+
+    event.terminal, event.direction = True, direction
+    return event
+
+
 def integrate_structure_nonsmooth(
     structure,
     z0,
@@ -179,11 +199,7 @@ def integrate_structure_nonsmooth(
     mass, stiffness = (np.asarray(m, dtype=float) for m in structure.dense_matrices())
     stop = structure.stops[stop_index]
     n, c, gap, alpha = structure.n_dofs, stop.dof, stop.gap, stop.stiffness
-    z0, t_eval = np.asarray(z0, dtype=float), np.asarray(t_eval, dtype=float)
-    if z0.shape != (2 * n,) or not np.all(np.isfinite(z0)):
-        raise ValueError(f"z0 must be 2N = {2 * n} finite numbers (q, qdot), got shape {z0.shape}")
-    if t_eval.ndim != 1 or t_eval.size < 1 or np.any(np.diff(t_eval) < 0) or not np.all(np.isfinite(t_eval)):
-        raise ValueError("t_eval must be a non-empty 1-D array of finite increasing times")
+    z0, t_eval = _checked_start(z0, t_eval, n)
     minv_k, minv_e = np.linalg.solve(mass, stiffness), np.linalg.solve(mass, np.eye(n)[c])
 
     def rhs(side):
@@ -194,11 +210,7 @@ def integrate_structure_nonsmooth(
         return field
 
     def leaving(level, direction):
-        def event(_t, z):
-            return z[c] - level
-
-        event.terminal, event.direction = True, direction
-        return event
+        return _crossing_event(c, level, direction)
 
     t, z = float(t_eval[0]), z0.copy()
     side = _start_region(z, gap, float(-(minv_k @ z[:n])[c]), c, n)

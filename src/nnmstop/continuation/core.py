@@ -202,8 +202,9 @@ def require_on_branch(system, U, tolerance: float, hint: str = "") -> None:
 
 
 def relative_of_residual(U, r) -> float:
-    """:func:`relative_residual` from a residual ``r = S(U)`` already evaluated."""
-    return float(np.linalg.norm(r) / max(np.linalg.norm(U), 1.0))
+    """:func:`relative_residual` from a residual ``r = S(U)`` already evaluated (inf where it overflows)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return float(np.linalg.norm(r) / max(np.linalg.norm(U), 1.0))
 
 
 def newton_converged(U, r, dU, tol: float) -> bool:

@@ -94,6 +94,17 @@ def _linear_solve(jacobian, rhs):
     return np.linalg.solve(jacobian, rhs)
 
 
+def _convergence_test(criterion, tol: float, norm: Callable) -> Callable:
+    """``test(y, r, dy) -> bool`` of :func:`newton_solve`'s ``criterion``."""
+    if criterion == "step":
+        return lambda y, r, dy: dy is not None and step_converged(y, dy, tol)
+    if criterion == "residual":
+        return lambda y, r, dy: norm(y, r) <= tol
+    if callable(criterion):
+        return criterion
+    raise ValueError(f"criterion must be 'step', 'residual' or a callable, got {criterion!r}")
+
+
 def newton_solve(
     residual: Callable,
     jacobian: Callable | None,
@@ -144,18 +155,7 @@ def newton_solve(
         and ``reason`` says why); exceptions of ``residual``, ``jacobian`` or the linear
         solve (for example ``numpy.linalg.LinAlgError``) propagate.
     """
-    if criterion == "step":
-
-        def test(y, r, dy):
-            return dy is not None and step_converged(y, dy, tol)
-    elif criterion == "residual":
-
-        def test(y, r, dy):
-            return norm(y, r) <= tol
-    elif callable(criterion):
-        test = criterion
-    else:
-        raise ValueError(f"criterion must be 'step', 'residual' or a callable, got {criterion!r}")
+    test = _convergence_test(criterion, tol, norm)
     if not (isinstance(max_iter, (int, np.integer)) and max_iter >= 0):
         raise ValueError(f"max_iter must be an integer >= 0, got {max_iter!r}")
 

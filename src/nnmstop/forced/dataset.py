@@ -21,6 +21,7 @@ from nnmstop.hbm.forced import phase_lags, response_amplitudes
 from nnmstop.models.excitation import Excitation
 
 __all__ = [
+    "canonical_order",
     "response_variables",
     "change_variables",
     "base_attributes",
@@ -34,6 +35,19 @@ __all__ = [
 SEGMENT_KINDS = ("non_impacting", "one_contact")
 
 
+def canonical_order(mu) -> np.ndarray:
+    """Multipliers (rows) by decreasing modulus, each complex-conjugate pair with its positive imaginary part
+    first: the stored order then follows the multipliers, not round-off (a pair's moduli are equal to it)."""
+    mu = np.array(mu, dtype=complex)
+    mu = np.take_along_axis(mu, np.argsort(-np.abs(mu), axis=-1, kind="stable"), axis=-1)
+    for j in range(mu.shape[-1] - 1):
+        a, b = mu[:, j], mu[:, j + 1]
+        pair = np.abs(a - np.conj(b)) <= 1e-8 * np.maximum(np.abs(a), 1.0)
+        swap = pair & (a.imag < b.imag)
+        mu[swap, j], mu[swap, j + 1] = b[swap], a[swap]
+    return mu
+
+
 def response_variables(
     excitation: Excitation, frequency, amplitude, lags, multipliers, half_period: bool, segment
 ) -> dict:
@@ -41,7 +55,7 @@ def response_variables(
     structure = excitation.structure
     x_dof, u_dof = structure.stops[0].dof, excitation.force.dofs[0]
     multipliers = np.asarray(multipliers)
-    mu = multipliers**2 if half_period else multipliers
+    mu = canonical_order(multipliers**2 if half_period else multipliers)
     stable = np.all(np.abs(mu) <= 1.0 + 1e-12, axis=1)
     amplitude = np.asarray(amplitude, dtype=float)
     return {
@@ -202,7 +216,7 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
 
 
 def backbone_dataset(excitation: Excitation, backbones: dict, forces, predictions: dict) -> xr.Dataset:
-    """NNM backbones (``backbone_point``, with ``backbone_mode``) and the peaks they predict (``level``, ``mode``).
+    """NNM backbones (``point``, with ``backbone_mode``) and the peaks they predict (``level``, ``mode``).
 
     ``backbones``: mode -> (frequency Hz, amplitudes (points, N), required force); ``predictions``: mode -> one
     :func:`nnmstop.forced.backbone.predicted_peaks` entry per level (None where the backbone does not reach it:
@@ -222,10 +236,10 @@ def backbone_dataset(excitation: Excitation, backbones: dict, forces, prediction
                 peak_frequency[i, j], peak_amplitude[i, j] = found[0], found[1]
     return xr.Dataset(
         {
-            "backbone_frequency": ("backbone_point", frequency),
-            "backbone_amplitude": (("backbone_point", "dof"), amplitude),
-            "backbone_mode": ("backbone_point", which.astype(np.int32)),
-            "required_force": ("backbone_point", required),
+            "backbone_frequency": ("point", frequency),
+            "backbone_amplitude": (("point", "dof"), amplitude),
+            "backbone_mode": ("point", which.astype(np.int32)),
+            "required_force": ("point", required),
             "forcing_amplitude": ("level", np.asarray(forces, dtype=float)),
             "mode": ("mode", np.array(modes, dtype=np.int32)),
             "predicted_frequency": (("level", "mode"), peak_frequency),

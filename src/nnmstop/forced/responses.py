@@ -111,8 +111,23 @@ def _non_impacting_pieces(excitation: Excitation, low: float, high: float, sampl
     return pieces
 
 
+def _along_the_curve(pieces: list, rel_tol: float = 1e-8) -> list:
+    """``pieces`` in the order of the response curve: from the lowest frequency, each next piece the one that
+    starts where the last one ends (a non-impacting piece and a contact family meet at a grazing frequency),
+    else the lowest left. Stored so, the pieces make one curve (what the verifier compares)."""
+    left = sorted(pieces, key=lambda piece: piece.frequency[0])
+    ordered = [left.pop(0)] if left else []
+    while left:
+        end = ordered[-1].frequency[-1]
+        following = [piece for piece in left if abs(piece.frequency[0] - end) <= rel_tol * end]
+        ordered.append(following[0] if following else left[0])
+        left.remove(ordered[-1])
+    return ordered
+
+
 def exact_response(excitation: Excitation, frequency_range, settings: ExactSettings = ExactSettings()) -> list:
-    """Pieces of the exact response over ``frequency_range`` (Hz): non-impacting ones, then contact families."""
+    """Pieces of the exact response over ``frequency_range`` (Hz), non-impacting ones and contact families, in
+    the order of the curve (each starting where the previous one ends, where they meet)."""
     low, high = (float(v) for v in frequency_range)
     grazing = grazing_frequencies(excitation, 2 * np.pi * low, 2 * np.pi * high)
     pieces = _non_impacting_pieces(excitation, low, high, settings.frequency_samples, grazing)
@@ -149,7 +164,7 @@ def exact_response(excitation: Excitation, frequency_range, settings: ExactSetti
                 np.array([problem.multiplier_error(y) for y in Y]),
             )
         )
-    return pieces
+    return _along_the_curve(pieces)
 
 
 @dataclass(frozen=True)

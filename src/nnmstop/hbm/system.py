@@ -244,13 +244,18 @@ class HarmonicBalanceSystem:
     # ------------------------------------------------------------------ the system
 
     def residual(self, U):
-        """``S(U) = L(U) + Q(U, U)``, length ``n_equations``."""
+        """``S(U) = L(U) + Q(U, U)``, length ``n_equations``.
+
+        A trial point far off the branch (a diverging Newton or series step) may overflow: its
+        residual is then non-finite, which every caller takes as a failed correction.
+        """
         Q, F, Z, lam, nu = self._fields(U)
         X = self.stop_coordinates(Q)
         G = F / self.alphas[:, None] - X
         s = self.n_stops
-        samples = self.to_time(np.concatenate([F, Z, G]))
-        products = self.to_coefficients(np.concatenate([samples[:s] * samples[s : 2 * s], samples[2 * s :] ** 2]))
+        with np.errstate(over="ignore", invalid="ignore"):
+            samples = self.to_time(np.concatenate([F, Z, G]))
+            products = self.to_coefficients(np.concatenate([samples[:s] * samples[s : 2 * s], samples[2 * s :] ** 2]))
         r_q = (self._mass * lam) @ (Q * self._d2) + self._stiffness @ Q
         r_q[self.stop_dofs] += self.gaps[:, None] * F
         if self.full:

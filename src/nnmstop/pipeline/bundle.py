@@ -70,6 +70,102 @@ def _file_properties(path: Path, name: str) -> dict:
     }
 
 
+def _bundle_metadata(config: dict) -> dict:
+    if "metadata" not in config:
+        raise ValueError("the configuration has no 'metadata' section; the bundle's creator and license come from it")
+    return config["metadata"]
+
+
+def _check_inputs(root: Path, relative: list, citation_file: Path) -> None:
+    """Every listed file exists under ``root``, once, by a relative path; ``citation_file`` exists."""
+    for path in relative:
+        if path.is_absolute():
+            raise ValueError(f"{path} must be relative to root {root}: it keeps that path in the archive")
+        if not (root / path).is_file():
+            raise ValueError(f"bundle input {path} does not exist under {root}")
+    if len(set(relative)) != len(relative):
+        raise ValueError("a dataset or figure is listed twice")
+    if not citation_file.is_file():
+        raise ValueError(f"bundle input {citation_file} (CITATION.cff) does not exist")
+
+
+def _agent(crate, metadata: dict, role: str):
+    """The creator or publisher (``role``) of the configuration's metadata as a context entity of ``crate``."""
+    from rocrate.model.contextentity import ContextEntity
+
+    return crate.add(
+        ContextEntity(
+            crate,
+            metadata[f"{role}_url"],
+            properties={
+                "@type": "Organization" if metadata[f"{role}_type"] != "person" else "Person",
+                "name": metadata[f"{role}_name"],
+                "email": metadata[f"{role}_email"],
+            },
+        )
+    )
+
+
+def _described_crate(metadata: dict):
+    """An empty RO-Crate with the bundle's name, description, license, date, version, profiles and agents."""
+    from rocrate.model.contextentity import ContextEntity
+    from rocrate.rocrate import ROCrate
+
+    crate = ROCrate(version="1.1")
+    crate.name = f"{metadata['project']}: result bundle"
+    crate.description = (
+        "Datasets (NetCDF, CF-1.10 / ACDD-1.3) and figures of one run of the nnmstop pipeline, with the "
+        "configuration, the locked environment and the Snakemake workflow that produced them."
+    )
+    crate.license = metadata["license"]
+    crate.root_dataset["datePublished"] = provenance()["date_created"]
+    crate.root_dataset["version"] = __version__
+    crate.root_dataset["conformsTo"] = [
+        crate.add(
+            ContextEntity(
+                crate, url, properties={"@type": "CreativeWork", "name": name, "version": url.rsplit("/", 1)[1]}
+            )
+        )
+        for url, name in _PROFILES.items()
+    ]
+    crate.creator = _agent(crate, metadata, "creator")
+    crate.publisher = _agent(crate, metadata, "publisher")
+    return crate
+
+
+def _write_archive(staged: Path, output: Path) -> None:
+    """Zip the written crate ``staged`` into ``output`` with fixed dates and modes (byte-reproducible)."""
+    members = sorted(p for p in staged.rglob("*") if p.is_file())
+    with (
+        atomic_output(output) as partial,
+        zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=6) as archive,
+    ):
+        for member in members:
+            info = zipfile.ZipInfo(member.relative_to(staged).as_posix(), date_time=_ZIP_DATE)
+            info.external_attr = _ZIP_MODE
+            info.compress_type = zipfile.ZIP_DEFLATED
+            archive.writestr(info, member.read_bytes(), compresslevel=6)
+
+
+def _add_workflow(crate, workflow_files: list):
+    """The main Snakefile (the crate's ``ComputationalWorkflow``, returned) and its rule files."""
+    main_workflow, *rule_files = workflow_files
+    workflow = crate.add_workflow(
+        main_workflow,
+        "Snakefile",
+        main=True,
+        lang="snakemake",
+        properties=_file_properties(main_workflow, "Snakemake workflow of the nnmstop pipeline"),
+    )
+    for rule_file in sorted(rule_files):
+        crate.add_file(
+            rule_file,
+            f"workflow/rules/{rule_file.name}",
+            properties=_file_properties(rule_file, f"Snakemake rules {rule_file.name}"),
+        )
+    return workflow
+
+
 def build_bundle(
     config: dict,
     datasets: list,
@@ -112,25 +208,10 @@ def build_bundle(
         If ``config`` has no ``metadata`` section, a listed file is missing, or a path
         appears twice.
     """
-    from rocrate.model.contextentity import ContextEntity
-    from rocrate.rocrate import ROCrate
-
-    if "metadata" not in config:
-        raise ValueError("the configuration has no 'metadata' section; the bundle's creator and license come from it")
-    metadata = config["metadata"]
+    metadata = _bundle_metadata(config)
     root = Path(root)
-    relative = [Path(p) for p in (*datasets, *figures, manifest)]
-    for path in relative:
-        if path.is_absolute():
-            raise ValueError(f"{path} must be relative to root {root}: it keeps that path in the archive")
-        if not (root / path).is_file():
-            raise ValueError(f"bundle input {path} does not exist under {root}")
-    if len(set(relative)) != len(relative):
-        raise ValueError("a dataset or figure is listed twice")
     citation_file = Path(citation_file)
-    if not citation_file.is_file():
-        raise ValueError(f"bundle input {citation_file} (CITATION.cff) does not exist")
-    date_created = provenance()["date_created"]
+    _check_inputs(root, [Path(p) for p in (*datasets, *figures, manifest)], citation_file)
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
 
@@ -139,62 +220,8 @@ def build_bundle(
         generated.mkdir()
         config_copy = generated / "config.yaml"
         config_copy.write_text(yaml.safe_dump(config, sort_keys=False, allow_unicode=True))
-
-        crate = ROCrate(version="1.1")
-        crate.name = f"{metadata['project']}: result bundle"
-        crate.description = (
-            "Datasets (NetCDF, CF-1.10 / ACDD-1.3) and figures of one run of the nnmstop pipeline, with the "
-            "configuration, the locked environment and the Snakemake workflow that produced them."
-        )
-        crate.license = metadata["license"]
-        crate.root_dataset["datePublished"] = date_created
-        crate.root_dataset["version"] = __version__
-        crate.root_dataset["conformsTo"] = [
-            crate.add(
-                ContextEntity(
-                    crate, url, properties={"@type": "CreativeWork", "name": name, "version": url.rsplit("/", 1)[1]}
-                )
-            )
-            for url, name in _PROFILES.items()
-        ]
-        creator = crate.add(
-            ContextEntity(
-                crate,
-                metadata["creator_url"],
-                properties={
-                    "@type": "Organization" if metadata["creator_type"] != "person" else "Person",
-                    "name": metadata["creator_name"],
-                    "email": metadata["creator_email"],
-                },
-            )
-        )
-        crate.creator = creator
-        crate.publisher = crate.add(
-            ContextEntity(
-                crate,
-                metadata["publisher_url"],
-                properties={
-                    "@type": "Organization" if metadata["publisher_type"] != "person" else "Person",
-                    "name": metadata["publisher_name"],
-                    "email": metadata["publisher_email"],
-                },
-            )
-        )
-
-        main_workflow, *rule_files = (Path(p) for p in workflow_files)
-        workflow = crate.add_workflow(
-            main_workflow,
-            "Snakefile",
-            main=True,
-            lang="snakemake",
-            properties=_file_properties(main_workflow, "Snakemake workflow of the nnmstop pipeline"),
-        )
-        for rule_file in sorted(rule_files):
-            crate.add_file(
-                rule_file,
-                f"workflow/rules/{rule_file.name}",
-                properties=_file_properties(rule_file, f"Snakemake rules {rule_file.name}"),
-            )
+        crate = _described_crate(metadata)
+        workflow = _add_workflow(crate, [Path(p) for p in workflow_files])
         configuration = crate.add_file(
             config_copy,
             "config/config.yaml",
@@ -204,19 +231,12 @@ def build_bundle(
             crate.add_file(root / path, path.as_posix(), properties=_file_properties(root / path, path.name))
             for path in sorted(Path(p) for p in (*datasets, *figures))
         ]
-        crate.add_file(
-            root / manifest,
-            Path(manifest).as_posix(),
-            properties=_file_properties(root / manifest, "SHA-256 manifest of the datasets"),
-        )
-        crate.add_file(
-            Path(environment_lock),
-            "environment.lock",
-            properties=_file_properties(Path(environment_lock), "locked Python environment (pip-compile)"),
-        )
-        crate.add_file(
-            citation_file, "CITATION.cff", properties=_file_properties(citation_file, "how to cite the software")
-        )
+        for source, name, what in (
+            (root / manifest, Path(manifest).as_posix(), "SHA-256 manifest of the datasets"),
+            (Path(environment_lock), "environment.lock", "locked Python environment (pip-compile)"),
+            (citation_file, "CITATION.cff", "how to cite the software"),
+        ):
+            crate.add_file(source, name, properties=_file_properties(source, what))
         crate.add_action(
             workflow,
             identifier="#run",
@@ -227,19 +247,9 @@ def build_bundle(
                 "actionStatus": "http://schema.org/CompletedActionStatus",
             },
         )
-
         staged = Path(tmp) / "crate"
         crate.write(staged)
-        members = sorted(p for p in staged.rglob("*") if p.is_file())
-        with (
-            atomic_output(output) as partial,
-            zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=6) as archive,
-        ):
-            for member in members:
-                info = zipfile.ZipInfo(member.relative_to(staged).as_posix(), date_time=_ZIP_DATE)
-                info.external_attr = _ZIP_MODE
-                info.compress_type = zipfile.ZIP_DEFLATED
-                archive.writestr(info, member.read_bytes(), compresslevel=6)
+        _write_archive(staged, output)
     return output
 
 

@@ -39,6 +39,9 @@ from nnmstop.netcdf import PROVENANCE_ATTRIBUTES
 
 __all__ = [
     "CURVE_COORDINATES",
+    "SAMPLED_DIMENSIONS",
+    "STABILITY_ERROR_VARIABLES",
+    "weight",
     "REFERENCE_FORMAT",
     "variable_kind",
     "attribute_kind",
@@ -57,8 +60,20 @@ __all__ = [
 REFERENCE_FORMAT = 3
 POINT = "point"
 
-#: Pairs (energy, frequency) that make a file's stored points a frequency-energy curve, first found first.
-CURVE_COORDINATES = (("energy", "frequency"), ("energy", "frequency_regularized"))
+#: Pairs (energy, frequency) that make a file's stored points a frequency-energy curve, first found first. A
+#: forced response is a curve of the stop DOF's amplitude against the frequency of the force, a backbone one of
+#: the force whose peak each NNM orbit is against the orbit's frequency: there the first of the pair plays the
+#: role of the energy (positive, compared in logarithm).
+CURVE_COORDINATES = (
+    ("energy", "frequency"),
+    ("energy", "frequency_regularized"),
+    ("x_amplitude", "frequency"),
+    ("required_force", "backbone_frequency"),
+)
+#: Dimensions of variables kept at some of the stored points only (the exact forced response's contact points,
+#: ``contact_point``): their sizes and values follow the steps like the points'; the same orbits are compared
+#: along the curve through the per-point variables (amplitudes, phase lags, multipliers).
+SAMPLED_DIMENSIONS = frozenset({"contact_point"})
 
 #: Variables that follow the continuation's steps, not the curve: not compared (indices of stored
 #: points, step numbers and counts of integration steps, arclength summed over the steps).
@@ -69,7 +84,9 @@ SAMPLING_VARIABLES = frozenset(
 #: stored point carries the flag follows the steps; compared as events along the curve.
 MARKER_VARIABLES = frozenset({"branch_point", "energy_fold", "grazing", "marked"})
 #: Stability verdicts: compared outside the band of a change of verdict or resolution.
-STABILITY_VARIABLES = frozenset({"stable", "stability_resolved", "stability_reason", "stability_refined"})
+STABILITY_VARIABLES = frozenset(
+    {"stable", "stability_resolved", "stability_reason", "stability_refined", "regime"}  # regime: forced responses
+)
 #: Stability numbers (Floquet multipliers and what is made of them): where two multipliers collide (a change
 #: of stability) they vary as a square root along the curve and cannot be interpolated; compared outside
 #: the band of a change, like the verdicts.
@@ -86,9 +103,16 @@ ZERO_LEVEL = 1e-12
 #: not reproducible point by point; each must stay within ACCURACY_FACTOR of the reference's largest.
 ACCURACY_PATTERN = re.compile(
     r"(residual|_deviation|integration_error|_change|_shift|energy_spread|force_error|^unfolding|"
-    r"trivial_multiplier_distance|singular_ratio|stability_tolerance)$"
+    r"trivial_multiplier_distance|singular_ratio|stability_tolerance|multiplier_error|orbit_error)$"
 )
 ACCURACY_FACTOR = 10.0
+#: Error estimates of the stability numbers (absolute, per stored point) where a file stores them (the forced
+#: responses: integration error and the orbit's own error): the multipliers of two builds differ within them.
+STABILITY_ERROR_VARIABLES = ("multiplier_error", "stability_orbit_error")
+#: Variables compared as accuracy estimates in the datasets of one kind (attribute ``dataset_kind``): a forced
+#: response's truncation indicator (the share of its top harmonics, 1e-10 away from the stop) moves by several
+#: per cent between CPUs where it is smallest, as the residuals do; it bounds the truncation error.
+ACCURACY_BY_DATASET_KIND = {"forced_regularized": frozenset({"truncation"})}
 
 #: Global attributes that count stored points or steps, or restate where a range ended: they follow the
 #: continuation's steps (the data they describe are compared as curves).
@@ -126,11 +150,11 @@ def curve_coordinates(ds: xr.Dataset) -> tuple[str, str] | None:
     return None
 
 
-def variable_kind(name: str, variable: xr.Variable | xr.DataArray, coordinates=()) -> str:
+def variable_kind(name: str, variable: xr.Variable | xr.DataArray, coordinates=(), accuracy=frozenset()) -> str:
     """How a variable along ``point`` is compared: ``curve`` (the coordinates), ``sampling``,
-    ``marker``, ``stability`` (verdicts), ``stability_value``, ``accuracy``, ``interpolated``,
-    ``orbit`` (harmonics), ``discrete`` or ``smooth``; ``other`` for a variable without the ``point``
-    dimension."""
+    ``marker``, ``stability`` (verdicts), ``stability_value``, ``accuracy`` (also the names in
+    ``accuracy``), ``interpolated``, ``orbit`` (harmonics), ``discrete`` or ``smooth``; ``other`` for a
+    variable without the ``point`` dimension."""
     if POINT not in variable.dims:
         return "other"
     if name in coordinates:
@@ -146,7 +170,7 @@ def variable_kind(name: str, variable: xr.Variable | xr.DataArray, coordinates=(
     kind = variable.dtype.kind
     if kind not in "fc":
         return "discrete"  # integers, flags, labels
-    if ACCURACY_PATTERN.search(name):
+    if ACCURACY_PATTERN.search(name) or name in accuracy:
         return "accuracy"
     if name in INTERPOLATED_VARIABLES:
         return "interpolated"
@@ -182,7 +206,9 @@ def json_value(value):
 
 def _signals(ds: xr.Dataset) -> dict[str, np.ndarray]:
     """Orbit fingerprints per stored point: for each signal (``x`` of ``x_cos`` and ``x_sin``, or one
-    degree of freedom of ``q_cos``), sqrt(sum over harmonics k of (1 + k**4) (cos**2 + sin**2))."""
+    degree of freedom of ``q_cos``, named by its ``dof_label``: ``x``, ``u`` of the paper's oscillator in
+    either layout), sqrt(sum over harmonics k of (1 + k**4) (cos**2 + sin**2))."""
+    labels = [str(v) for v in ds["dof_label"].values] if "dof_label" in ds.variables else None
     sums: dict[str, np.ndarray] = {}
     for name, variable in ds.variables.items():
         if POINT not in variable.dims or "harmonic" not in variable.dims or variable.dtype.kind != "f":
@@ -193,8 +219,9 @@ def _signals(ds: xr.Dataset) -> dict[str, np.ndarray]:
         with np.errstate(over="ignore", invalid="ignore"):  # a damaged coefficient gives inf, which the check reports
             energy = (values**2 * (1.0 + np.asarray(k, dtype=float) ** 4)).sum(axis=-1)
         energy = energy.reshape(values.shape[0], -1)
+        by_label = labels is not None and signal == "q" and variable.dims[1:] == ("dof", "harmonic")
         for j in range(energy.shape[1]):
-            key = signal if energy.shape[1] == 1 else f"{signal}[{j}]"
+            key = labels[j] if by_label else signal if energy.shape[1] == 1 else f"{signal}[{j}]"
             sums[key] = sums.get(key, 0.0) + energy[:, j]
     return {key: np.sqrt(total) for key, total in sums.items()}
 
@@ -225,15 +252,16 @@ def point_table(ds: xr.Dataset) -> dict:
     for name in ("step", "stage"):
         if name in ds.variables and ds[name].dims == (POINT,):
             table[name] = ds[name].values
+    accuracy = ACCURACY_BY_DATASET_KIND.get(ds.attrs.get("dataset_kind"), frozenset())
     for name, variable in ds.variables.items():
-        kind = variable_kind(str(name), variable, coordinates)
+        kind = variable_kind(str(name), variable, coordinates, accuracy)
         if kind in table and kind != "curve":
             table[kind].update(_columns(ds, str(name)))
     table["orbit"] = _signals(ds)
     return table
 
 
-def _weight(name: str) -> float:
+def weight(name: str) -> float:
     """A fixed weight in [1, 2) of a column of a projection, from a hash of its name."""
     return 1.0 + int(hashlib.sha256(name.encode()).hexdigest()[:8], 16) / 2**32
 
@@ -242,9 +270,9 @@ def projections(columns: dict[str, np.ndarray], scales: dict[str, float]) -> tup
     """The projection of ``columns`` (one value per stored point each) with the reference's ``scales``:
     sum over columns of weight * value / scale, divided by the sum of the weights; and the same sum of
     weight * |value| / scale (the magnitude a relative accuracy applies to)."""
-    total = sum(_weight(name) for name in scales)
-    value = sum(_weight(name) * np.asarray(columns[name], dtype=float) / scale for name, scale in scales.items())
-    size = sum(_weight(name) * np.abs(np.asarray(columns[name], dtype=float)) / scale for name, scale in scales.items())
+    total = sum(weight(name) for name in scales)
+    value = sum(weight(name) * np.asarray(columns[name], dtype=float) / scale for name, scale in scales.items())
+    size = sum(weight(name) * np.abs(np.asarray(columns[name], dtype=float)) / scale for name, scale in scales.items())
     return value / total, size / total
 
 
@@ -279,12 +307,12 @@ def profile(ds: xr.Dataset, shared: dict) -> dict:
         variables[str(name)] = [list(variable.dims), str(variable.dtype), attrs]
     entry = {
         "global": {k: json_value(v) for k, v in ds.attrs.items() if k not in PROVENANCE_ATTRIBUTES},
-        "dims": {str(k): int(v) for k, v in ds.sizes.items() if k != POINT},
+        "dims": {str(k): int(v) for k, v in ds.sizes.items() if k != POINT and k not in SAMPLED_DIMENSIONS},
         "variables": share(shared, variables),
         "values": {},
     }
     for name, variable in ds.variables.items():
-        if POINT in variable.dims:
+        if POINT in variable.dims or SAMPLED_DIMENSIONS & set(variable.dims):
             continue
         values = np.asarray(variable.values)
         if values.size <= 256:

@@ -77,7 +77,14 @@ TASK_INDEX = {
     "explorer": ("explorer",),
     "verify": ("verify", "update_reference"),
     "tube": ("tube_stage", "tube_exact", "tube_branch", "tube_compare", "tube_figure", "tube_study_case", "tube_study"),
-    "forced": ("forced_exact", "forced_regularized", "forced_backbone", "forced_prediction", "forced_figure"),
+    "forced": (
+        "forced_exact",
+        "forced_regularized",
+        "forced_backbone",
+        "forced_prediction",
+        "forced_figure",
+        "forced_manifest",
+    ),
 }
 TASK_MODULES = tuple(TASK_INDEX)
 
@@ -141,6 +148,8 @@ def configure_logging(log_path: str | None) -> None:
         root.removeHandler(old)
     root.addHandler(handler)
     root.setLevel(logging.INFO)
+    # a numerical warning that escapes a task lands in its log, beside the step that raised it, not on the terminal
+    logging.captureWarnings(True)
 
 
 class Interrupted(BaseException):

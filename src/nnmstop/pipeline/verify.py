@@ -38,6 +38,7 @@ from nnmstop.pipeline.reference import (
     PROJECTIONS,
     REFERENCE_FORMAT,
     SAMPLING_VARIABLES,
+    STABILITY_ERROR_VARIABLES,
     attribute_kind,
     json_value,
     point_table,
@@ -45,10 +46,11 @@ from nnmstop.pipeline.reference import (
     projected_columns,
     projections,
     read_csv,
+    weight,
     write_csv,
 )
 
-__all__ = ["Row", "data_digest", "update_reference", "verify", "file_verdicts", "format_table", "main"]
+__all__ = ["Row", "data_digest", "build_manifests", "update_reference", "verify", "file_verdicts", "format_table", "main"]
 
 REGIMES_CSV = "compare/nnm1_regimes.csv"
 REGIMES_NC = "compare/nnm1_regimes.nc"
@@ -58,6 +60,9 @@ EXACT_BASE_TOLERANCE = 1e-9
 # A number derived at a located point (a tangent angle) or a regime statistic without a rule of its
 # own: relative tolerance, at least this and ten times the file's base accuracy.
 DERIVED_TOLERANCE = 1e-6
+# Relative differences of two computed values (the backbone's prediction errors, off the curve): each value is
+# accurate to the relative tolerance of derived numbers, so their relative difference is, in absolute value.
+DIFFERENCE_VARIABLES = frozenset({"frequency_error", "amplitude_error"})
 # Numbers of configured settings (global attributes): written from the configuration, so equal.
 SETTING_TOLERANCE = 1e-12
 LOCATED = {"branch point": ("branch_point_energy", "branch_point_frequency"), "fold": ("fold_energy", "fold_frequency")}
@@ -128,9 +133,10 @@ def _stage_of(relative: str) -> tuple[str, int] | None:
 
 
 def _base_tolerance(ds: xr.Dataset) -> float:
-    """Relative accuracy of the stored orbits: the Newton threshold of the ANM (a stored point's
-    relative residual stays below it), or round-off for closed-form and Newton-solved orbits."""
-    return float(ds.attrs.get("newton_threshold", EXACT_BASE_TOLERANCE))
+    """Relative accuracy of the stored orbits: the dataset's ``point_accuracy`` where it states one (a forced
+    response: the Newton threshold amplified by the resonance), else the Newton threshold of the ANM (a stored
+    point's relative residual stays below it), or round-off for closed-form and Newton-solved orbits."""
+    return float(ds.attrs.get("point_accuracy", ds.attrs.get("newton_threshold", EXACT_BASE_TOLERANCE)))
 
 
 def _fmt(e, f) -> str:
@@ -192,10 +198,24 @@ def _compact_json(format_version: int, shared: dict, files: dict) -> str:
             f'"files": {{\n{block(files)}\n}}}}\n')
 
 
-def update_reference(results_dir, reference_dir="reference") -> Path:
+#: Manifests of a build, relative to its results directory: the paper's datasets (required) and the forced
+#: responses' (``snakemake forced``; recorded when present).
+MANIFEST = "MANIFEST.sha256"
+FORCED_MANIFEST = "forced/MANIFEST.sha256"
+
+
+def build_manifests(results_dir) -> list[str]:
+    """The manifests of the build in ``results_dir`` that a reference records: :data:`MANIFEST` and, where the
+    forced responses were built, :data:`FORCED_MANIFEST`."""
+    results = Path(results_dir)
+    return [MANIFEST] + ([FORCED_MANIFEST] if (results / FORCED_MANIFEST).is_file() else [])
+
+
+def update_reference(results_dir, reference_dir="reference", manifests=None) -> Path:
     """Regenerate ``reference_dir`` from the build in ``results_dir``.
 
-    Writes ``MANIFEST.sha256`` (the build's manifest plus the regime table), ``DATA.sha256``
+    ``manifests`` (paths relative to ``results_dir``; default :func:`build_manifests`) list the datasets
+    recorded. Writes ``MANIFEST.sha256`` (the build's manifests plus the regime table), ``DATA.sha256``
     (the same files' :func:`data_digest`), ``files.json`` (each dataset's profile, see
     :func:`nnmstop.pipeline.reference.profile`, and its base tolerance), one curve CSV per
     branch and family (``curves/``) and the regime table with its sampling steps.
@@ -203,17 +223,21 @@ def update_reference(results_dir, reference_dir="reference") -> Path:
     Raises
     ------
     ValueError
-        If ``results_dir`` or its manifest is missing, or a dataset cannot be read.
+        If ``results_dir`` or one of its manifests is missing, or a dataset cannot be read.
     """
     results = _results_dir(results_dir)
-    manifest = results / "MANIFEST.sha256"
-    if not manifest.is_file():
-        raise ValueError(f"{manifest} is missing: build the default target first (`snakemake --cores 2`)")
+    manifests = build_manifests(results) if manifests is None else list(manifests)
+    lines = []
+    for name in manifests:
+        manifest = results / name
+        if not manifest.is_file():
+            target = "forced" if name == FORCED_MANIFEST else "the default target"
+            raise ValueError(f"{manifest} is missing: build {target} first (`snakemake --cores 2`)")
+        lines += manifest.read_text().splitlines()
     reference = Path(reference_dir)
     if reference.exists():
         shutil.rmtree(reference)
     (reference / "curves").mkdir(parents=True)
-    lines = manifest.read_text().splitlines()
     if (results / REGIMES_CSV).is_file():
         lines.append(f"{_sha256(results / REGIMES_CSV)}  results/{REGIMES_CSV}")
     lines = sorted(lines, key=lambda line: line.split("  ")[1])
@@ -367,6 +391,8 @@ def _check_other_values(name: str, ds: xr.Dataset, entry: dict, skip=()) -> list
                                 float("nan"), 0.0, DISCREPANT))
             continue
         reference = np.asarray(wanted)
+        if reference.size == 0 and values.size == 0:  # none (no located change): JSON keeps no shape of it
+            continue
         if reference.shape != values.shape:
             rows.append(Row(name, f"variable {var}: shape", str(reference.shape), str(values.shape), float("nan"), 0.0,
                             DISCREPANT))
@@ -384,10 +410,11 @@ def _check_other_values(name: str, ds: xr.Dataset, entry: dict, skip=()) -> list
                             f"{worst:.3g}", worst, bound, _verdict(worst <= bound)))
             continue
         tolerance = max(DERIVED_TOLERANCE, 10 * entry["base"])
-        difference = np.abs(values - reference) / np.maximum(np.abs(reference), 1e-300)
+        scale = 1.0 if var in DIFFERENCE_VARIABLES else np.maximum(np.abs(reference), 1e-300)
+        difference = np.abs(values - reference) / scale
         worst = float(np.max(difference)) if difference.size else 0.0
         if worst > tolerance:
-            rows.append(Row(name, f"variable {var} (relative)", str(reference.tolist())[:60], str(values.tolist())[:60],
+            rows.append(Row(name, f"variable {var} ({'absolute' if var in DIFFERENCE_VARIABLES else 'relative'})", str(reference.tolist())[:60], str(values.tolist())[:60],
                             worst, tolerance, DISCREPANT))
     return rows
 
@@ -602,10 +629,12 @@ def _check_markers(name: str, reference: dict, table: dict, curves: dict) -> lis
 
 
 def _check_projection(name: str, kind: str, reference: dict, columns: dict, scales: dict, curves: dict, match: tuple,
-                      base: float) -> list[Row]:
+                      base: float, error=None) -> list[Row]:
     """Every orbit fingerprint or smooth quantity at each build point, through the projection: the
     build's value against the reference's interpolated at the point's position; tolerance = the
-    base accuracy of the values + the reference's interpolation error there (leave-one-out)."""
+    base accuracy of the values + the reference's interpolation error there (leave-one-out) + twice the
+    values' own error estimate where the file stores one (``error``, per build point: either build's
+    values are within it)."""
     label = {"orbit": "orbits (harmonics, every signal)", "quantities": "smooth quantities",
              "stability": "stability numbers (multipliers, margins; outside the band of a change)"}[kind]
     missing = sorted(set(scales) - set(columns))
@@ -626,6 +655,10 @@ def _check_projection(name: str, kind: str, reference: dict, columns: dict, scal
     loo = c_ref.leave_one_out(ref)
     around = np.max([c_ref.segment_error(np.clip(segment + k, 0, len(c_ref.s) - 2), loo) for k in (-1, 0, 1)], axis=0)
     tolerance = base * size + LOO_FACTOR * around + 1e-12 * np.abs(expected)
+    if error is not None:  # each column is uncertain by twice the error estimate, at most its whole scale
+        error = np.asarray(error, dtype=float)[c_build.keep]
+        shares = [weight(column) * np.minimum(2.0 * error / scale, 1.0) for column, scale in scales.items()]
+        tolerance = tolerance + np.sum(shares, axis=0) / sum(map(weight, scales))
     ratio = np.where(skip, 0.0, difference / np.maximum(tolerance, 1e-300))
     worst = int(np.argmax(ratio))
     e, f = np.exp(c_build.points[worst])
@@ -694,9 +727,12 @@ def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -
     match = (segment, parameter, past)
     rows += _check_discrete(name, reference, table, curves, match)
     rows += _check_markers(name, reference, table, curves)
+    estimates = [table["accuracy"][c] for c in STABILITY_ERROR_VARIABLES if c in table["accuracy"]]
     for kind, source in PROJECTIONS.items():
         if kind in spec["scales"]:
-            rows += _check_projection(name, kind, reference, table[source], spec["scales"][kind], curves, match, base)
+            error = np.sum(estimates, axis=0) if kind == "stability" and estimates else None
+            rows += _check_projection(name, kind, reference, table[source], spec["scales"][kind], curves, match, base,
+                                      error)
     rows += _check_ranges(name, entry, table, base)
     rows += _check_bounds(name, entry, table)
     return rows

@@ -20,6 +20,7 @@ from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stab
 from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
 from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, prediction_excitations, scene_name
 from nnmstop.hbm.forced import response_amplitudes
+from nnmstop.models.excitation import modal_damping_ratios
 from nnmstop.netcdf import read_dataset, write_dataset
 
 __all__ = ["forced_exact", "forced_regularized", "forced_backbone", "forced_prediction", "forced_figure", "TASKS"]
@@ -60,7 +61,17 @@ def regularized_response_dataset(config: dict, scene: Scene):
     ds = regularized_dataset(system, branch, stability.multipliers, False, changes, scene.frequency_range)
     ds.update(stability.data_vars())
     ds.attrs.update({f"stability_{key}": value for key, value in scene.stability.items()})
+    ds.attrs["newton_threshold"] = anm.newton_threshold
+    ds.attrs["point_accuracy"] = point_accuracy(scene.excitation, anm.newton_threshold)
     return ds
+
+
+def point_accuracy(excitation, newton_threshold: float) -> float:
+    """Relative accuracy of a stored point of a regularized response (the verifier's base tolerance): its relative
+    residual stays below the Newton threshold, and the damped response amplifies a residual by up to the resonant
+    amplification ``1 / (2 zeta)`` of its least damped linear mode (a mode within the lowest four)."""
+    ratios = modal_damping_ratios(excitation, min(excitation.structure.n_dofs, 4))
+    return float(newton_threshold / (2.0 * ratios.min()))
 
 
 def _write(ds, path, scene: Scene, law: str, config: dict):
@@ -107,6 +118,7 @@ def backbone_prediction_dataset(config: dict):
     ds = backbone_dataset(excitation, backbones, forces, predictions)
     ds.attrs.update(base_attributes(excitation, "regularized", scenes[0].frequency_range))
     ds.attrs["harmonics"] = int(scenes[0].harmonics)
+    ds.attrs["newton_threshold"] = anm.newton_threshold
     return ds
 
 
@@ -146,7 +158,10 @@ def prediction_error_dataset(config: dict):
     )
     ds.attrs.update(base_attributes(excitations[0], "regularized", window))
     ds.attrs.update(
-        harmonics=int(forced["harmonics"]), mode=1, force_per_ratio=float(forced["prediction"]["force_per_ratio"])
+        harmonics=int(forced["harmonics"]),
+        mode=1,
+        force_per_ratio=float(forced["prediction"]["force_per_ratio"]),
+        newton_threshold=anm.newton_threshold,
     )
     for name in ("damping_ratio", "rayleigh_mass_coefficient", "rayleigh_stiffness_coefficient", "forcing_amplitude"):
         ds.attrs.pop(name, None)  # per level: variables
@@ -234,5 +249,15 @@ def forced_figure(config, inputs, outputs, figure: str):
         raise ValueError(f"unknown forced figure {figure!r}")
 
 
+def forced_manifest(config, inputs, outputs):
+    """SHA-256 manifest of the forced datasets (as the paper's, :func:`nnmstop.tasks.manifest.dataset_manifest`)."""
+    from nnmstop.tasks.manifest import dataset_manifest
+
+    dataset_manifest(config, inputs, outputs)
+
+
 #: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
-TASKS = {f.__name__: f for f in (forced_exact, forced_regularized, forced_backbone, forced_prediction, forced_figure)}
+TASKS = {
+    f.__name__: f
+    for f in (forced_exact, forced_regularized, forced_backbone, forced_prediction, forced_figure, forced_manifest)
+}
