@@ -17,7 +17,7 @@ import xarray as xr
 from matplotlib.lines import Line2D
 
 from nnmstop import fourier
-from nnmstop.figures.common import save_figure
+from nnmstop.figures.common import save_figure, unit_text
 from nnmstop.forced.stability_changes import KINDS
 
 __all__ = ["frequency_response_figure", "phase_lag_figure", "orbits_figure", "tube_figure", "prediction_error_figure"]
@@ -136,7 +136,7 @@ def frequency_response_figure(
         for row in (0, 1):
             ax = axes[row, column]
             _response_panel(ax, exact, regularized, backbone, dof, colors)
-            ax.set_ylabel(f"max |{label}| over the period")
+            ax.set_ylabel(f"max |{label}| over the period {unit_text(regularized[0], 'q_cos')}")
         axes[0, column].set_yscale("log")
         if zoom is not None:
             axes[1, column].set_xlim(*zoom)
@@ -214,8 +214,8 @@ def orbits_figure(
             top.plot(theta, q[forced], color="tab:blue", lw=2.0, alpha=0.6, ls="--", label="regularized, forced DOF")
             bottom.plot(theta, f, color="tab:blue", lw=2.0, alpha=0.6, label="regularized")
         top.set_title(f"{target:g} Hz, F = {regularized_ds.attrs['forcing_amplitude']:g}")
-        top.set_ylabel("displacement")
-        bottom.set_ylabel("contact force")
+        top.set_ylabel(f"displacement {unit_text(regularized_ds, 'q_cos')}")
+        bottom.set_ylabel(f"contact force {unit_text(regularized_ds, 'f_cos')}")
         bottom.set_xlabel("phase Omega t of the force (rad)")
         top.legend(fontsize=7)
         bottom.legend(fontsize=7)
