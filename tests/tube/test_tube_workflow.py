@@ -71,3 +71,27 @@ def test_tube_datasets_pass_the_cf_and_acdd_checkers(built):
 
     for path in sorted((built / "results" / "tube").rglob("*.nc")):
         assert checker_findings(path) == [], path
+
+
+def test_tube_figures_state_their_scales(built, tmp_path, monkeypatch):
+    """The shapes' colours have a colour bar of t/T; the exact-vs-regularized plot spans the exact family's
+    energies, not the whole branch; NNM1's located points get an enlarged panel when it has any."""
+    from nnmstop.figures import structure
+
+    caught = {}
+    monkeypatch.setattr(structure, "save_figure", lambda fig, path, dpi: caught.update({path.stem: fig}))
+    results = built / "results" / "tube"
+    data = {name: xr.open_dataset(results / f"{name}.nc") for name in ("nnm1", "nnm2")}
+    data["exact"] = xr.open_dataset(results / "exact_nnm1.nc")
+    data["comparison"] = xr.open_dataset(results / "nnm1_exact_vs_regularized.nc")
+    spec = {"png_dpi": 40, "shape_samples": 5}
+    for name in ("shapes", "exact_vs_regularized", "frequency_energy"):
+        structure.draw_structure_figure(name, data, spec, tmp_path / f"{name}.pdf")
+    labels = [ax.get_ylabel() for ax in caught["shapes"].axes]
+    assert any("t / T" in label for label in labels)  # the colour bar says what the colours are
+    low, high = caught["exact_vs_regularized"].axes[0].get_xlim()
+    energy = data["exact"].energy.values
+    assert low <= energy.min() and energy.max() <= high
+    assert high / low < 3.0 * energy.max() / energy.min()  # the window follows the exact family
+    marks = sum(data["nnm1"][v].size for v in ("branch_point_energy", "fold_energy", "passed_resonance_energy"))
+    assert len(caught["frequency_energy"].axes) == len(data) - 2 + (1 if marks else 0)
