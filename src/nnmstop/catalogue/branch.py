@@ -310,7 +310,8 @@ NNM_BRANCH = DatasetKind(
     "resonance tongues passed, Floquet stability, the structure's stops and linear limits "
     "(`docs/methods/hbm.md`, `docs/methods/monodromy.md`). Global attributes: the structure's own (`structure`; "
     "the paper's `alpha`, `beta`, `delta`, `eta`; a beam's physical data), the settings, and how the stage ended "
-    "(`stage_condition`, `stage_condition_met`, `stage_end`, `end_reason`).",
+    "(`stage_condition`, `stage_condition_met`, `stage_end`, `end_reason`; `end_check`: how its end was checked, "
+    "a truncation end confirmed by a restart with ten times shorter steps, `docs/methods/continuation.md`).",
     NNM_BRANCH_VARIABLES,
 )
 

@@ -75,6 +75,10 @@ class ANMSettings:
         same tolerance (the plain series' step is taken instead when the
         approximant's end cannot be corrected by Newton), the default; False
         keeps the plain power series.
+    max_step : float
+        Largest step length (path parameter ``a``): a step whose estimate reaches further stops there,
+        on the same path. No cap (inf) by default; a restart that confirms where a continuation ends
+        (:mod:`nnmstop.continuation.confirm`) takes a fraction of the steps it ended with.
     """
 
     order: int = 20
@@ -83,6 +87,7 @@ class ANMSettings:
     max_steps: int = 3000
     points_per_step: int = 1
     pade: bool = True
+    max_step: float = np.inf
 
     def __post_init__(self):
         if not (isinstance(self.order, (int, np.integer)) and self.order >= 2):
@@ -97,6 +102,8 @@ class ANMSettings:
             raise ValueError(f"points_per_step must be >= 1, got {self.points_per_step!r}")
         if not isinstance(self.pade, (bool, np.bool_)):
             raise ValueError(f"pade must be true or false, got {self.pade!r}")
+        if not self.max_step > 0:
+            raise ValueError(f"max_step must be > 0 (inf: no cap), got {self.max_step!r}")
 
     def stepper(self) -> ANMStepper:
         """The ANM step with these settings, for :func:`nnmstop.continuation.driver.continue_branch`."""
@@ -256,11 +263,12 @@ def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStat
     series, a_b = remove_geometric_tail(series, step_length(series, settings.tolerance))
     if a_b is not None:
         stats.geometric_tails += 1
-    a_max = step_length(series, settings.tolerance, last_terms=1 if a_b is None else 4)
+    a_max = min(step_length(series, settings.tolerance, last_terms=1 if a_b is None else 4), settings.max_step)
     taylor = path = TaylorPath(series)
     a_series = a_max
-    if settings.pade:
+    if settings.pade and a_max < settings.max_step:
         path, a_max = _pade_path(series, a_max, settings.tolerance, path, stats)
+        a_max = min(a_max, settings.max_step)
     try:
         U_end, t_end = _step_end(system, path, a_max, factors, settings, stats)
     except ContinuationError:

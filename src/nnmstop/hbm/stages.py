@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import xarray as xr
 
 from nnmstop.continuation.anm import ANMSettings, continue_anm
+from nnmstop.continuation.confirm import ContinuationEnd, EndNotConfirmed, confirm_end
 from nnmstop.continuation.core import Branch, ContinuationError, ContinuationStats, newton_correct, relative_residual
 from nnmstop.hbm.bifurcation import (
     branch_point_kind,
@@ -69,6 +70,7 @@ __all__ = [
     "stage_criterion",
     "TruncationGuard",
     "follow_stage",
+    "confirm_truncation_end",
     "checked_start",
     "continue_stage",
     "stage_dataset",
@@ -77,6 +79,11 @@ __all__ = [
 ]
 
 logger = logging.getLogger("nnmstop.hbm.stages")
+
+#: A stage that ends on the truncation guard is restarted END_BACK points before its first unresolved point
+#: with steps END_REFINE times shorter than those it ended with (:func:`confirm_truncation_end`).
+END_REFINE = 10.0
+END_BACK = 2
 
 
 @dataclass(frozen=True)
@@ -232,14 +239,76 @@ def stage_dataset(
     return branch_dataset(system, branch, stage, located, stability, settings.continuation, labels, unlocated)
 
 
-def _follow(system, U, direction, stop: StageStop, settings: BranchSettings, label: str) -> Branch:
-    """One segment of a stage; a point the harmonics do not resolve ends it and is dropped."""
+def _follow(system, U, direction, stop: StageStop, settings: BranchSettings, label: str, restart_stop=None) -> Branch:
+    """One segment of a stage; a point the harmonics do not resolve ends it, is confirmed, and is dropped.
+
+    ``restart_stop()``: a fresh stop criterion of the segment, for the restart that confirms a truncation
+    end (:func:`confirm_truncation_end`); ``end_check`` says how the end was checked.
+    """
     branch = continue_anm(system, U, direction, stop, settings.continuation, label=label)
+    branch.end_check = f"located: {stop.ended_by} reached at a stored point (the stage's own end, nothing to confirm)"
     if stop.ended_by == "truncation":
-        for key in ("points", "step", "diagnostics"):
+        if restart_stop is not None:
+            branch.end_check = confirm_truncation_end(system, branch, settings, restart_stop, label)
+        for key in ("points", "step", "diagnostics", "arclength"):
             del getattr(branch, key)[-1:]
         branch.branch_points = [i for i in branch.branch_points if i < len(branch.points)]
     return branch
+
+
+def _step_lengths(branch: Branch) -> np.ndarray:
+    """Length (path parameter) of the continuation step that produced each point (0 for the start point)."""
+    arclength, steps = np.asarray(branch.arclength, dtype=float), np.asarray(branch.step)
+    lengths = np.zeros(len(steps))
+    for s in np.unique(steps[steps > 0]):
+        before = arclength[np.flatnonzero(steps < s)[-1]]
+        lengths[steps == s] = arclength[np.flatnonzero(steps == s)[-1]] - before
+    return lengths
+
+
+def _truncation_end(branch: Branch, ended_by: str, step: float) -> ContinuationEnd:
+    """The end of a stage's segment as :func:`~nnmstop.continuation.confirm.confirm_end` compares it.
+
+    A truncation end is an event of the curve (the indicator crossing its limit) known to the last stored
+    spacing (the first unresolved point, not located between it and the last resolved one).
+    """
+    end = ContinuationEnd.of_branch(branch, step)
+    return replace(end, event="truncation" if ended_by == "truncation" else "")
+
+
+def confirm_truncation_end(system, branch: Branch, settings: BranchSettings, restart_stop, label: str) -> str:
+    """Confirm that a stage ends where its harmonics stop resolving the orbits, not where a long step left the curve.
+
+    The segment is restarted :data:`END_BACK` points before its first unresolved point with ANM steps at
+    most ``1 / END_REFINE`` of the steps it ended with (``ANMSettings.max_step``); the restart must end on
+    the truncation guard too, within the two runs' stored spacings of the first end
+    (:func:`nnmstop.continuation.confirm.confirm_end`).
+
+    Raises
+    ------
+    EndNotConfirmed
+        Naming the stage, both ends and what to change.
+    """
+    back = min(END_BACK, len(branch.points) - 1)
+    step = float(np.max(_step_lengths(branch)[-back:])) if back > 0 else 0.0
+
+    def restart(U, direction, fine_step):
+        stop = restart_stop()
+        finer = replace(settings.continuation, max_step=fine_step)
+        again = continue_anm(system, U, direction, stop, finer, label=f"{label} (end check)")
+        return _truncation_end(again, stop.ended_by, fine_step)
+
+    end = _truncation_end(branch, "truncation", step)
+    try:
+        message = confirm_end(end, restart, step, refine=END_REFINE, back=back, label=label)
+    except EndNotConfirmed as err:
+        raise EndNotConfirmed(
+            f"{err}. The stage's steps were too long where it ended: rebuild with a smaller anm.tolerance "
+            f"(shorter steps); if the restart went on past the first end, the harmonics resolve the orbits "
+            f"there and {settings.truncation_setting} is not what ends the branch"
+        ) from err
+    logger.info("%s: %s", label, message)
+    return message
 
 
 def follow_stage(system, settings: BranchSettings, spec: BranchSpec, stage: int = 1, start=None) -> Branch:
@@ -263,7 +332,13 @@ def follow_stage(system, settings: BranchSettings, spec: BranchSpec, stage: int 
         tongue = TongueWatch() if k < current.pass_resonances else None
         stop = StageStop(system, condition, bound, settings.max_truncation, label, tongue, settings.truncation_setting)
         name = label if current.pass_resonances == 0 else f"{label} segment {k}"
-        segments.append(_follow(system, U0, direction, stop, settings, name))
+
+        def restart_stop(watch=tongue is not None):  # a fresh condition and tongue watch: no memory of the first run
+            fresh = stage_condition(current.until, system.structure, spec.mode)
+            watch = TongueWatch() if watch else None
+            return StageStop(system, fresh, bound, settings.max_truncation, label, watch, settings.truncation_setting)
+
+        segments.append(_follow(system, U0, direction, stop, settings, name, restart_stop))
         ended_by = stop.ended_by
         if ended_by != "tongue":
             break
@@ -274,6 +349,7 @@ def follow_stage(system, settings: BranchSettings, spec: BranchSpec, stage: int 
     branch = joined_segments(segments)
     branch.resonances = resonances
     branch.ended_by = ended_by
+    branch.end_check = segments[-1].end_check
     return branch
 
 
@@ -361,6 +437,7 @@ def continue_stage(system, settings: BranchSettings, spec: BranchSpec, stage: in
     branch = follow_stage(system, settings, spec, stage, start)
     labels["stage_condition_met"] = int(branch.ended_by == "condition")
     labels["stage_end"] = branch.ended_by
+    labels["end_check"] = branch.end_check
     return stage_dataset(system, branch, stage, settings, labels)
 
 
@@ -423,6 +500,8 @@ def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
 def _combined_attributes(out: xr.Dataset, stages: list[xr.Dataset], held: list[xr.Dataset]) -> xr.Dataset:
     """The joined branch's attributes: how its last continued stage ended, which stages were skipped and why."""
     out.attrs["end_reason"] = held[-1].attrs["end_reason"]
+    if "end_check" in held[-1].attrs:
+        out.attrs["end_check"] = held[-1].attrs["end_check"]
     skipped = [int(ds.attrs["skipped_stage"]) for ds in stages if is_skipped(ds) and "skipped_stage" in ds.attrs]
     if skipped:
         out.attrs["skipped_stages"] = np.array(skipped, dtype=np.int32)

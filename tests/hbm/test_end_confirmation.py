@@ -1,0 +1,121 @@
+"""Issue 25.3 on the staged HBM path: a stage that ends on the truncation guard is confirmed by a restart with
+shorter steps, or the job fails saying so; a stage that reaches its own condition or bound is located, not
+confirmed."""
+
+import copy
+import dataclasses
+import re
+
+import numpy as np
+import pytest
+
+from nnmstop.config import load_config
+from nnmstop.continuation.anm import ANMSettings, continue_anm
+from nnmstop.continuation.confirm import EndNotConfirmed
+from nnmstop.hbm import stages
+from nnmstop.hbm.stages import combine_stages
+from nnmstop.pipeline.run import run_task
+from nnmstop.tasks.hbm import branch_settings, branch_spec, build_stage, system_from_config
+
+LIMIT = 1e-4  # H = 24 resolves the stop only to about this near E = 2.6
+
+
+@pytest.fixture(scope="module")
+def unresolved_config():
+    """Paper physics, H = 24, one stage up to E = 20 that the truncation guard ends first."""
+    config = copy.deepcopy(load_config("config/config.yaml"))
+    config["hbm"]["harmonics"] = 24
+    config["hbm"]["points_per_step"] = 2
+    config["hbm"]["max_truncation"] = LIMIT
+    config["branches"]["nnm1"]["stages"] = [{"name": "up", "until": {"energy_above": 20.0}}]
+    return config
+
+
+@pytest.fixture(scope="module")
+def unresolved_stage(unresolved_config):
+    return build_stage(unresolved_config, "nnm1", 1)
+
+
+def test_a_truncation_end_is_confirmed_and_the_check_stored(unresolved_stage):
+    ds = unresolved_stage
+    assert ds.attrs["stage_end"] == "truncation"
+    assert ds.attrs["end_check"].startswith("end confirmed: restarted before its end with step")
+    assert "unresolved: truncation indicator" in ds.attrs["end_check"]  # the restart ended on the guard too
+    assert combine_stages([ds]).attrs["end_check"] == ds.attrs["end_check"]
+
+
+def _unresolved_energy(reason: str) -> float:
+    """Energy of the first unresolved orbit, which the stage names in its end reason and drops."""
+    return float(re.search(r"at energy ([-+0-9.eE]+)", reason).group(1))
+
+
+def test_the_confirmed_end_is_where_a_run_with_short_steps_throughout_ends(unresolved_config, unresolved_stage):
+    """A second run of the whole stage with every ANM step capped far below the first run's last steps brackets
+    the crossing of the truncation limit (last resolved orbit, first unresolved one) more closely, and the two
+    brackets overlap: both runs end on the same crossing."""
+    config = unresolved_config
+    system, settings = system_from_config(config), branch_settings(config)
+    coarse = (float(unresolved_stage["energy"].values[-1]), _unresolved_energy(unresolved_stage.attrs["end_reason"]))
+    short = dataclasses.replace(settings.continuation, max_step=0.05)
+    fine = stages.follow_stage(system, dataclasses.replace(settings, continuation=short), branch_spec(config, "nnm1"))
+    assert fine.ended_by == "truncation"
+    assert all(d["truncation"] <= LIMIT for d in fine.diagnostics)
+    bracket = (fine.diagnostics[-1]["energy"], _unresolved_energy(fine.end_reason))
+    assert max(coarse[0], bracket[0]) < min(coarse[1], bracket[1])
+    assert bracket[1] - bracket[0] < 0.5 * (coarse[1] - coarse[0])  # the cap did shorten the steps
+
+
+def test_a_stage_ending_on_its_own_condition_is_located_not_restarted(unresolved_config):
+    config = copy.deepcopy(unresolved_config)
+    config["branches"]["nnm1"]["stages"] = [{"name": "low", "until": {"energy_above": 1.0}}]
+    ds = build_stage(config, "nnm1", 1)
+    assert ds.attrs["stage_end"] == "condition"
+    assert ds.attrs["end_check"].startswith("located: condition reached")
+
+
+class _FirstRunLosesTheCurve(stages.StageStop):
+    """The first stop of a stage declares the orbits unresolved above E = 1.5, as a step that jumped to another
+    solution curve would find them; every later one (the restart's) is the real criterion."""
+
+    made = 0
+
+    def __post_init__(self):
+        super().__post_init__()
+        type(self).made += 1
+        self.spurious = type(self).made == 1
+
+    def __call__(self, U, d):
+        if self.spurious and d["energy"] > 1.5:
+            self.ended_by = "truncation"
+            return f"unresolved: spurious indicator at energy {d['energy']:.6g}"
+        return super().__call__(U, d)
+
+
+def test_a_spurious_end_fails_the_job_naming_the_stage_both_ends_and_the_remedy(
+    unresolved_config, monkeypatch, tmp_path
+):
+    config = copy.deepcopy(unresolved_config)
+    config["branches"]["nnm1"]["stages"] = [{"name": "low", "until": {"energy_above": 2.0}}]
+    monkeypatch.setattr(stages, "StageStop", _FirstRunLosesTheCurve)
+    out = tmp_path / "nnm1_stage1.nc"
+    with pytest.raises(EndNotConfirmed) as failure:
+        run_task("hbm_stage", config, {}, {"dataset": str(out)}, None, branch="nnm1", stage="1")
+    message = str(failure.value)
+    assert "nnm1 stage 1 (low)" in message and "end NOT confirmed" in message
+    assert "spurious indicator" in message and "energy above 2" in message  # both ends
+    assert "anm.tolerance" in message
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_capped_anm_steps_stay_on_the_curve_and_bad_caps_are_refused(unresolved_config):
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="max_step"):
+            ANMSettings(max_step=bad)
+    system, settings = system_from_config(unresolved_config), branch_settings(unresolved_config)
+    U0, direction = stages.start_point(system, 1, 0.1)
+    capped = dataclasses.replace(settings.continuation, max_step=0.02)
+    branch = continue_anm(system, U0, direction, lambda U, d: "done" if d["energy"] > 0.5 else "", capped)
+    lengths = stages._step_lengths(branch)
+    assert 0 < lengths.max() <= 0.02 * (1 + 1e-12)
+    residuals = [np.linalg.norm(system.residual(U)) / max(np.linalg.norm(U), 1) for U in branch.points]
+    assert max(residuals) <= settings.continuation.newton_threshold
