@@ -2,6 +2,43 @@
 
 from nnmstop.catalogue import DatasetKind, Variable
 
+#: Floquet stability of an exact orbit (product of the phase exponentials), in both exact NNM1 datasets.
+EXACT_STABILITY_VARIABLES = (
+    Variable(
+        "multiplier_real",
+        ("point",),
+        "real part of the non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials); the other one is its reciprocal",
+    ),
+    Variable(
+        "multiplier_imag",
+        ("point",),
+        "imaginary part of the non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials) (>= 0 on the unit circle)",
+    ),
+    Variable("multiplier_modulus", ("point",), "modulus of the largest non-trivial Floquet multiplier (1 if stable)"),
+    Variable("trace_invariant", ("point",), "s = lambda + 1/lambda = trace of the monodromy matrix - 2"),
+    Variable(
+        "stability_margin",
+        ("point",),
+        "2 - |s|: > 0 elliptic multiplier pair (on the unit circle), < 0 real pair off it",
+    ),
+    Variable(
+        "stability_tolerance",
+        ("point",),
+        "tolerance on s from its measured round-off; stable means stability_margin >= -stability_tolerance",
+    ),
+    Variable(
+        "trivial_multiplier_distance",
+        ("point",),
+        "largest distance from +1 of the trivial multiplier pair (time shift and energy, a Jordan block; about sqrt(eps |M|) from round-off)",
+    ),
+    Variable(
+        "stable",
+        ("point",),
+        "Floquet stability of the exact orbit: non-trivial multipliers on the unit circle",
+        flags=("unstable", "stable"),
+    ),
+)
+
 EXACT_NNM1_VARIABLES = (
     Variable(
         "energy",
@@ -43,39 +80,7 @@ EXACT_NNM1_VARIABLES = (
         ("point",),
         "linear phases of the quarter period from the origin to the turning point: F free flight, R contact with the stop x = 1, L contact with the stop x = -1 (the orbit -q, half a period later, has R and L swapped)",
     ),
-    Variable(
-        "multiplier_real",
-        ("point",),
-        "real part of the non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials); the other one is its reciprocal",
-    ),
-    Variable(
-        "multiplier_imag",
-        ("point",),
-        "imaginary part of the non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials) (>= 0 on the unit circle)",
-    ),
-    Variable("multiplier_modulus", ("point",), "modulus of the largest non-trivial Floquet multiplier (1 if stable)"),
-    Variable("trace_invariant", ("point",), "s = lambda + 1/lambda = trace of the monodromy matrix - 2"),
-    Variable(
-        "stability_margin",
-        ("point",),
-        "2 - |s|: > 0 elliptic multiplier pair (on the unit circle), < 0 real pair off it",
-    ),
-    Variable(
-        "stability_tolerance",
-        ("point",),
-        "tolerance on s from its measured round-off; stable means stability_margin >= -stability_tolerance",
-    ),
-    Variable(
-        "trivial_multiplier_distance",
-        ("point",),
-        "largest distance from +1 of the trivial multiplier pair (time shift and energy, a Jordan block; about sqrt(eps |M|) from round-off)",
-    ),
-    Variable(
-        "stable",
-        ("point",),
-        "Floquet stability of the exact orbit: non-trivial multipliers on the unit circle",
-        flags=("unstable", "stable"),
-    ),
+    *EXACT_STABILITY_VARIABLES,
     Variable("n_phases", ("point",), "number of linear phases in the quarter period"),
     Variable("segment", ("point",), "index of the phase-sequence segment (0: the two-impact family)"),
     Variable(
@@ -131,39 +136,7 @@ TWO_IMPACT_FAMILY_VARIABLES = (
         ("point",),
         "smallest margin of the assumptions of the two-impact construction (> 0 inside the family, about 0 at its ends)",
     ),
-    Variable(
-        "multiplier_real",
-        ("point",),
-        "real part of the non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials); the other one is its reciprocal",
-    ),
-    Variable(
-        "multiplier_imag",
-        ("point",),
-        "imaginary part of the non-trivial Floquet multiplier of the exact orbit (monodromy = product of the phase exponentials) (>= 0 on the unit circle)",
-    ),
-    Variable("multiplier_modulus", ("point",), "modulus of the largest non-trivial Floquet multiplier (1 if stable)"),
-    Variable("trace_invariant", ("point",), "s = lambda + 1/lambda = trace of the monodromy matrix - 2"),
-    Variable(
-        "stability_margin",
-        ("point",),
-        "2 - |s|: > 0 elliptic multiplier pair (on the unit circle), < 0 real pair off it",
-    ),
-    Variable(
-        "stability_tolerance",
-        ("point",),
-        "tolerance on s from its measured round-off; stable means stability_margin >= -stability_tolerance",
-    ),
-    Variable(
-        "trivial_multiplier_distance",
-        ("point",),
-        "largest distance from +1 of the trivial multiplier pair (time shift and energy, a Jordan block; about sqrt(eps |M|) from round-off)",
-    ),
-    Variable(
-        "stable",
-        ("point",),
-        "Floquet stability of the exact orbit: non-trivial multipliers on the unit circle",
-        flags=("unstable", "stable"),
-    ),
+    *EXACT_STABILITY_VARIABLES,
     Variable("point", ("point",), "index of the orbit along the family"),
     Variable("arclength", ("point",), "pseudo-arclength in (xdot0, udot0, tau1, T1) from the first orbit"),
 )
