@@ -23,10 +23,10 @@ SMALL_CONFIG = REPO_ROOT / "tests" / "data" / "small_config.yaml"
 def pytest_addoption(parser):
     parser.addoption(
         "--cpu-variants",
-        default="all",
+        default="none",
         help="rerun the tests marked 'numerics' under other BLAS kernels and SIMD levels "
-        "(tests/test_cpu_variants.py): 'all' (default), 'none', or a comma-separated list of "
-        "variant names (sandybridge, prescott-nosimd)",
+        "(tests/test_cpu_variants.py): 'none' (default: the suite's budget), 'all', or a comma-separated list "
+        "of variant names (sandybridge, prescott-nosimd)",
     )
 
 
