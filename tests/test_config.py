@@ -87,9 +87,8 @@ def test_missing_file_is_a_config_error(tmp_path):
         load_config(tmp_path / "nope.yaml")
 
 
-def test_workflow_refuses_a_negative_alpha(repo_root, tmp_path):
-    override = tmp_path / "bad.yaml"
-    override.write_text(yaml.safe_dump({"model": {"alpha": -1.0}}))
+def dry_run(repo_root, override):
+    """``snakemake -n`` of the repository with ``override`` as configfile: the process and its whole output."""
     proc = subprocess.run(
         [sys.executable, "-m", "snakemake", "-n", "--configfile", str(override)],
         cwd=repo_root,
@@ -97,7 +96,13 @@ def test_workflow_refuses_a_negative_alpha(repo_root, tmp_path):
         text=True,
         timeout=120,
     )
-    output = proc.stdout + proc.stderr
+    return proc, proc.stdout + proc.stderr
+
+
+def test_workflow_refuses_a_negative_alpha(repo_root, tmp_path):
+    override = tmp_path / "bad.yaml"
+    override.write_text(yaml.safe_dump({"model": {"alpha": -1.0}}))
+    proc, output = dry_run(repo_root, override)
     assert proc.returncode != 0, output
     assert "model.alpha" in output and "-1.0" in output, output
 
@@ -142,13 +147,6 @@ def test_workflow_names_a_nan_at_its_key(repo_root, tmp_path):
     """`.nan` in YAML reaches Snakemake's configuration as a float: refused before any job, at its key."""
     override = tmp_path / "nan.yaml"
     override.write_text("model:\n  eta: .nan\n")
-    proc = subprocess.run(
-        [sys.executable, "-m", "snakemake", "-n", "--configfile", str(override)],
-        cwd=repo_root,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    output = proc.stdout + proc.stderr
+    proc, output = dry_run(repo_root, override)
     assert proc.returncode != 0, output
     assert "config key 'model.eta': nan is not a finite number" in output, output[-2000:]
