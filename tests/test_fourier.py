@@ -57,6 +57,23 @@ def test_samples_to_coefficients_round_trip():
     np.testing.assert_allclose(fourier.to_coefficients(fourier.to_time(c, H, 17), H), c, rtol=0, atol=1e-13)
 
 
+def test_product_matrix_is_the_projected_product_of_the_series():
+    """The closed-form Galerkin matrix of ``w -> [c w]`` against the product of the two polynomials on a fine
+    grid projected back onto the first ``H`` harmonics (exact: the product has ``2H`` harmonics), for a full and
+    a cosine-layout ``c``; and the matrix from the samples of ``c`` (Hill's route) is the same."""
+    rng = np.random.default_rng(4)
+    m = 4 * H + 3  # above the 4H + 1 samples that resolve the product exactly
+    for c in (FULL, FULL[: H + 1]):
+        matrix = fourier.product_matrix(c, H)
+        for w in rng.standard_normal((3, 2 * H + 1)):
+            projected = fourier.to_coefficients(fourier.to_time(c, H, m) * fourier.to_time(w, H, m), H)
+            np.testing.assert_allclose(matrix @ w, projected, rtol=0, atol=1e-13)
+        samples = fourier.to_time(c, H, 8 * H)
+        np.testing.assert_allclose(fourier.multiplication_matrix(samples, H), matrix, rtol=0, atol=1e-13)
+    with pytest.raises(ValueError, match=r"\|n\| <= 2H = 8"):
+        fourier.product_matrix_of_spectrum(np.zeros(5, complex), H)
+
+
 def test_layout_conversions():
     cos, sin = fourier.to_cos_sin(FULL, H)
     assert sin[0] == 0.0

@@ -17,6 +17,8 @@ at most ``H`` harmonics sampled at ``2H + 1`` or more phases.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 __all__ = [
@@ -29,6 +31,8 @@ __all__ = [
     "to_coefficients",
     "synthesis_matrix",
     "multiplication_matrix",
+    "product_matrix",
+    "product_matrix_of_spectrum",
     "complex_amplitudes",
     "to_cos_sin",
     "from_cos_sin",
@@ -97,14 +101,19 @@ def to_time(c, harmonics: int, samples: int) -> np.ndarray:
 
     ``c`` holds cosine- or full-layout coefficients on its last axis; ``samples >= 2H + 1``.
     """
-    c = to_full(c, harmonics)
-    H = int(harmonics)
+    c = np.asarray(c, dtype=float)
+    H = _check_harmonics(harmonics)
     m = int(samples)
+    if c.shape[-1] not in (H + 1, 2 * H + 1):
+        to_full(c, H)  # the error names the allowed lengths
     if m < 2 * H + 1:
         raise ValueError(f"samples must be >= 2H+1 = {2 * H + 1}, got {samples!r}")
     spec = np.zeros(c.shape[:-1] + (m // 2 + 1,), dtype=complex)
     spec[..., 0] = c[..., 0] * m
-    spec[..., 1 : H + 1] = 0.5 * m * (c[..., 1 : H + 1] - 1j * c[..., H + 1 :])
+    if c.shape[-1] == 2 * H + 1:
+        spec[..., 1 : H + 1] = 0.5 * m * (c[..., 1 : H + 1] - 1j * c[..., H + 1 :])
+    else:  # cosine layout: no sines
+        spec[..., 1 : H + 1] = 0.5 * m * c[..., 1 : H + 1]
     return np.fft.irfft(spec, n=m, axis=-1)
 
 
@@ -222,36 +231,71 @@ def fields_at_phases(theta, omega: float, series: dict, velocities=("x", "u"), s
 def multiplication_matrix(a_samples, harmonics: int, even: bool = False, halfwave: bool = False) -> np.ndarray:
     """Galerkin matrix of ``w -> [a w]`` on the full layout with ``harmonics`` harmonics, for uniform samples of ``a``.
 
-    Built from the complex Fourier coefficients ``a_n`` (``|n| <= 2 H``) of the
-    samples: Toeplitz ``T[k, l] = a_{k-l}`` on complex harmonics ``-H..H``, changed
-    to the ``[c_0, c_c^k, c_s^k]`` layout. ``even`` drops the (round-off) odd part of
-    ``a`` in time, so that the matrix keeps the cosine/sine parity exactly;
-    ``halfwave`` drops its (round-off) odd harmonics, so that it keeps the parity of
-    the harmonic numbers.
+    Built from the complex Fourier coefficients ``a_n`` (``|n| <= 2 H``) of the samples
+    (:func:`product_matrix_of_spectrum`). ``even`` drops the (round-off) odd part of ``a`` in time, so that
+    the matrix keeps the cosine/sine parity exactly; ``halfwave`` drops its (round-off) odd harmonics, so
+    that it keeps the parity of the harmonic numbers.
     """
-    H = harmonics
-    n = a_samples.shape[-1]
-    spec = np.fft.fft(a_samples) / n
+    spec = np.fft.fft(a_samples) / a_samples.shape[-1]
     if even:
         spec = spec.real.astype(complex)
     if halfwave:
         spec[1::2] = 0.0
-    k = np.arange(-H, H + 1)
-    T = spec[(k[:, None] - k[None, :]) % n]  # rows/columns ordered by k = -H..H
-    i0 = H
-    pos = i0 + np.arange(1, H + 1)
-    neg = i0 - np.arange(1, H + 1)
-    # Columns: complex harmonics of the real basis functions 1, cos(l t), sin(l t).
-    TQ = np.empty((2 * H + 1, 2 * H + 1), dtype=complex)
-    TQ[:, 0] = T[:, i0]
-    TQ[:, 1 : H + 1] = 0.5 * (T[:, pos] + T[:, neg])
-    TQ[:, H + 1 :] = -0.5j * (T[:, pos] - T[:, neg])
-    # Rows: real coefficients from complex ones, c_k = P_k + P_-k, s_k = i (P_k - P_-k).
-    R = np.empty_like(TQ)
-    R[0] = TQ[i0]
-    R[1 : H + 1] = TQ[pos] + TQ[neg]
-    R[H + 1 :] = 1j * (TQ[pos] - TQ[neg])
-    return R.real
+    return product_matrix_of_spectrum(spec, harmonics)
+
+
+def product_matrix(c, harmonics: int) -> np.ndarray:
+    """Galerkin matrix of ``w -> [c w]`` (full layout, ``2H + 1`` square) for a series ``c`` of ``H`` harmonics.
+
+    ``c`` holds cosine- or full-layout coefficients. The product of two series of ``H`` harmonics has
+    ``2H``; the matrix keeps its first ``H`` exactly (no sampling, no aliasing): the same numbers as
+    projecting the product of their samples on ``M > 3H`` phases, to round-off.
+
+    Examples
+    --------
+    >>> c = np.array([0.5, 1.0, 0.0])  # 0.5 + cos(theta), cosine layout, H = 2
+    >>> w = np.array([0.0, 0.0, 0.0, 0.0, 2.0])  # 2 sin(2 theta), full layout
+    >>> product_matrix(c, 2) @ w  # sin(theta) + sin(2 theta) (+ sin(3 theta), beyond H)
+    array([0., 0., 0., 1., 1.])
+    """
+    c = to_full(c, harmonics)
+    H = int(harmonics)
+    spec = np.zeros(4 * H + 1, dtype=complex)  # a_n at index n mod (4H + 1), |n| <= 2H
+    spec[0] = c[0]
+    spec[1 : H + 1] = 0.5 * (c[1 : H + 1] - 1j * c[H + 1 :])
+    spec[-H:] = np.conj(spec[H:0:-1])
+    return product_matrix_of_spectrum(spec, H)
+
+
+@functools.lru_cache(maxsize=8)
+def _sum_and_difference_indices(H: int, n: int):
+    k = np.arange(H + 1)
+    return (k[:, None] + k[None, :]) % n, (k[:, None] - k[None, :]) % n
+
+
+def product_matrix_of_spectrum(spec, harmonics: int) -> np.ndarray:
+    """Galerkin matrix of ``w -> [a w]`` (full layout) from the complex coefficients of ``a``.
+
+    ``spec[n mod len(spec)]`` is the coefficient ``a_n`` of ``exp(i n theta)`` of a real ``a``, for every
+    ``|n| <= 2H`` (``len(spec) >= 4H + 1``, or an FFT of more samples). Harmonics ``m`` and ``j`` of the
+    product and of ``w`` couple through ``a_{m+j}`` and ``a_{m-j}`` only (Toeplitz plus Hankel): with
+    ``P = a_{m+j}``, ``D = a_{m-j}`` (``m, j = 0..H``), the cosine-cosine block is ``Re D + Re P``, sine-cosine
+    ``-(Im D + Im P)``, cosine-sine ``Im D - Im P`` and sine-sine ``Re D - Re P``, the mean's row halved.
+    """
+    H = int(harmonics)
+    spec = np.asarray(spec)
+    if len(spec) < 4 * H + 1:
+        raise ValueError(f"need the coefficients a_n for |n| <= 2H = {2 * H}, got {len(spec)} entries")
+    plus_index, minus_index = _sum_and_difference_indices(H, len(spec))
+    plus, minus = spec[plus_index], spec[minus_index]
+    out = np.empty((2 * H + 1, 2 * H + 1))
+    cos, sin = slice(0, H + 1), slice(H + 1, 2 * H + 1)
+    out[cos, cos] = minus.real + plus.real
+    out[sin, cos] = -(minus.imag[1:] + plus.imag[1:])
+    out[cos, sin] = minus.imag[:, 1:] - plus.imag[:, 1:]
+    out[sin, sin] = minus.real[1:, 1:] - plus.real[1:, 1:]
+    out[0] *= 0.5
+    return out
 
 
 def complex_amplitudes(P, H: int) -> np.ndarray:

@@ -201,9 +201,34 @@ def nnm1_through_3to1():
     return system, runs
 
 
+def _path_error(system, method, U_a, U_b, U_star) -> float:
+    """How far the path of the step from ``U_a`` to ``U_b`` runs from the branch where it met the branch point:
+    the distance from the located (projected) point ``U_star`` to the nearest point of that path.
+
+    The located point is the path's crossing of ``det [J; t^T] = 0`` moved onto the branch by least-norm Newton,
+    orthogonally to the branch, so this is the path's own error there, whatever the step length (near a branch
+    point the ANM path's error is not its nominal ``tolerance`` times the step: the terms are near collinear).
+    """
+    tangent, _ = unit_tangent(system, U_a, U_b - U_a, singular_tol=None)
+    path, length = method.stepper().path_through(system, U_a, tangent, U_b, ContinuationStats(), strict=False)
+    a = np.linspace(0.0, length, 401)
+    nearest = a[np.argmin([np.linalg.norm(path(x) - U_star) for x in a])]
+    for _ in range(30):  # Newton on d/da |path(a) - U_star|^2 = 0 from the nearest sample
+        d = path(nearest, derivative=True)
+        nearest = min(max(nearest - float(np.dot(path(nearest) - U_star, d) / np.dot(d, d)), 0.0), length)
+    return float(np.linalg.norm(path(nearest) - U_star))
+
+
+def _location_bound(errors, scale) -> float:
+    """Two located points of one branch point agree to within twice their paths' errors there (a transversal
+    crossing of the branches moves the crossing of ``det = 0`` along the branch by about the path's distance from
+    it) plus twice the projection's relative residual (``newton_tol`` of ``locate_branch_point``, 1e-9)."""
+    return 2.0 * (sum(errors) + 1e-9 * scale)
+
+
 def test_both_steppers_locate_the_same_3to1_branch_point(nnm1_through_3to1):
     system, runs = nnm1_through_3to1
-    located, chords = {}, {}
+    located, errors = {}, {}
     for name, branch in runs.items():
         assert branch.end_reason
         found = locate_flagged_branch_points(system, branch.points, branch.step, branch.branch_points, METHODS[name])
@@ -214,13 +239,15 @@ def test_both_steppers_locate_the_same_3to1_branch_point(nnm1_through_3to1):
         assert resonant[0].singular_ratio < 1e-6
         i = next(i for i, _, n, _ in found if n == 3)
         start = branch.step.index(branch.step[i]) - 1
-        chords[name] = np.linalg.norm(branch.points[i] - branch.points[start])
-    # The ANM locates on its series (or Padé approximant), the branch to its tolerance relative to
-    # the step; the corrected path of pseudo-arclength is the branch to round-off; both are then
-    # projected onto the branch to a relative residual of 1e-9 (locate_branch_point's newton_tol).
+        errors[name] = _path_error(system, METHODS[name], branch.points[start], branch.points[i], located[name])
+    # The ANM locates on its series (or Padé approximant), the corrected path of pseudo-arclength on the branch to
+    # its corrector's tolerance; both paths are the branch to their settings' tolerance (relative to U), and the
+    # located points are projected onto the branch.
     U_anm, U_pal = located["ANM"], located["pseudo-arclength"]
     scale = np.linalg.norm(U_anm)
-    bound = 2.0 * (ANMSettings().tolerance * chords["ANM"] + 1e-9 * scale)
+    for name, error in errors.items():
+        assert error <= 100 * METHODS[name].tolerance * scale, name
+    bound = _location_bound(errors.values(), scale)
     assert np.linalg.norm(U_anm - U_pal) <= bound
     # the energy is quadratic in the amplitudes: relative change at most about twice that of U
     E_anm, E_pal = (system.diagnostics(U)["energy"] for U in (U_anm, U_pal))
@@ -250,9 +277,9 @@ def test_location_from_a_step_end_off_the_series_matches_pseudo_arclength(nnm1_t
         METHODS["ANM"].stepper().path_through(system, U_a, tangent, U_off, ContinuationStats())
     U_star, _ = locate_branch_point(system, U_a, U_off, METHODS["ANM"])
     U_pal = located["pseudo-arclength"][1].U
-    chord = np.linalg.norm(branch.points[i] - U_a)  # the series is the branch to its tolerance relative to the step
-    bound = 2.0 * (ANMSettings().tolerance * chord + 1e-9 * np.linalg.norm(U_pal))
-    assert np.linalg.norm(U_star - U_pal) <= bound
+    error = _path_error(system, METHODS["ANM"], U_a, U_off, U_star)
+    assert error <= 100 * ANMSettings().tolerance * np.linalg.norm(U_pal)
+    assert np.linalg.norm(U_star - U_pal) <= _location_bound([error], np.linalg.norm(U_pal))
     assert relative_residual(system, U_star) <= 1e-9
 
 

@@ -42,6 +42,25 @@ def test_small_force_gives_the_linear_response_with_the_contact_stiffness_eta():
 
 
 @pytest.mark.numerics
+def test_condensed_factors_of_the_damped_system_match_numpy_on_the_full_bordered_matrix():
+    """The forced system's bordered Jacobian (damping couples each cosine to its sine, Omega closes it) factored
+    with z condensed out: solutions and determinant sign as numpy's on the whole matrix, at a point in contact."""
+    system = ForcedHarmonicBalanceSystem(oscillator_excitation(0.1), harmonics=12)
+    rng = np.random.default_rng(7)
+    U = system.linear_guess(2 * np.pi * 0.14) * 3.0 + 0.1 * rng.standard_normal(system.n_unknowns)
+    assert np.abs(system.to_time(system.split(U)[0])).max() > 1.2  # x beyond the stop: the product blocks matter
+    tangent = rng.standard_normal(system.n_unknowns)
+    bordered = np.vstack([system.jacobian(U), tangent])
+    rhs = rng.standard_normal((system.n_unknowns, 2))
+    factors = system.factorize_bordered(U, tangent)
+    expected = np.linalg.solve(bordered, rhs)
+    tolerance = 1e-10 * np.abs(expected).max()
+    np.testing.assert_allclose(factors.solve(rhs), expected, rtol=0, atol=tolerance)
+    np.testing.assert_allclose(factors.solve(rhs[:, 1]), expected[:, 1], rtol=0, atol=tolerance)
+    assert factors.determinant_sign() == np.linalg.slogdet(bordered)[0]
+    assert system.factorize_bordered(U, -tangent).determinant_sign() == -factors.determinant_sign()
+
+
 def test_hbm_response_is_periodic_under_time_integration_within_its_truncation_error():
     excitation = oscillator_excitation(0.05, alpha=3.0, eta=0.3)
     defects = {}

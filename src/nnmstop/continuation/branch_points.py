@@ -248,9 +248,11 @@ def _sparse_null_plane(system, U, reference, iterations: int = 3):
 
     With ``r`` a unit direction, ``B = [J; r^T]`` is singular exactly when ``J`` has a null
     vector orthogonal to ``r``, which a simple branch point always has. Inverse iterations
-    with the LU of ``B`` give that vector ``v`` (and ``B^T``'s, whose first ``n`` entries are
-    the left null vector of ``J``); the solution of ``B w = e_{n+1}`` with its ``v`` part
-    removed is the null vector along ``r``. The ratio is the smallest singular value of
+    on ``B^T B`` and ``B B^T`` with the LU of ``B`` give that vector ``v`` and ``B``'s left one
+    (whose first ``n`` entries are the left null vector of ``J``): the singular vectors, not the
+    eigenvectors of ``B``, which differ from them where ``B``'s left and right null vectors are far
+    from parallel; the solution of ``B w = e_{n+1}`` with its ``v`` part removed is the null vector
+    along ``r``. The ratio is the smallest singular value of
     ``B`` (``|B v|``) over the second smallest, estimated by inverse iterations on
     ``(B^T B)^{-1}`` deflated of ``v``.
     """
@@ -266,9 +268,9 @@ def _sparse_null_plane(system, U, reference, iterations: int = 3):
     start = np.cos(np.arange(n + 1) * 0.7071 + 0.3)
     v = w = start / np.linalg.norm(start)
     for _ in range(iterations):
-        v = lu.solve(v)
+        v = lu.solve(lu.solve(v, trans="T"))
         v /= np.linalg.norm(v)
-        w = lu.solve(w, trans="T")
+        w = lu.solve(lu.solve(w), trans="T")
         w /= np.linalg.norm(w)
     e = np.zeros(n + 1)
     e[-1] = 1.0
@@ -387,13 +389,18 @@ def switch_branch(system, point: BranchPoint, step: float, tol: float = 1e-11):
     return U1
 
 
-def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_step: float, label: str = "bifurcated"):
+def continue_bifurcated_branch(
+    system, point: BranchPoint, stop, method, switch_step: float, label: str = "bifurcated", end_check=None
+):
     """Follow the bifurcated curve through ``point`` both ways.
 
     ``method`` is the continuation method (a stepper or its settings, e.g. ``ANMSettings``).
 
     Each side starts from :func:`switch_branch` (``+switch_step`` and ``-switch_step``
-    along ``point.bifurcated``) and runs until ``stop`` says so.
+    along ``point.bifurcated``) and runs until ``stop`` says so. ``end_check(side, side_label)``, when
+    given, checks where each side ended (it may raise, e.g.
+    :class:`~nnmstop.continuation.confirm.EndNotConfirmed`) and says how; the merged branch's ``end_check``
+    holds both sides' texts.
 
     Returns
     -------
@@ -403,22 +410,19 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
         (whose index is ``branch.branch_points[0]``; the branch points passed on
         either side follow). ``stats`` add up both sides.
     """
-    sides = {}
+    sides, checks = {}, {}
     for sign in (-1.0, 1.0):
         U1 = switch_branch(system, point, sign * switch_step)
-        sides[sign] = continue_branch(
-            system,
-            U1,
-            sign * point.bifurcated,
-            as_stepper(method),
-            stop,
-            label=f"{label} ({'+' if sign > 0 else '-'} side)",
-        )
+        side_label = f"{label} ({'+' if sign > 0 else '-'} side)"
+        sides[sign] = continue_branch(system, U1, sign * point.bifurcated, as_stepper(method), stop, label=side_label)
+        if end_check is not None:
+            checks[sign] = end_check(sides[sign], side_label)
     minus, plus = sides[-1.0], sides[1.0]
     # The sign of point.bifurcated comes from an SVD (round-off decides it): store the curve from its
     # high-energy end, so that it runs the same way on every machine.
     if _end_energy(system, minus) < _end_energy(system, plus):
         minus, plus = plus, minus
+        checks = {-1.0: checks.get(1.0), 1.0: checks.get(-1.0)}
     merged = Branch()
     n_minus = len(minus.points)
     for U, step, diag in zip(minus.points[::-1], minus.step[::-1], minus.diagnostics[::-1]):
@@ -433,6 +437,8 @@ def continue_bifurcated_branch(system, point: BranchPoint, stop, method, switch_
     for field in dataclasses.fields(merged.stats):
         setattr(merged.stats, field.name, getattr(minus.stats, field.name) + getattr(plus.stats, field.name))
     merged.end_reason = f"- side: {minus.end_reason}; + side: {plus.end_reason}"
+    if end_check is not None:
+        merged.end_check = f"- side: {checks[-1.0]}; + side: {checks[1.0]}"
     return merged
 
 

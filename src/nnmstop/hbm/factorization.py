@@ -13,11 +13,13 @@ the test of near-singularity the continuation applies.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-__all__ = ["SparseBorderedLU", "permutation_parity"]
+__all__ = ["SparseBorderedLU", "CondensedBorderedLU", "StopCoupling", "permutation_parity"]
 
 
 def permutation_parity(perm) -> int:
@@ -118,4 +120,77 @@ class SparseBorderedLU:
 
     def is_singular(self, tol: float) -> bool:
         """``pivot_ratio`` is at most ``tol`` (singular to working precision for ``tol`` ~ 1e-14)."""
+        return self.pivot_ratio <= tol
+
+
+class StopCoupling(NamedTuple):
+    """One stop's dense Jacobian blocks, and how its ``z`` unknowns enter :class:`CondensedBorderedLU`.
+
+    ``q``, ``f``, ``z``: slices of the stop DOF's, force's and ``z``'s coefficients (rows and columns; the
+    ``q`` and ``f`` ones are the same in the condensed ordering); ``Mz``: the multiplication matrix of ``z``
+    (the force rows' block in ``f`` is ``I - Mz``); ``to_q``, ``to_f``: the ``z`` rows' blocks ``C`` in ``q``
+    and ``f``; ``force_from_z``: ``-B``, the multiplication matrix of ``f`` (the force rows' block in ``z`` is
+    ``-force_from_z``).
+    """
+
+    q: slice
+    f: slice
+    z: slice
+    Mz: np.ndarray
+    to_q: np.ndarray
+    to_f: np.ndarray
+    force_from_z: np.ndarray
+
+
+class CondensedBorderedLU:
+    """LU of a harmonic-balance ``[J; t^T]`` with the ``z`` unknowns condensed out.
+
+    The rows of ``z_i = (f_i / alpha_i - x_i)^2`` have the identity as their block in ``z``: ``z = r_z - C v``
+    solves them for any other unknowns ``v``, so the matrix is the block ``[[A, B], [C, I]]`` (rows and
+    columns of ``z`` moved last, which keeps the determinant's sign: both move past the same number of
+    rows and columns) and ``det = det(S)`` with the Schur complement ``S = A - B C``, factored here by
+    LAPACK with partial pivoting. ``B`` is nonzero in the force rows (``-M_f``) and in the bordering row.
+    Built by :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.factorize_bordered`.
+
+    Parameters
+    ----------
+    factors : BorderedFactorization
+        LU of ``S`` (rows: the kept equations, then the bordering row).
+    condensed : slice
+        The ``z`` unknowns (and their rows), one block in the full ordering; the others keep their order.
+    couplings : list of StopCoupling
+        One per stop.
+    tangent : ndarray
+        The bordering row.
+    """
+
+    def __init__(self, factors, condensed: slice, couplings, tangent):
+        self.factors = factors
+        self.condensed = condensed
+        self.couplings = couplings
+        self.tangent = tangent
+        self.pivot_ratio = factors.pivot_ratio
+
+    def solve(self, rhs) -> np.ndarray:
+        """Solution of ``[J; t^T] x = rhs`` (one right-hand side, or one per column of a 2-D array)."""
+        rhs = np.asarray(rhs, dtype=float)
+        start, stop_ = self.condensed.start, self.condensed.stop
+        reduced = np.concatenate([rhs[:start], rhs[stop_:]])
+        for stop in self.couplings:
+            r_z = rhs[stop.z]
+            reduced[stop.f] += stop.force_from_z @ r_z
+            reduced[-1] -= self.tangent[stop.z] @ r_z
+        v = self.factors.solve(reduced)
+        x = np.empty_like(rhs)
+        x[:start], x[stop_:] = v[:start], v[start:]
+        for stop in self.couplings:
+            x[stop.z] = rhs[stop.z] - stop.to_q @ x[stop.q] - stop.to_f @ x[stop.f]
+        return _finite_or_error(x, "solution")
+
+    def determinant_sign(self) -> int:
+        """Sign of ``det [J; t^T] = det S``."""
+        return self.factors.determinant_sign()
+
+    def is_singular(self, tol: float) -> bool:
+        """``pivot_ratio`` (of the factors of ``S``) is at most ``tol``."""
         return self.pivot_ratio <= tol

@@ -132,15 +132,6 @@ class ForcedHarmonicBalanceSystem(HarmonicBalanceSystem):
         Z = self.to_coefficients(g_t * g_t)
         return self.pack(*Q, *F, *Z, omega * omega, omega)
 
-    def diagnostics(self, U, samples: int | None = None):
-        """The NNM system's diagnostics (``energy`` is the mean total energy over the period) and the
-        amplitudes ``x_amplitude`` (first stop's DOF, in its gap) and ``q_amplitude`` (largest ``|q|``)."""
-        out = super().diagnostics(U, samples)
-        Q = self._fields(U)[0]
-        x_low, x_high = series_extremes(self.stop_coordinates(Q)[0], self.H)
-        out["x_amplitude"] = max(-x_low, x_high)
-        return out
-
 
 def forced_start_point(system: ForcedHarmonicBalanceSystem, frequency: float):
     """A point of the response at ``frequency`` (Hz) from the linear response, and the direction of growing

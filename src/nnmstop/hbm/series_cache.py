@@ -40,7 +40,6 @@ class SeriesCache:
         # phases: channels 0:2s and 2s:4s are the left and right factors of f z and g g
         self.samples = np.empty((order + 1, 4 * s, system.M))
         self.products = np.empty((2 * s, system.M))
-        self.coefficients = np.empty((2 * s, system.nc))
         self.filled = 1  # U_0 never enters the products
 
     def fill(self, series, p: int):
@@ -57,6 +56,6 @@ class SeriesCache:
         g = f / system.alphas[:, None] - x
         fields = np.concatenate([f, g, terms[:, (N + s) * nc : (N + 2 * s) * nc].reshape(-1, s, nc)], axis=1)
         block = self.samples[self.filled : p]
-        np.matmul(fields, system.synthesis_transposed, out=block[:, : 3 * s])
+        block[:, : 3 * s] = system.to_time(fields)
         block[:, 3 * s :] = block[:, s : 2 * s]
         self.filled = p

@@ -27,7 +27,7 @@ from scipy.linalg import eigh
 
 from nnmstop import fourier
 from nnmstop.continuation.linear import BorderedFactorization
-from nnmstop.hbm.factorization import SparseBorderedLU
+from nnmstop.hbm.factorization import CondensedBorderedLU, SparseBorderedLU, StopCoupling
 from nnmstop.hbm.series_cache import SeriesCache
 from nnmstop.models.structure import Structure
 from nnmstop.models.two_dof import ModelParameters, regularized_force_and_potential
@@ -133,15 +133,7 @@ class HarmonicBalanceSystem:
         if linear_algebra == "auto":
             linear_algebra = "sparse" if self.n_unknowns > DENSE_MAX_UNKNOWNS else "dense"
         self.linear_algebra = linear_algebra
-        # Synthesis matrix of the kept coefficients: time samples = E @ coefficients.
-        self.synthesis = fourier.synthesis_matrix(self.H, self.M, basis)
         self._d2 = fourier.second_derivative_factors(self.H, basis)
-        # ANM products (SeriesCache): transforms as small matrix products, cheaper than
-        # the FFT calls at this size once their set-up is counted (same values to ~1e-15)
-        self.synthesis_transposed = np.ascontiguousarray(self.synthesis.T)
-        weights = np.full(self.nc, 2.0 / self.M)
-        weights[0] = 1.0 / self.M
-        self._projection = self.synthesis * weights
         # sum_j M_ij D^2 w_j of the series products, per stored entry of M (see series_products)
         self._mass_d2 = self._mass.data[:, None] * self._d2
 
@@ -200,10 +192,8 @@ class HarmonicBalanceSystem:
         return fourier.to_coefficients(samples, self.H)[..., : self.nc]
 
     def multiplication_matrix(self, c):
-        """Matrix of ``w -> [a w]`` (projected product) for the fixed series ``a = c``."""
-        a_t = self.to_time(c)
-        # Columns are the projected products of a with each kept basis function.
-        return self.to_coefficients((a_t[:, None] * self.synthesis).T).T
+        """Matrix of ``w -> [c w]`` (projected product) in the kept basis (:func:`nnmstop.fourier.product_matrix`)."""
+        return fourier.product_matrix(c, self.H)[: self.nc, : self.nc]
 
     # ------------------------------------------------------------------ unknown vector
 
@@ -256,10 +246,10 @@ class HarmonicBalanceSystem:
         with np.errstate(over="ignore", invalid="ignore"):
             samples = self.to_time(np.concatenate([F, Z, G]))
             products = self.to_coefficients(np.concatenate([samples[:s] * samples[s : 2 * s], samples[2 * s :] ** 2]))
-        r_q = (self._mass * lam) @ (Q * self._d2) + self._stiffness @ Q
+            r_q = self._mass @ (lam * (Q * self._d2)) + self._stiffness @ Q
+            if self.full:
+                r_q += self._velocity @ (nu * self.derivative(Q))
         r_q[self.stop_dofs] += self.gaps[:, None] * F
-        if self.full:
-            r_q += (self._velocity * nu) @ self.derivative(Q)
         r_f = F - self.etas[:, None] * X - products[:s]
         r_z = Z - products[s:]
         parts = [r_q.ravel(), r_f.ravel(), r_z.ravel()]
@@ -276,10 +266,11 @@ class HarmonicBalanceSystem:
         phase = self.phase_dof * self.nc + np.arange(self.H + 1, 2 * self.H + 1)
         return [(np.full(self.H, self.n_equations - 1), phase, self.k)]
 
-    def _jacobian_entries(self, U):
-        """``(rows, columns, values)`` of the Jacobian, in groups that never share a position."""
-        Q, F, Z, lam, nu = self._fields(U)
-        N, s, nc, H = self.n_dofs, self.n_stops, self.nc, self.H
+    def _linear_entries(self, Q, lam, nu) -> list:
+        """``(rows, columns, values)`` of the Jacobian outside the stops' product blocks, in groups that never
+        share a position: the linear blocks, the stop forces on their DOFs, ``-eta_i x_i`` in the force
+        equations, the ``lam`` and ``nu`` columns and the closing row. None of them touches a ``z`` row or column."""
+        N, nc, H = self.n_dofs, self.nc, self.H
         diagonal = np.arange(nc)
         groups = []
         # linear blocks of each DOF pair (i, j): diag(M_ij lam d2 + K_ij) (+ M_ij nu D1)
@@ -295,30 +286,50 @@ class HarmonicBalanceSystem:
             # D maps the sine coefficient of harmonic k to k times its cosine one, and back with -k
             groups.append((pi[:, None] * nc + cos, pj[:, None] * nc + sin, mn[:, None] * self.k))
             groups.append((pi[:, None] * nc + sin, pj[:, None] * nc + cos, mn[:, None] * -self.k))
-        eye = np.eye(nc)
-        full_block = (np.repeat(diagonal, nc), np.tile(diagonal, nc))
-        f0, z0 = N * nc, (N + s) * nc
-        X = self.stop_coordinates(Q)
-        G = F / self.alphas[:, None] - X
-        for i, (dof, gap, alpha, eta) in enumerate(zip(self.stop_dofs, self.gaps, self.alphas, self.etas)):
-            q_i, f_i, z_i = dof * nc, f0 + i * nc, z0 + i * nc
-            Mz, Mf, Mg = (self.multiplication_matrix(c) for c in (Z[i], F[i], G[i]))
+        f0 = N * nc
+        for i, (dof, gap, eta) in enumerate(zip(self.stop_dofs, self.gaps, self.etas)):
+            q_i, f_i = dof * nc, f0 + i * nc
             groups.append((q_i + diagonal, f_i + diagonal, np.full(nc, gap)))
             groups.append((f_i + diagonal, q_i + diagonal, np.full(nc, -eta / gap)))
-            for row, col, block in (
-                (f_i, f_i, eye - Mz),
-                (f_i, z_i, -Mf),
-                (z_i, q_i, (2.0 / gap) * Mg),
-                (z_i, f_i, -2.0 / alpha * Mg),
-            ):
-                groups.append((row + full_block[0], col + full_block[1], block.ravel()))
-            groups.append((z_i + diagonal, z_i + diagonal, np.ones(nc)))
         q_rows = np.arange(N * nc)
         groups.append((q_rows, np.full(N * nc, self.i_lam), (self._mass @ (Q * self._d2)).ravel()))
         if self.full:
             groups.append((q_rows, np.full(N * nc, self.i_nu), (self._velocity @ self.derivative(Q)).ravel()))
             groups.extend(self._closing_entries(Q, lam, nu))
         return groups
+
+    def _jacobian_parts(self, U):
+        """The Jacobian's scattered entries (:meth:`_linear_entries`) and, per stop, its product blocks.
+
+        A stop's equations hold the multiplication matrices ``M_z``, ``M_f``, ``M_g`` of its products ``f z``
+        and ``g g`` in dense blocks: ``(f, f) = I - M_z``, ``(f, z) = -M_f``, ``(z, q) = (2 / gap) M_g``,
+        ``(z, f) = -(2 / alpha) M_g`` and ``(z, z) = I`` (:class:`~nnmstop.hbm.factorization.StopCoupling`).
+        """
+        Q, F, Z, lam, nu = self._fields(U)
+        G = F / self.alphas[:, None] - self.stop_coordinates(Q)
+        N, s, nc = self.n_dofs, self.n_stops, self.nc
+        couplings = []
+        for i, dof in enumerate(self.stop_dofs):
+            Mz, Mf, Mg = (self.multiplication_matrix(c) for c in (Z[i], F[i], G[i]))
+            q, f, z = (slice(start * nc, (start + 1) * nc) for start in (dof, N + i, N + s + i))
+            couplings.append(StopCoupling(q, f, z, Mz, (2.0 / self.gaps[i]) * Mg, (-2.0 / self.alphas[i]) * Mg, Mf))
+        return self._linear_entries(Q, lam, nu), couplings
+
+    @staticmethod
+    def _stop_blocks(couplings) -> list:
+        """``(rows, columns, values)`` of every stop's equations in the force and ``z`` unknowns: dense blocks
+        (rows and columns as slices), and the identity of ``(z, z)`` as its diagonal (index arrays)."""
+        blocks = []
+        for stop in couplings:
+            z_diagonal = np.arange(stop.z.start, stop.z.stop)
+            blocks += [
+                (stop.f, stop.f, np.eye(len(z_diagonal)) - stop.Mz),
+                (stop.f, stop.z, -stop.force_from_z),
+                (stop.z, stop.q, stop.to_q),
+                (stop.z, stop.f, stop.to_f),
+                (z_diagonal, z_diagonal, np.ones(len(z_diagonal))),
+            ]
+        return blocks
 
     def jacobian(self, U, sparse: bool | None = None):
         """Jacobian ``dS/dU``, shape ``(n_equations, n_unknowns)``.
@@ -328,14 +339,19 @@ class HarmonicBalanceSystem:
         """
         if sparse if sparse is not None else self.linear_algebra == "sparse":
             return self._sparse_jacobian(U).tocsr()
+        entries, couplings = self._jacobian_parts(U)
         J = np.zeros((self.n_equations, self.n_unknowns))
-        for rows, cols, values in self._jacobian_entries(U):
+        for rows, cols, values in entries:
             J[rows, cols] = values
+        for rows, cols, block in self._stop_blocks(couplings):
+            J[rows, cols] = block
         return J
 
     def _sparse_jacobian(self, U):
-        groups = self._jacobian_entries(U)
-        rows, cols, values = (np.concatenate([np.ravel(g[i]) for g in groups]) for i in range(3))
+        entries, couplings = self._jacobian_parts(U)
+        for rows, cols, values in self._stop_blocks(couplings):
+            entries.append((*np.mgrid[rows, cols], values) if isinstance(rows, slice) else (rows, cols, values))
+        rows, cols, values = (np.concatenate([np.ravel(g[i]) for g in entries]) for i in range(3))
         return sp.coo_matrix((values, (rows, cols)), shape=(self.n_equations, self.n_unknowns))
 
     def factorize_bordered(self, U, tangent):
@@ -343,18 +359,46 @@ class HarmonicBalanceSystem:
 
         Returns
         -------
-        BorderedFactorization or SparseBorderedLU
+        CondensedBorderedLU or SparseBorderedLU
             With ``solve(rhs)`` (1-D, or 2-D with one right-hand side per column),
-            ``determinant_sign()`` and ``pivot_ratio``. Dense LAPACK LU when the system's
-            ``linear_algebra`` is "dense", SuperLU in the order of :meth:`elimination_order`
-            when it is "sparse".
+            ``determinant_sign()`` and ``pivot_ratio``. When the system's ``linear_algebra`` is
+            "dense": the ``z`` unknowns condensed out (their equations' block is the identity), then LAPACK
+            LU of what is left (:class:`~nnmstop.hbm.factorization.CondensedBorderedLU`); when it is
+            "sparse": SuperLU in the order of :meth:`elimination_order`.
         """
         tangent = np.asarray(tangent, dtype=float)
         if tangent.shape != (self.n_unknowns,):
             raise ValueError(f"tangent must have shape ({self.n_unknowns},), got {tangent.shape}")
         if self.linear_algebra == "dense":
-            return BorderedFactorization.of_matrix(np.vstack([self.jacobian(U, sparse=False), tangent[None, :]]))
+            return self._condensed_factors(U, tangent)
         return SparseBorderedLU(self._sparse_jacobian(U), tangent, self.elimination_order())
+
+    def _condensed_factors(self, U, tangent) -> CondensedBorderedLU:
+        """:class:`~nnmstop.hbm.factorization.CondensedBorderedLU` of ``[J(U); tangent^T]``.
+
+        The kept unknowns are ``[q, f, lam(, nu)]`` and the kept rows the DOF and force equations, the closing
+        row and the bordering row. With ``z_i = r_z - C_i v`` from the ``z`` rows (``C_i``: their blocks in ``q``
+        and ``f``), the force rows become ``(I - M_z - (2 / alpha) M_f M_g) f + (-eta / gap + (2 / gap) M_f M_g) q``
+        and the bordering row ``t_v - sum_i t_{z_i} C_i``.
+        """
+        N, s, nc, n = self.n_dofs, self.n_stops, self.nc, self.n_unknowns
+        z = slice((N + s) * nc, (N + 2 * s) * nc)  # every z; the q and f coefficients keep their indices
+        kept = np.r_[0 : z.start, z.stop : n]
+        position = np.full(n, -1)  # kept index of every row (equations, then the bordering row) and column
+        position[kept] = np.arange(len(kept))
+        entries, couplings = self._jacobian_parts(U)
+        S = np.zeros((len(kept), len(kept)), order="F")
+        for rows, cols, values in entries:
+            S[position[rows], position[cols]] = values
+        S[-1] = tangent[kept]
+        for i, stop in enumerate(couplings):
+            # M_f C_q and M_f C_f are multiples of one product M_f M_g
+            product = stop.force_from_z @ stop.to_q
+            S[stop.f, stop.f] += np.eye(nc) - stop.Mz - (self.gaps[i] / self.alphas[i]) * product
+            S[stop.f, stop.q] += product
+            S[-1, stop.q] -= tangent[stop.z] @ stop.to_q
+            S[-1, stop.f] -= tangent[stop.z] @ stop.to_f
+        return CondensedBorderedLU(BorderedFactorization.of_matrix(S, overwrite=True), z, couplings, tangent)
 
     def elimination_order(self):
         """Order of the unknowns (and of the equations alike) for the sparse LU.
@@ -425,8 +469,7 @@ class HarmonicBalanceSystem:
         # channels (f, g | z, g) of every stop: the products f z and g g in one sum over the orders
         t = cache.samples
         np.einsum("rkm,rkm->km", t[1:p, : 2 * s], t[p - 1 : 0 : -1, 2 * s :], out=cache.products)
-        np.matmul(cache.products, self._projection, out=cache.coefficients)
-        np.negative(cache.coefficients.ravel(), out=out[nq : nq + 2 * s * nc])
+        np.negative(self.to_coefficients(cache.products).ravel(), out=out[nq : nq + 2 * s * nc])
         return out
 
     # ------------------------------------------------------------------ starting point
