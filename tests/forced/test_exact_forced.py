@@ -86,3 +86,49 @@ def test_perturbations_grow_at_the_rate_of_the_largest_multiplier(contact_family
             assert rate == pytest.approx(largest[index], rel=0.05)
         else:
             assert distance[-1] < distance[0]
+
+
+# ------------------------------------------------------------------ where a contact family ends (issue 25.3)
+
+CONTINUATION = dict(tolerance=1e-12, initial_step=0.01, max_step=0.05)  # the fixture's settings
+
+
+def test_the_end_of_a_contact_family_is_confirmed_by_a_restart_with_shorter_steps(contact_family):
+    from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
+    from nnmstop.exact.forced import confirm_contact_family_end
+
+    _, problem, _, family = contact_family
+    message = confirm_contact_family_end(
+        problem, family, PseudoArclengthSettings(**CONTINUATION), (0.05, 0.35), "F = 0.05"
+    )
+    assert message.startswith("end confirmed: restarted before its end with step")
+    assert "contact shrinks to zero duration" in message  # the restart ended at the grazing orbit too
+
+
+def test_a_contact_family_ending_where_it_is_still_valid_fails_its_confirmation(contact_family):
+    """A run that stops at a margin that is not the family's (a spurious one, as a step landing on another solution
+    curve would see) is not confirmed: the restart, on the true problem, goes on past it."""
+    from nnmstop.continuation.confirm import EndNotConfirmed
+    from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
+    from nnmstop.exact.forced import ContactAssessment, SymmetricContactProblem, confirm_contact_family_end
+    from nnmstop.exact.forced import follow_contact_family as follow
+
+    excitation, problem, grazing, family = contact_family
+    cut = 0.5 * float(np.max(family.unknowns[:, -2]))  # half the longest contact of the family
+
+    class SpuriousMargin(SymmetricContactProblem):
+        def assess(self, y):
+            margins = dict(super().assess(y).margins)
+            margins["early_impact"] = min(margins["early_impact"], cut - y[-2])
+            return ContactAssessment(margins)
+
+    settings = PseudoArclengthSettings(**CONTINUATION)
+    direction = np.zeros(problem.n_unknowns)
+    direction[-2] = 1.0
+    spurious = follow(SpuriousMargin(excitation), problem.grazing_start(grazing[0]), direction, settings, (0.05, 0.35))
+    assert spurious.end_margin == "early_impact" and abs(spurious.unknowns[-1, -2] - cut) <= 1e-9 * cut
+    with pytest.raises(EndNotConfirmed) as failure:
+        confirm_contact_family_end(problem, spurious, settings, (0.05, 0.35), "F = 0.05 (spurious)")
+    message = str(failure.value)
+    assert "F = 0.05 (spurious)" in message and "end NOT confirmed" in message
+    assert "reaches a stop during the free flight" in message  # the first end, then where the restart ended

@@ -1,6 +1,6 @@
-"""Issue 25.3 on the staged HBM path: a stage that ends on the truncation guard is confirmed by a restart with
-shorter steps, or the job fails saying so; a stage that reaches its own condition or bound is located, not
-confirmed."""
+"""Issue 25.3 on the staged HBM path: a stage, or a side of a switched branch, that ends on the truncation guard is
+confirmed by a restart with shorter steps, or the job fails saying so; a stage that reaches its own condition or
+bound, or a side that leaves its energy range, is located, not confirmed."""
 
 import copy
 import dataclasses
@@ -12,10 +12,10 @@ import pytest
 from nnmstop.config import load_config
 from nnmstop.continuation.anm import ANMSettings, continue_anm
 from nnmstop.continuation.confirm import EndNotConfirmed
-from nnmstop.hbm import stages
+from nnmstop.hbm import criteria, stages
 from nnmstop.hbm.stages import combine_stages
 from nnmstop.pipeline.run import run_task
-from nnmstop.tasks.hbm import branch_settings, branch_spec, build_stage, system_from_config
+from nnmstop.tasks.hbm import branch_settings, branch_spec, build_bifurcated, build_stage, system_from_config
 
 LIMIT = 1e-4  # H = 24 resolves the stop only to about this near E = 2.6
 
@@ -119,3 +119,83 @@ def test_capped_anm_steps_stay_on_the_curve_and_bad_caps_are_refused(unresolved_
     assert 0 < lengths.max() <= 0.02 * (1 + 1e-12)
     residuals = [np.linalg.norm(system.residual(U)) / max(np.linalg.norm(U), 1) for U in branch.points]
     assert max(residuals) <= settings.continuation.newton_threshold
+
+
+# ---------------------------------------------------------------------------------------- switched branches
+
+SWITCHED_LIMIT = 1e-4  # H = 51 resolves the 3:1 switched branch only up to about E = 430 at this limit
+
+
+@pytest.fixture(scope="module")
+def switched_config():
+    """NNM1 through its 3:1 branch point with H = 51, the switched branch asked for up to E = 3000."""
+    config = copy.deepcopy(load_config("tests/data/small_config.yaml"))
+    config["hbm"]["harmonics"] = 51
+    config["hbm"]["max_truncation"] = SWITCHED_LIMIT
+    config["branches"]["nnm1"]["stages"] = [
+        {"name": "one_impact_per_stop", "until": {"impacts_above": 2}},
+        {"name": "resonance_3to1", "until": {"impacts_at_most": 4}},
+    ]
+    config["bifurcations"] = {
+        "nnm1_3to1": {"parent": "nnm1", "resonance": 3, "energy_range": [3.0, 3000.0], "switch_step": 1e-3}
+    }
+    return config
+
+
+@pytest.fixture(scope="module")
+def switched_parent(switched_config):
+    first = build_stage(switched_config, "nnm1", 1)
+    return combine_stages([first, build_stage(switched_config, "nnm1", 2, first)])
+
+
+def test_a_switched_branch_side_ending_on_truncation_is_confirmed_the_other_located(switched_config, switched_parent):
+    ds = build_bifurcated(switched_config, "nnm1_3to1", switched_parent)
+    high, low = ds.attrs["end_check"].split("; + side: ")
+    # the side ending at the higher energy comes first: it meets the truncation limit, the other the range's end
+    assert high.startswith("- side: end confirmed: restarted before its end with step")
+    assert "unresolved: truncation indicator" in high  # the restart ended on the guard too
+    assert low.startswith("located: energy left [3, 3000]")
+    assert float(ds["truncation"].max()) <= SWITCHED_LIMIT  # the unresolved end orbit is dropped
+    assert 100.0 < float(ds["energy"].max()) < 3000.0
+
+
+class _FirstGuardLosesTheCurve(criteria.TruncationGuard):
+    """The first guard of a switched branch (the one its sides run with) declares the orbits above E = 100
+    unresolved, as a step that jumped to another solution curve would find them; the restart's guard is real."""
+
+    made = 0
+
+    def __post_init__(self):
+        super().__post_init__()
+        type(self).made += 1
+        self.spurious = type(self).made == 1
+
+    def __call__(self, U, d):
+        if self.spurious and d["energy"] > 100.0:
+            self.unresolved = True
+            return f"unresolved: spurious indicator at energy {d['energy']:.6g}"
+        return super().__call__(U, d)
+
+
+def test_a_spurious_end_of_a_switched_branch_fails_naming_the_side_and_both_ends(
+    switched_config, switched_parent, monkeypatch
+):
+    # the spurious indicator must look like one to the side's check too: the last orbit's truncation above the limit
+    real_diagnostics = stages.HarmonicBalanceSystem.diagnostics
+
+    def diagnostics(self, U, samples=None):
+        out = real_diagnostics(self, U, samples)
+        if out["energy"] > 100.0 and _FirstGuardLosesTheCurve.made == 1:
+            out["truncation"] = max(out["truncation"], 2 * SWITCHED_LIMIT)
+        return out
+
+    monkeypatch.setattr(stages, "TruncationGuard", _FirstGuardLosesTheCurve)
+    monkeypatch.setattr(stages.HarmonicBalanceSystem, "diagnostics", diagnostics)
+    with pytest.raises(EndNotConfirmed) as failure:
+        build_bifurcated(switched_config, "nnm1_3to1", switched_parent)
+    message = str(failure.value)
+    assert (
+        "bifurcated from nnm1 at the 3:1 resonance" in message and "side)" in message and "end NOT confirmed" in message
+    )
+    assert "spurious indicator" in message and "unresolved: truncation indicator" in message  # both ends
+    assert "anm.tolerance" in message

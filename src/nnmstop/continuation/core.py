@@ -74,7 +74,9 @@ class Branch:
     method did not compute it); ``checks`` the events' check of each point (None without
     events, :mod:`nnmstop.continuation.events`); ``arclength`` the pseudo-arclength of each
     point from the start (the steps' path parameters added up; None where unknown).
-    ``end_event`` is the located event that ended the branch (None when something else did).
+    ``end_event`` is the located event that ended the branch (None when something else did);
+    ``end_check`` how the end was checked, when something checked it
+    (:mod:`nnmstop.continuation.confirm`).
     """
 
     points: list = field(default_factory=list)
@@ -89,6 +91,7 @@ class Branch:
     checks: list = field(default_factory=list)
     arclength: list = field(default_factory=list)
     end_event: object = None
+    end_check: str = ""
 
     def add(self, U, step, diagnostics=None, check=None, arclength=None):
         self.points.append(np.array(U, dtype=float))

@@ -29,18 +29,23 @@ Method notes: docs/forced.md.
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from nnmstop.continuation.confirm import ContinuationEnd, confirm_end, event_tolerance
 from nnmstop.continuation.core import ContinuationStats, unit_tangent
 from nnmstop.continuation.newton import bisect_sign_change
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthStepper, continue_pseudo_arclength
 from nnmstop.exact.grazing import MarginChecks
 from nnmstop.floquet import match_nearest
 from nnmstop.models.excitation import Excitation
+
+logger = logging.getLogger("nnmstop.exact.forced")
 
 __all__ = [
     "ForcedPhase",
@@ -50,6 +55,9 @@ __all__ = [
     "SymmetricContactProblem",
     "ContactAssessment",
     "CONTACT_MARGINS",
+    "ContactFamily",
+    "follow_contact_family",
+    "confirm_contact_family_end",
 ]
 
 #: Largest condition number of the eigenvector matrix of a phase (a nearly defective phase is refused).
@@ -424,16 +432,34 @@ class SymmetricContactProblem:
 
 @dataclass
 class ContactFamily:
-    """A continued family of symmetric one-contact responses: unknowns in order, why it ends, cost."""
+    """A continued family of symmetric one-contact responses: unknowns in order, why it ends, cost.
+
+    ``arclength``: pseudo-arclength of each orbit from the first; ``end_check``: how the end was confirmed
+    (:func:`confirm_contact_family_end`; "" when it was not asked).
+    """
 
     unknowns: np.ndarray
     end_reason: str
     end_margin: str
     stats: object
+    arclength: np.ndarray
+    end_check: str = ""
+
+
+#: Orbits of the restart that confirms where a contact family ends (about twenty steps cover the last two of
+#: the first run at the tenth of its step; the rest is room for steps the restart shortens).
+RESTART_POINTS = 170
 
 
 def follow_contact_family(
-    problem: SymmetricContactProblem, y0, direction, settings, frequency_range, label: str = "exact forced response"
+    problem: SymmetricContactProblem,
+    y0,
+    direction,
+    settings,
+    frequency_range,
+    label: str = "exact forced response",
+    confirm: bool = False,
+    max_points: int | None = None,
 ) -> ContactFamily:
     """Follow the family through ``y0`` by pseudo-arclength continuation until an assumption fails or the
     frequency leaves ``frequency_range`` (Hz).
@@ -441,11 +467,19 @@ def follow_contact_family(
     Every orbit is assessed (:meth:`SymmetricContactProblem.assess`); at the first one that breaks an
     assumption, the boundary is located by bisection on the path of the last step
     (:meth:`~nnmstop.continuation.pseudo_arclength.PseudoArclengthStepper.path_through`) to ``1e-12`` of its
-    length, and the family ends at the last valid orbit with the reason of :data:`CONTACT_MARGINS`.
+    length, and the family ends at the last valid orbit with the reason of :data:`CONTACT_MARGINS`. With
+    ``confirm``, that end is confirmed by a restart with a ten times smaller step
+    (:func:`confirm_contact_family_end`; ``end_check``), which raises
+    :class:`~nnmstop.continuation.confirm.EndNotConfirmed` when it ends elsewhere. ``max_points`` ends the family
+    after that many orbits (a restart's bound; the family is still valid there).
     """
     low, high = frequency_range
+    count = [0]
 
     def stop(y, diag):
+        count[0] += 1
+        if max_points is not None and count[0] >= max_points:
+            return f"max_points = {max_points} reached (the family is still valid there)"
         if not low <= diag["frequency"] <= high:
             return f"frequency outside [{low:g}, {high:g}] Hz"
         check = problem.assess(y)
@@ -453,6 +487,7 @@ def follow_contact_family(
 
     branch = continue_pseudo_arclength(problem, y0, direction, stop, settings, label=label)
     points = np.array(branch.points)
+    arclength = np.array(branch.arclength, dtype=float)
     margin = branch.end_reason if branch.end_reason in CONTACT_MARGINS else ""
     if margin and len(points) >= 2:
         stats = ContinuationStats()
@@ -462,5 +497,63 @@ def follow_contact_family(
             lambda a: problem.assess(path(a)), 0.0, length, tol=1e-12 * length, side=lambda check: check.valid
         )
         points[-1] = path(found.lo)
+        arclength[-1] = arclength[-2] + found.lo
     reason = CONTACT_MARGINS.get(margin, branch.end_reason)
-    return ContactFamily(points, reason, margin, branch.stats)
+    family = ContactFamily(points, reason, margin, branch.stats, arclength)
+    if confirm:
+        family.end_check = confirm_contact_family_end(problem, family, settings, frequency_range, label)
+    return family
+
+
+def _largest_step(family: ContactFamily, back: int = 3) -> float:
+    """The longest of the last ``back`` steps of ``family`` (pseudo-arclength)."""
+    return float(np.max(np.diff(family.arclength[-(back + 1) :]))) if len(family.arclength) > 1 else 0.0
+
+
+def _contact_family_end(problem: SymmetricContactProblem, family: ContactFamily, step: float) -> ContinuationEnd:
+    points = np.asarray(family.unknowns, dtype=float)
+    if family.end_margin:
+        tolerance = event_tolerance(step, points[-1], 1e-12)  # the boundary is bisected to 1e-12 of the last step
+    else:
+        tolerance = float(np.linalg.norm(points[-1] - points[-2])) if len(points) > 1 else 0.0
+    return ContinuationEnd(
+        points=points,
+        arclength=family.arclength,
+        event=family.end_margin,
+        reason=family.end_reason,
+        energy=problem.diagnostics(points[-1])["energy"],
+        tolerance=tolerance,
+    )
+
+
+def confirm_contact_family_end(
+    problem: SymmetricContactProblem, family: ContactFamily, settings, frequency_range, label: str
+) -> str:
+    """Confirm where a contact family ends: restarted two orbits before its end with steps ten times smaller
+    (``initial_step``, ``min_step`` and ``max_step`` of ``settings``), it must end on the same margin, at the
+    same orbit to the two runs' location tolerances (:func:`nnmstop.continuation.confirm.confirm_end`); a family
+    that leaves the frequency range must not meet a margin before its end.
+
+    Raises
+    ------
+    EndNotConfirmed
+        Naming the family and both ends.
+    """
+    step = _largest_step(family)
+
+    def restart(U, direction, fine_step):
+        refine = step / fine_step
+        fine = dataclasses.replace(
+            settings,
+            initial_step=settings.initial_step / refine,
+            min_step=min(settings.min_step, settings.initial_step / refine),
+            max_step=settings.max_step / refine,
+        )
+        again = follow_contact_family(
+            problem, U, direction, fine, frequency_range, f"{label} (end check)", max_points=RESTART_POINTS
+        )
+        return _contact_family_end(problem, again, _largest_step(again))
+
+    message = confirm_end(_contact_family_end(problem, family, step), restart, step, label=label)
+    logger.info("%s: %s", label, message)
+    return message

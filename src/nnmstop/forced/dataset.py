@@ -172,6 +172,7 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolut
     ds.attrs["stability_resolution_factor"] = float(resolution_factor)
     ds.attrs["segment_kinds"] = " ".join(p.kind for p in pieces)
     ds.attrs["segment_end_reasons"] = "; ".join(f"{k}: {p.end_reason}" for k, p in enumerate(pieces))
+    ds.attrs["segment_end_checks"] = "; ".join(f"{k}: {p.end_check}" for k, p in enumerate(pieces))
     return ds
 
 

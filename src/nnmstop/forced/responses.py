@@ -56,8 +56,9 @@ class ExactSettings:
 class ExactPiece:
     """One piece of the exact response: ``kind`` ("non_impacting" or "one_contact"), its frequencies (Hz),
     amplitudes ``max |q_j|`` (points, N), multipliers ``mu`` (points, 2N), the unknowns of the contact family
-    (empty for the non-impacting piece), the located stability changes, why the piece ends and the multipliers'
-    error estimates (points,): their difference from a second computation with :func:`scipy.linalg.expm`."""
+    (empty for the non-impacting piece), the located stability changes, why the piece ends, the multipliers'
+    error estimates (points,): their difference from a second computation with :func:`scipy.linalg.expm`, and
+    how the end was checked (a contact family's end confirmed by a restart, the non-impacting piece's located)."""
 
     kind: str
     frequency: np.ndarray
@@ -67,6 +68,7 @@ class ExactPiece:
     changes: list
     end_reason: str
     multiplier_error: np.ndarray
+    end_check: str = ""
 
 
 def path_between(system, stepper, points, i: int):
@@ -105,6 +107,8 @@ def _non_impacting_pieces(excitation: Excitation, low: float, high: float, sampl
                     [],
                     ends,
                     errors[sl],
+                    "closed form: the linear response on a grid, split at grazing frequencies located to round-off "
+                    "(no continuation, nothing to confirm)",
                 )
             )
             start = None
@@ -140,7 +144,7 @@ def exact_response(excitation: Excitation, frequency_range, settings: ExactSetti
         y0 = problem.grazing_start(omega)
         direction = np.zeros(problem.n_unknowns)
         direction[-2] = 1.0
-        family = follow_contact_family(problem, y0, direction, settings.continuation, (low, high))
+        family = follow_contact_family(problem, y0, direction, settings.continuation, (low, high), confirm=True)
         Y = family.unknowns
         reached.append(Y[-1, -1])
         nus = np.array([problem.multipliers(y)[1] for y in Y])
@@ -162,6 +166,7 @@ def exact_response(excitation: Excitation, frequency_range, settings: ExactSetti
                 changes,
                 family.end_reason,
                 np.array([problem.multiplier_error(y) for y in Y]),
+                family.end_check,
             )
         )
     return _along_the_curve(pieces)

@@ -193,6 +193,11 @@ class TruncationGuard:
             return f"unresolved: {text}"
         return self.inner(U, diag)
 
+    @property
+    def ended_by(self) -> str:
+        """``"truncation"`` once an unresolved orbit ended the branch, else ``""``."""
+        return "truncation" if self.unresolved else ""
+
 
 @dataclass
 class TongueWatch:

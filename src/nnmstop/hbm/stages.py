@@ -303,7 +303,7 @@ def confirm_truncation_end(system, branch: Branch, settings: BranchSettings, res
         message = confirm_end(end, restart, step, refine=END_REFINE, back=back, label=label)
     except EndNotConfirmed as err:
         raise EndNotConfirmed(
-            f"{err}. The stage's steps were too long where it ended: rebuild with a smaller anm.tolerance "
+            f"{err}. The steps were too long where it ended: rebuild with a smaller anm.tolerance "
             f"(shorter steps); if the restart went on past the first end, the harmonics resolve the orbits "
             f"there and {settings.truncation_setting} is not what ends the branch"
         ) from err
@@ -565,6 +565,7 @@ def _resolved_ends(branch: Branch, limit: float) -> Branch:
     first = 1 if branch.diagnostics[0]["truncation"] > limit else 0
     last = len(branch.points) - (1 if branch.diagnostics[-1]["truncation"] > limit else 0)
     out = Branch(stats=branch.stats, end_reason=branch.end_reason, end_tangent=branch.end_tangent)
+    out.end_check = branch.end_check
     for U, step, diagnostics in zip(branch.points[first:last], branch.step[first:last], branch.diagnostics[first:last]):
         out.add(U, step, diagnostics)
     out.branch_points = [i - first for i in branch.branch_points if first <= i < last]
@@ -601,15 +602,29 @@ def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, p
     def out_of_range(U, d):
         return f"energy left [{low:g}, {high:g}]" if not low <= d["energy"] <= high else ""
 
-    stop = TruncationGuard(
-        system, out_of_range, settings.max_truncation, label, settings.truncation_setting, end_branch=True
-    )
+    def guard():
+        return TruncationGuard(
+            system, out_of_range, settings.max_truncation, label, settings.truncation_setting, end_branch=True
+        )
+
+    def side_end(side: Branch, side_label: str) -> str:
+        if side.diagnostics[-1]["truncation"] <= settings.max_truncation:
+            return f"located: {side.end_reason} (the energy range's end, nothing to confirm)"
+        return confirm_truncation_end(system, side, settings, guard, side_label)
+
     branch = _resolved_ends(
-        continue_bifurcated_branch(system, point, stop, settings.continuation, spec.switch_step, label),
+        continue_bifurcated_branch(
+            system, point, guard(), settings.continuation, spec.switch_step, label, end_check=side_end
+        ),
         settings.max_truncation,
     )
     ds = stage_dataset(
-        system, branch, stage, settings, {"branch": spec.parent}, located=[(branch.branch_points[0], point, n, False)]
+        system,
+        branch,
+        stage,
+        settings,
+        {"branch": spec.parent, "end_check": branch.end_check},
+        located=[(branch.branch_points[0], point, n, False)],
     )
     diag = system.diagnostics(point.U)
     described = {
