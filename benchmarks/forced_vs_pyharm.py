@@ -8,16 +8,19 @@ configuration's ``anm`` settings; pyHarm (PyPI ``pyharm-os``, installed by this 
 own, ``--venv``): alternating frequency-time with ``--time-samples`` instants, tangent predictor,
 arc-length corrector, Newton-Raphson to ``--newton-tol``, its accepted-step size rule.
 
-Reported: wall and CPU time, points, factorizations (here: LU of the bordered Jacobian; pyHarm: its Newton
-solves, each an LU of the dense Jacobian, and its Jacobian evaluations); the largest distance between the two
-curves, in ``max |x|`` and ``max |u|`` over the period (both from the harmonics, extremes located to round-off)
-at pyHarm's points, against this project's curve at the same frequency (located on the ANM steps, no
-interpolation; the nearest branch where the curve folds); and what this project adds: the multipliers, the
-verdicts and the located folds, period doublings and Neimark-Sacker points, timed apart.
+Reported, over ``--repeat`` pairs of runs (one of each side back to back, so that both meet the same load):
+wall and CPU time, the speed-up of each pair (its median decides the target), points, factorizations (here: LU
+of the bordered Jacobian; pyHarm: its Newton solves, each an LU of the dense Jacobian, and its Jacobian
+evaluations); the largest distance between the two curves, in ``max |x|`` and ``max |u|`` over the period
+(both from the harmonics, extremes located to round-off) at pyHarm's points, against this project's curve at
+the same frequency (located on the ANM steps, no interpolation; the nearest branch where the curve folds); and
+what this project adds: the multipliers, the verdicts and the located folds, period doublings and
+Neimark-Sacker points, timed apart.
 
 Usage::
 
-    python benchmarks/forced_vs_pyharm.py [--force 0.1] [--profile] [--output benchmarks/forced_vs_pyharm.md]
+    python benchmarks/forced_vs_pyharm.py [--force 0.1] [--repeat 3] [--profile] \\
+        [--output benchmarks/forced_vs_pyharm.md]
 
 Skipped, with the reason in the report, where pyHarm cannot be installed.
 """
@@ -43,7 +46,7 @@ for _name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-from timing import REPO, emit_report, timed  # noqa: E402
+from timing import REPO, check_repeat, emit_report, timed  # noqa: E402
 
 PYHARM = "pyharm-os==1.2.2"
 # what pyHarm imports (its declared requirements also pull Jupyter, which it does not need to compute)
@@ -77,32 +80,37 @@ def scene_problem(force: float):
     return config, scene, scene.excitation.with_amplitude(force)
 
 
-def ours(config, scene, excitation) -> dict:
-    """The response by harmonic balance + ANM; then, timed apart, its stability and located changes."""
+def our_response(config, scene, excitation) -> dict:
+    """The response by harmonic balance + ANM, timed."""
     from nnmstop.continuation.anm import ANMSettings
-    from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stability
     from nnmstop.forced.responses import RegularizedSettings, regularized_response
-    from nnmstop.forced.stability_changes import KINDS
 
     anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
     settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
     (system, branch), cpu, wall = timed(lambda: regularized_response(excitation, scene.frequency_range, settings))
-    stability_settings = ForcedStabilitySettings.from_config(scene.stability)
-    (stability, changes), s_cpu, s_wall = timed(lambda: regularized_stability(system, branch, anm, stability_settings))
-    kinds = {kind: sum(c.kind == kind for c in changes) for kind in KINDS}
     return dict(
         system=system,
         branch=branch,
         cpu=cpu,
         wall=wall,
-        stability_cpu=s_cpu,
-        stability_wall=s_wall,
         points=len(branch.points),
         factorizations=branch.stats.factorizations,
         steps=branch.stats.steps,
-        unresolved=int(np.sum(~stability.resolved)),
-        changes=kinds,
+        branch_settings=anm,
     )
+
+
+def our_stability(config, scene, mine: dict) -> dict:
+    """What pyHarm does not give, timed apart: the multipliers of every point and the located changes."""
+    from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stability
+    from nnmstop.forced.stability_changes import KINDS
+
+    stability_settings = ForcedStabilitySettings.from_config(scene.stability)
+    (stability, changes), cpu, wall = timed(
+        lambda: regularized_stability(mine["system"], mine["branch"], mine["branch_settings"], stability_settings)
+    )
+    kinds = {kind: sum(c.kind == kind for c in changes) for kind in KINDS}
+    return dict(stability_cpu=cpu, stability_wall=wall, unresolved=int(np.sum(~stability.resolved)), changes=kinds)
 
 
 #: Where this project's time goes (``--profile``): part -> (module path suffix, function) whose cumulative time it is.
@@ -218,8 +226,17 @@ def curve_distance(mine: dict, theirs: dict) -> dict:
     )
 
 
-def report(args, mine, theirs, distance) -> str:
-    ratio_wall, ratio_cpu = theirs["wall_seconds"] / mine["wall"], theirs["cpu_seconds"] / mine["cpu"]
+def _spread(values) -> str:
+    """Median and range of ``values``: ``m [lo-hi]``."""
+    values = np.asarray(values, dtype=float)
+    return f"{np.median(values):.2f} [{values.min():.2f}-{values.max():.2f}]"
+
+
+def report(args, runs, stability, distance, profile=None) -> str:
+    """The report of ``runs``, pairs ``(mine, theirs)`` of back-to-back runs (the last pair's curves compared)."""
+    mine, theirs = runs[-1]
+    ratios = {kind: [t[f"{kind}_seconds"] / m[kind] for m, t in runs] for kind in ("cpu", "wall")}
+    median = {kind: float(np.median(values)) for kind, values in ratios.items()}
     labels = [str(label) for label in mine["system"].structure.dof_labels]
     lines = [
         "# Regularized frequency response: this project against pyHarm",
@@ -228,18 +245,21 @@ def report(args, mine, theirs, distance) -> str:
         f"F = {args.force:g} on u, H = {mine['system'].H}, {mine['range'][0]:g}..{mine['range'][1]:g} Hz. "
         f"pyHarm {PYHARM.split('==')[1]}: AFT with {args.time_samples} instants, Newton-Raphson to "
         f"{args.newton_tol:g}, ds0 = {args.ds0:g}, ds_max = {args.ds_max:g}. Both sides with "
-        f"OPENBLAS_NUM_THREADS = {BLAS_THREADS} (the pipeline's jobs use one BLAS thread).",
+        f"OPENBLAS_NUM_THREADS = {BLAS_THREADS} (the pipeline's jobs use one BLAS thread). {len(runs)} pairs of "
+        "runs, each pair one run of each side back to back (times: median [smallest-largest]).",
         "",
         "| | wall (s) | CPU (s) | points | factorizations | other counts |",
         "|---|---|---|---|---|---|",
-        f"| this project (HBM + ANM) | {mine['wall']:.2f} | {mine['cpu']:.2f} | {mine['points']} | "
-        f"{mine['factorizations']} | {mine['steps']} ANM steps |",
-        f"| pyHarm | {theirs['wall_seconds']:.2f} | {theirs['cpu_seconds']:.2f} | {theirs['points']} | "
-        f"{theirs['linear_solves']} | {theirs['jacobian_evaluations']} Jacobian, "
+        f"| this project (HBM + ANM) | {_spread([m['wall'] for m, _ in runs])} | "
+        f"{_spread([m['cpu'] for m, _ in runs])} | {mine['points']} | {mine['factorizations']} | "
+        f"{mine['steps']} ANM steps |",
+        f"| pyHarm | {_spread([t['wall_seconds'] for _, t in runs])} | {_spread([t['cpu_seconds'] for _, t in runs])} "
+        f"| {theirs['points']} | {theirs['linear_solves']} | {theirs['jacobian_evaluations']} Jacobian, "
         f"{theirs['residual_evaluations']} residual evaluations |",
         "",
-        f"Speed-up (pyHarm / this project): **{ratio_cpu:.1f}x** in CPU time, {ratio_wall:.1f}x in wall time "
-        f"(target: 20x) -> {'met' if min(ratio_cpu, ratio_wall) >= 20 else 'NOT met'}.",
+        f"Speed-up (pyHarm / this project, per pair of runs): **{_spread(ratios['cpu'])}x** in CPU time, "
+        f"{_spread(ratios['wall'])}x in wall time (target: 20x on the medians) -> "
+        f"{'met' if min(median.values()) >= 20 else 'NOT met'}.",
         "",
         f"Largest distance between the curves at pyHarm's {distance['compared']} points "
         f"({distance['outside']} outside this project's range): "
@@ -249,13 +269,13 @@ def report(args, mine, theirs, distance) -> str:
         )
         + ".",
         "",
-        f"What pyHarm does not give, computed here in {mine['stability_cpu']:.2f} s CPU "
-        f"({mine['stability_wall']:.2f} s wall) more: Floquet multipliers of every point with their error "
-        f"estimates ({mine['unresolved']} of {mine['points']} verdicts unresolved), and the located stability "
-        "changes: " + ", ".join(f"{n} {kind.replace('_', ' ')}" for kind, n in mine["changes"].items()) + ".",
+        f"What pyHarm does not give, computed here in {stability['stability_cpu']:.2f} s CPU "
+        f"({stability['stability_wall']:.2f} s wall) more: Floquet multipliers of every point with their error "
+        f"estimates ({stability['unresolved']} of {mine['points']} verdicts unresolved), and the located stability "
+        "changes: " + ", ".join(f"{n} {kind.replace('_', ' ')}" for kind, n in stability["changes"].items()) + ".",
     ]
-    if mine.get("profile"):
-        total = mine["profile"]["whole response"]
+    if profile:
+        total = profile["whole response"]
         lines += [
             "",
             f"Where this project's time goes (`--profile`: one more run under cProfile, {total:.2f} s CPU with its "
@@ -266,7 +286,7 @@ def report(args, mine, theirs, distance) -> str:
         ]
         lines += [
             f"| {part} | {seconds:.2f} | {100 * seconds / total:.0f} % |"
-            for part, seconds in mine["profile"].items()
+            for part, seconds in profile.items()
             if part != "whole response"
         ]
     return "\n".join(lines)
@@ -279,24 +299,26 @@ def main(argv=None) -> int:
     parser.add_argument("--newton-tol", type=float, default=1e-9)
     parser.add_argument("--ds0", type=float, default=0.01)
     parser.add_argument("--ds-max", type=float, default=0.1)
+    parser.add_argument("--repeat", type=int, default=3, help="pairs of runs (one of each side, back to back)")
     parser.add_argument("--venv", type=Path, default=DEFAULT_VENV)
     parser.add_argument("--profile", action="store_true", help="also report where this project's time goes")
     parser.add_argument("--output", type=Path)
     args = parser.parse_args(argv)
+    check_repeat(args.repeat)
     try:
         python = pyharm_python(args.venv)
     except (RuntimeError, OSError) as error:
         return emit_report(f"# Regularized frequency response against pyHarm\n\nSkipped: {error}", args.output)
     config, scene, excitation = scene_problem(args.force)
-    mine = ours(config, scene, excitation)
-    mine["range"] = scene.frequency_range
-    from nnmstop.continuation.anm import ANMSettings
-
-    mine["branch_settings"] = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
-    if args.profile:
-        mine["profile"] = profile_ours(config, scene, excitation)
-    theirs = pyharm(python, scene, excitation, args)
-    return emit_report(report(args, mine, theirs, curve_distance(mine, theirs)), args.output)
+    runs = []
+    for _ in range(args.repeat):
+        mine = our_response(config, scene, excitation)
+        mine["range"] = scene.frequency_range
+        runs.append((mine, pyharm(python, scene, excitation, args)))
+    mine, theirs = runs[-1]
+    stability = our_stability(config, scene, mine)
+    profile = profile_ours(config, scene, excitation) if args.profile else None
+    return emit_report(report(args, runs, stability, curve_distance(mine, theirs), profile), args.output)
 
 
 if __name__ == "__main__":
