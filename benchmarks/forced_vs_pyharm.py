@@ -115,11 +115,11 @@ def our_stability(config, scene, mine: dict) -> dict:
 
 #: Where this project's time goes (``--profile``): part -> (module path suffix, function) whose cumulative time it is.
 PROFILE_PARTS = {
-    "Jacobian assembly and LU factorization (bordered)": ("continuation/linear.py", "factorize_bordered"),
-    "triangular solves (one per series order)": ("continuation/linear.py", "solve"),
+    "Jacobian assembly and LU factorization (bordered, z condensed)": ("continuation/linear.py", "factorize_bordered"),
+    "solves (one per series order)": ("hbm/factorization.py", "solve"),
     "series products of the quadratic recast": ("hbm/forced.py", "series_products"),
     "Pade approximants and step lengths": ("continuation/anm.py", "_pade_path"),
-    "per-point diagnostics (truncation, time residual)": ("hbm/forced.py", "diagnostics"),
+    "per-point diagnostics (truncation, time residual)": ("hbm/system.py", "diagnostics_many"),
     "whole response": ("forced/responses.py", "regularized_response"),
 }
 

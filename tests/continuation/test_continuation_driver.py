@@ -296,3 +296,48 @@ def test_sparse_null_plane_matches_the_dense_svd(nnm1_through_3to1):
     assert abs(abs(dense.bifurcated @ sparse_point.bifurcated) - 1.0) < 1e-6
     assert abs(abs(dense.incoming @ sparse_point.incoming) - 1.0) < 1e-6
     assert dense.singular_ratio < 1e-6 and sparse_point.singular_ratio < 1e-6
+
+
+class _FailsAfterTwo(ANMStepper):
+    """The ANM on the circle, storing four points per step, of which the third of every step cannot be produced."""
+
+    def _points(self, system, result, stats):
+        for j, item in enumerate(super()._points(system, result, stats)):
+            if j == 2:
+                raise ContinuationError("interior point 3: Newton did not converge (injected)")
+            yield item
+
+
+class _ManyDiagnostics(QuadraticToy):
+    """The circle with a batched ``diagnostics_many`` that records how many points each call held."""
+
+    def __init__(self):
+        base = circle()
+        super().__init__(base.c, base.A, base.Q)
+        self.batches = []
+
+    def diagnostics_many(self, U_list):
+        self.batches.append(len(U_list))
+        return [self.diagnostics(U) for U in U_list]
+
+
+def test_a_step_point_that_fails_past_the_end_does_not_fail_the_branch_one_before_it_does():
+    system = circle()
+    stepper = _FailsAfterTwo(ANMSettings(points_per_step=4))
+    # the first stored point of the first step ends the branch: the failure further on is never reached
+    ends_early = continue_branch(system, [1.0, 0.0], [0.0, 1.0], stepper, lambda U, d: "now", progress_seconds=QUIET)
+    assert ends_early.end_reason == "now" and len(ends_early.points) == 2
+    with pytest.raises(ContinuationError, match=r"step 1 failed .*interior point 3: Newton did not converge"):
+        continue_branch(system, [1.0, 0.0], [0.0, 1.0], stepper, half_turn, progress_seconds=QUIET)
+
+
+def test_the_points_of_a_step_get_their_diagnostics_together():
+    batched, plain = _ManyDiagnostics(), circle()
+    settings = ANMSettings(points_per_step=4)
+    runs = [
+        continue_branch(system, [1.0, 0.0], [0.0, 1.0], settings.stepper(), half_turn, progress_seconds=QUIET)
+        for system in (batched, plain)
+    ]
+    np.testing.assert_array_equal(np.array(runs[0].points), np.array(runs[1].points))
+    assert runs[0].diagnostics == runs[1].diagnostics
+    assert len(batched.batches) == runs[0].stats.steps and min(batched.batches) >= 4

@@ -181,16 +181,17 @@ def test_a_spurious_end_of_a_switched_branch_fails_naming_the_side_and_both_ends
     switched_config, switched_parent, monkeypatch
 ):
     # the spurious indicator must look like one to the side's check too: the last orbit's truncation above the limit
-    real_diagnostics = stages.HarmonicBalanceSystem.diagnostics
+    real_diagnostics = stages.HarmonicBalanceSystem.diagnostics_many
 
-    def diagnostics(self, U, samples=None):
+    def diagnostics_many(self, U, samples=None):  # what diagnostics() and the continuation's steps go through
         out = real_diagnostics(self, U, samples)
-        if out["energy"] > 100.0 and _FirstGuardLosesTheCurve.made == 1:
-            out["truncation"] = max(out["truncation"], 2 * SWITCHED_LIMIT)
+        for d in out:
+            if d["energy"] > 100.0 and _FirstGuardLosesTheCurve.made == 1:
+                d["truncation"] = max(d["truncation"], 2 * SWITCHED_LIMIT)
         return out
 
     monkeypatch.setattr(stages, "TruncationGuard", _FirstGuardLosesTheCurve)
-    monkeypatch.setattr(stages.HarmonicBalanceSystem, "diagnostics", diagnostics)
+    monkeypatch.setattr(stages.HarmonicBalanceSystem, "diagnostics_many", diagnostics_many)
     with pytest.raises(EndNotConfirmed) as failure:
         build_bifurcated(switched_config, "nnm1_3to1", switched_parent)
     message = str(failure.value)

@@ -229,3 +229,18 @@ def test_bad_input_is_named():
         two_dof_parameters(system.structure)
     with pytest.raises(ValueError, match="tangent"):
         system.factorize_bordered(np.zeros(system.n_unknowns), np.ones(3))
+
+
+@pytest.mark.parametrize("basis", ["cosine", "full"])
+def test_diagnostics_of_orbits_together_are_those_of_each_alone(basis):
+    """Batched diagnostics share transforms and contact-law calls across orbits, never mixing them."""
+    structure, rng = random_structure()
+    system = HarmonicBalanceSystem(structure, 6, basis=basis)
+    U = np.array([random_point(system, rng) for _ in range(3)])
+    U[:, system.i_lam] = [0.8, 1.3, 0.5]
+    together = system.diagnostics_many(U)
+    for alone, batched in zip((system.diagnostics(u) for u in U), together):
+        assert alone.keys() == batched.keys()
+        for key, value in alone.items():
+            np.testing.assert_array_equal(batched[key], value, err_msg=key)
+    assert len({d["energy"] for d in together}) == 3  # three different orbits

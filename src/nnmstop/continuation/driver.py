@@ -82,8 +82,10 @@ class StepResult:
         The branch over the step.
     points : iterable of (U, t) or (U, t, a)
         The points the step stores, in order along the curve, ending with ``(U_end, t_end)``,
-        with their path parameter ``a`` (the end's is ``length``); may be lazy (the driver stops
-        iterating at the first point that meets the stop criterion or fails an event).
+        with their path parameter ``a`` (the end's is ``length``); may be lazy. The driver produces
+        them all before storing any (a system with ``diagnostics_many(U_list)`` has their diagnostics
+        computed together), then stores them up to the first that meets the stop criterion or fails an
+        event; an error raised while producing them fails the step only if the branch reaches it.
     start_sign, end_sign : int or None
         Sign of ``det [J; t^T]`` at the start or at the end of the step, when the stepper
         computed it (any bordering row with a positive component along the tangent gives
@@ -174,8 +176,8 @@ def continue_branch(
     ----------
     system : object
         Provides ``n_unknowns``, ``residual``, ``jacobian`` (or ``factorize_bordered``),
-        ``diagnostics`` (a dict with ``energy``, ``frequency``, ``impacts_per_period``) and
-        what the stepper needs.
+        ``diagnostics`` (a dict with ``energy``, ``frequency``, ``impacts_per_period``; optionally
+        ``diagnostics_many``, the same for a list of points at once) and what the stepper needs.
     U_start : ndarray
         A point of the branch.
     direction : ndarray
@@ -222,6 +224,22 @@ def continue_branch(
     return run.steps(U, tangent)
 
 
+def _produced(points) -> tuple[list, Exception | None]:
+    """The points a step produces, in order, and the error that stopped their production (None).
+
+    A step's points are produced before any is stored, so that a system with ``diagnostics_many`` computes
+    their diagnostics together; an error is raised only if the branch reaches the point that failed (as when
+    they were produced one by one), not when a point before it ends the branch.
+    """
+    produced = []
+    try:
+        for item in points:
+            produced.append(item)
+    except (ContinuationError, np.linalg.LinAlgError) as err:
+        return produced, err
+    return produced, None
+
+
 class _Run:
     """The state of one :func:`continue_branch`: the branch so far, the sign of ``det [J; t^T]``, the clock."""
 
@@ -262,8 +280,8 @@ class _Run:
             f"(last energy {self.diag['energy']:.6g}, frequency {self.diag['frequency']:.6g} Hz)"
         )
 
-    def store(self, U, step: int, a: float, check=None):
-        self.diag = self.system.diagnostics(U)
+    def store(self, U, step: int, a: float, check=None, diagnostics=None):
+        self.diag = self.system.diagnostics(U) if diagnostics is None else diagnostics
         if self.events is not None and check is None:
             check = self.events(U)
         self.branch.add(U, step, self.diag, check=check, arclength=self.offset + a)
@@ -293,27 +311,26 @@ class _Run:
 
     def take(self, result: StepResult, step: int) -> str:
         """Store the step's points until one ends the branch: "ended", "retry" (the step was shortened) or ""."""
-        points = iter(result.points)
+        points, failure = _produced(result.points)
+        many = getattr(self.system, "diagnostics_many", None)
+        diagnostics = many([item[0] for item in points]) if many is not None and points else [None] * len(points)
         stored_a, start_check = 0.0, self.branch.checks[-1]
-        while True:
-            try:
-                item = next(points)
-            except StopIteration:
-                return ""
-            except (ContinuationError, np.linalg.LinAlgError) as err:
-                raise self.failure(step, err) from err
+        for item, diagnostics_j in zip(points, diagnostics):
             U_j, t_j = item[0], item[1]
             a_j = item[2] if len(item) > 2 else result.length
             check = None if self.events is None else self.events(U_j)
             if check is not None and not check.valid:
                 return self._event(result, step, stored_a, self.branch.points[-1], start_check, a_j, check)
-            self.store(U_j, step, a_j, check)
+            self.store(U_j, step, a_j, check, diagnostics_j)
             stored_a, start_check = a_j, check
             reason = self.stop(U_j, self.diag)
             if reason:
                 self.flag_sign(result.end_sign, step)
                 self.branch.end_reason, self.branch.end_tangent = reason, t_j
                 return "ended"
+        if failure is not None:
+            raise self.failure(step, failure) from failure
+        return ""
 
     def _event(self, result, step, a_start, U_start, check_start, a_end, check_end) -> str:
         """Locate the event between the last stored point of the step and the first that fails one."""

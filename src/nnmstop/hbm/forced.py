@@ -102,11 +102,11 @@ class ForcedHarmonicBalanceSystem(HarmonicBalanceSystem):
             out[-1] = -np.dot(omega, omega[::-1])
         return out
 
-    def _other_forces_at_stops(self, U, history):
-        """Damping and the external force on the stop DOFs, at the samples of ``history``."""
+    def _other_forces_at_stops(self, U, t, qdot):
+        """Damping and the external force on the stop DOFs, at the sampled times ``t`` of every orbit."""
         omega = self.split(U)[-1]
-        damping = (self._velocity @ history["qdot"])[self.stop_dofs]
-        return damping - np.outer(self.load[self.stop_dofs], np.cos(omega * history["t"]))
+        damping = (self._velocity @ qdot)[self.stop_dofs]
+        return damping - np.multiply.outer(self.load[self.stop_dofs], np.cos(omega[:, None] * t)).reshape(damping.shape)
 
     def omega(self, U):
         """``Omega``, the angular frequency of the force (rad per unit time)."""
