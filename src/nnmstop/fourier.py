@@ -109,11 +109,10 @@ def to_time(c, harmonics: int, samples: int) -> np.ndarray:
     if m < 2 * H + 1:
         raise ValueError(f"samples must be >= 2H+1 = {2 * H + 1}, got {samples!r}")
     spec = np.zeros(c.shape[:-1] + (m // 2 + 1,), dtype=complex)
-    spec[..., 0] = c[..., 0] * m
-    if c.shape[-1] == 2 * H + 1:
-        spec[..., 1 : H + 1] = 0.5 * m * (c[..., 1 : H + 1] - 1j * c[..., H + 1 :])
-    else:  # cosine layout: no sines
-        spec[..., 1 : H + 1] = 0.5 * m * c[..., 1 : H + 1]
+    spec.real[..., 0] = c[..., 0] * m
+    spec.real[..., 1 : H + 1] = (0.5 * m) * c[..., 1 : H + 1]
+    if c.shape[-1] == 2 * H + 1:  # (the cosine layout has no sines)
+        spec.imag[..., 1 : H + 1] = (-0.5 * m) * c[..., H + 1 :]
     return np.fft.irfft(spec, n=m, axis=-1)
 
 

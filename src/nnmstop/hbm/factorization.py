@@ -127,19 +127,24 @@ class StopCoupling(NamedTuple):
     """One stop's dense Jacobian blocks, and how its ``z`` unknowns enter :class:`CondensedBorderedLU`.
 
     ``q``, ``f``, ``z``: slices of the stop DOF's, force's and ``z``'s coefficients (rows and columns; the
-    ``q`` and ``f`` ones are the same in the condensed ordering); ``Mz``: the multiplication matrix of ``z``
-    (the force rows' block in ``f`` is ``I - Mz``); ``to_q``, ``to_f``: the ``z`` rows' blocks ``C`` in ``q``
-    and ``f``; ``force_from_z``: ``-B``, the multiplication matrix of ``f`` (the force rows' block in ``z`` is
-    ``-force_from_z``).
+    ``q`` and ``f`` ones are the same in the condensed ordering); ``Mz``, ``Mf``, ``Mg``: the multiplication
+    matrices of ``z``, ``f`` and ``g = f / alpha - x`` in its products. The force rows hold ``I - Mz`` in ``f``
+    and ``-Mf`` in ``z``; the ``z`` rows hold ``C = Mg [q_factor, f_factor]`` in ``(q, f)``, with
+    ``q_factor = 2 / gap`` and ``f_factor = -2 / alpha``.
     """
 
     q: slice
     f: slice
     z: slice
     Mz: np.ndarray
-    to_q: np.ndarray
-    to_f: np.ndarray
-    force_from_z: np.ndarray
+    Mf: np.ndarray
+    Mg: np.ndarray
+    q_factor: float
+    f_factor: float
+
+    def z_from(self, x) -> np.ndarray:
+        """``C x``: the ``z`` rows' product with the ``q`` and ``f`` parts of ``x`` (one product with ``Mg``)."""
+        return self.Mg @ (self.q_factor * x[self.q] + self.f_factor * x[self.f])
 
 
 class CondensedBorderedLU:
@@ -149,7 +154,8 @@ class CondensedBorderedLU:
     solves them for any other unknowns ``v``, so the matrix is the block ``[[A, B], [C, I]]`` (rows and
     columns of ``z`` moved last, which keeps the determinant's sign: both move past the same number of
     rows and columns) and ``det = det(S)`` with the Schur complement ``S = A - B C``, factored here by
-    LAPACK with partial pivoting. ``B`` is nonzero in the force rows (``-M_f``) and in the bordering row.
+    LAPACK with partial pivoting. ``B`` is nonzero in the force rows (``-M_f``) and in the bordering row;
+    ``C`` is ``M_g`` times a combination of a stop DOF's and its force's coefficients.
     Built by :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.factorize_bordered`.
 
     Parameters
@@ -178,13 +184,13 @@ class CondensedBorderedLU:
         reduced = np.concatenate([rhs[:start], rhs[stop_:]])
         for stop in self.couplings:
             r_z = rhs[stop.z]
-            reduced[stop.f] += stop.force_from_z @ r_z
+            reduced[stop.f] += stop.Mf @ r_z
             reduced[-1] -= self.tangent[stop.z] @ r_z
         v = self.factors.solve(reduced)
         x = np.empty_like(rhs)
         x[:start], x[stop_:] = v[:start], v[start:]
         for stop in self.couplings:
-            x[stop.z] = rhs[stop.z] - stop.to_q @ x[stop.q] - stop.to_f @ x[stop.f]
+            x[stop.z] = rhs[stop.z] - stop.z_from(x)
         return _finite_or_error(x, "solution")
 
     def determinant_sign(self) -> int:

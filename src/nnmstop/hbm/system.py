@@ -134,8 +134,9 @@ class HarmonicBalanceSystem:
             linear_algebra = "sparse" if self.n_unknowns > DENSE_MAX_UNKNOWNS else "dense"
         self.linear_algebra = linear_algebra
         self._d2 = fourier.second_derivative_factors(self.H, basis)
-        # sum_j M_ij D^2 w_j of the series products, per stored entry of M (see series_products)
-        self._mass_d2 = self._mass.data[:, None] * self._d2
+        # d/dtheta of full-layout coefficients as one gather and one product (fourier.derivative's numbers)
+        self._derivative_order = np.concatenate([[0], np.arange(self.H + 1, 2 * self.H + 1), np.arange(1, self.H + 1)])
+        self._derivative_factors = np.concatenate([[0.0], self.k, -self.k])
 
     def _set_structure(self, structure: Structure):
         """Matrices (CSR) and per-stop arrays of the structure."""
@@ -312,7 +313,7 @@ class HarmonicBalanceSystem:
         for i, dof in enumerate(self.stop_dofs):
             Mz, Mf, Mg = (self.multiplication_matrix(c) for c in (Z[i], F[i], G[i]))
             q, f, z = (slice(start * nc, (start + 1) * nc) for start in (dof, N + i, N + s + i))
-            couplings.append(StopCoupling(q, f, z, Mz, (2.0 / self.gaps[i]) * Mg, (-2.0 / self.alphas[i]) * Mg, Mf))
+            couplings.append(StopCoupling(q, f, z, Mz, Mf, Mg, 2.0 / self.gaps[i], -2.0 / self.alphas[i]))
         return self._linear_entries(Q, lam, nu), couplings
 
     @staticmethod
@@ -324,9 +325,9 @@ class HarmonicBalanceSystem:
             z_diagonal = np.arange(stop.z.start, stop.z.stop)
             blocks += [
                 (stop.f, stop.f, np.eye(len(z_diagonal)) - stop.Mz),
-                (stop.f, stop.z, -stop.force_from_z),
-                (stop.z, stop.q, stop.to_q),
-                (stop.z, stop.f, stop.to_f),
+                (stop.f, stop.z, -stop.Mf),
+                (stop.z, stop.q, stop.q_factor * stop.Mg),
+                (stop.z, stop.f, stop.f_factor * stop.Mg),
                 (z_diagonal, z_diagonal, np.ones(len(z_diagonal))),
             ]
         return blocks
@@ -391,13 +392,14 @@ class HarmonicBalanceSystem:
         for rows, cols, values in entries:
             S[position[rows], position[cols]] = values
         S[-1] = tangent[kept]
-        for i, stop in enumerate(couplings):
-            # M_f C_q and M_f C_f are multiples of one product M_f M_g
-            product = stop.force_from_z @ stop.to_q
-            S[stop.f, stop.f] += np.eye(nc) - stop.Mz - (self.gaps[i] / self.alphas[i]) * product
-            S[stop.f, stop.q] += product
-            S[-1, stop.q] -= tangent[stop.z] @ stop.to_q
-            S[-1, stop.f] -= tangent[stop.z] @ stop.to_f
+        for stop in couplings:
+            # the force rows gain M_f C = M_f M_g [q_factor, f_factor]; the bordering row loses t_z C
+            product = stop.Mf @ stop.Mg
+            S[stop.f, stop.f] += np.eye(nc) - stop.Mz + stop.f_factor * product
+            S[stop.f, stop.q] += stop.q_factor * product
+            t_zg = tangent[stop.z] @ stop.Mg
+            S[-1, stop.q] -= stop.q_factor * t_zg
+            S[-1, stop.f] -= stop.f_factor * t_zg
         return CondensedBorderedLU(BorderedFactorization.of_matrix(S, overwrite=True), z, couplings, tangent)
 
     def elimination_order(self):
@@ -452,20 +454,13 @@ class HarmonicBalanceSystem:
         cache.fill(series, p)
         N, s, nc = self.n_dofs, self.n_stops, self.nc
         nq = N * nc
-        lam = series[1:p, self.i_lam]  # lam_1 .. lam_{p-1}
-        right = series[p - 1 : 0 : -1]  # U_{p-1} .. U_1
-        # sum_r lam_r M D^2 q_{p-r} = M D^2 sum_r lam_r q_{p-r}; row i is the sum over the
-        # stored entries of M of w_j (M_ij D^2), in the order of the stored entries
-        w = (lam @ right[:, :nq]).reshape(N, nc)
-        mass = self._mass
-        terms = w[mass.indices] * self._mass_d2
-        starts = mass.indptr[:-1]
-        filled = np.diff(mass.indptr) > 0
+        # sum_r lam_r M D^2 q_{p-r} = M D^2 sum_r lam_r q_{p-r} (and nu D likewise): both sums in one product
+        parameters = series[1:p, self.i_lam :]  # lam_r (, nu_r) for r = 1 .. p-1
+        sums = (parameters.T @ series[p - 1 : 0 : -1, :nq]).reshape(-1, N, nc)
         q_out = out[:nq].reshape(N, nc)
-        q_out[filled] = np.add.reduceat(terms, starts[filled], axis=0)
+        q_out[:] = self._mass @ (sums[0] * self._d2)
         if self.full:
-            nu = series[1:p, self.i_nu]
-            q_out += self._velocity @ self.derivative((nu @ right[:, :nq]).reshape(N, nc))
+            q_out += self._velocity @ (sums[1][:, self._derivative_order] * self._derivative_factors)
         # channels (f, g | z, g) of every stop: the products f z and g g in one sum over the orders
         t = cache.samples
         np.einsum("rkm,rkm->km", t[1:p, : 2 * s], t[p - 1 : 0 : -1, 2 * s :], out=cache.products)
