@@ -249,3 +249,43 @@ def test_bad_directories_are_named(reference, tmp_path):
     with pytest.raises(ValueError, match="update-reference"):
         verify(results, tmp_path / "no_reference")
     assert main([str(tmp_path / "nowhere"), "--reference", str(ref)]) == 2
+
+
+def test_the_marked_comparison_energies_follow_the_stored_points(reference, tmp_path):
+    """The energies of a comparison's marked points are placed in the compared range, whose ends are stored
+    points of the branches: another CPU's step sequence moves them (the orbits there are checked as a curve)."""
+    results, ref = reference
+    copy = _copy(results, tmp_path)
+    _rewrite(copy / "compare/nnm1_exact_vs_regularized.nc", lambda ds: ds.attrs.update(point_a_energy=0.7300001))
+    rows = verify(copy, ref)
+    assert file_verdicts(rows)["results/compare/nnm1_exact_vs_regularized.nc"] != "discrepant"
+    assert not [r for r in rows if "point_a_energy" in r.quantity and r.verdict == "discrepant"]
+
+
+def test_a_regime_range_end_may_move_by_the_step_into_the_regime_and_no_further():
+    """A regime's lowest energy is its first stored orbit: it moves by up to the step that crosses into the
+    regime when the orbits are stored elsewhere on the curve (here a longer step than any inside the regime)."""
+    from nnmstop.pipeline.verify import _check_regimes, _regime_sampling
+
+    energy = np.array([1.0, 1.1, 1.2, 1.3, 2.0, 2.05, 2.1, 2.15])  # the step into regime 1 is the longest
+    frequency = np.linspace(0.1, 0.2, 8)
+    regimes = xr.Dataset(
+        {
+            "point_regime": ("point", np.repeat([0, 1], 4)),
+            "energy": ("point", energy),
+            "frequency": ("point", frequency),
+            "frequency_error": ("point", 1e-3 * frequency),
+            "relative_frequency_error": ("point", 1e-2 * np.ones(8)),
+            "impacts_per_period": ("regime", [2, 6]),
+        }
+    )
+    sampling = _regime_sampling(regimes)
+    assert sampling[1][0] == pytest.approx(np.log(2.0 / 1.3))  # the crossing step, not the steps inside
+    table = {"regime": [0, 1], "impacts_per_period": [2, 6], "exact_sequence": ["FR", "FLFR"],
+             "regularized_energy_min": [1.0, 2.0]}  # fmt: skip
+    columns = ["d_log_energy", "d_frequency", "d_frequency_error", "d_relative_frequency_error"]
+    reference_sampling = {name: [row[j] for row in sampling] for j, name in enumerate(columns)}
+    for factor, verdict in ((0.99, "within tolerance"), (2.0, "discrepant")):
+        build = dict(table, regularized_energy_min=[1.0, 2.0 * (1.3 / 2.0) ** factor])
+        (row,) = _check_regimes("regimes", table, reference_sampling, build, sampling)
+        assert row.verdict == verdict, (factor, row)

@@ -150,20 +150,8 @@ def _model(ds: xr.Dataset) -> dict:
     return model
 
 
-_COEFFICIENTS = "cosine Fourier coefficients of "
-
-
 def _time_label(ds: xr.Dataset) -> str:
     return f"t [{ds['period'].attrs.get('units', '')}]"
-
-
-def _two_dof_fields(ds: xr.Dataset) -> tuple[dict, dict]:
-    """The 2-DOF layout (``x_cos``, ``u_cos``, ``f_cos`` over point, harmonic)."""
-    fields, labels = {}, {"t": _time_label(ds)}
-    for name in ("x", "u", "f"):
-        fields[name] = (ds[f"{name}_cos"].values, ds[f"{name}_sin"].values)
-        labels[name] = str(ds[f"{name}_cos"].attrs.get("long_name", name)).removeprefix(_COEFFICIENTS)
-    return fields, labels
 
 
 def _shown_dofs(ds: xr.Dataset, labels: list) -> tuple[int, int]:
@@ -185,9 +173,12 @@ def _shown_dofs(ds: xr.Dataset, labels: list) -> tuple[int, int]:
     return x, u
 
 
-def _generic_fields(ds: xr.Dataset) -> tuple[dict, dict]:
-    """The structure layout (``q_cos`` over point, dof, harmonic with ``dof_label``; ``f_cos`` over point, stop,
-    harmonic): the first stop's degree of freedom as x, a second one as u, the first stop's force as f."""
+def _branch_fields(ds: xr.Dataset) -> tuple[dict, dict]:
+    """Coefficients over (point, harmonic) of the fields x, u and f of a regularized branch, and their labels.
+
+    Every branch dataset has ``q_cos`` over point, dof, harmonic with ``dof_label`` and ``f_cos`` over point,
+    stop, harmonic: the first stop's degree of freedom is drawn as x, a second one as u, the first stop's force
+    as f."""
     labels = [str(v) for v in ds["dof_label"].values]
     x, u = _shown_dofs(ds, labels)
     q_cos, q_sin = ds["q_cos"].values, ds["q_sin"].values
@@ -203,11 +194,6 @@ def _generic_fields(ds: xr.Dataset) -> tuple[dict, dict]:
             if match and int(match.group(1)) < ds.sizes["node"]:
                 names[key] += f" at s/L = {float(ds['node_coordinate'][int(match.group(1))]):.3g}"
     return fields, {"t": _time_label(ds), **names}
-
-
-def _branch_fields(ds: xr.Dataset) -> tuple[dict, dict]:
-    """Coefficients over (point, harmonic) of the fields x, u and f of a regularized branch, and their labels."""
-    return _generic_fields(ds) if "q_cos" in ds else _two_dof_fields(ds)
 
 
 REGULARIZED_NUMBERS = (

@@ -136,6 +136,10 @@ SAMPLING_ATTRIBUTES = frozenset(
         "energy_range_max",
     }
 )
+#: The energies of a comparison's marked points (``point_a_energy``, ...): placed at fractions of the compared
+#: range, whose ends are stored points of the branches (SAMPLING_ATTRIBUTES), so they move with them; the
+#: compared orbits there are checked as a curve.
+SAMPLING_PATTERN = re.compile(r"point_\w+_energy")
 #: Global attributes that estimate an accuracy (see ACCURACY_PATTERN).
 ACCURACY_ATTRIBUTES = frozenset({"max_residual", "singular_ratio"})
 #: Global attributes that give a located point or a number derived at it.
@@ -184,7 +188,7 @@ def attribute_kind(name: str) -> str:
     ``located`` or ``exact``."""
     if name in PROVENANCE_ATTRIBUTES:
         return "provenance"
-    if name in SAMPLING_ATTRIBUTES:
+    if name in SAMPLING_ATTRIBUTES or SAMPLING_PATTERN.fullmatch(name):
         return "sampling"
     if name in ACCURACY_ATTRIBUTES:
         return "accuracy"

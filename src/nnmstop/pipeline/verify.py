@@ -148,12 +148,17 @@ def _fmt(e, f) -> str:
 
 def _regime_sampling(regimes: xr.Dataset) -> list[list[float]]:
     """Per regime, the largest change between neighbouring compared orbits of ln E, the
-    frequency, the frequency error and the relative error: a statistic taken over the
-    stored orbits (a maximum, a median, a range end) moves by at most that much when the
-    orbits are sampled elsewhere on the same curve."""
+    frequency, the frequency error and the relative error, the orbits next to the regime on
+    either side included: a statistic taken over the stored orbits (a maximum, a median, a
+    range end) moves by at most that much when the orbits are sampled elsewhere on the same
+    curve (a range end by up to the step that crosses into the regime)."""
     rows = []
+    regime_of = regimes["point_regime"].values
     for k in range(regimes.sizes["regime"]):
-        part = regimes.isel(point=(regimes["point_regime"].values == k))
+        inside = np.flatnonzero(regime_of == k)
+        if inside.size:
+            inside = np.arange(max(inside[0] - 1, 0), min(inside[-1] + 2, len(regime_of)))
+        part = regimes.isel(point=inside)
         values = [
             np.log(part["energy"].values),
             part["frequency"].values,
