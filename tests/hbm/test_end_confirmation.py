@@ -73,22 +73,31 @@ def test_a_stage_ending_on_its_own_condition_is_located_not_restarted(unresolved
     assert ds.attrs["end_check"].startswith("located: condition reached")
 
 
-class _FirstRunLosesTheCurve(stages.StageStop):
-    """The first stop of a stage declares the orbits unresolved above E = 1.5, as a step that jumped to another
-    solution curve would find them; every later one (the restart's) is the real criterion."""
+def _first_run_loses_the_curve(base, energy: float, mark):
+    """A stop criterion (subclass of ``base``) whose first instance declares the orbits above ``energy``
+    unresolved, as a step that jumped to another solution curve would find them (``mark(stop)`` records that
+    end as a truncation); every later one (the restart's) is the real criterion."""
 
-    made = 0
+    class FirstRunLosesTheCurve(base):
+        made = 0
 
-    def __post_init__(self):
-        super().__post_init__()
-        type(self).made += 1
-        self.spurious = type(self).made == 1
+        def __post_init__(self):
+            super().__post_init__()
+            type(self).made += 1
+            self.spurious = type(self).made == 1
 
-    def __call__(self, U, d):
-        if self.spurious and d["energy"] > 1.5:
-            self.ended_by = "truncation"
-            return f"unresolved: spurious indicator at energy {d['energy']:.6g}"
-        return super().__call__(U, d)
+        def __call__(self, U, d):
+            if self.spurious and d["energy"] > energy:
+                mark(self)
+                return f"unresolved: spurious indicator at energy {d['energy']:.6g}"
+            return super().__call__(U, d)
+
+    return FirstRunLosesTheCurve
+
+
+_FirstRunLosesTheCurve = _first_run_loses_the_curve(
+    stages.StageStop, 1.5, lambda stop: setattr(stop, "ended_by", "truncation")
+)
 
 
 def test_a_spurious_end_fails_the_job_naming_the_stage_both_ends_and_the_remedy(
@@ -159,22 +168,10 @@ def test_a_switched_branch_side_ending_on_truncation_is_confirmed_the_other_loca
     assert 100.0 < float(ds["energy"].max()) < 3000.0
 
 
-class _FirstGuardLosesTheCurve(criteria.TruncationGuard):
-    """The first guard of a switched branch (the one its sides run with) declares the orbits above E = 100
-    unresolved, as a step that jumped to another solution curve would find them; the restart's guard is real."""
-
-    made = 0
-
-    def __post_init__(self):
-        super().__post_init__()
-        type(self).made += 1
-        self.spurious = type(self).made == 1
-
-    def __call__(self, U, d):
-        if self.spurious and d["energy"] > 100.0:
-            self.unresolved = True
-            return f"unresolved: spurious indicator at energy {d['energy']:.6g}"
-        return super().__call__(U, d)
+# the guard that a switched branch's sides run with (its first) ends them above E = 100; the restart's is real
+_FirstGuardLosesTheCurve = _first_run_loses_the_curve(
+    criteria.TruncationGuard, 100.0, lambda guard: setattr(guard, "unresolved", True)
+)
 
 
 def test_a_spurious_end_of_a_switched_branch_fails_naming_the_side_and_both_ends(
