@@ -226,6 +226,7 @@ def _location_bound(errors, scale) -> float:
     return 2.0 * (sum(errors) + 1e-9 * scale)
 
 
+@pytest.mark.numerics
 def test_both_steppers_locate_the_same_3to1_branch_point(nnm1_through_3to1):
     system, runs = nnm1_through_3to1
     located, errors = {}, {}
@@ -255,6 +256,7 @@ def test_both_steppers_locate_the_same_3to1_branch_point(nnm1_through_3to1):
     assert relative_residual(system, U_pal) <= 1e-9 and relative_residual(system, U_anm) <= 1e-9
 
 
+@pytest.mark.numerics
 def test_location_from_a_step_end_off_the_series_matches_pseudo_arclength(nnm1_through_3to1):
     """A flagged ANM step whose end does not lie on the recomputed series (as after a Newton correction that
     moved it) is located on the step's own path up to its own end: the same 3:1 branch point as pseudo-arclength.
@@ -283,6 +285,7 @@ def test_location_from_a_step_end_off_the_series_matches_pseudo_arclength(nnm1_t
     assert relative_residual(system, U_star) <= 1e-9
 
 
+@pytest.mark.numerics
 def test_sparse_null_plane_matches_the_dense_svd(nnm1_through_3to1):
     """The 3:1 branch point located and resolved with the sparse LU (inverse iterations on the bordered
     matrix) and with the dense SVD of the same Jacobian: same point, same pair of tangents."""

@@ -157,6 +157,7 @@ def switched_parent(switched_config):
     return combine_stages([first, build_stage(switched_config, "nnm1", 2, first)])
 
 
+@pytest.mark.numerics
 def test_a_switched_branch_side_ending_on_truncation_is_confirmed_the_other_located(switched_config, switched_parent):
     ds = build_bifurcated(switched_config, "nnm1_3to1", switched_parent)
     high, low = ds.attrs["end_check"].split("; + side: ")

@@ -144,14 +144,18 @@ def test_nnm1_one_impact_per_stop_matches_monodromy(system, nnm1):
 
 
 def six_impact_arms(second, U):
-    """Stage 2 split at its located energy fold: the arm falling to it and the arm rising from it.
+    """Stage 2 split at the energy fold its energy falls to (the tip of the 3:1 tongue, the lowest located
+    fold): the arm falling to it and the arm rising from it.
 
     Returns the fold energy and, per arm, the stored points and energies (seeds for
-    :func:`orbit_at_energy`) up to the next change of direction of the energy.
+    :func:`orbit_at_energy`) up to the next change of direction of the energy. The stage ends at its first
+    stored orbit with four impacts, just past the next fold (an energy maximum near 16.6): whether that fold
+    is located too depends on where the steps stored their points, so it is not counted on.
     """
-    assert second["fold_energy"].size == 1
-    fold_energy = float(second["fold_energy"].values[0])
-    k = int(second["fold_point"].values[0])  # the stored point nearest to the fold
+    assert second["fold_energy"].size >= 1
+    lowest = int(np.argmin(second["fold_energy"].values))
+    fold_energy = float(second["fold_energy"].values[lowest])
+    k = int(second["fold_point"].values[lowest])  # the stored point nearest to the fold
     energy = second["energy"].values
     rising = k + 1
     while rising < energy.size and energy[rising] > energy[rising - 1]:
