@@ -257,12 +257,10 @@ def product_matrix(c, harmonics: int) -> np.ndarray:
     >>> product_matrix(c, 2) @ w  # sin(theta) + sin(2 theta) (+ sin(3 theta), beyond H)
     array([0., 0., 0., 1., 1.])
     """
-    c = to_full(c, harmonics)
     H = int(harmonics)
+    amplitudes = complex_amplitudes(to_full(c, H), H)  # a_n, n = -H..H
     spec = np.zeros(4 * H + 1, dtype=complex)  # a_n at index n mod (4H + 1), |n| <= 2H
-    spec[0] = c[0]
-    spec[1 : H + 1] = 0.5 * (c[1 : H + 1] - 1j * c[H + 1 :])
-    spec[-H:] = np.conj(spec[H:0:-1])
+    spec[: H + 1], spec[-H:] = amplitudes[H:], amplitudes[:H]
     return product_matrix_of_spectrum(spec, H)
 
 

@@ -29,23 +29,19 @@ Method notes: docs/forced.md.
 
 from __future__ import annotations
 
-import dataclasses
-import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from nnmstop.continuation.confirm import ContinuationEnd, confirm_end, event_tolerance
 from nnmstop.continuation.core import ContinuationStats, unit_tangent
 from nnmstop.continuation.newton import bisect_sign_change
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthStepper, continue_pseudo_arclength
+from nnmstop.exact.follow import RESTART_POINTS, confirm_family_end
 from nnmstop.exact.grazing import MarginChecks
 from nnmstop.floquet import match_nearest
 from nnmstop.models.excitation import Excitation
-
-logger = logging.getLogger("nnmstop.exact.forced")
 
 __all__ = [
     "ForcedPhase",
@@ -434,8 +430,8 @@ class SymmetricContactProblem:
 class ContactFamily:
     """A continued family of symmetric one-contact responses: unknowns in order, why it ends, cost.
 
-    ``arclength``: pseudo-arclength of each orbit from the first; ``end_check``: how the end was confirmed
-    (:func:`confirm_contact_family_end`; "" when it was not asked).
+    ``arclength``: pseudo-arclength of each orbit from the first; ``energy``: of each orbit (piecewise law);
+    ``end_check``: how the end was confirmed (:func:`confirm_contact_family_end`; "" when it was not asked).
     """
 
     unknowns: np.ndarray
@@ -443,12 +439,13 @@ class ContactFamily:
     end_margin: str
     stats: object
     arclength: np.ndarray
+    energy: np.ndarray
     end_check: str = ""
 
-
-#: Orbits of the restart that confirms where a contact family ends (about twenty steps cover the last two of
-#: the first run at the tenth of its step; the rest is room for steps the restart shortens).
-RESTART_POINTS = 170
+    @property
+    def step(self) -> float:
+        """The longest of the last three steps (pseudo-arclength): what a restart that confirms the end refines."""
+        return float(np.max(np.diff(self.arclength[-4:]))) if len(self.arclength) > 1 else 0.0
 
 
 def follow_contact_family(
@@ -488,6 +485,7 @@ def follow_contact_family(
     branch = continue_pseudo_arclength(problem, y0, direction, stop, settings, label=label)
     points = np.array(branch.points)
     arclength = np.array(branch.arclength, dtype=float)
+    energy = np.array([d["energy"] for d in branch.diagnostics], dtype=float)
     margin = branch.end_reason if branch.end_reason in CONTACT_MARGINS else ""
     if margin and len(points) >= 2:
         stats = ContinuationStats()
@@ -498,40 +496,20 @@ def follow_contact_family(
         )
         points[-1] = path(found.lo)
         arclength[-1] = arclength[-2] + found.lo
+        energy[-1] = problem.diagnostics(points[-1])["energy"]
     reason = CONTACT_MARGINS.get(margin, branch.end_reason)
-    family = ContactFamily(points, reason, margin, branch.stats, arclength)
+    family = ContactFamily(points, reason, margin, branch.stats, arclength, energy)
     if confirm:
         family.end_check = confirm_contact_family_end(problem, family, settings, frequency_range, label)
     return family
 
 
-def _largest_step(family: ContactFamily, back: int = 3) -> float:
-    """The longest of the last ``back`` steps of ``family`` (pseudo-arclength)."""
-    return float(np.max(np.diff(family.arclength[-(back + 1) :]))) if len(family.arclength) > 1 else 0.0
-
-
-def _contact_family_end(problem: SymmetricContactProblem, family: ContactFamily, step: float) -> ContinuationEnd:
-    points = np.asarray(family.unknowns, dtype=float)
-    if family.end_margin:
-        tolerance = event_tolerance(step, points[-1], 1e-12)  # the boundary is bisected to 1e-12 of the last step
-    else:
-        tolerance = float(np.linalg.norm(points[-1] - points[-2])) if len(points) > 1 else 0.0
-    return ContinuationEnd(
-        points=points,
-        arclength=family.arclength,
-        event=family.end_margin,
-        reason=family.end_reason,
-        energy=problem.diagnostics(points[-1])["energy"],
-        tolerance=tolerance,
-    )
-
-
 def confirm_contact_family_end(
     problem: SymmetricContactProblem, family: ContactFamily, settings, frequency_range, label: str
 ) -> str:
-    """Confirm where a contact family ends: restarted two orbits before its end with steps ten times smaller
-    (``initial_step``, ``min_step`` and ``max_step`` of ``settings``), it must end on the same margin, at the
-    same orbit to the two runs' location tolerances (:func:`nnmstop.continuation.confirm.confirm_end`); a family
+    """Confirm where a contact family ends (:func:`nnmstop.exact.follow.confirm_family_end`): restarted two orbits
+    before its end with steps ten times smaller (``initial_step``, ``min_step`` and ``max_step`` of
+    ``settings``), it must end on a margin too, at the same orbit to the two runs' location tolerances; a family
     that leaves the frequency range must not meet a margin before its end.
 
     Raises
@@ -539,21 +517,17 @@ def confirm_contact_family_end(
     EndNotConfirmed
         Naming the family and both ends.
     """
-    step = _largest_step(family)
 
     def restart(U, direction, fine_step):
-        refine = step / fine_step
-        fine = dataclasses.replace(
+        refine = family.step / fine_step
+        fine = replace(
             settings,
             initial_step=settings.initial_step / refine,
             min_step=min(settings.min_step, settings.initial_step / refine),
             max_step=settings.max_step / refine,
         )
-        again = follow_contact_family(
+        return follow_contact_family(
             problem, U, direction, fine, frequency_range, f"{label} (end check)", max_points=RESTART_POINTS
         )
-        return _contact_family_end(problem, again, _largest_step(again))
 
-    message = confirm_end(_contact_family_end(problem, family, step), restart, step, label=label)
-    logger.info("%s: %s", label, message)
-    return message
+    return confirm_family_end(family, restart, label)

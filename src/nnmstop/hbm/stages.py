@@ -564,8 +564,9 @@ def _resolved_ends(branch: Branch, limit: float) -> Branch:
     """
     first = 1 if branch.diagnostics[0]["truncation"] > limit else 0
     last = len(branch.points) - (1 if branch.diagnostics[-1]["truncation"] > limit else 0)
-    out = Branch(stats=branch.stats, end_reason=branch.end_reason, end_tangent=branch.end_tangent)
-    out.end_check = branch.end_check
+    out = Branch(
+        stats=branch.stats, end_reason=branch.end_reason, end_tangent=branch.end_tangent, end_check=branch.end_check
+    )
     for U, step, diagnostics in zip(branch.points[first:last], branch.step[first:last], branch.diagnostics[first:last]):
         out.add(U, step, diagnostics)
     out.branch_points = [i - first for i in branch.branch_points if first <= i < last]

@@ -21,6 +21,8 @@ docs/methods/hbm_structure.md.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import eigh
@@ -374,6 +376,17 @@ class HarmonicBalanceSystem:
             return self._condensed_factors(U, tangent)
         return SparseBorderedLU(self._sparse_jacobian(U), tangent, self.elimination_order())
 
+    @functools.cached_property
+    def _condensed_layout(self):
+        """The ``z`` unknowns (one block), the kept indices (the ``q`` and ``f`` coefficients keep theirs) and the
+        kept index of every row (equations, then the bordering row) and column (-1 for ``z``)."""
+        N, s, nc, n = self.n_dofs, self.n_stops, self.nc, self.n_unknowns
+        z = slice((N + s) * nc, (N + 2 * s) * nc)
+        kept = np.r_[0 : z.start, z.stop : n]
+        position = np.full(n, -1)
+        position[kept] = np.arange(len(kept))
+        return z, kept, position
+
     def _condensed_factors(self, U, tangent) -> CondensedBorderedLU:
         """:class:`~nnmstop.hbm.factorization.CondensedBorderedLU` of ``[J(U); tangent^T]``.
 
@@ -382,11 +395,7 @@ class HarmonicBalanceSystem:
         and ``f``), the force rows become ``(I - M_z - (2 / alpha) M_f M_g) f + (-eta / gap + (2 / gap) M_f M_g) q``
         and the bordering row ``t_v - sum_i t_{z_i} C_i``.
         """
-        N, s, nc, n = self.n_dofs, self.n_stops, self.nc, self.n_unknowns
-        z = slice((N + s) * nc, (N + 2 * s) * nc)  # every z; the q and f coefficients keep their indices
-        kept = np.r_[0 : z.start, z.stop : n]
-        position = np.full(n, -1)  # kept index of every row (equations, then the bordering row) and column
-        position[kept] = np.arange(len(kept))
+        z, kept, position = self._condensed_layout
         entries, couplings = self._jacobian_parts(U)
         S = np.zeros((len(kept), len(kept)), order="F")
         for rows, cols, values in entries:
@@ -395,7 +404,7 @@ class HarmonicBalanceSystem:
         for stop in couplings:
             # the force rows gain M_f C = M_f M_g [q_factor, f_factor]; the bordering row loses t_z C
             product = stop.Mf @ stop.Mg
-            S[stop.f, stop.f] += np.eye(nc) - stop.Mz + stop.f_factor * product
+            S[stop.f, stop.f] += np.eye(self.nc) - stop.Mz + stop.f_factor * product
             S[stop.f, stop.q] += stop.q_factor * product
             t_zg = tangent[stop.z] @ stop.Mg
             S[-1, stop.q] -= stop.q_factor * t_zg
@@ -513,19 +522,27 @@ class HarmonicBalanceSystem:
 
         Returns a dict with ``t``, ``q`` and ``qdot`` (N, samples), and per stop its
         coordinate ``x`` and velocity ``xdot``, the force ``f`` and ``z`` (s, samples; a
-        single stop gives 1-D arrays).
+        single stop gives 1-D arrays). For a stack of orbits ``U`` (points, n_unknowns) every
+        array has the points first.
         """
-        Q, F, Z, lam, _ = self._fields(U)
-        omega = np.sqrt(lam)
-        fields = self.to_time(
-            np.concatenate([self.to_full(Q), omega * self.derivative(Q), self.to_full(F), self.to_full(Z)]), samples
+        U = np.asarray(U, dtype=float)
+        N, s, nc = self.n_dofs, self.n_stops, self.nc
+        Q, F, Z = (
+            U[..., a * nc : b * nc].reshape(U.shape[:-1] + (b - a, nc))
+            for a, b in ((0, N), (N, N + s), (N + s, N + 2 * s))
         )
-        N, s = self.n_dofs, self.n_stops
-        q, qdot, f, z = np.split(fields, [N, 2 * N, 2 * N + s])
-        t = np.arange(samples) * (2 * np.pi / omega) / samples
-        per_stop = {"x": self.stop_coordinates(q), "xdot": self.stop_coordinates(qdot), "f": f, "z": z}
+        omega = np.sqrt(U[..., self.i_lam])[..., None, None]
+        fields = self.to_time(
+            np.concatenate([self.to_full(Q), omega * self.derivative(Q), self.to_full(F), self.to_full(Z)], axis=-2),
+            samples,
+        )
+        q, qdot, f, z = np.split(fields, [N, 2 * N, 2 * N + s], axis=-2)
+        t = np.arange(samples) * (2 * np.pi / omega[..., 0]) / samples
+        per_stop = {"x": q[..., self.stop_dofs, :], "xdot": qdot[..., self.stop_dofs, :], "f": f, "z": z}
+        for key in ("x", "xdot"):
+            per_stop[key] = per_stop[key] / self.gaps[:, None]
         history = {"t": t, "q": q, "qdot": qdot}
-        history.update({key: value[0] if s == 1 else value for key, value in per_stop.items()})
+        history.update({key: value[..., 0, :] if s == 1 else value for key, value in per_stop.items()})
         return history
 
     def energy_samples(self, q, qdot):
@@ -569,26 +586,17 @@ class HarmonicBalanceSystem:
         U = np.atleast_2d(np.asarray(U_array, dtype=float))
         P, N, s, nc = len(U), self.n_dofs, self.n_stops, self.nc
         m = samples or max(16 * self.H, 512)
+        history = self.time_history(U, m)
+        q, qdot, t = history["q"], history["qdot"], history["t"]
+        f_hbm = np.reshape(history["f"], (P, s, m))
         Q = U[:, : N * nc].reshape(P, N, nc)
-        F = U[:, N * nc : (N + s) * nc].reshape(P, s, nc)
-        lam = U[:, self.i_lam]
-        omega = np.sqrt(lam)[:, None, None]
-        coefficients = [
-            self.to_full(Q),
-            omega * self.derivative(Q),
-            self.to_full(F),
-            self.to_full(lam[:, None, None] * Q * self._d2),
-        ]
-        q, qdot, f_hbm, qdd = np.split(
-            self.to_time(np.concatenate(coefficients, axis=1), m), [N, 2 * N, 2 * N + s], axis=1
-        )
+        qdd = self.to_time(self.to_full(U[:, self.i_lam, None, None] * Q * self._d2), m)
 
         def columns(a):  # (P, k, m) -> (k, P m): every sample of every orbit a column
             return np.moveaxis(a, 0, 1).reshape(a.shape[1], P * m)
 
         q_columns = columns(q)
         energy_t, f_true = self.energy_samples(q_columns, columns(qdot))
-        t = np.arange(m) * (2 * np.pi / omega[:, 0]) / m
         # the rows of the stop DOFs: elsewhere the equations are linear and balanced exactly
         restoring = (self._stiffness @ q_columns)[self.stop_dofs] + self.gaps[:, None] * f_true
         eq_residual = (
