@@ -132,3 +132,19 @@ def test_a_contact_family_ending_where_it_is_still_valid_fails_its_confirmation(
     message = str(failure.value)
     assert "F = 0.05 (spurious)" in message and "end NOT confirmed" in message
     assert "reaches a stop during the free flight" in message  # the first end, then where the restart ended
+
+
+def test_pieces_are_chained_along_the_curve_whatever_their_order():
+    """A contact family that starts where a non-impacting piece ends follows it, even when another piece starts
+    between them in frequency (several families at a large force): the chaining picks pieces by position."""
+    from nnmstop.forced.responses import ExactPiece, _along_the_curve
+
+    def piece(kind, low, high, points):
+        f = np.linspace(low, high, points)
+        n = len(f)
+        return ExactPiece(kind, f, np.ones((n, 2)), np.ones((n, 4)), np.zeros((n, 0)), [], "", np.zeros(n))
+
+    first, other = piece("non_impacting", 0.05, 0.10, 5), piece("one_contact", 0.08, 0.09, 3)
+    following = piece("one_contact", 0.10, 0.12, 4)
+    ordered = _along_the_curve([other, following, first])
+    assert [p is q for p, q in zip(ordered, (first, following, other))] == [True, True, True]

@@ -123,9 +123,8 @@ def _along_the_curve(pieces: list, rel_tol: float = 1e-8) -> list:
     ordered = [left.pop(0)] if left else []
     while left:
         end = ordered[-1].frequency[-1]
-        following = [piece for piece in left if abs(piece.frequency[0] - end) <= rel_tol * end]
-        ordered.append(following[0] if following else left[0])
-        left.remove(ordered[-1])
+        following = [k for k, piece in enumerate(left) if abs(piece.frequency[0] - end) <= rel_tol * end]
+        ordered.append(left.pop(following[0] if following else 0))  # by index: pieces hold arrays, no ==
     return ordered
 
 
