@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nnmstop.continuation.anm import ANMSettings, ANMStepper, continue_anm
+from nnmstop.continuation.anm import ANMSettings, ANMStepper, TaylorPath, continue_anm
 from nnmstop.continuation.branch_points import locate_branch_point
 from nnmstop.continuation.core import (
     ContinuationError,
@@ -309,6 +309,44 @@ class _FailsAfterTwo(ANMStepper):
             if j == 2:
                 raise ContinuationError("interior point 3: Newton did not converge (injected)")
             yield item
+
+
+class _PadeInteriorFails(ANMStepper):
+    """The ANM on the circle whose Padé steps cannot correct an interior point (as near a pole of the
+    approximant); the plain series' points can be, as in anm_step when a Padé step's end cannot be."""
+
+    def __init__(self, settings):
+        super().__init__(settings)
+        self.refused = 0
+
+    def _points(self, system, result, stats):
+        for j, item in enumerate(super()._points(system, result, stats)):
+            if j == 1 and not isinstance(result.path, TaylorPath):
+                self.refused += 1
+                raise ContinuationError("interior point 2: Newton did not converge (injected on the Padé path)")
+            yield item
+
+
+def test_a_pade_step_whose_interior_point_cannot_be_corrected_is_taken_on_the_series():
+    # NNM2 of the oscillator at H = 20, where the approximant reaches further than the series
+    system = HarmonicBalanceSystem(two_dof_structure(ModelParameters()), harmonics=20)
+    e = np.zeros(system.n_unknowns)
+    e[system.slices["x"].start + 1] = 1.0
+    U0, _ = newton_correct(system, system.linear_mode_guess(2, 0.05), e, ContinuationStats(), 1e-12)
+
+    def energy_above_50(U, d):
+        return "E > 50" if d["energy"] > 50.0 else ""
+
+    settings = ANMSettings(points_per_step=3)
+    stepper = _PadeInteriorFails(settings)
+    branch = continue_branch(system, U0, e, stepper, energy_above_50, progress_seconds=QUIET)
+    pade = continue_branch(system, U0, e, settings.stepper(), energy_above_50, progress_seconds=QUIET)
+    plain = continue_branch(system, U0, e, ANMSettings(points_per_step=3, pade=False).stepper(), energy_above_50, QUIET)
+    # the Padé ANM takes steps on the approximant here; with their interior points refused, every such step
+    # fell back to the series (none counted), and its points are those of the ANM without Padé
+    assert pade.stats.pade_steps > 0 and stepper.refused > 0 and branch.stats.pade_steps == 0
+    assert max(relative_residual(system, U) for U in branch.points) <= settings.newton_threshold
+    np.testing.assert_allclose(np.array(branch.points), np.array(plain.points), rtol=0, atol=1e-9)
 
 
 class _ManyDiagnostics(QuadraticToy):

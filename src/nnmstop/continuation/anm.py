@@ -30,7 +30,7 @@ from nnmstop.continuation.core import (
     newton_correct,
     relative_residual,
 )
-from nnmstop.continuation.driver import Stepper, StepResult, continue_branch
+from nnmstop.continuation.driver import Stepper, StepResult, continue_branch, produced_points
 from nnmstop.continuation.linear import factorize_bordered
 from nnmstop.continuation.pade import pade_pair, pade_step_length
 
@@ -275,10 +275,25 @@ def anm_step(system, U0, tangent, settings: ANMSettings, stats: ContinuationStat
         if path is taylor:
             raise
         # the approximant's end could not be corrected: take the plain series' step
-        stats.pade_steps -= 1
-        path, a_max = taylor, a_series
-        U_end, t_end = _step_end(system, path, a_max, factors, settings, stats)
+        return plain_series_step(
+            system, ANMStep(series, a_max, None, None, 0, factors, path, a_series), settings, stats
+        )
     return ANMStep(series, a_max, U_end, t_end, factors.determinant_sign(), factors, path, a_series)
+
+
+def plain_series_step(system, step: ANMStep, settings: ANMSettings, stats: ContinuationStats) -> ANMStep:
+    """``step`` taken on its plain power series instead of the Padé approximant (same series and factors).
+
+    The approximant reaches further than the series at the same estimated accuracy, but where it passes
+    near one of its own poles (close to a singular point of the branch, an internal resonance) a point
+    of it may lie off the branch beyond what Newton can correct; the series' step is then taken.
+    """
+    stats.pade_steps -= 1
+    path = TaylorPath(step.series)
+    U_end, t_end = _step_end(system, path, step.a_series, step.factors, settings, stats)
+    return step._replace(
+        a_max=step.a_series, U_end=U_end, t_end=t_end, path=path, det_sign=step.factors.determinant_sign()
+    )
 
 
 def _on_threshold(system, U, t, factors, settings: ANMSettings, stats: ContinuationStats):
@@ -311,6 +326,13 @@ def _pade_path(series, a_max: float, tolerance: float, taylor, stats: Continuati
     return pair[0], a_pade
 
 
+def _replayed(points, failure):
+    """The points already produced, then the error that stopped their production (raised only if reached)."""
+    yield from points
+    if failure is not None:
+        raise failure
+
+
 class ANMStepper(Stepper):
     """The ANM step (:func:`anm_step`) behind the continuation driver's interface."""
 
@@ -320,12 +342,17 @@ class ANMStepper(Stepper):
 
     def step(self, system, U, tangent, stats: ContinuationStats) -> StepResult:
         result = anm_step(system, U, tangent, self.settings, stats)
+        points, failure = produced_points(self._points(system, result, stats))
+        if failure is not None and not isinstance(result.path, TaylorPath):
+            # a point of the approximant could not be corrected (as for its end in anm_step): the series' step
+            result = plain_series_step(system, result, self.settings, stats)
+            points, failure = produced_points(self._points(system, result, stats))
         return StepResult(
             U_end=result.U_end,
             t_end=result.t_end,
             length=result.a_max,
             path=result.path,
-            points=self._points(system, result, stats),
+            points=_replayed(points, failure),
             start_sign=result.det_sign,
         )
 

@@ -38,7 +38,7 @@ from nnmstop.continuation.core import (
 )
 from nnmstop.continuation.events import Events, locate_event
 
-__all__ = ["Path", "path_border", "StepResult", "Stepper", "as_stepper", "continue_branch"]
+__all__ = ["Path", "path_border", "StepResult", "Stepper", "as_stepper", "continue_branch", "produced_points"]
 
 logger = logging.getLogger("nnmstop.continuation.driver")
 
@@ -224,7 +224,7 @@ def continue_branch(
     return run.steps(U, tangent)
 
 
-def _produced(points) -> tuple[list, Exception | None]:
+def produced_points(points) -> tuple[list, Exception | None]:
     """The points a step produces, in order, and the error that stopped their production (None).
 
     A step's points are produced before any is stored, so that a system with ``diagnostics_many`` computes
@@ -311,7 +311,7 @@ class _Run:
 
     def take(self, result: StepResult, step: int) -> str:
         """Store the step's points until one ends the branch: "ended", "retry" (the step was shortened) or ""."""
-        points, failure = _produced(result.points)
+        points, failure = produced_points(result.points)
         many = getattr(self.system, "diagnostics_many", None)
         diagnostics = many([item[0] for item in points]) if many is not None and points else [None] * len(points)
         stored_a, start_check = 0.0, self.branch.checks[-1]
