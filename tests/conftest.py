@@ -39,6 +39,7 @@ LONGEST_MODULES = (
     "tests/study/test_study.py",
     "tests/study/test_stiff.py",
     "tests/tube/test_tube_workflow.py",
+    "tests/study/test_study_workflow.py",
     "tests/pipeline/test_verify.py",
     "tests/pipeline/test_faults.py",
     "tests/pipeline/test_worker.py",
