@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 import pytest
 import scipy.io
@@ -26,7 +28,8 @@ def files(tmp_path):
 def test_the_chain_is_read_back_from_matrix_market_and_npz(files):
     chain = matrix_structure(files / "M.mtx", files / "K.mtx", [STOP], dof_labels=["x1", "x2", "x3"])
     np.testing.assert_array_equal(np.asarray(chain.dense_matrices()[1]), STIFFNESS)
-    assert chain.dof_labels == ("x1", "x2", "x3") and chain.attributes["stiffness_file"] == "K.mtx"
+    assert chain.dof_labels == ("x1", "x2", "x3") and chain.attributes["stiffness_file"] == (files / "K.mtx").as_posix()
+    assert chain.attributes["stiffness_sha256"] == hashlib.sha256((files / "K.mtx").read_bytes()).hexdigest()
     np.savez(files / "K.npz", K=STIFFNESS)
     scipy.sparse.save_npz(files / "M.npz", scipy.sparse.csr_matrix(MASS))
     same = matrix_structure(files / "M.npz", files / "K.npz", [STOP])
