@@ -899,8 +899,9 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
     reference = Path(reference_dir)
     document = _load_reference(reference)
     data_digests = {line.split("  ")[1]: line.split("  ")[0] for line in (reference / "DATA.sha256").read_text().splitlines()}
-    rows = []
-    for line in (reference / "MANIFEST.sha256").read_text().splitlines():
+    reference_lines = (reference / "MANIFEST.sha256").read_text().splitlines()
+    rows = _check_build_manifests(results, [line.split("  ")[1] for line in reference_lines])
+    for line in reference_lines:
         digest, listed = line.split("  ")
         relative = listed.removeprefix("results/")
         path = results / relative
@@ -923,6 +924,36 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
             rows += _check_dataset(listed, path, document["files"][relative], reference, document["shared"])
         else:
             rows.append(Row(listed, "file (SHA-256)", digest[:12], _sha256(path)[:12], float("nan"), 0.0, DISCREPANT))
+    return rows
+
+
+def _check_build_manifests(results: Path, reference_files: list[str]) -> list[Row]:
+    """The build's own manifests (:func:`build_manifests`): each line's file present with that SHA-256, and
+    every dataset of the reference listed in one of them (the regime table is none of theirs)."""
+    rows, listed = [], set()
+    for name in build_manifests(results):
+        manifest, label = results / name, f"results/{name}"
+        if not manifest.is_file():
+            rows.append(Row(label, "manifest of the build", "present", "missing", float("nan"), 0.0, DISCREPANT))
+            continue
+        wrong, count = [], 0
+        for line in manifest.read_text().splitlines():
+            if not line.strip():
+                continue
+            digest, sep, member = line.partition("  ")
+            path = results / member.removeprefix("results/")
+            count += 1
+            listed.add(member)
+            if not sep or not path.is_file():
+                wrong.append(f"{member or line[:40]}: missing")
+            elif _sha256(path) != digest:
+                wrong.append(f"{member}: SHA-256 differs")
+        rows.append(Row(label, f"{count} datasets, each present with its SHA-256 ({len(wrong)} not)", "-",
+                        "; ".join(wrong)[:90] or "all", float(len(wrong)), 0.0, _verdict(not wrong)))
+    unlisted = sorted(f for f in reference_files if f.endswith(".nc") and f not in listed)
+    if unlisted:
+        rows.append(Row("results/MANIFEST.sha256", f"{len(unlisted)} datasets of the reference in no manifest of the "
+                        "build", "listed", ", ".join(unlisted)[:90], float(len(unlisted)), 0.0, DISCREPANT))
     return rows
 
 
