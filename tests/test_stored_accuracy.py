@@ -78,3 +78,21 @@ def test_a_dataset_without_its_structure_cannot_be_checked_and_says_why(small_bu
         check_orbits(ds, "nnm2.nc")
     with pytest.raises(ValueError, match="structure kind 'shell'"):
         structure_from_attributes(ds.assign_attrs(structure="shell"))
+
+
+def test_fig07_refuses_a_stage_with_one_flipped_bit_and_draws_nothing(small_build, tmp_path):
+    """Issue 33, reproduction 3: `snakemake paper_figures/fig07.pdf` drew panel a) at x of 1e307 from a stage file
+    with bit 62 of one q_cos value flipped, and exited 0. Its task reads through the one reader now."""
+    import yaml
+
+    from nnmstop.config import validate_config
+    from nnmstop.pipeline.run import find_task
+
+    config = validate_config(yaml.safe_load((Path(__file__).parent / "data" / "small_config.yaml").read_text()))
+    stage = tmp_path / "nnm1_stage1.nc"
+    stage.write_bytes((small_build / "results/hbm/stages/nnm1_stage1.nc").read_bytes())
+    assert abs(_flip_bit(stage, "q_cos", (3, 0, 1), 62)) > 1e300
+    outputs = {"pdf": str(tmp_path / "fig07.pdf"), "png": str(tmp_path / "fig07.png")}
+    with pytest.raises(ValueError, match=rf"{stage}: q_cos, .* at point 3"):
+        find_task("paper_fig07")(config, {"nnm1_stages": [str(stage)]}, outputs)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["nnm1_stage1.nc"]
