@@ -74,5 +74,5 @@ onstart:
     # build removes those no live writer holds (nnmstop.atomic), and says so.
     from nnmstop.atomic import remove_stale_temporaries
 
-    for stale in remove_stale_temporaries(["results", "paper_figures", "dist", "docs", "logs"]):
+    for stale in remove_stale_temporaries(["results", "paper_figures", "dist", "docs"]):
         print(f"nnmstop: removed {stale}, a partial file left by an interrupted job", file=sys.stderr)

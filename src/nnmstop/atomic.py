@@ -126,10 +126,16 @@ def _unheld(path: Path) -> bool:
     return True
 
 
+#: Folders of other tools (a documentation build, version control) never searched for temporaries.
+_FOREIGN = frozenset({"_build", "jupyter_execute", ".git", ".snakemake", "__pycache__"})
+
+
 def _temporaries(folder: Path):
     """Candidate temporaries under ``folder``: files named by :func:`temporary_name` and the folders of
-    :func:`atomic_folder` (``.<name>.new``)."""
+    :func:`atomic_folder` (``.<name>.new``); the folders of other tools left out."""
     for path in folder.rglob("*"):
+        if _FOREIGN & set(path.relative_to(folder).parts):
+            continue
         if path.is_file() and not path.is_symlink() and (".tmp." in path.name or path.name.endswith(".tmp")):
             yield path, path
         elif path.is_dir() and path.name.startswith(".") and path.name.endswith(".new"):

@@ -316,8 +316,8 @@ def _manifest_lines(text: str, name: str, problems: list) -> dict:
     return listed
 
 
-def verify_bundle(path, out=sys.stdout) -> list[str]:
-    """Check that the bundle ``path`` is exactly what its crate lists; print what was checked to ``out``.
+def verify_bundle(path, quiet: bool = False) -> list[str]:
+    """Check that the bundle ``path`` is exactly what its crate lists; print what was checked (unless ``quiet``).
 
     * every archive member has a safe name (none absolute or with ``..``; such members are not extracted)
       and is listed in the crate (``ro-crate-metadata.json``), the crate's own file aside;
@@ -356,12 +356,12 @@ def verify_bundle(path, out=sys.stdout) -> list[str]:
                 archive.extract(info, root)
         if CRATE_METADATA not in members:
             problems.append(f"{CRATE_METADATA}: missing; the archive is not an RO-Crate")
-            return _reported(problems, out, path, members, 0, 0)
+            return _reported(problems, quiet, path, members, 0, 0)
         try:
             crate = ROCrate(root)
         except Exception as error:  # rocrate raises what its JSON-LD parsing meets
             problems.append(f"{CRATE_METADATA}: cannot be read as an RO-Crate ({type(error).__name__}: {error})")
-            return _reported(problems, out, path, members, 0, 0)
+            return _reported(problems, quiet, path, members, 0, 0)
         files = {}
         for entity in crate.data_entities:
             if "File" not in entity.type:
@@ -397,17 +397,16 @@ def verify_bundle(path, out=sys.stdout) -> list[str]:
                 problems.append(f"{member}: SHA-256 differs from the bundled manifest's")
         for member in sorted(m for m in files if m.endswith(".nc") and m not in listed):
             problems.append(f"{member}: a dataset of the bundle that no bundled manifest lists")
-        return _reported(problems, out, path, members, len(files), len(listed))
+        return _reported(problems, quiet, path, members, len(files), len(listed))
 
 
-def _reported(problems: list, out, path, members: list, files: int, datasets: int) -> list:
-    """``problems``, after printing what was checked to ``out`` (None: nothing printed)."""
-    if out is not None:
+def _reported(problems: list, quiet: bool, path, members: list, files: int, datasets: int) -> list:
+    """``problems``, after printing what was checked to the standard output (unless ``quiet``)."""
+    if not quiet:
         print(
             f"{path}: {len(members)} archive members (safe names, each listed in the crate), {files} files of the "
             f"crate (inside the archive, size and SHA-256), {datasets} datasets of the bundled manifests "
-            f"(SHA-256, each a file of the crate): {len(problems)} problem(s)",
-            file=out,
+            f"(SHA-256, each a file of the crate): {len(problems)} problem(s)"
         )
     return problems
 
