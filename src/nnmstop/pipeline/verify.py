@@ -8,7 +8,7 @@ points only (the exact forced responses' contact states) reproduce their points
 (:mod:`nnmstop.stored_accuracy`), its variables (names, dimensions, types, attributes), its global
 attributes, its curve and every variable along it at matched positions, its located points,
 regimes and other values (:func:`nnmstop.pipeline.reference.unverified_variables` names the few
-it does not compare, and why). Each
+it does not compare, and why). The build's own manifests are checked against its files first. Each
 check has its tolerance, printed with every row; a check that cannot run is a discrepancy
 with its reason, and the table always comes out. What the reference keeps:
 :mod:`nnmstop.pipeline.reference`; method and tolerances: docs/reproducibility.md.
@@ -56,17 +56,8 @@ from nnmstop.pipeline.reference import (
 )
 from nnmstop.stored_accuracy import orbit_checks
 
-__all__ = [
-    "Row",
-    "ReferenceRefused",
-    "data_digest",
-    "build_manifests",
-    "update_reference",
-    "verify",
-    "file_verdicts",
-    "format_table",
-    "main",
-]
+__all__ = ["Row", "ReferenceRefused", "data_digest", "build_manifests", "update_reference", "verify", "file_verdicts",
+           "format_table", "main"]
 
 REGIMES_CSV = "compare/nnm1_regimes.csv"
 REGIMES_NC = "compare/nnm1_regimes.nc"
@@ -123,12 +114,7 @@ def data_digest(path: Path) -> str:
         digest.update(repr(sorted((k, str(v)) for k, v in attrs.items())).encode())
         for name in sorted(ds.variables):
             variable = ds.variables[name]
-            described = (
-                name,
-                str(variable.dtype),
-                variable.dims,
-                sorted((k, str(v)) for k, v in variable.attrs.items()),
-            )
+            described = (name, str(variable.dtype), variable.dims, sorted((k, str(v)) for k, v in variable.attrs.items()))
             digest.update(repr(described).encode())
             digest.update(np.ascontiguousarray(variable.values).tobytes())
     return digest.hexdigest()
@@ -220,7 +206,8 @@ def _compact_json(format_version: int, shared: dict, files: dict) -> str:
     def block(mapping: dict) -> str:
         return ",\n".join(f"  {json.dumps(key)}: {one_line(mapping[key])}" for key in sorted(mapping))
 
-    return f'{{"format": {format_version},\n"shared": {{\n{block(shared)}\n}},\n"files": {{\n{block(files)}\n}}}}\n'
+    return (f'{{"format": {format_version},\n"shared": {{\n{block(shared)}\n}},\n'
+            f'"files": {{\n{block(files)}\n}}}}\n')
 
 
 #: Manifests of a build, relative to its results directory: the paper's datasets (required) and the forced
@@ -275,25 +262,15 @@ def _refusals(results: Path, lines: list[str]) -> list[Row]:
             rows.append(Row(listed, "file", "listed in the manifest", "missing", float("nan"), 0.0, DISCREPANT))
             continue
         if _sha256(path) != digest:
-            rows.append(
-                Row(
-                    listed,
-                    "file (SHA-256)",
-                    f"manifest {digest[:12]}",
-                    f"file {_sha256(path)[:12]}",
-                    float("nan"),
-                    0.0,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(listed, "file (SHA-256)", f"manifest {digest[:12]}", f"file {_sha256(path)[:12]}",
+                            float("nan"), 0.0, DISCREPANT))
             continue
         try:
             read_dataset(path) if path.suffix == ".nc" else read_csv(path)
         except (ValueError, OSError, IndexError) as error:
             reason = str(error).replace(str(path), "the file")
-            rows.append(
-                Row(listed, "readable, finite, orbits accurate", "-", reason[:120], float("nan"), 0.0, DISCREPANT)
-            )
+            rows.append(Row(listed, "readable, finite, orbits accurate", "-", reason[:120], float("nan"), 0.0,
+                            DISCREPANT))
     return rows
 
 
@@ -374,18 +351,8 @@ def _write_reference(results: Path, reference: Path, lines: list[str]) -> None:
 def _check_finite(name: str, ds: xr.Dataset) -> list[Row]:
     """NaN or infinity in a variable that must hold numbers (netcdf.may_be_missing)."""
     found = non_finite_variables(ds)
-    rows = [
-        Row(
-            name,
-            f"variable {var}: NaN or infinite values",
-            "finite",
-            f"{count} non-finite",
-            float(count),
-            0.0,
-            DISCREPANT,
-        )
-        for var, count in sorted(found.items())
-    ]
+    rows = [Row(name, f"variable {var}: NaN or infinite values", "finite", f"{count} non-finite", float(count), 0.0,
+                DISCREPANT) for var, count in sorted(found.items())]
     if not rows:
         rows.append(Row(name, "every number finite", "finite", "finite", 0.0, 0.0, WITHIN))
     return rows
@@ -397,77 +364,29 @@ def _check_structure(name: str, ds: xr.Dataset, entry: dict, shared: dict) -> li
     expected, present = shared[entry["variables"]], {str(v) for v in ds.variables}
     missing, extra = sorted(set(expected) - present), sorted(present - set(expected))
     if missing:
-        rows.append(
-            Row(
-                name,
-                f"variable {missing[0]}" if len(missing) == 1 else f"{len(missing)} variables missing",
-                ", ".join(missing)[:90],
-                "missing",
-                float(len(missing)),
-                0.0,
-                DISCREPANT,
-            )
-        )
+        rows.append(Row(name, f"variable {missing[0]}" if len(missing) == 1 else f"{len(missing)} variables missing",
+                        ", ".join(missing)[:90], "missing", float(len(missing)), 0.0, DISCREPANT))
     if extra:
-        rows.append(
-            Row(
-                name,
-                f"variable {extra[0]}" if len(extra) == 1 else f"{len(extra)} variables not in the reference",
-                "absent",
-                ", ".join(extra)[:90],
-                float(len(extra)),
-                0.0,
-                DISCREPANT,
-            )
-        )
+        rows.append(Row(name, f"variable {extra[0]}" if len(extra) == 1 else f"{len(extra)} variables not in the "
+                        "reference", "absent", ", ".join(extra)[:90], float(len(extra)), 0.0, DISCREPANT))
     for var in sorted(present & set(expected)):
         (dims, dtype, attributes), variable = expected[var], ds.variables[var]
         if list(variable.dims) != dims or str(variable.dtype) != dtype:
-            rows.append(
-                Row(
-                    name,
-                    f"variable {var}: dimensions and type",
-                    f"{dims} {dtype}",
-                    f"{list(variable.dims)} {variable.dtype}",
-                    float("nan"),
-                    0.0,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(name, f"variable {var}: dimensions and type", f"{dims} {dtype}",
+                            f"{list(variable.dims)} {variable.dtype}", float("nan"), 0.0, DISCREPANT))
         wanted = shared.get(attributes, {})
         got = {key: json_value(value) for key, value in variable.attrs.items()}
         for key in sorted(set(wanted) | set(got)):
             if wanted.get(key) != got.get(key):
-                rows.append(
-                    Row(
-                        name,
-                        f"variable {var}: attribute {key}",
-                        str(wanted.get(key, "absent"))[:60],
-                        str(got.get(key, "absent"))[:60],
-                        float("nan"),
-                        0.0,
-                        DISCREPANT,
-                    )
-                )
+                rows.append(Row(name, f"variable {var}: attribute {key}", str(wanted.get(key, "absent"))[:60],
+                                str(got.get(key, "absent"))[:60], float("nan"), 0.0, DISCREPANT))
     for dim, size in entry["dims"].items():
         if ds.sizes.get(dim) != size:
-            rows.append(
-                Row(
-                    name, f"dimension {dim}", str(size), str(ds.sizes.get(dim, "absent")), float("nan"), 0.0, DISCREPANT
-                )
-            )
+            rows.append(Row(name, f"dimension {dim}", str(size), str(ds.sizes.get(dim, "absent")), float("nan"), 0.0,
+                            DISCREPANT))
     if not rows:
-        rows.append(
-            Row(
-                name,
-                f"{len(present)} variables: names, dimensions, types, attributes",
-                "same",
-                "same",
-                0.0,
-                0.0,
-                WITHIN,
-            )
-        )
+        rows.append(Row(name, f"{len(present)} variables: names, dimensions, types, attributes", "same", "same", 0.0,
+                        0.0, WITHIN))
     return rows
 
 
@@ -506,17 +425,8 @@ def _check_attributes(name: str, ds: xr.Dataset, entry: dict) -> list[Row]:
     for key in sorted(set(wanted) | set(got)):
         if key not in wanted or key not in got:
             if attribute_kind(key) != "sampling":
-                rows.append(
-                    Row(
-                        name,
-                        f"attribute {key}",
-                        str(wanted.get(key, "absent"))[:60],
-                        str(got.get(key, "absent"))[:60],
-                        float("nan"),
-                        0.0,
-                        DISCREPANT,
-                    )
-                )
+                rows.append(Row(name, f"attribute {key}", str(wanted.get(key, "absent"))[:60],
+                                str(got.get(key, "absent"))[:60], float("nan"), 0.0, DISCREPANT))
             continue
         result = _compare_attribute(key, wanted[key], got[key], entry["base"])
         if result is None:
@@ -525,28 +435,10 @@ def _check_attributes(name: str, ds: xr.Dataset, entry: dict) -> list[Row]:
         compared += 1
         difference, tolerance, ok = result
         if not ok or attribute_kind(key) in ("accuracy", "located"):
-            rows.append(
-                Row(
-                    name,
-                    f"attribute {key}",
-                    str(wanted[key])[:60],
-                    str(got[key])[:60],
-                    difference,
-                    tolerance,
-                    _verdict(ok),
-                )
-            )
-    rows.append(
-        Row(
-            name,
-            f"{compared} global attributes ({len(skipped)} counting stored points not compared)",
-            "-",
-            "-",
-            0.0,
-            0.0,
-            WITHIN if not any(r.verdict == DISCREPANT for r in rows) else DISCREPANT,
-        )
-    )
+            rows.append(Row(name, f"attribute {key}", str(wanted[key])[:60], str(got[key])[:60], difference,
+                            tolerance, _verdict(ok)))
+    rows.append(Row(name, f"{compared} global attributes ({len(skipped)} counting stored points not compared)",
+                    "-", "-", 0.0, 0.0, WITHIN if not any(r.verdict == DISCREPANT for r in rows) else DISCREPANT))
     return rows
 
 
@@ -565,80 +457,35 @@ def _check_other_values(name: str, ds: xr.Dataset, entry: dict, skip=()) -> list
         if isinstance(wanted, dict):  # large: its digest
             ok = hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest() == wanted["sha256"]
             if not ok:
-                rows.append(
-                    Row(
-                        name,
-                        f"variable {var} (SHA-256 of its values)",
-                        wanted["sha256"][:12],
-                        "differs",
-                        float("nan"),
-                        0.0,
-                        DISCREPANT,
-                    )
-                )
+                rows.append(Row(name, f"variable {var} (SHA-256 of its values)", wanted["sha256"][:12], "differs",
+                                float("nan"), 0.0, DISCREPANT))
             continue
         reference = np.asarray(wanted)
         if reference.size == 0 and values.size == 0:  # none (no located change): JSON keeps no shape of it
             continue
         if reference.shape != values.shape:
-            rows.append(
-                Row(
-                    name,
-                    f"variable {var}: shape",
-                    str(reference.shape),
-                    str(values.shape),
-                    float("nan"),
-                    0.0,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(name, f"variable {var}: shape", str(reference.shape), str(values.shape), float("nan"), 0.0,
+                            DISCREPANT))
             continue
         if values.dtype.kind not in "fc" or reference.dtype.kind not in "fc":
             ok = [str(v) for v in reference.ravel()] == [str(v) for v in values.ravel()]
             if not ok:
-                rows.append(
-                    Row(
-                        name,
-                        f"variable {var}",
-                        str(reference.tolist())[:60],
-                        str(values.tolist())[:60],
-                        float("nan"),
-                        0.0,
-                        DISCREPANT,
-                    )
-                )
+                rows.append(Row(name, f"variable {var}", str(reference.tolist())[:60], str(values.tolist())[:60],
+                                float("nan"), 0.0, DISCREPANT))
             continue
         if ACCURACY_PATTERN.search(var):
             bound = ACCURACY_FACTOR * float(np.max(np.abs(reference))) if reference.size else 0.0
             worst = float(np.max(np.abs(values))) if values.size else 0.0
-            rows.append(
-                Row(
-                    name,
-                    f"variable {var} (accuracy estimate: largest)",
-                    f"{bound / ACCURACY_FACTOR:.3g}",
-                    f"{worst:.3g}",
-                    worst,
-                    bound,
-                    _verdict(worst <= bound),
-                )
-            )
+            rows.append(Row(name, f"variable {var} (accuracy estimate: largest)", f"{bound / ACCURACY_FACTOR:.3g}",
+                            f"{worst:.3g}", worst, bound, _verdict(worst <= bound)))
             continue
         tolerance = max(DERIVED_TOLERANCE, 10 * entry["base"])
         scale = 1.0 if var in DIFFERENCE_VARIABLES else np.maximum(np.abs(reference), 1e-300)
         difference = np.abs(values - reference) / scale
         worst = float(np.max(difference)) if difference.size else 0.0
         if worst > tolerance:
-            rows.append(
-                Row(
-                    name,
-                    f"variable {var} ({'absolute' if var in DIFFERENCE_VARIABLES else 'relative'})",
-                    str(reference.tolist())[:60],
-                    str(values.tolist())[:60],
-                    worst,
-                    tolerance,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(name, f"variable {var} ({'absolute' if var in DIFFERENCE_VARIABLES else 'relative'})", str(reference.tolist())[:60], str(values.tolist())[:60],
+                            worst, tolerance, DISCREPANT))
     return rows
 
 
@@ -653,17 +500,8 @@ def _check_located(name: str, entry: dict, ds: xr.Dataset, curves: dict, base: f
         ref = np.log(np.column_stack([entry["values"][energy], entry["values"][frequency]]).reshape(-1, 2))
         got = np.log(np.column_stack([ds[energy].values, ds[frequency].values]).reshape(-1, 2))
         if len(ref) != len(got):
-            rows.append(
-                Row(
-                    name,
-                    f"number of {kind}s",
-                    str(len(ref)),
-                    str(len(got)),
-                    float(abs(len(ref) - len(got))),
-                    0.0,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(name, f"number of {kind}s", str(len(ref)), str(len(got)), float(abs(len(ref) - len(got))),
+                            0.0, DISCREPANT))
             continue
         for j, (p, q) in enumerate(zip(ref, got)):
             tolerance = base
@@ -672,17 +510,8 @@ def _check_located(name: str, entry: dict, ds: xr.Dataset, curves: dict, base: f
                 segments = [(c, int(c.distance(x[None])[1][0])) for c, x in pairs]
                 tolerance += max(float(c.s[k + 1] - c.s[k]) for c, k in segments)
             gap = float(np.linalg.norm(p - q))
-            rows.append(
-                Row(
-                    name,
-                    f"{kind} {j + 1}",
-                    _fmt(*np.exp(p)),
-                    _fmt(*np.exp(q)),
-                    gap,
-                    tolerance,
-                    _verdict(gap <= tolerance),
-                )
-            )
+            rows.append(Row(name, f"{kind} {j + 1}", _fmt(*np.exp(p)), _fmt(*np.exp(q)), gap, tolerance,
+                            _verdict(gap <= tolerance)))
     return rows
 
 
@@ -691,23 +520,10 @@ def _check_regimes(name: str, reference: dict, sampling: dict, build: dict, buil
     stored orbits within the largest change between neighbouring orbits (either build)."""
     identities = ("impacts_per_period", "exact_sequence")
     if any(_labels(reference[k]) != _labels(build[k]) for k in identities):
-        return [
-            Row(
-                name,
-                "regimes (impacts per period, exact sequence)",
-                str(list(reference["impacts_per_period"])),
-                str(list(build["impacts_per_period"])),
-                float("nan"),
-                0.0,
-                DISCREPANT,
-            )
-        ]
-    step_of = {
-        "energy": "d_log_energy",
-        "frequency": "d_frequency",
-        "frequency_error": "d_frequency_error",
-        "rel_frequency_error": "d_relative_frequency_error",
-    }
+        return [Row(name, "regimes (impacts per period, exact sequence)", str(list(reference["impacts_per_period"])),
+                    str(list(build["impacts_per_period"])), float("nan"), 0.0, DISCREPANT)]
+    step_of = {"energy": "d_log_energy", "frequency": "d_frequency", "frequency_error": "d_frequency_error",
+               "rel_frequency_error": "d_relative_frequency_error"}
     rows = []
     for column in reference:
         if column in ("regime", *identities, "n_matched", "n_unmatched"):
@@ -728,18 +544,9 @@ def _check_regimes(name: str, reference: dict, sampling: dict, build: dict, buil
             if worst is None or difference / max(tolerance, 1e-300) > worst[0]:
                 worst = (difference / max(tolerance, 1e-300), k, r, b, difference, tolerance)
         _, k, r, b, difference, tolerance = worst
-        rows.append(
-            Row(
-                name,
-                f"{column} (worst of {len(reference[column])} regimes: regime {k})"
-                + (" (ln)" if kind == "energy" else ""),
-                f"{r:.9g}",
-                f"{b:.9g}",
-                difference,
-                tolerance,
-                _verdict(difference <= tolerance),
-            )
-        )
+        rows.append(Row(name, f"{column} (worst of {len(reference[column])} regimes: regime {k})"
+                        + (" (ln)" if kind == "energy" else ""), f"{r:.9g}", f"{b:.9g}", difference, tolerance,
+                        _verdict(difference <= tolerance)))
     return rows
 
 
@@ -755,17 +562,8 @@ def _regime_rows(name: str, ds: xr.Dataset, reference_dir: Path) -> list[Row]:
     build = {str(v): ds[v].values for v in ds.variables if ds[v].dims == ("regime",)}
     missing = [c for c in table if c not in build]
     if missing or "point_regime" not in ds.variables:
-        return [
-            Row(
-                name,
-                "regime table: columns missing",
-                ", ".join(table)[:90],
-                ", ".join(missing)[:90],
-                float(len(missing)),
-                0.0,
-                DISCREPANT,
-            )
-        ]
+        return [Row(name, "regime table: columns missing", ", ".join(table)[:90], ", ".join(missing)[:90],
+                    float(len(missing)), 0.0, DISCREPANT)]
     return _check_regimes(name, table, sampling, build, _regime_sampling(ds))
 
 
@@ -799,10 +597,8 @@ def _check_curve(name: str, curves: dict, base: float) -> tuple[list[Row], np.nd
     """Each curve's stored points on the other curve, and the two curves' ends; also which build
     points lie past an end of the reference curve (not compared along it)."""
     rows, build_past = [], None
-    for label, source, target in (
-        ("build points on reference curve", "build", "reference"),
-        ("reference points on build curve", "reference", "build"),
-    ):
+    for label, source, target in (("build points on reference curve", "build", "reference"),
+                                  ("reference points on build curve", "reference", "build")):
         c_src, c_tgt = curves[source], curves[target]
         d, segment, at_end = c_tgt.distance(c_src.points)
         tolerance = base + c_tgt.segment_error(segment)
@@ -811,24 +607,16 @@ def _check_curve(name: str, curves: dict, base: float) -> tuple[list[Row], np.nd
         ratio = np.where(at_end, 0.0, d / tolerance)
         worst = int(np.argmax(ratio))
         e, f = np.exp(c_src.points[worst])
-        rows.append(
-            Row(
-                name,
-                f"{label} ({len(c_src.points)} points, {int(at_end.sum())} past an end; worst at {_fmt(e, f)})",
-                f"{len(curves['reference'].points)} points",
-                f"{len(curves['build'].points)} points",
-                float(d[worst]),
-                float(tolerance[worst]),
-                _verdict(ratio[worst] <= 1),
-            )
-        )
+        rows.append(Row(name, f"{label} ({len(c_src.points)} points, {int(at_end.sum())} past an end; worst at "
+                        f"{_fmt(e, f)})", f"{len(curves['reference'].points)} points",
+                        f"{len(curves['build'].points)} points", float(d[worst]), float(tolerance[worst]),
+                        _verdict(ratio[worst] <= 1)))
     for end, label in ((0, "start point"), (-1, "end point")):
         p_ref, p_build = curves["reference"].points[end], curves["build"].points[end]
         gap = float(np.linalg.norm(p_ref - p_build))
         tolerance = base + max(curves["reference"].end_length(end), curves["build"].end_length(end))
-        rows.append(
-            Row(name, label, _fmt(*np.exp(p_ref)), _fmt(*np.exp(p_build)), gap, tolerance, _verdict(gap <= tolerance))
-        )
+        rows.append(Row(name, label, _fmt(*np.exp(p_ref)), _fmt(*np.exp(p_build)), gap, tolerance,
+                        _verdict(gap <= tolerance)))
     return rows, build_past
 
 
@@ -867,30 +655,11 @@ def _check_discrete(name: str, reference: dict, table: dict, curves: dict, match
                 j = int(np.flatnonzero(wrong)[0])
                 e, f = np.exp(curves["build"].points[j])
                 allowed = sorted({ref[segment[j]], ref[segment[j] + 1]})
-                rows.append(
-                    Row(
-                        name,
-                        f"{column} at {int(wrong.sum())} of {int(valid.sum())} build points (first at {_fmt(e, f)})",
-                        " or ".join(allowed),
-                        got[j],
-                        float(wrong.sum()),
-                        0.0,
-                        DISCREPANT,
-                    )
-                )
+                rows.append(Row(name, f"{column} at {int(wrong.sum())} of {int(valid.sum())} build points (first at "
+                                f"{_fmt(e, f)})", " or ".join(allowed), got[j], float(wrong.sum()), 0.0, DISCREPANT))
     compared = len(table["discrete"]) + len(table["stability"])
-    rows.append(
-        Row(
-            name,
-            f"{compared} flags, counts and verdicts at matched positions (stability verdicts outside "
-            "the band of a change)",
-            "-",
-            "-",
-            0.0,
-            0.0,
-            WITHIN if not rows else DISCREPANT,
-        )
-    )
+    rows.append(Row(name, f"{compared} flags, counts and verdicts at matched positions (stability verdicts outside "
+                    "the band of a change)", "-", "-", 0.0, 0.0, WITHIN if not rows else DISCREPANT))
     return rows
 
 
@@ -907,17 +676,8 @@ def _check_markers(name: str, reference: dict, table: dict, curves: dict) -> lis
         build_values = np.asarray(table["marker"][column])[c_build.keep].astype(int)
         ref_events, build_events = np.flatnonzero(ref_values), np.flatnonzero(build_values)
         if len(ref_events) != len(build_events):
-            rows.append(
-                Row(
-                    name,
-                    f"{column}: number of flagged points",
-                    str(len(ref_events)),
-                    str(len(build_events)),
-                    float(abs(len(ref_events) - len(build_events))),
-                    0.0,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(name, f"{column}: number of flagged points", str(len(ref_events)), str(len(build_events)),
+                            float(abs(len(ref_events) - len(build_events))), 0.0, DISCREPANT))
             continue
         if not len(build_events):
             continue
@@ -926,52 +686,31 @@ def _check_markers(name: str, reference: dict, table: dict, curves: dict) -> lis
         for j, (p, seg) in enumerate(zip(parameter, segment)):
             same = ref_events[ref_values[ref_events] == build_values[build_events[j]]]
             gap = float(np.min(np.abs(c_ref.s[same] - p))) if len(same) else np.inf
-            around = lambda c, k: max(float(np.diff(c.s)[max(k - 1, 0) : k + 1].max()), 0.0)  # noqa: E731
+            around = lambda c, k: max(float(np.diff(c.s)[max(k - 1, 0):k + 1].max()), 0.0)  # noqa: E731
             tolerance = max(around(c_ref, int(seg)), around(c_build, int(build_events[j])))
             if gap / max(tolerance, 1e-300) >= worst[0] / max(worst[1], 1e-300):
                 worst = (gap, tolerance, j)
         gap, tolerance, j = worst
         e, f = np.exp(c_build.points[build_events[j]])
-        rows.append(
-            Row(
-                name,
-                f"{column}: {len(build_events)} flagged points (worst at {_fmt(e, f)})",
-                f"{len(ref_events)} flagged",
-                f"{len(build_events)} flagged",
-                gap,
-                tolerance,
-                _verdict(gap <= tolerance),
-            )
-        )
+        rows.append(Row(name, f"{column}: {len(build_events)} flagged points (worst at {_fmt(e, f)})",
+                        f"{len(ref_events)} flagged", f"{len(build_events)} flagged", gap, tolerance,
+                        _verdict(gap <= tolerance)))
     return rows
 
 
-def _check_projection(
-    name: str,
-    kind: str,
-    reference: dict,
-    columns: dict,
-    scales: dict,
-    curves: dict,
-    match: tuple,
-    base: float,
-    error=None,
-) -> list[Row]:
+def _check_projection(name: str, kind: str, reference: dict, columns: dict, scales: dict, curves: dict, match: tuple,
+                      base: float, error=None) -> list[Row]:
     """Every orbit fingerprint or smooth quantity at each build point, through the projection: the
     build's value against the reference's interpolated at the point's position; tolerance = the
     base accuracy of the values + the reference's interpolation error there (leave-one-out) + twice the
     values' own error estimate where the file stores one (``error``, per build point: either build's
     values are within it)."""
-    label = {
-        "orbit": "orbits (harmonics, every signal)",
-        "quantities": "smooth quantities",
-        "stability": "stability numbers (multipliers, margins; outside the band of a change)",
-    }[kind]
+    label = {"orbit": "orbits (harmonics, every signal)", "quantities": "smooth quantities",
+             "stability": "stability numbers (multipliers, margins; outside the band of a change)"}[kind]
     missing = sorted(set(scales) - set(columns))
     if missing:
-        return [
-            Row(name, f"{label}: not compared, columns missing", "-", str(missing)[:60], float("nan"), 0.0, DISCREPANT)
-        ]
+        return [Row(name, f"{label}: not compared, columns missing", "-", str(missing)[:60], float("nan"), 0.0,
+                    DISCREPANT)]
     segment, parameter, skip = match
     c_ref, c_build = curves["reference"], curves["build"]
     if kind == "stability":
@@ -993,17 +732,9 @@ def _check_projection(
     ratio = np.where(skip, 0.0, difference / np.maximum(tolerance, 1e-300))
     worst = int(np.argmax(ratio))
     e, f = np.exp(c_build.points[worst])
-    return [
-        Row(
-            name,
-            f"{label}: {len(scales)} columns at {int((~skip).sum())} build points (worst at {_fmt(e, f)})",
-            f"{expected[worst]:.10g}",
-            f"{value[worst]:.10g}",
-            float(difference[worst]),
-            float(tolerance[worst]),
-            _verdict(ratio[worst] <= 1),
-        )
-    ]
+    return [Row(name, f"{label}: {len(scales)} columns at {int((~skip).sum())} build points (worst at {_fmt(e, f)})",
+                f"{expected[worst]:.10g}", f"{value[worst]:.10g}", float(difference[worst]), float(tolerance[worst]),
+                _verdict(ratio[worst] <= 1))]
 
 
 def _column(table: dict, column: str):
@@ -1019,25 +750,13 @@ def _check_ranges(name: str, entry: dict, table: dict, base: float) -> list[Row]
         values = _column(table, column)
         if values is None:
             continue
-        got_low, got_high, got_step = (
-            float(np.min(values)),
-            float(np.max(values)),
-            float(np.max(np.abs(np.diff(values)))) if len(values) > 1 else 0.0,
-        )
+        got_low, got_high, got_step = (float(np.min(values)), float(np.max(values)),
+                                       float(np.max(np.abs(np.diff(values)))) if len(values) > 1 else 0.0)
         tolerance = max(step, got_step) + base * max(abs(low), abs(high))
         difference = max(abs(got_low - low), abs(got_high - high))
         if not difference <= tolerance:
-            rows.append(
-                Row(
-                    name,
-                    f"{column}: range on the curve",
-                    f"[{low:.6g}, {high:.6g}]",
-                    f"[{got_low:.6g}, {got_high:.6g}]",
-                    difference,
-                    tolerance,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(name, f"{column}: range on the curve", f"[{low:.6g}, {high:.6g}]",
+                            f"[{got_low:.6g}, {got_high:.6g}]", difference, tolerance, DISCREPANT))
     return rows
 
 
@@ -1052,30 +771,11 @@ def _check_bounds(name: str, entry: dict, table: dict) -> list[Row]:
         worst = float(np.max(np.abs(values))) if len(values) else 0.0
         bound = ACCURACY_FACTOR * largest
         if not worst <= bound:
-            rows.append(
-                Row(
-                    name,
-                    f"{column} (accuracy estimate: largest on the curve)",
-                    f"{largest:.3g}",
-                    f"{worst:.3g}",
-                    worst,
-                    bound,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(name, f"{column} (accuracy estimate: largest on the curve)", f"{largest:.3g}",
+                            f"{worst:.3g}", worst, bound, DISCREPANT))
     if checked:
-        rows.append(
-            Row(
-                name,
-                f"{checked} accuracy estimates (residuals, errors) within {ACCURACY_FACTOR:g} times "
-                "the reference's largest",
-                "-",
-                "-",
-                0.0,
-                0.0,
-                WITHIN if not rows else DISCREPANT,
-            )
-        )
+        rows.append(Row(name, f"{checked} accuracy estimates (residuals, errors) within {ACCURACY_FACTOR:g} times "
+                        "the reference's largest", "-", "-", 0.0, 0.0, WITHIN if not rows else DISCREPANT))
     return rows
 
 
@@ -1085,17 +785,8 @@ def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -
     reference = _reference_rows(reference_dir, spec)
     table = point_table(ds)
     if table is None:
-        return [
-            Row(
-                name,
-                "frequency-energy curve",
-                "present",
-                "absent (no energy and frequency)",
-                float("nan"),
-                0.0,
-                DISCREPANT,
-            )
-        ]
+        return [Row(name, "frequency-energy curve", "present", "absent (no energy and frequency)", float("nan"), 0.0,
+                    DISCREPANT)]
     curves = {
         "reference": Curve(reference["energy"], reference["frequency"], reference.get("step")),
         "build": Curve(table["curve"]["energy"], table["curve"]["frequency"], table.get("step")),
@@ -1110,9 +801,8 @@ def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -
     for kind, source in PROJECTIONS.items():
         if kind in spec["scales"]:
             error = np.sum(estimates, axis=0) if kind == "stability" and estimates else None
-            rows += _check_projection(
-                name, kind, reference, table[source], spec["scales"][kind], curves, match, base, error
-            )
+            rows += _check_projection(name, kind, reference, table[source], spec["scales"][kind], curves, match, base,
+                                      error)
     rows += _check_ranges(name, entry, table, base)
     rows += _check_bounds(name, entry, table)
     return rows
@@ -1132,17 +822,9 @@ def _check_orbits(name: str, ds: xr.Dataset) -> list[Row]:
             continue
         worst = check.worst()
         where = f"{check.dim} {int(check.points[worst])}"
-        rows.append(
-            Row(
-                name,
-                f"{check.measure}: {len(check.points)} orbits ({', '.join(check.variables)}; worst at {where})",
-                "-",
-                f"{check.recomputed[worst]:.3g}",
-                float(check.recomputed[worst]),
-                float(check.allowed[worst]),
-                _verdict(not len(check.failed)),
-            )
-        )
+        rows.append(Row(name, f"{check.measure}: {len(check.points)} orbits ({', '.join(check.variables)}; worst at "
+                        f"{where})", "-", f"{check.recomputed[worst]:.3g}", float(check.recomputed[worst]),
+                        float(check.allowed[worst]), _verdict(not len(check.failed))))
     return rows
 
 
@@ -1160,16 +842,8 @@ def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, sh
         ("stored orbits", lambda: _check_orbits(listed, ds)),
         ("structure", lambda: _check_structure(listed, ds, entry, shared)),
         ("global attributes", lambda: _check_attributes(listed, ds, entry)),
-        (
-            "values off the curve",
-            lambda: _check_other_values(
-                listed,
-                ds,
-                entry,
-                skip=located
-                + ([str(v) for v in ds.variables if ds[v].dims == ("regime",)] if relative == REGIMES_NC else []),
-            ),
-        ),
+        ("values off the curve", lambda: _check_other_values(listed, ds, entry, skip=located + (
+            [str(v) for v in ds.variables if ds[v].dims == ("regime",)] if relative == REGIMES_NC else []))),
     ]
     if relative == REGIMES_NC:
         checks.append(("regimes", lambda: _regime_rows(listed, ds, reference_dir)))
@@ -1181,35 +855,22 @@ def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, sh
             with np.errstate(all="ignore"):  # a damaged value overflows; the rows say where
                 rows += check()
         except Exception as error:  # a damaged file must not stop the table: the check fails, with why
-            rows.append(
-                Row(
-                    listed,
-                    f"{label}: check could not run",
-                    "-",
-                    f"{type(error).__name__}: {error}"[:90],
-                    float("nan"),
-                    0.0,
-                    DISCREPANT,
-                )
-            )
+            rows.append(Row(listed, f"{label}: check could not run", "-", f"{type(error).__name__}: {error}"[:90],
+                            float("nan"), 0.0, DISCREPANT))
     return rows
 
 
 def _load_reference(reference: Path) -> dict:
     if not (reference / "MANIFEST.sha256").is_file():
-        raise ValueError(
-            f"no reference manifest {reference / 'MANIFEST.sha256'}: regenerate it with "
-            f"`python -m nnmstop.pipeline.verify --update-reference RESULTS_DIR --reference {reference}`"
-        )
+        raise ValueError(f"no reference manifest {reference / 'MANIFEST.sha256'}: regenerate it with "
+                         f"`python -m nnmstop.pipeline.verify --update-reference RESULTS_DIR --reference {reference}`")
     try:
         document = json.loads((reference / "files.json").read_text())
     except (OSError, ValueError) as error:
         raise ValueError(f"{reference / 'files.json'} cannot be read ({error}): regenerate the reference") from None
     if document.get("format") != REFERENCE_FORMAT or not {"shared", "files"} <= set(document):
-        raise ValueError(
-            f"{reference}/files.json is not of the format this verifier reads ({REFERENCE_FORMAT}): "
-            "regenerate the reference (--update-reference)"
-        )
+        raise ValueError(f"{reference}/files.json is not of the format this verifier reads ({REFERENCE_FORMAT}): "
+                         "regenerate the reference (--update-reference)")
     return document
 
 
@@ -1228,9 +889,7 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
     results = _results_dir(results_dir)
     reference = Path(reference_dir)
     document = _load_reference(reference)
-    data_digests = {
-        line.split("  ")[1]: line.split("  ")[0] for line in (reference / "DATA.sha256").read_text().splitlines()
-    }
+    data_digests = {line.split("  ")[1]: line.split("  ")[0] for line in (reference / "DATA.sha256").read_text().splitlines()}
     reference_lines = (reference / "MANIFEST.sha256").read_text().splitlines()
     rows = _check_build_manifests(results, [line.split("  ")[1] for line in reference_lines])
     for line in reference_lines:
@@ -1248,17 +907,8 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
         except Exception:  # unreadable: the checks below say why
             same_data = False
         if same_data:
-            rows.append(
-                Row(
-                    listed,
-                    "content without provenance (SHA-256)",
-                    data_digests[listed][:12],
-                    data_digests[listed][:12],
-                    0.0,
-                    0.0,
-                    "identical data",
-                )
-            )
+            rows.append(Row(listed, "content without provenance (SHA-256)", data_digests[listed][:12],
+                            data_digests[listed][:12], 0.0, 0.0, "identical data"))
         elif relative == REGIMES_CSV:
             rows += _regime_table_rows(listed, path, results, reference)
         elif relative in document["files"]:
@@ -1289,30 +939,12 @@ def _check_build_manifests(results: Path, reference_files: list[str]) -> list[Ro
                 wrong.append(f"{member or line[:40]}: missing")
             elif _sha256(path) != digest:
                 wrong.append(f"{member}: SHA-256 differs")
-        rows.append(
-            Row(
-                label,
-                f"{count} datasets, each present with its SHA-256 ({len(wrong)} not)",
-                "-",
-                "; ".join(wrong)[:90] or "all",
-                float(len(wrong)),
-                0.0,
-                "identical" if not wrong else DISCREPANT,
-            )
-        )
+        rows.append(Row(label, f"{count} datasets, each present with its SHA-256 ({len(wrong)} not)", "-",
+                        "; ".join(wrong)[:90] or "all", float(len(wrong)), 0.0, "identical" if not wrong else DISCREPANT))
     unlisted = sorted(f for f in reference_files if f.endswith(".nc") and f not in listed)
     if unlisted:
-        rows.append(
-            Row(
-                "results/MANIFEST.sha256",
-                f"{len(unlisted)} datasets of the reference in no manifest of the build",
-                "listed",
-                ", ".join(unlisted)[:90],
-                float(len(unlisted)),
-                0.0,
-                DISCREPANT,
-            )
-        )
+        rows.append(Row("results/MANIFEST.sha256", f"{len(unlisted)} datasets of the reference in no manifest of the "
+                        "build", "listed", ", ".join(unlisted)[:90], float(len(unlisted)), 0.0, DISCREPANT))
     return rows
 
 
@@ -1321,25 +953,11 @@ def _regime_table_rows(listed: str, path: Path, results: Path, reference: Path) 
         table = read_csv(path)
         with xr.open_dataset(results / REGIMES_NC) as regimes:
             build_sampling = _regime_sampling(regimes.load())
-        return _check_regimes(
-            listed,
-            read_csv(reference / "nnm1_regimes.csv"),
-            read_csv(reference / "nnm1_regimes_sampling.csv"),
-            table,
-            build_sampling,
-        )
+        return _check_regimes(listed, read_csv(reference / "nnm1_regimes.csv"),
+                              read_csv(reference / "nnm1_regimes_sampling.csv"), table, build_sampling)
     except Exception as error:
-        return [
-            Row(
-                listed,
-                "regime table: check could not run",
-                "-",
-                f"{type(error).__name__}: {error}"[:70],
-                float("nan"),
-                0.0,
-                DISCREPANT,
-            )
-        ]
+        return [Row(listed, "regime table: check could not run", "-", f"{type(error).__name__}: {error}"[:70],
+                    float("nan"), 0.0, DISCREPANT)]
 
 
 def file_verdicts(rows: list[Row]) -> dict[str, str]:
@@ -1353,23 +971,17 @@ def file_verdicts(rows: list[Row]) -> dict[str, str]:
 
 def format_table(rows: list[Row]) -> str:
     """The rows as a text table, then the counts of files per verdict."""
-    lines = [
-        "Distances are in (ln E, ln f): relative differences. Curve tolerance = accuracy of the stored orbits "
-        "(ANM Newton threshold, or 1e-9 for exact orbits) + interpolation error of the curve (leave-one-out "
-        "cubic deviation of the stored points around). Ends: one continuation step. Variables along the curve "
-        "are compared at matched positions (docs/reproducibility.md).",
-        f"{'file':45s} {'quantity':70s} {'reference':32s} {'this build':32s} {'difference':>11s} {'tolerance':>10s}  verdict",
-    ]
+    lines = ["Distances are in (ln E, ln f): relative differences. Curve tolerance = accuracy of the stored orbits "
+             "(ANM Newton threshold, or 1e-9 for exact orbits) + interpolation error of the curve (leave-one-out "
+             "cubic deviation of the stored points around). Ends: one continuation step. Variables along the curve "
+             "are compared at matched positions (docs/reproducibility.md).",
+             f"{'file':45s} {'quantity':70s} {'reference':32s} {'this build':32s} {'difference':>11s} {'tolerance':>10s}  verdict"]
     for r in rows:
-        lines.append(
-            f"{r.file:45s} {r.quantity:70s} {r.reference:32s} {r.build:32s} {r.difference:11.3e} {r.tolerance:10.3e}  {r.verdict}"
-        )
+        lines.append(f"{r.file:45s} {r.quantity:70s} {r.reference:32s} {r.build:32s} {r.difference:11.3e} {r.tolerance:10.3e}  {r.verdict}")
     verdicts = file_verdicts(rows)
     counts = list(verdicts.values())
-    lines.append(
-        f"files: {counts.count('identical')} identical, {counts.count('identical data')} identical data "
-        f"(other git commit), {counts.count(WITHIN)} within tolerance, {counts.count(DISCREPANT)} discrepant"
-    )
+    lines.append(f"files: {counts.count('identical')} identical, {counts.count('identical data')} identical data "
+                 f"(other git commit), {counts.count(WITHIN)} within tolerance, {counts.count(DISCREPANT)} discrepant")
     discrepant = sorted(name for name, verdict in verdicts.items() if verdict == DISCREPANT)
     if discrepant:
         lines.append("discrepant: " + ", ".join(discrepant))
