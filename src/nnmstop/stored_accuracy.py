@@ -234,11 +234,11 @@ def _closed_form_exact(ds: xr.Dataset, prefix: str = "") -> list[OrbitCheck]:
     if ds.sizes.get("point", 0) == 0 or f"{prefix}xdot0" not in ds.variables:
         return []
     checks = []
-    delta = float(ds.attrs.get("delta", 1.0))
     points = np.arange(ds.sizes["point"])
     xdot, udot = ds[f"{prefix}xdot0"].values, ds[f"{prefix}udot0"].values
     energy_name = f"{prefix}energy" if f"{prefix}energy" in ds.variables else "energy"
-    if "mass_matrix" not in ds.attrs and energy_name in ds.variables:
+    if "delta" in ds.attrs and "mass_matrix" not in ds.attrs and energy_name in ds.variables:  # M = diag(1, delta)
+        delta = float(ds.attrs["delta"])
         with np.errstate(all="ignore"):
             energy = 0.5 * (xdot**2 + delta * udot**2)
             stored = ds[energy_name].values

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import hashlib
+import io
+import zipfile
 
 import numpy as np
 import pytest
@@ -118,7 +120,10 @@ def test_a_sparse_matrix_larger_than_the_memory_is_refused_from_its_header(tmp_p
     monkeypatch.setattr(matrices, "_available_memory", lambda: 1000)  # bytes
     with pytest.raises(ValueError, match=r"K\.mtx: the header declares a 3 x 3 matrix of \d+ entries, .* more than"):
         load_matrix(tmp_path / "K.mtx")
-    np.savez(tmp_path / "K.npz", K=np.eye(6000))
+    header = io.BytesIO()  # a .npz whose array header declares 6000 x 6000 doubles (288 MB) and holds none
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (6000, 6000)})
+    with zipfile.ZipFile(tmp_path / "K.npz", "w") as archive:
+        archive.writestr("K.npy", header.getvalue())
     monkeypatch.setattr(matrices, "_available_memory", lambda: None)
     with pytest.raises(ValueError, match=r"K\.npz: the header declares a dense 6000 x 6000 matrix"):
         load_matrix(tmp_path / "K.npz")
