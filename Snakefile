@@ -2,6 +2,7 @@
 # Data flow: model -> exact orbits -> HBM/ANM continuation -> datasets -> comparisons -> figures.
 import glob
 import os
+import sys
 
 from snakemake.utils import min_version
 
@@ -66,3 +67,12 @@ rule all:
         PAPER_FIGURES,
         PAPER_DATASETS,
         rules.dataset_manifest.output.manifest,
+
+
+onstart:
+    # A job killed with SIGKILL (or the OOM killer) leaves the temporary file of its atomic writer; the next
+    # build removes those no live writer holds (nnmstop.atomic), and says so.
+    from nnmstop.atomic import remove_stale_temporaries
+
+    for stale in remove_stale_temporaries(["results", "paper_figures", "dist", "docs"]):
+        print(f"nnmstop: removed {stale}, a partial file left by an interrupted job", file=sys.stderr)

@@ -227,7 +227,9 @@ def test_read_dataset_refuses_a_non_finite_value_naming_file_and_variable(tmp_pa
         ds["frequency"].values[1] = bad
 
     copy = altered_copy(path, tmp_path, spoil)
-    with pytest.raises(ValueError, match=rf"{copy} holds NaN or infinite values .*: frequency \(1 values\)"):
+    with pytest.raises(
+        ValueError, match=rf"{copy} holds NaN or infinite values .*: frequency \(1 values, first at point 1\)"
+    ):
         read_dataset(copy)
 
 

@@ -245,6 +245,77 @@ def test_docs_pages_are_generated_from_the_build(built):
     ).read_bytes()
 
 
+def _with_a_nan(built: Path, tmp_path: Path) -> Path:
+    """A copy of the build's results with one NaN in one coefficient of NNM1 (written as xarray writes, no checks)."""
+    copy = Path(shutil.copytree(built / "results", tmp_path / "results"))
+    ds = xr.load_dataset(copy / "hbm/nnm1.nc")
+    ds["q_cos"].values[5, 0, 1] = np.nan
+    (copy / "hbm/nnm1.nc").unlink()
+    ds.to_netcdf(copy / "hbm/nnm1.nc")
+    return copy
+
+
+def test_a_nan_stops_the_manifest_the_docs_page_and_the_explorer_naming_the_file(built, tmp_path):
+    """Issue 33, reproduction 3: a NaN in results/hbm/nnm1.nc got its digest into docs/results.md and its hash into
+    the manifest (those tasks read with plain xarray), and the explorer failed naming no file. They read through
+    the reader of every task now: each refuses naming the file, the variable and the point, and writes nothing."""
+    from nnmstop.docpages.results import RESULT_DATASETS
+    from nnmstop.pipeline.run import find_task
+
+    results = _with_a_nan(built, tmp_path)
+    named = rf"{results / 'hbm/nnm1.nc'} holds NaN or infinite values where numbers must be: q_cos \(1 values, first "
+    named += r"at point 5\)"
+    manifest = tmp_path / "MANIFEST.sha256"
+    with pytest.raises(ValueError, match=named):
+        find_task("dataset_manifest")({}, {"datasets": sorted(map(str, results.rglob("*.nc")))}, {"manifest": manifest})
+    config = yaml.safe_load(SMALL_CONFIG.read_text())
+    inputs = {name: str(results / path) for name, path in RESULT_DATASETS.items() if (results / path).exists()}
+    docs = {"results": tmp_path / "results.md", "figure": tmp_path / "figure.png"}
+    with pytest.raises(ValueError, match=named):
+        find_task("docs")(config, {**inputs, "figure": str(built / "paper_figures/fig02.png")}, docs)
+    page = tmp_path / "explorer.html"
+    explorer_inputs = {"regularized": [str(results / "hbm/nnm1.nc")], "exact": [str(results / "exact/nnm1.nc")],
+                       "manifest": str(built / "results/MANIFEST.sha256")}  # fmt: skip
+    with pytest.raises(ValueError, match=named):
+        find_task("explorer")(config, explorer_inputs, {"page": page})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results"]
+
+
+FULL_DISK_PAGES = """
+import sys
+from pathlib import Path
+from nnmstop.explorer.page import build_explorer
+from nnmstop.tasks.docs import docs
+folder, build = Path(sys.argv[1]), Path({build!r})
+for name, write in (
+    ("explorer", lambda: build_explorer({{"regularized": [build / "results/hbm/nnm2.nc"]}},
+                                        build / "results/MANIFEST.sha256", folder / "explorer.html")),
+    ("docs", lambda: docs({{"model": {model!r}}}, {{**{inputs!r}, "figure": str(build / "paper_figures/fig02.png")}},
+                          {{"results": folder / "results.md", "figure": folder / "front.png"}})),
+):
+    try:
+        write()
+    except OSError as error:
+        print("REFUSED", name, error)
+print("LEFT", sorted(p.name for p in folder.iterdir()))
+"""
+
+
+def test_the_explorer_and_docs_pages_on_a_full_disk_name_their_path_and_leave_nothing(built):
+    """Issue 33, reproduction 5: the explorer and the docs pages wrote outside nnmstop.atomic: a full disk gave a bare
+    OSError naming no path and left a 1 MiB dist/explorer.html.tmp. An 8 kB tmpfs holds neither page."""
+    from nnmstop.docpages.results import RESULT_DATASETS
+    from test_netcdf import run_in_small_tmpfs
+
+    config = yaml.safe_load(SMALL_CONFIG.read_text())
+    inputs = {name: str(built / "results" / path) for name, path in RESULT_DATASETS.items()
+              if (built / "results" / path).exists()}  # fmt: skip
+    out = run_in_small_tmpfs(FULL_DISK_PAGES.format(build=str(built), model=config["model"], inputs=inputs), "size=8k")
+    assert re.search(r"REFUSED explorer .*cannot write \S*/explorer\.html: No space left on device", out), out
+    assert re.search(r"REFUSED docs .*cannot write \S*/(results\.md|front\.png): No space left on device", out), out
+    assert re.search(r"LEFT \[('results\.md')?\]", out), out  # the page whole or not at all, no temporary
+
+
 def test_workflow_lint_is_clean():
     result = subprocess.run(
         [sys.executable, "-m", "snakemake", "--lint"], cwd=REPO, capture_output=True, text=True, timeout=120
@@ -365,6 +436,71 @@ def test_bundle_check_fails_on_missing_or_altered_file(bundle, tmp_path):
     assert len(problems) == 2, problems
     assert any(p.startswith("results/hbm/nnm2.nc") and "missing" in p for p in problems)
     assert any(p.startswith("paper_figures/fig06.png") and "SHA-256" in p for p in problems)
+
+
+def test_a_bundle_is_exactly_what_its_crate_lists(bundle, tmp_path, capsys):
+    """Issue 33, reproduction 4: a zip with results/hbm/nnm1.nc replaced by garbage and dropped from the crate, an
+    added run_me.sh, a member named ../escape.sh and an @id of ../../../../../../etc/hostname was reported intact.
+    Each is a problem now; the unsafe member is never extracted and the outside @id never opened."""
+    import json
+
+    from nnmstop.pipeline.bundle import verify_bundle
+
+    dropped, outside = "results/hbm/nnm1.nc", "../../../../../../etc/hostname"
+    broken = tmp_path / "broken.zip"
+    with zipfile.ZipFile(bundle) as source, zipfile.ZipFile(broken, "w") as target:
+        for info in source.infolist():
+            data = source.read(info)
+            if info.filename == dropped:
+                data = b"garbage" * 100
+            elif info.filename == "ro-crate-metadata.json":
+                crate = json.loads(data)
+                graph = [e for e in crate["@graph"] if e.get("@id") != dropped]
+                for entity in graph:
+                    for key in ("hasPart", "result"):
+                        if isinstance(entity.get(key), list):
+                            entity[key] = [part for part in entity[key] if part.get("@id") != dropped]
+                    if entity.get("@id") == "./":
+                        entity["hasPart"].append({"@id": outside})
+                graph.append({"@id": outside, "@type": "File", "name": "a file of the machine"})
+                data = json.dumps({**crate, "@graph": graph}).encode()
+            target.writestr(info, data)
+        target.writestr("run_me.sh", "#!/bin/sh\necho surprise\n")
+        target.writestr("../escape.sh", "#!/bin/sh\n")
+    problems = verify_bundle(broken)
+    printed = capsys.readouterr().out
+    expected = [
+        "../escape.sh: a name with '..', outside the archive's folder (not extracted)",
+        f"{outside}: the crate lists a file outside the archive (not opened)",
+        f"{dropped}: in the archive but not listed in the crate",
+        "run_me.sh: in the archive but not listed in the crate",
+        f"{dropped}: listed in results/MANIFEST.sha256 but not a file of the crate",
+    ]
+    assert problems == expected, problems
+    assert "archive members" in printed and "datasets of the bundled manifests" in printed and "5 problem(s)" in printed
+
+
+def test_a_bundled_dataset_must_match_the_bundled_manifest(bundle, tmp_path):
+    """A dataset and its crate record replaced together (size and SHA-256 agree) still differ from the manifest."""
+    import json
+
+    from nnmstop.pipeline.bundle import verify_bundle
+
+    name, garbage = "results/hbm/nnm2.nc", b"another file" * 50
+    broken = tmp_path / "replaced.zip"
+    with zipfile.ZipFile(bundle) as source, zipfile.ZipFile(broken, "w") as target:
+        for info in source.infolist():
+            data = source.read(info)
+            if info.filename == name:
+                data = garbage
+            elif info.filename == "ro-crate-metadata.json":
+                crate = json.loads(data)
+                for entity in crate["@graph"]:
+                    if entity.get("@id") == name:
+                        entity.update(contentSize=str(len(garbage)), sha256=hashlib.sha256(garbage).hexdigest())
+                data = json.dumps(crate).encode()
+            target.writestr(info, data)
+    assert verify_bundle(broken, quiet=True) == [f"{name}: SHA-256 differs from the bundled manifest's"]
 
 
 def test_bundle_is_byte_identical_when_rebuilt(built, bundle):

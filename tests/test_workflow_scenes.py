@@ -51,6 +51,7 @@ def scene_config(model: dict) -> dict:
     config["figures"]["png_dpi"] = 50
     for section in ("tube", "study"):
         config.pop(section, None)
+    config["forced"].pop("tube", None)  # the tube's forced response needs the tube section (issue 33.7)
     return validate_config(config)
 
 

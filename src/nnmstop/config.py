@@ -115,11 +115,11 @@ def validate_config(config: dict) -> dict:
 
 
 def _check_forced(config: dict) -> None:
-    """Frequency ranges increasing, force DOFs on the model (nnmstop.tasks.forced builds the scenes)."""
-    from nnmstop.forced.scenes import forced_scenes
+    """The scenes build, are distinct and can be computed (:func:`nnmstop.forced.scenes.check_forced_section`)."""
+    from nnmstop.forced.scenes import check_forced_section
 
     try:
-        forced_scenes(config)
+        check_forced_section(config)
     except (TypeError, ValueError) as err:
         raise ConfigError(f"config key 'forced': {err}") from None
 

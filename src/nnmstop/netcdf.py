@@ -9,7 +9,11 @@ publishes the data from the configuration's ``metadata`` section), gives every v
 ``coverage_content_type`` and writes through a temporary file renamed at the end, so an
 interrupted run leaves no partial file under the final name.
 
-:func:`read_dataset` loads an input into memory and checks the variables a task needs;
+:func:`read_dataset` is the reader of every task (figures, stage starts, comparisons, manifests,
+documentation pages, explorer): it loads an input into memory, checks the variables a task needs,
+refuses NaN or infinity where numbers must be, and recomputes the residual of the stored orbits
+against the accuracy the file states (:mod:`nnmstop.stored_accuracy`), so that a damaged file whose
+numbers are finite but no orbits is refused, naming file, variable and point.
 :func:`check_up_to_date` refuses an input whose recorded settings (global attributes such as
 ``alpha`` or ``harmonics``) differ from the configuration: a stale file that Snakemake did not
 rebuild, for instance one copied in or built with ``--rerun-triggers mtime``.
@@ -44,6 +48,7 @@ __all__ = [
     "write_dataset",
     "read_dataset",
     "open_checked",
+    "check_finite_values",
     "may_be_missing",
     "non_finite_variables",
     "check_up_to_date",
@@ -289,14 +294,21 @@ def non_finite_variables(ds: xr.Dataset) -> dict[str, int]:
     finite (:func:`may_be_missing`), with the number of such values."""
     found = {}
     for name, variable in ds.variables.items():
-        if np.issubdtype(variable.dtype, np.floating) or np.issubdtype(variable.dtype, np.complexfloating):
-            values = np.asarray(variable.values)
-            bad = ~np.isfinite(values)
-            if may_be_missing(variable):
-                bad &= ~np.isnan(values)
-            if bad.any():
-                found[str(name)] = int(bad.sum())
+        bad = _non_finite_mask(variable)
+        if bad is not None and bad.any():
+            found[str(name)] = int(bad.sum())
     return found
+
+
+def _non_finite_mask(variable) -> np.ndarray | None:
+    """Where a floating-point variable holds NaN or infinity it must not (None for other types)."""
+    if not (np.issubdtype(variable.dtype, np.floating) or np.issubdtype(variable.dtype, np.complexfloating)):
+        return None
+    values = np.asarray(variable.values)
+    bad = ~np.isfinite(values)
+    if may_be_missing(variable):
+        bad &= ~np.isnan(values)
+    return bad
 
 
 def open_checked(path: str | Path) -> xr.Dataset:
@@ -330,21 +342,43 @@ def read_dataset(path: str | Path, required: Iterable[str] = (), expected: Mappi
     ------
     ValueError
         If the file does not exist or cannot be read, lacks a required variable, holds NaN or
-        infinite values in a variable that must be finite (:func:`may_be_missing`), or is stale;
-        the message names the file (and the variable).
+        infinite values in a variable that must be finite (:func:`may_be_missing`), holds orbits
+        that do not satisfy their equations to the accuracy it states
+        (:func:`nnmstop.stored_accuracy.check_orbits`), or is stale; the message names the file
+        (and the variable, and the point).
     """
+    from nnmstop.stored_accuracy import check_orbits
+
     path = Path(path)
     loaded = open_checked(path)
     missing = [name for name in required if name not in loaded.variables]
     if missing:
         raise ValueError(f"{path} lacks the variable(s) {missing}; it holds {sorted(map(str, loaded.variables))}")
-    non_finite = non_finite_variables(loaded)
-    if non_finite:
-        listed = ", ".join(f"{name} ({count} values)" for name, count in sorted(non_finite.items()))
-        raise ValueError(f"{path} holds NaN or infinite values where numbers must be: {listed}; rebuild it")
+    check_finite_values(loaded, path)
+    check_orbits(loaded, path)
     if expected:
         check_up_to_date(loaded, expected, source=path)
     return loaded
+
+
+def check_finite_values(ds: xr.Dataset, source) -> None:
+    """Refuse NaN or infinity in a variable of ``ds`` that must hold numbers (:func:`may_be_missing`), naming
+    ``source``, each such variable and its first such point."""
+    non_finite = non_finite_variables(ds)
+    if non_finite:
+        listed = []
+        for name, count in sorted(non_finite.items()):
+            variable = ds.variables[name]
+            where = ""
+            if "point" in variable.dims:
+                bad = _non_finite_mask(variable)
+                axis = variable.dims.index("point")
+                first = np.flatnonzero(bad.any(axis=tuple(a for a in range(bad.ndim) if a != axis)))
+                where = f", first at point {int(first[0])}" if first.size else ""
+            listed.append(f"{name} ({count} values{where})")
+        raise ValueError(
+            f"{source} holds NaN or infinite values where numbers must be: {', '.join(listed)}; rebuild it"
+        )
 
 
 def check_up_to_date(

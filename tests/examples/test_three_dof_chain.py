@@ -6,6 +6,7 @@ every dataset and figure it promises, labelled; the physics checked against clos
 
 from __future__ import annotations
 
+import hashlib
 import shutil
 import subprocess
 import sys
@@ -50,6 +51,8 @@ def test_the_example_builds_its_datasets_and_figures(built):
         with xr.open_dataset(path) as ds:
             check_labelled(ds)
             assert ds.attrs["structure"] == "matrices" and ds.attrs["stiffness_file"] == "stiffness.mtx"
+            for name in ("mass", "stiffness"):  # each matrix's path from the configuration and its SHA-256
+                assert ds.attrs[f"{name}_sha256"] == hashlib.sha256((built / f"{name}.mtx").read_bytes()).hexdigest()
 
 
 def test_the_chain_branches_start_at_their_linear_modes(built):

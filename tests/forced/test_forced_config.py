@@ -40,3 +40,32 @@ def test_bad_forced_settings_are_named(config, change, message):
     change(bad["forced"])
     with pytest.raises(ConfigError, match=message):
         validate_config(bad)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        # issue 33, reproduction 7: each of these was ignored, overwritten or failed later without naming the key
+        (lambda c: c["forced"]["force"].update(amplitudes=[0.1, 0.1000001]),
+         r"forced\.force\.amplitudes: \[0\.1, 0\.1000001\] give the same scene name 'F0\.1'"),
+        (lambda c: c["forced"]["force"].update(amplitudes=[0.05, 100.0]),
+         r"forced\.force\.amplitudes: at F = 100 the linear response reaches the stop over the whole range"),
+        (lambda c: c.pop("tube"), r"forced\.tube: the tube's forced response needs the 'tube' section"),
+        (lambda c: c["forced"]["figures"].update(orbit_frequencies=[0.12, 0.5]),
+         r"forced\.figures\.orbit_frequencies: \[0\.5\] Hz lie outside forced\.frequency_range"),
+    ],
+)  # fmt: skip
+def test_scenes_that_cannot_be_computed_or_drawn_are_refused_naming_the_key(config, change, message):
+    bad = copy.deepcopy(config)
+    change(bad)
+    with pytest.raises(ConfigError, match=message):
+        validate_config(bad)
+
+
+def test_an_exact_response_without_any_piece_is_named_by_its_task(config, monkeypatch):
+    """Past validation (a configuration built by hand), the task names the scene and the keys."""
+    from nnmstop.tasks import forced
+
+    monkeypatch.setattr(forced, "exact_response", lambda *args: [])
+    with pytest.raises(ValueError, match=r"forced scene F0\.05: the exact response has no piece .*forced\.force"):
+        forced.exact_response_dataset(config, forced_scenes(config)[2])

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import hashlib
+import io
+import zipfile
+
 import numpy as np
 import pytest
 import scipy.io
@@ -26,7 +30,8 @@ def files(tmp_path):
 def test_the_chain_is_read_back_from_matrix_market_and_npz(files):
     chain = matrix_structure(files / "M.mtx", files / "K.mtx", [STOP], dof_labels=["x1", "x2", "x3"])
     np.testing.assert_array_equal(np.asarray(chain.dense_matrices()[1]), STIFFNESS)
-    assert chain.dof_labels == ("x1", "x2", "x3") and chain.attributes["stiffness_file"] == "K.mtx"
+    assert chain.dof_labels == ("x1", "x2", "x3") and chain.attributes["stiffness_file"] == (files / "K.mtx").as_posix()
+    assert chain.attributes["stiffness_sha256"] == hashlib.sha256((files / "K.mtx").read_bytes()).hexdigest()
     np.savez(files / "K.npz", K=STIFFNESS)
     scipy.sparse.save_npz(files / "M.npz", scipy.sparse.csr_matrix(MASS))
     same = matrix_structure(files / "M.npz", files / "K.npz", [STOP])
@@ -91,3 +96,79 @@ def test_a_beam_free_at_both_ends_is_refused_at_validation(repo_root):
         match=r"'tube\.structure': a beam free at the left end and free at the right end has 2 rigid-body mode",
     ):
         validate_config(config)
+
+
+def test_a_header_declaring_a_huge_dense_matrix_is_refused_before_any_allocation(tmp_path, monkeypatch, repo_root):
+    """Issue 33, reproduction 6: a header of some 57 bytes declaring a dense 200000 x 200000 matrix (298 GiB) made
+    every snakemake command fail with a MemoryError naming no file. The header is read first, the file named."""
+    huge = tmp_path / "K.mtx"
+    huge.write_text("%%MatrixMarket matrix array real general\n200000 200000\n")
+    with pytest.raises(ValueError, match=r"K\.mtx: the header declares a dense 200000 x 200000 matrix, above"):
+        load_matrix(huge)
+    scipy.io.mmwrite(tmp_path / "M.mtx", MASS)
+    config = load_config(repo_root / "config" / "config.yaml")
+    monkeypatch.chdir(tmp_path)
+    config["structure"] = {"kind": "matrices", "matrices": {"mass": "M.mtx", "stiffness": "K.mtx", "stops": [STOP]}}
+    with pytest.raises(ConfigError, match=r"'structure\.matrices': K\.mtx: the header declares a dense"):
+        validate_config(config)
+
+
+def test_a_sparse_matrix_larger_than_the_memory_is_refused_from_its_header(tmp_path, monkeypatch):
+    from nnmstop.models import matrices
+
+    scipy.io.mmwrite(tmp_path / "K.mtx", scipy.sparse.coo_matrix(STIFFNESS))
+    monkeypatch.setattr(matrices, "_available_memory", lambda: 1000)  # bytes
+    with pytest.raises(ValueError, match=r"K\.mtx: the header declares a 3 x 3 matrix of \d+ entries, .* more than"):
+        load_matrix(tmp_path / "K.mtx")
+    header = io.BytesIO()  # a .npz whose array header declares 6000 x 6000 doubles (288 MB) and holds none
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (6000, 6000)})
+    with zipfile.ZipFile(tmp_path / "K.npz", "w") as archive:
+        archive.writestr("K.npy", header.getvalue())
+    monkeypatch.setattr(matrices, "_available_memory", lambda: None)
+    with pytest.raises(ValueError, match=r"K\.npz: the header declares a dense 6000 x 6000 matrix"):
+        load_matrix(tmp_path / "K.npz")
+
+
+@pytest.mark.parametrize(
+    ("stiffness", "message"),
+    [
+        (np.diag([1.0, -0.5, 1.0]), r"K\.mtx: the stiffness matrix is indefinite"),
+        # the chain without its grounding spring: held only by the stop on x1
+        (np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]]), r"K\.mtx: .* held only by its stops"),
+    ],
+)
+def test_an_indefinite_stiffness_or_one_held_only_by_a_stop_is_refused_at_validation(
+    tmp_path, monkeypatch, repo_root, stiffness, message
+):
+    """Issue 33, reproduction 7: these passed validation and failed later with a raw LinAlgError."""
+    scipy.io.mmwrite(tmp_path / "M.mtx", MASS)
+    scipy.io.mmwrite(tmp_path / "K.mtx", stiffness)
+    config = load_config(repo_root / "config" / "config.yaml")
+    monkeypatch.chdir(tmp_path)
+    config["structure"] = {"kind": "matrices", "matrices": {"mass": "M.mtx", "stiffness": "K.mtx", "stops": [STOP]}}
+    with pytest.raises(ConfigError, match=rf"'structure\.matrices': {message}"):
+        validate_config(config)
+
+
+def test_the_structure_records_each_matrix_path_and_sha256(files, monkeypatch):
+    """Datasets of a matrix structure name the matrices they were computed with; the readers rebuild it from them
+    and refuse a dataset whose matrix file changed."""
+    import xarray as xr
+
+    from nnmstop.stored_accuracy import structure_from_attributes
+
+    monkeypatch.chdir(files)
+    chain = matrix_structure("M.mtx", "K.mtx", [STOP])
+    assert chain.attributes["mass_file"] == "M.mtx" and chain.attributes["stiffness_file"] == "K.mtx"
+    for name in ("M", "K"):
+        key = "mass" if name == "M" else "stiffness"
+        assert chain.attributes[f"{key}_sha256"] == hashlib.sha256((files / f"{name}.mtx").read_bytes()).hexdigest()
+    ds = xr.Dataset(
+        {"stop_dof": ("stop", [0]), "stop_gap": ("stop", [1.0]), "stop_stiffness": ("stop", [30.0]),
+         "stop_eta": ("stop", [0.1])},
+        attrs=chain.attributes,
+    )  # fmt: skip
+    np.testing.assert_array_equal(np.asarray(structure_from_attributes(ds).dense_matrices()[1]), STIFFNESS)
+    scipy.io.mmwrite(files / "K.mtx", 2 * STIFFNESS)
+    with pytest.raises(ValueError, match=r"the stiffness matrix file K\.mtx changed since it was computed"):
+        structure_from_attributes(ds)

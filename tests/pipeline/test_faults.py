@@ -113,7 +113,13 @@ def test_a_build_ended_mid_job_leaves_no_task_behind_and_rebuilds_cleanly(
     assert not (tmp_path / TARGET).exists()
     assert not list((tmp_path / "results").rglob("*.tmp*"))
     run_snakemake(tmp_path, SMALL_CONFIG, "--unlock", "--cores", "1")
-    run_snakemake(tmp_path, SMALL_CONFIG, "--cores", "1", "--rerun-incomplete", TARGET)
+    # what a writer killed mid-write leaves (issue 33.7): its temporary, which the next build removes and names
+    stale = tmp_path / "results" / "hbm" / "nnm1.tmp.nc"
+    stale.parent.mkdir(parents=True, exist_ok=True)
+    stale.write_bytes(b"partial netcdf")
+    rebuild = run_snakemake(tmp_path, SMALL_CONFIG, "--cores", "1", "--rerun-incomplete", TARGET)
+    assert "nnmstop: removed results/hbm/nnm1.tmp.nc, a partial file left by an interrupted job" in rebuild.stderr
+    assert not stale.exists()
     with xr.open_dataset(tmp_path / TARGET) as ds:
         assert ds.attrs["continuation_step"] == FAST_STEP
     dry = run_snakemake(tmp_path, SMALL_CONFIG, "-n", "--cores", "1", TARGET)

@@ -9,6 +9,7 @@ file, a flipped byte), and the verifier must tell them apart, file by file, with
 
 from __future__ import annotations
 
+import hashlib
 import shutil
 import struct
 from pathlib import Path
@@ -103,7 +104,10 @@ def test_a_missing_file_fails(reference, tmp_path):
     copy = _copy(results, tmp_path)
     (copy / "hbm/stages/nnm1_stage2.nc").unlink()
     rows = verify(copy, ref)
-    assert [r.build for r in rows if r.verdict == "discrepant"] == ["missing"]
+    assert [(r.file, r.build) for r in rows if r.verdict == "discrepant"] == [
+        ("results/MANIFEST.sha256", "results/hbm/stages/nnm1_stage2.nc: missing"),  # the build's own manifest
+        ("results/hbm/stages/nnm1_stage2.nc", "missing"),
+    ]
     assert main([str(copy), "--reference", str(ref)]) == 1
 
 
@@ -204,11 +208,13 @@ def test_damaged_and_altered_files_are_each_discrepant_and_named(reference, alte
     for relative, alteration in ALTERATIONS.items():
         assert verdicts[f"results/{relative}"] == "discrepant", (alteration, [r for r in rows if relative in r.file])
     untouched = {name for name in verdicts if name.removeprefix("results/") not in ALTERATIONS}
+    untouched.discard("results/MANIFEST.sha256")  # the build's manifest no longer matches the altered files
     passing = ("identical", "identical data", "within tolerance")
     assert untouched and all(verdicts[name] in passing for name in untouched), verdicts
+    assert verdicts["results/MANIFEST.sha256"] == "discrepant"
     assert main([str(copy), "--reference", str(ref)]) == 1
     out = capsys.readouterr().out
-    assert f"{len(ALTERATIONS)} discrepant" in out
+    assert f"{len(ALTERATIONS) + 1} discrepant" in out
     for relative in ALTERATIONS:
         assert f"results/{relative}" in out.splitlines()[-1]
 
@@ -289,3 +295,71 @@ def test_a_regime_range_end_may_move_by_the_step_into_the_regime_and_no_further(
         build = dict(table, regularized_energy_min=[1.0, 2.0 * (1.3 / 2.0) ** factor])
         (row,) = _check_regimes("regimes", table, reference_sampling, build, sampling)
         assert row.verdict == verdict, (factor, row)
+
+
+def _files(folder: Path) -> dict:
+    return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_update_reference_refuses_a_truncated_dataset_and_leaves_the_reference_as_it_was(reference, tmp_path, capsys):
+    """Issue 33, reproduction 2: one truncated dataset in the build deleted the reference before reading the build,
+    leaving only its manifest and an empty curves/. Every listed file is read first; the truncated one is a refused
+    row with its reason, the exit status 1, and reference/ is byte for byte what it was."""
+    results, ref = reference
+    kept = Path(shutil.copytree(ref, tmp_path / "reference"))
+    before = _files(kept)
+    copy = _copy(results, tmp_path)
+    truncated = copy / "hbm/nnm2.nc"
+    truncated.write_bytes(truncated.read_bytes()[:4000])
+    manifest = copy / "MANIFEST.sha256"  # the manifest says what the file now is: the reader must find it out
+    digest = hashlib.sha256(truncated.read_bytes()).hexdigest()
+    entries = [line.split("  ") for line in manifest.read_text().splitlines()]
+    new = [(digest if name == "results/hbm/nnm2.nc" else old, name) for old, name in entries]
+    manifest.write_text("".join(f"{old}  {name}\n" for old, name in new))
+    assert main([str(copy), "--update-reference", "--reference", str(kept)]) == 1
+    out = capsys.readouterr()
+    refused = [line for line in out.out.splitlines() if line.startswith("results/")]
+    assert len(refused) == 1 and "results/hbm/nnm2.nc" in refused[0] and "cannot be read as NetCDF" in refused[0]
+    assert "left as it was" in out.err
+    assert _files(kept) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["reference", "results"]  # no half-written sibling
+
+
+def test_an_interrupted_update_leaves_the_reference_whole_and_a_finished_one_replaces_it_whole(
+    reference, tmp_path, monkeypatch
+):
+    from nnmstop.pipeline import verify as verifier
+
+    results, ref = reference
+    kept = Path(shutil.copytree(ref, tmp_path / "reference"))
+    before = _files(kept)
+    write = verifier._write_reference
+
+    def interrupted(results_dir, folder, lines):
+        write(results_dir, folder, lines[: len(lines) // 2])
+        raise KeyboardInterrupt  # Ctrl-C halfway
+
+    monkeypatch.setattr(verifier, "_write_reference", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        update_reference(results, kept)
+    assert _files(kept) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["reference"]
+    monkeypatch.setattr(verifier, "_write_reference", write)
+    (kept / "curves" / "stale_from_an_old_build.csv").write_text("energy,frequency\n")
+    update_reference(results, kept)
+    assert _files(kept) == before  # the same build: the same reference, and nothing of the old one left
+
+
+def test_the_build_manifest_is_checked_against_its_files(reference, tmp_path):
+    """Issue 33, reproduction 7: the build's MANIFEST.sha256 was written but never checked."""
+    results, ref = reference
+    copy = _copy(results, tmp_path)
+    manifest = copy / "MANIFEST.sha256"
+    lines = manifest.read_text().splitlines()
+    manifest.write_text("\n".join(["0" * 64 + "  " + lines[0].split("  ")[1], *lines[2:]]) + "\n")
+    rows = verify(copy, ref)
+    found = [r for r in rows if r.file == "results/MANIFEST.sha256" and r.verdict == "discrepant"]
+    assert len(found) == 2, found
+    assert "SHA-256 differs" in found[0].build and lines[0].split("  ")[1] in found[0].build
+    assert "in no manifest of the build" in found[1].quantity and lines[1].split("  ")[1] in found[1].build
+    assert all(v != "discrepant" for name, v in file_verdicts(rows).items() if name != "results/MANIFEST.sha256")

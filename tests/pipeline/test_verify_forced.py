@@ -18,7 +18,7 @@ import xarray as xr
 
 from nnmstop.config import load_config
 from nnmstop.pipeline.verify import FORCED_MANIFEST, build_manifests, file_verdicts, update_reference, verify
-from nnmstop.tasks.forced import forced_exact, forced_manifest, forced_regularized
+from nnmstop.tasks.forced import forced_exact, forced_figure, forced_manifest, forced_regularized
 
 REPO = Path(__file__).resolve().parents[2]
 SCENE = "F0.05"
@@ -73,7 +73,7 @@ def test_the_reference_records_the_forced_responses_as_curves(forced_reference):
         assert f"results/{relative}" in listed
         assert (reference / "curves" / (relative.removesuffix(".nc").replace("/", "__") + ".csv")).is_file()
     verdicts = file_verdicts(verify(Path(shutil.copytree(results, reference.parent / "copy")), reference))
-    assert set(verdicts.values()) == {"identical"} and len(verdicts) == 2, verdicts
+    assert set(verdicts.values()) == {"identical"} and len(verdicts) == 4, verdicts  # two datasets, two manifests
 
 
 @pytest.mark.numerics
@@ -140,7 +140,9 @@ def test_altered_forced_responses_are_discrepant_with_their_reason(forced_refere
     rows = verify(copy, reference)
     verdicts = file_verdicts(rows)
     assert verdicts[f"results/{relative}"] == "discrepant"
-    assert all(v in PASSING for name, v in verdicts.items() if name != f"results/{relative}"), verdicts
+    assert verdicts[f"results/{FORCED_MANIFEST}"] == "discrepant"  # the build's manifest no longer matches it
+    others = set(verdicts) - {f"results/{relative}", f"results/{FORCED_MANIFEST}"}
+    assert all(verdicts[name] in PASSING for name in others), verdicts
     found = [r.quantity for r in rows if r.file == f"results/{relative}" and r.verdict == "discrepant"]
     assert any(reason in quantity for quantity in found), found
 
@@ -155,3 +157,81 @@ def test_stored_multipliers_follow_the_multipliers_not_round_off():
     ordered = canonical_order(rows)
     np.testing.assert_allclose(ordered[0], ordered[1], rtol=1e-14)
     np.testing.assert_allclose(ordered[0], [-1.2, pair, np.conj(pair), 0.1], rtol=1e-14)
+
+
+def test_scaled_contact_states_are_discrepant_and_refused_by_the_figure(forced_reference, tmp_path):
+    """Issue 33, reproduction 1: contact_unknowns (kept at the contact points only) were left out of the reference,
+    yet the orbits figure integrates them: scaled by 1.5 they passed verify and drew a contact force six times too
+    large. Each contact state must reproduce its point (closed-form flow): verify and the figure's reader refuse."""
+    from nnmstop.netcdf import read_dataset
+
+    results, reference = forced_reference
+    copy = Path(shutil.copytree(results, tmp_path / "results"))
+
+    def scale(ds):
+        ds["contact_unknowns"].values[:, :4] *= 1.5
+
+    _rewrite(copy / FILES[0], scale)
+    rows = verify(copy, reference)
+    assert file_verdicts(rows)[f"results/{FILES[0]}"] == "discrepant"
+    found = [r.quantity for r in rows if r.file == f"results/{FILES[0]}" and r.verdict == "discrepant"]
+    assert any("contact" in quantity and "contact_unknowns" in quantity for quantity in found), found
+    with pytest.raises(ValueError, match=rf"{copy / FILES[0]}: contact_unknowns.* at contact_point \d+ \(point \d+\)"):
+        read_dataset(copy / FILES[0])
+    config = _config(points_per_step=2, exact_max_step=0.05)
+    outputs = {"pdf": str(tmp_path / "forced_orbits.pdf"), "png": str(tmp_path / "forced_orbits.png")}
+    with pytest.raises(ValueError, match="contact_unknowns"):
+        forced_figure(config, {"exact": [str(copy / FILES[0])], "regularized": [str(copy / FILES[1])]}, outputs,
+                      figure="orbits")  # fmt: skip
+    assert not list(tmp_path.glob("forced_orbits*"))
+
+
+#: The datasets each forced figure reads (workflow/rules/forced.smk); the tube figure drawn from the oscillator's.
+FIGURE_INPUTS = {
+    "frequency_response": ("exact", "regularized", "backbone"),
+    "phase_lag": ("exact", "regularized"),
+    "orbits": ("exact", "regularized"),
+    "prediction_error": ("prediction",),
+    "tube": ("regularized",),
+}
+
+
+@pytest.fixture(scope="module")
+def forced_figure_data(forced_reference, tmp_path_factory):
+    """The scene's responses, and its backbones and prediction errors (written as the workflow writes them)."""
+    from nnmstop.netcdf import write_dataset
+    from nnmstop.tasks.forced import backbone_prediction_dataset, prediction_error_dataset
+
+    results, _ = forced_reference
+    config = _config(points_per_step=2, exact_max_step=0.05)
+    folder = tmp_path_factory.mktemp("forced_figures")
+    paths = {"exact": results / FILES[0], "regularized": results / FILES[1]}
+    for key, make, kind in (("backbone", backbone_prediction_dataset, "forced_backbone"),
+                            ("prediction", prediction_error_dataset, "forced_prediction")):  # fmt: skip
+        paths[key] = write_dataset(make(config), folder / f"{key}.nc", title=key, summary=key, kind=kind)
+    return config, paths
+
+
+@pytest.mark.parametrize("figure", list(FIGURE_INPUTS))
+def test_a_forced_figure_draws_from_verified_variables_only(forced_figure_data, tmp_path, figure):
+    """Issue 33.1: each forced figure drawn from its datasets with the variables verify does not compare
+    (nnmstop.pipeline.reference.unverified_variables) scrambled is the same figure, byte for byte."""
+    from test_verified_reads import scrambled
+
+    config, paths = forced_figure_data
+    drawn = {}
+    for label in ("whole", "verified"):
+        folder = tmp_path / label
+        folder.mkdir()
+        inputs = {}
+        for key in FIGURE_INPUTS[figure]:
+            path = paths[key]
+            if label == "verified":
+                ds, _ = scrambled(xr.load_dataset(path))
+                path = folder / Path(path).name
+                ds.to_netcdf(path)
+            inputs[key] = [str(path)]
+        outputs = {"pdf": str(folder / f"forced_{figure}.pdf"), "png": str(folder / f"forced_{figure}.png")}
+        forced_figure(config, inputs, outputs, figure=figure)
+        drawn[label] = (folder / f"forced_{figure}.pdf").read_bytes()
+    assert drawn["whole"] == drawn["verified"], f"forced_{figure} reads a variable the verifier does not compare"

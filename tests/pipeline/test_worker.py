@@ -182,6 +182,15 @@ def test_a_worker_folder_under_a_missing_parent_is_unavailable_not_a_crash(tmp_p
     assert not missing.parent.exists()
 
 
+def test_a_relative_worker_folder_is_refused_naming_the_variable(tmp_path, monkeypatch):
+    """Issue 33, reproduction 7: the worker runs from '/', where a relative path names another folder; the job
+    fell back to its own process without saying why."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(WorkerUnavailable, match=r"NNMSTOP_WORKER_DIR='sockets' is a relative path"):
+        worker_directory({"NNMSTOP_WORKER_DIR": "sockets"})
+    assert not (tmp_path / "sockets").exists()
+
+
 def test_a_foreign_socket_folder_is_refused(tmp_path):
     shared = tmp_path / "shared"
     shared.mkdir(mode=0o755)

@@ -15,7 +15,11 @@ rule bundle:
         datasets=PAPER_DATASETS + (forced_datasets() if "forced" in config else []),
         # the explorer page is a result of the run too
         figures=[*PAPER_FIGURES, rules.explorer.output.page, *(forced_figures() if "forced" in config else [])],
-        manifest=rules.dataset_manifest.output.manifest,
+        # the build's manifests: the bundle's datasets are checked against them (verify_bundle)
+        manifest=[
+            rules.dataset_manifest.output.manifest,
+            *([rules.forced_manifest.output.manifest] if "forced" in config else []),
+        ],
         environment_lock=os.path.join(workflow.basedir, "environment.lock"),
         citation=os.path.join(workflow.basedir, "CITATION.cff"),
         workflow_files=[

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import yaml
 
+from nnmstop.atomic import atomic_output
+
 __all__ = ["configuration_reference", "write_configuration_reference"]
 
 _CONSTRAINTS = (
@@ -174,6 +176,6 @@ def write_configuration_reference(schema_file, config_file, output) -> Path:
     output = Path(output)
     text = configuration_reference(schema, config)
     if not output.exists() or output.read_text() != text:
-        output.parent.mkdir(parents=True, exist_ok=True)
-        output.write_text(text)
+        with atomic_output(output) as partial:
+            partial.write_text(text)
     return output

@@ -272,9 +272,11 @@ def results_page(results_dir, params: ModelParameters, digests: dict) -> str:
     str
         The page; every number on it is read or computed from the datasets and ``params``.
     """
+    from nnmstop.netcdf import read_dataset
+
     results_dir = Path(results_dir)
     data = {
-        name: xr.load_dataset(results_dir / path)
+        name: read_dataset(results_dir / path)
         for name, path in RESULT_DATASETS.items()
         if name not in OPTIONAL_DATASETS or (results_dir / path).exists()
     }

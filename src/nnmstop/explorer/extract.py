@@ -277,7 +277,8 @@ def extract_branch(kind: str, path, manifest: dict, settings: ExplorerSettings, 
     """The explorer's record of the dataset ``path`` (relative to ``root``) of kind ``kind``.
 
     The record holds the dataset's path, SHA-256 and identification (``id``, ``title``, ``source``).
-    A dataset listed in ``manifest`` must have the listed SHA-256 (else the manifest is stale).
+    A dataset listed in ``manifest`` must have the listed SHA-256 (else the manifest is stale); it is read by
+    the reader of every task (:func:`nnmstop.netcdf.read_dataset`).
     """
     if kind not in KINDS:
         raise ValueError(f"unknown kind of branch {kind!r}; known kinds: {sorted(KINDS)}")
@@ -286,10 +287,11 @@ def extract_branch(kind: str, path, manifest: dict, settings: ExplorerSettings, 
     listed = manifest.get(path.as_posix())
     if listed is not None and listed != digest:
         raise ValueError(f"{path}: SHA-256 {digest} differs from the manifest's {listed}; rebuild the manifest")
-    with xr.open_dataset(Path(root) / path) as ds:
-        ds.load()
-        branch = KINDS[kind](ds, settings)
-        identity = {name: str(ds.attrs.get(name, "")) for name in ("id", "title", "source")}
+    from nnmstop.netcdf import read_dataset
+
+    ds = read_dataset(Path(root) / path)  # refuses NaN and orbits that do not satisfy their equations, naming the file
+    branch = KINDS[kind](ds, settings)
+    identity = {name: str(ds.attrs.get(name, "")) for name in ("id", "title", "source")}
     return {
         "kind": branch.kind,
         "path": path.as_posix(),

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nnmstop.atomic import atomic_output
 from nnmstop.explorer.extract import ExplorerSettings, extract_branch, read_manifest
 
 __all__ = ["PLOTLY", "SCRIPTS", "encode", "render_page", "build_explorer"]
@@ -115,7 +116,8 @@ def build_explorer(branches: dict, manifest, output, settings: ExplorerSettings 
     manifest
         ``results/MANIFEST.sha256``: a listed dataset must match its SHA-256 there.
     output
-        The HTML file to write (e.g. ``dist/explorer.html``), written under a temporary name and renamed.
+        The HTML file to write (e.g. ``dist/explorer.html``), through :func:`nnmstop.atomic.atomic_output`
+        (a failed write names its path and the reason, and leaves no partial file).
     """
     settings = settings or ExplorerSettings()
     listed = read_manifest(Path(root) / manifest)
@@ -131,8 +133,6 @@ def build_explorer(branches: dict, manifest, output, settings: ExplorerSettings 
         "plotly": {key: PLOTLY[key] for key in ("package", "version")},
     }
     output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    partial = output.with_name(output.name + ".tmp")
-    partial.write_text(render_page(data), encoding="utf-8")
-    partial.replace(output)
+    with atomic_output(output) as partial:
+        partial.write_text(render_page(data), encoding="utf-8")
     return output

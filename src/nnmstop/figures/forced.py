@@ -206,8 +206,14 @@ def orbits_figure(
                 phase[order], history["q"][forced][order], color=EXACT_LINE, lw=1.0, ls="--", label="exact, forced DOF"
             )
             bottom.plot(phase[order], history["contact_force"][order], color=EXACT_LINE, lw=1.0, label="exact")
+        if not crossing.size:  # said on the panel, not left empty
+            top.text(0.5, 0.9, "no exact one-contact response at this frequency", transform=top.transAxes,
+                     ha="center", fontsize=7, color=EXACT_LINE)  # fmt: skip
         frequency = regularized_ds["frequency"].values
         crossing = np.flatnonzero(np.diff(np.sign(frequency - target)))
+        if not crossing.size:
+            top.text(0.5, 0.8, "no regularized response at this frequency", transform=top.transAxes, ha="center",
+                     fontsize=7, color="tab:blue")  # fmt: skip
         if crossing.size:
             theta, q, f = _regularized_orbit(regularized_ds, int(crossing[0]), samples)
             top.plot(theta, q[stop], color="tab:blue", lw=2.0, alpha=0.6, label="regularized, stop DOF")

@@ -7,11 +7,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
+import numpy as np
+
+from nnmstop.models.excitation import Damping, Excitation, HarmonicForce, linear_response
 from nnmstop.models.structure import Structure, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters
 
-__all__ = ["Scene", "scene_name", "forced_scenes", "find_scene", "prediction_excitations"]
+__all__ = ["Scene", "scene_name", "forced_scenes", "find_scene", "prediction_excitations", "check_forced_section"]
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,15 @@ def forced_scenes(config: dict, which: str = "all") -> list:
             )
     if which in ("tube", "all") and "tube" in forced and "tube" in config:
         scenes.append(_tube_scene(config))
+    names = [scene.name for scene in scenes]
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        amplitudes = [a for a in forced["force"]["amplitudes"] if scene_name(a) in repeated]
+        raise ValueError(
+            f"forced.force.amplitudes: {amplitudes} give the same scene name {repeated[0]!r} (file names keep 6 "
+            "significant digits): one response would overwrite the other; give amplitudes that differ within "
+            "6 significant digits"
+        )
     return scenes
 
 
@@ -125,6 +136,53 @@ def prediction_excitations(config: dict) -> tuple:
         damping = Damping.from_modal_ratios(structure, [float(ratio)] * len(modes), modes)
         excitations.append(Excitation(structure, damping, HarmonicForce(float(spec["force_per_ratio"]) * ratio, dofs)))
     return excitations, _frequency_range(spec["frequency_window"], "forced.prediction.frequency_window")
+
+
+#: Frequencies per scene at which the linear response is compared with the gap (validation only).
+_GRID = 2049
+
+
+def check_forced_section(config: dict) -> None:
+    """What the schema cannot say of the ``forced`` section, each refused naming its key.
+
+    The scenes build (:func:`forced_scenes`: ranges increasing, DOFs on the model, distinct scene names);
+    ``forced.tube`` needs the ``tube`` section (the tube's structure); every ``forced.figures.orbit_frequencies``
+    lies inside ``forced.frequency_range``; and at every force level the linear response of the stop DOF
+    stays inside the gap somewhere in the range (else the exact response has no non-impacting piece and no
+    grazing to start its contact families from).
+
+    Raises
+    ------
+    ValueError
+        Naming the key and what is allowed.
+    """
+    forced = config["forced"]
+    if "tube" in forced and "tube" not in config:
+        raise ValueError(
+            "forced.tube: the tube's forced response needs the 'tube' section (its structure); add it, or remove "
+            "forced.tube"
+        )
+    scenes = forced_scenes(config)
+    low, high = _frequency_range(forced["frequency_range"], "forced.frequency_range")
+    outside = [f for f in forced.get("figures", {}).get("orbit_frequencies", []) if not low < float(f) < high]
+    if outside:
+        raise ValueError(
+            f"forced.figures.orbit_frequencies: {outside} Hz lie outside forced.frequency_range [{low:g}, {high:g}] "
+            "Hz: no response is computed there, so their panels would be empty"
+        )
+    for scene in scenes:
+        if scene.name.startswith("tube_"):
+            continue
+        stop = scene.excitation.structure.stops[0]
+        omega = 2 * np.pi * np.linspace(*scene.frequency_range, _GRID)
+        amplitude = np.abs(linear_response(scene.excitation, omega)[:, stop.dof])
+        if amplitude.min() > stop.gap:
+            raise ValueError(
+                f"forced.force.amplitudes: at F = {scene.excitation.force.amplitude:g} the linear response reaches "
+                f"the stop over the whole range {scene.frequency_range[0]:g}..{scene.frequency_range[1]:g} Hz "
+                f"(max |x| >= {amplitude.min():.3g} > gap {stop.gap:g}): the exact response has no non-impacting "
+                "piece and no grazing to start from; lower the force or widen forced.frequency_range"
+            )
 
 
 def find_scene(config: dict, name: str) -> Scene:

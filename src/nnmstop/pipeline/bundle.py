@@ -4,8 +4,10 @@
 trust and reuse them (SHA-256 manifest, the configuration used, ``environment.lock``,
 the workflow, the repository's ``CITATION.cff``) and describes them in ``ro-crate-metadata.json``
 (RO-Crate 1.1, Workflow Run Crate profile) written with the ``rocrate`` library.
-:func:`verify_bundle` opens an archive with ``rocrate`` and checks every listed file
-against its recorded size and SHA-256.
+:func:`verify_bundle` checks that an archive is exactly what its crate lists: no member
+outside the archive's folder or missing from the crate, every listed file inside the archive with
+its recorded size and SHA-256, and every dataset with the SHA-256 of the bundled manifests
+(``python -m nnmstop.pipeline.bundle BUNDLE`` on the command line).
 
 The archive is byte-reproducible: entries sorted, fixed timestamps and permissions, and
 no wall-clock date anywhere (``datePublished`` is the commit date that
@@ -15,6 +17,8 @@ no wall-clock date anywhere (``datePublished`` is the commit date that
 from __future__ import annotations
 
 import hashlib
+import stat
+import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -25,7 +29,7 @@ from nnmstop import __version__
 from nnmstop.atomic import atomic_output
 from nnmstop.netcdf import provenance
 
-__all__ = ["ENCODING_FORMATS", "build_bundle", "verify_bundle"]
+__all__ = ["ENCODING_FORMATS", "build_bundle", "verify_bundle", "main"]
 
 # Media types of the bundled files, by suffix (IANA where one exists).
 ENCODING_FORMATS = {
@@ -87,6 +91,26 @@ def _check_inputs(root: Path, relative: list, citation_file: Path) -> None:
         raise ValueError("a dataset or figure is listed twice")
     if not citation_file.is_file():
         raise ValueError(f"bundle input {citation_file} (CITATION.cff) does not exist")
+
+
+def _check_listed(root: Path, datasets: list, manifests: list) -> None:
+    """Every dataset is listed in one of the build's ``manifests`` with its SHA-256 (the bundle ships what the
+    build checked), and every dataset a manifest lists is bundled."""
+    listed = {}
+    for manifest in manifests:
+        for line in (root / manifest).read_text().splitlines():
+            digest, sep, member = line.partition("  ")
+            if sep:
+                listed[member] = digest
+    for dataset in map(Path, datasets):
+        digest = listed.get(dataset.as_posix())
+        if digest is None:
+            raise ValueError(f"bundle input {dataset} is listed in no manifest of {[str(m) for m in manifests]}")
+        if _sha256(root / dataset) != digest:
+            raise ValueError(f"bundle input {dataset} differs from its manifest's SHA-256: rebuild the manifest")
+    missing = sorted(set(listed) - {Path(d).as_posix() for d in datasets})
+    if missing:
+        raise ValueError(f"the manifests list datasets that are not bundled: {missing}")
 
 
 def _agent(crate, metadata: dict, role: str):
@@ -188,7 +212,8 @@ def build_bundle(
         Paths of the run's datasets (``*.nc``) and figures, relative to ``root``; each keeps
         that relative path in the archive and is a ``result`` of the run's ``CreateAction``.
     manifest
-        ``results/MANIFEST.sha256`` (relative to ``root``).
+        ``results/MANIFEST.sha256`` (relative to ``root``), or a list of the build's manifests (with the
+        forced responses' ``results/forced/MANIFEST.sha256``): together they must list every dataset.
     environment_lock
         The ``environment.lock`` the run was made with (stored as ``environment.lock``).
     workflow_files
@@ -205,13 +230,15 @@ def build_bundle(
     Raises
     ------
     ValueError
-        If ``config`` has no ``metadata`` section, a listed file is missing, or a path
-        appears twice.
+        If ``config`` has no ``metadata`` section, a listed file is missing, a path appears twice, or a
+        dataset is not in the manifests with its SHA-256.
     """
     metadata = _bundle_metadata(config)
     root = Path(root)
     citation_file = Path(citation_file)
-    _check_inputs(root, [Path(p) for p in (*datasets, *figures, manifest)], citation_file)
+    manifests = [manifest] if isinstance(manifest, (str, Path)) else list(manifest)
+    _check_inputs(root, [Path(p) for p in (*datasets, *figures, *manifests)], citation_file)
+    _check_listed(root, datasets, manifests)
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
 
@@ -232,7 +259,7 @@ def build_bundle(
             for path in sorted(Path(p) for p in (*datasets, *figures))
         ]
         for source, name, what in (
-            (root / manifest, Path(manifest).as_posix(), "SHA-256 manifest of the datasets"),
+            *((root / m, Path(m).as_posix(), "SHA-256 manifest of the datasets") for m in manifests),
             (Path(environment_lock), "environment.lock", "locked Python environment (pip-compile)"),
             (citation_file, "CITATION.cff", "how to cite the software"),
         ):
@@ -253,26 +280,97 @@ def build_bundle(
     return output
 
 
-def verify_bundle(path) -> list[str]:
-    """Open the bundle ``path`` with ``rocrate`` and check every listed file.
+#: The crate's own description: the one archive member that is no data entity.
+CRATE_METADATA = "ro-crate-metadata.json"
+
+
+def _unsafe_name(name: str) -> str:
+    """Why an archive member's name would land outside the folder it is extracted to ("" if it would not)."""
+    if name.startswith(("/", "\\")) or (len(name) > 1 and name[1] == ":"):
+        return "an absolute name"
+    if ".." in name.replace("\\", "/").split("/"):
+        return "a name with '..'"
+    return ""
+
+
+def _inside(root: Path, entity_id: str) -> Path | None:
+    """The file of a crate entity ``@id`` in the extracted archive ``root``; None if it resolves outside it (an
+    absolute path, ``..``, a link, a URL)."""
+    if "://" in entity_id or _unsafe_name(entity_id):
+        return None
+    target = (root / entity_id).resolve()
+    return target if target.is_relative_to(root.resolve()) else None
+
+
+def _manifest_lines(text: str, name: str, problems: list) -> dict:
+    """``{path: sha256}`` of a bundled ``sha256sum`` manifest; a malformed line is a problem."""
+    listed = {}
+    for number, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        digest, sep, member = line.partition("  ")
+        if not sep or len(digest) != 64:
+            problems.append(f"{name}: line {number} is not '<sha256>  <path>': {line[:80]!r}")
+            continue
+        listed[member] = digest
+    return listed
+
+
+def verify_bundle(path, quiet: bool = False) -> list[str]:
+    """Check that the bundle ``path`` is exactly what its crate lists; print what was checked (unless ``quiet``).
+
+    * every archive member has a safe name (none absolute or with ``..``; such members are not extracted)
+      and is listed in the crate (``ro-crate-metadata.json``), the crate's own file aside;
+    * every file the crate lists lies inside the archive (an ``@id`` that resolves outside it is refused and
+      never opened), is present, and has the size and SHA-256 the crate records;
+    * the bundled dataset manifests (``*MANIFEST.sha256``) list every dataset of the bundle with its
+      SHA-256, and every dataset they list is a file of the crate.
 
     Returns
     -------
     list of str
-        One line per problem (a listed file missing from the archive, or whose size or
-        SHA-256 differs from the crate's record); empty when the bundle is intact.
+        One line per problem, naming the member or entity; empty when the bundle is intact.
     """
     from rocrate.rocrate import ROCrate
 
-    problems = []
+    problems: list[str] = []
     with tempfile.TemporaryDirectory(prefix="nnmstop-verify-") as tmp:
-        with zipfile.ZipFile(path) as archive:
-            archive.extractall(tmp)
-        crate = ROCrate(tmp)
+        root = Path(tmp)
+        try:
+            archive = zipfile.ZipFile(path)
+        except (OSError, zipfile.BadZipFile) as error:
+            return [f"{path}: not a zip archive ({error})"]
+        with archive:
+            members = []
+            for info in archive.infolist():
+                if info.is_dir():
+                    continue
+                why = _unsafe_name(info.filename)
+                if why:
+                    problems.append(f"{info.filename}: {why}, outside the archive's folder (not extracted)")
+                    continue
+                if stat.S_ISLNK(info.external_attr >> 16):
+                    problems.append(f"{info.filename}: a symbolic link (not extracted)")
+                    continue
+                members.append(info.filename)
+                archive.extract(info, root)
+        if CRATE_METADATA not in members:
+            problems.append(f"{CRATE_METADATA}: missing; the archive is not an RO-Crate")
+            return _reported(problems, quiet, path, members, 0, 0)
+        try:
+            crate = ROCrate(root)
+        except Exception as error:  # rocrate raises what its JSON-LD parsing meets
+            problems.append(f"{CRATE_METADATA}: cannot be read as an RO-Crate ({type(error).__name__}: {error})")
+            return _reported(problems, quiet, path, members, 0, 0)
+        files = {}
         for entity in crate.data_entities:
             if "File" not in entity.type:
                 continue
-            target = Path(tmp) / entity.id
+            target = _inside(root, entity.id)
+            if target is None:
+                problems.append(f"{entity.id}: the crate lists a file outside the archive (not opened)")
+                continue
+            files[Path(entity.id).as_posix()] = entity
             if not target.is_file():
                 problems.append(f"{entity.id}: listed in the crate but missing from the archive")
                 continue
@@ -282,4 +380,51 @@ def verify_bundle(path) -> list[str]:
                 )
             if _sha256(target) != entity.get("sha256"):
                 problems.append(f"{entity.id}: SHA-256 differs from the crate's record")
+        for member in sorted(set(members) - set(files) - {CRATE_METADATA}):
+            problems.append(f"{member}: in the archive but not listed in the crate")
+        manifests = sorted(m for m in files if m.endswith("MANIFEST.sha256") and (root / m).is_file())
+        listed, source = {}, {}
+        for manifest in manifests:
+            lines = _manifest_lines((root / manifest).read_text(), manifest, problems)
+            listed.update(lines)
+            source.update(dict.fromkeys(lines, manifest))
+        if not manifests:
+            problems.append("results/MANIFEST.sha256: the bundle holds no dataset manifest")
+        for member, digest in sorted(listed.items()):
+            if member not in files:
+                problems.append(f"{member}: listed in {source[member]} but not a file of the crate")
+            elif (root / member).is_file() and _sha256(root / member) != digest:
+                problems.append(f"{member}: SHA-256 differs from the bundled manifest's")
+        for member in sorted(m for m in files if m.endswith(".nc") and m not in listed):
+            problems.append(f"{member}: a dataset of the bundle that no bundled manifest lists")
+        return _reported(problems, quiet, path, members, len(files), len(listed))
+
+
+def _reported(problems: list, quiet: bool, path, members: list, files: int, datasets: int) -> list:
+    """``problems``, after printing what was checked to the standard output (unless ``quiet``)."""
+    if not quiet:
+        print(
+            f"{path}: {len(members)} archive members (safe names, each listed in the crate), {files} files of the "
+            f"crate (inside the archive, size and SHA-256), {datasets} datasets of the bundled manifests "
+            f"(SHA-256, each a file of the crate): {len(problems)} problem(s)"
+        )
     return problems
+
+
+def main(argv=None) -> int:
+    """Command line: ``python -m nnmstop.pipeline.bundle BUNDLE`` checks a bundle (exit 1 on a problem)."""
+    import argparse
+
+    parser = argparse.ArgumentParser(
+        prog="python -m nnmstop.pipeline.bundle", description=verify_bundle.__doc__.split("\n")[0]
+    )
+    parser.add_argument("bundle", help="the zip archive, e.g. dist/nnmstop-results.zip")
+    problems = verify_bundle(parser.parse_args(argv).bundle)
+    for problem in problems:
+        print(problem)
+    print("intact" if not problems else f"{len(problems)} problem(s)")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -40,6 +40,7 @@ from nnmstop.netcdf import PROVENANCE_ATTRIBUTES
 __all__ = [
     "CURVE_COORDINATES",
     "SAMPLED_DIMENSIONS",
+    "unverified_variables",
     "STABILITY_ERROR_VARIABLES",
     "weight",
     "REFERENCE_FORMAT",
@@ -71,8 +72,10 @@ CURVE_COORDINATES = (
     ("required_force", "backbone_frequency"),
 )
 #: Dimensions of variables kept at some of the stored points only (the exact forced response's contact points,
-#: ``contact_point``): their sizes and values follow the steps like the points'; the same orbits are compared
-#: along the curve through the per-point variables (amplitudes, phase lags, multipliers).
+#: ``contact_point``): their sizes follow the steps like the points'. Their values are checked by the verifier
+#: against the points they belong to, whose variables (frequency, amplitudes, phase lags, multipliers) are
+#: compared along the curve: each contact state must solve its equations and reproduce its point's frequency
+#: and amplitudes by the closed-form flow (:mod:`nnmstop.stored_accuracy`).
 SAMPLED_DIMENSIONS = frozenset({"contact_point"})
 
 #: Variables that follow the continuation's steps, not the curve: not compared (indices of stored
@@ -334,6 +337,36 @@ def profile(ds: xr.Dataset, shared: dict) -> dict:
                 else:
                     entry["ranges"][name] = _range(values)
     return entry
+
+
+def unverified_variables(ds: xr.Dataset) -> dict[str, str]:
+    """The variables of ``ds`` whose values the verifier does not compare, each with the reason.
+
+    Along the stored points of a curve, the variables that follow the continuation's steps and not the curve
+    (:data:`SAMPLING_VARIABLES`: indices of stored points, step counts, arclength summed over the steps); the
+    variables of a file without a curve that lie along ``point``; and the variables of a
+    :data:`SAMPLED_DIMENSIONS` dimension that no recomputation of the stored orbits checks against their
+    points (:func:`nnmstop.stored_accuracy.orbit_checks`). Every other variable is compared with the
+    reference, or checked against the variables that are. A figure, page or explorer view must read none of
+    these (tests/pipeline/test_verified_reads.py).
+    """
+    from nnmstop.stored_accuracy import orbit_checks
+
+    coordinates = curve_coordinates(ds)
+    accuracy = ACCURACY_BY_DATASET_KIND.get(ds.attrs.get("dataset_kind"), frozenset())
+    checked = {name for check in orbit_checks(ds) for name in check.variables}
+    out = {}
+    for name, variable in ds.variables.items():
+        name = str(name)
+        if POINT in variable.dims and coordinates is None:
+            out[name] = "along the stored points of a file without a frequency-energy curve"
+        elif POINT in variable.dims and variable_kind(name, variable, coordinates or (), accuracy) == "sampling":
+            out[name] = "follows the continuation's steps, not the curve"
+        elif POINT not in variable.dims and name in SAMPLING_VARIABLES:
+            out[name] = "index of stored points: follows the continuation's steps"
+        elif SAMPLED_DIMENSIONS & set(variable.dims) and name not in checked:
+            out[name] = "kept at some stored points only, and not checked against them"
+    return out
 
 
 def projected_columns(table: dict, kind: str) -> dict[str, np.ndarray]:

@@ -2,9 +2,13 @@
 
 A build made on another CPU stores other points along the same curves (the continuation's
 step sequence follows round-off), so byte identity is checked first and, for each file that
-differs, everything it holds: that it can be read, that no number is NaN or infinite, its
-variables (names, dimensions, types, attributes), its global attributes, its curve and every
-variable along it at matched positions, its located points, regimes and other values. Each
+differs, everything it holds: that it can be read, that no number is NaN or infinite, that its
+stored orbits satisfy their equations to the accuracy it states and that the states kept at some
+points only (the exact forced responses' contact states) reproduce their points
+(:mod:`nnmstop.stored_accuracy`), its variables (names, dimensions, types, attributes), its global
+attributes, its curve and every variable along it at matched positions, its located points,
+regimes and other values (:func:`nnmstop.pipeline.reference.unverified_variables` names the few
+it does not compare, and why). The build's own manifests are checked against its files first. Each
 check has its tolerance, printed with every row; a check that cannot run is a discrepancy
 with its reason, and the table always comes out. What the reference keeps:
 :mod:`nnmstop.pipeline.reference`; method and tolerances: docs/reproducibility.md.
@@ -29,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from nnmstop.atomic import atomic_folder
 from nnmstop.netcdf import PROVENANCE_ATTRIBUTES, non_finite_variables, open_checked
 from nnmstop.pipeline.curve import Curve
 from nnmstop.pipeline.reference import (
@@ -49,8 +54,10 @@ from nnmstop.pipeline.reference import (
     weight,
     write_csv,
 )
+from nnmstop.stored_accuracy import orbit_checks
 
-__all__ = ["Row", "data_digest", "build_manifests", "update_reference", "verify", "file_verdicts", "format_table", "main"]
+__all__ = ["Row", "ReferenceRefused", "data_digest", "build_manifests", "update_reference", "verify", "file_verdicts",
+           "format_table", "main"]
 
 REGIMES_CSV = "compare/nnm1_regimes.csv"
 REGIMES_NC = "compare/nnm1_regimes.nc"
@@ -216,6 +223,57 @@ def build_manifests(results_dir) -> list[str]:
     return [MANIFEST] + ([FORCED_MANIFEST] if (results / FORCED_MANIFEST).is_file() else [])
 
 
+class ReferenceRefused(ValueError):
+    """The build cannot become the reference: ``rows`` say which files and why (``reference/`` is untouched)."""
+
+    def __init__(self, message: str, rows: list):
+        super().__init__(message)
+        self.rows = rows
+
+
+def _listed_files(results: Path, manifests: list) -> list[str]:
+    """The manifest lines of the build (its manifests and the regime table), sorted by path."""
+    lines = []
+    for name in manifests:
+        manifest = results / name
+        if not manifest.is_file():
+            target = "forced" if name == FORCED_MANIFEST else "the default target"
+            raise ValueError(f"{manifest} is missing: build {target} first (`snakemake --cores 2`)")
+        lines += [line for line in manifest.read_text().splitlines() if line.strip()]
+    for line in lines:
+        if "  " not in line or not line.split("  ")[1].startswith("results/"):
+            raise ValueError(f"a manifest of {results} has a line that is not '<sha256>  results/<path>': {line!r}")
+    if (results / REGIMES_CSV).is_file():
+        lines.append(f"{_sha256(results / REGIMES_CSV)}  results/{REGIMES_CSV}")
+    return sorted(lines, key=lambda line: line.split("  ")[1])
+
+
+def _refusals(results: Path, lines: list[str]) -> list[Row]:
+    """A row per file of the build that cannot be recorded: missing, not the manifest's bytes, unreadable,
+    holding NaN or infinity where numbers must be, or orbits that do not satisfy their equations
+    (:func:`nnmstop.netcdf.read_dataset`)."""
+    from nnmstop.netcdf import read_dataset
+
+    rows = []
+    for line in lines:
+        digest, listed = line.split("  ")
+        path = results / listed.removeprefix("results/")
+        if not path.is_file():
+            rows.append(Row(listed, "file", "listed in the manifest", "missing", float("nan"), 0.0, DISCREPANT))
+            continue
+        if _sha256(path) != digest:
+            rows.append(Row(listed, "file (SHA-256)", f"manifest {digest[:12]}", f"file {_sha256(path)[:12]}",
+                            float("nan"), 0.0, DISCREPANT))
+            continue
+        try:
+            read_dataset(path) if path.suffix == ".nc" else read_csv(path)
+        except (ValueError, OSError, IndexError) as error:
+            reason = str(error).replace(str(path), "the file")
+            rows.append(Row(listed, "readable, finite, orbits accurate", "-", reason[:120], float("nan"), 0.0,
+                            DISCREPANT))
+    return rows
+
+
 def update_reference(results_dir, reference_dir="reference", manifests=None) -> Path:
     """Regenerate ``reference_dir`` from the build in ``results_dir``.
 
@@ -225,27 +283,35 @@ def update_reference(results_dir, reference_dir="reference", manifests=None) -> 
     :func:`nnmstop.pipeline.reference.profile`, and its base tolerance), one curve CSV per
     branch and family (``curves/``) and the regime table with its sampling steps.
 
+    Every listed file is read first, by the reader of the tasks: a file missing, other than its manifest
+    says, unreadable, holding NaN or infinity where numbers must be, or whose orbits do not satisfy their
+    equations is refused and nothing is written. The new reference is written beside the old one and
+    replaces it only when complete (:func:`nnmstop.atomic.atomic_folder`): an interruption or a full disk
+    leaves the old reference as it was.
+
     Raises
     ------
+    ReferenceRefused
+        If a file of the build cannot be recorded (its ``rows`` say which and why).
     ValueError
-        If ``results_dir`` or one of its manifests is missing, or a dataset cannot be read.
+        If ``results_dir`` or one of its manifests is missing.
     """
     results = _results_dir(results_dir)
     manifests = build_manifests(results) if manifests is None else list(manifests)
-    lines = []
-    for name in manifests:
-        manifest = results / name
-        if not manifest.is_file():
-            target = "forced" if name == FORCED_MANIFEST else "the default target"
-            raise ValueError(f"{manifest} is missing: build {target} first (`snakemake --cores 2`)")
-        lines += manifest.read_text().splitlines()
-    reference = Path(reference_dir)
-    if reference.exists():
-        shutil.rmtree(reference)
-    (reference / "curves").mkdir(parents=True)
-    if (results / REGIMES_CSV).is_file():
-        lines.append(f"{_sha256(results / REGIMES_CSV)}  results/{REGIMES_CSV}")
-    lines = sorted(lines, key=lambda line: line.split("  ")[1])
+    lines = _listed_files(results, manifests)
+    refused = _refusals(results, lines)
+    if refused:
+        raise ReferenceRefused(
+            f"{len(refused)} file(s) of {results} cannot be recorded; {reference_dir} is left as it was", refused
+        )
+    with atomic_folder(reference_dir) as reference:
+        _write_reference(results, reference, lines)
+    return Path(reference_dir)
+
+
+def _write_reference(results: Path, reference: Path, lines: list[str]) -> None:
+    """Write the reference of the files ``lines`` (manifest lines) of ``results`` into the empty ``reference``."""
+    (reference / "curves").mkdir()
     (reference / "MANIFEST.sha256").write_text("\n".join(lines) + "\n")
     listed = [line.split("  ")[1].removeprefix("results/") for line in lines]
     data = [f"{data_digest(results / relative)}  results/{relative}" for relative in listed]
@@ -277,7 +343,6 @@ def update_reference(results_dir, reference_dir="reference", manifests=None) -> 
                 ["d_log_energy", "d_frequency", "d_frequency_error", "d_relative_frequency_error"],
                 _regime_sampling(regimes),
             )
-    return reference
 
 
 # --------------------------------------------------------------------------- structure and attributes
@@ -746,6 +811,23 @@ def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -
 # --------------------------------------------------------------------------- verify
 
 
+def _check_orbits(name: str, ds: xr.Dataset) -> list[Row]:
+    """The stored orbits against their recomputed residual (:mod:`nnmstop.stored_accuracy`): each orbit
+    satisfies its equations to the accuracy the file states, and the states kept at some points only (the
+    exact forced response's contact states) reproduce their point's frequency and amplitudes. Independent
+    of the reference: a file whose orbits are damaged but whose curve is right is discrepant too."""
+    rows = []
+    for check in orbit_checks(ds):
+        if not len(check.points):
+            continue
+        worst = check.worst()
+        where = f"{check.dim} {int(check.points[worst])}"
+        rows.append(Row(name, f"{check.measure}: {len(check.points)} orbits ({', '.join(check.variables)}; worst at "
+                        f"{where})", "-", f"{check.recomputed[worst]:.3g}", float(check.recomputed[worst]),
+                        float(check.allowed[worst]), _verdict(not len(check.failed))))
+    return rows
+
+
 def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, shared: dict) -> list[Row]:
     """Every check of one NetCDF file; a check that fails to run is a discrepant row with its reason."""
     try:
@@ -757,6 +839,7 @@ def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, sh
     located = [v for pair in LOCATED.values() for v in pair]
     checks = [
         ("finite values", lambda: _check_finite(listed, ds)),
+        ("stored orbits", lambda: _check_orbits(listed, ds)),
         ("structure", lambda: _check_structure(listed, ds, entry, shared)),
         ("global attributes", lambda: _check_attributes(listed, ds, entry)),
         ("values off the curve", lambda: _check_other_values(listed, ds, entry, skip=located + (
@@ -807,8 +890,9 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
     reference = Path(reference_dir)
     document = _load_reference(reference)
     data_digests = {line.split("  ")[1]: line.split("  ")[0] for line in (reference / "DATA.sha256").read_text().splitlines()}
-    rows = []
-    for line in (reference / "MANIFEST.sha256").read_text().splitlines():
+    reference_lines = (reference / "MANIFEST.sha256").read_text().splitlines()
+    rows = _check_build_manifests(results, [line.split("  ")[1] for line in reference_lines])
+    for line in reference_lines:
         digest, listed = line.split("  ")
         relative = listed.removeprefix("results/")
         path = results / relative
@@ -831,6 +915,36 @@ def verify(results_dir, reference_dir="reference") -> list[Row]:
             rows += _check_dataset(listed, path, document["files"][relative], reference, document["shared"])
         else:
             rows.append(Row(listed, "file (SHA-256)", digest[:12], _sha256(path)[:12], float("nan"), 0.0, DISCREPANT))
+    return rows
+
+
+def _check_build_manifests(results: Path, reference_files: list[str]) -> list[Row]:
+    """The build's own manifests (:func:`build_manifests`): each line's file present with that SHA-256, and
+    every dataset of the reference listed in one of them (the regime table is none of theirs)."""
+    rows, listed = [], set()
+    for name in build_manifests(results):
+        manifest, label = results / name, f"results/{name}"
+        if not manifest.is_file():
+            rows.append(Row(label, "manifest of the build", "present", "missing", float("nan"), 0.0, DISCREPANT))
+            continue
+        wrong, count = [], 0
+        for line in manifest.read_text().splitlines():
+            if not line.strip():
+                continue
+            digest, sep, member = line.partition("  ")
+            path = results / member.removeprefix("results/")
+            count += 1
+            listed.add(member)
+            if not sep or not path.is_file():
+                wrong.append(f"{member or line[:40]}: missing")
+            elif _sha256(path) != digest:
+                wrong.append(f"{member}: SHA-256 differs")
+        rows.append(Row(label, f"{count} datasets, each present with its SHA-256 ({len(wrong)} not)", "-",
+                        "; ".join(wrong)[:90] or "all", float(len(wrong)), 0.0, "identical" if not wrong else DISCREPANT))
+    unlisted = sorted(f for f in reference_files if f.endswith(".nc") and f not in listed)
+    if unlisted:
+        rows.append(Row("results/MANIFEST.sha256", f"{len(unlisted)} datasets of the reference in no manifest of the "
+                        "build", "listed", ", ".join(unlisted)[:90], float(len(unlisted)), 0.0, DISCREPANT))
     return rows
 
 
@@ -886,6 +1000,10 @@ def main(argv=None) -> int:
             print(f"reference regenerated in {update_reference(args.results, args.reference)}")
             return 0
         rows = verify(args.results, args.reference)
+    except ReferenceRefused as refused:
+        print(format_table(refused.rows))
+        print(f"error: {refused}", file=sys.stderr)
+        return 1
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2

@@ -170,11 +170,17 @@ def worker_directory(environ=None) -> Path:
     Raises
     ------
     WorkerUnavailable
-        If it cannot be created, or is not a folder owned by this user with mode 0700 (another
-        user could then read every job's environment and streams, or answer in the worker's place).
+        If ``NNMSTOP_WORKER_DIR`` is relative, or the folder cannot be created, or is not a folder owned by
+        this user with mode 0700 (another user could then read every job's environment and streams, or
+        answer in the worker's place).
     """
     environ = os.environ if environ is None else environ
     configured = environ.get("NNMSTOP_WORKER_DIR")
+    if configured and not Path(configured).is_absolute():
+        raise WorkerUnavailable(
+            f"NNMSTOP_WORKER_DIR={configured!r} is a relative path: the worker runs from '/', where it names another "
+            "folder than the job's; give an absolute path"
+        )
     directory = Path(configured) if configured else Path(tempfile.gettempdir()) / f"nnmstop-worker-{os.getuid()}"
     try:
         directory.mkdir(mode=0o700)

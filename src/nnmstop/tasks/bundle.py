@@ -26,8 +26,8 @@ def bundle(config: dict, inputs: dict, outputs: dict) -> Path:
         The whole validated configuration (stored in the bundle; its ``metadata`` section
         describes the crate and the citation).
     inputs : dict
-        ``datasets``, ``figures``, ``workflow_files`` (lists of paths), ``manifest``,
-        ``environment_lock`` and ``citation`` (the repository's ``CITATION.cff``).
+        ``datasets``, ``figures``, ``workflow_files`` (lists of paths), ``manifest`` (the build's manifests:
+        a path or a list), ``environment_lock`` and ``citation`` (the repository's ``CITATION.cff``).
     outputs : dict
         ``bundle``: the zip archive to write.
     """
@@ -37,7 +37,7 @@ def bundle(config: dict, inputs: dict, outputs: dict) -> Path:
         config,
         datasets=_as_list(inputs["datasets"]),
         figures=_as_list(inputs["figures"]),
-        manifest=inputs["manifest"],
+        manifest=_as_list(inputs["manifest"]),
         environment_lock=inputs["environment_lock"],
         workflow_files=_as_list(inputs["workflow_files"]),
         output=outputs["bundle"],

@@ -10,6 +10,8 @@ import logging
 import shutil
 from pathlib import Path
 
+from nnmstop.atomic import atomic_output
+
 __all__ = ["docs"]
 
 logger = logging.getLogger("nnmstop.tasks.docs")
@@ -38,9 +40,11 @@ def docs(config: dict, inputs: dict, outputs: dict) -> None:
         if path != results_dir / RESULT_DATASETS[name]:
             raise ValueError(f"input {name!r} must be {results_dir / RESULT_DATASETS[name]}, got {path}")
     digests = {RESULT_DATASETS[name]: data_digest(path) for name, path in paths.items()}
-    page = results_page(results_dir, ModelParameters(**config["model"]), digests)
-    Path(outputs["results"]).write_text(page)
-    shutil.copyfile(inputs["figure"], outputs["figure"])
+    page = results_page(results_dir, ModelParameters(**config["model"]), digests)  # reads each with read_dataset
+    with atomic_output(outputs["results"]) as partial:
+        partial.write_text(page)
+    with atomic_output(outputs["figure"]) as partial:
+        shutil.copyfile(inputs["figure"], partial)
     logger.info("wrote %s from %d datasets and %s", outputs["results"], len(paths), outputs["figure"])
 
 

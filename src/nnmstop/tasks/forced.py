@@ -46,6 +46,12 @@ def exact_response_dataset(config: dict, scene: Scene):
         int(spec["frequency_samples"]),
     )
     pieces = exact_response(scene.excitation, scene.frequency_range, settings)
+    if not pieces:
+        raise ValueError(
+            f"forced scene {scene.name}: the exact response has no piece over {scene.frequency_range[0]:g}.."
+            f"{scene.frequency_range[1]:g} Hz (forced.force.amplitudes, forced.frequency_range): the linear "
+            "response is beyond the gap everywhere, with no grazing to start a contact family from"
+        )
     factor = float(scene.stability["resolution_factor"])
     return exact_dataset(scene.excitation, pieces, scene.frequency_range, factor)
 

@@ -55,11 +55,6 @@ def build_bifurcated(config: dict, name: str, parent: xr.Dataset) -> xr.Dataset:
     )
 
 
-def _load(path) -> xr.Dataset:
-    with xr.open_dataset(path) as ds:
-        return ds.load()
-
-
 def _write(ds: xr.Dataset, path, title: str, summary: str, config: dict, keywords: str = "") -> None:
     write_dataset(
         ds, path, title=title, summary=summary, keywords=keywords, metadata=config.get("metadata"), kind=branch_kind(ds)
@@ -140,7 +135,7 @@ def main(argv=None) -> None:
     summary.add_argument("bifurcated", help="e.g. results/hbm/bifurcated/nnm1_3to1.nc")
     summary.add_argument("nnm2", nargs="?", help="e.g. results/hbm/nnm2.nc")
     args = parser.parse_args(argv)
-    print(summarize_bifurcated(_load(args.bifurcated), _load(args.nnm2) if args.nnm2 else None))
+    print(summarize_bifurcated(read_dataset(args.bifurcated), read_dataset(args.nnm2) if args.nnm2 else None))
 
 
 #: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).

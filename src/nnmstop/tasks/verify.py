@@ -46,12 +46,24 @@ def verify(config: dict, inputs: dict, outputs: dict) -> None:
 
 def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
     """Regenerate :data:`REFERENCE` from the build whose manifest is ``inputs["manifest"]`` (and the forced
-    responses' ``inputs["forced_manifest"]`` where the configuration has them)."""
-    from nnmstop.pipeline.verify import FORCED_MANIFEST, MANIFEST
+    responses' ``inputs["forced_manifest"]`` where the configuration has them).
+
+    Raises
+    ------
+    RuntimeError
+        If a file of the build cannot be recorded (the table says which and why); the reference is untouched.
+    """
+    from nnmstop.pipeline.verify import FORCED_MANIFEST, MANIFEST, ReferenceRefused, format_table
     from nnmstop.pipeline.verify import update_reference as regenerate
 
     manifests = [MANIFEST] + ([FORCED_MANIFEST] if inputs.get("forced_manifest") else [])
-    folder = regenerate(_results_folder(inputs), REFERENCE, manifests)
+    try:
+        folder = regenerate(_results_folder(inputs), REFERENCE, manifests)
+    except ReferenceRefused as refused:
+        table = format_table(refused.rows)
+        print(table)
+        logger.error("%s", table)
+        raise RuntimeError(str(refused)) from None
     print(f"reference regenerated in {folder}")
     logger.info("reference regenerated in %s", folder)
 
