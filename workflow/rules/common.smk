@@ -226,6 +226,12 @@ def tube_study_files():
     return [tube_file(f"study/gap{g:g}_k{k:g}") for g in study["gaps"] for k in study["stiffness_factors"]]
 
 
+def tube_manifest_datasets():
+    """Every dataset of the tube target: branches and their stages, exact family, comparison, study cases."""
+    stages = [path for branch in config["tube"]["branches"] for path in tube_stage_files(branch)]
+    return sorted(set(TUBE_DATASETS.values()) | set(stages) | set(tube_study_files()))
+
+
 def tube_stage_files(branch):
     """The stage datasets of a tube branch, in order (rule tube_stage)."""
     count = len(config["tube"]["branches"][branch]["stages"])
@@ -299,8 +305,12 @@ def forced_figures():
 
 def verified_inputs(wildcards):
     """What verify checks and update_reference record (workflow/rules/verify.smk): the paper's datasets and
-    their manifest and, where the configuration has them, the forced datasets and their manifest."""
+    their manifest and, where the configuration has them, the forced, tube and study datasets (their manifests)."""
     inputs = dict(datasets=PAPER_DATASETS, manifest=rules.dataset_manifest.output.manifest)
     if "forced" in config:
         inputs.update(forced_datasets=forced_datasets(), forced_manifest=rules.forced_manifest.output.manifest)
+    if "tube" in config:
+        inputs.update(tube_manifest=rules.tube_manifest.output.manifest)
+    if "study" in config:
+        inputs.update(study_manifest=rules.study_manifest.output.manifest)
     return inputs

@@ -270,9 +270,29 @@ rule study_stiff_cases_figure:
         "../scripts/run_task.py"
 
 
-rule study:
-    """Both studies: datasets and figures."""
+rule study_manifest:
+    """results/study/MANIFEST.sha256 over the two gathered study datasets, which hold every case (recorded by
+    update_reference, checked by verify: their run times are measurements of the machine, not compared)."""
     input:
+        datasets=[rules.study_error_vs_runtime.output.dataset, rules.study_stiff_cases.output.dataset],
+    output:
+        manifest=results("study/MANIFEST.sha256"),
+    log:
+        logs("study/manifest.log"),
+    benchmark:
+        benchmarks("study_manifest.tsv")
+    params:
+        config=task_config(),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule study:
+    """Both studies: datasets, their manifest and figures."""
+    input:
+        rules.study_manifest.output.manifest,
         rules.study_error_vs_runtime.output.dataset,
         rules.study_error_vs_runtime_figure.output,
         rules.study_stiff_cases.output.dataset,

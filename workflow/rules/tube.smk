@@ -136,9 +136,29 @@ rule tube_study:
         "../scripts/run_task.py"
 
 
+rule tube_manifest:
+    """results/tube/MANIFEST.sha256 over the tube's branches (and their stages), exact family, comparison and study
+    cases (recorded by update_reference, checked by verify)."""
+    input:
+        datasets=tube_manifest_datasets(),
+    output:
+        manifest=results("tube/MANIFEST.sha256"),
+    log:
+        logs("tube/manifest.log"),
+    benchmark:
+        benchmarks("tube_manifest.tsv")
+    params:
+        config=task_config(),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
 rule tube:
-    """Everything of the tube: datasets and figures (not in the default target)."""
+    """Everything of the tube: datasets, their manifest and figures (not in the default target)."""
     input:
         list(TUBE_DATASETS.values()),
+        rules.tube_manifest.output.manifest,
         expand(paper_figures("tube_{figure}.{ext}"), figure=TUBE_FIGURE_INPUTS, ext=("pdf", "png")),
         rules.tube_study.output,

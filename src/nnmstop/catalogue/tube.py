@@ -11,6 +11,18 @@ ONE_IMPACT_COMPARISON_VARIABLES = (
     Variable("exact_frequency", ("energy",), "frequency of the exact non-smooth orbit", units="Hz"),
     Variable("regularized_frequency", ("energy",), "frequency of the regularized HBM orbit", units="Hz"),
     Variable("relative_difference", ("energy",), "(regularized - exact) / exact frequency"),
+    Variable(
+        "exact_interpolation_error",
+        ("energy",),
+        "estimated error of the exact frequency, interpolated linearly between the family's stored orbits",
+        units="Hz",
+    ),
+    Variable(
+        "regularized_interpolation_error",
+        ("energy",),
+        "estimated error of the regularized frequency, interpolated linearly between the branch's stored orbits",
+        units="Hz",
+    ),
     Variable("energy", ("energy",), "matched total energy"),
 )
 ONE_IMPACT_COMPARISON = DatasetKind(

@@ -16,23 +16,37 @@ from nnmstop.catalogue import describe
 __all__ = ["first_crossing", "compare_at_energies"]
 
 
-def first_crossing(energy, values, target: float, segment=None) -> float:
+def first_crossing(energy, values, target: float, segment=None, with_error: bool = False):
     """``values`` where the branch first reaches ``target`` energy, or NaN if it never does.
 
     ``segment`` (optional, per point) splits a branch continued over resonance tongues into its
-    curves: two consecutive points of different segments bracket nothing.
+    curves: two consecutive points of different segments bracket nothing. With ``with_error``, also an
+    estimate of the error of the linear interpolation there: the quadratic term through the bracketing
+    points and a neighbour on the same curve, ``|v[x0, x1, x2] (E - x0) (E - x1)|`` (NaN where there is none).
+    It follows the stored points' spacing, which follows the continuation's steps: two builds whose points
+    differ agree to the sum of their estimates.
     """
     energy, values = np.asarray(energy, float), np.asarray(values, float)
     below = energy[:-1] - target
     above = energy[1:] - target
-    same_curve = True if segment is None else np.diff(np.asarray(segment)) == 0
-    hits = np.flatnonzero((below * above <= 0) & same_curve)
+    same = np.ones(len(energy) - 1, bool) if segment is None else np.diff(np.asarray(segment)) == 0
+    hits = np.flatnonzero((below * above <= 0) & same)
     if hits.size == 0:
-        return float("nan")
+        return (float("nan"), float("nan")) if with_error else float("nan")
     i = hits[0]
     span = energy[i + 1] - energy[i]
     w = 0.0 if span == 0 else (target - energy[i]) / span
-    return float(values[i] + w * (values[i + 1] - values[i]))
+    value = float(values[i] + w * (values[i + 1] - values[i]))
+    if not with_error:
+        return value
+    third = i - 1 if i > 0 and same[i - 1] else (i + 2 if i + 2 < len(energy) and same[i + 1] else None)
+    error = float("nan")
+    if third is not None:
+        x = energy[[i, i + 1, third]]
+        if len(set(x)) == 3:
+            first = [(values[i + 1] - values[i]) / (x[1] - x[0]), (values[third] - values[i + 1]) / (x[2] - x[1])]
+            error = abs((first[1] - first[0]) / (x[2] - x[0]) * (target - x[0]) * (target - x[1]))
+    return value, error
 
 
 def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count: int, segment=None) -> xr.Dataset:
@@ -55,14 +69,17 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
         )
     margin = (high / low) ** 0.01
     targets = np.geomspace(low * margin, high / margin, count)
-    fe = np.array([first_crossing(exact_energy, exact_frequency, e) for e in targets])
-    fr = np.array([first_crossing(energy, frequency, e, segment) for e in targets])
+    fe, de = np.array([first_crossing(exact_energy, exact_frequency, e, with_error=True) for e in targets]).T
+    fr, dr = np.array([first_crossing(energy, frequency, e, segment, with_error=True) for e in targets]).T
     keep = np.isfinite(fe) & np.isfinite(fr)
     ds = xr.Dataset(
         {
             "exact_frequency": ("energy", fe[keep]),
             "regularized_frequency": ("energy", fr[keep]),
             "relative_difference": ("energy", (fr[keep] - fe[keep]) / fe[keep]),
+            # where a branch has no third point on the curve, the estimate of the other branch's bracket is all
+            "exact_interpolation_error": ("energy", np.nan_to_num(de[keep], nan=0.0)),
+            "regularized_interpolation_error": ("energy", np.nan_to_num(dr[keep], nan=0.0)),
         },
         coords={"energy": targets[keep]},
     )

@@ -40,9 +40,13 @@ from nnmstop.netcdf import PROVENANCE_ATTRIBUTES
 __all__ = [
     "CURVE_COORDINATES",
     "SAMPLED_DIMENSIONS",
+    "STUDY_KINDS",
+    "not_compared",
     "unverified_variables",
     "STABILITY_ERROR_VARIABLES",
     "weight",
+    "array_fingerprint",
+    "fingerprint_sums",
     "REFERENCE_FORMAT",
     "variable_kind",
     "attribute_kind",
@@ -81,8 +85,44 @@ SAMPLED_DIMENSIONS = frozenset({"contact_point"})
 #: Variables that follow the continuation's steps, not the curve: not compared (indices of stored
 #: points, step numbers and counts of integration steps, arclength summed over the steps).
 SAMPLING_VARIABLES = frozenset(
-    {"point", "step", "stability_steps", "regularized_index", "branch_point_flagged_point", "fold_point", "arclength"}
+    {
+        "point",
+        "step",
+        "stability_steps",
+        "regularized_index",
+        "branch_point_flagged_point",
+        "fold_point",
+        "arclength",
+        # a passed tongue (nnmstop.hbm.tongues): the energy of the stored point that ended the segment where the
+        # frequency had fallen from its maximum (flat there: the energy moves with the steps), and where the predictor
+        # over the tongue, of a length doubled from the chord of the last stored points, was corrected
+        "passed_resonance_energy",
+        "passed_resonance_landing_frequency",
+    }
 )
+#: Measurements of the machine that ran the build (the study's run times, CPU times and load averages): they
+#: change from run to run and are not compared; the study's figures draw them as what they are.
+MEASUREMENT_PATTERN = re.compile(r"(runtime|cpu_time|load_average|seconds)")
+#: Counts of the continuation's work in the study's datasets (steps, factorizations, Newton iterations, orbits of
+#: a family): they follow the step sequence, which moves with round-off; the curves they come from are compared.
+STEP_COUNT_PATTERN = re.compile(r"^(anm_|ratio_)?(steps|factorizations|newton_iterations|exact_orbits)$")
+#: Dataset kinds of the study (``snakemake study``): every case on a grid, no curve.
+STUDY_KINDS = frozenset({"error_vs_runtime", "stiff_cases"})
+
+
+def not_compared(name: str, ds: xr.Dataset) -> str:
+    """Why the verifier does not compare the values of variable ``name`` of a study dataset ("" when it does):
+    a measurement of the machine (:data:`MEASUREMENT_PATTERN`) or a count of the continuation's work
+    (:data:`STEP_COUNT_PATTERN`)."""
+    if ds.attrs.get("dataset_kind") not in STUDY_KINDS:
+        return ""
+    if MEASUREMENT_PATTERN.search(name):
+        return "a measurement of the machine that ran the build (run time, load)"
+    if STEP_COUNT_PATTERN.match(name):
+        return "counts the continuation's work, which follows its steps, not the curve"
+    return ""
+
+
 #: Flags of the stored points next to an event (a branch point, a fold, a grazing, a marked orbit): which
 #: stored point carries the flag follows the steps; compared as events along the curve.
 MARKER_VARIABLES = frozenset({"branch_point", "energy_fold", "grazing", "marked"})
@@ -106,7 +146,7 @@ ZERO_LEVEL = 1e-12
 #: not reproducible point by point; each must stay within ACCURACY_FACTOR of the reference's largest.
 ACCURACY_PATTERN = re.compile(
     r"(residual|_deviation|integration_error|_change|_shift|energy_spread|force_error|^unfolding|"
-    r"trivial_multiplier_distance|singular_ratio|stability_tolerance|multiplier_error|orbit_error)$"
+    r"trivial_multiplier_distance|singular_ratio|stability_tolerance|multiplier_error|orbit_error|interpolation_error)$"
 )
 ACCURACY_FACTOR = 10.0
 #: Error estimates of the stability numbers (absolute, per stored point) where a file stores them (the forced
@@ -203,7 +243,7 @@ def attribute_kind(name: str) -> str:
 def json_value(value):
     """A NetCDF attribute value as JSON (numbers, strings, lists)."""
     if isinstance(value, np.ndarray):
-        return [json_value(v) for v in value.tolist()]
+        return json_value(value.item()) if value.ndim == 0 else [json_value(v) for v in value.tolist()]
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, (list, tuple)):
@@ -268,6 +308,36 @@ def point_table(ds: xr.Dataset) -> dict:
     return table
 
 
+#: Weighted sums that stand for a large floating-point array in the reference (see :func:`array_fingerprint`).
+FINGERPRINT_SUMS = 4
+
+
+def array_fingerprint(values: np.ndarray) -> dict:
+    """What the reference keeps of an array of more than 256 values: its SHA-256 and, for floating-point
+    values, ``FINGERPRINT_SUMS`` sums of the values with fixed weights in [1, 2) (:func:`fingerprint_sums`) and
+    the sum of their magnitudes: the same numbers up to round-off (a mode shape, the start states of an exact
+    family on another CPU) give sums within a relative tolerance of that magnitude, any change of one value
+    moves them."""
+    out = {"sha256": hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest()}
+    if values.dtype.kind == "f":
+        sums, magnitude = fingerprint_sums(values)
+        out.update(shape=list(values.shape), sums=[float(v) for v in sums], magnitude=magnitude)
+    return out
+
+
+def fingerprint_sums(values: np.ndarray) -> tuple[np.ndarray, float]:
+    """The weighted sums of :func:`array_fingerprint` (weights from a fixed hash of each value's position)."""
+    flat = np.ravel(np.asarray(values, dtype=float))
+    index = np.arange(flat.size, dtype=np.uint64)
+    weights = np.stack(
+        [
+            1.0 + ((index * np.uint64(2654435761) + np.uint64(k * 40503)) % np.uint64(2**16)) / 2.0**16
+            for k in range(1, FINGERPRINT_SUMS + 1)
+        ]
+    )
+    return weights @ flat, float(np.sum(np.abs(flat)))
+
+
 def weight(name: str) -> float:
     """A fixed weight in [1, 2) of a column of a projection, from a hash of its name."""
     return 1.0 + int(hashlib.sha256(name.encode()).hexdigest()[:8], 16) / 2**32
@@ -319,13 +389,13 @@ def profile(ds: xr.Dataset, shared: dict) -> dict:
         "values": {},
     }
     for name, variable in ds.variables.items():
-        if POINT in variable.dims or SAMPLED_DIMENSIONS & set(variable.dims):
+        if POINT in variable.dims or SAMPLED_DIMENSIONS & set(variable.dims) or not_compared(str(name), ds):
             continue
         values = np.asarray(variable.values)
         if values.size <= 256:
             entry["values"][str(name)] = json_value(values)
         else:
-            entry["values"][str(name)] = {"sha256": hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest()}
+            entry["values"][str(name)] = array_fingerprint(values)
     table = point_table(ds)
     if table is not None:
         entry["ranges"], entry["bounds"] = {}, {}
@@ -363,9 +433,11 @@ def unverified_variables(ds: xr.Dataset) -> dict[str, str]:
         elif POINT in variable.dims and variable_kind(name, variable, coordinates or (), accuracy) == "sampling":
             out[name] = "follows the continuation's steps, not the curve"
         elif POINT not in variable.dims and name in SAMPLING_VARIABLES:
-            out[name] = "index of stored points: follows the continuation's steps"
+            out[name] = "follows the continuation's steps (an index of stored points, where a segment ended)"
         elif SAMPLED_DIMENSIONS & set(variable.dims) and name not in checked:
             out[name] = "kept at some stored points only, and not checked against them"
+        elif not_compared(name, ds):
+            out[name] = not_compared(name, ds)
     return out
 
 

@@ -44,7 +44,10 @@ from nnmstop.pipeline.reference import (
     REFERENCE_FORMAT,
     SAMPLING_VARIABLES,
     STABILITY_ERROR_VARIABLES,
+    STABILITY_VALUE_PATTERN,
+    STUDY_KINDS,
     attribute_kind,
+    fingerprint_sums,
     json_value,
     point_table,
     profile,
@@ -210,17 +213,21 @@ def _compact_json(format_version: int, shared: dict, files: dict) -> str:
             f'"files": {{\n{block(files)}\n}}}}\n')
 
 
-#: Manifests of a build, relative to its results directory: the paper's datasets (required) and the forced
-#: responses' (``snakemake forced``; recorded when present).
+#: Manifests of a build, relative to its results directory: the paper's datasets (required) and those of the
+#: other targets (recorded where they were built), with the target that writes each.
 MANIFEST = "MANIFEST.sha256"
 FORCED_MANIFEST = "forced/MANIFEST.sha256"
+TUBE_MANIFEST = "tube/MANIFEST.sha256"
+STUDY_MANIFEST = "study/MANIFEST.sha256"
+TARGET_OF_MANIFEST = {MANIFEST: "the default target", FORCED_MANIFEST: "forced", TUBE_MANIFEST: "tube",
+                      STUDY_MANIFEST: "study"}
 
 
 def build_manifests(results_dir) -> list[str]:
-    """The manifests of the build in ``results_dir`` that a reference records: :data:`MANIFEST` and, where the
-    forced responses were built, :data:`FORCED_MANIFEST`."""
+    """The manifests of the build in ``results_dir`` that a reference records: :data:`MANIFEST` and those of the
+    forced, tube and study targets where they were built."""
     results = Path(results_dir)
-    return [MANIFEST] + ([FORCED_MANIFEST] if (results / FORCED_MANIFEST).is_file() else [])
+    return [MANIFEST] + [name for name in (FORCED_MANIFEST, TUBE_MANIFEST, STUDY_MANIFEST) if (results / name).is_file()]
 
 
 class ReferenceRefused(ValueError):
@@ -237,8 +244,9 @@ def _listed_files(results: Path, manifests: list) -> list[str]:
     for name in manifests:
         manifest = results / name
         if not manifest.is_file():
-            target = "forced" if name == FORCED_MANIFEST else "the default target"
-            raise ValueError(f"{manifest} is missing: build {target} first (`snakemake --cores 2`)")
+            target = TARGET_OF_MANIFEST.get(name, "the default target")
+            raise ValueError(f"{manifest} is missing: build {target} first (`snakemake --cores 2 {target}`)"
+                             if name != MANIFEST else f"{manifest} is missing: build {target} first (`snakemake --cores 2`)")
         lines += [line for line in manifest.read_text().splitlines() if line.strip()]
     for line in lines:
         if "  " not in line or not line.split("  ")[1].startswith("results/"):
@@ -358,6 +366,58 @@ def _check_finite(name: str, ds: xr.Dataset) -> list[Row]:
     return rows
 
 
+#: In the study's datasets (reference.STUDY_KINDS): numbers that estimate an accuracy (truncation indicators,
+#: residuals, periodicity errors of closed-form orbits, the continuation path's own error), round-off or
+#: truncation, compared as accuracy estimates; the study's results (the errors of the regularized model
+#: against the exact orbits, the harmonics needed) are compared as numbers.
+STUDY_ACCURACY_PATTERN = re.compile(r"(truncation|periodicity_error|integration_difference|residual|path_frequency_error)$")
+
+
+def _study_accuracy(var: str, ds: xr.Dataset) -> bool:
+    return ds.attrs.get("dataset_kind") in STUDY_KINDS and bool(STUDY_ACCURACY_PATTERN.search(var))
+
+
+#: Values interpolated linearly between a branch's stored points (the structure comparison, kind
+#: ``one_impact_comparison``): their build and reference differ by up to the sum of the stored estimates of the
+#: interpolation error named here (relative ones divided by the variable named in INTERPOLATED_SCALE).
+INTERPOLATED_BY = {
+    "exact_frequency": ("exact_interpolation_error",),
+    "regularized_frequency": ("regularized_interpolation_error",),
+    "relative_difference": ("exact_interpolation_error", "regularized_interpolation_error"),
+}
+INTERPOLATED_SCALE = {"relative_difference": "exact_frequency"}
+#: The study's results that are differences of two solved orbits (errors of the regularized model against the
+#: exact one, and of H against H_ref): where they are round-off (the truncation part at large H), relative
+#: comparison means nothing; their absolute round-off is below this share of the variable's largest value.
+STUDY_DIFFERENCE_FLOOR = 1e-9
+STUDY_RESULT_PATTERN = re.compile(r"(error|difference)")
+
+
+def _study_result(var: str, ds: xr.Dataset) -> bool:
+    return ds.attrs.get("dataset_kind") in STUDY_KINDS and bool(STUDY_RESULT_PATTERN.search(var))
+
+
+def _resolved_cases(var: str, ds: xr.Dataset, entry: dict) -> np.ndarray | None:
+    """In a study dataset, where the cases of variable ``var`` were resolved (their ``status``, of the same
+    prefix and dimensions, is 0 in both the build and the reference); None elsewhere. An unresolved case's
+    accuracy estimate (its largest truncation indicator) is that of the first point past the limit, whichever
+    point that was."""
+    if ds.attrs.get("dataset_kind") not in STUDY_KINDS:
+        return None
+    prefix = re.match(r"^(anm_|ratio_|reference_|energy_hbm_)?", var).group(0)
+    status = f"{prefix}status"
+    if status not in ds.variables or ds[status].dims != ds[var].dims or status not in entry["values"]:
+        return None
+    return (np.asarray(ds[status].values) == 0) & (np.asarray(entry["values"][status]) == 0)
+
+
+def _type_name(dtype) -> str:
+    """A variable's type as compared: text of any length is text (its longest string is data: a failure's
+    message with more digits), every other type by its name."""
+    text = str(dtype)
+    return "text" if re.fullmatch(r"[<>|]?[US]\d*|object", text) else text
+
+
 def _check_structure(name: str, ds: xr.Dataset, entry: dict, shared: dict) -> list[Row]:
     """Missing and extra variables; each variable's dimensions, type and attributes; dimension sizes."""
     rows = []
@@ -371,7 +431,7 @@ def _check_structure(name: str, ds: xr.Dataset, entry: dict, shared: dict) -> li
                         "reference", "absent", ", ".join(extra)[:90], float(len(extra)), 0.0, DISCREPANT))
     for var in sorted(present & set(expected)):
         (dims, dtype, attributes), variable = expected[var], ds.variables[var]
-        if list(variable.dims) != dims or str(variable.dtype) != dtype:
+        if list(variable.dims) != dims or _type_name(variable.dtype) != _type_name(dtype):
             rows.append(Row(name, f"variable {var}: dimensions and type", f"{dims} {dtype}",
                             f"{list(variable.dims)} {variable.dtype}", float("nan"), 0.0, DISCREPANT))
         wanted = shared.get(attributes, {})
@@ -454,11 +514,19 @@ def _check_other_values(name: str, ds: xr.Dataset, entry: dict, skip=()) -> list
         if var in skip or var in SAMPLING_VARIABLES or var not in ds.variables or POINT in ds[var].dims:
             continue
         values = np.asarray(ds[var].values)
-        if isinstance(wanted, dict):  # large: its digest
-            ok = hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest() == wanted["sha256"]
-            if not ok:
+        if isinstance(wanted, dict):  # large: its digest and, for floating-point values, its fingerprint
+            if hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest() == wanted["sha256"]:
+                continue
+            if "sums" not in wanted or list(values.shape) != wanted["shape"] or values.dtype.kind != "f":
                 rows.append(Row(name, f"variable {var} (SHA-256 of its values)", wanted["sha256"][:12], "differs",
                                 float("nan"), 0.0, DISCREPANT))
+                continue
+            sums, _ = fingerprint_sums(values)
+            tolerance = max(DERIVED_TOLERANCE, 10 * entry["base"])
+            worst = float(np.max(np.abs(sums - np.asarray(wanted["sums"])))) / max(2 * wanted["magnitude"], 1e-300)
+            if not worst <= tolerance:
+                rows.append(Row(name, f"variable {var} (weighted sums of its {values.size} values, relative)",
+                                f"{wanted['sums'][0]:.10g}", f"{sums[0]:.10g}", worst, tolerance, DISCREPANT))
             continue
         reference = np.asarray(wanted)
         if reference.size == 0 and values.size == 0:  # none (no located change): JSON keeps no shape of it
@@ -468,20 +536,44 @@ def _check_other_values(name: str, ds: xr.Dataset, entry: dict, skip=()) -> list
                             DISCREPANT))
             continue
         if values.dtype.kind not in "fc" or reference.dtype.kind not in "fc":
-            ok = [str(v) for v in reference.ravel()] == [str(v) for v in values.ravel()]
+            # integers and flags equal; text the same words, its numbers (a failure's energy, a count of points)
+            # restating what the data hold
+            as_text = str if values.dtype.kind in "biu" else (lambda v: _mask_numbers(str(v)))
+            ok = [as_text(v) for v in reference.ravel()] == [as_text(v) for v in values.ravel()]
             if not ok:
                 rows.append(Row(name, f"variable {var}", str(reference.tolist())[:60], str(values.tolist())[:60],
                                 float("nan"), 0.0, DISCREPANT))
             continue
-        if ACCURACY_PATTERN.search(var):
-            bound = ACCURACY_FACTOR * float(np.max(np.abs(reference))) if reference.size else 0.0
-            worst = float(np.max(np.abs(values))) if values.size else 0.0
+        # a missing value (NaN: a case of the study not compared) must be missing in both builds
+        missing_here, missing_there = np.isnan(values), np.isnan(reference)
+        if np.any(missing_here != missing_there):
+            first = np.argwhere(missing_here != missing_there)[0]
+            rows.append(Row(name, f"variable {var}: missing values (NaN) at other positions", str(int(missing_there.sum())),
+                            f"{int(missing_here.sum())} (first differing at {tuple(int(i) for i in first)})",
+                            float("nan"), 0.0, DISCREPANT))
+            continue
+        values, reference = values[~missing_here], reference[~missing_there]
+        if ACCURACY_PATTERN.search(var) or _study_accuracy(var, ds):
+            resolved = _resolved_cases(var, ds, entry)
+            if resolved is not None:  # a study's unresolved case stopped at the first point past its limit
+                values, reference = values[resolved[~missing_here]], reference[resolved[~missing_there]]
+            bound = max(ACCURACY_FACTOR * float(np.max(np.abs(reference), initial=0.0)), entry["base"])
+            worst = float(np.max(np.abs(values), initial=0.0))
             rows.append(Row(name, f"variable {var} (accuracy estimate: largest)", f"{bound / ACCURACY_FACTOR:.3g}",
                             f"{worst:.3g}", worst, bound, _verdict(worst <= bound)))
             continue
         tolerance = max(DERIVED_TOLERANCE, 10 * entry["base"])
         scale = 1.0 if var in DIFFERENCE_VARIABLES else np.maximum(np.abs(reference), 1e-300)
         difference = np.abs(values - reference) / scale
+        if var in INTERPOLATED_BY and all(e in ds.variables and isinstance(entry["values"].get(e), list)
+                                          for e in INTERPOLATED_BY[var]):
+            # linear interpolation between stored points: within both builds' estimates
+            estimate = sum(np.asarray(ds[e].values) + np.asarray(entry["values"][e]) for e in INTERPOLATED_BY[var])
+            scale_of = np.abs(np.asarray(ds[INTERPOLATED_SCALE[var]].values)) if var in INTERPOLATED_SCALE else 1.0
+            difference = np.maximum(difference - (estimate / scale_of)[~missing_here] / scale, 0.0)
+        elif _study_result(var, ds):  # a difference of two solved orbits: round-off of the larger ones below it
+            floor = STUDY_DIFFERENCE_FLOOR * float(np.max(np.abs(reference), initial=0.0))
+            difference = np.maximum(np.abs(values - reference) - floor, 0.0) / scale
         worst = float(np.max(difference)) if difference.size else 0.0
         if worst > tolerance:
             rows.append(Row(name, f"variable {var} ({'absolute' if var in DIFFERENCE_VARIABLES else 'relative'})", str(reference.tolist())[:60], str(values.tolist())[:60],
@@ -742,9 +834,11 @@ def _column(table: dict, column: str):
     return next((t[column] for t in table.values() if isinstance(t, dict) and column in t), None)
 
 
-def _check_ranges(name: str, entry: dict, table: dict, base: float) -> list[Row]:
+def _check_ranges(name: str, entry: dict, table: dict, base: float, stability_error: float = 0.0) -> list[Row]:
     """Each smooth quantity's least and largest value on the curve: within its largest change between
-    neighbouring stored points (either build) and its base accuracy. Names the variable of a change."""
+    neighbouring stored points (either build) and its base accuracy; a stability number (a multiplier) also
+    within ``stability_error``, the largest error estimate of the multipliers stored by either build (round-off
+    of the monodromy where a multiplier is near zero). Names the variable of a change."""
     rows = []
     for column, (low, high, step) in sorted(entry.get("ranges", {}).items()):
         values = _column(table, column)
@@ -753,6 +847,8 @@ def _check_ranges(name: str, entry: dict, table: dict, base: float) -> list[Row]
         got_low, got_high, got_step = (float(np.min(values)), float(np.max(values)),
                                        float(np.max(np.abs(np.diff(values)))) if len(values) > 1 else 0.0)
         tolerance = max(step, got_step) + base * max(abs(low), abs(high))
+        if STABILITY_VALUE_PATTERN.match(column.split("[")[0]):
+            tolerance += stability_error
         difference = max(abs(got_low - low), abs(got_high - high))
         if not difference <= tolerance:
             rows.append(Row(name, f"{column}: range on the curve", f"[{low:.6g}, {high:.6g}]",
@@ -760,8 +856,10 @@ def _check_ranges(name: str, entry: dict, table: dict, base: float) -> list[Row]
     return rows
 
 
-def _check_bounds(name: str, entry: dict, table: dict) -> list[Row]:
-    """Accuracy estimates: at every stored point within ACCURACY_FACTOR of the reference's largest."""
+def _check_bounds(name: str, entry: dict, table: dict, base: float) -> list[Row]:
+    """Accuracy estimates: at every stored point within ACCURACY_FACTOR of the reference's largest, or below the
+    file's base accuracy ``base`` (what every stored orbit meets: an estimate below it is round-off, which
+    another CPU may double or halve)."""
     rows, checked = [], 0
     for column, largest in sorted(entry.get("bounds", {}).items()):
         values = _column(table, column)
@@ -769,7 +867,7 @@ def _check_bounds(name: str, entry: dict, table: dict) -> list[Row]:
             continue
         checked += 1
         worst = float(np.max(np.abs(values))) if len(values) else 0.0
-        bound = ACCURACY_FACTOR * largest
+        bound = max(ACCURACY_FACTOR * largest, base)
         if not worst <= bound:
             rows.append(Row(name, f"{column} (accuracy estimate: largest on the curve)", f"{largest:.3g}",
                             f"{worst:.3g}", worst, bound, DISCREPANT))
@@ -803,8 +901,10 @@ def _check_points(name: str, ds: xr.Dataset, entry: dict, reference_dir: Path) -
             error = np.sum(estimates, axis=0) if kind == "stability" and estimates else None
             rows += _check_projection(name, kind, reference, table[source], spec["scales"][kind], curves, match, base,
                                       error)
-    rows += _check_ranges(name, entry, table, base)
-    rows += _check_bounds(name, entry, table)
+    stability_error = sum(max(entry.get("bounds", {}).get(c, 0.0), float(np.max(table["accuracy"][c], initial=0.0)))
+                          for c in STABILITY_ERROR_VARIABLES if c in table["accuracy"])
+    rows += _check_ranges(name, entry, table, base, stability_error)
+    rows += _check_bounds(name, entry, table, base)
     return rows
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 from nnmstop.netcdf import read_dataset, write_dataset
 from nnmstop.settings import exact_settings, model_parameters, study_settings
 from nnmstop.study import error_runtime, stiff_cases
+from nnmstop.tasks.manifest import dataset_manifest
 
 __all__ = [
     "build_error_case",
@@ -274,3 +275,4 @@ TASKS = {
         study_stiff_cases_figure,
     )
 }
+TASKS["study_manifest"] = dataset_manifest  # SHA-256 manifest of the gathered study datasets, as the paper's

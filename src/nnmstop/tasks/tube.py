@@ -14,6 +14,7 @@ import functools
 
 from nnmstop.netcdf import write_dataset
 from nnmstop.tasks import hbm, structure
+from nnmstop.tasks.manifest import dataset_manifest
 
 __all__ = ["KEYWORDS", "tube_config", "study_case_config", "TASKS"]
 
@@ -83,4 +84,5 @@ TASKS = {
     "tube_figure": structure.structure_figure,
     "tube_study_case": tube_study_case,
     "tube_study": structure.study_figure,
+    "tube_manifest": dataset_manifest,
 }

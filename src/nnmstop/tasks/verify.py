@@ -46,17 +46,25 @@ def verify(config: dict, inputs: dict, outputs: dict) -> None:
 
 def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
     """Regenerate :data:`REFERENCE` from the build whose manifest is ``inputs["manifest"]`` (and the forced
-    responses' ``inputs["forced_manifest"]`` where the configuration has them).
+    responses', the tube's and the study's manifests where the configuration has them).
 
     Raises
     ------
     RuntimeError
         If a file of the build cannot be recorded (the table says which and why); the reference is untouched.
     """
-    from nnmstop.pipeline.verify import FORCED_MANIFEST, MANIFEST, ReferenceRefused, format_table
+    from nnmstop.pipeline.verify import (
+        FORCED_MANIFEST,
+        MANIFEST,
+        STUDY_MANIFEST,
+        TUBE_MANIFEST,
+        ReferenceRefused,
+        format_table,
+    )
     from nnmstop.pipeline.verify import update_reference as regenerate
 
-    manifests = [MANIFEST] + ([FORCED_MANIFEST] if inputs.get("forced_manifest") else [])
+    optional = {"forced_manifest": FORCED_MANIFEST, "tube_manifest": TUBE_MANIFEST, "study_manifest": STUDY_MANIFEST}
+    manifests = [MANIFEST] + [name for key, name in optional.items() if inputs.get(key)]
     try:
         folder = regenerate(_results_folder(inputs), REFERENCE, manifests)
     except ReferenceRefused as refused:
