@@ -187,7 +187,20 @@ def _frequency_energy(fig, data, spec):
 
 
 def _exact_curves(ax, exact):
-    """The exact family: its backbone solid; the internal resonance it enters (if any) dotted and named."""
+    """The exact family: its backbone solid; the internal resonance it enters (if any) dotted and named; for a
+    structure with no exact orbits (a circular clearance) a note that says why."""
+    if exact.sizes["orbit"] == 0:
+        ax.text(
+            0.02,
+            0.02,
+            f"no exact orbits: {exact.attrs.get('end_reason', '')}"[:150],
+            transform=ax.transAxes,
+            fontsize=7,
+            color=EXACT,
+            va="bottom",
+            wrap=True,
+        )
+        return
     resonant = exact.resonant_mode.values > 0 if "resonant_mode" in exact else np.zeros(exact.sizes["orbit"], bool)
     first = int(np.argmax(resonant)) if resonant.any() else len(resonant)
     e, f = exact.energy.values, exact.frequency.values
@@ -266,6 +279,8 @@ def _exact_vs_regularized(fig, data, spec):
     comparison, exact, nnm1 = data["comparison"], data["exact"], data["nnm1"]
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     _exact_curves(ax1, exact)
+    if exact.sizes["orbit"] == 0:  # nothing to compare: the regularized NNM1 alone, and the reason
+        exact = nnm1
     segment = branch_segments(nnm1)
     for k in np.unique(segment):
         part = segment == k

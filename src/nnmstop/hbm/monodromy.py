@@ -403,9 +403,13 @@ class BranchMonodromy:
 
     def data_vars(self) -> dict:
         """Variables for a branch dataset, ``{name: (dims, values)}`` (same names as Hill's for the shared ones;
-        long names and units: :mod:`nnmstop.catalogue.branch`, ``STABILITY_VARIABLES``)."""
+        long names and units: :mod:`nnmstop.catalogue.branch`, ``STABILITY_VARIABLES``).
+
+        A structure of one degree of freedom has no non-trivial pair: no ``floquet_invariant`` and no
+        ``stability_margin`` (its verdict cannot change).
+        """
         point, flag = ("point",), np.int8
-        return {
+        out = {
             "stable": (point, self.stable.astype(flag)),
             "multiplier_real": (("point", "multiplier"), self.multipliers.real),
             "multiplier_imag": (("point", "multiplier"), self.multipliers.imag),
@@ -423,6 +427,9 @@ class BranchMonodromy:
             "stability_refined_energy_change": (point, self.refined_energy_change),
             "stability_refined_residual": (point, self.refined_residual),
         }
+        if self.multipliers.shape[1] <= 2:
+            del out["floquet_invariant"], out["stability_margin"]
+        return out
 
 
 def branch_monodromy(system, U_array, settings: MonodromySettings | None = None, time_residual=None) -> BranchMonodromy:

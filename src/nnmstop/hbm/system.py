@@ -662,8 +662,10 @@ class HarmonicBalanceSystem:
             for key in ("x", "xdot"):
                 per_stop[key] = per_stop[key] / self.gaps[:, None]
         else:
-            per_stop = {key: np.moveaxis(self.contact.coordinates(np.moveaxis(v, -2, 0)), 0, -2)
-                        for key, v in (("x", q), ("xdot", qdot))}  # fmt: skip
+            per_stop = {
+                key: np.moveaxis(self.contact.coordinates(np.moveaxis(v, -2, 0)), 0, -2)
+                for key, v in (("x", q), ("xdot", qdot))
+            }
         per_stop.update(f=f, z=z)
         history = {"t": t, "q": q, "qdot": qdot}
         history.update({key: value[..., 0, :] if value.shape[-2] == 1 else value for key, value in per_stop.items()})

@@ -798,7 +798,7 @@ def _one_sided_root(x, alpha: float, eta: float):
     eps = eta / alpha
     kappa = 1.0 - 2.0 * eps
     root = np.hypot(kappa * (x - 1.0), np.sqrt(4.0 * eps * (1.0 - eps)))
-    lever = 1.0 - kappa * x
+    lever = (1.0 - x) + 2.0 * eps * x  # 1 - kappa x, with 1 - x exact near the stop
     with np.errstate(divide="ignore", invalid="ignore"):
         inside = 2.0 * eta * x / (root + lever)
         beyond = alpha * (root - lever) / (2.0 * kappa)
