@@ -573,7 +573,7 @@ def follow_switching_family(
         assessments += list(branch.checks)
         flags += list(branch_point_flags(branch))
         event = branch.end_event
-        end_reason, end_margin = branch.end_reason, "" if event is None else str(event.key)
+        end_reason, end_margin = branch.end_reason, "" if event is None else "_".join(map(str, event.key))
         if event is None or event.key[0] != "inactive" or len(problems) >= max_segments:
             break
         if any(event.key[2] in active for active in problem.sequence):

@@ -183,7 +183,7 @@ def start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float, tol:
     if not (np.isfinite(amplitude) and 0 < amplitude < 1):
         raise ValueError(f"start amplitude must lie in (0, 1) (inside the gap), got {amplitude!r}")
     U0 = system.linear_mode_guess(mode, amplitude)
-    direction = system.amplitude_direction()
+    direction = system.amplitude_direction(mode)
     U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=tol)
     return U0, direction
 

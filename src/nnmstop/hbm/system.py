@@ -263,11 +263,14 @@ class HarmonicBalanceSystem:
         U = np.asarray(U)
         return self.reference_coordinate(U[: self.n_dofs * self.nc].reshape(self.n_dofs, self.nc)[:, 1])
 
-    def amplitude_direction(self) -> np.ndarray:
+    def amplitude_direction(self, mode: int | None = None) -> np.ndarray:
         """Unit-coefficient direction of the first cosine coefficient of :meth:`reference_coordinate` (``e`` at
-        ``x_c^1`` for a stop on one DOF): the amplitude held fixed at a branch's start, and its initial direction."""
+        ``x_c^1`` for a stop on one DOF): the amplitude held fixed at a branch's start, and its initial direction.
+        With ``mode``, of the stop coordinate that linear mode is normalized by (:meth:`mode_reference`: the first
+        stop's unless the mode does not move it)."""
+        component = 0 if mode is None else self.mode_reference(self.linear_modes()[1][:, mode - 1])[0]
         direction = np.zeros(self.n_unknowns)
-        for dof, sign in self._reference_terms:
+        for dof, sign in self.contact.terms[component]:
             direction[dof * self.nc + 1] += sign
         return direction
 
