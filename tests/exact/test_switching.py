@@ -33,6 +33,7 @@ def _period(energy, stops):
     return free + arcs
 
 
+@pytest.mark.numerics
 def test_one_dof_one_sided_family_is_the_closed_form_backbone():
     """x'' + x + alpha (x - 1)_+ = 0: T(E) = 2 pi - 2 acos(1/R) + 2 acos((1 - x_e)/B) / Omega, to round-off."""
     structure = Structure(
@@ -44,6 +45,7 @@ def test_one_dof_one_sided_family_is_the_closed_form_backbone():
     assert np.abs(family.unfolding).max() < 1e-13 and np.all(family.stop_impacts == 1)
 
 
+@pytest.mark.numerics
 def test_unequal_gaps_insert_the_far_side_where_it_is_grazed():
     """Gaps 1 (stiffness 30) and 1.5 (stiffness 20) on one DOF: one impact on the near side until the orbit grazes
     the far one, then one on each; the closed-form period along both segments."""
@@ -59,6 +61,7 @@ def test_unequal_gaps_insert_the_far_side_where_it_is_grazed():
     np.testing.assert_array_equal(family.stop_impacts[family.segment == 1], [[1, 1]] * int(np.sum(family.segment)))
 
 
+@pytest.mark.numerics
 def test_two_dof_one_sided_orbits_are_orbits_of_the_piecewise_equations():
     """Orbits of the paper's oscillator with a one-sided stop, integrated by DOP853 with every contact entry and
     exit located as an event: they close after one period and switch at the family's switching times."""
@@ -76,6 +79,7 @@ def test_two_dof_one_sided_orbits_are_orbits_of_the_piecewise_equations():
     assert family.x_max[-1, 0] > 1.0 and np.all(family.stop_impacts == 1)
 
 
+@pytest.mark.numerics
 def test_a_relative_stop_is_a_grounded_stop_in_the_relative_coordinate_exactly():
     """The exact orbits of the chain with a stop between its masses, mapped to y = (q1 - q2, q2), solve the
     full-period equations of the structure with the stop on y1, to round-off."""

@@ -110,6 +110,7 @@ def test_orbits_have_the_half_wave_symmetry_only_with_odd_laws(branch):
         assert np.abs(ds.q_cos.values[-1, :, 0]).max() > 1e-3
 
 
+@pytest.mark.numerics
 def test_a_relative_stop_is_a_grounded_stop_in_the_relative_coordinate():
     """y = (q1 - q2, q2) turns the chain with a stop between its masses into a structure with a stop on y1 alone
     (M' = T^T M T, K' = T^T K T, q = T y): each orbit of the first, mapped to y, solves the HBM equations of the
@@ -129,6 +130,7 @@ def test_a_relative_stop_is_a_grounded_stop_in_the_relative_coordinate():
         assert b.diagnostics(V)["energy"] == pytest.approx(a.diagnostics(U)["energy"], rel=1e-12)
 
 
+@pytest.mark.numerics
 def test_a_circular_clearance_moving_along_a_diameter_is_the_bilateral_stop():
     """An orthotropic structure in a circular hole: along the x axis its NNM1 stays on the diameter (y = 0 is
     invariant) and is the NNM1 of a bilateral stop on x: the unknowns (f_x, z) of one solve the other's system."""
@@ -146,6 +148,7 @@ def test_a_circular_clearance_moving_along_a_diameter_is_the_bilateral_stop():
         assert b.diagnostics(V)["energy"] == pytest.approx(a.diagnostics(U)["energy"], rel=1e-13)
 
 
+@pytest.mark.numerics
 def test_a_one_dof_structure_continues_with_the_default_stability():
     """The crash of issue 30 (max_multiplier read a third multiplier): one DOF has only the trivial pair, every
     orbit stable, no margin to store."""
@@ -168,6 +171,7 @@ def _one_sided_period(energy: float) -> float:
     return 2.0 * np.pi - 2.0 * np.arccos(1.0 / radius) + 2.0 * np.arccos((1.0 - rest) / amplitude) / omega
 
 
+@pytest.mark.numerics
 def test_the_regularized_one_sided_nnm_converges_to_the_exact_one_at_first_order_in_eta():
     """1 DOF, one-sided stop: the frequency error of the HBM orbit nearest E = 4 against the closed-form exact
     period; the fit of log(error) against log(eta) has slope 1 (the stated order, up to a logarithm)."""
