@@ -199,3 +199,45 @@ def test_branch_points_of_laws_without_symmetry_are_not_called_symmetry_breaking
     point.bifurcated = np.zeros(system.n_unknowns)
     point.bifurcated[system.slices["q0"].start + 2] = 1.0
     assert classify_branch_point(system, point) == (0, False)
+
+
+MIXED = [
+    Stop(kind="one_sided", dof=0, side="positive", **_law()),
+    Stop(kind="one_sided", dof=0, side="negative", **_law(gap=1.3, stiffness=20.0, eta=0.2)),
+    Stop(kind="relative", dofs=[1, 2], **_law(gap=0.7, eta=0.05)),
+    Stop(kind="circular", dofs=[4, 3], **_law(gap=1.5)),
+    Stop(dof=3, **_law()),
+]
+
+
+@pytest.mark.parametrize("basis", ["cosine", "full"])
+def test_every_recast_is_linear_plus_quadratic_and_its_jacobian_and_series_products_are_exact(basis):
+    """S(U + V) - S(U) - J(U) V = Q(V, V): the residual, the Jacobian (dense and sparse) and the ANM's series
+    products of every law agree to round-off, and the condensed LU solves the bordered system (determinant sign
+    included) as a dense solve does."""
+    rng = np.random.default_rng(3)
+    stiffness = np.diag([2.0, 2.5, 3.0, 3.5, 4.0]) - 0.5 * (np.eye(5, k=1) + np.eye(5, k=-1))
+    stops = MIXED[:3] + MIXED[4:] if basis == "cosine" else MIXED[:4]  # every kind, with and without a circular
+    structure = Structure(np.eye(5), stiffness, stops)
+    system = HarmonicBalanceSystem(structure, 6, basis=basis)
+    U, V = rng.normal(size=(2, system.n_unknowns))
+    J = system.jacobian(U)
+    np.testing.assert_allclose(J, system.jacobian(U, sparse=True).toarray(), rtol=0, atol=1e-14)
+    quadratic = system.series_products(np.stack([U, V]), 2)
+    defect = system.residual(U + V) - system.residual(U) - J @ V
+    np.testing.assert_allclose(defect, quadratic, rtol=0, atol=1e-12 * np.abs(defect).max())
+    tangent, rhs = rng.normal(size=system.n_unknowns), rng.normal(size=system.n_unknowns)
+    factors = system.factorize_bordered(U, tangent)
+    bordered = np.vstack([J, tangent])
+    np.testing.assert_allclose(factors.solve(rhs), np.linalg.solve(bordered, rhs), rtol=1e-9)
+    assert factors.determinant_sign() == np.sign(np.linalg.det(bordered))
+
+
+def test_the_shooting_refinement_says_which_stops_it_integrates():
+    from nnmstop.hbm.shooting_refinement import RegularizedDynamics, refinable
+
+    assert refinable(Structure(np.eye(2), CHAIN, [Stop(dof=0, **_law())]))
+    one_sided = Structure(np.eye(2), CHAIN, [Stop(kind="one_sided", dof=0, side="positive", **_law())])
+    assert not refinable(one_sided)
+    with pytest.raises(ValueError, match=r"bilateral stops on one degree of freedom.*one-sided stop \(positive"):
+        RegularizedDynamics(one_sided)
