@@ -446,8 +446,8 @@ class _ScalarLaw(Stop):
     def piecewise_force(self, c):
         c = np.asarray(c, dtype=float)
         s = self._physical_side()
-        if self._law_side():
-            return s * self.stiffness * np.maximum(s * c - self.gap, 0.0)
+        if self._law_side():  # (+ 0.0: no negative zeros out of the gap)
+            return s * self.stiffness * np.maximum(s * c - self.gap, 0.0) + 0.0
         return self.stiffness * np.sign(c) * np.maximum(np.abs(c) - self.gap, 0.0)
 
     def piecewise_potential(self, c):
@@ -815,8 +815,8 @@ def one_sided_force(x, alpha: float, eta: float):
     Examples
     --------
     >>> f = one_sided_force([-1e6, 0.0, 1e-6, 11.0], 10.0, 0.1)
-    >>> [round(float(v), 6) for v in f]
-    [-0.102041, 0.0, 0.0, 99.897959]
+    >>> [round(float(v), 6) for v in f]  # -eta / kappa far away; alpha (x - 1) - eta / kappa + O(eta / x) beyond
+    [-0.102041, 0.0, 0.0, 99.908266]
     """
     return _one_sided_root(x, alpha, eta)[0]
 
