@@ -186,3 +186,35 @@ def test_relative_stop_reads_the_difference_and_pushes_both_ways():
     np.testing.assert_allclose(
         limit_stiffness(structure, "regularized"), np.eye(3) + 0.1 * np.array([[1, 0, -1], [0, 0, 0], [-1, 0, 1]])
     )
+
+
+def test_a_beam_takes_one_sided_stops_and_unequal_gaps_at_a_node():
+    from nnmstop.models.beam import Beam, beam_structure
+
+    stops = [
+        {"node": 4, "gap": 1e-3, "stiffness": 1e5, "eta": 10.0, "kind": "one_sided", "side": "positive"},
+        {"node": 4, "gap": 2e-3, "stiffness": 1e5, "eta": 10.0, "kind": "one_sided", "side": "negative"},
+    ]
+    beam = Beam.from_parameters(
+        {
+            "length": 1.0,
+            "bending_stiffness": 1.0,
+            "mass_per_length": 1.0,
+            "n_elements": 4,
+            "left": "clamped",
+            "right": "free",
+            "stops": stops,
+        }
+    )
+    structure = beam_structure(beam)
+    positive, negative = structure.stops
+    assert isinstance(positive, OneSidedStop) and positive.side == "positive" and negative.side == "negative"
+    assert positive.dof == negative.dof and negative.gap == pytest.approx(2.0 * positive.gap, rel=1e-15)
+    assert structure.attributes["stop_kinds"] == "one_sided:positive one_sided:negative"
+    for bad, match in (
+        ({"kind": "circular"}, "beam stop kind must be bilateral or one_sided"),
+        ({"kind": "one_sided"}, "needs the key 'side'"),
+        ({"side": "positive"}, "'side' is not allowed for a bilateral beam stop"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            Beam.from_parameters({**beam.__dict__, "stops": [{**stops[0], "kind": "bilateral", "side": None} | bad]})

@@ -1000,7 +1000,7 @@ class StopSet:
         x = np.asarray(x, dtype=float)
         return [s.impacts(x[sl]) for s, sl in zip(self.stops, self.components)]
 
-    def stiffness_matrix(self, values, physical: bool = True) -> np.ndarray:
+    def stiffness_matrix(self, values) -> np.ndarray:
         """``sum_s k_s A_s^T A_s`` for one isotropic stiffness ``k_s`` per stop, dense ``(n_dofs, n_dofs)``."""
         out = np.zeros((self.n_dofs, self.n_dofs))
         for s, k in zip(self.stops, values):
