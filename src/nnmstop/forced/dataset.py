@@ -192,6 +192,10 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
         np.zeros(len(U), dtype=int),
     )
     N, s, nc, H = system.n_dofs, system.n_stops, system.nc, system.H
+    if system.n_components != s:
+        raise ValueError(
+            "a forced response dataset holds one force per stop; a circular clearance has two components (not yet)"
+        )
     Q = U[:, : N * nc].reshape(-1, N, nc)
     F = U[:, N * nc : (N + s) * nc].reshape(-1, s, nc)
     Z = U[:, (N + s) * nc : (N + 2 * s) * nc].reshape(-1, s, nc)
