@@ -11,7 +11,7 @@ import pytest
 
 import nnmstop
 from nnmstop import api
-from nnmstop.models import matrices, structure
+from nnmstop.models import contact, matrices, structure
 
 
 def test_import_is_light_and_names_the_objects():
@@ -25,7 +25,7 @@ def test_import_is_light_and_names_the_objects():
         nnmstop.nothing  # noqa: B018
 
 
-@pytest.mark.parametrize("module", [nnmstop, api, structure, matrices], ids=lambda m: m.__name__)
+@pytest.mark.parametrize("module", [nnmstop, api, structure, matrices, contact], ids=lambda m: m.__name__)
 def test_docstring_examples_run(module):
     result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0

@@ -45,6 +45,8 @@ TINY_RUNS = {
     "figure_cost": ["--figures", "fig06", "--repeat", "1", "--results", "{build}/results", "--configfile", SMALL,
                     "--output", "{out}"],
     "monodromy_calibration": ["{build}/" + NNM2, "--config", SMALL, "--stride", "40"],
+    "one_sided_convergence": ["--etas", "0.2", "0.1", "--hbm-etas", "0.2", "0.1", "--harmonics", "20", "--output",
+                              "{out}"],
     "quickstart": ["--tiny", "--output", "{out}"],
     "refinement_benchmark": ["{build}/" + NNM2, "--config", SMALL, "--repeat", "1", "--output", "{out}"],
     "stability_benchmark": ["{build}/" + NNM2, "--config", SMALL, "--stride", "20", "--repeat", "1",

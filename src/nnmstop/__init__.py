@@ -1,8 +1,10 @@
-"""nnmstop: nonlinear normal modes of structures with bilateral elastic stops (regularized and exact).
+"""nnmstop: nonlinear normal modes of structures with elastic stops (regularized and exact).
 
 The objects a user composes (numpydoc docstrings with examples; ``examples/quickstart.py``):
 
-* :class:`Structure`, :class:`Stop` — mass, stiffness and stops, nondimensional (``docs/structures.md``);
+* :class:`Structure`, :class:`Stop` — mass, stiffness and stops, nondimensional (``docs/structures.md``); a stop
+  is bilateral (the paper's), one-sided, relative (between two DOFs) or a circular clearance
+  (:mod:`nnmstop.models.contact`);
   :func:`two_dof_structure` — the paper's oscillator; :func:`matrix_structure`, :func:`load_matrix` —
   a structure of one's own from ``.mtx``/``.npz`` files; :func:`normal_modes` — its linear modes.
 * :func:`continue_nnm` — an NNM by harmonic balance and the asymptotic numerical method, as a labelled

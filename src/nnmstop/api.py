@@ -20,7 +20,7 @@ from nnmstop.hbm.stages import BranchSettings, BranchSpec, StageSpec, continue_s
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import Structure
 
-__all__ = ["continue_nnm", "stability", "exact_family", "exact_family_dataset"]
+__all__ = ["continue_nnm", "stability", "exact_family", "exact_family_dataset", "switching_family_dataset"]
 
 
 def continue_nnm(
@@ -153,12 +153,38 @@ def exact_family_dataset(structure: Structure, family) -> xr.Dataset:
     return describe(ds, "one_stop_family")
 
 
+def switching_family_dataset(structure: Structure, family=None, reason: str = "") -> xr.Dataset:
+    """Labelled dataset of a full-period exact family (:func:`nnmstop.exact.switching.follow_switching_family`),
+    or, with no ``family``, of a structure without exact orbits (``reason``): kind ``switching_family``."""
+    from nnmstop.exact.dataset import switching_dataset
+
+    ds = switching_dataset(structure, family, reason)
+    ds = ds.assign_coords(dof_label=("dof", np.array(structure.dof_labels, dtype=str)))
+    ds.attrs = {**structure.attributes, "dofs": structure.n_dofs, "stops": len(structure.stops), "mode": 1, **ds.attrs}
+    return describe(ds, "switching_family")
+
+
+def uses_quarter_period(structure: Structure) -> bool:
+    """Whether the exact family of ``structure`` is the quarter-period one (:mod:`nnmstop.exact.ndof`): every stop
+    the paper's bilateral stop on one DOF. Otherwise it is built over full periods (:mod:`nnmstop.exact.switching`)."""
+    return all(stop.kind == "bilateral" for stop in structure.stops)
+
+
 def exact_family(structure: Structure, step: float = 0.02, max_points: int = 2000) -> xr.Dataset:
     """The exact NNM1 of the non-smooth structure with one impact per stop side per period.
 
     Closed-form phases (matrix exponentials of the 2N first-order system) from the grazing orbit of the
     first linear mode, continued by pseudo-arclength until an assumption of the family fails (its
-    ``end_reason``); :mod:`nnmstop.exact.ndof`, ``docs/methods/exact_ndof.md``.
+    ``end_reason``). Bilateral stops: the quarter-period construction (:mod:`nnmstop.exact.ndof`,
+    ``docs/methods/exact_ndof.md``); one-sided stops, unequal gaps and relative stops: full periods with the
+    switching times as unknowns, one impact per contact struck (:mod:`nnmstop.exact.switching`, kind
+    ``switching_family``).
+
+    Raises
+    ------
+    ValueError
+        For a circular clearance, whose law is not piecewise linear in the degrees of freedom (no exact orbits:
+        use :func:`continue_nnm`).
 
     Examples
     --------
@@ -167,6 +193,11 @@ def exact_family(structure: Structure, step: float = 0.02, max_points: int = 200
     >>> round(float(family.frequency[0]), 4)  # the grazing orbit: the no-contact linear mode, 0.618 rad
     0.0984
     """
-    from nnmstop.exact.ndof import follow_one_stop_family
+    if uses_quarter_period(structure):
+        from nnmstop.exact.ndof import follow_one_stop_family
 
-    return exact_family_dataset(structure, follow_one_stop_family(structure, step=step, max_points=max_points))
+        return exact_family_dataset(structure, follow_one_stop_family(structure, step=step, max_points=max_points))
+    from nnmstop.exact.switching import follow_switching_family
+
+    family = follow_switching_family(structure, step=step, max_points=max_points)
+    return switching_family_dataset(structure, family)

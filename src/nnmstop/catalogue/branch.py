@@ -22,6 +22,15 @@ ORBIT_VARIABLES = (
     *_fourier_pair("q", ("point", "dof", "harmonic"), "the degrees of freedom"),
     *_fourier_pair("f", ("point", "stop", "harmonic"), "the regularized stop forces (force over gap)"),
     *_fourier_pair("z", ("point", "stop", "harmonic"), "the internal variables z = (f/alpha - x)^2 of the stops"),
+    *(
+        Variable(v.name, v.dims, v.long_name, optional=True)
+        for v in _fourier_pair(
+            "f2",
+            ("point", "stop", "harmonic"),
+            "the second (Cartesian) component of the regularized stop forces over gap: a circular clearance's force "
+            "along its second degree of freedom (zero for a stop with one coordinate)",
+        )
+    ),
     Variable("omega_squared", ("point",), "squared angular frequency (unknown lambda of the HBM system)"),
 )
 
@@ -31,6 +40,28 @@ STRUCTURE_VARIABLES = (
     Variable("stop_gap", ("stop",), "gap of the stop (nondimensional)"),
     Variable("stop_stiffness", ("stop",), "stiffness alpha of the stop (nondimensional)"),
     Variable("stop_eta", ("stop",), "regularization stiffness eta of the stop (nondimensional)"),
+    Variable(
+        "stop_kind",
+        ("stop",),
+        "kind of the stop's contact law: bilateral, one_sided, relative or circular (nnmstop.models.contact); a "
+        "one-sided law's internal variable z is f/alpha - x (not squared), a circular clearance's the sum of both "
+        "components' (f/alpha - x)^2",
+        optional=True,
+    ),
+    Variable(
+        "stop_side",
+        ("stop",),
+        "side of a one-sided law: +1 contact where the stop's coordinate exceeds its gap, -1 where it is below minus "
+        "its gap, 0 both sides",
+        optional=True,
+    ),
+    Variable(
+        "stop_other_dof",
+        ("stop",),
+        "second degree of freedom the stop reads (relative stop: the gap closes on q[stop_dof] - q[stop_other_dof]; "
+        "circular clearance: its second direction); stop_dof for a stop on one degree of freedom",
+        optional=True,
+    ),
     Variable(
         "no_contact_frequency", ("mode",), "frequency of the linear mode with no contact (every gap infinite)", "Hz"
     ),

@@ -188,8 +188,61 @@ ONE_STOP_FAMILY = DatasetKind(
     ONE_STOP_FAMILY_VARIABLES,
 )
 
+SWITCHING_FAMILY_VARIABLES = (
+    Variable("energy", ("orbit",), "total energy of the non-smooth model"),
+    Variable("frequency", ("orbit",), "frequency 1/T in Hz of the nondimensional time", units="Hz"),
+    Variable("period", ("orbit",), "period T in nondimensional time"),
+    Variable("contact_time", ("orbit",), "time spent in contact (any stop) per period"),
+    Variable("impacts_per_period", ("orbit",), "contacts entered per period, all stops"),
+    Variable("stop_impacts", ("orbit", "stop"), "contacts entered per period at each stop"),
+    Variable(
+        "x_max", ("orbit", "stop"), "largest coordinate of each stop over the orbit, over its gap, in its own direction"
+    ),
+    Variable("initial_position", ("orbit", "dof"), "displacements at t = 0, where the orbit leaves its first contact"),
+    Variable("initial_velocity", ("orbit", "dof"), "velocities at t = 0, where the orbit leaves its first contact"),
+    Variable(
+        "modal_energy",
+        ("orbit", "mode"),
+        "energy of each linear (free-flight) mode at t = 0, (a_k^2 + b_k^2) / 2 (no contact engaged there: they add up "
+        "to energy)",
+    ),
+    Variable(
+        "unfolding", ("orbit",), "unfolding parameter sigma of the periodicity equations (zero on periodic orbits)"
+    ),
+    Variable("residual", ("orbit",), "Euclidean norm of the full-period equations"),
+    Variable("validity_margin", ("orbit",), "smallest validity margin of the phase sequence (> 0 where it holds)"),
+    Variable("segment", ("orbit",), "segment of the family: 0 from its start, k > 0 after the k-th contact inserted"),
+    Variable(
+        "phase_sequence", ("orbit",), "the linear phases of the period, from t = 0 (free, or the stops in contact)"
+    ),
+    Variable("branch_point", ("orbit",), "sign change of det [J; t^T] since the previous orbit", flags=("no", "yes")),
+    Variable("orbit", ("orbit",), "index of the orbit along the family"),
+    Variable("dof", ("dof",), "index of the degree of freedom"),
+    Variable("dof_label", ("dof",), "name of the degree of freedom"),
+    Variable("stop", ("stop",), "index of the stop"),
+    Variable("mode", ("mode",), "linear (free-flight) mode number"),
+    Variable(
+        "mode_frequency",
+        ("mode",),
+        "linear frequency of the mode without contact, in Hz of the nondimensional time",
+        units="Hz",
+    ),
+)
+SWITCHING_FAMILY = DatasetKind(
+    "switching_family",
+    "Exact NNM1 over full periods, one impact per active contact (one-sided stops, unequal gaps, relative stops)",
+    ("exact/nnm1_one_impact.nc",),
+    "Exact periodic orbits of a non-smooth structure whose stops are not all the paper's bilateral stop on one DOF, "
+    "built over whole periods with no symmetry assumed (`docs/methods/one_sided_law.md`, `nnmstop.exact.switching`): "
+    "from next to the grazing orbit of a linear mode at the first contact it reaches, one impact per contact struck, "
+    "a contact inserted where an orbit grazes it (`segment`). A structure whose law is not piecewise linear (a "
+    "circular clearance) has no exact orbits: the dataset then holds none and its `end_reason` says why.",
+    SWITCHING_FAMILY_VARIABLES,
+)
+
 KINDS = (
     EXACT_NNM1,
     TWO_IMPACT_FAMILY,
     ONE_STOP_FAMILY,
+    SWITCHING_FAMILY,
 )

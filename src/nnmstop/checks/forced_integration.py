@@ -6,7 +6,8 @@
 * :func:`integrate_forced_nonsmooth`: the piecewise-linear law; every crossing of a stop ``q_s = +-e_s`` is
   a terminal event, and the integration restarts from the located state in the new linear region, so the
   integrator never steps across a kink of the law;
-* :func:`integrate_forced_regularized`: the smooth regularized law (Eq. 5 with the sign slip corrected).
+* :func:`integrate_forced_regularized`: the smooth regularized law of every stop (Eq. 5 with the sign slip
+  corrected for the paper's stop; :mod:`nnmstop.models.contact` for the others).
 
 Nothing in :mod:`nnmstop.exact` or :mod:`nnmstop.hbm` uses this module.
 """
@@ -18,7 +19,6 @@ import scipy.sparse
 from scipy.integrate import solve_ivp
 
 from nnmstop.models.excitation import Excitation
-from nnmstop.models.two_dof import ModelParameters, regularized_contact_force
 
 __all__ = ["integrate_forced_nonsmooth", "integrate_forced_regularized", "period_map"]
 
@@ -32,6 +32,9 @@ def _matrices(excitation: Excitation):
 
 def _stops(excitation: Excitation):
     stops = excitation.structure.stops
+    other = [s.label for s in stops if s.kind != "bilateral"]
+    if other:
+        raise ValueError(f"this integrator handles bilateral stops on one degree of freedom, not {', '.join(other)}")
     return (
         np.array([s.dof for s in stops]),
         np.array([s.gap for s in stops]),
@@ -41,19 +44,18 @@ def _stops(excitation: Excitation):
 
 
 def integrate_forced_regularized(excitation: Excitation, omega: float, z0, t_eval, rtol=1e-12, atol=1e-13):
-    """States ``(q, qdot)`` at ``t_eval`` (shape (len, 2N)) from ``z0`` at ``t_eval[0]``, regularized law."""
+    """States ``(q, qdot)`` at ``t_eval`` (shape (len, 2N)) from ``z0`` at ``t_eval[0]``, the regularized law of
+    every stop (any kind, :meth:`nnmstop.models.contact.StopSet.forces`)."""
     m_inv, K, C = _matrices(excitation)
-    dofs, gaps, _, stops = _stops(excitation)
-    laws = [ModelParameters(alpha=s.stiffness, eta=s.eta) for s in stops]
+    contact = excitation.structure.contact
     load = excitation.load
     n = len(load)
 
     def rhs(t, z):
         q, v = z[:n], z[n:]
-        force = load * np.cos(omega * t) - K @ q - C @ v
-        for dof, gap, law in zip(dofs, gaps, laws):
-            force[dof] -= gap * regularized_contact_force(q[dof] / gap, law)
-        return np.concatenate([v, m_inv @ force])
+        restoring = K @ q + C @ v
+        contact.apply(restoring, contact.forces(contact.coordinates(q)))
+        return np.concatenate([v, m_inv @ (load * np.cos(omega * t) - restoring)])
 
     t_eval = np.asarray(t_eval, dtype=float)
     sol = solve_ivp(

@@ -11,6 +11,10 @@ construction against a different method.
   (:func:`nnmstop.models.two_dof.regularized_vector_field`).
 * :func:`integrate_structure_nonsmooth`: any :class:`~nnmstop.models.structure.Structure` with one struck
   stop and the piecewise-linear law, region by region in the same way (the other stops stay passive).
+* :func:`integrate_structure_regularized`: any structure with the regularized law of each of its stops (any
+  kind, :mod:`nnmstop.models.contact`).
+* :func:`integrate_structure_piecewise`: any structure whose stops are piecewise linear (bilateral, one-sided,
+  relative), every contact entry and exit located as an event.
 
 The 2-DOF integrators take the state ``z = (x, u, xdot, udot)`` at ``t_eval[0]``, the structure's the
 state ``(q, qdot)``, and return it at every requested time.
@@ -26,7 +30,14 @@ from scipy.integrate import solve_ivp
 from nnmstop.models.structure import two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_vector_field
 
-__all__ = ["Trajectory", "integrate_nonsmooth", "integrate_regularized", "integrate_structure_nonsmooth"]
+__all__ = [
+    "Trajectory",
+    "integrate_nonsmooth",
+    "integrate_regularized",
+    "integrate_structure_nonsmooth",
+    "integrate_structure_regularized",
+    "integrate_structure_piecewise",
+]
 
 
 class Trajectory(NamedTuple):
@@ -258,3 +269,100 @@ def _start_region(z, gap: float, free_acceleration: float, c: int, n: int) -> in
         return int(np.sign(q)) if abs(q) > gap else 0
     outwards = np.sign(q) * v > 0 or (v == 0 and np.sign(q) * free_acceleration > 0)
     return int(np.sign(q)) if outwards else 0
+
+
+def integrate_structure_regularized(structure, z0, t_eval, rtol: float = 1e-12, atol: float = 1e-13) -> Trajectory:
+    """States ``(q, qdot)`` of any structure with the regularized laws of its stops, at ``t_eval`` (DOP853).
+
+    ``M q'' + K q + sum_s gap_s A_s^T f_s(A_s q / gap_s) = 0`` with each stop's own law
+    (:meth:`nnmstop.models.contact.StopSet.forces`): bilateral, one-sided, relative or circular. ``z0`` is the
+    state at ``t_eval[0]``; no switch times (the law is smooth).
+    """
+    mass, stiffness = (np.asarray(m, dtype=float) for m in structure.dense_matrices())
+    n = structure.n_dofs
+    z0, t_eval = _checked_start(z0, t_eval, n)
+    minv = np.linalg.inv(mass)
+    contact = structure.contact
+
+    def field(_t, z):
+        q = z[:n]
+        force = stiffness @ q
+        contact.apply(force, contact.forces(contact.coordinates(q)))
+        return np.concatenate([z[n:], -minv @ force])
+
+    sol = solve_ivp(field, (t_eval[0], t_eval[-1]), z0, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
+    if sol.status < 0:
+        raise RuntimeError(f"solve_ivp failed: {sol.message}")
+    return Trajectory(t_eval, sol.y.T, np.zeros(0), np.zeros(0, dtype=int))
+
+
+def integrate_structure_piecewise(
+    structure, z0, t_eval, rtol: float = 1e-12, atol: float = 1e-13, max_switches: int = 10000
+) -> Trajectory:
+    """States ``(q, qdot)`` of any structure with piecewise-linear stops, every contact entry and exit an event.
+
+    The contacts are the half-spaces ``n . q >= gap`` of every stop (:meth:`nnmstop.models.contact.Stop.contacts`:
+    bilateral, one-sided and relative stops); within a region (a set of active contacts) the equations are
+    linear and DOP853 never steps across a kink: each crossing of a contact's boundary ends the integration, which
+    restarts from the located state (put exactly on the boundary) in the new region. ``switch_times`` and
+    ``switch_sides`` (+1 entering, -1 leaving, times the contact index + 1) record every crossing.
+    """
+    mass, stiffness = (np.asarray(m, dtype=float) for m in structure.dense_matrices())
+    n = structure.n_dofs
+    z0, t_eval = _checked_start(z0, t_eval, n)
+    contacts = tuple(c for k, stop in enumerate(structure.stops) for c in stop.contacts(k))
+    normals = np.array([c.normal(n) for c in contacts])
+    gaps = np.array([c.gap for c in contacts])
+    alphas = np.array([c.alpha for c in contacts])
+    minv = np.linalg.inv(mass)
+
+    def region_of(z):
+        # on a boundary to round-off the motion decides: a start state leaving a contact is outside it
+        level, rate = normals @ z[:n] - gaps, normals @ z[n:]
+        on = np.abs(level) <= 1e-12 * gaps
+        return np.where(on, rate > 0, level > 0)
+
+    def field_of(active):
+        k = stiffness + (normals[active].T * alphas[active]) @ normals[active]
+        load = normals[active].T @ (alphas[active] * gaps[active])
+        return lambda _t, z: np.concatenate([z[n:], minv @ (load - k @ z[:n])])
+
+    def crossing(j, direction):
+        def event(_t, z):
+            return normals[j] @ z[:n] - gaps[j]
+
+        event.terminal, event.direction = True, direction
+        return event
+
+    t, z, active = float(t_eval[0]), z0.copy(), region_of(z0)
+    out, k, times, sides = np.empty((t_eval.size, 2 * n)), 1, [], []
+    out[0] = z0
+    while k < t_eval.size:
+        if len(times) > max_switches:
+            raise RuntimeError(f"more than max_switches={max_switches} contact crossings; grazing chatter?")
+        events = [crossing(j, -1.0 if active[j] else 1.0) for j in range(len(contacts))]
+        sol = solve_ivp(
+            field_of(active),
+            (t, t_eval[-1]),
+            z,
+            method="DOP853",
+            rtol=rtol,
+            atol=atol,
+            events=events,
+            t_eval=t_eval[k:],
+        )
+        if sol.status < 0:
+            raise RuntimeError(f"solve_ivp failed: {sol.message}")
+        count = np.asarray(sol.t).size
+        if count:
+            out[k : k + count] = np.asarray(sol.y).reshape(2 * n, count).T
+        k += count
+        if sol.status != 1:
+            continue
+        j = next(i for i, te in enumerate(sol.t_events) if te.size)
+        t, z = float(sol.t_events[j][0]), sol.y_events[j][0].copy()
+        active = active.copy()
+        active[j] = not active[j]
+        times.append(t)
+        sides.append((j + 1) * (1 if active[j] else -1))
+    return Trajectory(t_eval, out, np.array(times), np.array(sides, dtype=int))

@@ -60,6 +60,13 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
     one-stop family, its backbone (:func:`nnmstop.exact.dataset.one_stop_backbone`), not the internal
     resonance it may enter, whose harmonic is far beyond the regularized branch's.
     """
+    if count == 0:  # nothing to compare (a structure without exact orbits): the empty comparison
+        empty = np.zeros(0)
+        ds = xr.Dataset(
+            {name: ("energy", empty) for name in ("exact_frequency", "regularized_frequency", "relative_difference")},
+            coords={"energy": empty},
+        )
+        return describe(ds, "one_impact_comparison")
     low = max(np.min(exact_energy), np.min(energy))
     high = min(np.max(exact_energy), np.max(energy))
     if not high > low:

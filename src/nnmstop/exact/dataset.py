@@ -22,7 +22,14 @@ from nnmstop.exact.problem import SequenceProblem
 from nnmstop.exact.stability import stability_variables
 from nnmstop.models.two_dof import ModelParameters
 
-__all__ = ["two_impact_dataset", "two_impact_unknowns", "exact_branch_dataset", "one_stop_dataset", "one_stop_backbone"]
+__all__ = [
+    "two_impact_dataset",
+    "two_impact_unknowns",
+    "exact_branch_dataset",
+    "one_stop_dataset",
+    "one_stop_backbone",
+    "switching_dataset",
+]
 
 
 def two_impact_dataset(family: Family) -> xr.Dataset:
@@ -304,3 +311,75 @@ def one_stop_backbone(ds: xr.Dataset) -> xr.Dataset:
         raise ValueError("the dataset has no resonant_mode variable: rebuild it with one_stop_dataset")
     resonant = np.flatnonzero(ds["resonant_mode"].values > 0)
     return ds.isel(orbit=slice(0, int(resonant[0]) if resonant.size else ds.sizes["orbit"]))
+
+
+def switching_dataset(structure, family=None, reason: str = "") -> xr.Dataset:
+    """A full-period family (:func:`nnmstop.exact.switching.follow_switching_family`) along ``orbit``; with no
+    ``family``, the dataset of a structure that has no exact orbits, ``reason`` saying why (no orbit).
+
+    Metadata: kind ``switching_family`` of :mod:`nnmstop.catalogue.exact`.
+    """
+    from nnmstop.models.structure import normal_modes
+
+    n, s = structure.n_dofs, len(structure.stops)
+    omega = normal_modes(structure)[0]
+    count = 0 if family is None else len(family)
+    if family is None:
+        empty = np.zeros(0)
+        data = {
+            name: ("orbit", empty)
+            for name in ("energy", "frequency", "period", "contact_time", "unfolding", "residual", "validity_margin")
+        }
+        data.update(
+            impacts_per_period=("orbit", np.zeros(0, dtype=np.int32)),
+            segment=("orbit", np.zeros(0, dtype=np.int32)),
+            branch_point=("orbit", np.zeros(0, dtype=np.int8)),
+            phase_sequence=("orbit", np.zeros(0, dtype=str)),
+            stop_impacts=(("orbit", "stop"), np.zeros((0, s), dtype=np.int32)),
+            x_max=(("orbit", "stop"), np.zeros((0, s))),
+            initial_position=(("orbit", "dof"), np.zeros((0, n))),
+            initial_velocity=(("orbit", "dof"), np.zeros((0, n))),
+            modal_energy=(("orbit", "mode"), np.zeros((0, n))),
+        )
+        attrs = {"start": "none", "end_reason": reason, "end_margin": "none", "skipped": 1}
+    else:
+        start = family.start_state
+        data = {
+            "energy": ("orbit", family.energy),
+            "frequency": ("orbit", family.frequency),
+            "period": ("orbit", family.period),
+            "contact_time": ("orbit", family.contact_time),
+            "impacts_per_period": ("orbit", family.stop_impacts.sum(axis=1).astype(np.int32)),
+            "stop_impacts": (("orbit", "stop"), family.stop_impacts.astype(np.int32)),
+            "x_max": (("orbit", "stop"), family.x_max),
+            "initial_position": (("orbit", "dof"), start[:, :n]),
+            "initial_velocity": (("orbit", "dof"), start[:, n:]),
+            "modal_energy": (("orbit", "mode"), family.modal_energy),
+            "unfolding": ("orbit", family.unfolding),
+            "residual": ("orbit", family.residual),
+            "validity_margin": ("orbit", np.array([a.min_margin for a in family.assessments])),
+            "segment": ("orbit", family.segment.astype(np.int32)),
+            "phase_sequence": ("orbit", np.array(family.sequences, dtype=str)),
+            "branch_point": ("orbit", family.branch_point.astype(np.int8)),
+        }
+        attrs = {
+            "start": family.start,
+            "end_reason": family.end_reason,
+            "end_margin": family.end_margin or "none",
+            "segments": len(family.problems),
+            "sequences": " | ".join(p.describe_sequence() for p in family.problems),
+            "continuation_step": family.step,
+            "max_residual": float(np.max(family.residual)) if count else 0.0,
+        }
+    ds = xr.Dataset(
+        data,
+        coords={
+            "orbit": ("orbit", np.arange(count)),
+            "dof": ("dof", np.arange(n)),
+            "stop": ("stop", np.arange(s)),
+            "mode": ("mode", np.arange(1, n + 1)),
+            "mode_frequency": ("mode", omega / (2.0 * np.pi)),
+        },
+    )
+    ds.attrs = attrs
+    return ds

@@ -168,6 +168,13 @@ class StruckStop:
         stops = excitation.structure.stops
         if not 0 <= stop < len(stops):
             raise ValueError(f"stop must index one of the {len(stops)} stops, got {stop!r}")
+        other = [s.label for s in stops if s.kind != "bilateral"]
+        if other:
+            raise ValueError(
+                "exact forced responses use the half-period symmetry of bilateral stops on one degree of freedom; "
+                f"this structure has {', '.join(other)} (exact responses without that symmetry: not yet; the "
+                "regularized response applies)"
+            )
         s = stops[stop]
         return cls(s.dof, s.gap, s.stiffness, tuple(o for i, o in enumerate(stops) if i != stop))
 

@@ -107,15 +107,23 @@ class PhaseFlow:
         velocity = (-(a * self.omega) * s + b * c) @ self.modes.T
         return np.concatenate([position, velocity], axis=-1)
 
-    def component(self, z0, t, dof: int):
-        """Position and velocity of one degree of freedom at times ``t`` (cheaper than :meth:`state`)."""
+    def coordinate_row(self, dof):
+        """``(n^T Phi, n^T q_eq)`` of a coordinate ``n^T q``: ``dof`` an index (``n = e_dof``) or the vector ``n``."""
+        if np.ndim(dof) == 0:
+            return self.modes[dof], self.q_eq[dof]
+        normal = np.asarray(dof, dtype=float)
+        return normal @ self.modes, float(normal @ self.q_eq)
+
+    def component(self, z0, t, dof):
+        """Position and velocity of one degree of freedom (an index) or one coordinate ``n^T q`` (the vector ``n``)
+        at times ``t`` (cheaper than :meth:`state`)."""
         a, b = self.modal_coordinates(z0)
         wt = np.multiply.outer(np.asarray(t, dtype=float), self.omega)
         c, s = np.cos(wt), np.sin(wt)
-        row = self.modes[dof]
-        return self.q_eq[dof] + (a * c + (b / self.omega) * s) @ row, (-(a * self.omega) * s + b * c) @ row
+        row, offset = self.coordinate_row(dof)
+        return offset + (a * c + (b / self.omega) * s) @ row, (-(a * self.omega) * s + b * c) @ row
 
-    def component_on_grid(self, z0, duration: float, n: int, dof: int):
+    def component_on_grid(self, z0, duration: float, n: int, dof):
         """Times ``linspace(0, duration, n)`` and :meth:`component` there, by products of exact exponentials.
 
         ``exp(i omega t_j)`` with ``j = 64 p + r`` is ``exp(i omega 64 p dt) exp(i omega r dt)``, both factors from
@@ -123,7 +131,7 @@ class PhaseFlow:
         Evaluated in chunks of at most about 2**21 sample-modes, so memory stays bounded for fine grids.
         """
         a, b = self.modal_coordinates(z0)
-        row = self.modes[dof]
+        row, offset = self.coordinate_row(dof)
         # a cos + (b / omega) sin = Re((a - i b / omega) e^{i omega t}); velocity = Re((b + i a omega) e^{i omega t})
         c_position, c_velocity = row * (a - 1j * b / self.omega), row * (b + 1j * a * self.omega)
         t = np.linspace(0.0, duration, n)
@@ -140,7 +148,7 @@ class PhaseFlow:
             j1 = min(n, j0 + phasor.shape[0])
             position[j0:j1] = (phasor[: j1 - j0] @ c_position).real
             velocity[j0:j1] = (phasor[: j1 - j0] @ c_velocity).real
-        return t, self.q_eq[dof] + position, velocity
+        return t, offset + position, velocity
 
     def transition(self, t: float) -> np.ndarray:
         """Transition matrix ``d z(t) / d z(0)`` (2N x 2N), i.e. ``expm(A t)``."""
@@ -320,9 +328,9 @@ class OneStopAssessment(MarginChecks):
     q_at_x_max: np.ndarray
 
 
-def _interior_extreme(phase: PhaseFlow, z0, duration: float, dof: int, sign: float):
+def _interior_extreme(phase: PhaseFlow, z0, duration: float, dof, sign: float):
     """``(time, value)`` of the largest interior local maximum of ``sign * q_dof`` over ``(0, duration)``
-    (``value`` is ``q_dof`` there), or None.
+    (``value`` is ``q_dof`` there), or None; ``dof`` may be a vector ``n`` (the coordinate ``n^T q``).
 
     The closed-form velocity is sampled at :data:`SAMPLES_PER_PERIOD` points per period of the fastest mode that
     moves ``dof`` by more than 1e-12 of its motion; the three highest sampled candidates are refined by Brent's
@@ -333,10 +341,11 @@ def _interior_extreme(phase: PhaseFlow, z0, duration: float, dof: int, sign: flo
     # Resolve the fastest mode whose own amplitude at ``dof``, with those of all faster modes, exceeds 1e-12 of
     # the motion: faster ones can shift an extremum by less than that, far below the margins that matter.
     a, b = phase.modal_coordinates(z0)
-    amplitude = np.abs(phase.modes[dof]) * np.hypot(a, b / phase.omega)
+    row, offset = phase.coordinate_row(dof)
+    amplitude = np.abs(row) * np.hypot(a, b / phase.omega)
     fastest_first = np.argsort(phase.omega)[::-1]
     tail = np.cumsum(amplitude[fastest_first])
-    resolved = fastest_first[np.argmax(tail > 1e-12 * (abs(phase.q_eq[dof]) + amplitude.sum()))]
+    resolved = fastest_first[np.argmax(tail > 1e-12 * (abs(offset) + amplitude.sum()))]
     n = SAMPLES_PER_PERIOD * max(1, int(np.ceil(duration * phase.omega[resolved] / (2 * np.pi)))) + 1
     t, x, v = phase.component_on_grid(z0, duration, n, dof)
     x, v = sign * x, sign * v

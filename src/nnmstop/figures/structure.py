@@ -187,7 +187,20 @@ def _frequency_energy(fig, data, spec):
 
 
 def _exact_curves(ax, exact):
-    """The exact family: its backbone solid; the internal resonance it enters (if any) dotted and named."""
+    """The exact family: its backbone solid; the internal resonance it enters (if any) dotted and named; for a
+    structure with no exact orbits (a circular clearance) a note that says why."""
+    if exact.sizes["orbit"] == 0:
+        ax.text(
+            0.02,
+            0.02,
+            f"no exact orbits: {exact.attrs.get('end_reason', '')}"[:150],
+            transform=ax.transAxes,
+            fontsize=7,
+            color=EXACT,
+            va="bottom",
+            wrap=True,
+        )
+        return
     resonant = exact.resonant_mode.values > 0 if "resonant_mode" in exact else np.zeros(exact.sizes["orbit"], bool)
     first = int(np.argmax(resonant)) if resonant.any() else len(resonant)
     e, f = exact.energy.values, exact.frequency.values
@@ -266,6 +279,10 @@ def _exact_vs_regularized(fig, data, spec):
     comparison, exact, nnm1 = data["comparison"], data["exact"], data["nnm1"]
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     _exact_curves(ax1, exact)
+    none = exact.sizes["orbit"] == 0
+    if none:  # nothing to compare: the regularized NNM1 alone, and the reason
+        exact = nnm1
+        ax2.text(0.5, 0.5, "no exact orbits: no comparison", transform=ax2.transAxes, ha="center", va="center")
     segment = branch_segments(nnm1)
     for k in np.unique(segment):
         part = segment == k
@@ -291,10 +308,13 @@ def _exact_vs_regularized(fig, data, spec):
     ax2.set_xlabel("energy (nondimensional)")
     ax2.set_ylabel("|f_reg - f_exact| / f_exact")
     label_minor_decades(ax2)
+    window_text = (
+        "(no exact orbits for this structure: the regularized NNM1 alone)"
+        if none
+        else f"(drawn over the exact family's energies, {low:.3g} to {high:.3g}; the regularized branch goes on beyond)"
+    )
     fig.suptitle(
-        f"{_structure_name(nnm1)}, NNM1: exact against regularized at matched energies\n"
-        f"(drawn over the exact family's energies, {low:.3g} to {high:.3g}; the regularized branch goes on beyond)",
-        fontsize=10,
+        f"{_structure_name(nnm1)}, NNM1: exact against regularized at matched energies\n{window_text}", fontsize=10
     )
 
 
@@ -308,9 +328,12 @@ STRUCTURE_FIGURES = {
 
 def _structure_name(ds) -> str:
     kind = ds.attrs.get("structure", "matrices")
+    stops = f"{int(ds.attrs['stops'])} stop(s)"
+    if "stop_kind" in ds:  # not all the paper's bilateral stop: say which
+        stops = f"{int(ds.attrs['stops'])} stop(s): {', '.join(str(k).replace('_', '-') for k in ds.stop_kind.values)}"
     if kind == "beam":
-        return f"Beam with {int(ds.attrs['stops'])} stop(s) ({int(ds.attrs['dofs'])} DOF)"
-    return f"{int(ds.attrs['dofs'])}-DOF structure with {int(ds.attrs['stops'])} stop(s)"
+        return f"Beam with {stops} ({int(ds.attrs['dofs'])} DOF)"
+    return f"{int(ds.attrs['dofs'])}-DOF structure with {stops}"
 
 
 def draw_structure_figure(name: str, data: dict, spec: dict, pdf_path) -> None:

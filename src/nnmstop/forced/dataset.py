@@ -53,7 +53,7 @@ def response_variables(
 ) -> dict:
     """Per-point variables (dimension ``point``; ``dof``, ``multiplier``) of a response (metadata: the catalogue)."""
     structure = excitation.structure
-    x_dof, u_dof = structure.stops[0].dof, excitation.force.dofs[0]
+    x_dof, u_dof = structure.stop_dofs[0], excitation.force.dofs[0]
     multipliers = np.asarray(multipliers)
     mu = canonical_order(multipliers**2 if half_period else multipliers)
     stable = np.all(np.abs(mu) <= 1.0 + 1e-12, axis=1)
@@ -100,7 +100,7 @@ def base_attributes(excitation: Excitation, contact_law: str, frequency_range) -
         **excitation.as_attrs(),
         "contact_law": contact_law,
         "frequency_range": np.array(frequency_range, dtype=float),
-        "stop_dof": int(stop.dof),
+        "stop_dof": int(excitation.structure.stop_dofs[0]),
         "stop_gap": float(stop.gap),
         "stop_stiffness": float(stop.stiffness),
         "stop_eta": float(stop.eta),
@@ -193,6 +193,10 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
         np.zeros(len(U), dtype=int),
     )
     N, s, nc, H = system.n_dofs, system.n_stops, system.nc, system.H
+    if system.n_components != s:
+        raise ValueError(
+            "a forced response dataset holds one force per stop; a circular clearance has two components (not yet)"
+        )
     Q = U[:, : N * nc].reshape(-1, N, nc)
     F = U[:, N * nc : (N + s) * nc].reshape(-1, s, nc)
     Z = U[:, (N + s) * nc : (N + 2 * s) * nc].reshape(-1, s, nc)

@@ -82,11 +82,14 @@ def classify_branch_point(system, point: BranchPoint, max_resonance: int = 20, s
     ``T/n`` (an ``n:1`` internal resonance: the crossing curve is the family of those
     orbits), else 0. ``symmetry_breaking`` is True when the bifurcated tangent holds
     even harmonics only: the crossing curve breaks the half-period symmetry
-    ``x(t + T/2) = -x(t)`` of the odd-harmonic orbits.
+    ``x(t + T/2) = -x(t)`` of the odd-harmonic orbits (never with a law that is not odd, whose orbits have
+    no such symmetry).
     """
     for n in range(2, max_resonance + 1):
         if subharmonic_share(system, point.U, n) < share_tol:
             return n, False
+    if not system.contact.odd:  # no half-period symmetry to break: a law that is not odd (a one-sided stop)
+        return 0, False
     return 0, bool(subharmonic_share(system, point.bifurcated, 2) < share_tol)
 
 

@@ -120,8 +120,7 @@ def resonance_crossed(system, U_a, U_b, share: float = 0.5) -> int:
     ``share`` of the mean square of the degrees of freedom at the point of the chord where the
     fundamental vanishes (1 when none does: a sign change that is not a resonance).
     """
-    first = system.slices["x"].start + 1
-    a, b = float(U_a[first]), float(U_b[first])
+    a, b = float(system.reference_amplitude(U_a)), float(system.reference_amplitude(U_b))
     if a * b > 0 or a == b:
         return 0
     U = U_a + (a / (a - b)) * (U_b - U_a)

@@ -63,17 +63,33 @@ def _var(name: str, dims, values) -> tuple:
     return dims, values
 
 
+def _force_blocks(system, blocks, count: int):
+    """The force fields of every stop as ``f`` (its first component) and, for a structure with a stop of two
+    components (the circular clearance), ``f2`` (its second; zero for stops of one), each (points, s, nc)."""
+    N, s, m, nc = system.n_dofs, system.n_stops, system.n_components, system.nc
+    forces = np.stack(blocks[N : N + m], axis=1) if count else np.zeros((0, m, nc))
+    if m == s:
+        return {"f": forces}
+    first = [sl.start for sl in system.contact.components]
+    second = np.zeros((len(forces), s, nc))
+    for i, sl in enumerate(system.contact.components):
+        if sl.stop - sl.start > 1:
+            second[:, i] = forces[:, sl.start + 1]
+    return {"f": forces[:, first], "f2": second}
+
+
 def orbit_variables(system, U: np.ndarray) -> dict:
-    """Fourier coefficients (:data:`ORBIT_COEFFICIENTS`), omega^2, nu and the period of the points ``U``."""
+    """Fourier coefficients (:data:`ORBIT_COEFFICIENTS`, and ``f2`` for a structure with a circular clearance),
+    omega^2, nu and the period of the points ``U``."""
     blocks = system.split(U)
-    N, s, H = system.n_dofs, system.n_stops, system.H
+    N, s, m, H = system.n_dofs, system.n_stops, system.n_components, system.H
     pairs = {
         "q": np.stack(blocks[:N], axis=1) if len(U) else np.zeros((0, N, system.nc)),
-        "f": np.stack(blocks[N : N + s], axis=1) if len(U) else np.zeros((0, s, system.nc)),
-        "z": np.stack(blocks[N + s : N + 2 * s], axis=1) if len(U) else np.zeros((0, s, system.nc)),
+        **_force_blocks(system, blocks, len(U)),
+        "z": np.stack(blocks[N + m : N + m + s], axis=1) if len(U) else np.zeros((0, s, system.nc)),
     }
     data = {}
-    for symbol, where in (("q", "dof"), ("f", "stop"), ("z", "stop")):
+    for symbol, where in [("q", "dof"), ("f", "stop")] + [("f2", "stop")] * ("f2" in pairs) + [("z", "stop")]:
         cos, sin = fourier.to_cos_sin(pairs[symbol], H)
         dims = ("point", where, "harmonic")
         data[f"{symbol}_cos"], data[f"{symbol}_sin"] = (
@@ -134,6 +150,7 @@ def _structure_variables(system) -> tuple[dict, dict]:
         "stop_stiffness": _var("stop_stiffness", "stop", np.array([s.stiffness for s in stops])),
         "stop_eta": _var("stop_eta", "stop", np.array([s.eta for s in stops])),
     }
+    data.update(stop_kind_variables(stops))
     for limit in ("no_contact", "regularized"):
         data[f"{limit}_frequency"] = _var(f"{limit}_frequency", "mode", limit_modes(structure, limit)[0] / (2 * np.pi))
     omega, shapes = limit_modes(structure, "gap_zero")
@@ -150,6 +167,19 @@ def _structure_variables(system) -> tuple[dict, dict]:
         coords["node"] = np.arange(len(structure.node_coordinates))
         data["node_coordinate"] = _var("node_coordinate", "node", np.asarray(structure.node_coordinates, float))
     return data, coords
+
+
+def stop_kind_variables(stops) -> dict:
+    """``stop_kind``, ``stop_side`` and ``stop_other_dof`` (:meth:`~nnmstop.models.contact.Stop.metadata`) when a
+    stop is not the paper's bilateral stop on one DOF; nothing otherwise (the paper's datasets keep their layout)."""
+    if all(s.kind == "bilateral" for s in stops):
+        return {}
+    meta = [s.metadata() for s in stops]
+    return {
+        "stop_kind": _var("stop_kind", "stop", np.array([m["kind"] for m in meta], dtype=str)),
+        "stop_side": _var("stop_side", "stop", np.array([m["side"] for m in meta], dtype=np.int8)),
+        "stop_other_dof": _var("stop_other_dof", "stop", np.array([m["dofs"][-1] for m in meta], dtype=np.int32)),
+    }
 
 
 def _attributes(system, branch: Branch, continuation, labels: dict, unlocated: int) -> dict:
@@ -387,9 +417,19 @@ def dataset_unknowns(ds: xr.Dataset, system) -> np.ndarray:
             f"{system.n_dofs} and {system.n_stops}"
         )
     parts = []
-    for symbol, count in (("q", system.n_dofs), ("f", system.n_stops), ("z", system.n_stops)):
-        full = fourier.from_cos_sin(ds[f"{symbol}_cos"].values, ds[f"{symbol}_sin"].values)
-        parts += [full[:, j, : system.nc] for j in range(count)]
+    full = {
+        symbol: fourier.from_cos_sin(ds[f"{symbol}_cos"].values, ds[f"{symbol}_sin"].values)[..., : system.nc]
+        for symbol in ("q", "f", "f2", "z")
+        if f"{symbol}_cos" in ds
+    }
+    parts += [full["q"][:, j] for j in range(system.n_dofs)]
+    for i, sl in enumerate(system.contact.components):
+        parts.append(full["f"][:, i])
+        if sl.stop - sl.start > 1:
+            if "f2" not in full:
+                raise ValueError("dataset has no f2_cos/f2_sin: the second force component of its circular clearance")
+            parts.append(full["f2"][:, i])
+    parts += [full["z"][:, j] for j in range(system.n_stops)]
     tail = [ds["omega_squared"].values[:, None]]
     if system.full:
         tail.append(ds["unfolding"].values[:, None])
@@ -408,7 +448,9 @@ def coefficient_vectors(ds) -> np.ndarray:
         return item[1] if isinstance(item, tuple) else item.values
 
     parts = []
-    for symbol in ("q", "f", "z"):
+    for symbol in ("q", "f", "f2", "z"):
+        if f"{symbol}_cos" not in ds:
+            continue
         cos, sin = values(f"{symbol}_cos"), values(f"{symbol}_sin")
         for j in range(cos.shape[1]):
             parts += [cos[:, j], sin[:, j]]

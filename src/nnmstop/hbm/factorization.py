@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-__all__ = ["SparseBorderedLU", "CondensedBorderedLU", "StopCoupling", "permutation_parity"]
+__all__ = ["SparseBorderedLU", "CondensedBorderedLU", "StopCoupling", "Channel", "permutation_parity"]
 
 
 def permutation_parity(perm) -> int:
@@ -123,39 +123,66 @@ class SparseBorderedLU:
         return self.pivot_ratio <= tol
 
 
+class Channel(NamedTuple):
+    """One component of a stop in :class:`StopCoupling`: its force rows and how its ``g`` enters the ``z`` rows.
+
+    ``f``: slice of the component's force coefficients (rows and columns; the same in the condensed ordering);
+    ``Mf``: the multiplication matrix of its force (the ``(f, z)`` block is ``c Mf``); ``Mg``: of its
+    ``g = f / alpha - x`` when ``z = sum g**2`` (None: the identity, ``z = g``); ``q_terms``: ``(slice, factor)``
+    of every DOF its coordinate reads, ``factor`` including the sign and ``2 / gap`` (or ``1 / gap``);
+    ``f_factor``: ``-2 / alpha`` (or ``-1 / alpha``). The ``z`` rows hold ``Mg`` (or the identity) times these
+    factors in ``(q, f)``.
+    """
+
+    f: slice
+    Mf: np.ndarray
+    Mg: np.ndarray | None
+    q_terms: tuple
+    f_factor: float
+
+    def g_part(self, x) -> np.ndarray:
+        """The factors applied to the ``q`` and ``f`` parts of ``x``: ``sum factor x[q] + f_factor x[f]``."""
+        (q, factor), rest = self.q_terms[0], self.q_terms[1:]
+        out = factor * x[q]
+        for q, factor in rest:
+            out = out + factor * x[q]
+        return out + self.f_factor * x[self.f]
+
+
 class StopCoupling(NamedTuple):
     """One stop's dense Jacobian blocks, and how its ``z`` unknowns enter :class:`CondensedBorderedLU`.
 
-    ``q``, ``f``, ``z``: slices of the stop DOF's, force's and ``z``'s coefficients (rows and columns; the
-    ``q`` and ``f`` ones are the same in the condensed ordering); ``Mz``, ``Mf``, ``Mg``: the multiplication
-    matrices of ``z``, ``f`` and ``g = f / alpha - x`` in its products. The force rows hold ``I - Mz`` in ``f``
-    and ``-Mf`` in ``z``; the ``z`` rows hold ``C = Mg [q_factor, f_factor]`` in ``(q, f)``, with
-    ``q_factor = 2 / gap`` and ``f_factor = -2 / alpha``.
+    ``z``: slice of its ``z`` coefficients (rows and columns); ``Mz``: the multiplication matrix of ``z``;
+    ``coefficient``: ``c`` of its force equations ``f - eta x + c f z = 0`` (-1 for the paper's stop);
+    ``channels``: one :class:`Channel` per component. Each force row block holds ``I + c Mz`` in its ``f`` and
+    ``c Mf`` in ``z``; the ``z`` rows hold ``C = sum_channels Mg [factors]`` in ``(q, f)`` and the identity in ``z``.
     """
 
-    q: slice
-    f: slice
     z: slice
     Mz: np.ndarray
-    Mf: np.ndarray
-    Mg: np.ndarray
-    q_factor: float
-    f_factor: float
+    coefficient: float
+    channels: tuple
 
     def z_from(self, x) -> np.ndarray:
-        """``C x``: the ``z`` rows' product with the ``q`` and ``f`` parts of ``x`` (one product with ``Mg``)."""
-        return self.Mg @ (self.q_factor * x[self.q] + self.f_factor * x[self.f])
+        """``C x``: the ``z`` rows' product with the ``q`` and ``f`` parts of ``x``."""
+        out = None
+        for channel in self.channels:
+            part = channel.g_part(x)
+            part = part if channel.Mg is None else channel.Mg @ part
+            out = part if out is None else out + part
+        return out
 
 
 class CondensedBorderedLU:
     """LU of a harmonic-balance ``[J; t^T]`` with the ``z`` unknowns condensed out.
 
-    The rows of ``z_i = (f_i / alpha_i - x_i)^2`` have the identity as their block in ``z``: ``z = r_z - C v``
-    solves them for any other unknowns ``v``, so the matrix is the block ``[[A, B], [C, I]]`` (rows and
-    columns of ``z`` moved last, which keeps the determinant's sign: both move past the same number of
-    rows and columns) and ``det = det(S)`` with the Schur complement ``S = A - B C``, factored here by
-    LAPACK with partial pivoting. ``B`` is nonzero in the force rows (``-M_f``) and in the bordering row;
-    ``C`` is ``M_g`` times a combination of a stop DOF's and its force's coefficients.
+    The rows of every stop's ``z`` equation (``z = sum (f_c / alpha - x_c)^2``, or ``z = f / alpha - x`` for a
+    one-sided law) have the identity as their block in ``z``: ``z = r_z - C v`` solves them for any other
+    unknowns ``v``, so the matrix is the block ``[[A, B], [C, I]]`` (rows and columns of ``z`` moved last,
+    which keeps the determinant's sign: both move past the same number of rows and columns) and
+    ``det = det(S)`` with the Schur complement ``S = A - B C``, factored here by LAPACK with partial pivoting:
+    exact for every law. ``B`` is nonzero in the force rows (``c M_f``) and in the bordering row; ``C`` is
+    ``M_g`` (or the identity) times a combination of the stop's DOFs' and its forces' coefficients.
     Built by :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.factorize_bordered`.
 
     Parameters
@@ -165,7 +192,7 @@ class CondensedBorderedLU:
     condensed : slice
         The ``z`` unknowns (and their rows), one block in the full ordering; the others keep their order.
     couplings : list of StopCoupling
-        One per stop.
+        One per stop (:class:`StopCoupling`).
     tangent : ndarray
         The bordering row.
     """
@@ -184,7 +211,8 @@ class CondensedBorderedLU:
         reduced = np.concatenate([rhs[:start], rhs[stop_:]])
         for stop in self.couplings:
             r_z = rhs[stop.z]
-            reduced[stop.f] += stop.Mf @ r_z
+            for channel in stop.channels:
+                reduced[channel.f] -= stop.coefficient * (channel.Mf @ r_z)
             reduced[-1] -= self.tangent[stop.z] @ r_z
         v = self.factors.solve(reduced)
         x = np.empty_like(rhs)

@@ -1,6 +1,6 @@
 r"""Harmonic balance of the forced, damped structure: the regularized frequency response.
 
-``M q'' + C q' + K q + sum_i gap_i f_i e_{d_i} = F cos(Omega t) b`` balanced on ``H`` harmonics of
+``M q'' + C q' + K q + sum_i gap_i A_i^T f_i = F cos(Omega t) b`` balanced on ``H`` harmonics of
 ``theta = Omega t`` in the full basis. :class:`ForcedHarmonicBalanceSystem` is the NNM system
 (:class:`~nnmstop.hbm.system.HarmonicBalanceSystem`, same unknown layout, same recast of the contact law,
 same Jacobian, same ANM series products) with three changes:
@@ -29,7 +29,6 @@ from nnmstop.floquet import GAUSS, check_power_of_two, magnus_monodromy, match_n
 from nnmstop.hbm.stages import TruncationGuard
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.excitation import Excitation, linear_response
-from nnmstop.models.two_dof import regularized_contact_stiffness
 
 __all__ = [
     "ForcedHarmonicBalanceSystem",
@@ -105,8 +104,9 @@ class ForcedHarmonicBalanceSystem(HarmonicBalanceSystem):
     def _other_forces_at_stops(self, U, t, qdot):
         """Damping and the external force on the stop DOFs, at the sampled times ``t`` of every orbit."""
         omega = self.split(U)[-1]
-        damping = (self._velocity @ qdot)[self.stop_dofs]
-        return damping - np.multiply.outer(self.load[self.stop_dofs], np.cos(omega[:, None] * t)).reshape(damping.shape)
+        damping = (self._velocity @ qdot)[self._stop_rows]
+        load = self.load[self._stop_rows]
+        return damping - np.multiply.outer(load, np.cos(omega[:, None] * t)).reshape(damping.shape)
 
     def omega(self, U):
         """``Omega``, the angular frequency of the force (rad per unit time)."""
@@ -118,18 +118,22 @@ class ForcedHarmonicBalanceSystem(HarmonicBalanceSystem):
     def linear_guess(self, omega: float):
         """Unknowns of the linear response at ``omega`` with each stop's near-rest stiffness ``eta_i``.
 
-        ``f_i = eta_i x_i`` and ``z_i = (f_i / alpha_i - x_i)**2``: exact for the linear structure, the first
-        guess of Newton for the regularized one.
+        ``f_c = eta_c x_c`` and each stop's ``z`` balanced exactly (:meth:`linear_mode_guess`): exact for the
+        linear structure, the first guess of Newton for the regularized one.
         """
-        extra = np.zeros((self.n_dofs, self.n_dofs))
-        extra[self.stop_dofs, self.stop_dofs] = self.etas
+        if self.contact.grounded and len(set(self.stop_dofs.tolist())) == len(self.stop_dofs):
+            extra = np.zeros((self.n_dofs, self.n_dofs))
+            extra[self.stop_dofs, self.stop_dofs] = self.etas
+        else:
+            extra = self.contact.stiffness_matrix([stop.stiffness_at_rest for stop in self.structure.stops])
         amplitude = linear_response(self.excitation, omega, extra)
         Q = np.zeros((self.n_dofs, self.nc))
         Q[:, 1], Q[:, self.H + 1] = amplitude.real, -amplitude.imag
         X = self.stop_coordinates(Q)
-        F = self.etas[:, None] * X
-        g_t = self.to_time(F / self.alphas[:, None] - X)
-        Z = self.to_coefficients(g_t * g_t)
+        F = self._component_etas[:, None] * X
+        G = F / self._component_alphas[:, None] - X
+        g_t = self.to_time(G)
+        Z = self._gap_terms(self.to_coefficients(g_t * g_t), G)
         return self.pack(*Q, *F, *Z, omega * omega, omega)
 
 
@@ -217,11 +221,9 @@ def phase_lags(system: HarmonicBalanceSystem, U_array) -> np.ndarray:
 
 
 def _contact_stiffness(system: HarmonicBalanceSystem, x):
-    """``f_i'(x_i)`` of every stop (regularized law) at stop coordinates ``x`` (s, ...)."""
-    out = np.empty_like(x)
-    for i, law in enumerate(system._stop_laws):
-        out[i] = regularized_contact_stiffness(x[i], law)
-    return out
+    """The stops' Jacobian entries (pairs of :meth:`~nnmstop.models.contact.StopSet.pairs`; ``f_i'(x_i)`` per stop
+    of one coordinate) at the scaled coordinates ``x`` (m, ...)."""
+    return system.contact.pair_slopes(x)
 
 
 def stop_coordinates_at_nodes(system: HarmonicBalanceSystem, U_array, steps: int) -> np.ndarray:
@@ -250,11 +252,12 @@ def stop_coordinates_at_nodes(system: HarmonicBalanceSystem, U_array, steps: int
 
 
 class ForcedLinearization:
-    """The variational equation ``M dq'' + C dq' + (K + sum_i k_i(t) e_i e_i^T) dq = 0`` of a forced system.
+    """The variational equation ``M dq'' + C dq' + (K + sum_i A_i^T J_i(t) A_i) dq = 0`` of a forced system.
 
-    ``k_i`` is the regularized contact stiffness of stop ``i`` on the orbit. :meth:`monodromy` gives the
-    monodromy matrices over ``T = 2 pi / Omega`` by fourth-order Magnus steps
-    (:func:`nnmstop.floquet.magnus_monodromy`), the generator at the Gauss nodes from :func:`stop_coordinates_at_nodes`.
+    ``J_i`` is the Jacobian of stop ``i``'s regularized law on the orbit (``k_i e_i e_i^T`` for a stop on one
+    DOF). :meth:`monodromy` gives the monodromy matrices over ``T = 2 pi / Omega`` by fourth-order Magnus steps
+    (:func:`nnmstop.floquet.magnus_monodromy`), the generator at the Gauss nodes from
+    :func:`stop_coordinates_at_nodes`.
     """
 
     def __init__(self, system: ForcedHarmonicBalanceSystem):
@@ -268,9 +271,14 @@ class ForcedLinearization:
         modal_damping = shapes.T @ damping @ shapes
         self.system = system
         self.A0 = np.block([[np.zeros_like(modal_damping), np.diag(scale)], [-np.diag(omega2 / scale), -modal_damping]])
-        # the stop stiffness k_i acts as -k_i e_d e_d^T on q: in (s_1, s_2) as -phi_d phi_d^T / scale_col
-        self.rows = shapes[system.stop_dofs].T  # (N, s): phi_d of each stop DOF
-        self.cols = shapes[system.stop_dofs] / scale  # (s, N)
+        # the stop stiffness k_i acts as -k_i e_d e_d^T on q: in (s_1, s_2) as -phi_d phi_d^T / scale_col; a pair
+        # (a, b) of a stop's components as -J_ab (A_a Phi)^T (A_b Phi) / scale_col
+        contact = system.contact
+        coordinates = shapes[contact.first_dofs] if contact.grounded else contact.matrix() @ shapes  # (m, N)
+        first = [a for _, a, _ in contact.pairs()]
+        second = [b for _, _, b in contact.pairs()]
+        self.rows = coordinates[first].T  # (N, P): phi_d of each stop DOF
+        self.cols = coordinates[second] / scale  # (P, N)
 
     def monodromy(self, U_array, steps: int) -> np.ndarray:
         """Monodromy matrices (points, 2N, 2N) of the orbits ``U_array`` with ``steps`` Magnus steps."""
@@ -283,7 +291,7 @@ class ForcedLinearization:
             chunk = U[start : start + per_chunk]
             stiff = _contact_stiffness(system, stop_coordinates_at_nodes(system, chunk, steps))  # (s, p, steps, 2)
             A = np.broadcast_to(self.A0, stiff.shape[1:] + self.A0.shape).copy()
-            for i in range(len(system.stop_dofs)):
+            for i in range(self.rows.shape[1]):
                 A[..., N:, :N] -= stiff[i][..., None, None] * np.outer(self.rows[:, i], self.cols[i])
             period = 2 * np.pi / chunk[:, system.i_omega]
             out[start : start + len(chunk)] = magnus_monodromy(A, (period / steps)[:, None])

@@ -168,6 +168,9 @@ def _grid_size(harmonics_orbit, harmonics_perturbation):
 def contact_stiffness_series(system, U, linearization: str = "model", samples: int | None = None):
     """Samples of every stop's ``k_i(t) = f_i'(x_i(t))`` over one period, on ``samples`` equispaced phases.
 
+    For a stop with two coordinates (the circular clearance) the four entries of its Jacobian, in the order of
+    :attr:`Linearization.pairs`.
+
     Parameters
     ----------
     system : HarmonicBalanceSystem
@@ -176,13 +179,15 @@ def contact_stiffness_series(system, U, linearization: str = "model", samples: i
     linearization : {"model", "recast"}
         ``"model"``: the model's slope (:meth:`Linearization.contact_stiffness`) on the HBM
         ``x_i(t)``; ``"recast"``: ``(eta - 2 f g) / (1 - z - 2 f g / alpha)`` on the HBM fields of
-        each stop, ``g = f / alpha - x`` (see docs/methods/hill.md).
+        each stop, ``g = f / alpha - x`` (see docs/methods/hill.md), ``(eta + kappa f) / (1 + kappa (g + f / alpha))``
+        for a one-sided law; stops with one coordinate only.
     samples : int, optional
         Number of samples (default: 8 per harmonic of the orbit, power of two).
 
     Returns
     -------
-    ndarray, shape (s, samples)
+    ndarray, shape (P, samples)
+        ``P`` the pairs of :attr:`Linearization.pairs` (one per stop with one coordinate).
     """
     if linearization not in LINEARIZATIONS:
         raise ValueError(f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}")
@@ -193,12 +198,21 @@ def contact_stiffness_series(system, U, linearization: str = "model", samples: i
     x = system.to_time(stop_coefficients(system, U[None])[0], int(n))
     if linearization == "model":
         return Linearization.of(system).contact_stiffness(x)
+    if system.n_components != system.n_stops:
+        raise ValueError(
+            "linearization 'recast' is written for stops with one coordinate; a circular clearance needs 'model'"
+        )
     blocks = system.split(U)
     N, s = system.n_dofs, system.n_stops
     f_t, z_t = (system.to_time(np.stack(blocks[N + i * s : N + (i + 1) * s]), int(n)) for i in (0, 1))
     alpha, eta = np.asarray(system.alphas)[:, None], np.asarray(system.etas)[:, None]
     fg = f_t * (f_t / alpha - x)
-    return (eta - 2.0 * fg) / (1.0 - z_t - 2.0 * fg / alpha)
+    squared = (eta - 2.0 * fg) / (1.0 - z_t - 2.0 * fg / alpha)
+    if system._bilateral:
+        return squared
+    kappa = system._coefficients[:, None]
+    linear = (eta + kappa * f_t) / (1.0 + kappa * (z_t + f_t / alpha))
+    return np.where(system._squared[:, None], squared, linear)
 
 
 @dataclass

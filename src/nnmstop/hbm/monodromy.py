@@ -27,7 +27,7 @@ from nnmstop.floquet import (
     oscillator_expm,
     transition_matrix,
 )
-from nnmstop.hbm.shooting_refinement import explicit_steps, refined_stability
+from nnmstop.hbm.shooting_refinement import explicit_steps, refinable, refined_stability
 from nnmstop.hbm.variational import Linearization, halfwave_symmetric, is_reversible, stop_coefficients
 
 __all__ = [
@@ -221,7 +221,7 @@ def variational_step_matrices(linearization: Linearization, stiffness_nodes, ste
 def _balance(linearization: Linearization, k) -> float:
     """``sqrt`` of the largest row sum of ``|B|`` over the stop slopes ``k`` (at least 1)."""
     largest = np.abs(linearization.stiffness).sum(axis=1)
-    outer = np.abs(linearization.stop_vectors).sum(axis=1)[:, None] * np.abs(linearization.stop_vectors)
+    outer = linearization.outer_bound
     k_max = np.abs(k).reshape(len(k), -1).max(axis=1) if k.size else np.zeros(len(k))
     return float(np.sqrt(max(1.0, (largest + k_max @ outer).max())))
 
@@ -395,13 +395,21 @@ class BranchMonodromy:
 
     @property
     def max_multiplier(self) -> np.ndarray:
+        """Largest modulus of the non-trivial multipliers; 1 (the trivial pair) for a structure of one DOF, which
+        has none."""
+        if self.multipliers.shape[1] <= 2:
+            return np.ones(len(self.multipliers))
         return np.abs(self.multipliers[:, 2])
 
     def data_vars(self) -> dict:
         """Variables for a branch dataset, ``{name: (dims, values)}`` (same names as Hill's for the shared ones;
-        long names and units: :mod:`nnmstop.catalogue.branch`, ``STABILITY_VARIABLES``)."""
+        long names and units: :mod:`nnmstop.catalogue.branch`, ``STABILITY_VARIABLES``).
+
+        A structure of one degree of freedom has no non-trivial pair: no ``floquet_invariant`` and no
+        ``stability_margin`` (its verdict cannot change).
+        """
         point, flag = ("point",), np.int8
-        return {
+        out = {
             "stable": (point, self.stable.astype(flag)),
             "multiplier_real": (("point", "multiplier"), self.multipliers.real),
             "multiplier_imag": (("point", "multiplier"), self.multipliers.imag),
@@ -419,6 +427,9 @@ class BranchMonodromy:
             "stability_refined_energy_change": (point, self.refined_energy_change),
             "stability_refined_residual": (point, self.refined_residual),
         }
+        if self.multipliers.shape[1] <= 2:
+            del out["floquet_invariant"], out["stability_margin"]
+        return out
 
 
 def branch_monodromy(system, U_array, settings: MonodromySettings | None = None, time_residual=None) -> BranchMonodromy:
@@ -560,6 +571,13 @@ def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave
         out[name] = np.zeros(n)
     candidates = np.flatnonzero((reason == 2) & halfwave) if settings.refine else np.array([], dtype=int)
     idx = np.array([i for i in candidates if is_reversible(system, U_array[i])], dtype=int)
+    if len(idx) and not refinable(system.structure):
+        logger.warning(
+            "%d orbits not refined: the shooting refinement integrates bilateral stops on one degree of freedom "
+            "only; their verdicts stay the HBM orbits' (reason 2)",
+            len(idx),
+        )
+        return out
     if not len(idx):
         return out
     # the explicit integrator must resolve the stiffest mode at two levels of steps at least

@@ -1,9 +1,9 @@
 """Time samples of the stop fields of the terms of one ANM series, for the series products.
 
 :meth:`nnmstop.hbm.system.HarmonicBalanceSystem.series_products` sums the quadratic terms
-``f z`` and ``g g`` (``g = f/alpha - x``) over the orders of one Asymptotic Numerical Method
-series; this cache holds each term's samples on the system's ``M`` phases so that every term is
-transformed to the time domain once per series.
+``f z`` and ``g g`` (``g = f/alpha - x``) of every stop component over the orders of one Asymptotic
+Numerical Method series; this cache holds each term's samples on the system's ``M`` phases so that
+every term is transformed to the time domain once per series.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ __all__ = ["SeriesCache"]
 
 
 class SeriesCache:
-    """Time samples of ``f``, ``z`` and ``g = f/alpha - x`` of every stop for the terms of one ANM series.
+    """Time samples of ``f``, ``z`` and ``g = f/alpha - x`` of every stop component for the terms of one ANM series.
 
     Preallocated for the terms ``U_0 .. U_order`` and filled in order as
     :meth:`HarmonicBalanceSystem.series_products` needs them, so that each term is
@@ -35,11 +35,11 @@ class SeriesCache:
 
     def __init__(self, system: HarmonicBalanceSystem, order: int):
         self.system = system
-        s = system.n_stops
-        # samples[r] holds f, g, z, g of every stop (s channels each) of term r on the M
-        # phases: channels 0:2s and 2s:4s are the left and right factors of f z and g g
-        self.samples = np.empty((order + 1, 4 * s, system.M))
-        self.products = np.empty((2 * s, system.M))
+        m = system.n_components
+        # samples[r] holds f, g, z, g of every stop component (m channels each; z of its stop) of term r on
+        # the M phases: channels 0:2m and 2m:4m are the left and right factors of f z and g g
+        self.samples = np.empty((order + 1, 4 * m, system.M))
+        self.products = np.empty((2 * m, system.M))
         self.filled = 1  # U_0 never enters the products
 
     def fill(self, series, p: int):
@@ -49,13 +49,16 @@ class SeriesCache:
         if self.filled >= p:
             return
         system = self.system
-        N, s, nc = system.n_dofs, system.n_stops, system.nc
+        N, s, m, nc = system.n_dofs, system.n_stops, system.n_components, system.nc
         terms = np.asarray(series[self.filled : p], dtype=float)
-        f = terms[:, N * nc : (N + s) * nc].reshape(-1, s, nc)
-        x = terms[:, : N * nc].reshape(-1, N, nc)[:, system.stop_dofs] / system.gaps[:, None]
-        g = f / system.alphas[:, None] - x
-        fields = np.concatenate([f, g, terms[:, (N + s) * nc : (N + 2 * s) * nc].reshape(-1, s, nc)], axis=1)
+        f = terms[:, N * nc : (N + m) * nc].reshape(-1, m, nc)
+        x = np.moveaxis(system.stop_coordinates(np.moveaxis(terms[:, : N * nc].reshape(-1, N, nc), 1, 0)), 0, 1)
+        g = f / system._component_alphas[:, None] - x
+        z = terms[:, (N + m) * nc : (N + m + s) * nc].reshape(-1, s, nc)
+        if not system._bilateral:
+            z = z[:, system.contact.owner]
+        fields = np.concatenate([f, g, z], axis=1)
         block = self.samples[self.filled : p]
-        block[:, : 3 * s] = system.to_time(fields)
-        block[:, 3 * s :] = block[:, s : 2 * s]
+        block[:, : 3 * m] = system.to_time(fields)
+        block[:, 3 * m :] = block[:, m : 2 * m]
         self.filled = p

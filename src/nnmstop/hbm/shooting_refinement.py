@@ -25,9 +25,11 @@ from scipy.integrate._ivp import dop853_coefficients as _dop853
 from nnmstop import fourier
 from nnmstop.floquet import PairInvariants, transition_matrix
 from nnmstop.hbm.variational import dof_coefficients
+from nnmstop.models.contact import BilateralStop
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, regularized_contact_potential
 
 __all__ = [
+    "refinable",
     "RegularizedDynamics",
     "RefinedStability",
     "segment_flow",
@@ -62,6 +64,11 @@ _SEGMENTS = 8
 MAX_STEP_STIFFNESS = 0.25
 
 
+def refinable(structure) -> bool:
+    """Whether :class:`RegularizedDynamics` integrates ``structure``: every stop bilateral on one DOF."""
+    return all(isinstance(stop, BilateralStop) for stop in structure.stops)
+
+
 class RegularizedDynamics:
     """The regularized equations of motion of a structure, ``M q'' + K q + sum_i gap_i f_i(q_{d_i}/gap_i) e_{d_i} = 0``.
 
@@ -77,6 +84,11 @@ class RegularizedDynamics:
     """
 
     def __init__(self, structure):
+        if not refinable(structure):
+            raise ValueError(
+                "the shooting refinement integrates bilateral stops on one degree of freedom (the branch coordinate of "
+                f"Eq. (5)); this structure has {', '.join(stop.label for stop in structure.stops)}"
+            )
         mass, stiffness = structure.dense_matrices()
         self.n_dofs = N = structure.n_dofs
         self.mass_factor = np.linalg.cholesky(mass)

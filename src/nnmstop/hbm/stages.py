@@ -175,14 +175,15 @@ class BifurcationSpec:
 def start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float, tol: float = 1e-13):
     """A point of NNM ``mode`` at small amplitude, and the direction of growing amplitude.
 
-    The linear mode of the regularized system (the first stop's coordinate ``x = amplitude cos(theta)``)
-    is corrected by Newton, to the relative residual ``tol``, with the amplitude ``x_c^1`` held fixed.
+    The linear mode of the regularized system (the first stop's coordinate ``x = amplitude cos(theta)``,
+    :meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.linear_mode_guess`) is corrected by Newton, to the relative
+    residual ``tol``, with the amplitude of that coordinate held fixed
+    (:meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.amplitude_direction`).
     """
     if not (np.isfinite(amplitude) and 0 < amplitude < 1):
         raise ValueError(f"start amplitude must lie in (0, 1) (inside the gap), got {amplitude!r}")
     U0 = system.linear_mode_guess(mode, amplitude)
-    direction = np.zeros(system.n_unknowns)
-    direction[system.slices["x"].start + 1] = 1.0
+    direction = system.amplitude_direction(mode)
     U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=tol)
     return U0, direction
 

@@ -29,10 +29,10 @@ from scipy.linalg import eigh
 
 from nnmstop import fourier
 from nnmstop.continuation.linear import BorderedFactorization
-from nnmstop.hbm.factorization import CondensedBorderedLU, SparseBorderedLU, StopCoupling
+from nnmstop.hbm.factorization import Channel, CondensedBorderedLU, SparseBorderedLU, StopCoupling
 from nnmstop.hbm.series_cache import SeriesCache
 from nnmstop.models.structure import Structure
-from nnmstop.models.two_dof import ModelParameters, regularized_force_and_potential
+from nnmstop.models.two_dof import ModelParameters
 
 __all__ = ["HarmonicBalanceSystem", "SeriesCache", "DENSE_MAX_UNKNOWNS", "impacts_per_period"]
 
@@ -117,14 +117,14 @@ class HarmonicBalanceSystem:
         self.k = np.arange(1, self.H + 1, dtype=float)
         nc = self.nc
         self._set_structure(structure)
-        N, s = self.n_dofs, self.n_stops
-        names = [f"q{j}" for j in range(N)] + [f"f{i}" for i in range(s)] + [f"z{i}" for i in range(s)]
+        N, s, m = self.n_dofs, self.n_stops, self.n_components
+        names = [f"q{j}" for j in range(N)] + [f"f{c}" for c in range(m)] + [f"z{i}" for i in range(s)]
         self.field_names = tuple(names)
         self.slices = {name: slice(i * nc, (i + 1) * nc) for i, name in enumerate(names)}
-        # aliases: x, f, z of the first stop (x is the block of its degree of freedom; its
-        # first cosine coefficient is the direction in which every branch starts)
+        # aliases: x, f, z of the first stop (x is the block of the first degree of freedom it reads; the first
+        # cosine coefficient of its coordinate is the direction in which every branch starts)
         self.slices.update(x=self.slices[f"q{self.phase_dof}"], f=self.slices["f0"], z=self.slices["z0"])
-        self.n_fields = N + 2 * s
+        self.n_fields = N + m + s
         self.i_lam = self.n_fields * nc
         # The unfolding term and the phase condition exist only in the full basis: in the
         # cosine basis the phase is fixed by the symmetry and nu D x (a sine series) has
@@ -141,7 +141,7 @@ class HarmonicBalanceSystem:
         self._derivative_factors = np.concatenate([[0.0], self.k, -self.k])
 
     def _set_structure(self, structure: Structure):
-        """Matrices (CSR) and per-stop arrays of the structure."""
+        """Matrices (CSR) and the stops' laws and coordinates (:class:`~nnmstop.models.contact.StopSet`)."""
         self.n_dofs = structure.n_dofs
         self.n_stops = len(structure.stops)
         self._mass = sp.csr_matrix(structure.mass, dtype=float)
@@ -149,14 +149,26 @@ class HarmonicBalanceSystem:
         for matrix in (self._mass, self._stiffness):
             matrix.eliminate_zeros()
             matrix.sort_indices()
-        self.stop_dofs = np.array(structure.stop_dofs, dtype=int)
+        self.stop_dofs = np.array(structure.stop_dofs, dtype=int)  # the first DOF of each stop
         self.phase_dof = int(self.stop_dofs[0])
         stops = structure.stops
         self.gaps = np.array([float(stop.gap) for stop in stops])
         self.alphas = np.array([float(stop.stiffness) for stop in stops])
         self.etas = np.array([float(stop.eta) for stop in stops])
-        # contact law of each stop in its own coordinate (only alpha and eta enter it)
-        self._stop_laws = [ModelParameters(alpha=a, eta=e) for a, e in zip(self.alphas, self.etas)]
+        # the laws: per component (a circular clearance has two) its coordinate, gap, alpha, eta and the
+        # coefficient of f z in its force equation; per stop the family of its z equation
+        self.contact = contact = structure.contact
+        self.n_components = contact.n_components
+        self._component_gaps, self._component_alphas = contact.gaps, contact.alphas
+        self._component_etas = contact.etas
+        self._coefficients = np.array([stops[i].recast.coefficient for i in contact.owner])
+        self._squared = np.array([stop.recast.family == "squared_gap" for stop in stops])
+        # every stop one component with z = g**2: the paper's and the bilateral structures' arrays and sums
+        self._bilateral = bool(self._squared.all()) and self.n_components == self.n_stops
+        # DOFs whose equations hold a contact force, in the order the stops read them
+        self._stop_rows = np.array(list(dict.fromkeys(d for stop in stops for d in stop.dofs)), dtype=int)
+        # the phase condition and the amplitude of the start: the first coordinate of the first stop
+        self._reference_terms = list(contact.terms[0])
         # stored entries of M and K together: the DOF pairs (i, j) of the linear blocks
         pattern = sp.coo_matrix(abs(self._mass) + abs(self._stiffness))
         self._pair_rows, self._pair_cols = pattern.row.astype(int), pattern.col.astype(int)
@@ -221,18 +233,56 @@ class HarmonicBalanceSystem:
         return np.concatenate(list(fields) + [[tail[0], nu] if self.full else [tail[0]]])
 
     def _fields(self, U):
-        """Blocks ``Q`` (N, nc), ``F`` (s, nc), ``Z`` (s, nc) and ``lam``, ``nu`` of one unknown vector."""
+        """Blocks ``Q`` (N, nc), ``F`` (m, nc: one per stop component), ``Z`` (s, nc) and ``lam``, ``nu`` of one
+        unknown vector."""
         U = np.asarray(U, dtype=float)
-        N, s, nc = self.n_dofs, self.n_stops, self.nc
+        N, s, m, nc = self.n_dofs, self.n_stops, self.n_components, self.nc
         Q = U[: N * nc].reshape(N, nc)
-        F = U[N * nc : (N + s) * nc].reshape(s, nc)
-        Z = U[(N + s) * nc : (N + 2 * s) * nc].reshape(s, nc)
+        F = U[N * nc : (N + m) * nc].reshape(m, nc)
+        Z = U[(N + m) * nc : (N + m + s) * nc].reshape(s, nc)
         return Q, F, Z, U[self.i_lam], (U[self.i_nu] if self.full else 0.0)
 
     def stop_coordinates(self, Q):
-        """``x_i = q_{d_i} / gap_i`` of each stop, from DOF blocks (N, ...) -> (s, ...)."""
+        """Scaled coordinates ``x_c = A_c q / gap_c`` of every stop component (``q_{d_i} / gap_i`` for a stop on one
+        DOF), from DOF blocks (N, ...) -> (m, ...)."""
+        return self.contact.coordinates(Q)
+
+    def reference_coordinate(self, Q):
+        """The physical coordinate ``A_0 q`` of the first stop's first component (DOFs on the first axis): the
+        coordinate of the phase condition and of the start amplitude."""
         Q = np.asarray(Q)
-        return Q[self.stop_dofs] / self.gaps.reshape((-1,) + (1,) * (Q.ndim - 1))
+        (dof, sign), rest = self._reference_terms[0], self._reference_terms[1:]
+        out = Q[dof] if sign == 1 else sign * Q[dof]
+        for dof, sign in rest:
+            out = out + sign * Q[dof]
+        return out
+
+    def reference_amplitude(self, U) -> float:
+        """First cosine coefficient of :meth:`reference_coordinate` of the orbit ``U`` (``x_c^1`` for a stop on one
+        DOF): it changes sign at an ``n:1`` internal resonance."""
+        U = np.asarray(U)
+        return self.reference_coordinate(U[: self.n_dofs * self.nc].reshape(self.n_dofs, self.nc)[:, 1])
+
+    def amplitude_direction(self, mode: int | None = None) -> np.ndarray:
+        """Unit-coefficient direction of the first cosine coefficient of :meth:`reference_coordinate` (``e`` at
+        ``x_c^1`` for a stop on one DOF): the amplitude held fixed at a branch's start, and its initial direction.
+        With ``mode``, of the stop coordinate that linear mode is normalized by (:meth:`mode_reference`: the first
+        stop's unless the mode does not move it)."""
+        component = 0 if mode is None else self.mode_reference(self.linear_modes()[1][:, mode - 1])[0]
+        direction = np.zeros(self.n_unknowns)
+        for dof, sign in self.contact.terms[component]:
+            direction[dof * self.nc + 1] += sign
+        return direction
+
+    def _gap_terms(self, squares, G):
+        """Per stop the right-hand side of its ``z`` equation: the sum of ``g_c**2`` (``squares``, per component) over
+        its components (``squared_gap``), or its ``g`` (``linear_gap``)."""
+        if self._bilateral:
+            return squares
+        out = np.empty((self.n_stops,) + np.shape(G)[1:])
+        for i, sl in enumerate(self.contact.components):
+            out[i] = squares[sl].sum(axis=0) if self._squared[i] else G[sl.start]
+        return out
 
     # ------------------------------------------------------------------ the system
 
@@ -244,35 +294,40 @@ class HarmonicBalanceSystem:
         """
         Q, F, Z, lam, nu = self._fields(U)
         X = self.stop_coordinates(Q)
-        G = F / self.alphas[:, None] - X
-        s = self.n_stops
+        G = F / self._component_alphas[:, None] - X
+        m = self.n_components
         with np.errstate(over="ignore", invalid="ignore"):
-            samples = self.to_time(np.concatenate([F, Z, G]))
-            products = self.to_coefficients(np.concatenate([samples[:s] * samples[s : 2 * s], samples[2 * s :] ** 2]))
+            samples = self.to_time(np.concatenate([F, Z if self._bilateral else Z[self.contact.owner], G]))
+            products = self.to_coefficients(np.concatenate([samples[:m] * samples[m : 2 * m], samples[2 * m :] ** 2]))
             r_q = self._mass @ (lam * (Q * self._d2)) + self._stiffness @ Q
             if self.full:
                 r_q += self._velocity @ (nu * self.derivative(Q))
-        r_q[self.stop_dofs] += self.gaps[:, None] * F
-        r_f = F - self.etas[:, None] * X - products[:s]
-        r_z = Z - products[s:]
+        self.contact.apply(r_q, F)
+        # f - eta x + c f z (c = -1 for z = g**2: Eq. (12); c = kappa for the one-sided law's z = g)
+        r_f = F - self._component_etas[:, None] * X + self._coefficients[:, None] * products[:m]
+        r_z = Z - self._gap_terms(products[m:], G)
         parts = [r_q.ravel(), r_f.ravel(), r_z.ravel()]
         if self.full:
             parts.append([self._closing_residual(Q, lam, nu)])
         return np.concatenate(parts)
 
     def _closing_residual(self, Q, lam, nu) -> float:
-        """Last equation of the full basis: the phase condition ``q_{d_1}'(0) = 0``."""
-        return np.dot(self.k, Q[self.phase_dof, self.H + 1 :])
+        """Last equation of the full basis: the phase condition ``c_0'(0) = 0`` on the first stop's first coordinate
+        (:meth:`reference_coordinate`; ``q_{d_1}'(0) = 0`` for a stop on one DOF)."""
+        return np.dot(self.k, self.reference_coordinate(Q[:, self.H + 1 :]))
 
     def _closing_entries(self, Q, lam, nu) -> list:
-        """Jacobian entries of :meth:`_closing_residual` (one group)."""
-        phase = self.phase_dof * self.nc + np.arange(self.H + 1, 2 * self.H + 1)
-        return [(np.full(self.H, self.n_equations - 1), phase, self.k)]
+        """Jacobian entries of :meth:`_closing_residual` (one group per DOF of the coordinate)."""
+        sines = np.arange(self.H + 1, 2 * self.H + 1)
+        return [
+            (np.full(self.H, self.n_equations - 1), dof * self.nc + sines, self.k if sign == 1 else sign * self.k)
+            for dof, sign in self._reference_terms
+        ]
 
     def _linear_entries(self, Q, lam, nu) -> list:
-        """``(rows, columns, values)`` of the Jacobian outside the stops' product blocks, in groups that never
-        share a position: the linear blocks, the stop forces on their DOFs, ``-eta_i x_i`` in the force
-        equations, the ``lam`` and ``nu`` columns and the closing row. None of them touches a ``z`` row or column."""
+        """``(rows, columns, values)`` of the Jacobian outside the stops' blocks, in groups that never share a
+        position: the linear blocks, the stop forces on their DOFs, ``-eta_c x_c`` in the force equations, the
+        ``lam`` and ``nu`` columns and the closing row. None of them touches a ``z`` row or column."""
         N, nc, H = self.n_dofs, self.nc, self.H
         diagonal = np.arange(nc)
         groups = []
@@ -290,10 +345,12 @@ class HarmonicBalanceSystem:
             groups.append((pi[:, None] * nc + cos, pj[:, None] * nc + sin, mn[:, None] * self.k))
             groups.append((pi[:, None] * nc + sin, pj[:, None] * nc + cos, mn[:, None] * -self.k))
         f0 = N * nc
-        for i, (dof, gap, eta) in enumerate(zip(self.stop_dofs, self.gaps, self.etas)):
-            q_i, f_i = dof * nc, f0 + i * nc
-            groups.append((q_i + diagonal, f_i + diagonal, np.full(nc, gap)))
-            groups.append((f_i + diagonal, q_i + diagonal, np.full(nc, -eta / gap)))
+        for c, (terms, gap, eta) in enumerate(zip(self.contact.terms, self._component_gaps, self._component_etas)):
+            f_c = f0 + c * nc
+            for dof, sign in terms:
+                q_d = dof * nc
+                groups.append((q_d + diagonal, f_c + diagonal, np.full(nc, gap * sign)))
+                groups.append((f_c + diagonal, q_d + diagonal, np.full(nc, (-eta / gap) * sign)))
         q_rows = np.arange(N * nc)
         groups.append((q_rows, np.full(N * nc, self.i_lam), (self._mass @ (Q * self._d2)).ravel()))
         if self.full:
@@ -302,36 +359,59 @@ class HarmonicBalanceSystem:
         return groups
 
     def _jacobian_parts(self, U):
-        """The Jacobian's scattered entries (:meth:`_linear_entries`) and, per stop, its product blocks.
+        """The Jacobian's scattered entries (:meth:`_linear_entries`) and, per stop, its blocks in ``f`` and ``z``.
 
-        A stop's equations hold the multiplication matrices ``M_z``, ``M_f``, ``M_g`` of its products ``f z``
-        and ``g g`` in dense blocks: ``(f, f) = I - M_z``, ``(f, z) = -M_f``, ``(z, q) = (2 / gap) M_g``,
-        ``(z, f) = -(2 / alpha) M_g`` and ``(z, z) = I`` (:class:`~nnmstop.hbm.factorization.StopCoupling`).
+        With ``c`` the coefficient of ``f z`` (:class:`~nnmstop.models.contact.Recast`) a stop's equations hold the
+        multiplication matrices ``M_z``, ``M_f``, ``M_g`` of its products in dense blocks: ``(f, f) = I + c M_z``,
+        ``(f, z) = c M_f`` per component; its ``z`` rows ``(z, q) = (2 / gap) M_g``, ``(z, f) = -(2 / alpha) M_g``
+        (``z = sum g**2``) or ``(z, q) = 1 / gap``, ``(z, f) = -1 / alpha`` (``z = g``), and ``(z, z) = I``
+        (:class:`~nnmstop.hbm.factorization.StopCoupling`).
         """
         Q, F, Z, lam, nu = self._fields(U)
-        G = F / self.alphas[:, None] - self.stop_coordinates(Q)
-        N, s, nc = self.n_dofs, self.n_stops, self.nc
+        G = F / self._component_alphas[:, None] - self.stop_coordinates(Q)
+        N, m, nc = self.n_dofs, self.n_components, self.nc
         couplings = []
-        for i, dof in enumerate(self.stop_dofs):
-            Mz, Mf, Mg = (self.multiplication_matrix(c) for c in (Z[i], F[i], G[i]))
-            q, f, z = (slice(start * nc, (start + 1) * nc) for start in (dof, N + i, N + s + i))
-            couplings.append(StopCoupling(q, f, z, Mz, Mf, Mg, 2.0 / self.gaps[i], -2.0 / self.alphas[i]))
+        for i, components in enumerate(self.contact.components):
+            squared = bool(self._squared[i])
+            z = slice((N + m + i) * nc, (N + m + i + 1) * nc)
+            Mz = self.multiplication_matrix(Z[i])
+            channels = []
+            for c in range(components.start, components.stop):
+                Mf = self.multiplication_matrix(F[c])
+                Mg = self.multiplication_matrix(G[c]) if squared else None
+                gap, alpha = self._component_gaps[c], self._component_alphas[c]
+                q_factor, f_factor = (2.0 / gap, -2.0 / alpha) if squared else (1.0 / gap, -1.0 / alpha)
+                q_terms = tuple(
+                    (slice(dof * nc, (dof + 1) * nc), q_factor if sign == 1 else q_factor * sign)
+                    for dof, sign in self.contact.terms[c]
+                )
+                channels.append(Channel(slice((N + c) * nc, (N + c + 1) * nc), Mf, Mg, q_terms, f_factor))
+            couplings.append(StopCoupling(z, Mz, float(self._coefficients[components.start]), tuple(channels)))
         return self._linear_entries(Q, lam, nu), couplings
 
     @staticmethod
     def _stop_blocks(couplings) -> list:
         """``(rows, columns, values)`` of every stop's equations in the force and ``z`` unknowns: dense blocks
-        (rows and columns as slices), and the identity of ``(z, z)`` as its diagonal (index arrays)."""
+        (rows and columns as slices), and the diagonal blocks (identities) as index arrays."""
         blocks = []
         for stop in couplings:
             z_diagonal = np.arange(stop.z.start, stop.z.stop)
-            blocks += [
-                (stop.f, stop.f, np.eye(len(z_diagonal)) - stop.Mz),
-                (stop.f, stop.z, -stop.Mf),
-                (stop.z, stop.q, stop.q_factor * stop.Mg),
-                (stop.z, stop.f, stop.f_factor * stop.Mg),
-                (z_diagonal, z_diagonal, np.ones(len(z_diagonal))),
-            ]
+            nc = len(z_diagonal)
+            for channel in stop.channels:
+                blocks += [
+                    (channel.f, channel.f, np.eye(nc) + stop.coefficient * stop.Mz),
+                    (channel.f, stop.z, stop.coefficient * channel.Mf),
+                ]
+                if channel.Mg is None:  # z = g: diagonal blocks
+                    for q, factor in channel.q_terms:
+                        blocks.append((z_diagonal, np.arange(q.start, q.stop), np.full(nc, factor)))
+                    f_columns = np.arange(channel.f.start, channel.f.stop)
+                    blocks.append((z_diagonal, f_columns, np.full(nc, channel.f_factor)))
+                else:
+                    for q, factor in channel.q_terms:
+                        blocks.append((stop.z, q, factor * channel.Mg))
+                    blocks.append((stop.z, channel.f, channel.f_factor * channel.Mg))
+            blocks.append((z_diagonal, z_diagonal, np.ones(nc)))
         return blocks
 
     def jacobian(self, U, sparse: bool | None = None):
@@ -380,8 +460,8 @@ class HarmonicBalanceSystem:
     def _condensed_layout(self):
         """The ``z`` unknowns (one block), the kept indices (the ``q`` and ``f`` coefficients keep theirs) and the
         kept index of every row (equations, then the bordering row) and column (-1 for ``z``)."""
-        N, s, nc, n = self.n_dofs, self.n_stops, self.nc, self.n_unknowns
-        z = slice((N + s) * nc, (N + 2 * s) * nc)
+        N, s, m, nc, n = self.n_dofs, self.n_stops, self.n_components, self.nc, self.n_unknowns
+        z = slice((N + m) * nc, (N + m + s) * nc)
         kept = np.r_[0 : z.start, z.stop : n]
         position = np.full(n, -1)
         position[kept] = np.arange(len(kept))
@@ -392,8 +472,9 @@ class HarmonicBalanceSystem:
 
         The kept unknowns are ``[q, f, lam(, nu)]`` and the kept rows the DOF and force equations, the closing
         row and the bordering row. With ``z_i = r_z - C_i v`` from the ``z`` rows (``C_i``: their blocks in ``q``
-        and ``f``), the force rows become ``(I - M_z - (2 / alpha) M_f M_g) f + (-eta / gap + (2 / gap) M_f M_g) q``
-        and the bordering row ``t_v - sum_i t_{z_i} C_i``.
+        and ``f``, ``M_g`` times factors, or the factors alone for ``z = g``), each force row of component ``a``
+        loses ``c M_{f_a} C_i`` (for the paper's stop ``(I - M_z - (2 / alpha) M_f M_g) f +
+        (-eta / gap + (2 / gap) M_f M_g) q``) and the bordering row ``sum_i t_{z_i} C_i``.
         """
         z, kept, position = self._condensed_layout
         entries, couplings = self._jacobian_parts(U)
@@ -401,14 +482,23 @@ class HarmonicBalanceSystem:
         for rows, cols, values in entries:
             S[position[rows], position[cols]] = values
         S[-1] = tangent[kept]
+        eye = np.eye(self.nc)
         for stop in couplings:
-            # the force rows gain M_f C = M_f M_g [q_factor, f_factor]; the bordering row loses t_z C
-            product = stop.Mf @ stop.Mg
-            S[stop.f, stop.f] += np.eye(self.nc) - stop.Mz + stop.f_factor * product
-            S[stop.f, stop.q] += stop.q_factor * product
-            t_zg = tangent[stop.z] @ stop.Mg
-            S[-1, stop.q] -= stop.q_factor * t_zg
-            S[-1, stop.f] -= stop.f_factor * t_zg
+            coefficient = stop.coefficient
+            for a in stop.channels:
+                S[a.f, a.f] += eye + coefficient * stop.Mz
+            for a in stop.channels:
+                for b in stop.channels:
+                    # the force rows of a gain -c M_f(a) C(b): c M_f(a) M_g(b) times the factors of b
+                    product = a.Mf if b.Mg is None else a.Mf @ b.Mg
+                    S[a.f, b.f] -= (coefficient * b.f_factor) * product
+                    for q, factor in b.q_terms:
+                        S[a.f, q] -= (coefficient * factor) * product
+            for b in stop.channels:
+                t_zg = tangent[stop.z] if b.Mg is None else tangent[stop.z] @ b.Mg
+                for q, factor in b.q_terms:
+                    S[-1, q] -= factor * t_zg
+                S[-1, b.f] -= b.f_factor * t_zg
         return CondensedBorderedLU(BorderedFactorization.of_matrix(S, overwrite=True), z, couplings, tangent)
 
     def elimination_order(self):
@@ -421,12 +511,12 @@ class HarmonicBalanceSystem:
         and ``lam``, ``nu`` (dense columns) and the phase and bordering rows last.
         """
         N, nc, H = self.n_dofs, self.nc, self.H
-        free = np.setdiff1d(np.arange(N), self.stop_dofs)
+        free = np.setdiff1d(np.arange(N), self._stop_rows)
         harmonic = np.concatenate([[0], np.arange(1, H + 1), np.arange(1, H + 1)])[:nc]
         # per harmonic, DOF by DOF, its cosine and sine together (nu M couples them DOF-wise):
         # block-banded with the mesh's bandwidth
         interior = np.concatenate([(free[:, None] * nc + np.flatnonzero(harmonic == h)).ravel() for h in range(H + 1)])
-        stop_blocks = (self.stop_dofs[:, None] * nc + np.arange(nc)).ravel()
+        stop_blocks = (self._stop_rows[:, None] * nc + np.arange(nc)).ravel()
         rest = np.arange(N * nc, self.n_unknowns)
         return np.concatenate([interior, stop_blocks, rest])
 
@@ -461,7 +551,7 @@ class HarmonicBalanceSystem:
         if cache is None:
             cache = SeriesCache(self, p - 1)
         cache.fill(series, p)
-        N, s, nc = self.n_dofs, self.n_stops, self.nc
+        N, s, m, nc = self.n_dofs, self.n_stops, self.n_components, self.nc
         nq = N * nc
         # sum_r lam_r M D^2 q_{p-r} = M D^2 sum_r lam_r q_{p-r} (and nu D likewise): both sums in one product
         parameters = series[1:p, self.i_lam :]  # lam_r (, nu_r) for r = 1 .. p-1
@@ -470,10 +560,19 @@ class HarmonicBalanceSystem:
         q_out[:] = self._mass @ (sums[0] * self._d2)
         if self.full:
             q_out += self._velocity @ (sums[1][:, self._derivative_order] * self._derivative_factors)
-        # channels (f, g | z, g) of every stop: the products f z and g g in one sum over the orders
+        # channels (f, g | z, g) of every component: the products f z and g g in one sum over the orders
         t = cache.samples
-        np.einsum("rkm,rkm->km", t[1:p, : 2 * s], t[p - 1 : 0 : -1, 2 * s :], out=cache.products)
-        np.negative(self.to_coefficients(cache.products).ravel(), out=out[nq : nq + 2 * s * nc])
+        np.einsum("rkm,rkm->km", t[1:p, : 2 * m], t[p - 1 : 0 : -1, 2 * m :], out=cache.products)
+        if self._bilateral:
+            np.negative(self.to_coefficients(cache.products).ravel(), out=out[nq : nq + 2 * s * nc])
+            return out
+        # c f z in the force rows; -sum g g in the z rows of z = sum g**2 (z = g is linear: no term)
+        products = self.to_coefficients(cache.products)
+        out[nq : nq + m * nc] = (self._coefficients[:, None] * products[:m]).ravel()
+        squares = -products[m:]
+        rows = out[nq + m * nc : nq + (m + s) * nc].reshape(s, nc)
+        for i, components in enumerate(self.contact.components):
+            rows[i] = squares[components].sum(axis=0) if self._squared[i] else 0.0
         return out
 
     # ------------------------------------------------------------------ starting point
@@ -481,34 +580,57 @@ class HarmonicBalanceSystem:
     def linear_modes(self):
         """Angular frequencies and mode shapes of the regularized structure near rest.
 
-        Near rest each stop adds the stiffness ``eta_i`` on its DOF (``gap_i f_i ~ eta_i q``).
-        Shapes are the columns, normalized to 1 on the DOF of the first stop.
+        Near rest each stop adds its law's slope at rest on its coordinates, ``eta_i A_i^T A_i``
+        (``gap_i f_i ~ eta_i q`` for a stop on one DOF; :attr:`~nnmstop.models.contact.Stop.stiffness_at_rest`).
+        Shapes are the columns, normalized to 1 on the first stop's coordinate (:meth:`reference_coordinate`),
+        or, for a mode that does not move it, on the first stop coordinate it moves (:meth:`mode_reference`).
         """
         stiffness = _dense(self._stiffness)
-        stiffness[self.stop_dofs, self.stop_dofs] += self.etas
+        if self.contact.grounded and len(set(self.stop_dofs.tolist())) == len(self.stop_dofs):
+            stiffness[self.stop_dofs, self.stop_dofs] += self.etas
+        else:
+            stiffness += self.contact.stiffness_matrix([stop.stiffness_at_rest for stop in self.structure.stops])
         lam, vectors = eigh(stiffness, _dense(self._mass))
-        return np.sqrt(lam), vectors / vectors[self.phase_dof]
+        reference = np.array([self.mode_reference(vectors[:, j])[1] for j in range(vectors.shape[1])])
+        with np.errstate(divide="ignore", invalid="ignore"):  # a mode that moves no stop: not finite, refused when used
+            return np.sqrt(lam), vectors / reference
+
+    def mode_reference(self, shape):
+        """``(component, value)``: the stop coordinate a mode shape is normalized by, and its value (physical).
+
+        The first stop's first coordinate (:meth:`reference_coordinate`) unless the shape does not move it (below
+        ``1e-12`` of its largest entry): then the first stop component it moves (the shape's value on it).
+        """
+        shape = np.asarray(shape, dtype=float)
+        first = self.reference_coordinate(shape)
+        scale = np.abs(shape).max()
+        if abs(first) > 1e-12 * scale or scale == 0:
+            return 0, first
+        coordinates = self.contact.coordinates(shape) * self._component_gaps
+        moved = np.flatnonzero(np.abs(coordinates) > 1e-12 * scale)
+        return (int(moved[0]), float(coordinates[moved[0]])) if len(moved) else (0, first)
 
     def linear_mode_guess(self, mode: int, amplitude: float):
         """Unknown vector of linear mode ``mode`` (1 .. N) of the regularized structure near rest.
 
-        The first stop's coordinate is ``x_1 = amplitude cos(theta)`` and the other DOFs
-        follow the mode shape; ``f_i = eta_i x_i`` and ``z_i = (f_i/alpha_i - x_i)**2``
-        balanced exactly; a Newton correction makes it a point of the branch.
+        The stop coordinate of :meth:`mode_reference` (the first stop's) is ``amplitude gap cos(theta)`` and the
+        DOFs follow the mode shape; ``f_c = eta_c x_c`` and each stop's ``z`` (``sum (f_c/alpha - x_c)**2`` or
+        ``f/alpha - x``) balanced exactly; a Newton correction makes it a point of the branch.
         """
         if not isinstance(mode, (int, np.integer)) or isinstance(mode, bool) or not 1 <= mode <= self.n_dofs:
             raise ValueError(f"mode must be an integer in 1..{self.n_dofs}, got {mode!r}")
         omega, shapes = self.linear_modes()
         shape = shapes[:, mode - 1]
         if not np.all(np.isfinite(shape)):
-            raise ValueError(f"mode {mode} does not move the DOF {self.phase_dof} of the first stop")
+            raise ValueError(f"mode {mode} does not move the coordinate of any stop (first stop: DOF {self.phase_dof})")
         x = np.zeros(self.nc)
-        x[1] = amplitude * self.gaps[0]
+        x[1] = amplitude * self._component_gaps[self.mode_reference(shape)[0]]
         Q = shape[:, None] * x
         X = self.stop_coordinates(Q)
-        F = self.etas[:, None] * X
-        g_t = self.to_time(F / self.alphas[:, None] - X)
-        Z = self.to_coefficients(g_t * g_t)
+        F = self._component_etas[:, None] * X
+        G = F / self._component_alphas[:, None] - X
+        g_t = self.to_time(G)
+        Z = self._gap_terms(self.to_coefficients(g_t * g_t), G)
         return self.pack(*Q, *F, *Z, omega[mode - 1] ** 2, 0.0)
 
     # ------------------------------------------------------------------ post-processing
@@ -520,45 +642,52 @@ class HarmonicBalanceSystem:
     def time_history(self, U, samples: int = 1024):
         """Samples of one period.
 
-        Returns a dict with ``t``, ``q`` and ``qdot`` (N, samples), and per stop its
-        coordinate ``x`` and velocity ``xdot``, the force ``f`` and ``z`` (s, samples; a
-        single stop gives 1-D arrays). For a stack of orbits ``U`` (points, n_unknowns) every
+        Returns a dict with ``t``, ``q`` and ``qdot`` (N, samples), per stop component its scaled coordinate ``x``
+        and velocity ``xdot`` and the force ``f`` (m, samples), and per stop ``z`` (s, samples); an axis of length
+        one (a single stop with one component) is dropped. For a stack of orbits ``U`` (points, n_unknowns) every
         array has the points first.
         """
         U = np.asarray(U, dtype=float)
-        N, s, nc = self.n_dofs, self.n_stops, self.nc
+        N, s, m, nc = self.n_dofs, self.n_stops, self.n_components, self.nc
         Q, F, Z = (
             U[..., a * nc : b * nc].reshape(U.shape[:-1] + (b - a, nc))
-            for a, b in ((0, N), (N, N + s), (N + s, N + 2 * s))
+            for a, b in ((0, N), (N, N + m), (N + m, N + m + s))
         )
         omega = np.sqrt(U[..., self.i_lam])[..., None, None]
         fields = self.to_time(
             np.concatenate([self.to_full(Q), omega * self.derivative(Q), self.to_full(F), self.to_full(Z)], axis=-2),
             samples,
         )
-        q, qdot, f, z = np.split(fields, [N, 2 * N, 2 * N + s], axis=-2)
+        q, qdot, f, z = np.split(fields, [N, 2 * N, 2 * N + m], axis=-2)
         t = np.arange(samples) * (2 * np.pi / omega[..., 0]) / samples
-        per_stop = {"x": q[..., self.stop_dofs, :], "xdot": qdot[..., self.stop_dofs, :], "f": f, "z": z}
-        for key in ("x", "xdot"):
-            per_stop[key] = per_stop[key] / self.gaps[:, None]
+        if self.contact.grounded:
+            per_stop = {"x": q[..., self.stop_dofs, :], "xdot": qdot[..., self.stop_dofs, :]}
+            for key in ("x", "xdot"):
+                per_stop[key] = per_stop[key] / self.gaps[:, None]
+        else:
+            per_stop = {
+                key: np.moveaxis(self.contact.coordinates(np.moveaxis(v, -2, 0)), 0, -2)
+                for key, v in (("x", q), ("xdot", qdot))
+            }
+        per_stop.update(f=f, z=z)
         history = {"t": t, "q": q, "qdot": qdot}
-        history.update({key: value[..., 0, :] if s == 1 else value for key, value in per_stop.items()})
+        history.update({key: value[..., 0, :] if value.shape[-2] == 1 else value for key, value in per_stop.items()})
         return history
 
     def energy_samples(self, q, qdot):
         """Total energy of the regularized structure at each sample (columns of ``q``, ``qdot``).
 
-        ``1/2 q'^T M q' + 1/2 q^T K q + sum_i gap_i**2 P_i(x_i)``: the stop's force on its DOF
-        is ``gap_i f_i(q / gap_i)``, whose potential is ``gap_i**2`` times that of ``f_i``.
-        Also returns the true contact force of each stop in its coordinate, (s, samples).
+        ``1/2 q'^T M q' + 1/2 q^T K q + sum_i gap_i**2 P_i(x_i)``: the stop's force on its coordinates
+        is ``gap_i A_i^T f_i(A_i q / gap_i)``, whose potential is ``gap_i**2`` times that of ``f_i``.
+        Also returns the true contact force of each stop component in its coordinate, (m, samples).
         """
         kinetic = 0.5 * np.sum(qdot * (self._mass @ qdot), axis=0)
         potential = 0.5 * np.sum(q * (self._stiffness @ q), axis=0)
         X = self.stop_coordinates(q)
         forces = np.empty_like(X)
-        for i, law in enumerate(self._stop_laws):
-            forces[i], contact = regularized_force_and_potential(X[i], law)
-            potential = potential + self.gaps[i] ** 2 * contact
+        for stop, components in zip(self.structure.stops, self.contact.components):
+            forces[components], contact = stop.force_and_potential(X[components])
+            potential = potential + stop.gap**2 * contact
         return kinetic + potential, forces
 
     def diagnostics(self, U, samples: int | None = None):
@@ -585,10 +714,11 @@ class HarmonicBalanceSystem:
         """
         U = np.atleast_2d(np.asarray(U_array, dtype=float))
         P, N, s, nc = len(U), self.n_dofs, self.n_stops, self.nc
+        mc = self.n_components
         m = samples or max(16 * self.H, 512)
         history = self.time_history(U, m)
         q, qdot, t = history["q"], history["qdot"], history["t"]
-        f_hbm = np.reshape(history["f"], (P, s, m))
+        f_hbm = np.reshape(history["f"], (P, mc, m))
         Q = U[:, : N * nc].reshape(P, N, nc)
         qdd = self.to_time(self.to_full(U[:, self.i_lam, None, None] * Q * self._d2), m)
 
@@ -598,21 +728,26 @@ class HarmonicBalanceSystem:
         q_columns = columns(q)
         energy_t, f_true = self.energy_samples(q_columns, columns(qdot))
         # the rows of the stop DOFs: elsewhere the equations are linear and balanced exactly
-        restoring = (self._stiffness @ q_columns)[self.stop_dofs] + self.gaps[:, None] * f_true
-        eq_residual = (
-            (self._mass @ columns(qdd))[self.stop_dofs] + restoring + self._other_forces_at_stops(U, t, columns(qdot))
-        )
-        per_orbit = [a.reshape(s, P, m) for a in (restoring, eq_residual, f_true)]
-        restoring, eq_residual, f_true = per_orbit
+        rows = self._stop_rows
+        if self._bilateral and self.contact.grounded and len(rows) == s:
+            contact = self.gaps[:, None] * f_true
+        else:
+            contact = np.zeros((N, P * m))
+            self.contact.apply(contact, f_true)
+            contact = contact[rows]
+        restoring = (self._stiffness @ q_columns)[rows] + contact
+        eq_residual = (self._mass @ columns(qdd))[rows] + restoring + self._other_forces_at_stops(U, t, columns(qdot))
+        restoring, eq_residual = (a.reshape(len(rows), P, m) for a in (restoring, eq_residual))
+        f_true = f_true.reshape(mc, P, m)
         energy_t = energy_t.reshape(P, m)
         f_hbm = np.moveaxis(f_hbm, 1, 0)
-        x = self.stop_coordinates(np.moveaxis(q, 1, 0))  # (s, P, m)
+        x = self.stop_coordinates(np.moveaxis(q, 1, 0))  # (m, P, samples)
         out = []
         for p in range(P):
             energy = float(np.mean(energy_t[p]))
             scale = max(float(np.max(np.abs(restoring[:, p]))), 1e-300)
             force_scale = max(float(np.max(np.abs(f_true[:, p]))), 1e-300)
-            stop_impacts = [impacts_per_period(x_i) for x_i in x[:, p]]
+            stop_impacts = self.contact.impacts(x[:, p])
             out.append(
                 {
                     "energy": energy,
@@ -633,7 +768,8 @@ class HarmonicBalanceSystem:
         """Terms of the equations of motion of the stop DOFs besides inertia, stiffness and contact (none here).
 
         ``U`` (points, n_unknowns), ``t`` (points, samples) the sampled times of each orbit, ``qdot`` (N, points
-        samples) its velocities; returns (s, points samples) or 0.
+        samples) its velocities; returns (rows, points samples) or 0, the rows those of ``_stop_rows`` (the DOFs
+        the stops read, in the order they read them).
         """
         return 0.0
 
@@ -643,7 +779,7 @@ class HarmonicBalanceSystem:
         The largest over the stops and the two series.
         """
         Q, F, _, lam, _ = self._fields(U)
-        series = [lam * (Q[dof] * self._d2) for dof in self.stop_dofs] + list(F)
+        series = [lam * (Q[dof] * self._d2) for dof in self._stop_rows] + list(F)
         return max(self.truncation_indicator(c) for c in series)
 
     def truncation_indicator(self, c, share: float = 0.1):

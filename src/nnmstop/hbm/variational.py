@@ -1,10 +1,12 @@
 """The variational equation of a structure with stops along its HBM orbits, for the stability methods.
 
-A perturbation ``dq`` of an orbit of ``M q'' + K q + sum_i gap_i f_i(q_{d_i} / gap_i) e_{d_i} = 0`` obeys
-``M dq'' + (K + sum_i k_i(t) e_{d_i} e_{d_i}^T) dq = 0``, ``k_i = f_i'(x_i(t))`` the slope of stop ``i``'s
-regularized force along the orbit. In mass-normalized coordinates ``z = L^T dq`` (``M = L L^T``) it reads
-``z'' + B(t) z = 0`` with the symmetric ``B = B_0 + sum_i k_i w_i w_i^T``, ``B_0 = L^-1 K L^-T``,
-``w_i = L^-1 e_{d_i}``: the form every method here works in (:mod:`nnmstop.hbm.monodromy`,
+A perturbation ``dq`` of an orbit of ``M q'' + K q + sum_i gap_i A_i^T f_i(A_i q / gap_i) = 0`` obeys
+``M dq'' + (K + sum_i A_i^T J_i(t) A_i) dq = 0``, ``J_i = df_i/dx (x_i(t))`` the Jacobian of stop ``i``'s
+regularized law along the orbit (:meth:`nnmstop.models.contact.Stop.jacobian`; a number ``k_i`` for a stop with
+one coordinate, ``A_i = e_{d_i}`` for a stop on one DOF). In mass-normalized coordinates ``z = L^T dq``
+(``M = L L^T``) it reads ``z'' + B(t) z = 0`` with the symmetric ``B = B_0 + sum_(a, b) J_ab w_a w_b^T`` over
+the pairs of components of each stop, ``B_0 = L^-1 K L^-T``, ``w_a = L^-1 A_a^T``: the form every method here
+works in (:mod:`nnmstop.hbm.monodromy`,
 :mod:`nnmstop.hbm.shooting_refinement`, :mod:`nnmstop.hbm.hill`). Also the symmetry tests of orbits
 (time reversal, half-wave symmetry) that decide which shortcuts apply. Method notes:
 ``docs/methods/monodromy.md``.
@@ -16,8 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-
-from nnmstop.models.two_dof import ModelParameters, regularized_contact_stiffness
 
 __all__ = [
     "Linearization",
@@ -48,21 +48,20 @@ class Linearization:
         Lower Cholesky factor ``L`` of the mass matrix, ``z = L^T dq``.
     stiffness : ndarray, shape (N, N)
         ``B_0 = L^-1 K L^-T`` (symmetric).
-    stop_vectors : ndarray, shape (s, N)
-        ``w_i = L^-1 e_{d_i}``.
-    laws : tuple of ModelParameters
-        Contact law of each stop in its own coordinate (only ``alpha`` and ``eta`` enter it).
-    gaps : ndarray, shape (s,)
-    stop_dofs : ndarray of int, shape (s,)
+    stop_vectors : ndarray, shape (m, N)
+        ``w_a = L^-1 A_a^T`` of every stop component (``L^-1 e_{d_i}`` for a stop on one DOF).
+    contact : StopSet
+        The stops (:class:`~nnmstop.models.contact.StopSet`): their laws' Jacobians at the scaled coordinates.
+    pairs : tuple of (int, int, int)
+        ``(stop, a, b)``: the component pairs of the stops' Jacobians (``(i, i, i)`` for stops of one component).
     """
 
     n_dofs: int
     mass_factor: np.ndarray
     stiffness: np.ndarray
     stop_vectors: np.ndarray
-    laws: tuple
-    gaps: np.ndarray
-    stop_dofs: np.ndarray
+    contact: object
+    pairs: tuple
 
     @classmethod
     def of(cls, system) -> Linearization:
@@ -71,29 +70,41 @@ class Linearization:
         L = np.linalg.cholesky(mass)
         half = scipy.linalg.solve_triangular(L, stiffness, lower=True)
         B0 = scipy.linalg.solve_triangular(L, half.T, lower=True)
-        stop_dofs = np.array(system.stop_dofs, dtype=int)
-        unit = np.zeros((system.n_dofs, len(stop_dofs)))
-        unit[stop_dofs, np.arange(len(stop_dofs))] = 1.0
+        contact = system.structure.contact
+        if contact.grounded:
+            unit = np.zeros((system.n_dofs, contact.n_components))
+            unit[contact.first_dofs, np.arange(contact.n_components)] = 1.0
+        else:
+            unit = contact.matrix().T
         w = scipy.linalg.solve_triangular(L, unit, lower=True).T
-        laws = tuple(ModelParameters(alpha=float(a), eta=float(e)) for a, e in zip(system.alphas, system.etas))
-        return cls(system.n_dofs, L, 0.5 * (B0 + B0.T), w, laws, np.array(system.gaps, dtype=float), stop_dofs)
+        return cls(system.n_dofs, L, 0.5 * (B0 + B0.T), w, contact, tuple(contact.pairs()))
 
     @property
     def n_stops(self) -> int:
-        return len(self.laws)
+        return len(self.contact)
 
     @property
     def stop_outer(self):
-        """``w_i w_i^T`` of each stop, (s, N, N)."""
-        return self.stop_vectors[:, :, None] * self.stop_vectors[:, None, :]
+        """``w_a w_b^T`` of every pair of :attr:`pairs`, (P, N, N) (``w_i w_i^T`` per stop of one component)."""
+        a = np.array([p[1] for p in self.pairs], dtype=int)
+        b = np.array([p[2] for p in self.pairs], dtype=int)
+        return self.stop_vectors[a][:, :, None] * self.stop_vectors[b][:, None, :]
+
+    @property
+    def outer_bound(self):
+        """``|w_a|_1 |w_b|`` of every pair, (P, N): row sums of ``|w_a w_b^T|`` per unit slope."""
+        a = np.array([p[1] for p in self.pairs], dtype=int)
+        b = np.array([p[2] for p in self.pairs], dtype=int)
+        w = np.abs(self.stop_vectors)
+        return w[a].sum(axis=1)[:, None] * w[b]
 
     def contact_stiffness(self, x):
-        """``k_i = f_i'(x_i)`` of each stop at its coordinates ``x`` (s, ...), same shape."""
-        x = np.asarray(x, dtype=float)
-        return np.stack([regularized_contact_stiffness(x[i], law) for i, law in enumerate(self.laws)])
+        """``J_ab`` of every pair at the stops' scaled coordinates ``x`` (m, ...), shape (P, ...)
+        (``k_i = f_i'(x_i)`` per stop of one component)."""
+        return self.contact.pair_slopes(np.asarray(x, dtype=float))
 
     def stiffness_at(self, k):
-        """``B = B_0 + sum_i k_i w_i w_i^T`` for stop slopes ``k`` (s, ...): shape ``(..., N, N)``."""
+        """``B = B_0 + sum_p k_p w_a w_b^T`` for pair slopes ``k`` (P, ...): shape ``(..., N, N)``."""
         k = np.asarray(k, dtype=float)
         return self.stiffness + np.tensordot(np.moveaxis(k, 0, -1), self.stop_outer, axes=(-1, 0))
 
@@ -114,9 +125,10 @@ def dof_coefficients(system, U_array):
 
 
 def stop_coefficients(system, U_array):
-    """Full-layout coefficients of each stop's coordinate ``x_i = q_{d_i} / gap_i``, shape (n, s, 2H+1)."""
+    """Full-layout coefficients of each stop component's scaled coordinate ``x_c = A_c q / gap_c``
+    (``q_{d_i} / gap_i`` for a stop on one DOF), shape (n, m, 2H+1)."""
     q = dof_coefficients(system, U_array)
-    return q[:, system.stop_dofs] / np.asarray(system.gaps, dtype=float)[:, None]
+    return np.moveaxis(system.stop_coordinates(np.moveaxis(q, 1, 0)), 0, 1)
 
 
 def check_unknowns(system, U):
@@ -151,11 +163,15 @@ def halfwave_symmetric(system, U_array) -> np.ndarray:
     """Whether each orbit has the half-wave symmetry ``q(t + T/2) = -q(t)`` (rows of ``U_array``).
 
     True when the even harmonics (mean included) of every degree of freedom are below
-    :data:`HALFWAVE_TOL` of its largest coefficient. The stop forces being odd, the symmetric orbits
-    form an invariant subspace of the HBM system; continued branches keep it up to round-off drift
-    (about ``2e-10`` along the paper's H = 100 NNM1 branch).
+    :data:`HALFWAVE_TOL` of its largest coefficient. Where the stop forces are odd (every law's
+    :attr:`~nnmstop.models.contact.Stop.odd`) the symmetric orbits form an invariant subspace of the HBM
+    system; continued branches keep it up to round-off drift (about ``2e-10`` along the paper's H = 100
+    NNM1 branch). With a law that is not odd (a one-sided stop) no orbit that touches it has the symmetry, and
+    none is taken as having it.
     """
     q = dof_coefficients(system, U_array)
+    if not system.contact.odd:
+        return np.zeros(len(q), dtype=bool)
     H = system.H
     even = np.r_[0, np.arange(2, H + 1, 2), H + np.arange(2, H + 1, 2)]
     scale = np.maximum(np.abs(q).max(axis=(-2, -1)), 1e-300)

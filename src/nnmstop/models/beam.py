@@ -54,11 +54,14 @@ def _positive(name: str, value) -> float:
 
 @dataclass(frozen=True)
 class BeamStop:
-    """A bilateral elastic stop at a node of the beam (physical units).
+    """An elastic stop at a node of the beam (physical units): bilateral, or one-sided with ``side``.
 
     Give either ``node`` (index from the left end, 0..n_elements) or ``position`` (distance from the left
     end), which must fall on a node. ``gap`` is a length, ``stiffness`` and ``eta`` are forces per unit
-    transverse displacement (``0 < eta < stiffness``).
+    transverse displacement (``0 < eta < stiffness``). ``kind`` is ``"bilateral"`` (default) or ``"one_sided"``
+    (:class:`~nnmstop.models.contact.OneSidedStop`, with ``side``: ``"positive"`` or ``"negative"``); two
+    one-sided stops at one node make unequal gaps. A beam moves in one transverse direction: relative stops and
+    circular clearances need a structure given by its matrices.
     """
 
     gap: float
@@ -66,10 +69,26 @@ class BeamStop:
     eta: float
     node: int | None = None
     position: float | None = None
+    kind: str = "bilateral"
+    side: str | None = None
 
     def __post_init__(self):
+        if self.kind not in ("bilateral", "one_sided"):
+            raise ValueError(
+                f"beam stop kind must be bilateral or one_sided, got {self.kind!r} (a beam has one transverse "
+                "direction: relative stops and circular clearances need a structure given by its matrices)"
+            )
+        if self.kind == "bilateral" and self.side is not None:
+            raise ValueError(f"stop key 'side' is not allowed for a bilateral beam stop, got side={self.side!r}")
+        if self.kind == "one_sided" and self.side not in ("positive", "negative"):
+            raise ValueError(f"a one_sided beam stop needs the key 'side' (positive or negative), got {self.side!r}")
         for name in ("gap", "stiffness", "eta"):
             object.__setattr__(self, name, _positive(f"stop {name}", getattr(self, name)))
+        if self.kind == "one_sided" and 2 * self.eta >= self.stiffness:
+            raise ValueError(
+                f"stop eta of a one-sided stop must be smaller than half its stiffness, got eta={self.eta!r} "
+                f">= stiffness/2={0.5 * self.stiffness!r}"
+            )
         if self.eta >= self.stiffness:
             raise ValueError(
                 f"stop eta must be smaller than its stiffness (0 < eta < stiffness), got eta={self.eta!r} "
@@ -126,8 +145,12 @@ class Beam:
             raise ValueError("a beam needs at least one stop, got none")
         object.__setattr__(self, "stops", stops)
         nodes = self.stop_nodes
-        if len(set(nodes)) != len(nodes):
-            raise ValueError(f"stops must be at distinct nodes, got nodes {nodes}")
+        shared = [n for n in set(nodes) if nodes.count(n) > 1]
+        if any(any(s.kind != "one_sided" for s, n in zip(stops, nodes) if n == node) for node in shared):
+            raise ValueError(
+                f"stops must be at distinct nodes, got nodes {nodes} (only one-sided stops may share a node: unequal "
+                "gaps)"
+            )
         fixed = {0: self.left, self.n_elements: self.right}
         for node in nodes:
             if node in fixed and fixed[node] != "free":
@@ -173,7 +196,7 @@ class Beam:
         unknown = sorted(set(parameters) - set(keys))
         if missing or unknown:
             raise ValueError(f"beam parameters: missing keys {missing}, unknown keys {unknown}; expected {list(keys)}")
-        stop_keys = {"gap", "stiffness", "eta", "node", "position"}
+        stop_keys = {"gap", "stiffness", "eta", "node", "position", "kind", "side"}
         for stop in parameters["stops"]:
             if not isinstance(stop, dict) or set(stop) - stop_keys:
                 raise ValueError(f"each stop must be a dict with keys among {sorted(stop_keys)}, got {stop!r}")
@@ -283,12 +306,14 @@ def beam_structure(beam: Beam) -> Structure:
     position = {int(d): i for i, d in enumerate(kept)}
     stops = []
     for stop, node in zip(beam.stops, beam.stop_nodes):
+        law = {"kind": stop.kind, "side": stop.side} if stop.kind != "bilateral" else {}
         stops.append(
             Stop(
                 dof=position[2 * node],
                 gap=stop.gap / scales["length"],
                 stiffness=stop.stiffness / scales["stiffness"],
                 eta=stop.eta / scales["stiffness"],
+                **law,
             )
         )
     labels = tuple(("w" if d % 2 == 0 else "theta") + str(d // 2) for d in kept)
@@ -321,6 +346,11 @@ def beam_attributes(beam: Beam, scales: dict, first_stop: Stop) -> dict:
         "stop_gap_m": np.array([s.gap for s in beam.stops]),
         "stop_stiffness_N_per_m": np.array([s.stiffness for s in beam.stops]),
         "stop_eta_N_per_m": np.array([s.eta for s in beam.stops]),
+        **(
+            {"stop_kinds": " ".join(s.kind if s.kind == "bilateral" else f"{s.kind}:{s.side}" for s in beam.stops)}
+            if any(s.kind != "bilateral" for s in beam.stops)
+            else {}
+        ),
         "alpha": float(first_stop.stiffness),
         "eta": float(first_stop.eta),
         "length_unit_m": scales["length"],

@@ -159,10 +159,11 @@ def _stops(entries, n: int, where: str) -> tuple:
             raise ValueError(f"{where}: stop {k}: {err}") from None
         if not isinstance(stop, Stop):
             raise ValueError(f"{where}: stop {k} must be a mapping of dof, gap, stiffness, eta, got {entry!r}")
-        if stop.dof >= n:
-            raise ValueError(
-                f"{where}: stop {k} acts on dof {stop.dof}, off the model of {n} degrees of freedom (0..{n - 1})"
-            )
+        for dof in stop.dofs:
+            if dof >= n:
+                raise ValueError(
+                    f"{where}: stop {k} acts on dof {dof}, off the model of {n} degrees of freedom (0..{n - 1})"
+                )
         stops.append(stop)
     if not stops:
         raise ValueError(f"{where}: give at least one stop")
@@ -178,7 +179,8 @@ def matrix_structure(mass, stiffness, stops, dof_labels=None) -> Structure:
         ``.mtx`` or ``.npz`` files (:func:`load_matrix`), nondimensional, symmetric, same size;
         ``mass`` positive definite.
     stops : sequence of dict or Stop
-        Each with ``dof`` (0-based), ``gap``, ``stiffness`` and ``eta``.
+        Each with ``dof`` (0-based), ``gap``, ``stiffness`` and ``eta``, and optionally ``kind`` (``bilateral``,
+        ``one_sided`` with ``side``, ``relative`` or ``circular`` with ``dofs``; :mod:`nnmstop.models.contact`).
     dof_labels : sequence of str, optional
         A name for each degree of freedom.
 

@@ -1,12 +1,13 @@
 """The structure as a parameter of the engines: mass, stiffness and the degrees of freedom that meet a stop.
 
-A :class:`Structure` describes ``M q'' + K q + sum_s e_s f_s(q[dof_s]) = 0`` in nondimensional form: symmetric
-``M`` (positive definite) and ``K`` (dense or scipy.sparse), and one or more bilateral elastic stops
-(:class:`Stop`), each acting on one degree of freedom with its gap, stiffness ``alpha`` and regularization
-``eta``. The paper's oscillator is :func:`two_dof_structure`; a finite-element beam is built by
-:mod:`nnmstop.models.beam`. :func:`normal_modes` solves the generalized eigenproblem of the linear
-(no-contact) structure, densely for small models and by shift-invert Lanczos for large sparse ones;
-:func:`limit_modes` the linear limits of any structure (no contact, regularized near rest, gap 0).
+A :class:`Structure` describes ``M q'' + K q + sum_s gap_s A_s^T f_s(A_s q / gap_s) = 0`` in nondimensional
+form: symmetric ``M`` (positive definite) and ``K`` (dense or scipy.sparse), and one or more stops
+(:class:`~nnmstop.models.contact.Stop`: bilateral, one-sided, relative or circular, :mod:`nnmstop.models.contact`),
+each reading its coordinates ``A_s q`` with its gap, stiffness ``alpha`` and regularization ``eta``. The paper's
+oscillator is :func:`two_dof_structure`; a finite-element beam is built by :mod:`nnmstop.models.beam`.
+:func:`normal_modes` solves the generalized eigenproblem of the linear (no-contact) structure, densely for
+small models and by shift-invert Lanczos for large sparse ones; :func:`limit_modes` the linear limits of any
+structure (no contact, regularized near rest, gap 0).
 A structure carries ``attributes``: what describes it in a dataset's global attributes (the paper's
 ``alpha``, ``beta``, ``delta``, ``eta``; a beam's length and units; the files of a user's matrices).
 Physics that exists only for the paper's oscillator takes a structure through
@@ -15,6 +16,7 @@ Physics that exists only for the paper's oscillator takes a structure through
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +24,7 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
+from nnmstop.models.contact import BilateralStop, Stop, StopSet
 from nnmstop.models.two_dof import ModelParameters, mass_matrix, stiffness_matrix
 
 __all__ = [
@@ -45,64 +48,21 @@ SYMMETRY_TOLERANCE = 1e-12
 DENSE_EIGEN_LIMIT = 400
 
 
-def _real_number(name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    if not np.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return float(value)
-
-
-@dataclass(frozen=True)
-class Stop:
-    """A bilateral elastic stop acting on one degree of freedom.
-
-    The piecewise-linear force is ``stiffness (x - sgn(x) gap)`` for ``|x| > gap`` and 0 inside the gap
-    (Eq. 4 with a gap that need not be 1); the regularized law of Eq. (5) uses ``eta``.
-
-    Parameters
-    ----------
-    dof : int
-        Index of the degree of freedom ``x`` that meets the stop (>= 0).
-    gap : float
-        Clearance (> 0).
-    stiffness : float
-        Stop stiffness ``alpha`` (> 0).
-    eta : float
-        Regularization stiffness, ``0 < eta < stiffness``.
-    """
-
-    dof: int
-    gap: float
-    stiffness: float
-    eta: float
-
-    def __post_init__(self):
-        if isinstance(self.dof, bool) or not isinstance(self.dof, (int, np.integer)):
-            raise TypeError(f"stop dof must be an integer, got {self.dof!r}")
-        if self.dof < 0:
-            raise ValueError(f"stop dof must be >= 0, got {self.dof!r}")
-        object.__setattr__(self, "dof", int(self.dof))
-        for name in ("gap", "stiffness", "eta"):
-            value = _real_number(f"stop {name}", getattr(self, name))
-            if value <= 0:
-                raise ValueError(f"stop {name} must be > 0, got {value!r}")
-            object.__setattr__(self, name, value)
-        if self.eta >= self.stiffness:
+def _check_shared_dofs(stops) -> None:
+    """Stops may share a degree of freedom only when they are all one-sided stops on it (unequal gaps, stops in
+    series): a bilateral, relative or circular stop reads degrees of freedom no other stop reads."""
+    readers = {}
+    for k, stop in enumerate(stops):
+        for dof in stop.dofs:
+            readers.setdefault(dof, []).append(k)
+    for dof, ks in readers.items():
+        if len(ks) > 1 and not all(stops[k].kind == "one_sided" for k in ks):
+            kinds = ", ".join(stops[k].kind for k in ks)
+            listed = [list(stop.dofs) if len(stop.dofs) > 1 else stop.dofs[0] for stop in stops]
             raise ValueError(
-                f"stop eta must be smaller than its stiffness alpha (0 < eta < alpha), got eta={self.eta!r} "
-                f">= alpha={self.stiffness!r}"
+                f"stops must act on distinct degrees of freedom, got dofs {listed}: stops {ks} ({kinds}) act on "
+                f"degree of freedom {dof}; only one-sided stops may share one (unequal gaps: two one-sided stops)"
             )
-
-    def piecewise_force(self, x):
-        """Piecewise-linear force ``alpha (x - sgn(x) gap)`` beyond the gap, 0 inside."""
-        x = np.asarray(x, dtype=float)
-        return self.stiffness * np.sign(x) * np.maximum(np.abs(x) - self.gap, 0.0)
-
-    def piecewise_potential(self, x):
-        """Potential of :meth:`piecewise_force`: ``alpha/2 (|x| - gap)**2`` beyond the gap."""
-        x = np.asarray(x, dtype=float)
-        return 0.5 * self.stiffness * np.maximum(np.abs(x) - self.gap, 0.0) ** 2
 
 
 def _square_matrix(name: str, matrix):
@@ -162,7 +122,7 @@ def check_matrix(name: str, matrix, positive_definite: bool = False):
 def check_grounded(structure: Structure, where: str = "the structure") -> None:
     """Refuse a structure that can move as a rigid body without touching a stop.
 
-    Its regularized linear limit near rest, ``K + sum_s eta_s e_s e_s^T`` (:func:`limit_stiffness`), must be
+    Its regularized linear limit near rest, ``K + sum_s eta_s A_s^T A_s`` (:func:`limit_stiffness`), must be
     positive definite: otherwise a zero-frequency mode (e.g. a beam free at both ends) leaves the NNMs
     undefined and every Newton solve singular.
 
@@ -175,7 +135,7 @@ def check_grounded(structure: Structure, where: str = "the structure") -> None:
         _check_positive_definite("K + sum eta e e^T", limit_stiffness(structure, "regularized"))
     except ValueError:
         raise ValueError(
-            f"{where}: the stiffness near rest (K plus each stop's eta on its degree of freedom) is singular or "
+            f"{where}: the stiffness near rest (K plus each stop's eta on its coordinates) is singular or "
             "not positive definite: the structure can move as a rigid body without touching a stop (a beam free "
             "at both ends, an unsupported chain); support it (a clamped or pinned end, a grounding spring)"
         ) from None
@@ -183,14 +143,15 @@ def check_grounded(structure: Structure, where: str = "the structure") -> None:
 
 @dataclass(frozen=True, eq=False)
 class Structure:
-    """Mass, stiffness and stops of ``M q'' + K q + sum_s e_s f_s(q[dof_s]) = 0`` (nondimensional).
+    """Mass, stiffness and stops of ``M q'' + K q + sum_s gap_s A_s^T f_s(A_s q / gap_s) = 0`` (nondimensional).
 
     Parameters
     ----------
     mass, stiffness : ndarray or scipy.sparse matrix, shape (N, N)
         Symmetric to round-off; ``mass`` positive definite. Sparse input is kept as CSR.
     stops : sequence of Stop
-        At least one, on distinct degrees of freedom in ``[0, N)``.
+        At least one (:mod:`nnmstop.models.contact`), on degrees of freedom in ``[0, N)``; stops act on distinct
+        degrees of freedom except one-sided stops, which may share theirs (unequal gaps).
     dof_labels : sequence of str, optional
         A name for each degree of freedom (``N`` of them), for datasets.
     node_coordinates : array_like, optional
@@ -236,11 +197,10 @@ class Structure:
         for stop in stops:
             if not isinstance(stop, Stop):
                 raise TypeError(f"stops must be Stop instances, got {stop!r}")
-            if stop.dof >= n:
-                raise ValueError(f"stop dof {stop.dof} is out of range for {n} degrees of freedom (0..{n - 1})")
-        dofs = [s.dof for s in stops]
-        if len(set(dofs)) != len(dofs):
-            raise ValueError(f"stops must act on distinct degrees of freedom, got dofs {dofs}")
+            for dof in stop.dofs:
+                if dof >= n:
+                    raise ValueError(f"stop dof {dof} is out of range for {n} degrees of freedom (0..{n - 1})")
+        _check_shared_dofs(stops)
         object.__setattr__(self, "stops", stops)
         labels = tuple(f"q{j}" for j in range(n)) if self.dof_labels is None else tuple(map(str, self.dof_labels))
         if len(labels) != n or len(set(labels)) != n:
@@ -267,8 +227,13 @@ class Structure:
 
     @property
     def stop_dofs(self) -> tuple:
-        """Degree of freedom of each stop, in the order of ``stops``."""
-        return tuple(s.dof for s in self.stops)
+        """The (first) degree of freedom each stop reads, in the order of ``stops``."""
+        return tuple(s.dofs[0] for s in self.stops)
+
+    @functools.cached_property
+    def contact(self) -> StopSet:
+        """The stops as the engines see them (:class:`~nnmstop.models.contact.StopSet`)."""
+        return StopSet(self.stops, self.n_dofs)
 
     @property
     def is_sparse(self) -> bool:
@@ -321,7 +286,13 @@ def two_dof_parameters(structure: Structure, purpose: str = "this method") -> Mo
         raise TypeError(f"structure must be a Structure, got {type(structure).__name__}")
     stop = structure.stops[0]
     shape = f"{structure.n_dofs} degrees of freedom and {len(structure.stops)} stop(s)"
-    if structure.n_dofs == 2 and len(structure.stops) == 1 and stop.dof == 0 and stop.gap == 1.0:
+    if (
+        structure.n_dofs == 2
+        and len(structure.stops) == 1
+        and isinstance(stop, BilateralStop)
+        and stop.dof == 0
+        and stop.gap == 1.0
+    ):
         mass, stiffness = _dense(structure.mass), _dense(structure.stiffness)
         beta, delta = float(stiffness[1, 1]), float(mass[1, 1])
         if beta > 0 and delta > 0:
@@ -414,23 +385,25 @@ LINEAR_LIMITS = ("no_contact", "regularized", "gap_zero")
 def limit_stiffness(structure: Structure, limit: str):
     """Stiffness matrix of a linear limit of ``structure`` (same storage as ``structure.stiffness``).
 
-    ``"no_contact"``: ``K`` (every gap infinite); ``"regularized"``: ``K + sum_s eta_s e_s e_s^T``, the
-    regularized structure near rest (each stop's force is ``eta_s q`` there); ``"gap_zero"``:
-    ``K + sum_s alpha_s e_s e_s^T``, every stop always engaged (the force of a stop is
-    ``alpha_s (q - gap_s sgn q)``, of slope ``alpha_s`` whatever the gap).
+    ``"no_contact"``: ``K`` (every gap infinite); ``"regularized"``: ``K + sum_s k_s A_s^T A_s`` with each law's
+    slope at rest ``k_s`` (:attr:`~nnmstop.models.contact.Stop.stiffness_at_rest`, ``eta_s``), the regularized
+    structure near rest; ``"gap_zero"``: ``K + sum_s alpha_s A_s^T A_s``, every stop always engaged (the force of a
+    stop is ``alpha_s (q - gap_s sgn q)``, of slope ``alpha_s`` whatever the gap). For a one-sided stop the gap-0
+    structure is bilinear, not linear: this limit is its contact side (orbits that stay in contact), not the
+    high-energy asymptote of its NNMs.
     """
     if limit not in LINEAR_LIMITS:
         raise ValueError(f"limit must be one of {LINEAR_LIMITS}, got {limit!r}")
     added = {
         "no_contact": [0.0 for _ in structure.stops],
-        "regularized": [stop.eta for stop in structure.stops],
-        "gap_zero": [stop.stiffness for stop in structure.stops],
+        "regularized": [stop.stiffness_at_rest for stop in structure.stops],
+        "gap_zero": [stop.engaged_stiffness for stop in structure.stops],
     }[limit]
-    dofs = list(structure.stop_dofs)
-    diagonal = scipy.sparse.csr_matrix((added, (dofs, dofs)), shape=structure.stiffness.shape)
+    values, rows, cols = structure.contact.limit_entries(added)
+    matrix = scipy.sparse.csr_matrix((values, (rows, cols)), shape=structure.stiffness.shape)
     if scipy.sparse.issparse(structure.stiffness):
-        return (structure.stiffness + diagonal).tocsr()
-    return structure.stiffness + diagonal.toarray()
+        return (structure.stiffness + matrix).tocsr()
+    return structure.stiffness + matrix.toarray()
 
 
 def limit_modes(structure: Structure, limit: str = "no_contact", n_modes: int | None = None):

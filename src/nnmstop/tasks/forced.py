@@ -140,7 +140,7 @@ def prediction_error_dataset(config: dict):
     # the peaks are located on the ANM steps: the step ends are enough
     anm = ANMSettings.from_config(config["anm"], points_per_step=1)
     found = prediction_errors(excitations, 1, window, int(forced["harmonics"]), anm, float(forced["max_truncation"]))
-    stop = excitations[0].structure.stops[0].dof
+    stop = excitations[0].structure.stop_dofs[0]
     ds = xr.Dataset(
         {
             "damping_ratio": ("level", np.array([e.damping.ratios[0] for e in excitations], dtype=float)),

@@ -12,7 +12,9 @@ backbone (before its first internal resonance, :func:`nnmstop.exact.dataset.one_
 
 from __future__ import annotations
 
-from nnmstop.api import exact_family_dataset
+import numpy as np
+
+from nnmstop.api import exact_family_dataset, switching_family_dataset, uses_quarter_period
 from nnmstop.netcdf import read_dataset, write_dataset
 from nnmstop.settings import structure_from_config
 
@@ -24,6 +26,8 @@ def structure_exact(config, inputs, outputs, keywords: str = ""):
     from nnmstop.exact.ndof import follow_one_stop_family
 
     structure = structure_from_config(config)
+    if not uses_quarter_period(structure):
+        return _switching_exact(structure, config, outputs, keywords)
     family = follow_one_stop_family(
         structure, step=config["exact"]["step"], max_points=config["exact"]["max_points"], confirm=True
     )
@@ -42,22 +46,64 @@ def structure_exact(config, inputs, outputs, keywords: str = ""):
     )
 
 
+def _switching_exact(structure, config, outputs, keywords: str) -> None:
+    """The full-period exact family (one-sided stops, unequal gaps, relative stops), or, for a law that is not
+    piecewise linear (a circular clearance), a dataset with no orbit that says why."""
+    from nnmstop.exact.switching import follow_switching_family
+
+    try:
+        contacts_ok, reason = True, ""
+        for stop in structure.stops:
+            stop.contacts()
+    except ValueError as err:
+        contacts_ok, reason = False, str(err)
+    if contacts_ok:
+        family = follow_switching_family(
+            structure, step=config["exact"]["step"], max_points=config["exact"]["max_points"]
+        )
+        ds = switching_family_dataset(structure, family)
+        summary = (
+            "Exact periodic orbits of the non-smooth (piecewise-linear) structure over full periods, one impact per "
+            "contact struck, from next to the grazing orbit of its first linear mode at the first contact it "
+            f"reaches; closed-form phases (matrix exponentials). Phases: {ds.attrs['sequences']}. The family ends "
+            f"because {family.end_reason}."
+        )
+    else:
+        ds = switching_family_dataset(structure, None, reason)
+        summary = f"No exact orbits: {reason}."
+    write_dataset(
+        ds,
+        outputs["dataset"],
+        title=f"Exact NNM1 of the {structure.n_dofs}-DOF structure ({', '.join(s.label for s in structure.stops)})",
+        summary=summary,
+        keywords=keywords,
+        metadata=config.get("metadata"),
+        kind="switching_family",
+    )
+
+
 def structure_compare(config, inputs, outputs, keywords: str = ""):
     """Exact against regularized NNM1 at matched energies."""
     from nnmstop.compare.structure_branches import compare_at_energies
     from nnmstop.exact.dataset import one_stop_backbone
 
-    exact = one_stop_backbone(read_dataset(inputs["exact"]))  # not its internal resonance: see the dataset
+    exact = read_dataset(inputs["exact"])
+    if "resonant_mode" in exact:
+        exact = one_stop_backbone(exact)  # not its internal resonance: see the dataset
     regularized = read_dataset(inputs["nnm1"])
-    ds = compare_at_energies(
-        exact.energy.values,
-        exact.frequency.values,
-        regularized.energy.values,
-        regularized.frequency.values,
-        config["compare_count"],
-        segment=regularized.segment.values,
-    )
-    ds.attrs = {**structure_from_config(config).attributes, "harmonics": regularized.attrs["harmonics"]}
+    if exact.sizes["orbit"] == 0:
+        ds = compare_at_energies(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), 0)
+        ds.attrs["no_comparison"] = f"no exact orbits: {exact.attrs['end_reason']}"
+    else:
+        ds = compare_at_energies(
+            exact.energy.values,
+            exact.frequency.values,
+            regularized.energy.values,
+            regularized.frequency.values,
+            config["compare_count"],
+            segment=regularized.segment.values,
+        )
+    ds.attrs = {**ds.attrs, **structure_from_config(config).attributes, "harmonics": regularized.attrs["harmonics"]}
     write_dataset(
         ds,
         outputs["dataset"],
