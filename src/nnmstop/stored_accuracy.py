@@ -107,13 +107,31 @@ def _sha256(path: Path) -> str:
 
 
 def _stops_of(ds: xr.Dataset) -> list:
-    """The stops of a dataset: its ``stop_*`` variables (one per stop) or attributes (the first stop)."""
+    """The stops of a dataset: its ``stop_*`` variables (one per stop) or attributes (the first stop), each as the
+    configuration's stop entry of its kind (``stop_kind``, ``stop_side``, ``stop_other_dof`` where a stop is not
+    bilateral, :func:`nnmstop.hbm.dataset.stop_kind_variables`)."""
     keys = ("stop_dof", "stop_gap", "stop_stiffness", "stop_eta")
     source = ds.variables if all(k in ds.variables for k in keys) else ds.attrs
     if not all(k in source for k in keys):
         raise ValueError("it records no stops (stop_dof, stop_gap, stop_stiffness, stop_eta)")
-    columns = [np.atleast_1d(np.asarray(source[k].values if hasattr(source[k], "values") else source[k])) for k in keys]
-    return [{"dof": int(d), "gap": float(g), "stiffness": float(k), "eta": float(e)} for d, g, k, e in zip(*columns)]
+
+    def column(key):
+        return np.atleast_1d(np.asarray(source[key].values if hasattr(source[key], "values") else source[key]))
+
+    stops = [{"dof": int(d), "gap": float(g), "stiffness": float(k), "eta": float(e)} for d, g, k, e in
+             zip(*(column(key) for key in keys))]  # fmt: skip
+    if "stop_kind" not in source:
+        return stops
+    sides = {1: "positive", -1: "negative"}
+    for stop, kind, side, other in zip(stops, column("stop_kind"), column("stop_side"), column("stop_other_dof")):
+        kind, side = str(kind), int(side)
+        if kind in ("relative", "circular"):
+            stop["dofs"] = [stop.pop("dof"), int(other)]
+        if kind != "bilateral":
+            stop["kind"] = kind
+        if side:
+            stop["side"] = sides[side]
+    return stops
 
 
 def structure_from_attributes(ds: xr.Dataset):
@@ -141,12 +159,13 @@ def structure_from_attributes(ds: xr.Dataset):
     if kind == "beam":
         from nnmstop.models.beam import Beam, BeamStop, beam_structure
 
+        columns = [np.atleast_1d(attrs[key]) for key in ("stop_nodes", "stop_gap_m", "stop_stiffness_N_per_m",
+                                                          "stop_eta_N_per_m")]  # fmt: skip
+        kinds = str(attrs.get("stop_kinds", " ".join(["bilateral"] * len(columns[0])))).split()
         stops = tuple(
-            BeamStop(gap=float(g), stiffness=float(k), eta=float(e), node=int(n))
-            for n, g, k, e in zip(
-                *(np.atleast_1d(attrs[key]) for key in ("stop_nodes", "stop_gap_m", "stop_stiffness_N_per_m",
-                                                         "stop_eta_N_per_m"))
-            )
+            BeamStop(gap=float(g), stiffness=float(k), eta=float(e), node=int(n), kind=kind.split(":")[0],
+                     side=kind.split(":")[1] if ":" in kind else None)
+            for n, g, k, e, kind in zip(*columns, kinds)
         )  # fmt: skip
         beam = Beam(
             length=float(attrs["length_m"]),

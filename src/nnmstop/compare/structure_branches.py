@@ -63,7 +63,16 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
     if count == 0:  # nothing to compare (a structure without exact orbits): the empty comparison
         empty = np.zeros(0)
         ds = xr.Dataset(
-            {name: ("energy", empty) for name in ("exact_frequency", "regularized_frequency", "relative_difference")},
+            {
+                name: ("energy", empty)
+                for name in (
+                    "exact_frequency",
+                    "regularized_frequency",
+                    "relative_difference",
+                    "exact_interpolation_error",
+                    "regularized_interpolation_error",
+                )
+            },
             coords={"energy": empty},
         )
         return describe(ds, "one_impact_comparison")
