@@ -19,7 +19,7 @@ that no periodic response is claimed where there is none. Method notes: docs/for
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.optimize
@@ -33,6 +33,7 @@ __all__ = [
     "unstable_count",
     "crossing_kind",
     "locate_stability_changes",
+    "type_branch_points",
     "regimes",
 ]
 
@@ -122,6 +123,21 @@ def _crossing(path, length: float, multipliers_of, n: int, rel_tol: float) -> fl
         lambda a: unstable_count(multipliers_of(path(a))), 0.0, length, tol=rel_tol * length, side=lambda c: c
     )
     return found.midpoint
+
+
+def type_branch_points(changes, branch_points, reach: int = 2) -> list:
+    """``changes`` with each fold (a multiplier ``mu`` through +1) that lies within ``reach`` steps after a simple
+    branch point flagged by the continuation (a sign change of ``det [J; t^T]``, which a fold does not make)
+    typed ``symmetry_breaking``: where the full-period equations hold the symmetric responses and those without
+    the symmetry, these branch off there."""
+    flagged = set(branch_points)
+    typed = []
+    for change in changes:
+        near = {change.after_point + k for k in range(reach + 1)}
+        if change.kind == "fold" and near & flagged:
+            change = replace(change, kind="symmetry_breaking")
+        typed.append(change)
+    return typed
 
 
 def regimes(multipliers, half_period: bool, tol: float = 1e-12) -> np.ndarray:
