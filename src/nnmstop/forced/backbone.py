@@ -148,7 +148,7 @@ def prediction_errors(
             raise ValueError(f"the NNM{mode} backbone does not reach the force level {force:g}")
         forced = ForcedHarmonicBalanceSystem(excitation, harmonics)
         branch = continue_frequency_response(forced, frequency_window, settings, max_truncation)
-        peak = locate_peak(forced, branch, settings, dof=excitation.structure.stops[0].dof)
+        peak = locate_peak(forced, branch, settings, dof=excitation.structure.stop_dofs[0])
         out["predicted_frequency"].append(prediction[0])
         out["predicted_amplitude"].append(prediction[1])
         out["peak_frequency"].append(forced.frequency_hz(peak))

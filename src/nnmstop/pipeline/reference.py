@@ -71,9 +71,10 @@ CURVE_COORDINATES = (
     ("required_force", "backbone_frequency"),
 )
 #: Dimensions of variables kept at some of the stored points only (the exact forced response's contact points,
-#: ``contact_point``): their sizes and values follow the steps like the points'; the same orbits are compared
-#: along the curve through the per-point variables (amplitudes, phase lags, multipliers).
-SAMPLED_DIMENSIONS = frozenset({"contact_point"})
+#: ``contact_point``, and their switches, ``switch``): their sizes and values follow the steps like the points';
+#: the same orbits are compared along the curve through the per-point variables (amplitudes, phase lags,
+#: multipliers).
+SAMPLED_DIMENSIONS = frozenset({"contact_point", "switch"})
 
 #: Variables that follow the continuation's steps, not the curve: not compared (indices of stored
 #: points, step numbers and counts of integration steps, arclength summed over the steps).
