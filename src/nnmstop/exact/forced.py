@@ -490,7 +490,7 @@ class ForcedResponseProblem:
         """Why a family of this sequence ends, by validity margin (:data:`CONTACT_MARGINS` for one contact phase)."""
         reasons = dict(CONTACT_MARGINS)
         if self.episodes > 1:
-            reasons["contact_duration"] = "a contact shrinks to zero duration (grazing: one contact fewer per period)"
+            reasons["contact_duration"] = "a contact phase shrinks to zero duration (grazing: fewer contacts)"
             reasons["free_duration"] = "a free flight shrinks to zero duration (two contacts meet)"
         elif not self.half_wave:
             reasons["free_duration"] = "the contact lasts the whole period (no free flight left)"
@@ -939,6 +939,10 @@ def follow_contact_family(
         arclength[-1] = arclength[-2] + found.lo
         energy[-1] = problem.diagnostics(points[-1])["energy"]
     reason = reasons.get(margin, branch.end_reason)
+    if margin == "contact_duration" and problem.episodes > 1:
+        durations = problem.split(points[-1])[2][np.array(problem.episode)]
+        if np.all(durations <= 1e-6):  # every contact grazes at once: the non-impacting response again
+            reason = CONTACT_MARGINS["contact_duration"]
     family = ContactFamily(points, reason, margin, branch.stats, arclength, energy, "", list(branch.branch_points))
     if confirm:
         family.end_check = confirm_contact_family_end(problem, family, settings, frequency_range, label)

@@ -28,7 +28,7 @@ from nnmstop.exact.forced import (
     structure_contacts,
 )
 from nnmstop.floquet import match_nearest
-from nnmstop.forced.stability_changes import locate_stability_changes, type_branch_points
+from nnmstop.forced.stability_changes import locate_stability_changes, type_by_tangent
 from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, continue_frequency_response
 from nnmstop.models.excitation import Excitation
 
@@ -146,8 +146,9 @@ def exact_response(excitation: Excitation, frequency_range, settings: ExactSetti
     Every stop must be piecewise linear (ValueError naming a circular clearance). A contact family starts at each
     grazing frequency not already reached by a family (:func:`~nnmstop.exact.forced.grazing_problem`); its
     multipliers are ``nu`` of the half-period map under the half-wave reduction (``half_period``: a ``nu``
-    through -1 is a symmetry breaking), else ``mu`` over the period, where a multiplier through +1 at a simple
-    branch point flagged by the continuation is a symmetry breaking and elsewhere a fold.
+    through -1 is a symmetry breaking), else ``mu`` over the period, where a multiplier through +1 is a fold where
+    ``Omega`` turns and elsewhere, on a structure of odd laws, a symmetry breaking
+    (:func:`~nnmstop.forced.stability_changes.type_by_tangent`).
     """
     low, high = (float(v) for v in frequency_range)
     grazing = grazing_frequencies(excitation, 2 * np.pi * low, 2 * np.pi * high)
@@ -170,7 +171,7 @@ def exact_response(excitation: Excitation, frequency_range, settings: ExactSetti
             half_period=problem.half_wave,
         )
         if not problem.half_wave:
-            changes = type_branch_points(changes, family.branch_points)
+            changes = type_by_tangent(changes, problem, Y, excitation.structure.contact.odd)
         amplitude = np.array([problem.amplitudes(y) for y in Y])
         pieces.append(
             ExactPiece(

@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.optimize
 
+from nnmstop.continuation.core import unit_tangent
 from nnmstop.continuation.newton import bisect_sign_change
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "crossing_kind",
     "locate_stability_changes",
     "type_branch_points",
+    "type_by_tangent",
     "regimes",
 ]
 
@@ -136,6 +138,24 @@ def type_branch_points(changes, branch_points, reach: int = 2) -> list:
         near = {change.after_point + k for k in range(reach + 1)}
         if change.kind == "fold" and near & flagged:
             change = replace(change, kind="symmetry_breaking")
+        typed.append(change)
+    return typed
+
+
+def type_by_tangent(changes, system, points, symmetric: bool, tolerance: float = 1e-4) -> list:
+    """``changes`` with each fold (a multiplier ``mu`` through +1) where the curve's unit tangent at the located
+    point has an ``Omega`` component (the last unknown of ``system``) above ``tolerance`` typed
+    ``symmetry_breaking`` when ``symmetric`` (every law odd: the responses without the half-wave symmetry branch
+    off there, a simple branch point); at a fold of the curve the tangent has no ``Omega`` component. The test of
+    the full-period exact responses, whose continuation may see a sign change of ``det [J; t^T]`` next to a grazing
+    orbit where several contacts graze at once (a singular point of their equations, not a branch)."""
+    typed = []
+    for change in changes:
+        if change.kind == "fold" and symmetric:
+            i = change.after_point
+            tangent, _ = unit_tangent(system, change.U, points[i + 1] - points[i])
+            if abs(tangent[-1]) > tolerance:
+                change = replace(change, kind="symmetry_breaking")
         typed.append(change)
     return typed
 
