@@ -88,6 +88,15 @@ def test_the_readme_forced_example_gives_exact_and_regularized_responses_with_st
     np.testing.assert_allclose(folds[1][1], folds[0][1], rtol=0.01)  # the upper fold: the jump down
 
 
+def test_the_forced_page_shows_the_readme_example():
+    """docs/forced.md's example is README's (run above), line for line."""
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "forced.md").read_text()
+    block = page[page.index("```python\n") + len("```python\n") : page.index("```\n", page.index("```python"))]
+    assert set(block.splitlines()) <= set(_readme_block("Forced responses").splitlines())
+
+
 def test_forced_response_takes_the_configurations_forms_and_refuses_what_it_cannot_do():
     paper = nnmstop.two_dof_structure()
     ds = nnmstop.forced_response(paper, {"ratios": [0.01, 0.01], "modes": [1, 2]}, (0.01, ["u"]), (0.05, 0.35))
