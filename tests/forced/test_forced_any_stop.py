@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from nnmstop.checks.forced_integration import integrate_forced_nonsmooth
-from nnmstop.continuation.newton import newton_solve
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
 from nnmstop.exact.forced import (
     ForcedResponseProblem,
@@ -28,7 +27,7 @@ from nnmstop.models.contact import Stop
 from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
 from nnmstop.models.structure import Structure
 
-from .conftest import oscillator_excitation
+from .conftest import at_frequency, exact_response_at, oscillator_excitation, regularized_response_at
 
 CONTINUATION = PseudoArclengthSettings(tolerance=1e-12, initial_step=0.01, max_step=0.05)
 RANGE = (0.1, 0.35)  # Hz: the chain's first resonance (0.159 Hz) and its second (0.276 Hz)
@@ -275,15 +274,8 @@ def test_the_full_period_solver_reproduces_the_symmetric_responses_of_the_paper_
     for amplitude, frequency in zip(contact["energy"], contact["frequency"]):
         omega = 2 * np.pi * frequency
         start = Y[np.argmin(np.abs(Y[:, -1] - omega) + np.abs(np.array(family.amplitude)[:, 0] - amplitude))]
-        result = newton_solve(
-            lambda y, omega=omega: np.append(problem.residual(y), y[-1] - omega),
-            lambda y: np.vstack([problem.jacobian(y), np.eye(len(y))[-1]]),
-            start,
-            tol=1e-13,
-            max_iter=30,
-        )
-        assert result.converged
-        assert problem.amplitudes(result.y)[0] == pytest.approx(amplitude, rel=1e-9)
+        y = at_frequency(problem, start, omega)
+        assert problem.amplitudes(y)[0] == pytest.approx(amplitude, rel=1e-9)
 
 
 # ------------------------------------------------------------------ the regularized one-sided law as eta -> 0
@@ -294,37 +286,13 @@ def test_the_regularized_one_sided_response_converges_to_the_exact_one_as_eta_go
     (harmonic balance) approach the exact ones at first order in eta up to a logarithm (docs/forced.md: the
     one-sided law differs from the piecewise-linear one by eta x / (1 - x) inside the gap, an L1 error
     O(eta log(1/eta))): each threefold decrease of eta divides the error by more than 2."""
-    from nnmstop.continuation.anm import ANMSettings, ANMStepper
-    from nnmstop.continuation.newton import bisect_sign_change
-    from nnmstop.forced.responses import path_between
-    from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, continue_frequency_response, response_amplitudes
-
-    alpha, omega = 3.0, 2 * np.pi * 0.16
-    excitation = chain_excitation([one_sided(alpha=alpha, eta=0.01)])
-    start = grazing_frequencies(excitation, 2 * np.pi * RANGE[0], 2 * np.pi * RANGE[1])[0]
-    problem, y0, direction = grazing_problem(excitation, start)
-    settings = PseudoArclengthSettings(tolerance=1e-12, initial_step=0.02, max_step=0.1)
-    Y = follow_contact_family(problem, y0, direction, settings, RANGE).unknowns
-    i = np.flatnonzero(np.diff(np.sign(Y[:, -1] - omega)))[0]
-    result = newton_solve(
-        lambda y: np.append(problem.residual(y), y[-1] - omega),
-        lambda y: np.vstack([problem.jacobian(y), np.eye(len(y))[-1]]),
-        Y[i],
-        tol=1e-13,
-        max_iter=30,
-    )
-    exact = problem.amplitudes(result.y)
-    anm = ANMSettings(points_per_step=2)
+    alpha, frequency = 3.0, 0.16
+    exact = exact_response_at(chain_excitation([one_sided(alpha=alpha, eta=0.01)]), frequency, RANGE)
     errors = []
     for eta in (alpha / 30, alpha / 90, alpha / 270):
-        system = ForcedHarmonicBalanceSystem(chain_excitation([one_sided(alpha=alpha, eta=eta)]), harmonics=24)
-        U = np.asarray(continue_frequency_response(system, (0.14, 0.17), anm, max_truncation=1e-3).points)
-        j = np.flatnonzero(np.diff(np.sign(U[:, system.i_omega] - omega)))[0]
-        path, length = path_between(system, ANMStepper(anm), U, j)
-        found = bisect_sign_change(
-            lambda a, path=path, i=system.i_omega: path(a)[i] - omega, 0.0, length, tol=1e-12 * length
+        regularized = regularized_response_at(
+            chain_excitation([one_sided(alpha=alpha, eta=eta)]), frequency, (0.14, 0.17)
         )
-        regularized = response_amplitudes(system, path(found.midpoint)[None])[0]
         errors.append(np.abs(regularized - exact) / exact)
     errors = np.array(errors)
     assert np.all(errors[:-1] / errors[1:] > 2.0), errors
