@@ -501,11 +501,14 @@ class ForcedResponseProblem:
         return reasons
 
     def describe(self) -> str:
-        """The sequence in words, e.g. ``"q0 >= 1 in, q0 >= 1 out (half-wave)"``."""
+        """The sequence in words, e.g. ``"q0 >= 1 in, q0 >= 1 out (half-wave)"`` or ``"q0 - q1 >= 0.5 in, ..."``."""
         words = []
         for s in self.switches:
             c = self.contacts[s.contact]
-            coordinate = " ".join(f"{'+' if sign > 0 else '-'}q{dof}" for dof, sign in c.terms).lstrip("+")
+            (first, sign), rest = c.terms[0], c.terms[1:]
+            coordinate = f"{'-' if sign < 0 else ''}q{first}" + "".join(
+                f" {'+' if s > 0 else '-'} q{dof}" for dof, s in rest
+            )
             words.append(f"{coordinate} >= {c.gap:g} {'in' if s.entry else 'out'}")
         return ", ".join(words) + (" (half-wave)" if self.half_wave else "")
 
