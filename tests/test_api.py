@@ -54,3 +54,71 @@ def test_a_continued_nnm_is_a_labelled_branch_of_its_structure():
     gap_zero = linear_modes(params, "gap_zero")[0][1] / (2 * np.pi)
     assert float(nnm2.frequency[0]) == pytest.approx(start, rel=1e-4)
     assert float(nnm2.energy[-1]) > 3.0 and start < float(nnm2.frequency[-1]) < gap_zero
+
+
+# --------------------------------------------------------------------------- forced responses (issue 30)
+
+
+def _readme_block(section: str) -> str:
+    """The Python block of a README section."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    part = text[text.index(f"## {section}\n") :]
+    return part[part.index("```python\n") + len("```python\n") : part.index("```\n", part.index("```python"))]
+
+
+def test_the_readme_forced_example_gives_exact_and_regularized_responses_with_stability(capsys):
+    """README's forced section as written: a 2-DOF chain with a one-sided stop, both responses labelled as the
+    pipeline's datasets; the regularized law (eta = alpha / 400) folds where the exact one does, within 1 %."""
+    from nnmstop.netcdf import check_labelled
+
+    namespace = {}
+    exec(_readme_block("Forced responses"), namespace)  # noqa: S102 (the README's own code)
+    exact, regularized = namespace["exact"], namespace["regularized"]
+    assert "frequency" in capsys.readouterr().out
+    for ds, kind in ((exact, "forced_exact"), (regularized, "forced_regularized")):
+        check_labelled(ds)
+        assert ds.attrs["dataset_kind"] == kind and ds.attrs["stop_kinds"] == "one_sided"
+        assert (ds.stable == 0).any() and (ds.stable == 1).any()
+    folds = [
+        np.sort(ds.change_frequency.values[ds.change_kind.values == 0]) for ds in (exact, regularized)
+    ]  # fold: flag 0
+    assert len(folds[0]) == len(folds[1]) == 2
+    np.testing.assert_allclose(folds[1][1], folds[0][1], rtol=0.01)  # the upper fold: the jump down
+
+
+def test_the_forced_page_shows_the_readme_example():
+    """docs/forced.md's example is README's (run above), line for line."""
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "forced.md").read_text()
+    block = page[page.index("```python\n") + len("```python\n") : page.index("```\n", page.index("```python"))]
+    assert set(block.splitlines()) <= set(_readme_block("Forced responses").splitlines())
+
+
+def test_forced_response_takes_the_configurations_forms_and_refuses_what_it_cannot_do():
+    paper = nnmstop.two_dof_structure()
+    ds = nnmstop.forced_response(paper, {"ratios": [0.01, 0.01], "modes": [1, 2]}, (0.01, ["u"]), (0.05, 0.35))
+    assert ds.attrs["segment_kinds"] == "non_impacting" and list(ds.attrs["forcing_dofs"]) == [1]
+    from nnmstop.models.excitation import linear_response
+
+    amplitude = np.abs(linear_response(_paper_excitation(0.01), 2 * np.pi * ds.frequency.values))
+    np.testing.assert_allclose(ds.amplitude.values, amplitude, rtol=1e-12)
+    with pytest.raises(ValueError, match="method must be one of"):
+        nnmstop.forced_response(paper, [0.01], (0.01, [1]), (0.05, 0.35), method="shooting")
+    hole = nnmstop.Structure(np.eye(2), np.eye(2), [nnmstop.Stop(kind="circular", dofs=[0, 1], gap=1.0,
+                                                                 stiffness=10.0, eta=0.1)])  # fmt: skip
+    with pytest.raises(ValueError, match="method='regularized'"):
+        nnmstop.forced_response(hole, [0.01], (0.1, [0]), (0.1, 0.3))
+    with pytest.raises(ValueError, match="force dof 'w' is not a degree of freedom"):
+        nnmstop.forced_response(paper, [0.01], (0.1, ["w"]), (0.1, 0.3))
+    with pytest.raises(ValueError, match="frequency range"):
+        nnmstop.forced_response(paper, [0.01], (0.1, [0]), (0.3, 0.1))
+
+
+def _paper_excitation(force):
+    from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
+
+    paper = nnmstop.two_dof_structure()
+    return Excitation(paper, Damping.from_modal_ratios(paper, [0.01, 0.01]), HarmonicForce(force, [1]))

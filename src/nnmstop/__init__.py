@@ -9,7 +9,8 @@ The objects a user composes (numpydoc docstrings with examples; ``examples/quick
   a structure of one's own from ``.mtx``/``.npz`` files; :func:`normal_modes` — its linear modes.
 * :func:`continue_nnm` — an NNM by harmonic balance and the asymptotic numerical method, as a labelled
   :class:`xarray.Dataset`; :func:`stability` — Floquet multipliers of its orbits;
-  :func:`exact_family` — the exact NNM1 of the non-smooth structure with one impact per stop side.
+  :func:`exact_family` — the exact NNM1 of the non-smooth structure with one impact per stop side;
+  :func:`forced_response` — its damped response to a harmonic force, exact or regularized, with stability.
 
 Data flow of the package: :mod:`nnmstop.models` -> :mod:`nnmstop.exact` (closed-form orbits of the
 non-smooth system) -> :mod:`nnmstop.hbm` / :mod:`nnmstop.continuation` (regularized NNMs) ->
@@ -42,6 +43,7 @@ _EXPORTS = {
     "continue_nnm": "nnmstop.api",
     "stability": "nnmstop.api",
     "exact_family": "nnmstop.api",
+    "forced_response": "nnmstop.api",
 }
 
 __all__ = [*_EXPORTS, "__version__"]

@@ -1,4 +1,4 @@
-"""The few functions a user composes: continue an NNM, its stability, the exact one-impact family.
+"""The few functions a user composes: continue an NNM, its stability, the exact one-impact family, a forced response.
 
 They take a :class:`~nnmstop.models.structure.Structure` (the paper's oscillator is
 :func:`~nnmstop.models.structure.two_dof_structure`, a structure of one's own is built from matrices,
@@ -20,7 +20,14 @@ from nnmstop.hbm.stages import BranchSettings, BranchSpec, StageSpec, continue_s
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.models.structure import Structure
 
-__all__ = ["continue_nnm", "stability", "exact_family", "exact_family_dataset", "switching_family_dataset"]
+__all__ = [
+    "continue_nnm",
+    "stability",
+    "exact_family",
+    "exact_family_dataset",
+    "switching_family_dataset",
+    "forced_response",
+]
 
 
 def continue_nnm(
@@ -201,3 +208,152 @@ def exact_family(structure: Structure, step: float = 0.02, max_points: int = 200
 
     family = follow_switching_family(structure, step=step, max_points=max_points)
     return switching_family_dataset(structure, family)
+
+
+#: Methods of :func:`forced_response`.
+FORCED_METHODS = ("exact", "regularized")
+
+
+def _damping(structure: Structure, damping):
+    from nnmstop.forced.scenes import _damping as from_spec
+    from nnmstop.models.excitation import Damping
+
+    if isinstance(damping, Damping):
+        return damping
+    if isinstance(damping, dict):
+        return from_spec(structure, damping)
+    ratios = np.atleast_1d(np.asarray(damping, dtype=float))
+    if not 1 <= ratios.size <= 2:
+        raise ValueError(
+            f"damping: give a Damping, a dict as the config's forced.damping, or the damping ratios of the lowest one "
+            f"or two linear modes; got {damping!r}"
+        )
+    return Damping.from_modal_ratios(structure, ratios.tolist(), list(range(1, ratios.size + 1)))
+
+
+def _force(structure: Structure, force):
+    from nnmstop.forced.scenes import _dof_indices
+    from nnmstop.models.excitation import HarmonicForce
+
+    if isinstance(force, HarmonicForce):
+        return force
+    try:
+        amplitude, dofs = force
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"force: give a HarmonicForce or (amplitude, dofs) with dofs labels or indices, got {force!r}"
+        ) from None
+    dofs = [dofs] if isinstance(dofs, (str, int, np.integer)) else list(dofs)
+    return HarmonicForce(float(amplitude), tuple(_dof_indices(structure, dofs, "force")))
+
+
+def forced_response(
+    structure: Structure,
+    damping,
+    force,
+    frequency_range,
+    method: str = "exact",
+    harmonics: int = 40,
+    continuation=None,
+    stability=None,
+    max_truncation: float = 1e-3,
+) -> xr.Dataset:
+    """The periodic responses of ``structure`` with ``damping`` to ``force`` over ``frequency_range``, with stability.
+
+    ``M q'' + C q' + K q + (stop forces) = F cos(Omega t) b``, the same computation as the pipeline's
+    ``snakemake forced`` (:mod:`nnmstop.forced.assemble`, ``docs/forced.md``):
+
+    * ``method="exact"``: the piecewise-linear law of every stop in closed form per phase: the non-impacting
+      response and, from each of its grazing orbits, the responses with one contact per grazing contact per
+      period (no symmetry assumed; the half-wave reduction where every law is odd), each family followed until
+      an assumption fails, its end located and confirmed; multipliers from the product of the phase exponentials.
+      Every stop must be piecewise linear: a circular clearance is refused (use ``method="regularized"``).
+    * ``method="regularized"``: the regularized law of every stop by harmonic balance (``harmonics``) and the
+      asymptotic numerical method through the folds; multipliers of the damped variational equation at the
+      precision their verdicts need.
+
+    Both locate and type the stability changes (folds, symmetry breaking, period doubling, Neimark-Sacker) and
+    say per point what the response is where the periodic one is unstable (``regime``).
+
+    Parameters
+    ----------
+    structure : Structure
+    damping : Damping, sequence of float or dict
+        A :class:`~nnmstop.models.excitation.Damping`; or the damping ratios of the lowest one or two linear modes
+        (Rayleigh damping); or a dict as the configuration's ``forced.damping`` (``{ratios, modes}`` or
+        ``{mass_coefficient, stiffness_coefficient}``).
+    force : HarmonicForce or (float, dofs)
+        A :class:`~nnmstop.models.excitation.HarmonicForce`, or its amplitude ``F`` and the forced degrees of
+        freedom (labels or indices; the unit pattern ``b``).
+    frequency_range : (float, float)
+        Lowest and highest frequency of the force, Hz of the nondimensional time.
+    method : {"exact", "regularized"}
+    harmonics : int
+        ``H`` of the regularized response.
+    continuation : ExactSettings or ANMSettings, optional
+        :class:`~nnmstop.forced.responses.ExactSettings` (exact) or
+        :class:`~nnmstop.continuation.anm.ANMSettings` (regularized).
+    stability : ForcedStabilitySettings, optional
+        Magnus steps and resolution factor of the verdicts
+        (:class:`~nnmstop.forced.regularized.ForcedStabilitySettings`; its ``resolution_factor`` also applies to
+        the exact verdicts).
+    max_truncation : float
+        Largest truncation indicator of a regularized orbit.
+
+    Returns
+    -------
+    xarray.Dataset
+        Per point ``frequency``, ``amplitude`` (``max |q|`` of every DOF; ``x_amplitude`` of the first stop's DOF,
+        ``u_amplitude`` of the first forced DOF), ``phase_lag``, ``stable``, the multipliers, ``regime``,
+        ``stability_resolved``; the located changes (``change_frequency``, ``change_kind``); the orbits
+        (exact: their unknowns or switches; regularized: Fourier coefficients). Kinds ``forced_exact`` and
+        ``forced_regularized`` of the catalogue (``docs/datasets.md``).
+
+    Raises
+    ------
+    ValueError
+        An unknown ``method``; a circular clearance with ``method="exact"``; bad damping, force or range.
+
+    Examples
+    --------
+    A 2-DOF chain with a one-sided stop on its first mass, forced there:
+
+    >>> import numpy as np
+    >>> import nnmstop
+    >>> stop = nnmstop.Stop(kind="one_sided", dof=0, side="positive", gap=1.0, stiffness=20.0, eta=0.05)
+    >>> chain = nnmstop.Structure(np.eye(2), [[2.0, -1.0], [-1.0, 2.0]], [stop])
+    >>> exact = nnmstop.forced_response(chain, [0.02, 0.02], (0.2, [0]), (0.1, 0.35))
+    >>> exact.attrs["segment_kinds"], bool((exact.stable == 0).any())  # an unstable stretch past the fold
+    ('non_impacting one_contact non_impacting', True)
+    >>> [str(k) for k in exact.change_kind.attrs["flag_meanings"].split()][:2]
+    ['fold', 'symmetry_breaking']
+    """
+    from nnmstop.catalogue import describe
+    from nnmstop.forced import assemble
+    from nnmstop.forced.regularized import ForcedStabilitySettings
+    from nnmstop.forced.responses import ExactSettings, RegularizedSettings
+    from nnmstop.forced.scenes import _frequency_range
+    from nnmstop.models.excitation import Excitation
+
+    if method not in FORCED_METHODS:
+        raise ValueError(f"method must be one of {FORCED_METHODS}, got {method!r}")
+    if method == "exact":
+        curved = [s.label for s in structure.stops if not s.piecewise_linear]
+        if curved:
+            raise ValueError(
+                f"method='exact' needs piecewise-linear stops; the {', '.join(curved)} is not (use "
+                "method='regularized')"
+            )
+    excitation = Excitation(structure, _damping(structure, damping), _force(structure, force))
+    frequency_range = _frequency_range(frequency_range, "frequency_range")
+    stability = stability or ForcedStabilitySettings()
+    if method == "exact":
+        ds = assemble.exact_response_dataset(
+            excitation, frequency_range, continuation or ExactSettings(), stability.resolution_factor
+        )
+    else:
+        anm = continuation or ANMSettings(points_per_step=2)
+        settings = RegularizedSettings(int(harmonics), anm, float(max_truncation))
+        ds = assemble.regularized_response_dataset(excitation, frequency_range, settings, stability)
+    ds.attrs = {**structure.attributes, **ds.attrs}
+    return describe(ds, f"forced_{'exact' if method == 'exact' else 'regularized'}")

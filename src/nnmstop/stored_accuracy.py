@@ -116,7 +116,8 @@ def _stops_of(ds: xr.Dataset) -> list:
         raise ValueError("it records no stops (stop_dof, stop_gap, stop_stiffness, stop_eta)")
 
     def column(key):
-        return np.atleast_1d(np.asarray(source[key].values if hasattr(source[key], "values") else source[key]))
+        value = source[key].values if hasattr(source[key], "values") else source[key]
+        return np.array(value.split()) if isinstance(value, str) else np.atleast_1d(np.asarray(value))
 
     stops = [{"dof": int(d), "gap": float(g), "stiffness": float(k), "eta": float(e)} for d, g, k, e in
              zip(*(column(key) for key in keys))]  # fmt: skip

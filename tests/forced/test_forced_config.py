@@ -64,8 +64,47 @@ def test_scenes_that_cannot_be_computed_or_drawn_are_refused_naming_the_key(conf
 
 def test_an_exact_response_without_any_piece_is_named_by_its_task(config, monkeypatch):
     """Past validation (a configuration built by hand), the task names the scene and the keys."""
+    from nnmstop.forced import assemble
     from nnmstop.tasks import forced
 
-    monkeypatch.setattr(forced, "exact_response", lambda *args: [])
-    with pytest.raises(ValueError, match=r"forced scene F0\.05: the exact response has no piece .*forced\.force"):
+    monkeypatch.setattr(assemble, "exact_response", lambda *args: [])
+    with pytest.raises(
+        ValueError, match=r"forced scene F0\.05 \(forced\.force\.amplitudes.*\): the exact response has no piece"
+    ):
         forced.exact_response_dataset(config, forced_scenes(config)[2])
+
+
+def test_the_forced_section_applies_to_the_structure_of_the_configuration(config, repo_root):
+    """A 3-DOF chain from matrix files with a one-sided stop (``structure: kind: matrices``): the scenes are
+    built on it (force DOF by its label), its exact response is stored by its switches, and every stored orbit
+    is rebuilt from the dataset (periodic, through the stored switch states)."""
+    import numpy as np
+
+    from nnmstop.catalogue import describe
+    from nnmstop.forced.dataset import exact_time_history
+    from nnmstop.tasks.forced import exact_response_dataset
+
+    example = repo_root / "examples" / "three_dof_chain"
+    chain = copy.deepcopy(config)
+    chain["structure"] = {
+        "kind": "matrices",
+        "matrices": {
+            "mass": str(example / "mass.mtx"),
+            "stiffness": str(example / "stiffness.mtx"),
+            "dof_labels": ["x1", "x2", "x3"],
+            "stops": [{"kind": "one_sided", "dof": 0, "side": "positive", "gap": 1.0, "stiffness": 30.0, "eta": 0.1}],
+        },
+    }
+    chain["forced"]["force"].update(dofs=["x3"], amplitudes=[0.1])
+    (scene,) = forced_scenes(chain, "oscillator")
+    assert scene.excitation.structure.n_dofs == 3 and scene.excitation.force.dofs == (2,)
+    assert scene.excitation.structure.stops[0].kind == "one_sided"
+    ds = describe(exact_response_dataset(chain, scene), "forced_exact")
+    assert "contact_unknowns" not in ds and ds.attrs["stop_kinds"] == "one_sided"
+    assert ds.attrs["segment_sequences"].startswith("1: q0 >= 1 in, q0 >= 1 out")
+    for point in (1, ds.sizes["contact_point"] // 2):
+        history = exact_time_history(ds, scene.excitation, point, samples=256)
+        start = ds["switch_state"].values[point]
+        np.testing.assert_allclose(np.concatenate([history["q"][:, 0], history["qdot"][:, 0]]), start, atol=1e-12)
+        i = ds["contact_point_index"].values[point]
+        np.testing.assert_allclose(np.abs(history["q"]).max(axis=1), ds["amplitude"].values[i], rtol=1e-3)

@@ -19,7 +19,7 @@ from nnmstop.hbm.forced import (
 )
 from nnmstop.models.excitation import linear_response
 
-from .conftest import oscillator_excitation
+from .conftest import exact_response_at, oscillator_excitation, regularized_response_at
 
 SETTINGS = ANMSettings(points_per_step=1)
 
@@ -106,57 +106,17 @@ def test_backbone_predicts_the_peak_with_an_error_falling_with_the_damping():
     assert np.all(errors[1:] <= 0.55 * errors[:-1]), errors
 
 
-def _exact_response_at(excitation, frequency):
-    """The exact one-contact response at ``frequency`` (Hz): first crossing of the family from grazing, then
-    Newton with Omega fixed (round-off)."""
-    from nnmstop.continuation.newton import newton_solve
-    from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
-    from nnmstop.exact.forced import SymmetricContactProblem, follow_contact_family, grazing_frequencies
-
-    problem = SymmetricContactProblem(excitation)
-    grazing = grazing_frequencies(excitation, 2 * np.pi * 0.05, 2 * np.pi * 0.35)
-    direction = np.zeros(problem.n_unknowns)
-    direction[-2] = 1.0
-    settings = PseudoArclengthSettings(tolerance=1e-12, initial_step=0.02, max_step=0.1)
-    Y = follow_contact_family(problem, problem.grazing_start(grazing[0]), direction, settings, (0.05, 0.35)).unknowns
-    i = np.flatnonzero(np.diff(np.sign(Y[:, -1] / (2 * np.pi) - frequency)))[0]
-    omega = 2 * np.pi * frequency
-    result = newton_solve(
-        lambda y: np.append(problem.residual(y), y[-1] - omega),
-        lambda y: np.vstack([problem.jacobian(y), np.eye(len(y))[-1]]),
-        Y[i],
-        tol=1e-13,
-        max_iter=30,
-    )
-    assert result.converged
-    return problem.amplitudes(result.y)
-
-
-def _regularized_response_at(excitation, frequency, harmonics=24):
-    """The regularized response at ``frequency`` (Hz): first crossing of the ANM continuation, located on the ANM
-    step (bisection of Omega along the series, no interpolation)."""
-    from nnmstop.continuation.anm import ANMStepper
-    from nnmstop.continuation.newton import bisect_sign_change
-    from nnmstop.forced.responses import path_between
-
-    system = ForcedHarmonicBalanceSystem(excitation, harmonics)
-    U = np.asarray(continue_frequency_response(system, (0.09, 0.16), SETTINGS, max_truncation=1e-3).points)
-    j = np.flatnonzero(np.diff(np.sign(U[:, system.i_omega] / (2 * np.pi) - frequency)))[0]
-    path, length = path_between(system, ANMStepper(SETTINGS), U, j)
-    found = bisect_sign_change(
-        lambda a: path(a)[system.i_omega] - 2 * np.pi * frequency, 0.0, length, tol=1e-12 * length
-    )
-    return response_amplitudes(system, path(found.midpoint)[None])[0]
-
-
 @pytest.mark.numerics
 def test_regularized_response_converges_to_the_exact_one_at_first_order_in_eta():
     """On the upper branch past grazing (0.115 Hz, F = 0.05, alpha = 3), the regularized law differs from the
     piecewise-linear one by O(eta): the amplitudes converge to the exact response at first order."""
-    exact = _exact_response_at(oscillator_excitation(0.05, alpha=3.0, eta=0.1), 0.115)
+    exact = exact_response_at(oscillator_excitation(0.05, alpha=3.0, eta=0.1), 0.115, (0.05, 0.35))
     errors = np.array(
         [
-            np.abs(_regularized_response_at(oscillator_excitation(0.05, alpha=3.0, eta=eta), 0.115) - exact) / exact
+            np.abs(
+                regularized_response_at(oscillator_excitation(0.05, alpha=3.0, eta=eta), 0.115, (0.09, 0.16)) - exact
+            )
+            / exact
             for eta in (0.1, 0.05, 0.025)
         ]
     )

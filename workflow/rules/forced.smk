@@ -6,11 +6,13 @@
 
 
 
-FORCED_CONFIG = task_config("model", "anm", "forced", "metadata", tube=["structure"])
+FORCED_CONFIG = task_config("model", "structure", "anm", "forced", "metadata", tube=["structure"])
 
 
 rule forced_exact:
     """Exact response of the non-smooth oscillator at one force level."""
+    input:
+        unpack(structure_files),
     output:
         dataset=results("forced/exact_{scene}.nc"),
     log:
@@ -27,6 +29,8 @@ rule forced_exact:
 
 rule forced_regularized:
     """Regularized response (harmonic balance + ANM) at one force level, or the tube's."""
+    input:
+        unpack(structure_files),
     output:
         dataset=results("forced/regularized_{scene}.nc"),
     log:
@@ -43,6 +47,8 @@ rule forced_regularized:
 
 rule forced_backbone:
     """Regularized NNM backbones over the forced frequency range and the peaks they predict at each force level."""
+    input:
+        unpack(structure_files),
     output:
         dataset=results("forced/backbone.nc"),
     log:
@@ -59,6 +65,8 @@ rule forced_backbone:
 
 rule forced_prediction:
     """The backbone's prediction of the NNM1 peak against the located peak as the damping goes to zero."""
+    input:
+        unpack(structure_files),
     output:
         dataset=results("forced/prediction_error.nc"),
     log:

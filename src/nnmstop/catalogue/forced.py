@@ -50,9 +50,10 @@ FORCED_EXACT = DatasetKind(
     "forced_exact",
     "Exact forced response of the non-smooth system",
     ("forced/exact_F<F>.nc",),
-    "Periodic responses of the damped structure with the piecewise-linear stop to F cos(Omega t) on the forced "
-    "DOFs: the non-impacting (linear) response and the symmetric responses with one contact per stop per period, "
-    "in closed form per phase (nnmstop.exact.forced); multipliers from the products of the phase exponentials.",
+    "Periodic responses of the damped structure with piecewise-linear stops to F cos(Omega t) on the forced "
+    "DOFs: the non-impacting (linear) response and the responses with one contact per grazing contact per period "
+    "(symmetric under odd laws, over full periods otherwise), in closed form per phase (nnmstop.exact.forced); "
+    "multipliers from the products of the phase exponentials.",
     RESPONSE_VARIABLES
     + (
         Variable(
@@ -63,6 +64,35 @@ FORCED_EXACT = DatasetKind(
             optional=True,
         ),
         Variable("contact_point_index", ("contact_point",), "index of the point of the response", optional=True),
+        Variable(
+            "switch_state",
+            ("contact_point", "state"),
+            "state (q, qdot) at the first switch of the period of a full-period response (no symmetry assumed)",
+            optional=True,
+        ),
+        Variable("switch_point", ("switch",), "index of the contact point the switch belongs to", optional=True),
+        Variable("switch_phase", ("switch",), "phase Omega t (mod 2 pi) of the switch", units="rad", optional=True),
+        Variable(
+            "switch_contact",
+            ("switch",),
+            "index of the half-space contact entered or left (dimension contact)",
+            optional=True,
+        ),
+        Variable(
+            "switch_entry",
+            ("switch",),
+            "whether the contact is entered or left",
+            flags=("exit", "entry"),
+            optional=True,
+        ),
+        Variable("contact_stop", ("contact",), "index of the stop of the half-space contact", optional=True),
+        Variable(
+            "contact_side",
+            ("contact",),
+            "side of the half-space contact: +1 where the stop's coordinate exceeds its gap, -1 where it is below "
+            "minus its gap",
+            optional=True,
+        ),
         Variable(
             "multiplier_error",
             ("point",),

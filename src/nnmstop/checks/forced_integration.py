@@ -3,9 +3,11 @@
 ``M q'' + C q' + K q + sum_s e_s f_s(q_s / e_s) = F cos(Omega t) b`` integrated by
 :func:`scipy.integrate.solve_ivp` (DOP853) for any :class:`~nnmstop.models.excitation.Excitation`:
 
-* :func:`integrate_forced_nonsmooth`: the piecewise-linear law; every crossing of a stop ``q_s = +-e_s`` is
-  a terminal event, and the integration restarts from the located state in the new linear region, so the
-  integrator never steps across a kink of the law;
+* :func:`integrate_forced_nonsmooth`: the piecewise-linear law of every stop, as its half-space contacts
+  (:meth:`nnmstop.models.contact.StopSet.contacts`: a bilateral stop's two sides, a one-sided stop, a relative
+  stop on ``q_i - q_j``); every crossing of a switching surface ``n . q = g`` is a terminal event, and the
+  integration restarts from the located state with that contact toggled, so the integrator never steps across a
+  kink of the law;
 * :func:`integrate_forced_regularized`: the smooth regularized law of every stop (Eq. 5 with the sign slip
   corrected for the paper's stop; :mod:`nnmstop.models.contact` for the others).
 
@@ -28,19 +30,6 @@ def _matrices(excitation: Excitation):
     C = excitation.damping_matrix
     C = C.toarray() if scipy.sparse.issparse(C) else np.asarray(C, dtype=float)
     return np.linalg.inv(M), K, C
-
-
-def _stops(excitation: Excitation):
-    stops = excitation.structure.stops
-    other = [s.label for s in stops if s.kind != "bilateral"]
-    if other:
-        raise ValueError(f"this integrator handles bilateral stops on one degree of freedom, not {', '.join(other)}")
-    return (
-        np.array([s.dof for s in stops]),
-        np.array([s.gap for s in stops]),
-        np.array([s.stiffness for s in stops]),
-        stops,
-    )
 
 
 def integrate_forced_regularized(excitation: Excitation, omega: float, z0, t_eval, rtol=1e-12, atol=1e-13):
@@ -66,59 +55,51 @@ def integrate_forced_regularized(excitation: Excitation, omega: float, z0, t_eva
     return sol.y.T
 
 
-def _region(q, v, dofs, gaps):
-    """Per stop: +1 beyond the right stop, -1 beyond the left one, 0 inside (on a stop the velocity decides)."""
-    x, xd = q[dofs], v[dofs]
-    return np.where((x > gaps) | ((x == gaps) & (xd > 0)), 1, np.where((x < -gaps) | ((x == -gaps) & (xd < 0)), -1, 0))
-
-
 def integrate_forced_nonsmooth(
     excitation: Excitation, omega: float, z0, t_eval, rtol=1e-12, atol=1e-13, max_switches: int = 100000
 ):
     """States ``(q, qdot)`` at ``t_eval`` from ``z0`` at ``t_eval[0]``, piecewise-linear law, event-located switches.
 
-    Returns the states (len, 2N) and the switching times.
+    Returns the states (len, 2N) and the switching times. The contacts active at the start are those whose
+    coordinate is beyond the gap (or on it, moving in).
     """
     m_inv, K, C = _matrices(excitation)
-    dofs, gaps, alphas, _ = _stops(excitation)
+    contacts = excitation.structure.contact.contacts()
     load = excitation.load
     n = len(load)
+    normals = np.array([c.normal(n) for c in contacts])
+    gaps = np.array([c.gap for c in contacts])
+    alphas = np.array([c.alpha for c in contacts])
     t_eval = np.asarray(t_eval, dtype=float)
     z = np.asarray(z0, dtype=float).copy()
     t = float(t_eval[0])
     out = np.empty((len(t_eval), 2 * n))
     out[0] = z
+    c_q, c_v = normals @ z[:n], normals @ z[n:]
+    active = (c_q > gaps) | ((c_q == gaps) & (c_v > 0))
     k, switches = 1, []
     while k < len(t_eval):
         if len(switches) > max_switches:
             raise RuntimeError(f"more than max_switches={max_switches} stop crossings; grazing chatter?")
-        region = _region(z[:n], z[n:], dofs, gaps)
 
-        def rhs(time, y, region=region):
+        stiff = alphas * active  # the contacts' stiffness in this linear region
+
+        def rhs(time, y, stiff=stiff):
             q, v = y[:n], y[n:]
             force = load * np.cos(omega * time) - K @ q - C @ v
-            force[dofs] -= alphas * (q[dofs] - region * gaps) * (region != 0)
+            force -= (stiff * (normals @ q - gaps)) @ normals
             return np.concatenate([v, m_inv @ force])
 
         events = []
-        for dof, gap, r in zip(dofs, gaps, region):
-            levels = ((gap, 1.0), (-gap, -1.0)) if r == 0 else ((r * gap, -float(r)),)
-            for level, direction in levels:
+        for normal, gap, on in zip(normals, gaps, active):
 
-                def event(time, y, dof=dof, level=level):
-                    return y[dof] - level
+            def event(time, y, normal=normal, gap=gap):
+                return normal @ y[:n] - gap
 
-                event.terminal, event.direction = True, direction
-                events.append((event, dof, level))
+            event.terminal, event.direction = True, (-1.0 if on else 1.0)
+            events.append(event)
         sol = solve_ivp(
-            rhs,
-            (t, t_eval[-1]),
-            z,
-            method="DOP853",
-            t_eval=t_eval[k:],
-            rtol=rtol,
-            atol=atol,
-            events=[e[0] for e in events],
+            rhs, (t, t_eval[-1]), z, method="DOP853", t_eval=t_eval[k:], rtol=rtol, atol=atol, events=events
         )
         if sol.status < 0:
             raise RuntimeError(f"solve_ivp failed: {sol.message}")
@@ -130,8 +111,7 @@ def integrate_forced_nonsmooth(
             which = next(i for i, te in enumerate(sol.t_events) if te.size)
             t = float(sol.t_events[which][0])
             z = sol.y_events[which][0].copy()
-            _, dof, level = events[which]
-            z[dof] = level  # exactly on the stop; the velocity decides the new region
+            active[which] = not active[which]
             switches.append(t)
     return out, np.array(switches)
 

@@ -180,14 +180,17 @@ def _regularized_orbit(ds: xr.Dataset, i: int, samples: int):
 def orbits_figure(
     exact_ds: xr.Dataset,
     regularized_ds: xr.Dataset,
-    problem,
+    excitation,
     frequencies,
     pdf_path,
     png_dpi: int = 150,
     samples: int = 1024,
 ):
     """Orbits (stop DOF, forced DOF) and contact force over one period at each frequency of ``frequencies``:
-    the first point of the one-contact exact response and of the regularized one at that frequency."""
+    the first point of the one-contact exact response (rebuilt from the dataset of ``excitation``,
+    :func:`nnmstop.forced.dataset.exact_time_history`) and of the regularized one at that frequency."""
+    from nnmstop.forced.dataset import exact_time_history
+
     fig, axes = plt.subplots(
         2, len(frequencies), figsize=(4.2 * len(frequencies), 5.6), layout="constrained", squeeze=False
     )
@@ -197,8 +200,7 @@ def orbits_figure(
         index = exact_ds["contact_point_index"].values
         crossing = np.flatnonzero(np.diff(np.sign(exact_ds["frequency"].values[index] - target)))
         if crossing.size:
-            y = exact_ds["contact_unknowns"].values[crossing[0]]
-            history = problem.time_history(y, samples)
+            history = exact_time_history(exact_ds, excitation, int(crossing[0]), samples)
             phase = np.mod(history["theta"], 2 * np.pi)
             order = np.argsort(phase)
             top.plot(phase[order], history["q"][stop][order], color=EXACT_LINE, lw=1.0, label="exact, stop DOF")

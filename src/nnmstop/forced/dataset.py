@@ -6,7 +6,9 @@ of every DOF, ``phase_lag`` of every DOF's fundamental behind the force, ``stabl
 (``multiplier_real``, ``multiplier_imag``), ``regime`` and ``segment``; the located stability changes
 (dimension ``change``); the attributes ``forcing_amplitude``, ``forcing_dofs``, the damping
 (``damping_ratio`` and the Rayleigh coefficients) and ``contact_law`` (``piecewise_linear`` or
-``regularized``).
+``regularized``). The orbits of an exact response are kept by their unknowns: ``contact_unknowns`` for the
+half-wave families (the paper's), the switches (``switch_*``) for the full-period ones;
+:func:`exact_time_history` rebuilds any stored orbit.
 """
 
 from __future__ import annotations
@@ -15,7 +17,12 @@ import numpy as np
 import xarray as xr
 
 from nnmstop import fourier
-from nnmstop.exact.forced import SymmetricContactProblem, non_impacting_response
+from nnmstop.exact.forced import (
+    ForcedResponseProblem,
+    SymmetricContactProblem,
+    non_impacting_response,
+    structure_contacts,
+)
 from nnmstop.forced.stability_changes import KINDS, regimes
 from nnmstop.hbm.forced import phase_lags, response_amplitudes
 from nnmstop.models.excitation import Excitation
@@ -27,6 +34,7 @@ __all__ = [
     "base_attributes",
     "SEGMENT_KINDS",
     "exact_dataset",
+    "exact_time_history",
     "regularized_dataset",
     "backbone_dataset",
 ]
@@ -94,8 +102,9 @@ def base_attributes(excitation: Excitation, contact_law: str, frequency_range) -
     """Global attributes of a response dataset."""
     if contact_law not in ("piecewise_linear", "regularized"):
         raise ValueError(f"contact_law must be 'piecewise_linear' or 'regularized', got {contact_law!r}")
-    stop = excitation.structure.stops[0]
-    return {
+    stops = excitation.structure.stops
+    stop = stops[0]
+    attrs = {
         **excitation.structure.attributes,  # the structure, rebuilt by the readers (nnmstop.stored_accuracy)
         **excitation.as_attrs(),
         "contact_law": contact_law,
@@ -105,20 +114,48 @@ def base_attributes(excitation: Excitation, contact_law: str, frequency_range) -
         "stop_stiffness": float(stop.stiffness),
         "stop_eta": float(stop.eta),
     }
+    if len(stops) > 1 or any(s.kind != "bilateral" for s in stops):
+        # every stop, as the branch datasets' stop variables (the paper's datasets, one bilateral stop, keep theirs):
+        # the readers rebuild the structure from them (nnmstop.stored_accuracy)
+        meta = [s.metadata() for s in stops]
+        attrs.update(
+            stop_dof=np.array(excitation.structure.stop_dofs, dtype=np.int32),
+            stop_gap=np.array([s.gap for s in stops]),
+            stop_stiffness=np.array([s.stiffness for s in stops]),
+            stop_eta=np.array([s.eta for s in stops]),
+            stop_kind=" ".join(m["kind"] for m in meta),  # text attribute: the kinds in the order of the stops
+            stop_side=np.array([m["side"] for m in meta], dtype=np.int32),
+            stop_other_dof=np.array([m["dofs"][-1] for m in meta], dtype=np.int32),
+            stop_labels="; ".join(s.label for s in stops),
+        )
+    return attrs
 
 
-def _exact_lags(piece, problem) -> np.ndarray:
+def _exact_lags(piece, excitation: Excitation) -> np.ndarray:
     """Lag of each DOF's fundamental behind the force, per point of an exact piece (radians)."""
     if piece.kind == "non_impacting":
-        amplitude = non_impacting_response(problem.excitation, 2 * np.pi * piece.frequency)
+        amplitude = non_impacting_response(excitation, 2 * np.pi * piece.frequency)
         return np.mod(-np.angle(amplitude), 2 * np.pi)
     samples = 2048
     lags = []
     for y in piece.unknowns:
-        history = problem.time_history(y, samples)
+        history = piece.problem.time_history(y, samples)
         fundamental = (2.0 / samples) * history["q"] @ np.exp(-1j * history["theta"])
         lags.append(np.mod(-np.angle(fundamental), 2 * np.pi))
     return np.array(lags)
+
+
+def _switch_variables(problem: ForcedResponseProblem, unknowns, first: int) -> dict:
+    """The switches of the full-period orbits ``unknowns`` (contact points ``first``, ``first + 1``, ...)."""
+    m, rows = problem.m, len(unknowns)
+    phases = np.array([problem.switch_phases(y)[:m] for y in unknowns])
+    return {
+        "switch_state": np.array([problem.split(y)[0] for y in unknowns]),
+        "switch_point": np.repeat(first + np.arange(rows), m),
+        "switch_phase": np.mod(phases, 2 * np.pi).ravel(),
+        "switch_contact": np.tile([s.contact for s in problem.switches], rows),
+        "switch_entry": np.tile([int(s.entry) for s in problem.switches], rows),
+    }
 
 
 def exact_verdicts(mu, error, resolution_factor: float) -> dict:
@@ -135,26 +172,35 @@ def exact_verdicts(mu, error, resolution_factor: float) -> dict:
 def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolution_factor: float = 2.0) -> xr.Dataset:
     """Dataset of the exact response (:func:`nnmstop.forced.responses.exact_response`), pieces one after the other.
 
-    The contact families' unknowns (``z1``, ``theta1``, contact phase duration, ``Omega``) are kept in
-    ``contact_unknowns(contact_point, unknown)`` with ``contact_point_index`` into ``point``. A verdict is
-    resolved where its margin exceeds ``resolution_factor`` times the multipliers' error estimate (of ``mu``).
+    The orbits of the half-wave families (unknowns ``z1``, ``theta1``, contact phase duration, ``Omega``) are kept
+    in ``contact_unknowns(contact_point, unknown)``, those of the full-period families by their switches
+    (``switch_state(contact_point, state)`` at the first switch; ``switch_point``, ``switch_phase``,
+    ``switch_contact``, ``switch_entry`` along ``switch``; the half-space contacts ``contact_stop``,
+    ``contact_side``), each with ``contact_point_index`` into ``point``. A verdict is resolved where its margin
+    exceeds ``resolution_factor`` times the multipliers' error estimate (of ``mu``).
     """
-    problem = SymmetricContactProblem(excitation)
-    parts, changes, offset = [], [], 0
-    contact_rows, contact_index = [], []
+    parts, changes, offset, owner = [], [], 0, {}
+    contact_rows, contact_index, switch_parts, contact_points = [], [], [], 0
     for k, piece in enumerate(pieces):
-        half = piece.kind == "one_contact"
+        problem = piece.problem
+        if piece.kind == "one_contact" and problem is None:  # a piece built without its problem: the paper's
+            problem = piece.problem = SymmetricContactProblem(excitation)
+        half = piece.kind == "one_contact" and problem.half_wave
         multipliers, error = piece.multipliers, piece.multiplier_error
         if half:  # nu of the half-period map (the piece holds mu = nu**2)
             multipliers = np.array([problem.multipliers(y)[1] for y in piece.unknowns])
             error = 2 * np.abs(multipliers).max(axis=1) * error  # of mu = nu**2
             contact_rows.append(piece.unknowns)
+        elif piece.kind == "one_contact":
+            switch_parts.append(_switch_variables(problem, piece.unknowns, contact_points))
+        if piece.kind == "one_contact":
             contact_index.append(offset + np.arange(len(piece.frequency)))
+            contact_points += len(piece.frequency)
         variables = response_variables(
             excitation,
             piece.frequency,
             piece.amplitude,
-            _exact_lags(piece, problem),
+            _exact_lags(piece, excitation),
             multipliers,
             half,
             np.full(len(piece.frequency), k),
@@ -162,19 +208,60 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolut
         variables.update(exact_verdicts(piece.multipliers, error, resolution_factor))
         parts.append(xr.Dataset(variables))
         changes += piece.changes
+        owner.update({id(c.U): problem for c in piece.changes})
         offset += len(piece.frequency)
     ds = xr.concat(parts, dim="point", data_vars="all", combine_attrs="override")
     ds["dof_label"] = dof_label_variable(excitation.structure)
-    ds.update(change_variables(changes, lambda U: U[-1] / (2 * np.pi), problem.amplitudes, problem.n))
-    if contact_rows:
-        ds["contact_unknowns"] = (("contact_point", "unknown"), np.concatenate(contact_rows))
+    n = excitation.structure.n_dofs
+    ds.update(change_variables(changes, lambda U: U[-1] / (2 * np.pi), lambda U: owner[id(U)].amplitudes(U), n))
+    if contact_index:
+        if contact_rows and switch_parts:
+            raise ValueError("an exact response mixes half-wave and full-period families: store them apart")
+        if contact_rows:
+            ds["contact_unknowns"] = (("contact_point", "unknown"), np.concatenate(contact_rows))
+        else:
+            switches = {key: np.concatenate([part[key] for part in switch_parts]) for key in switch_parts[0]}
+            ds["switch_state"] = (("contact_point", "state"), switches.pop("switch_state"))
+            ds["switch_point"] = ("switch", switches["switch_point"].astype(np.int32))
+            ds["switch_phase"] = ("switch", switches["switch_phase"])
+            ds["switch_contact"] = ("switch", switches["switch_contact"].astype(np.int32))
+            ds["switch_entry"] = ("switch", switches["switch_entry"].astype(np.int8))
+            contacts = structure_contacts(excitation.structure)
+            ds["contact_stop"] = ("contact", np.array([c.stop for c in contacts], dtype=np.int32))
+            ds["contact_side"] = ("contact", np.array([c.side for c in contacts], dtype=np.int8))
         ds["contact_point_index"] = ("contact_point", np.concatenate(contact_index).astype(np.int32))
     ds.attrs.update(base_attributes(excitation, "piecewise_linear", frequency_range))
     ds.attrs["stability_resolution_factor"] = float(resolution_factor)
     ds.attrs["segment_kinds"] = " ".join(p.kind for p in pieces)
     ds.attrs["segment_end_reasons"] = "; ".join(f"{k}: {p.end_reason}" for k, p in enumerate(pieces))
     ds.attrs["segment_end_checks"] = "; ".join(f"{k}: {p.end_check}" for k, p in enumerate(pieces))
+    if switch_parts:
+        ds.attrs["segment_sequences"] = "; ".join(
+            f"{k}: {p.problem.describe()}" for k, p in enumerate(pieces) if p.kind == "one_contact"
+        )
     return ds
+
+
+def exact_time_history(ds: xr.Dataset, excitation: Excitation, contact_point: int, samples: int = 1024) -> dict:
+    """One period of the stored exact orbit ``contact_point`` of an exact response dataset of ``excitation``
+    (:meth:`~nnmstop.exact.forced.ForcedResponseProblem.time_history`), from either layout."""
+    if "contact_unknowns" in ds:
+        y = ds["contact_unknowns"].values[contact_point]
+        return SymmetricContactProblem(excitation).time_history(y, samples)
+    pick = ds["switch_point"].values == contact_point
+    contacts = [int(c) for c in ds["switch_contact"].values[pick]]
+    entry = ds["switch_entry"].values[pick].astype(bool)
+    # active before the first switch: the contacts whose first switch leaves them
+    active, sequence = {c for c in set(contacts) if not entry[contacts.index(c)]}, []
+    for c, enters in zip(contacts, entry):
+        active = active | {c} if enters else active - {c}
+        sequence.append(set(active))
+    problem = ForcedResponseProblem(excitation, sequence)
+    phases = ds["switch_phase"].values[pick]
+    durations = np.mod(np.diff(phases), 2 * np.pi)
+    omega = 2 * np.pi * float(ds["frequency"].values[ds["contact_point_index"].values[contact_point]])
+    y = np.concatenate([ds["switch_state"].values[contact_point], [phases[0]], durations, [omega]])
+    return problem.time_history(y, samples)
 
 
 def regularized_dataset(system, branch, multipliers, half_period: bool, changes, frequency_range) -> xr.Dataset:

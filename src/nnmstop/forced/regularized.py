@@ -18,7 +18,6 @@ harmonic balance holds both the symmetric and the asymmetric responses), else a 
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +25,7 @@ import numpy as np
 from nnmstop.continuation.anm import ANMSettings, ANMStepper
 from nnmstop.floquet import check_power_of_two, match_nearest
 from nnmstop.forced.responses import path_between
-from nnmstop.forced.stability_changes import locate_stability_changes, unstable_count
+from nnmstop.forced.stability_changes import locate_stability_changes, type_branch_points, unstable_count
 from nnmstop.hbm.forced import ForcedLinearization
 
 __all__ = [
@@ -162,11 +161,5 @@ def regularized_stability(system, branch, anm: ANMSettings, settings: ForcedStab
     )
     # a multiplier through +1 is a fold of the symmetric responses unless the continuation crossed a simple
     # branch point there (sign change of det [J; t^T]: the symmetry-breaking pitchfork of the full basis)
-    flagged = set(branch.branch_points)
-    typed = []
-    for change in changes:
-        near = {change.after_point + k for k in (0, 1, 2)}
-        if change.kind == "fold" and near & flagged:
-            change = dataclasses.replace(change, kind="symmetry_breaking")
-        typed.append(change)
+    typed = type_branch_points(changes, branch.branch_points)
     return stability, typed

@@ -20,13 +20,15 @@ from nnmstop.continuation.core import ContinuationStats, unit_tangent
 from nnmstop.continuation.newton import bisect_sign_change
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings, PseudoArclengthStepper
 from nnmstop.exact.forced import (
-    SymmetricContactProblem,
     follow_contact_family,
+    free_phase,
     grazing_frequencies,
+    grazing_problem,
     non_impacting_response,
+    structure_contacts,
 )
 from nnmstop.floquet import match_nearest
-from nnmstop.forced.stability_changes import locate_stability_changes
+from nnmstop.forced.stability_changes import locate_stability_changes, type_by_tangent
 from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, continue_frequency_response
 from nnmstop.models.excitation import Excitation
 
@@ -43,13 +45,15 @@ __all__ = [
 
 @dataclass(frozen=True)
 class ExactSettings:
-    """Settings of the exact responses: the continuation of the contact families and the grid of the
-    non-impacting response (``frequency_samples`` over the range)."""
+    """Settings of the exact responses: the continuation of the contact families, the grid of the
+    non-impacting response (``frequency_samples`` over the range), and ``use_symmetry``: the half-wave
+    reduction of the families whose grazing orbit is symmetric (every law odd), else full periods."""
 
     continuation: PseudoArclengthSettings = field(
         default_factory=lambda: PseudoArclengthSettings(tolerance=1e-12, initial_step=0.01, max_step=0.05)
     )
     frequency_samples: int = 400
+    use_symmetry: bool = True
 
 
 @dataclass
@@ -57,8 +61,10 @@ class ExactPiece:
     """One piece of the exact response: ``kind`` ("non_impacting" or "one_contact"), its frequencies (Hz),
     amplitudes ``max |q_j|`` (points, N), multipliers ``mu`` (points, 2N), the unknowns of the contact family
     (empty for the non-impacting piece), the located stability changes, why the piece ends, the multipliers'
-    error estimates (points,): their difference from a second computation with :func:`scipy.linalg.expm`, and
-    how the end was checked (a contact family's end confirmed by a restart, the non-impacting piece's located)."""
+    error estimates (points,): their difference from a second computation with :func:`scipy.linalg.expm`, how
+    the end was checked (a contact family's end confirmed by a restart, the non-impacting piece's located), and
+    the contact family's problem (:class:`~nnmstop.exact.forced.ForcedResponseProblem`; None for the
+    non-impacting piece)."""
 
     kind: str
     frequency: np.ndarray
@@ -69,6 +75,7 @@ class ExactPiece:
     end_reason: str
     multiplier_error: np.ndarray
     end_check: str = ""
+    problem: object = None
 
 
 def path_between(system, stepper, points, i: int):
@@ -79,12 +86,16 @@ def path_between(system, stepper, points, i: int):
 
 
 def _non_impacting_pieces(excitation: Excitation, low: float, high: float, samples: int, grazing: list) -> list:
-    """The non-impacting response on a grid of ``[low, high]`` Hz, split where it exceeds the gap."""
-    stop = excitation.structure.stops[0]
-    problem_phase = SymmetricContactProblem(excitation).phases["F"]
+    """The non-impacting response on a grid of ``[low, high]`` Hz, split where a contact coordinate exceeds its
+    gap."""
+    contacts = structure_contacts(excitation.structure)
+    n = excitation.structure.n_dofs
+    normals, gaps = np.array([c.normal(n) for c in contacts]), np.array([c.gap for c in contacts])
+    problem_phase = free_phase(excitation)
     grid = np.union1d(np.geomspace(low, high, samples), np.array(grazing) / (2 * np.pi))
-    amplitude = np.abs(non_impacting_response(excitation, 2 * np.pi * grid))
-    inside = amplitude[:, stop.dof] <= stop.gap * (1 + 1e-12)
+    response = non_impacting_response(excitation, 2 * np.pi * grid)
+    amplitude = np.abs(response)
+    inside = np.all(np.abs(response @ normals.T) <= gaps * (1 + 1e-12), axis=1)
     period = 2 * np.pi / (2 * np.pi * grid)
     multipliers = np.exp(np.multiply.outer(period, problem_phase.eigenvalues))
     second = np.linalg.eigvals(scipy.linalg.expm(np.multiply.outer(period, problem_phase.A)))
@@ -130,19 +141,24 @@ def _along_the_curve(pieces: list, rel_tol: float = 1e-8) -> list:
 
 def exact_response(excitation: Excitation, frequency_range, settings: ExactSettings = ExactSettings()) -> list:
     """Pieces of the exact response over ``frequency_range`` (Hz), non-impacting ones and contact families, in
-    the order of the curve (each starting where the previous one ends, where they meet)."""
+    the order of the curve (each starting where the previous one ends, where they meet).
+
+    Every stop must be piecewise linear (ValueError naming a circular clearance). A contact family starts at each
+    grazing frequency not already reached by a family (:func:`~nnmstop.exact.forced.grazing_problem`); its
+    multipliers are ``nu`` of the half-period map under the half-wave reduction (``half_period``: a ``nu``
+    through -1 is a symmetry breaking), else ``mu`` over the period, where a multiplier through +1 is a fold where
+    ``Omega`` turns and elsewhere, on a structure of odd laws, a symmetry breaking
+    (:func:`~nnmstop.forced.stability_changes.type_by_tangent`).
+    """
     low, high = (float(v) for v in frequency_range)
     grazing = grazing_frequencies(excitation, 2 * np.pi * low, 2 * np.pi * high)
     pieces = _non_impacting_pieces(excitation, low, high, settings.frequency_samples, grazing)
-    problem = SymmetricContactProblem(excitation)
     stepper = PseudoArclengthStepper(settings.continuation)
     reached = []
     for omega in grazing:
         if any(abs(omega - r) <= 1e-8 * omega for r in reached):
             continue
-        y0 = problem.grazing_start(omega)
-        direction = np.zeros(problem.n_unknowns)
-        direction[-2] = 1.0
+        problem, y0, direction = grazing_problem(excitation, omega, settings.use_symmetry)
         family = follow_contact_family(problem, y0, direction, settings.continuation, (low, high), confirm=True)
         Y = family.unknowns
         reached.append(Y[-1, -1])
@@ -150,22 +166,25 @@ def exact_response(excitation: Excitation, frequency_range, settings: ExactSetti
         changes = locate_stability_changes(
             Y,
             nus,
-            lambda i: lambda v: problem.multipliers(v)[1],
-            lambda i, Y=Y: path_between(problem, stepper, Y, i),
-            half_period=True,
+            lambda i, problem=problem: lambda v: problem.multipliers(v)[1],
+            lambda i, Y=Y, problem=problem: path_between(problem, stepper, Y, i),
+            half_period=problem.half_wave,
         )
+        if not problem.half_wave:
+            changes = type_by_tangent(changes, problem, Y, excitation.structure.contact.odd)
         amplitude = np.array([problem.amplitudes(y) for y in Y])
         pieces.append(
             ExactPiece(
                 "one_contact",
                 Y[:, -1] / (2 * np.pi),
                 amplitude,
-                nus**2,
+                nus**2 if problem.half_wave else nus,
                 Y,
                 changes,
                 family.end_reason,
                 np.array([problem.multiplier_error(y) for y in Y]),
                 family.end_check,
+                problem,
             )
         )
     return _along_the_curve(pieces)

@@ -66,13 +66,23 @@ def _frequency_range(spec, key: str) -> tuple:
     return low, high
 
 
+def _structure(config: dict) -> Structure:
+    """The structure of the ``structure`` section: the paper's oscillator of ``model`` by default."""
+    if config.get("structure", {}).get("kind", "two_dof") == "two_dof":
+        return two_dof_structure(ModelParameters.from_config(config["model"]))
+    from nnmstop.settings import structure_from_config  # the numerics' imports: only for a structure of one's own
+
+    return structure_from_config(config)
+
+
 def forced_scenes(config: dict, which: str = "all") -> list:
-    """The scenes of the ``forced`` section: one per force amplitude on the paper's oscillator (``model``),
-    and with ``forced.tube`` (and ``tube``) one for the tube. ``which``: "oscillator", "tube" or "all"."""
+    """The scenes of the ``forced`` section: one per force amplitude on the structure of the configuration (the
+    ``structure`` section; the paper's oscillator of ``model`` by default), and with ``forced.tube`` (and ``tube``)
+    one for the tube. ``which``: "oscillator" (the configured structure), "tube" or "all"."""
     forced = config["forced"]
     scenes = []
     if which in ("oscillator", "all"):
-        structure = two_dof_structure(ModelParameters.from_config(config["model"]))
+        structure = _structure(config)
         damping = _damping(structure, forced["damping"])
         dofs = _dof_indices(structure, forced["force"]["dofs"], "forced.force.dofs")
         frequency_range = _frequency_range(forced["frequency_range"], "forced.frequency_range")
@@ -128,7 +138,7 @@ def prediction_excitations(config: dict) -> tuple:
     """The excitations of ``forced.prediction`` (the oscillator, damping ratio ``r`` on the damped modes of
     ``forced.damping``, ``F = force_per_ratio r`` on the forced DOFs) and its frequency window (Hz)."""
     forced, spec = config["forced"], config["forced"]["prediction"]
-    structure = two_dof_structure(ModelParameters.from_config(config["model"]))
+    structure = _structure(config)
     dofs = tuple(_dof_indices(structure, forced["force"]["dofs"], "forced.force.dofs"))
     modes = forced["damping"].get("modes", [1, 2])
     excitations = []

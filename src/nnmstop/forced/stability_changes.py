@@ -19,11 +19,12 @@ that no periodic response is claimed where there is none. Method notes: docs/for
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.optimize
 
+from nnmstop.continuation.core import unit_tangent
 from nnmstop.continuation.newton import bisect_sign_change
 
 __all__ = [
@@ -33,6 +34,8 @@ __all__ = [
     "unstable_count",
     "crossing_kind",
     "locate_stability_changes",
+    "type_branch_points",
+    "type_by_tangent",
     "regimes",
 ]
 
@@ -122,6 +125,39 @@ def _crossing(path, length: float, multipliers_of, n: int, rel_tol: float) -> fl
         lambda a: unstable_count(multipliers_of(path(a))), 0.0, length, tol=rel_tol * length, side=lambda c: c
     )
     return found.midpoint
+
+
+def type_branch_points(changes, branch_points, reach: int = 2) -> list:
+    """``changes`` with each fold (a multiplier ``mu`` through +1) that lies within ``reach`` steps after a simple
+    branch point flagged by the continuation (a sign change of ``det [J; t^T]``, which a fold does not make)
+    typed ``symmetry_breaking``: where the full-period equations hold the symmetric responses and those without
+    the symmetry, these branch off there."""
+    flagged = set(branch_points)
+    typed = []
+    for change in changes:
+        near = {change.after_point + k for k in range(reach + 1)}
+        if change.kind == "fold" and near & flagged:
+            change = replace(change, kind="symmetry_breaking")
+        typed.append(change)
+    return typed
+
+
+def type_by_tangent(changes, system, points, symmetric: bool, tolerance: float = 1e-4) -> list:
+    """``changes`` with each fold (a multiplier ``mu`` through +1) where the curve's unit tangent at the located
+    point has an ``Omega`` component (the last unknown of ``system``) above ``tolerance`` typed
+    ``symmetry_breaking`` when ``symmetric`` (every law odd: the responses without the half-wave symmetry branch
+    off there, a simple branch point); at a fold of the curve the tangent has no ``Omega`` component. The test of
+    the full-period exact responses, whose continuation may see a sign change of ``det [J; t^T]`` next to a grazing
+    orbit where several contacts graze at once (a singular point of their equations, not a branch)."""
+    typed = []
+    for change in changes:
+        if change.kind == "fold" and symmetric:
+            i = change.after_point
+            tangent, _ = unit_tangent(system, change.U, points[i + 1] - points[i])
+            if abs(tangent[-1]) > tolerance:
+                change = replace(change, kind="symmetry_breaking")
+        typed.append(change)
+    return typed
 
 
 def regimes(multipliers, half_period: bool, tol: float = 1e-12) -> np.ndarray:

@@ -914,6 +914,12 @@ class StopSet:
         """Every law odd: the half-wave symmetric orbits form an invariant subspace."""
         return all(s.odd for s in self.stops)
 
+    def contacts(self) -> tuple:
+        """Every half-space contact of every stop (:meth:`Stop.contacts`), stop after stop, each tagged with its stop's
+        index: the phases of the exact engines. Raises ValueError for a law that is not piecewise linear (the circular
+        clearance)."""
+        return tuple(c for i, stop in enumerate(self.stops) for c in stop.contacts(i))
+
     def matrix(self) -> np.ndarray:
         """``A`` of every component (rows, ``(n_components, n_dofs)``), physical coordinates ``c = A q``."""
         return np.vstack([s.coordinate_matrix(self.n_dofs) for s in self.stops])

@@ -76,11 +76,12 @@ CURVE_COORDINATES = (
     ("required_force", "backbone_frequency"),
 )
 #: Dimensions of variables kept at some of the stored points only (the exact forced response's contact points,
-#: ``contact_point``): their sizes follow the steps like the points'. Their values are checked by the verifier
-#: against the points they belong to, whose variables (frequency, amplitudes, phase lags, multipliers) are
-#: compared along the curve: each contact state must solve its equations and reproduce its point's frequency
-#: and amplitudes by the closed-form flow (:mod:`nnmstop.stored_accuracy`).
-SAMPLED_DIMENSIONS = frozenset({"contact_point"})
+#: ``contact_point``, and the switches of the full-period ones, ``switch``): their sizes follow the steps like the
+#: points'. Their values are checked by the verifier against the points they belong to, whose variables
+#: (frequency, amplitudes, phase lags, multipliers) are compared along the curve: each contact state must solve its
+#: equations and reproduce its point's frequency and amplitudes by the closed-form flow
+#: (:mod:`nnmstop.stored_accuracy`).
+SAMPLED_DIMENSIONS = frozenset({"contact_point", "switch"})
 
 #: Variables that follow the continuation's steps, not the curve: not compared (indices of stored
 #: points, step numbers and counts of integration steps, arclength summed over the steps).

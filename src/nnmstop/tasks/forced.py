@@ -14,13 +14,14 @@ import numpy as np
 
 from nnmstop.continuation.anm import ANMSettings
 from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
+from nnmstop.forced import assemble
+from nnmstop.forced.assemble import point_accuracy  # noqa: F401 (the tasks' name of it)
 from nnmstop.forced.backbone import nnm_backbone, predicted_peaks, required_force
-from nnmstop.forced.dataset import backbone_dataset, base_attributes, exact_dataset, regularized_dataset
-from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stability
-from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
+from nnmstop.forced.dataset import backbone_dataset, base_attributes
+from nnmstop.forced.regularized import ForcedStabilitySettings
+from nnmstop.forced.responses import ExactSettings, RegularizedSettings
 from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, prediction_excitations, scene_name
 from nnmstop.hbm.forced import response_amplitudes
-from nnmstop.models.excitation import modal_damping_ratios
 from nnmstop.netcdf import read_dataset, write_dataset
 
 __all__ = ["forced_exact", "forced_regularized", "forced_backbone", "forced_prediction", "forced_figure", "TASKS"]
@@ -34,7 +35,7 @@ KEYWORDS = "forced response, frequency response, harmonic balance, non-smooth, F
 
 
 def exact_response_dataset(config: dict, scene: Scene):
-    """The exact response of ``scene`` as a dataset (:mod:`nnmstop.forced.responses`)."""
+    """The exact response of ``scene`` as a dataset (:mod:`nnmstop.forced.assemble`)."""
 
     spec = config["forced"]["exact"]
     settings = ExactSettings(
@@ -45,15 +46,15 @@ def exact_response_dataset(config: dict, scene: Scene):
         ),
         int(spec["frequency_samples"]),
     )
-    pieces = exact_response(scene.excitation, scene.frequency_range, settings)
-    if not pieces:
-        raise ValueError(
-            f"forced scene {scene.name}: the exact response has no piece over {scene.frequency_range[0]:g}.."
-            f"{scene.frequency_range[1]:g} Hz (forced.force.amplitudes, forced.frequency_range): the linear "
-            "response is beyond the gap everywhere, with no grazing to start a contact family from"
-        )
     factor = float(scene.stability["resolution_factor"])
-    return exact_dataset(scene.excitation, pieces, scene.frequency_range, factor)
+    try:
+        return assemble.exact_response_dataset(scene.excitation, scene.frequency_range, settings, factor)
+    except ValueError as err:
+        if "has no piece" not in str(err):
+            raise
+        raise ValueError(
+            f"forced scene {scene.name} (forced.force.amplitudes, forced.frequency_range): {err}"
+        ) from None
 
 
 def regularized_response_dataset(config: dict, scene: Scene):
@@ -61,30 +62,24 @@ def regularized_response_dataset(config: dict, scene: Scene):
 
     anm = ANMSettings.from_config(config["anm"], points_per_step=scene.points_per_step)
     settings = RegularizedSettings(scene.harmonics, anm, float(config["forced"]["max_truncation"]))
-    system, branch = regularized_response(scene.excitation, scene.frequency_range, settings, label=scene.name)
-    stability_settings = ForcedStabilitySettings.from_config(scene.stability)
-    stability, changes = regularized_stability(system, branch, anm, stability_settings)
-    ds = regularized_dataset(system, branch, stability.multipliers, False, changes, scene.frequency_range)
-    ds.update(stability.data_vars())
-    ds.attrs.update({f"stability_{key}": value for key, value in scene.stability.items()})
-    ds.attrs["newton_threshold"] = anm.newton_threshold
-    ds.attrs["point_accuracy"] = point_accuracy(scene.excitation, anm.newton_threshold)
-    return ds
+    stability = ForcedStabilitySettings.from_config(scene.stability)
+    return assemble.regularized_response_dataset(
+        scene.excitation, scene.frequency_range, settings, stability, scene.name
+    )
 
 
-def point_accuracy(excitation, newton_threshold: float) -> float:
-    """Relative accuracy of a stored point of a regularized response (the verifier's base tolerance): its relative
-    residual stays below the Newton threshold, and the damped response amplifies a residual by up to the resonant
-    amplification ``1 / (2 zeta)`` of its least damped linear mode (a mode within the lowest four)."""
-    ratios = modal_damping_ratios(excitation, min(excitation.structure.n_dofs, 4))
-    return float(newton_threshold / (2.0 * ratios.min()))
+def stop_words(structure) -> str:
+    """The structure's stops in words: "bilateral elastic stops" (the paper's), "one-sided elastic stops", ..."""
+    kinds = sorted({stop.kind.replace("_", "-") for stop in structure.stops})
+    return f"{' and '.join(kinds)} elastic stops"
 
 
 def _write(ds, path, scene: Scene, law: str, config: dict):
     what = "exact (piecewise-linear contact law)" if law == "piecewise_linear" else "regularized (harmonic balance)"
     force = scene.excitation.force
     summary = (
-        f"Periodic responses of the damped structure with bilateral elastic stops to the force {force.amplitude:g} "
+        f"Periodic responses of the damped structure with {stop_words(scene.excitation.structure)} to the force "
+        f"{force.amplitude:g} "
         f"cos(Omega t) on DOF(s) {list(force.dofs)}, {what}, over {scene.frequency_range[0]:g}..."
         f"{scene.frequency_range[1]:g} Hz of the nondimensional time, with Floquet multipliers and the located "
         "stability changes (folds, symmetry breaking, period doubling, Neimark-Sacker)."
@@ -228,7 +223,6 @@ def forced_prediction(config, inputs, outputs):
 
 def forced_figure(config, inputs, outputs, figure: str):
     """paper_figures/forced_<figure>.{pdf,png} from the datasets it draws (named inputs of the rule)."""
-    from nnmstop.exact.forced import SymmetricContactProblem
     from nnmstop.figures import forced as draw
 
     spec = config["forced"]["figures"]
@@ -245,8 +239,7 @@ def forced_figure(config, inputs, outputs, figure: str):
     elif figure == "orbits":
         exact, regularized = read("exact")[0], read("regularized")[0]
         scene = find_scene(config, scene_name(float(exact.attrs["forcing_amplitude"])))
-        problem = SymmetricContactProblem(scene.excitation)
-        draw.orbits_figure(exact, regularized, problem, spec["orbit_frequencies"], outputs["pdf"], dpi)
+        draw.orbits_figure(exact, regularized, scene.excitation, spec["orbit_frequencies"], outputs["pdf"], dpi)
     elif figure == "prediction_error":
         draw.prediction_error_figure(read("prediction")[0], outputs["pdf"], dpi)
     elif figure == "tube":
