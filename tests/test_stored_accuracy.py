@@ -96,3 +96,26 @@ def test_fig07_refuses_a_stage_with_one_flipped_bit_and_draws_nothing(small_buil
     with pytest.raises(ValueError, match=rf"{stage}: q_cos, .* at point 3"):
         find_task("paper_fig07")(config, {"nnm1_stages": [str(stage)]}, outputs)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["nnm1_stage1.nc"]
+
+
+def test_a_full_period_forced_orbit_is_checked_through_its_switches(tmp_path):
+    """A one-sided chain's exact forced response stores its orbits as switches; a moved switch phase is refused."""
+    import scipy.sparse
+
+    import nnmstop
+    from nnmstop.models.matrices import matrix_structure
+
+    mass, stiffness = tmp_path / "M.npz", tmp_path / "K.npz"
+    scipy.sparse.save_npz(mass, scipy.sparse.csr_matrix(np.eye(2)))
+    scipy.sparse.save_npz(stiffness, scipy.sparse.csr_matrix([[2.0, -1.0], [-1.0, 2.0]]))
+    stop = {"kind": "one_sided", "dof": 0, "side": "positive", "gap": 1.0, "stiffness": 20.0, "eta": 0.05}
+    chain = matrix_structure(mass, stiffness, [stop])
+    ds = nnmstop.forced_response(chain, [0.02, 0.02], (0.2, [0]), (0.1, 0.35))
+    assert "switch_phase" in ds and "contact_unknowns" not in ds
+    check_orbits(ds, "the response")  # as computed: every switch orbit solves its equations
+    checked = {name for check in orbit_checks(ds) for name in check.variables}
+    assert {"switch_state", "switch_phase"} <= checked
+    moved = ds.copy(deep=True)
+    moved["switch_phase"].values[len(moved["switch_phase"]) // 2] += 1e-3
+    with pytest.raises(ValueError, match=r"the response: .*switch_state.*contact equations"):
+        check_orbits(moved, "the response")

@@ -121,10 +121,11 @@ def _stops_of(ds: xr.Dataset) -> list:
 
     stops = [{"dof": int(d), "gap": float(g), "stiffness": float(k), "eta": float(e)} for d, g, k, e in
              zip(*(column(key) for key in keys))]  # fmt: skip
-    if "stop_kind" not in source:
+    kinds = "stop_kind" if "stop_kind" in source else "stop_kinds"  # a variable per stop, or a text attribute
+    if kinds not in source:
         return stops
     sides = {1: "positive", -1: "negative"}
-    for stop, kind, side, other in zip(stops, column("stop_kind"), column("stop_side"), column("stop_other_dof")):
+    for stop, kind, side, other in zip(stops, column(kinds), column("stop_side"), column("stop_other_dof")):
         kind, side = str(kind), int(side)
         if kind in ("relative", "circular"):
             stop["dofs"] = [stop.pop("dof"), int(other)]
@@ -314,10 +315,14 @@ def _comparison(ds: xr.Dataset) -> list[OrbitCheck]:
     return checks
 
 
+#: The full-period exact orbits' stored switches (nnmstop.forced.dataset): checked together as one orbit each.
+SWITCH_VARIABLES = ("switch_state", "switch_point", "switch_phase", "switch_contact", "switch_entry")
+
+
 def _forced_exact(ds: xr.Dataset) -> list[OrbitCheck]:
     """Each contact state solves its equations and reproduces its point; each other point is the linear
     response (closed form)."""
-    from nnmstop.exact.forced import SymmetricContactProblem
+    from nnmstop.forced.dataset import stored_contact_orbit
     from nnmstop.models.excitation import linear_response
 
     n = ds.sizes.get("point", 0)
@@ -327,7 +332,7 @@ def _forced_exact(ds: xr.Dataset) -> list[OrbitCheck]:
     frequency, amplitude = ds["frequency"].values, ds["amplitude"].values
     checks = []
     contact = np.zeros(n, dtype=bool)
-    if "contact_unknowns" in ds.variables:
+    if "contact_point_index" in ds.variables:  # orbits in contact: half-wave unknowns or full-period switches
         index = np.asarray(ds["contact_point_index"].values)
         kinds = str(ds.attrs.get("segment_kinds", "")).split()
         segment = ds["segment"].values
@@ -347,14 +352,14 @@ def _forced_exact(ds: xr.Dataset) -> list[OrbitCheck]:
                                  np.arange(len(index)), wrong.astype(float), np.zeros(len(index)),
                                  dim="contact_point"))  # fmt: skip
         contact[placed[valid]] = True
-        problem = SymmetricContactProblem(excitation)
         rows = _sample(len(index))
         residual, mismatch = [], []
         for j in rows:
-            y = np.asarray(ds["contact_unknowns"].values[j], dtype=float)
             i = int(placed[j])
             with np.errstate(all="ignore"):
                 try:
+                    # the half-wave unknowns, or the full-period orbit rebuilt from its stored switches
+                    problem, y = stored_contact_orbit(ds, excitation, int(j))
                     residual.append(float(np.linalg.norm(problem.residual(y))) / max(1.0, float(np.abs(y).max())))
                     reproduced = problem.amplitudes(y)
                     got = np.r_[y[-1] / (2 * np.pi), reproduced]
@@ -363,9 +368,10 @@ def _forced_exact(ds: xr.Dataset) -> list[OrbitCheck]:
                 except (ValueError, FloatingPointError, np.linalg.LinAlgError):
                     residual.append(np.inf)
                     mismatch.append(np.inf)
+        orbit = ("contact_unknowns",) if "contact_unknowns" in ds.variables else SWITCH_VARIABLES
         checks.append(
             OrbitCheck(
-                ("contact_unknowns",),
+                orbit,
                 "relative residual of the contact equations",
                 rows,
                 np.array(residual),
@@ -373,7 +379,7 @@ def _forced_exact(ds: xr.Dataset) -> list[OrbitCheck]:
                 dim="contact_point",
             )
         )
-        checks.append(OrbitCheck(("contact_unknowns", "contact_point_index", "frequency", "amplitude"),
+        checks.append(OrbitCheck((*orbit, "contact_point_index", "frequency", "amplitude"),
                                  "relative difference of the point's frequency and amplitudes from the contact "
                                  "state's closed-form flow", rows, np.array(mismatch), np.full(len(rows), CLOSED_FORM),
                                  dim="contact_point"))  # fmt: skip

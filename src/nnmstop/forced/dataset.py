@@ -123,7 +123,7 @@ def base_attributes(excitation: Excitation, contact_law: str, frequency_range) -
             stop_gap=np.array([s.gap for s in stops]),
             stop_stiffness=np.array([s.stiffness for s in stops]),
             stop_eta=np.array([s.eta for s in stops]),
-            stop_kind=" ".join(m["kind"] for m in meta),  # text attribute: the kinds in the order of the stops
+            stop_kinds=" ".join(m["kind"] for m in meta),  # text attribute: the kinds in the order of the stops
             stop_side=np.array([m["side"] for m in meta], dtype=np.int32),
             stop_other_dof=np.array([m["dofs"][-1] for m in meta], dtype=np.int32),
             stop_labels="; ".join(s.label for s in stops),
@@ -245,9 +245,15 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolut
 def exact_time_history(ds: xr.Dataset, excitation: Excitation, contact_point: int, samples: int = 1024) -> dict:
     """One period of the stored exact orbit ``contact_point`` of an exact response dataset of ``excitation``
     (:meth:`~nnmstop.exact.forced.ForcedResponseProblem.time_history`), from either layout."""
+    problem, y = stored_contact_orbit(ds, excitation, contact_point)
+    return problem.time_history(y, samples)
+
+
+def stored_contact_orbit(ds: xr.Dataset, excitation: Excitation, contact_point: int):
+    """The problem and the unknowns of the stored exact orbit ``contact_point`` of an exact response dataset of
+    ``excitation``, from either layout (the half-wave ``contact_unknowns``, the full-period switches)."""
     if "contact_unknowns" in ds:
-        y = ds["contact_unknowns"].values[contact_point]
-        return SymmetricContactProblem(excitation).time_history(y, samples)
+        return SymmetricContactProblem(excitation), np.asarray(ds["contact_unknowns"].values[contact_point], float)
     pick = ds["switch_point"].values == contact_point
     contacts = [int(c) for c in ds["switch_contact"].values[pick]]
     entry = ds["switch_entry"].values[pick].astype(bool)
@@ -261,7 +267,7 @@ def exact_time_history(ds: xr.Dataset, excitation: Excitation, contact_point: in
     durations = np.mod(np.diff(phases), 2 * np.pi)
     omega = 2 * np.pi * float(ds["frequency"].values[ds["contact_point_index"].values[contact_point]])
     y = np.concatenate([ds["switch_state"].values[contact_point], [phases[0]], durations, [omega]])
-    return problem.time_history(y, samples)
+    return problem, y
 
 
 def regularized_dataset(system, branch, multipliers, half_period: bool, changes, frequency_range) -> xr.Dataset:
