@@ -201,6 +201,9 @@ class Structure:
         What describes the structure in a dataset's global attributes (names to numbers, strings or
         1-D arrays): ``structure`` names its kind (``"two_dof"``, ``"beam"``, ``"matrices"``), and e.g.
         the paper's ``alpha``, ``beta``, ``delta``, ``eta``. Nothing in the engines reads them.
+    reduction : nnmstop.models.reduction.Reduction, optional
+        Set on a reduced structure (:func:`nnmstop.models.reduction.craig_bampton`): the recovery matrix back
+        to the full model's DOFs and what the reduction kept. Nothing in the engines reads it.
 
     Examples
     --------
@@ -220,6 +223,7 @@ class Structure:
     node_coordinates: np.ndarray | None = None
     dof_nodes: tuple | None = None
     attributes: dict | None = None
+    reduction: object | None = None
 
     def __post_init__(self):
         mass = _square_matrix("mass", self.mass)
@@ -259,6 +263,10 @@ class Structure:
             if len(nodes) != n or (n_nodes is not None and any(not 0 <= k < n_nodes for k in nodes)):
                 raise ValueError(f"dof_nodes must give a valid node index for each of the {n} degrees of freedom")
             object.__setattr__(self, "dof_nodes", nodes)
+        if self.reduction is not None and self.reduction.recovery.shape[1] != n:
+            raise ValueError(
+                f"the reduction's recovery matrix has {self.reduction.recovery.shape[1]} columns, not the {n} DOFs"
+            )
 
     @property
     def n_dofs(self) -> int:
