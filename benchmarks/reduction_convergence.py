@@ -10,8 +10,8 @@ Usage::
 
 The model is the tube on three plates (``nnmstop.models.beam.tube_plates_parameters``: clamped-pinned,
 plates at L/2, L/4, 3L/4) with ``--elements`` elements (500: 999 DOFs). For each ``H``, NNM1 of the structure
-reduced with the largest ``--modes`` is continued (ANM, cosine basis) up to energy 100 (two plates in
-contact); at each ``--amplitudes`` (fundamental cosine amplitude of the middle plate's DOF over its gap:
+reduced with the largest ``--modes`` is continued (ANM, cosine basis) until a second plate is hit (more than
+three impacts per period); at each ``--amplitudes`` (fundamental cosine amplitude of the middle plate's DOF over its gap:
 0.9 before contact, 1.15 with one impact on each side of the middle plate) its orbit is solved by Newton
 with that amplitude held, then the same orbit of the **full** model (sparse path, Newton from the recovered
 orbit) and of the structure reduced with each smaller number of modes (Newton from the orbit with one more
@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
 
-def convergence(elements: int, harmonics: int, amplitudes, modes, energy: float = 100.0) -> list[dict]:
+def convergence(elements: int, harmonics: int, amplitudes, modes) -> list[dict]:
     """Rows ``{amplitude, modes, next_over_highest, frequency, harmonics, energy}`` of one ``H``."""
     from nnmstop.continuation.anm import ANMSettings
     from nnmstop.hbm.reduced import fewer_modes, full_unknowns, orbit_at_amplitude, orbit_difference
@@ -52,7 +52,7 @@ def convergence(elements: int, harmonics: int, amplitudes, modes, energy: float 
     anm = ANMSettings.from_config(
         {"order": 20, "tolerance": 1e-8, "newton_threshold": 1e-7, "max_steps": 400, "pade": True}
     )
-    spec = BranchSpec("nnm1", 1, 0.05, (StageSpec("backbone", {"energy_above": energy}),))
+    spec = BranchSpec("nnm1", 1, 0.05, (StageSpec("backbone", {"impacts_above": 3}),))
     # the same HBM problem, reduced and full, is compared at each H: the truncation guard is no matter here
     branch = follow_stage(system, BranchSettings(anm, 0.5), spec)
     points = np.array(branch.points)

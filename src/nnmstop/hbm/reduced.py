@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from nnmstop.continuation.core import ContinuationStats, newton_correct
+from nnmstop.continuation.core import ContinuationError, ContinuationStats, OrthogonalUpdate, relative_of_residual
+from nnmstop.continuation.linear import factorize_bordered
+from nnmstop.continuation.newton import newton_solve, round_off_criterion
 
 __all__ = ["full_unknowns", "fewer_modes", "orbit_at_amplitude", "orbit_difference", "contact_harmonics"]
 
@@ -51,18 +53,39 @@ def fewer_modes(system, U, n_modes: int) -> np.ndarray:
     return np.concatenate([Q[: boundary + n_modes].ravel(), stops, tail])
 
 
-def orbit_at_amplitude(system, U_guess, amplitude: float, tol: float = 1e-10) -> np.ndarray:
+def orbit_at_amplitude(system, U_guess, amplitude: float, max_iter: int = 30) -> np.ndarray:
     """The orbit of ``system`` near ``U_guess`` whose first stop has the fundamental cosine amplitude ``amplitude``.
 
-    ``amplitude`` is ``x_c^1`` in the stop's own coordinate (over its gap); Newton holds it fixed.
+    ``amplitude`` is ``x_c^1`` in the stop's own coordinate (over its gap); Newton holds it fixed and runs to
+    round-off (:func:`~nnmstop.continuation.newton.round_off_criterion`: on the update, since the residual of a
+    fine mesh has a floor of about ``1e-8`` relative set by the conditioning of ``K``).
+
+    Raises
+    ------
+    ContinuationError
+        When Newton does not converge.
     """
     U = np.array(U_guess, dtype=float)
     index = system.slices["x"].start + 1
     U[index] = amplitude * system.gaps[0]
     direction = np.zeros(system.n_unknowns)
     direction[index] = 1.0
-    corrected, _ = newton_correct(system, U, direction, ContinuationStats(), tol=tol, max_iter=30)
-    return corrected
+    stats = ContinuationStats()
+    result = newton_solve(
+        system.residual,
+        lambda V: OrthogonalUpdate(factorize_bordered(system, V, direction, stats)),
+        U,
+        tol=0.0,
+        max_iter=max_iter,
+        criterion=round_off_criterion(),
+        norm=relative_of_residual,
+    )
+    if not result.converged:
+        raise ContinuationError(
+            f"Newton at amplitude {amplitude!r} did not converge ({result.reason}; relative residual "
+            f"{result.residual_norm:.2e})"
+        )
+    return result.y
 
 
 def contact_harmonics(system, U) -> np.ndarray:
