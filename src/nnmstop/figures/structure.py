@@ -257,9 +257,9 @@ def _shapes(fig, data, spec):
     bar = fig.colorbar(ScalarMappable(Normalize(0.0, 0.5), SHAPE_COLORS), ax=list(axes), fraction=0.025)
     bar.set_label("instant t / T (half a period)")
     what = "stop" if int(ds.attrs["stops"]) == 1 else "stops"
-    reduced = f"; reduced: {int(ds.attrs['kept_modes'])} modes, drawn on the full mesh" if "recovery" in ds else ""
+    reduced = "; reduced orbits drawn on the full mesh" if "recovery" in ds else ""
     fig.suptitle(
-        f"{_structure_name(ds)}, NNM1: deformed shapes over half a period ({what}: black bars at ± gap{reduced})",
+        f"{_structure_name(ds)}, NNM1: deformed shapes over half a period\n({what}: black bars at ± gap{reduced})",
         fontsize=10,
     )
 

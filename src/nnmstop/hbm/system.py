@@ -31,7 +31,7 @@ from nnmstop import fourier
 from nnmstop.continuation.linear import BorderedFactorization
 from nnmstop.hbm.factorization import CondensedBorderedLU, SparseBorderedLU, StopCoupling
 from nnmstop.hbm.series_cache import SeriesCache
-from nnmstop.models.structure import Structure
+from nnmstop.models.structure import DENSE_EIGEN_LIMIT, Structure, limit_modes
 from nnmstop.models.two_dof import ModelParameters, regularized_force_and_potential
 
 __all__ = ["HarmonicBalanceSystem", "SeriesCache", "DENSE_MAX_UNKNOWNS", "impacts_per_period"]
@@ -478,12 +478,18 @@ class HarmonicBalanceSystem:
 
     # ------------------------------------------------------------------ starting point
 
-    def linear_modes(self):
+    def linear_modes(self, n_modes: int | None = None):
         """Angular frequencies and mode shapes of the regularized structure near rest.
 
         Near rest each stop adds the stiffness ``eta_i`` on its DOF (``gap_i f_i ~ eta_i q``).
-        Shapes are the columns, normalized to 1 on the DOF of the first stop.
+        Shapes are the columns, normalized to 1 on the DOF of the first stop. Every mode (dense ``eigh``) up to
+        :data:`~nnmstop.models.structure.DENSE_EIGEN_LIMIT` DOFs; above, the ``n_modes`` lowest (default 6) by
+        shift-invert Lanczos on the sparse matrices (a dense eigen-solve of a large model does not fit).
         """
+        if self.n_dofs > DENSE_EIGEN_LIMIT:
+            count = min(self.n_dofs, 6 if n_modes is None else int(n_modes))
+            omega, vectors = limit_modes(self.structure, "regularized", count)
+            return omega, vectors / vectors[self.phase_dof]
         stiffness = _dense(self._stiffness)
         stiffness[self.stop_dofs, self.stop_dofs] += self.etas
         lam, vectors = eigh(stiffness, _dense(self._mass))
@@ -498,7 +504,7 @@ class HarmonicBalanceSystem:
         """
         if not isinstance(mode, (int, np.integer)) or isinstance(mode, bool) or not 1 <= mode <= self.n_dofs:
             raise ValueError(f"mode must be an integer in 1..{self.n_dofs}, got {mode!r}")
-        omega, shapes = self.linear_modes()
+        omega, shapes = self.linear_modes(mode)
         shape = shapes[:, mode - 1]
         if not np.all(np.isfinite(shape)):
             raise ValueError(f"mode {mode} does not move the DOF {self.phase_dof} of the first stop")
