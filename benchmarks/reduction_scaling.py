@@ -1,0 +1,211 @@
+#!/usr/bin/env python
+"""Full sparse path against the reduced one on the tube on three plates, N = 1e2 .. 1e5 DOFs, H = 100.
+
+Usage::
+
+    python benchmarks/reduction_scaling.py [--dofs 100 1000 10000 100000] [--full-step-max 10000]
+        [--full-branch-max 1000] [--modes 24] [--harmonics 100] [--output benchmarks/reduction_scaling.md]
+    python benchmarks/reduction_scaling.py --tiny --output /tmp/scaling.md     # seconds (the tests)
+
+The model is ``nnmstop.models.beam.tube_plates_parameters`` (clamped-pinned tube, three plates) with
+``N / 2`` elements (rounded to a multiple of 4). Every case runs in its own interpreter with one BLAS thread
+(peak resident memory ``ru_maxrss`` of that process, interpreter included):
+
+* ``reduced``: the full model assembled (sparse), reduced onto the plates' DOFs and ``--modes`` fixed-interface
+  modes (one-time cost: sparse LU of ``K_ii``, ``modes + 1`` eigenpairs by shift-invert Lanczos, projection),
+  then NNM1 continued by the engine (HBM, cosine basis, ANM with config/config.yaml's ``anm`` settings) up to
+  energy 100, and its dataset assembled with the Floquet stability of every stored point (monodromy);
+* ``full``: the same model without reduction (the engine's sparse path): one ANM step from NNM1 at half the
+  gap (up to ``--full-step-max`` DOFs) and the same continuation (up to ``--full-branch-max`` DOFs; its
+  stability is not computed: a monodromy matrix of order 2N per orbit is what the reduction avoids).
+
+Ends with the exponents of the one-time cost and of the reduced continuation's cost per step in N.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from timing import emit_report
+
+ROOT = Path(__file__).resolve().parents[1]
+ENERGY = 100.0
+
+
+def _settings(max_steps: int = 400):
+    from nnmstop.config import load_config
+    from nnmstop.continuation.anm import ANMSettings
+    from nnmstop.hbm.stages import BranchSettings, BranchSpec, StageSpec
+
+    anm = {**load_config(ROOT / "config" / "config.yaml")["anm"], "max_steps": max_steps}
+    settings = BranchSettings(ANMSettings.from_config(anm, points_per_step=2), 1e-3, start_tolerance=1e-7)
+    spec = BranchSpec("nnm1", 1, 0.05, (StageSpec("backbone", {"energy_above": ENERGY}),))
+    return settings, spec
+
+
+def _elements(dofs: int) -> int:
+    return max(4, int(round(dofs / 2 / 4)) * 4)
+
+
+def run_case(path: str, dofs: int, modes: int, harmonics: int, branch: bool) -> dict:
+    from nnmstop.hbm.stages import follow_stage, stage_dataset
+    from nnmstop.hbm.system import HarmonicBalanceSystem
+    from nnmstop.models.beam import Beam, beam_structure, tube_plates_parameters
+    from nnmstop.models.reduction import craig_bampton
+
+    out = {"path": path, "elements": _elements(dofs)}
+    started = time.perf_counter()
+    structure = beam_structure(Beam.from_parameters(tube_plates_parameters(out["elements"])))
+    out["assembly"] = time.perf_counter() - started
+    out["dofs"] = structure.n_dofs
+    if path == "reduced":
+        started = time.perf_counter()
+        structure = craig_bampton(structure, modes)
+        out["reduction"] = time.perf_counter() - started
+        out.update({f"reduction_{k}": v for k, v in structure.reduction.costs.items()})
+        out["reduced_dofs"] = structure.n_dofs
+    system = HarmonicBalanceSystem(structure, harmonics)
+    out["unknowns"] = system.n_unknowns
+    settings, spec = _settings()
+    if path == "full":
+        out.update(_one_step(system, settings))
+    if branch:
+        started = time.perf_counter()
+        continued = follow_stage(system, settings, spec)
+        out["branch"] = time.perf_counter() - started
+        out["steps"] = continued.stats.steps
+        out["per_step"] = out["branch"] / max(continued.stats.steps, 1)
+        out["end"] = continued.end_reason
+        out["final_frequency"] = float(system.frequency_hz(continued.points[-1]))
+        if path == "reduced":
+            started = time.perf_counter()
+            ds = stage_dataset(system, continued, 1, settings, {"branch": "nnm1"})
+            out["stability"] = time.perf_counter() - started
+            resolved = ds.stability_resolved.values == 1
+            out["points"] = int(ds.sizes["point"])
+            out["resolved"] = int(resolved.sum())
+            out["stable"] = int(((ds.stable.values == 1) & resolved).sum())
+    out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return out
+
+
+def _one_step(system, settings) -> dict:
+    """Time of one ANM step of the full model from NNM1 at half the gap (corrected, true tangent, untimed)."""
+    from nnmstop.continuation.core import ContinuationStats, newton_correct, unit_tangent
+
+    U = system.linear_mode_guess(1, 0.5)
+    direction = np.zeros(system.n_unknowns)
+    direction[system.phase_dof * system.nc + 1] = 1.0
+    U, _ = newton_correct(system, U, direction, ContinuationStats(), tol=settings.continuation.newton_threshold)
+    tangent, _ = unit_tangent(system, U, direction)
+    started = time.perf_counter()
+    settings.continuation.stepper().step(system, U, tangent, ContinuationStats())
+    return {"one_step": time.perf_counter() - started}
+
+
+def run_in_child(path, dofs, args, branch) -> dict:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
+    command = [sys.executable, __file__, "--case", path, str(dofs), "--modes", str(args.modes)]
+    command += ["--harmonics", str(args.harmonics)] + (["--branch"] if branch else [])
+    done = subprocess.run(command, env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"case {path} {dofs} failed:\n{done.stderr[-3000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _exponent(rows, key):
+    points = [(r["dofs"], r[key]) for r in rows if key in r and r[key] > 0]
+    if len(points) < 2:
+        return None
+    x, y = np.log([p[0] for p in points]), np.log([p[1] for p in points])
+    return float(np.polyfit(x, y, 1)[0])
+
+
+def _cell(row, key, fmt="{:.3g}"):
+    return fmt.format(row[key]) if key in row else "-"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dofs", type=int, nargs="+", default=[100, 1000, 10000, 100000])
+    parser.add_argument("--full-step-max", type=int, default=10000)
+    parser.add_argument("--full-branch-max", type=int, default=1000)
+    parser.add_argument("--modes", type=int, default=24)
+    parser.add_argument("--harmonics", type=int, default=100)
+    parser.add_argument("--tiny", action="store_true", help="N = 40, 80; H = 10; 8 modes (seconds)")
+    parser.add_argument("--case", nargs=2, metavar=("PATH", "DOFS"), help=argparse.SUPPRESS)
+    parser.add_argument("--branch", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--output", type=Path)
+    args = parser.parse_args(argv)
+    if args.case:
+        print(json.dumps(run_case(args.case[0], int(args.case[1]), args.modes, args.harmonics, args.branch)))
+        return 0
+    if args.tiny:
+        args.dofs, args.modes, args.harmonics = [40, 80], 8, 10
+        args.full_step_max = args.full_branch_max = 80
+    started = time.perf_counter()
+    reduced, full = [], []
+    for dofs in args.dofs:
+        reduced.append(run_in_child("reduced", dofs, args, True))
+        if dofs <= args.full_step_max:
+            full.append(run_in_child("full", dofs, args, dofs <= args.full_branch_max))
+    lines = [
+        "# Full sparse path against the reduced one (`python benchmarks/reduction_scaling.py`)",
+        "",
+        f"Tube on three plates (`tube_plates_parameters`), N DOFs; H = {args.harmonics}, cosine basis, NNM1 up to "
+        f"energy {ENERGY:g} (config/config.yaml's anm settings, 2 points per step); reduced: {args.modes} "
+        "fixed-interface modes and the 3 plate DOFs. Each case in its own process, one BLAS thread; peak = max "
+        "RSS of that process (interpreter included). Times in seconds.",
+        "",
+        "| N | path | unknowns | assembly | reduction (LU + eigen + projection) | ANM steps | per step | branch "
+        "| stability of the points | points (stable / resolved) | one full step | peak (MB) |",
+        "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for row in sorted(reduced + full, key=lambda r: (r["dofs"], r["path"])):
+        reduction = (
+            f"{row['reduction']:.3g} ({row['reduction_factorization']:.2g} + {row['reduction_eigensolve']:.2g} + "
+            f"{row['reduction_projection']:.2g})"
+            if "reduction" in row
+            else "-"
+        )
+        points = f"{row['points']} ({row['stable']} / {row['resolved']})" if "points" in row else "-"
+        lines.append(
+            f"| {row['dofs']} | {row['path']} | {row['unknowns']} | {row['assembly']:.3g} | {reduction} | "
+            f"{row.get('steps', '-')} | {_cell(row, 'per_step')} | {_cell(row, 'branch')} | "
+            f"{_cell(row, 'stability')} | {points} | {_cell(row, 'one_step')} | {row['peak_mb']:.0f} |"
+        )
+    for row in reduced + full:
+        if "end" in row:
+            lines.append(f"\n{row['path']} N = {row['dofs']}: ends at {row['end']}, frequency {row['final_frequency']:.6g} Hz")
+    one_time = [{"dofs": r["dofs"], "cost": r["assembly"] + r["reduction"]} for r in reduced]
+    exponents = {
+        "one-time cost (assembly + reduction)": _exponent(one_time, "cost"),
+        "reduced continuation per ANM step": _exponent(reduced, "per_step"),
+        "full sparse path, one ANM step": _exponent(full, "one_step"),
+    }
+    lines += ["", "Fitted exponents in N over the sizes run:", ""]
+    lines += [f"- {name}: {value:.2f}" if value is not None else f"- {name}: -" for name, value in exponents.items()]
+    largest = max(reduced, key=lambda r: r["dofs"])
+    total = largest["assembly"] + largest["reduction"] + largest["branch"] + largest.get("stability", 0.0)
+    lines += [
+        "",
+        f"Largest model, N = {largest['dofs']}: NNM1 backbone with stability by the reduced path in {total:.0f} s "
+        f"(assembly {largest['assembly']:.0f}, reduction {largest['reduction']:.0f}, continuation "
+        f"{largest['branch']:.0f}, stability {largest.get('stability', 0.0):.0f}), peak {largest['peak_mb']:.0f} MB.",
+        f"whole run {time.perf_counter() - started:.0f} s",
+    ]
+    return emit_report("\n".join(lines), args.output)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
