@@ -10,10 +10,10 @@ Usage::
 
 The model is the tube on three plates (``nnmstop.models.beam.tube_plates_parameters``: clamped-pinned,
 plates at L/2, L/4, 3L/4) with ``--elements`` elements (500: 999 DOFs). For each ``H``, NNM1 of the structure
-reduced with the largest ``--modes`` is continued (ANM, cosine basis) until a second plate is hit (more than
-three impacts per period); at each ``--amplitudes`` (fundamental cosine amplitude of the middle plate's DOF over its gap:
-0.9 before contact, 1.15 with one impact on each side of the middle plate) its orbit is solved by Newton
-with that amplitude held, then the same orbit of the **full** model (sparse path, Newton from the recovered
+reduced with the largest ``--modes`` is continued (ANM, cosine basis) until a second plate is
+hit (more than three impacts per period); at each ``--amplitudes`` (fundamental cosine amplitude of
+the middle plate's DOF over its gap: 0.9 before contact, 1.15 with one impact on each side of the middle
+plate) its orbit is solved by Newton with that amplitude held, then the same orbit of the **full** model (sparse path, Newton from the recovered
 orbit) and of the structure reduced with each smaller number of modes (Newton from the orbit with one more
 mode step, truncated). Errors against the full orbit: relative frequency and largest contact-DOF harmonic
 over the largest. ``modes needed``: the fewest kept modes whose errors are below ``--tolerance`` at every
@@ -61,7 +61,8 @@ def convergence(elements: int, harmonics: int, amplitudes, modes) -> list[dict]:
     rows = []
     for amplitude in amplitudes:
         if not along.min() <= amplitude <= along.max():
-            raise ValueError(f"amplitude {amplitude} is off the continued branch ({along.min():.3g}..{along.max():.3g})")
+            span = f"{along.min():.3g}..{along.max():.3g}"
+            raise ValueError(f"amplitude {amplitude} is off the continued branch ({span})")
         reference = orbit_at_amplitude(system, points[np.argmin(abs(along - amplitude))], amplitude)
         U_full = orbit_at_amplitude(full_system, full_unknowns(system, full_system, reference), amplitude)
         energy_full = full_system.diagnostics(U_full)["energy"]

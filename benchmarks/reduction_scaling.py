@@ -186,7 +186,8 @@ def main(argv=None) -> int:
         )
     for row in reduced + full:
         if "end" in row:
-            lines.append(f"\n{row['path']} N = {row['dofs']}: ends at {row['end']}, frequency {row['final_frequency']:.6g} Hz")
+            ending = f"ends at {row['end']}, frequency {row['final_frequency']:.6g} Hz"
+            lines.append(f"\n{row['path']} N = {row['dofs']}: {ending}")
     one_time = [{"dofs": r["dofs"], "cost": r["assembly"] + r["reduction"]} for r in reduced]
     exponents = {
         "one-time cost (assembly + reduction)": _exponent(one_time, "cost"),

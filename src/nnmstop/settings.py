@@ -93,7 +93,8 @@ def structure_from_config(config: dict, eta: float | None = None) -> Structure:
     if "reduction" in section:
         from nnmstop.models.reduction import reduce_structure
 
-        full = structure_from_config({**config, "structure": {k: v for k, v in section.items() if k != "reduction"}}, eta)
+        unreduced = {key: value for key, value in section.items() if key != "reduction"}
+        full = structure_from_config({**config, "structure": unreduced}, eta)
         return reduce_structure(full, section["reduction"], "structure.reduction")
     kind = section.get("kind", "two_dof")
     if kind not in STRUCTURE_KINDS:

@@ -83,7 +83,7 @@ def test_reduced_orbit_converges_to_the_full_one(plates):
 def _reduced_guess(system, full, U):
     """Reduced unknowns of a full orbit: boundary DOFs read off, modal coordinates by least squares on T."""
     T = system.structure.reduction.recovery
-    N, s, nc = full.n_dofs, full.n_stops, full.nc
+    N, nc = full.n_dofs, full.nc
     Q = U[: N * nc].reshape(N, nc)
     q = np.linalg.lstsq(T, Q, rcond=None)[0]
     return np.concatenate([q.ravel(), U[N * nc :]])

@@ -62,9 +62,14 @@ STRUCTURE_VARIABLES = (
         optional=True,
     ),
     Variable("recovered_dof", ("recovered_dof",), "index of a recovered full-model degree of freedom", optional=True),
-    Variable("recovered_dof_label", ("recovered_dof",), "name of the recovered full-model degree of freedom", optional=True),
     Variable(
-        "recovered_dof_node", ("recovered_dof",), "finite-element node of the recovered degree of freedom", optional=True
+        "recovered_dof_label", ("recovered_dof",), "name of the recovered full-model degree of freedom", optional=True
+    ),
+    Variable(
+        "recovered_dof_node",
+        ("recovered_dof",),
+        "finite-element node of the recovered degree of freedom",
+        optional=True,
     ),
 )
 

@@ -279,7 +279,8 @@ def _contact_force(fig, data, spec):
             ax.plot(t, f[k], lw=1.0, label=f"E = {ds.energy.values[i]:.3g} (nondim.)")
     for k, ax in enumerate(axes):
         ax.set_xlabel("instant t / T")
-        where = f" at s / L = {places[k]:.3g}" if places is not None else f" on {ds.dof_label.values[ds.stop_dof.values[k]]}"
+        label = ds.dof_label.values[ds.stop_dof.values[k]]
+        where = f" at s / L = {places[k]:.3g}" if places is not None else f" on {label}"
         ax.set_title(f"stop {k + 1}{where}", fontsize=9)
     axes[0].set_ylabel("regularized stop force f (nondimensional)")
     axes[0].legend(fontsize=8)
