@@ -66,3 +66,8 @@ rule all:
         PAPER_FIGURES,
         PAPER_DATASETS,
         rules.dataset_manifest.output.manifest,
+
+
+if "tube_plates" in config:  # a tube on several support plates, reduced (issue 32)
+
+    include: "workflow/rules/tube_plates.smk"

@@ -46,6 +46,8 @@ TINY_RUNS = {
                     "--output", "{out}"],
     "monodromy_calibration": ["{build}/" + NNM2, "--config", SMALL, "--stride", "40"],
     "quickstart": ["--tiny", "--output", "{out}"],
+    "reduction_convergence": ["--tiny", "--output", "{out}"],
+    "reduction_scaling": ["--tiny", "--output", "{out}"],
     "refinement_benchmark": ["{build}/" + NNM2, "--config", SMALL, "--repeat", "1", "--output", "{out}"],
     "stability_benchmark": ["{build}/" + NNM2, "--config", SMALL, "--stride", "20", "--repeat", "1",
                             "--output", "{out}"],

@@ -220,11 +220,12 @@ def _deflection(ds, q, s):
     else:
         labels = [str(v) for v in ds.dof_label.values]
         full_nodes = np.array([int(label.removeprefix("w").removeprefix("theta")) for label in labels])
-    kept, nodes = np.unique(full_nodes, return_inverse=True)  # the nodes the DOFs are on, renumbered
+    # the nodes the DOFs are on and both ends of the mesh (a constrained end has no DOF: w = 0 there), renumbered
+    kept = np.union1d(full_nodes, [0, ds.sizes["node"] - 1])
+    nodes = np.searchsorted(kept, full_nodes)
     coordinates = ds.node_coordinate.values[kept]
     shape = SimpleNamespace(dof_labels=labels, dof_nodes=nodes, node_coordinates=coordinates, n_dofs=len(labels))
-    inside = np.clip(s, coordinates[0], coordinates[-1])  # the ends of the mesh are kept nodes or fixed (w = 0)
-    return beam_deflection(shape, q, inside)
+    return beam_deflection(shape, q, s)
 
 
 def _stop_positions(ds) -> np.ndarray:

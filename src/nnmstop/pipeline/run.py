@@ -84,6 +84,8 @@ TASK_INDEX = {
         "tube_figure",
         "tube_study_case",
         "tube_study",
+    ),
+    "tube_plates": (
         "tube_plates_stage",
         "tube_plates_branch",
         "tube_plates_figure",
