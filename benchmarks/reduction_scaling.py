@@ -15,6 +15,9 @@ The model is ``nnmstop.models.beam.tube_plates_parameters`` (clamped-pinned tube
   modes (one-time cost: sparse LU of ``K_ii``, ``modes + 1`` eigenpairs by shift-invert Lanczos, projection),
   then NNM1 continued by the engine (HBM, cosine basis, ANM with config/config.yaml's ``anm`` settings) up to
   energy 100, and its dataset assembled with the Floquet stability of every stored point (monodromy);
+* ``files`` (from ``--files-min`` DOFs on): the same, its matrices written as Matrix Market files in a
+  shuffled DOF numbering (an FE code's own) and read back by ``structure: kind: matrices``'s reader with its
+  checks (symmetry, definiteness by a sparse LDL^T, held by the stops), time of reading and checking apart;
 * ``full``: the same model without reduction (the engine's sparse path): one ANM step from NNM1 at half the
   gap (up to ``--full-step-max`` DOFs) and the same continuation (up to ``--full-branch-max`` DOFs; its
   stability is not computed: a monodromy matrix of order 2N per orbit is what the reduction avoids).
@@ -41,12 +44,14 @@ ROOT = Path(__file__).resolve().parents[1]
 ENERGY = 100.0
 
 
-def _settings(max_steps: int = 400):
+def _settings(newton_threshold: float | None = None, max_steps: int = 400):
     from nnmstop.config import load_config
     from nnmstop.continuation.anm import ANMSettings
     from nnmstop.hbm.stages import BranchSettings, BranchSpec, StageSpec
 
     anm = {**load_config(ROOT / "config" / "config.yaml")["anm"], "max_steps": max_steps}
+    if newton_threshold is not None:
+        anm["newton_threshold"] = newton_threshold
     settings = BranchSettings(ANMSettings.from_config(anm, points_per_step=2), 1e-3, start_tolerance=1e-7)
     spec = BranchSpec("nnm1", 1, 0.05, (StageSpec("backbone", {"energy_above": ENERGY}),))
     return settings, spec
@@ -56,7 +61,7 @@ def _elements(dofs: int) -> int:
     return max(4, int(round(dofs / 2 / 4)) * 4)
 
 
-def run_case(path: str, dofs: int, modes: int, harmonics: int, branch: bool) -> dict:
+def run_case(path: str, dofs: int, modes: int, harmonics: int, branch: bool, full_threshold: float) -> dict:
     from nnmstop.hbm.stages import follow_stage, stage_dataset
     from nnmstop.hbm.system import HarmonicBalanceSystem
     from nnmstop.models.beam import Beam, beam_structure, tube_plates_parameters
@@ -67,7 +72,9 @@ def run_case(path: str, dofs: int, modes: int, harmonics: int, branch: bool) -> 
     structure = beam_structure(Beam.from_parameters(tube_plates_parameters(out["elements"])))
     out["assembly"] = time.perf_counter() - started
     out["dofs"] = structure.n_dofs
-    if path == "reduced":
+    if path == "files":
+        structure, out["read_and_check"] = _through_files(structure)
+    if path in ("reduced", "files"):
         started = time.perf_counter()
         structure = craig_bampton(structure, modes)
         out["reduction"] = time.perf_counter() - started
@@ -75,18 +82,26 @@ def run_case(path: str, dofs: int, modes: int, harmonics: int, branch: bool) -> 
         out["reduced_dofs"] = structure.n_dofs
     system = HarmonicBalanceSystem(structure, harmonics)
     out["unknowns"] = system.n_unknowns
-    settings, spec = _settings()
+    settings, spec = _settings(full_threshold if path == "full" else None)
+    out["newton_threshold"] = settings.continuation.newton_threshold
     if path == "full":
         out.update(_one_step(system, settings))
     if branch:
+        from nnmstop.continuation.core import ContinuationError
+
         started = time.perf_counter()
-        continued = follow_stage(system, settings, spec)
+        try:
+            continued = follow_stage(system, settings, spec)
+        except ContinuationError as err:  # measured: the full path's continuation fails at this size
+            out["failed"] = str(err)
+            out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            return out
         out["branch"] = time.perf_counter() - started
         out["steps"] = continued.stats.steps
         out["per_step"] = out["branch"] / max(continued.stats.steps, 1)
         out["end"] = continued.end_reason
         out["final_frequency"] = float(system.frequency_hz(continued.points[-1]))
-        if path == "reduced":
+        if path in ("reduced", "files"):
             started = time.perf_counter()
             ds = stage_dataset(system, continued, 1, settings, {"branch": "nnm1"})
             out["stability"] = time.perf_counter() - started
@@ -98,17 +113,46 @@ def run_case(path: str, dofs: int, modes: int, harmonics: int, branch: bool) -> 
     return out
 
 
-def _one_step(system, settings) -> dict:
-    """Time of one ANM step of the full model from NNM1 at half the gap (corrected, true tangent, untimed)."""
-    from nnmstop.continuation.core import ContinuationStats, newton_correct, unit_tangent
+def _through_files(structure):
+    """``structure`` written as Matrix Market files in a shuffled DOF numbering (an FE code's own), then read
+    back by ``matrix_structure`` with its checks (symmetry, definiteness by a sparse LDL^T, held by the stops);
+    returns the structure read and the seconds of reading and checking."""
+    import tempfile
 
-    U = system.linear_mode_guess(1, 0.5)
+    import scipy.io
+
+    from nnmstop.models.matrices import matrix_structure
+
+    order = np.random.default_rng(0).permutation(structure.n_dofs)
+    position = np.argsort(order)  # new index of each old DOF
+    stops = [
+        {"dof": int(position[s.dof]), "gap": s.gap, "stiffness": s.stiffness, "eta": s.eta} for s in structure.stops
+    ]
+    with tempfile.TemporaryDirectory() as folder:
+        paths = {}
+        for name in ("mass", "stiffness"):
+            paths[name] = Path(folder) / f"{name}.mtx"
+            scipy.io.mmwrite(paths[name], getattr(structure, name)[order][:, order].tocoo(), symmetry="symmetric")
+        started = time.perf_counter()
+        read = matrix_structure(paths["mass"], paths["stiffness"], stops)
+        return read, time.perf_counter() - started
+
+
+def _one_step(system, settings) -> dict:
+    """Time of one ANM step of the full model from NNM1 at half the gap (corrected to round-off, true tangent,
+    untimed); a step that fails is reported with its reason."""
+    from nnmstop.continuation.core import ContinuationError, ContinuationStats, unit_tangent
+    from nnmstop.hbm.reduced import orbit_at_amplitude
+
     direction = np.zeros(system.n_unknowns)
     direction[system.phase_dof * system.nc + 1] = 1.0
-    U, _ = newton_correct(system, U, direction, ContinuationStats(), tol=settings.continuation.newton_threshold)
+    U = orbit_at_amplitude(system, system.linear_mode_guess(1, 0.5), 0.5)
     tangent, _ = unit_tangent(system, U, direction)
     started = time.perf_counter()
-    settings.continuation.stepper().step(system, U, tangent, ContinuationStats())
+    try:
+        settings.continuation.stepper().step(system, U, tangent, ContinuationStats())
+    except ContinuationError as err:
+        return {"one_step_failed": str(err)}
     return {"one_step": time.perf_counter() - started}
 
 
@@ -116,7 +160,8 @@ def run_in_child(path, dofs, args, branch) -> dict:
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
     command = [sys.executable, __file__, "--case", path, str(dofs), "--modes", str(args.modes)]
-    command += ["--harmonics", str(args.harmonics)] + (["--branch"] if branch else [])
+    command += ["--harmonics", str(args.harmonics), "--full-threshold", str(args.full_threshold)]
+    command += ["--branch"] if branch else []
     done = subprocess.run(command, env=env, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"case {path} {dofs} failed:\n{done.stderr[-3000:]}")
@@ -141,22 +186,32 @@ def main(argv=None) -> int:
     parser.add_argument("--full-step-max", type=int, default=10000)
     parser.add_argument("--full-branch-max", type=int, default=1000)
     parser.add_argument("--modes", type=int, default=24)
+    parser.add_argument("--files-min", type=int, default=100000, help="also read from .mtx files from this N on")
     parser.add_argument("--harmonics", type=int, default=100)
+    parser.add_argument(
+        "--full-threshold",
+        type=float,
+        default=1e-5,
+        help="newton_threshold of the full path (its residual has a floor of ~1e-7 relative on a fine mesh)",
+    )
     parser.add_argument("--tiny", action="store_true", help="N = 40, 80; H = 10; 8 modes (seconds)")
     parser.add_argument("--case", nargs=2, metavar=("PATH", "DOFS"), help=argparse.SUPPRESS)
     parser.add_argument("--branch", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--output", type=Path)
     args = parser.parse_args(argv)
     if args.case:
-        print(json.dumps(run_case(args.case[0], int(args.case[1]), args.modes, args.harmonics, args.branch)))
+        case = run_case(args.case[0], int(args.case[1]), args.modes, args.harmonics, args.branch, args.full_threshold)
+        print(json.dumps(case))
         return 0
     if args.tiny:
         args.dofs, args.modes, args.harmonics = [40, 80], 8, 10
-        args.full_step_max = args.full_branch_max = 80
+        args.full_step_max = args.full_branch_max = args.files_min = 80
     started = time.perf_counter()
     reduced, full = [], []
     for dofs in args.dofs:
         reduced.append(run_in_child("reduced", dofs, args, True))
+        if dofs >= args.files_min:
+            reduced.append(run_in_child("files", dofs, args, True))
         if dofs <= args.full_step_max:
             full.append(run_in_child("full", dofs, args, dofs <= args.full_branch_max))
     lines = [
@@ -164,10 +219,13 @@ def main(argv=None) -> int:
         "",
         f"Tube on three plates (`tube_plates_parameters`), N DOFs; H = {args.harmonics}, cosine basis, NNM1 up to "
         f"energy {ENERGY:g} (config/config.yaml's anm settings, 2 points per step); reduced: {args.modes} "
-        "fixed-interface modes and the 3 plate DOFs. Each case in its own process, one BLAS thread; peak = max "
-        "RSS of that process (interpreter included). Times in seconds.",
+        "fixed-interface modes and the 3 plate DOFs. The full path's Newton threshold is "
+        f"{args.full_threshold:g} (the reduced path's: config/config.yaml's), its residual having a floor of about "
+        "1e-7 relative on a fine mesh (a stiffness spanning N^4). Each case in its own process, one BLAS thread; "
+        "peak = max RSS of that process (interpreter included). Times in seconds.",
         "",
-        "| N | path | unknowns | assembly | reduction (LU + eigen + projection) | ANM steps | per step | branch "
+        "| N | path | unknowns | assembly (+ files read, checked) | reduction (LU + eigen + projection) | ANM steps "
+        "| per step | branch "
         "| stability of the points | points (stable / resolved) | one full step | peak (MB) |",
         "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
@@ -179,24 +237,29 @@ def main(argv=None) -> int:
             else "-"
         )
         points = f"{row['points']} ({row['stable']} / {row['resolved']})" if "points" in row else "-"
+        assembly = f"{row['assembly']:.3g}" + (f" + {row['read_and_check']:.3g}" if "read_and_check" in row else "")
         lines.append(
-            f"| {row['dofs']} | {row['path']} | {row['unknowns']} | {row['assembly']:.3g} | {reduction} | "
+            f"| {row['dofs']} | {row['path']} | {row['unknowns']} | {assembly} | {reduction} | "
             f"{row.get('steps', '-')} | {_cell(row, 'per_step')} | {_cell(row, 'branch')} | "
             f"{_cell(row, 'stability')} | {points} | {_cell(row, 'one_step')} | {row['peak_mb']:.0f} |"
         )
     for row in reduced + full:
+        for key in ("failed", "one_step_failed"):
+            if key in row:
+                what = "continuation" if key == "failed" else "one ANM step"
+                lines.append(f"\n{row['path']} N = {row['dofs']}: the {what} failed: {row[key]}")
         if "end" in row:
             ending = f"ends at {row['end']}, frequency {row['final_frequency']:.6g} Hz"
             lines.append(f"\n{row['path']} N = {row['dofs']}: {ending}")
-    one_time = [{"dofs": r["dofs"], "cost": r["assembly"] + r["reduction"]} for r in reduced]
+    one_time = [{"dofs": r["dofs"], "cost": r["assembly"] + r["reduction"]} for r in reduced if r["path"] == "reduced"]
     exponents = {
         "one-time cost (assembly + reduction)": _exponent(one_time, "cost"),
-        "reduced continuation per ANM step": _exponent(reduced, "per_step"),
+        "reduced continuation per ANM step": _exponent([r for r in reduced if r["path"] == "reduced"], "per_step"),
         "full sparse path, one ANM step": _exponent(full, "one_step"),
     }
     lines += ["", "Fitted exponents in N over the sizes run:", ""]
     lines += [f"- {name}: {value:.2f}" if value is not None else f"- {name}: -" for name, value in exponents.items()]
-    largest = max(reduced, key=lambda r: r["dofs"])
+    largest = max((r for r in reduced if "branch" in r), key=lambda r: r["dofs"])
     total = largest["assembly"] + largest["reduction"] + largest["branch"] + largest.get("stability", 0.0)
     lines += [
         "",

@@ -43,9 +43,8 @@ def nnm1(built):
 
 def test_target_builds_the_branch_the_forced_response_and_the_figures(built):
     names = {p.name for p in (built / "paper_figures").iterdir()}
-    assert names == {
-        f"tube_plates_{n}.{e}" for n in ("frequency_energy", "shapes", "contact_force", "forced") for e in ("pdf", "png")
-    }
+    figures = ("frequency_energy", "shapes", "contact_force", "forced")
+    assert names == {f"tube_plates_{n}.{e}" for n in figures for e in ("pdf", "png")}
     for path in (built / "results" / "tube_plates").rglob("*.nc"):
         with xr.open_dataset(path) as ds:
             check_labelled(ds)
