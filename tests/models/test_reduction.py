@@ -6,6 +6,8 @@ Rayleigh-Ritz projection, so its linear frequencies bound the full model's from 
 added; the orbit errors against the full model (sparse path, Newton) fall as modes are added.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.sparse
@@ -150,3 +152,19 @@ def test_wide_band_matrices_are_checked_sparse(monkeypatch):
     np.testing.assert_allclose(normal_modes(structure, 3)[0], normal_modes(beam, 3)[0], rtol=1e-10)
     with pytest.raises(ValueError, match="mass must be positive definite"):
         Structure(-beam.mass, beam.stiffness, (beam.stops[0],))
+
+
+def test_configuration_names_the_reduction_key():
+    import copy
+
+    from nnmstop.config import ConfigError, load_config, validate_config
+
+    config = load_config(Path(__file__).resolve().parents[2] / "config" / "config.yaml")
+    bad = copy.deepcopy(config)
+    bad["tube_plates"]["reduction"]["modes"] = 10_000
+    with pytest.raises(ConfigError, match=r"'tube_plates.reduction'.*n_modes must be an integer in \[0, 796\]"):
+        validate_config(bad)
+    bad = copy.deepcopy(config)
+    bad["structure"] = {"kind": "beam", "beam": tube_plates_parameters(8), "reduction": {"modes": 2, "extra": 1}}
+    with pytest.raises(ConfigError, match="structure"):
+        validate_config(bad)
