@@ -93,7 +93,7 @@ def _reduced_guess(system, full, U):
 
 def test_refused_structures():
     free = Beam(1.0, 1.0, 1.0, 8, left="free", right="free", stops=(BeamStop(1.0, 30.0, 0.1, node=4),))
-    with pytest.raises(ValueError, match="K_ii is singular"):
+    with pytest.raises(ValueError, match="singular to double precision"):
         craig_bampton(beam_structure(free), 2)
     held = beam_structure(Beam(1.0, 1.0, 1.0, 8, stops=(BeamStop(1.0, 30.0, 0.1, node=4),)))
     with pytest.raises(ValueError, match="n_modes must be an integer"):

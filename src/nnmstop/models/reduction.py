@@ -223,10 +223,14 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
         factor = None
     pivots = np.abs(factor.U.diagonal()) if factor is not None else np.zeros(1)
     if factor is None or pivots.min() <= 1e-13 * pivots.max():
+        ratio = pivots.min() / pivots.max() if factor is not None else 0.0
         raise ValueError(
             "the interior of the structure (every DOF but the boundary "
-            f"{[structure.dof_labels[d] for d in boundary]}) is free to move when the boundary is held: K_ii is "
-            "singular; hold the structure (a clamped or pinned end) or add the free DOFs to boundary_dofs"
+            f"{[structure.dof_labels[d] for d in boundary]}) is singular to double precision when the boundary is "
+            f"held (smallest pivot of K_ii {ratio:.1e} of the largest): either it is free to move (hold the "
+            "structure: a clamped or pinned end; or add the free DOFs to boundary_dofs), or its stiffness is too "
+            "ill-conditioned (a beam's grows as the number of elements to the fourth: a mesh finer than a few "
+            "thousand elements gains no accuracy and loses it to round-off)"
         )
     costs["factorization"] = time.perf_counter() - started
     started = time.perf_counter()
