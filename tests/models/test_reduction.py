@@ -168,3 +168,26 @@ def test_configuration_names_the_reduction_key():
     bad["structure"] = {"kind": "beam", "beam": tube_plates_parameters(8), "reduction": {"modes": 2, "extra": 1}}
     with pytest.raises(ConfigError, match="structure"):
         validate_config(bad)
+
+
+def test_matrices_from_files_reduce_through_the_configuration(tmp_path):
+    """`structure: {kind: matrices, reduction: ...}`: the 3-DOF chain onto its stop DOF and one mode."""
+    from nnmstop.settings import structure_from_config
+
+    chain = Path(__file__).resolve().parents[2] / "examples" / "three_dof_chain"
+    matrices = {
+        "mass": str(chain / "mass.mtx"),
+        "stiffness": str(chain / "stiffness.mtx"),
+        "stops": [{"dof": 0, "gap": 1.0, "stiffness": 30.0, "eta": 0.1}],
+    }
+    full = structure_from_config({"structure": {"kind": "matrices", "matrices": matrices}})
+    reduced = structure_from_config(
+        {"structure": {"kind": "matrices", "matrices": matrices, "reduction": {"modes": 1}}}
+    )
+    assert reduced.n_dofs == 2 and reduced.stop_dofs == (0,) and reduced.attributes["kept_modes"] == 1
+    # Rayleigh-Ritz on a 3-DOF chain: the two reduced frequencies bound the two lowest full ones from above
+    assert np.all(normal_modes(reduced, 2)[0] >= normal_modes(full, 2)[0] * (1 - 1e-12))
+    everything = structure_from_config(
+        {"structure": {"kind": "matrices", "matrices": matrices, "reduction": {"modes": 2}}}
+    )
+    np.testing.assert_allclose(normal_modes(everything, 3)[0], normal_modes(full, 3)[0], rtol=1e-12)
