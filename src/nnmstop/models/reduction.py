@@ -217,13 +217,18 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     k_ii = stiffness[interior][:, interior].tocsc()
     m_ii = mass[interior][:, interior].tocsc()
     k_ib = stiffness[interior][:, boundary].toarray()
+    # K_ii is symmetric positive definite when the interior is held: an L D L^T in a symmetric fill-reducing order
+    # with the diagonal as pivot (no row interchange, which on a shuffled mesh numbering would destroy the
+    # symmetric structure and multiply the fill)
     try:
-        factor = scipy.sparse.linalg.splu(k_ii, permc_spec="MMD_AT_PLUS_A")
+        factor = scipy.sparse.linalg.splu(
+            k_ii, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        )
     except RuntimeError:
         factor = None
-    pivots = np.abs(factor.U.diagonal()) if factor is not None else np.zeros(1)
-    if factor is None or pivots.min() <= 1e-13 * pivots.max():
-        ratio = pivots.min() / pivots.max() if factor is not None else 0.0
+    pivots = factor.U.diagonal() if factor is not None else np.zeros(1)
+    if factor is None or pivots.min() <= 1e-13 * np.abs(pivots).max():
+        ratio = pivots.min() / np.abs(pivots).max() if factor is not None else 0.0
         raise ValueError(
             "the interior of the structure (every DOF but the boundary "
             f"{[structure.dof_labels[d] for d in boundary]}) is singular to double precision when the boundary is "
