@@ -179,7 +179,7 @@ def _one_step(system, settings) -> dict:
     direction = np.zeros(system.n_unknowns)
     direction[system.phase_dof * system.nc + 1] = 1.0
     try:
-        U = orbit_at_amplitude(system, system.linear_mode_guess(1, 0.5), 0.5)
+        U = orbit_at_amplitude(system, system.linear_mode_guess(1, 0.5), 0.5, max_iter=12)  # the engine's count
     except ContinuationError as err:
         return {"one_step_failed": f"no start point: {err}"}
     tangent, _ = unit_tangent(system, U, direction)
