@@ -13,8 +13,8 @@ plates at L/2, L/4, 3L/4) with ``--elements`` elements (500: 999 DOFs). For each
 structure reduced with the largest ``--modes`` is continued (ANM, cosine basis) up to energy 62 (the
 backbone below its energy fold, as ``tube_plates`` in config/config.yaml). At each ``--amplitudes``
 (fundamental cosine amplitude of the middle plate's DOF over its gap: 0.9 before contact, 1.04 with one
-impact on each side of the middle plate) its orbit is solved by Newton with that amplitude held; then the same orbit of the **full** model
-(sparse path, Newton from the recovered orbit) and of the structure reduced with each smaller number of
+impact on each side of the middle plate) its orbit is solved by Newton with that amplitude held; then
+the same orbit of the **full** model (sparse path, Newton from the recovered orbit) and of the structure reduced with each smaller number of
 modes (Newton from the orbit with the next larger count, truncated). Errors against the full orbit:
 relative frequency, and largest contact-DOF harmonic over the largest. ``modes needed``: the fewest kept
 modes whose errors are below ``--tolerance`` at every amplitude (and at every larger count tried); the
