@@ -14,13 +14,13 @@ structure reduced with the largest ``--modes`` is continued (ANM, cosine basis) 
 backbone below its energy fold, as ``tube_plates`` in config/config.yaml). At each ``--amplitudes``
 (fundamental cosine amplitude of the middle plate's DOF over its gap: 0.9 before contact, 1.04 with one
 impact on each side of the middle plate) its orbit is solved by Newton with that amplitude held; then
-the same orbit of the **full** model (sparse path, Newton from the recovered orbit) and of the structure reduced with each smaller number of
-modes (Newton from the orbit with the next larger count, truncated). Errors against the full orbit:
-relative frequency, and largest contact-DOF harmonic over the largest. ``modes needed``: the fewest kept
-modes whose errors are below ``--tolerance`` at every amplitude (and at every larger count tried); the
-first neglected fixed-interface mode's frequency against ``H f``, the highest frequency in the balance.
-Ends with the fitted exponent of the frequency error against ``f_next / f`` and of the modes needed
-against ``H``.
+the same orbit of the **full** model (sparse path, Newton from the recovered orbit) and of the structure
+reduced with each smaller number of modes (Newton from the orbit with the next larger count, truncated).
+Errors against the full orbit: relative frequency, and largest contact-DOF harmonic over the largest.
+``modes needed``: the fewest kept modes whose errors are below ``--tolerance`` at every amplitude (and at
+every larger count tried); the first neglected fixed-interface mode's frequency against ``H f``, the
+highest frequency in the balance. Ends with the fitted exponent of the frequency error against
+``f_next / f`` and of the modes needed against ``H``.
 """
 
 from __future__ import annotations
