@@ -1,45 +1,8 @@
 # Issue 32: a tube on several support plates (the `tube_plates` section), reduced onto the plates' DOFs
 # (Craig-Bampton, nnmstop.models.reduction): the HBM and structure tasks of any structure on the reduced
 # structure (NNM1 with its stability, figures of the deformed tube and of each plate's contact force), and its
-# forced response. `snakemake --cores 2 tube_plates` builds all of it. Tasks: nnmstop.tasks.tube_plates.
-
-from nnmstop.tasks.tube_plates import plates_config
-
-PLATES_FIGURES = ("frequency_energy", "shapes", "contact_force")
-
-
-def plates_file(name):
-    """A dataset of the tube on plates under results/tube_plates/."""
-    return results(f"tube_plates/{name}.nc")
-
-
-def plates_stage_files(branch):
-    count = len(config["tube_plates"]["branches"][branch]["stages"])
-    return [results(f"tube_plates/stages/{branch}_stage{k}.nc") for k in range(1, count + 1)]
-
-
-def plates_previous_stage(wildcards):
-    stage = int(wildcards.stage)
-    return {"previous": plates_stage_files(wildcards.branch)[stage - 2]} if stage > 1 else {}
-
-
-def plates_task_config(*sections, branches=False):
-    """`params: config=...` of a tube_plates rule: `sections` of nnmstop.tasks.tube.plates_config."""
-
-    def config_of_job(wildcards):
-        shaped = plates_config(config)
-        sliced = {name: shaped[name] for name in sections}
-        if branches:
-            sliced["branches"] = {wildcards.branch: shaped["branches"][wildcards.branch]}
-        return sliced
-
-    return config_of_job
-
-
-def plates_forced_file():
-    amplitude = config["tube_plates"]["forced"]["amplitude"]
-    return plates_file(f"forced_F{float(amplitude):g}".replace("e+", "e"))
-
+# forced response. `snakemake --cores 2 tube_plates` builds all of it. Tasks: nnmstop.tasks.tube_plates;
+# helpers (plates_file, plates_task_config, ...): workflow/rules/common.smk.
 
 rule tube_plates_stage:
     """One continuation stage of a regularized NNM of the reduced tube on plates."""
