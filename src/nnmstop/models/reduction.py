@@ -24,9 +24,7 @@ The one-time cost is one sparse factorization of ``K_ii`` (reused for the constr
 shift-invert operator of the Lanczos eigen-solve) and ``n_modes + 1`` eigenpairs: time and memory linear in
 the size of banded finite-element matrices. :attr:`Reduction.costs` records the seconds of each part.
 
-Examples
---------
-A clamped-free beam of 40 elements with one stop, reduced onto its stop DOF and 6 modes:
+For example, a clamped-free beam of 40 elements with one stop, reduced onto its stop DOF and 6 modes:
 
 >>> from nnmstop.models.beam import Beam, BeamStop, beam_structure
 >>> beam = Beam(1.0, 1.0, 1.0, 40, stops=(BeamStop(1.0, 30.0, 0.1, node=24),))
