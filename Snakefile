@@ -50,6 +50,11 @@ if "tube" in config:  # the finite-element tube (issue 14); a configuration may 
     include: "workflow/rules/tube.smk"
 
 
+if "tube_plates" in config:  # a tube on several support plates, reduced (issue 32)
+
+    include: "workflow/rules/tube_plates.smk"
+
+
 if "forced" in config:  # forced responses (issue 23); a configuration may leave them out
 
     include: "workflow/rules/forced.smk"

@@ -48,6 +48,8 @@ TINY_RUNS = {
     "one_sided_convergence": ["--etas", "0.2", "0.1", "--hbm-etas", "0.2", "0.1", "--harmonics", "20", "--output",
                               "{out}"],
     "quickstart": ["--tiny", "--output", "{out}"],
+    "reduction_convergence": ["--tiny", "--output", "{out}"],
+    "reduction_scaling": ["--tiny", "--output", "{out}"],
     "refinement_benchmark": ["{build}/" + NNM2, "--config", SMALL, "--repeat", "1", "--output", "{out}"],
     "stability_benchmark": ["{build}/" + NNM2, "--config", SMALL, "--stride", "20", "--repeat", "1",
                             "--output", "{out}"],

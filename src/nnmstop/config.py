@@ -109,6 +109,10 @@ def validate_config(config: dict) -> dict:
         _check_structure(config["structure"], config["branches"], "structure")
     if "tube" in config:
         _check_structure({"kind": "beam", "beam": config["tube"]["structure"]}, config["tube"]["branches"], "tube")
+    if "tube_plates" in config:
+        plates = config["tube_plates"]
+        section = {"kind": "beam", "beam": plates["structure"], "reduction": plates["reduction"]}
+        _check_structure(section, plates["branches"], "tube_plates")
     if "forced" in config:
         _check_forced(config)
     return config
@@ -131,7 +135,7 @@ def _check_structure(section: dict, branches: dict, key: str) -> None:
     from nnmstop.models.structure import check_grounded
 
     kind = section["kind"]
-    where = f"{key}.structure" if key == "tube" else f"structure.{kind}"
+    where = f"{key}.structure" if key in ("tube", "tube_plates") else f"structure.{kind}"
     try:
         if kind == "two_dof":
             return
@@ -149,9 +153,17 @@ def _check_structure(section: dict, branches: dict, key: str) -> None:
         check_grounded(structure, kind)
     except (TypeError, ValueError) as err:
         raise ConfigError(f"config key '{where}': {err}") from None
+    if "reduction" in section:
+        from nnmstop.models.reduction import reduce_structure
+
+        reduction_key = f"{key}.reduction" if key in ("tube", "tube_plates") else "structure.reduction"
+        try:
+            structure = reduce_structure(structure, section["reduction"], reduction_key)
+        except (TypeError, ValueError) as err:
+            raise ConfigError(f"config key '{reduction_key}': {err}") from None
     for name, spec in branches.items():
         if spec["mode"] > structure.n_dofs:
-            branch_key = f"tube.branches.{name}.mode" if key == "tube" else f"branches.{name}.mode"
+            branch_key = f"{key}.branches.{name}.mode" if key in ("tube", "tube_plates") else f"branches.{name}.mode"
             raise ConfigError(
                 f"config key '{branch_key}': {spec['mode']} exceeds the {structure.n_dofs} degrees of freedom "
                 f"of the {kind}"

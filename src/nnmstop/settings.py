@@ -85,9 +85,17 @@ def structure_from_config(config: dict, eta: float | None = None) -> Structure:
     ``kind: two_dof`` (default) is the oscillator of ``model`` (``eta`` replaces ``model.eta`` when
     given); ``kind: beam`` the finite-element beam of ``structure.beam``
     (:func:`nnmstop.models.beam.beam_structure`); ``kind: matrices`` the matrices of
-    ``structure.matrices`` (:func:`nnmstop.models.matrices.matrix_structure`).
+    ``structure.matrices`` (:func:`nnmstop.models.matrices.matrix_structure`). With a ``reduction`` key
+    (``{modes, boundary_dofs}``) the beam or matrices are reduced onto their contact DOFs
+    (:func:`nnmstop.models.reduction.reduce_structure`).
     """
     section = config.get("structure", {"kind": "two_dof"})
+    if "reduction" in section:
+        from nnmstop.models.reduction import reduce_structure
+
+        unreduced = {key: value for key, value in section.items() if key != "reduction"}
+        full = structure_from_config({**config, "structure": unreduced}, eta)
+        return reduce_structure(full, section["reduction"], "structure.reduction")
     kind = section.get("kind", "two_dof")
     if kind not in STRUCTURE_KINDS:
         raise ValueError(f"structure.kind must be one of {STRUCTURE_KINDS}, got {kind!r}")

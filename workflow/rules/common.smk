@@ -7,6 +7,7 @@ from nnmstop.study.error_runtime import sweep_cases
 from nnmstop.study.runs import format_number
 from nnmstop.study.stiff_cases import stiff_case_parameters
 from nnmstop.tasks.tube import tube_config
+from nnmstop.tasks.tube_plates import plates_config
 
 
 def results(path):
@@ -256,6 +257,48 @@ def tube_task_config(*sections, branches=False):
         return sliced
 
     return config_of_job
+
+
+# --------------------------------------------------------------------------- tube on several support plates
+# Files and task configurations of workflow/rules/tube_plates.smk (the `tube_plates` section, issue 32).
+
+PLATES_FIGURES = ("frequency_energy", "shapes", "contact_force")
+
+
+def plates_file(name):
+    """A dataset of the tube on plates under results/tube_plates/."""
+    return results(f"tube_plates/{name}.nc")
+
+
+def plates_stage_files(branch):
+    """The stage datasets of a branch of the tube on plates, in order (rule tube_plates_stage)."""
+    count = len(config["tube_plates"]["branches"][branch]["stages"])
+    return [results(f"tube_plates/stages/{branch}_stage{k}.nc") for k in range(1, count + 1)]
+
+
+def plates_previous_stage(wildcards):
+    """Stage k > 1 of a branch of the tube on plates starts from the dataset of stage k - 1."""
+    stage = int(wildcards.stage)
+    return {"previous": plates_stage_files(wildcards.branch)[stage - 2]} if stage > 1 else {}
+
+
+def plates_task_config(*sections, branches=False):
+    """`params: config=...` of a tube_plates rule: `sections` of nnmstop.tasks.tube.plates_config."""
+
+    def config_of_job(wildcards):
+        shaped = plates_config(config)
+        sliced = {name: shaped[name] for name in sections}
+        if branches:
+            sliced["branches"] = {wildcards.branch: shaped["branches"][wildcards.branch]}
+        return sliced
+
+    return config_of_job
+
+
+def plates_forced_file():
+    """The forced response of the tube on plates at `tube_plates.forced.amplitude`."""
+    amplitude = config["tube_plates"]["forced"]["amplitude"]
+    return plates_file(f"forced_F{float(amplitude):g}".replace("e+", "e"))
 
 
 # --------------------------------------------------------------------------- explorer

@@ -85,6 +85,23 @@ STRUCTURE_VARIABLES = (
         "position of the finite-element node over the length of the structure",
         optional=True,
     ),
+    # a structure reduced onto its contact DOFs (nnmstop.models.reduction): back to the full model's DOFs
+    Variable(
+        "recovery",
+        ("recovered_dof", "dof"),
+        "full-model degree of freedom per unit reduced degree of freedom (Craig-Bampton basis rows)",
+        optional=True,
+    ),
+    Variable("recovered_dof", ("recovered_dof",), "index of a recovered full-model degree of freedom", optional=True),
+    Variable(
+        "recovered_dof_label", ("recovered_dof",), "name of the recovered full-model degree of freedom", optional=True
+    ),
+    Variable(
+        "recovered_dof_node",
+        ("recovered_dof",),
+        "finite-element node of the recovered degree of freedom",
+        optional=True,
+    ),
 )
 
 #: Where the branch is: step, stage, segment and the flags of every point.

@@ -220,24 +220,39 @@ def _orbit_samples(ds, i: int, samples: int):
 
 
 def _deflection(ds, q, s):
+    """Deflection ``w / gap`` at positions ``s`` from DOF vectors ``q`` (..., dof) of a beam's branch dataset.
+
+    A reduced structure's DOFs go through the dataset's ``recovery`` onto the full mesh's DOFs it keeps, whose
+    nodes the Hermite shape functions then interpolate between."""
     from nnmstop.models.beam import beam_deflection
 
-    labels = [str(v) for v in ds.dof_label.values]
-    nodes = [int(label.removeprefix("w").removeprefix("theta")) for label in labels]
-    shape = SimpleNamespace(
-        dof_labels=labels, dof_nodes=nodes, node_coordinates=ds.node_coordinate.values, n_dofs=len(labels)
-    )
+    if "recovery" in ds:
+        q = np.asarray(q) @ ds.recovery.values.T
+        labels = [str(v) for v in ds.recovered_dof_label.values]
+        full_nodes = ds.recovered_dof_node.values
+    else:
+        labels = [str(v) for v in ds.dof_label.values]
+        full_nodes = np.array([int(label.removeprefix("w").removeprefix("theta")) for label in labels])
+    # the nodes the DOFs are on and both ends of the mesh (a constrained end has no DOF: w = 0 there), renumbered
+    kept = np.union1d(full_nodes, [0, ds.sizes["node"] - 1])
+    nodes = np.searchsorted(kept, full_nodes)
+    coordinates = ds.node_coordinate.values[kept]
+    shape = SimpleNamespace(dof_labels=labels, dof_nodes=nodes, node_coordinates=coordinates, n_dofs=len(labels))
     return beam_deflection(shape, q, s)
+
+
+def _stop_positions(ds) -> np.ndarray:
+    """Position ``s / L`` of every stop of a beam's dataset (its mesh is uniform)."""
+    return np.atleast_1d(ds.attrs["stop_nodes"]).astype(float) / float(ds.attrs["elements"])
 
 
 def _shapes(fig, data, spec):
     ds = data["nnm1"]
     energies = _energies(ds, spec)
-    s = np.linspace(0.0, 1.0, 201)
-    stop_node = int(np.atleast_1d(ds.attrs["stop_nodes"])[0])
-    s_stop = float(ds.node_coordinate.values[stop_node])
+    s = np.linspace(0.0, 1.0, 401)
     axes = fig.subplots(1, len(energies), sharey=False, squeeze=False)[0]
     m = 2 * int(spec.get("shape_samples", 9) - 1)
+    gaps = np.atleast_1d(ds.attrs["stop_gap_m"]) / float(ds.attrs["length_unit_m"])
     for ax, target in zip(axes, energies):
         i = point_at_energy(ds.energy.values, target)
         q, _ = _orbit_samples(ds, i, max(m, 2 * int(ds.attrs["harmonics"]) + 2))
@@ -245,33 +260,46 @@ def _shapes(fig, data, spec):
         w = _deflection(ds, q[:, : q.shape[1] // 2 + 1 : step].T, s)
         for wk, phase in zip(w, np.linspace(0.0, 0.5, len(w))):
             ax.plot(wk, s, color=SHAPE_COLORS(2.0 * phase), lw=0.9)
-        ax.axhline(s_stop, color="0.6", lw=0.6)
-        ax.plot([-1, -1], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
-        ax.plot([1, 1], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
+        for s_stop, gap in zip(_stop_positions(ds), gaps):
+            ax.axhline(s_stop, color="0.6", lw=0.6)
+            ax.plot([-gap, -gap], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
+            ax.plot([gap, gap], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
         impacts = int(ds.impacts_per_period.values[i])
         ax.set_title(f"E = {ds.energy.values[i]:.3g} (nondim.), {impacts} impacts per period", fontsize=9)
         ax.set_xlabel("deflection w / gap")
     axes[0].set_ylabel("position s / L (foot at 0)")
     bar = fig.colorbar(ScalarMappable(Normalize(0.0, 0.5), SHAPE_COLORS), ax=list(axes), fraction=0.025)
     bar.set_label("instant t / T (half a period)")
+    what = "stop" if int(ds.attrs["stops"]) == 1 else "stops"
+    reduced = "; reduced orbits drawn on the full mesh" if "recovery" in ds else ""
     fig.suptitle(
-        f"{_structure_name(ds)}, NNM1: deformed shapes over half a period (stop: black bars at ± gap)", fontsize=10
+        f"{_structure_name(ds)}, NNM1: deformed shapes over half a period\n({what}: black bars at ± gap{reduced})",
+        fontsize=10,
     )
 
 
 def _contact_force(fig, data, spec):
+    """The force of every stop over one period at the configured energies: one panel per stop."""
     ds = data["nnm1"]
-    ax = fig.add_subplot(111)
+    stops = int(ds.attrs["stops"])
+    axes = fig.subplots(1, stops, sharey=True, squeeze=False)[0]
     samples = 8 * int(ds.attrs["harmonics"]) + 8
     t = np.arange(samples) / samples
+    places = _stop_positions(ds) if ds.attrs.get("structure") == "beam" else None
     for target in _energies(ds, spec):
         i = point_at_energy(ds.energy.values, target)
         _, f = _orbit_samples(ds, i, samples)
-        ax.plot(t, f[0], lw=1.0, label=f"E = {ds.energy.values[i]:.3g} (nondim.)")
-    ax.set_xlabel("instant t / T")
-    ax.set_ylabel("regularized stop force f (nondimensional)")
-    ax.set_title(f"{_structure_name(ds)}, NNM1: force of the first stop over one period", fontsize=10)
-    ax.legend(fontsize=8)
+        for k, ax in enumerate(axes):
+            ax.plot(t, f[k], lw=1.0, label=f"E = {ds.energy.values[i]:.3g} (nondim.)")
+    for k, ax in enumerate(axes):
+        ax.set_xlabel("instant t / T")
+        label = ds.dof_label.values[ds.stop_dof.values[k]]
+        where = f" at s / L = {places[k]:.3g}" if places is not None else f" on {label}"
+        ax.set_title(f"stop {k + 1}{where}", fontsize=9)
+    axes[0].set_ylabel("regularized stop force f (nondimensional)")
+    axes[0].legend(fontsize=8)
+    noun = "the stop" if stops == 1 else "each stop"
+    fig.suptitle(f"{_structure_name(ds)}, NNM1: force of {noun} over one period", fontsize=10)
 
 
 def _exact_vs_regularized(fig, data, spec):
@@ -321,7 +349,7 @@ def _exact_vs_regularized(fig, data, spec):
 STRUCTURE_FIGURES = {
     "frequency_energy": (_frequency_energy, (11.0, 9.0)),
     "shapes": (_shapes, (10.0, 4.5)),
-    "contact_force": (_contact_force, (7.0, 4.0)),
+    "contact_force": (_contact_force, (10.0, 4.0)),
     "exact_vs_regularized": (_exact_vs_regularized, (7.5, 6.8)),
 }
 
@@ -331,8 +359,13 @@ def _structure_name(ds) -> str:
     stops = f"{int(ds.attrs['stops'])} stop(s)"
     if "stop_kind" in ds:  # not all the paper's bilateral stop: say which
         stops = f"{int(ds.attrs['stops'])} stop(s): {', '.join(str(k).replace('_', '-') for k in ds.stop_kind.values)}"
+    dofs = f"{int(ds.attrs['dofs'])} DOF"
+    if "full_dofs" in ds.attrs:
+        dofs = f"{int(ds.attrs['full_dofs'])} DOF reduced to {int(ds.attrs['dofs'])}"
     if kind == "beam":
-        return f"Beam with {stops} ({int(ds.attrs['dofs'])} DOF)"
+        return f"Beam with {stops} ({dofs})"
+    if "full_dofs" in ds.attrs:
+        return f"Structure of {dofs} with {stops}"
     return f"{int(ds.attrs['dofs'])}-DOF structure with {stops}"
 
 

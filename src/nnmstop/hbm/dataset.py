@@ -166,6 +166,34 @@ def _structure_variables(system) -> tuple[dict, dict]:
     if structure.node_coordinates is not None:
         coords["node"] = np.arange(len(structure.node_coordinates))
         data["node_coordinate"] = _var("node_coordinate", "node", np.asarray(structure.node_coordinates, float))
+    if structure.reduction is not None:
+        recovery_data, recovery_coords = recovery_variables(structure.reduction)
+        data.update(recovery_data)
+        coords.update(recovery_coords)
+    return data, coords
+
+
+def recovery_variables(reduction) -> tuple[dict, dict]:
+    """The recovery of a reduced structure's DOFs onto (a subset of) the full model's, for figures and readers.
+
+    ``recovery(recovered_dof, dof)``: full-model DOFs ``recovered_dof_label`` from the reduced ones
+    (:func:`nnmstop.models.reduction.recovered_rows` picks them: all of a small model, evenly spaced nodes of
+    a large mesh); ``recovered_dof_node`` their node, ``node_coordinate`` the full mesh's nodes.
+    """
+    from nnmstop.models.reduction import recovered_rows
+
+    rows = recovered_rows(reduction)
+    data = {"recovery": _var("recovery", ("recovered_dof", "dof"), reduction.recovery[rows])}
+    coords = {
+        "recovered_dof": np.arange(len(rows)),
+        "recovered_dof_label": ("recovered_dof", np.array([reduction.full_dof_labels[r] for r in rows], dtype=str)),
+    }
+    if reduction.full_dof_nodes is not None:
+        nodes = np.asarray(reduction.full_dof_nodes, dtype=np.int32)[rows]
+        data["recovered_dof_node"] = _var("recovered_dof_node", "recovered_dof", nodes)
+    if reduction.full_node_coordinates is not None:
+        coords["node"] = np.arange(len(reduction.full_node_coordinates))
+        data["node_coordinate"] = _var("node_coordinate", "node", np.asarray(reduction.full_node_coordinates, float))
     return data, coords
 
 

@@ -31,7 +31,7 @@ from nnmstop import fourier
 from nnmstop.continuation.linear import BorderedFactorization
 from nnmstop.hbm.factorization import Channel, CondensedBorderedLU, SparseBorderedLU, StopCoupling
 from nnmstop.hbm.series_cache import SeriesCache
-from nnmstop.models.structure import Structure
+from nnmstop.models.structure import DENSE_EIGEN_LIMIT, Structure, limit_modes
 from nnmstop.models.two_dof import ModelParameters
 
 __all__ = ["HarmonicBalanceSystem", "SeriesCache", "DENSE_MAX_UNKNOWNS", "impacts_per_period"]
@@ -577,20 +577,28 @@ class HarmonicBalanceSystem:
 
     # ------------------------------------------------------------------ starting point
 
-    def linear_modes(self):
+    def linear_modes(self, n_modes: int | None = None):
         """Angular frequencies and mode shapes of the regularized structure near rest.
 
         Near rest each stop adds its law's slope at rest on its coordinates, ``eta_i A_i^T A_i``
         (``gap_i f_i ~ eta_i q`` for a stop on one DOF; :attr:`~nnmstop.models.contact.Stop.stiffness_at_rest`).
         Shapes are the columns, normalized to 1 on the first stop's coordinate (:meth:`reference_coordinate`),
         or, for a mode that does not move it, on the first stop coordinate it moves (:meth:`mode_reference`).
+        Every mode (dense ``eigh``) up to :data:`~nnmstop.models.structure.DENSE_EIGEN_LIMIT` DOFs; above, the
+        ``n_modes`` lowest (default 6) by shift-invert Lanczos on the sparse matrices (a dense eigen-solve of a
+        large model does not fit).
         """
-        stiffness = _dense(self._stiffness)
-        if self.contact.grounded and len(set(self.stop_dofs.tolist())) == len(self.stop_dofs):
-            stiffness[self.stop_dofs, self.stop_dofs] += self.etas
+        if self.n_dofs > DENSE_EIGEN_LIMIT:
+            count = min(self.n_dofs, 6 if n_modes is None else int(n_modes))
+            omega, vectors = limit_modes(self.structure, "regularized", count)
+            lam = omega**2
         else:
-            stiffness += self.contact.stiffness_matrix([stop.stiffness_at_rest for stop in self.structure.stops])
-        lam, vectors = eigh(stiffness, _dense(self._mass))
+            stiffness = _dense(self._stiffness)
+            if self.contact.grounded and len(set(self.stop_dofs.tolist())) == len(self.stop_dofs):
+                stiffness[self.stop_dofs, self.stop_dofs] += self.etas
+            else:
+                stiffness += self.contact.stiffness_matrix([stop.stiffness_at_rest for stop in self.structure.stops])
+            lam, vectors = eigh(stiffness, _dense(self._mass))
         reference = np.array([self.mode_reference(vectors[:, j])[1] for j in range(vectors.shape[1])])
         with np.errstate(divide="ignore", invalid="ignore"):  # a mode that moves no stop: not finite, refused when used
             return np.sqrt(lam), vectors / reference
@@ -619,7 +627,7 @@ class HarmonicBalanceSystem:
         """
         if not isinstance(mode, (int, np.integer)) or isinstance(mode, bool) or not 1 <= mode <= self.n_dofs:
             raise ValueError(f"mode must be an integer in 1..{self.n_dofs}, got {mode!r}")
-        omega, shapes = self.linear_modes()
+        omega, shapes = self.linear_modes(mode)
         shape = shapes[:, mode - 1]
         if not np.all(np.isfinite(shape)):
             raise ValueError(f"mode {mode} does not move the coordinate of any stop (first stop: DOF {self.phase_dof})")

@@ -33,6 +33,7 @@ __all__ = [
     "euler_bernoulli_frequencies",
     "rigid_body_modes",
     "default_tube_parameters",
+    "tube_plates_parameters",
     "linear_frequencies",
     "normal_modes",
 ]
@@ -512,4 +513,32 @@ def default_tube_parameters() -> dict:
         "left": "clamped",
         "right": "free",
         "stops": [{"position": plate, "gap": 2e-4, "stiffness": stiffness, "eta": stiffness / 300.0}],
+    }
+
+
+def tube_plates_parameters(n_elements: int = 100) -> dict:
+    """A tube on three support plates: the scene of ``tube_plates`` (config/config.yaml) at any mesh size.
+
+    The tube of :func:`default_tube_parameters` (19.05 mm x 1.09 mm, water-filled: ``EI = 500 N m^2``,
+    ``rho A = 0.7 kg/m``, 1 m) clamped at its foot and pinned at its top (the U-bend's support), through three
+    plates at 0.5, 0.25 and 0.75 m, each a bilateral stop with a radial clearance of 0.2 mm, stiffness 3 times
+    the cantilever's static stiffness at the plate (``9 EI / a**3``) and eta = stiffness / 300. The middle
+    plate comes first: NNM1 moves it most, and the first stop carries the branch's amplitude and phase.
+    ``n_elements`` must be a multiple of 4 (plates on nodes).
+    """
+    if isinstance(n_elements, bool) or not isinstance(n_elements, (int, np.integer)) or n_elements % 4:
+        raise ValueError(f"n_elements must be a multiple of 4 (plates at L/4, L/2, 3L/4 on nodes), got {n_elements!r}")
+    ei = 500.0
+    stops = [
+        {"position": a, "gap": 2e-4, "stiffness": 9.0 * ei / a**3, "eta": 9.0 * ei / a**3 / 300.0}
+        for a in (0.5, 0.25, 0.75)
+    ]
+    return {
+        "length": 1.0,
+        "bending_stiffness": ei,
+        "mass_per_length": 0.7,
+        "n_elements": int(n_elements),
+        "left": "clamped",
+        "right": "pinned",
+        "stops": stops,
     }

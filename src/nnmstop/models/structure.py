@@ -98,11 +98,50 @@ def _lower_band(matrix) -> np.ndarray:
     return band
 
 
-def _check_positive_definite(name: str, matrix) -> None:
+#: Largest banded storage (entries) of a sparse matrix checked by a banded Cholesky; above, by a sparse LDL^T.
+BAND_ENTRIES_LIMIT = 10_000_000
+
+
+def _bandwidth(matrix) -> int:
+    coo = scipy.sparse.coo_matrix(matrix)
+    return int(np.abs(coo.row - coo.col).max()) if coo.nnz else 0
+
+
+def sparse_inertia_positive(matrix) -> bool:
+    """Whether a symmetric sparse matrix is positive definite, by a sparse ``L D L^T`` in a fill-reducing order.
+
+    SuperLU factors ``P A P^T = L U`` with a symmetric ordering (minimum degree on ``A + A^T``) and the diagonal
+    always taken as pivot (``diag_pivot_thresh = 0``): then ``U = D L^T`` and, by Sylvester's law of inertia,
+    ``A`` is positive definite exactly when every pivot ``D`` is > 0. A zero pivot forces a row interchange
+    (``perm_r != perm_c``), which an SPD matrix never needs. Time and memory follow the factor's fill: linear in
+    the size for banded finite-element matrices, whatever order their DOFs come in.
+    """
+    matrix = scipy.sparse.csc_matrix(matrix, dtype=float)
+    try:
+        factor = scipy.sparse.linalg.splu(
+            matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        )
+    except RuntimeError:  # exactly singular
+        return False
+    if not np.array_equal(factor.perm_r, factor.perm_c):
+        return False
+    return bool(np.all(factor.U.diagonal() > 0))
+
+
+def _is_positive_definite(matrix) -> bool:
+    """Banded Cholesky for dense or narrow-band matrices, :func:`sparse_inertia_positive` for wide sparse ones."""
+    if scipy.sparse.issparse(matrix) and (_bandwidth(matrix) + 1) * matrix.shape[0] > BAND_ENTRIES_LIMIT:
+        return sparse_inertia_positive(matrix)
     try:
         scipy.linalg.cholesky_banded(_lower_band(matrix), lower=True)
     except np.linalg.LinAlgError:
-        raise ValueError(f"{name} must be positive definite (its Cholesky factorization fails)") from None
+        return False
+    return True
+
+
+def _check_positive_definite(name: str, matrix) -> None:
+    if not _is_positive_definite(matrix):
+        raise ValueError(f"{name} must be positive definite (its Cholesky factorization fails)")
 
 
 def check_matrix(name: str, matrix, positive_definite: bool = False):
@@ -162,6 +201,9 @@ class Structure:
         What describes the structure in a dataset's global attributes (names to numbers, strings or
         1-D arrays): ``structure`` names its kind (``"two_dof"``, ``"beam"``, ``"matrices"``), and e.g.
         the paper's ``alpha``, ``beta``, ``delta``, ``eta``. Nothing in the engines reads them.
+    reduction : nnmstop.models.reduction.Reduction, optional
+        Set on a reduced structure (:func:`nnmstop.models.reduction.craig_bampton`): the recovery matrix back
+        to the full model's DOFs and what the reduction kept. Nothing in the engines reads it.
 
     Examples
     --------
@@ -181,6 +223,7 @@ class Structure:
     node_coordinates: np.ndarray | None = None
     dof_nodes: tuple | None = None
     attributes: dict | None = None
+    reduction: object | None = None
 
     def __post_init__(self):
         mass = _square_matrix("mass", self.mass)
@@ -219,6 +262,10 @@ class Structure:
             if len(nodes) != n or (n_nodes is not None and any(not 0 <= k < n_nodes for k in nodes)):
                 raise ValueError(f"dof_nodes must give a valid node index for each of the {n} degrees of freedom")
             object.__setattr__(self, "dof_nodes", nodes)
+        if self.reduction is not None and self.reduction.recovery.shape[1] != n:
+            raise ValueError(
+                f"the reduction's recovery matrix has {self.reduction.recovery.shape[1]} columns, not the {n} DOFs"
+            )
 
     @property
     def n_dofs(self) -> int:
@@ -327,10 +374,9 @@ def generalized_modes(mass, stiffness, n_modes: int):
     # round-off on the low lambda is then relative to lambda itself, not to the largest eigenvalue as in a
     # direct solve (which loses about lambda_max / lambda_1 in relative accuracy: 1e-5 at 400 beam DOFs).
     # sigma = 0 when K is positive definite, a small negative shift when it has rigid-body modes.
-    try:
-        scipy.linalg.cholesky_banded(_lower_band(stiffness), lower=True)
+    if _is_positive_definite(stiffness):
         sigma = 0.0
-    except np.linalg.LinAlgError:
+    else:
         diag_k = stiffness.diagonal() if scipy.sparse.issparse(stiffness) else np.diag(stiffness)
         diag_m = mass.diagonal() if scipy.sparse.issparse(mass) else np.diag(mass)
         sigma = -1e-6 * np.abs(diag_k).max() / diag_m.max()

@@ -87,6 +87,13 @@ TASK_INDEX = {
         "tube_study",
         "tube_manifest",
     ),
+    "tube_plates": (
+        "tube_plates_stage",
+        "tube_plates_branch",
+        "tube_plates_figure",
+        "tube_plates_forced",
+        "tube_plates_forced_figure",
+    ),
     "forced": (
         "forced_exact",
         "forced_regularized",
