@@ -137,6 +137,20 @@ def _stops_of(ds: xr.Dataset) -> list:
 
 
 def structure_from_attributes(ds: xr.Dataset):
+    """The structure a dataset was computed with: :func:`full_structure_from_attributes`, reduced again where the
+    dataset records a reduction (``reduction``, ``kept_modes``; the boundary DOFs are the first ``boundary_dofs``
+    of its ``dof_label``: the contact DOFs and the extra ones the reduction kept physical)."""
+    structure = full_structure_from_attributes(ds)
+    if ds.attrs.get("reduction") != "craig_bampton":
+        return structure
+    from nnmstop.models.reduction import contact_dofs, craig_bampton
+
+    boundary = np.atleast_1d(ds.attrs["boundary_full_dofs"]).astype(int)
+    extra = sorted(set(boundary.tolist()) - set(contact_dofs(structure).tolist()))
+    return craig_bampton(structure, int(ds.attrs["kept_modes"]), extra)
+
+
+def full_structure_from_attributes(ds: xr.Dataset):
     """The :class:`~nnmstop.models.structure.Structure` a dataset was computed with, from its attributes.
 
     ``structure`` names the kind: ``two_dof`` (``alpha``, ``beta``, ``delta``, ``eta``), ``beam`` (the
@@ -193,7 +207,15 @@ def structure_from_attributes(ds: xr.Dataset):
                 raise ValueError(f"the {name} matrix file {path} changed since it was computed (SHA-256 differs)")
             files[name] = path
         labels = [str(v) for v in ds["dof_label"].values] if "dof_label" in ds.variables else None
-        return matrix_structure(files["mass"], files["stiffness"], _stops_of(ds), labels)
+        stops = _stops_of(ds)
+        if ds.attrs.get("reduction") == "craig_bampton":  # stops on the reduced DOFs: back to the full model's
+            full = np.atleast_1d(ds.attrs["boundary_full_dofs"]).astype(int)
+            for stop in stops:
+                for key in ("dof", "dofs"):
+                    if key in stop:
+                        stop[key] = int(full[stop[key]]) if key == "dof" else [int(full[d]) for d in stop[key]]
+            labels = None
+        return matrix_structure(files["mass"], files["stiffness"], stops, labels)
     raise ValueError(f"its structure kind {kind!r} is none of two_dof, beam, matrices")
 
 

@@ -27,6 +27,11 @@ CHANGE_MARKERS = {"fold": "^", "symmetry_breaking": "D", "period_doubling": "s",
 EXACT_LINE = "black"
 
 
+def _first_stop(ds) -> tuple[int, float]:
+    """The first stop's degree of freedom and gap (a dataset of several stops records one of each per stop)."""
+    return int(np.atleast_1d(ds.attrs["stop_dof"])[0]), float(np.atleast_1d(ds.attrs["stop_gap"])[0])
+
+
 def _level_colors(n: int):
     return plt.cm.viridis(np.linspace(0.05, 0.85, max(n, 1)))
 
@@ -90,8 +95,8 @@ def _response_panel(ax, exact, regularized, backbone, dof: int, colors):
         a = backbone["predicted_amplitude"].values[i, :, dof]
         ok = f > 0
         ax.plot(f[ok], a[ok], "*", color=color, mec="black", mew=0.5, ms=10, zorder=6)
-    if dof == int(regularized[0].attrs["stop_dof"]):
-        ax.axhline(float(regularized[0].attrs["stop_gap"]), color="0.4", lw=0.6, ls=":")
+    if dof == _first_stop(regularized[0])[0]:
+        ax.axhline(_first_stop(regularized[0])[1], color="0.4", lw=0.6, ls=":")
     ax.set_xlabel("forcing frequency (Hz, nondimensional time)")
 
 
@@ -123,7 +128,7 @@ def frequency_response_figure(
     """
     fig, axes = plt.subplots(2, 2, figsize=(10.0, 8.6), layout="constrained")
     colors = _level_colors(len(regularized))
-    dofs = [int(regularized[0].attrs["stop_dof"]), int(np.atleast_1d(regularized[0].attrs["forcing_dofs"])[0])]
+    dofs = [_first_stop(regularized[0])[0], int(np.atleast_1d(regularized[0].attrs["forcing_dofs"])[0])]
     if zoom is None:  # the one-contact exact responses and the NNM1 peaks
         first = backbone["predicted_frequency"].values[:, 0]
         contact = np.concatenate(
@@ -174,7 +179,7 @@ def _regularized_orbit(ds: xr.Dataset, i: int, samples: int):
     H = ds.sizes["harmonic"] - 1
     q = fourier.to_time(fourier.from_cos_sin(ds["q_cos"].values[i], ds["q_sin"].values[i]), H, samples)
     f = fourier.to_time(fourier.from_cos_sin(ds["f_cos"].values[i], ds["f_sin"].values[i]), H, samples)
-    return 2 * np.pi * np.arange(samples) / samples, q, f[0] * float(ds.attrs["stop_gap"])
+    return 2 * np.pi * np.arange(samples) / samples, q, f[0] * _first_stop(ds)[1]
 
 
 def orbits_figure(
@@ -194,7 +199,7 @@ def orbits_figure(
     fig, axes = plt.subplots(
         2, len(frequencies), figsize=(4.2 * len(frequencies), 5.6), layout="constrained", squeeze=False
     )
-    stop, forced = int(regularized_ds.attrs["stop_dof"]), int(np.atleast_1d(regularized_ds.attrs["forcing_dofs"])[0])
+    stop, forced = _first_stop(regularized_ds)[0], int(np.atleast_1d(regularized_ds.attrs["forcing_dofs"])[0])
     for column, target in enumerate(frequencies):
         top, bottom = axes[0, column], axes[1, column]
         index = exact_ds["contact_point_index"].values
@@ -234,14 +239,14 @@ def tube_figure(regularized: list, pdf_path, png_dpi: int = 150):
     """The tube's response: ``max |q|`` at the stop and at the forced DOF against frequency."""
     fig, ax = plt.subplots(figsize=(6.0, 4.0), layout="constrained")
     for ds in regularized:
-        for dof, style in ((int(ds.attrs["stop_dof"]), "-"), (int(np.atleast_1d(ds.attrs["forcing_dofs"])[0]), "-")):
+        for dof, style in ((_first_stop(ds)[0], "-"), (int(np.atleast_1d(ds.attrs["forcing_dofs"])[0]), "-")):
             label = str(ds["dof_label"].values[dof])
-            color = "tab:red" if dof == int(ds.attrs["stop_dof"]) else "tab:blue"
+            color = "tab:red" if dof == _first_stop(ds)[0] else "tab:blue"
             _draw_response(ax, ds, ds["amplitude"].values[:, dof], color, 1.5, 2)
-            role = "stop DOF" if dof == int(ds.attrs["stop_dof"]) else "forced DOF"
+            role = "stop DOF" if dof == _first_stop(ds)[0] else "forced DOF"
             ax.plot([], [], color=color, ls=style, label=f"{label}, {role} (F = {ds.attrs['forcing_amplitude']:g})")
             _draw_changes(ax, ds, dof, color)
-        ax.axhline(float(ds.attrs["stop_gap"]), color="0.4", lw=0.6, ls=":")
+        ax.axhline(_first_stop(ds)[1], color="0.4", lw=0.6, ls=":")
     ax.set_yscale("log")
     ax.set_xlabel("forcing frequency (Hz, nondimensional time)")
     ax.set_ylabel("max |q| over the period (gaps)")
@@ -262,7 +267,7 @@ def prediction_error_figure(ds: xr.Dataset, pdf_path, png_dpi: int = 150):
         zeta,
         ds["amplitude_error"].values,
         "s-",
-        label=f"peak max |{ds['dof_label'].values[int(ds.attrs['stop_dof'])]}|",
+        label=f"peak max |{ds['dof_label'].values[_first_stop(ds)[0]]}|",
     )
     top = max(ds["frequency_error"].values.max(), ds["amplitude_error"].values.max())
     ax.loglog(zeta, top * zeta / zeta.max(), color="0.5", ls=":", label="slope 1 (first order)")

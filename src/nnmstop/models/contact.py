@@ -51,7 +51,7 @@ Method notes: ``docs/methods/contact_law.md`` (bilateral), ``docs/methods/one_si
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -286,6 +286,14 @@ class Stop:
     def label(self) -> str:
         """A short description, e.g. ``"bilateral stop on q0"``."""
         raise NotImplementedError
+
+    def on_dofs(self, position) -> Stop:
+        """The same law acting on renumbered degrees of freedom: each DOF it reads replaced by ``position[dof]``
+        (a mapping; a reduction of the structure onto its contact DOFs, :mod:`nnmstop.models.reduction`)."""
+        names = {f.name for f in fields(self)}
+        if "dofs" in names:
+            return replace(self, dofs=tuple(int(position[d]) for d in self.dofs))
+        return replace(self, dof=int(position[self.dof]))
 
     def metadata(self) -> dict:
         """What describes the stop in a dataset: ``kind``, ``side`` (+1, -1, or 0 for both sides) and ``dofs``."""

@@ -124,6 +124,7 @@ class Reduction:
             "reduction": "craig_bampton",
             "full_dofs": int(self.full_dofs),
             "boundary_dofs": int(len(self.boundary)),
+            "boundary_full_dofs": np.asarray(self.boundary, dtype=np.int32),  # the full model's index of each
             "kept_modes": int(self.kept_modes),
             "highest_kept_frequency": float(self.mode_frequencies[-1] / (2 * np.pi)) if self.kept_modes else 0.0,
             "first_neglected_frequency": float(self.next_frequency / (2 * np.pi)),
@@ -140,13 +141,6 @@ def contact_dofs(structure: Structure) -> np.ndarray:
     for stop in structure.stops:
         dofs.extend(getattr(stop, "dofs", (stop.dof,)))
     return np.unique(np.asarray(dofs, dtype=int))
-
-
-def _moved_stop(stop, position: dict):
-    """``stop`` acting on the reduced DOFs: each DOF it reads replaced by its position in the boundary."""
-    if hasattr(stop, "dofs"):
-        return dataclasses.replace(stop, dofs=tuple(position[d] for d in stop.dofs))
-    return dataclasses.replace(stop, dof=position[stop.dof])
 
 
 def _count(name: str, value, low: int, high: int) -> int:
@@ -274,7 +268,7 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     return Structure(
         reduced_mass,
         reduced_stiffness,
-        tuple(_moved_stop(stop, position) for stop in structure.stops),
+        tuple(stop.on_dofs(position) for stop in structure.stops),
         dof_labels=tuple(structure.dof_labels[d] for d in boundary) + tuple(f"cb{j + 1}" for j in range(m)),
         attributes={**structure.attributes, **reduction.attributes()},
         reduction=reduction,
