@@ -219,7 +219,9 @@ STABILITY_VARIABLES = (
         "time_residual above stability.max_orbit_residual (the HBM orbit's own error; more steps would not resolve it), "
         "and the orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of the regularized "
         "equations of motion (the HBM orbit's own error decided; stability variables from the refined orbit); 4 the "
-        "shooting did not converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within 2 x its "
+        "shooting did not converge: Newton diverged, went farther than refine_max_change, or met a singular system (an "
+        "orbit whose period is a multiple of its own, next to an n:1 branch point) (verdict of the HBM orbit, "
+        "unresolved); 5 the refined orbit's margin within 2 x its "
         "integration error at the largest step count or below trace_tol: a non-trivial pair sits at +1 (a stability "
         "change, e.g. an energy fold)",
         flags=(

@@ -79,10 +79,15 @@ def _linear_limits(params: ModelParameters) -> list:
 
 
 def _stability_counts(ds: xr.Dataset) -> tuple:
+    """Resolved verdicts, stable and unstable among them, and the unresolved orbits (whose ``stable`` is only the
+    HBM orbit's unconfirmed verdict, so it is counted in neither): the four add up to the points."""
     if "stable" not in ds:
-        return "", ""
-    resolved = int(ds["stability_resolved"].sum()) if "stability_resolved" in ds else ds.sizes["point"]
-    return str(resolved), str(int((ds["stable"] == 1).sum()))
+        return "", "", "", ""
+    resolved = ds["stability_resolved"].values == 1 if "stability_resolved" in ds else np.ones(ds.sizes["point"], bool)
+    stable = ds["stable"].values == 1
+    return str(int(resolved.sum())), str(int((stable & resolved).sum())), str(int((~stable & resolved).sum())), str(
+        int((~resolved).sum())
+    )
 
 
 def _branches(data: dict) -> list:
@@ -93,7 +98,7 @@ def _branches(data: dict) -> list:
         ds = data[name]
         energy, frequency = ds["energy"].values, ds["frequency"].values
         residual = ds["residual"] if "residual" in ds else ds["algebraic_residual"]
-        resolved, stable = _stability_counts(ds)
+        resolved, stable, unstable, unresolved = _stability_counts(ds)
         rows.append(
             [
                 f"{what} (`{RESULT_DATASETS[name]}`)",
@@ -103,10 +108,22 @@ def _branches(data: dict) -> list:
                 g(float(residual.max()), 2),
                 resolved,
                 stable,
+                unstable,
+                unresolved,
             ]
         )
         ends.append(f"- {what}: {ds.attrs.get('end_reason', '')}")
-    header = ["branch (dataset)", "points", "E range", "f first -> last [Hz]", "max residual", "verdicts", "stable"]
+    header = [
+        "branch (dataset)",
+        "points",
+        "E range",
+        "f first -> last [Hz]",
+        "max residual",
+        "verdicts",
+        "stable",
+        "unstable",
+        "unresolved",
+    ]
     return [*_table(header, rows), "", "Where each branch ends (`end_reason`):", "", *ends]
 
 
@@ -123,7 +140,7 @@ def _exact_regimes(ds: xr.Dataset) -> list:
                 part.sizes["point"],
                 f"{g(energy.min())} - {g(energy.max())}",
                 f"{g(energy[0])} -> {g(energy[-1])}",
-                int((part["stable"] == 1).sum()),
+                _stability_counts(part)[1],
             ]
         )
     header = ["segment", "sequence", "impacts per period", "points", "E range", "E first -> last", "stable"]
@@ -290,7 +307,8 @@ def results_page(results_dir, params: ModelParameters, digests: dict) -> str:
         "",
         "Each dataset's points, energy range, frequency at its first and last point, largest residual",
         "(relative algebraic residual of the HBM equations; norm of the quarter-period equations for the exact",
-        "orbits), Floquet verdicts resolved and stable orbits.",
+        "orbits), Floquet verdicts resolved (stable and unstable among them) and orbits whose verdict is",
+        "unresolved (their `stable` is the HBM orbit's unconfirmed verdict, counted in neither column).",
         "",
         *_branches(data),
         "",
