@@ -221,8 +221,8 @@ def _shapes(fig, data, spec):
     ds = data["nnm1"]
     energies = _energies(ds, spec)
     s = np.linspace(0.0, 1.0, 201)
-    stop_node = int(np.atleast_1d(ds.attrs["stop_nodes"])[0])
-    s_stop = float(ds.node_coordinate.values[stop_node])
+    s_stops = [float(ds.node_coordinate.values[int(k)]) for k in np.atleast_1d(ds.attrs["stop_nodes"])]
+    gaps = ds.stop_gap.values / float(ds.stop_gap.values[0])  # deflections are drawn over the first stop's gap
     axes = fig.subplots(1, len(energies), sharey=False, squeeze=False)[0]
     m = 2 * int(spec.get("shape_samples", 9) - 1)
     for ax, target in zip(axes, energies):
@@ -232,9 +232,10 @@ def _shapes(fig, data, spec):
         w = _deflection(ds, q[:, : q.shape[1] // 2 + 1 : step].T, s)
         for wk, phase in zip(w, np.linspace(0.0, 0.5, len(w))):
             ax.plot(wk, s, color=SHAPE_COLORS(2.0 * phase), lw=0.9)
-        ax.axhline(s_stop, color="0.6", lw=0.6)
-        ax.plot([-1, -1], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
-        ax.plot([1, 1], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
+        for s_stop, gap in zip(s_stops, gaps):  # every stop: a bar at +- its gap
+            ax.axhline(s_stop, color="0.6", lw=0.6)
+            ax.plot([-gap, -gap], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
+            ax.plot([gap, gap], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
         impacts = int(ds.impacts_per_period.values[i])
         ax.set_title(f"E = {ds.energy.values[i]:.3g} (nondim.), {impacts} impacts per period", fontsize=9)
         ax.set_xlabel("deflection w / gap")
@@ -247,18 +248,25 @@ def _shapes(fig, data, spec):
 
 
 def _contact_force(fig, data, spec):
+    """The force of every stop over one period at the figure's energies, one panel per stop."""
     ds = data["nnm1"]
-    ax = fig.add_subplot(111)
+    n_stops = int(ds.sizes["stop"])
+    axes = fig.subplots(n_stops, 1, sharex=True, squeeze=False)[:, 0]
     samples = 8 * int(ds.attrs["harmonics"]) + 8
     t = np.arange(samples) / samples
+    labels = [str(v) for v in ds.dof_label.values]
     for target in _energies(ds, spec):
         i = point_at_energy(ds.energy.values, target)
         _, f = _orbit_samples(ds, i, samples)
-        ax.plot(t, f[0], lw=1.0, label=f"E = {ds.energy.values[i]:.3g} (nondim.)")
-    ax.set_xlabel("instant t / T")
-    ax.set_ylabel("regularized stop force f (nondimensional)")
-    ax.set_title(f"{_structure_name(ds)}, NNM1: force of the first stop over one period", fontsize=10)
-    ax.legend(fontsize=8)
+        for j, ax in enumerate(axes):
+            ax.plot(t, f[j], lw=1.0, label=f"E = {ds.energy.values[i]:.3g} (nondim.)")
+    for j, ax in enumerate(axes):
+        where = f"stop {j} on {labels[int(ds.stop_dof.values[j])]}, gap {float(ds.stop_gap.values[j]):g}"
+        ax.set_ylabel(f"force f, {where}" if n_stops > 1 else "regularized stop force f (nondimensional)", fontsize=8)
+    axes[-1].set_xlabel("instant t / T")
+    axes[0].legend(fontsize=8)
+    which = "force of its stop" if n_stops == 1 else f"force of each of its {n_stops} stops (force over gap)"
+    fig.suptitle(f"{_structure_name(ds)}, NNM1: {which} over one period", fontsize=10)
 
 
 def _exact_vs_regularized(fig, data, spec):
@@ -301,7 +309,7 @@ def _exact_vs_regularized(fig, data, spec):
 STRUCTURE_FIGURES = {
     "frequency_energy": (_frequency_energy, (11.0, 9.0)),
     "shapes": (_shapes, (10.0, 4.5)),
-    "contact_force": (_contact_force, (7.0, 4.0)),
+    "contact_force": (_contact_force, (7.0, 4.0)),  # 2.5 inches more per stop beyond the first
     "exact_vs_regularized": (_exact_vs_regularized, (7.5, 6.8)),
 }
 
@@ -320,6 +328,8 @@ def draw_structure_figure(name: str, data: dict, spec: dict, pdf_path) -> None:
     if name not in STRUCTURE_FIGURES:
         raise ValueError(f"structure figure must be one of {sorted(STRUCTURE_FIGURES)}, got {name!r}")
     draw, size = STRUCTURE_FIGURES[name]
+    if name == "contact_force":
+        size = (size[0], size[1] + 2.5 * (int(data["nnm1"].sizes["stop"]) - 1))
     fig = plt.figure(figsize=size, layout="constrained")
     try:
         draw(fig, data, spec)
