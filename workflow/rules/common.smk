@@ -115,7 +115,9 @@ def bifurcation_parent(wildcards):
 
 
 def figure_stages(figure):
-    """NNM1 stage datasets drawn on paper figure `figure` (`figures.<figure>.nnm1_stages`)."""
+    """NNM1 stage datasets read by paper figure `figure`: stages 1 to the last of `figures.<figure>.nnm1_stages`
+    (each stage is built from the one before, so this builds nothing more); the figure draws its own stages,
+    or its scene by physics where they hold no orbit (nnmstop.figures.frequency_energy.scene_part)."""
     stages = config["figures"].get(figure, {}).get("nnm1_stages")
     if not stages:
         raise ValueError(f"the configuration has no 'figures.{figure}.nnm1_stages'")
@@ -125,7 +127,7 @@ def figure_stages(figure):
         raise ValueError(
             f"figures.{figure}.nnm1_stages: stage(s) {unknown} do not exist (branches.nnm1 has {available} stages)"
         )
-    return [stage_file("nnm1", k) for k in stages]
+    return [stage_file("nnm1", k) for k in range(1, max(stages) + 1)]
 
 
 def bifurcated_files(figure):
