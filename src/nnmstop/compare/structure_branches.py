@@ -13,7 +13,7 @@ import xarray as xr
 
 from nnmstop.catalogue import describe
 
-__all__ = ["first_crossing", "compare_at_energies"]
+__all__ = ["first_crossing", "compare_at_energies", "like_exact_family"]
 
 
 def first_crossing(energy, values, target: float, segment=None) -> float:
@@ -35,10 +35,15 @@ def first_crossing(energy, values, target: float, segment=None) -> float:
     return float(values[i] + w * (values[i + 1] - values[i]))
 
 
-def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count: int, segment=None) -> xr.Dataset:
+def compare_at_energies(
+    exact_energy, exact_frequency, energy, frequency, count: int, segment=None, comparable=None
+) -> xr.Dataset:
     """Frequencies of the exact and the regularized branch at ``count`` log-spaced common energies.
 
-    ``segment``: the regularized branch's segments (:func:`first_crossing`).
+    ``segment``: the regularized branch's segments (:func:`first_crossing`). ``comparable`` (optional, per
+    regularized point): whether the orbit is of the exact family's type (:func:`like_exact_family`); where the
+    regularized branch first reaches an energy between two points not both comparable, it has no counterpart
+    there: ``no_counterpart`` is 1 and the difference missing.
 
     The common range runs from the larger to the smaller of the two branches' lowest and highest
     energies, with 1 % of it (in log energy) kept from both ends. Raises ValueError when the branches
@@ -57,13 +62,31 @@ def compare_at_energies(exact_energy, exact_frequency, energy, frequency, count:
     targets = np.geomspace(low * margin, high / margin, count)
     fe = np.array([first_crossing(exact_energy, exact_frequency, e) for e in targets])
     fr = np.array([first_crossing(energy, frequency, e, segment) for e in targets])
+    like = np.ones(targets.size, dtype=bool)
+    if comparable is not None:  # both points bracketing the first crossing comparable (the minimum of 0/1 flags)
+        like = np.array([first_crossing(energy, np.asarray(comparable, float), e, segment) == 1 for e in targets])
     keep = np.isfinite(fe) & np.isfinite(fr)
+    difference = np.where(like, (fr - fe) / fe, np.nan)
     ds = xr.Dataset(
         {
             "exact_frequency": ("energy", fe[keep]),
             "regularized_frequency": ("energy", fr[keep]),
-            "relative_difference": ("energy", (fr[keep] - fe[keep]) / fe[keep]),
+            "relative_difference": ("energy", difference[keep]),
+            "no_counterpart": ("energy", (~like[keep]).astype(np.int8)),
         },
         coords={"energy": targets[keep]},
     )
     return describe(ds, "one_impact_comparison")
+
+
+def like_exact_family(nnm1: xr.Dataset, struck_stop: int) -> np.ndarray:
+    """Per point of a regularized NNM1, whether its orbit is of the type of the exact one-stop family's
+    backbone: NNM1 at its own frequency (:mod:`nnmstop.hbm.identity`, ``orbit_kind`` 0, ``dominant_mode`` 1), and
+    no stop struck but ``struck_stop`` (``stop_impacts``). All true where the dataset holds no identity."""
+    like = np.ones(nnm1.sizes["point"], dtype=bool)
+    if "orbit_kind" in nnm1:
+        like &= (nnm1["orbit_kind"].values == 0) & (nnm1["dominant_mode"].values == 1)
+    if "stop_impacts" in nnm1 and nnm1.sizes.get("stop", 1) > 1:
+        others = np.delete(nnm1["stop_impacts"].values, struck_stop, axis=1)
+        like &= np.all(others == 0, axis=1)
+    return like

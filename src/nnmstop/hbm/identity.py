@@ -51,6 +51,8 @@ __all__ = [
     "KINDS",
     "effective_stop_stiffness",
     "harmonic_shares",
+    "sampled_shares",
+    "content_kind",
     "orbit_identity",
     "identity_label",
     "IdentityRun",
@@ -78,6 +80,32 @@ def harmonic_shares(mass, q_cos, q_sin) -> np.ndarray:
     weight = np.einsum("pdk,pdk->pk", c, _apply(mass, c)) + np.einsum("pdk,pdk->pk", s, _apply(mass, s))
     total = weight.sum(axis=1, keepdims=True)
     return np.divide(weight, total, out=np.zeros_like(weight), where=total > 0)
+
+
+def sampled_shares(mass, samples) -> np.ndarray:
+    """:func:`harmonic_shares` of an orbit given by ``samples`` (time, dof) equally spaced over one period.
+
+    The coefficients come from the discrete Fourier transform (exact for a band-limited orbit with more than
+    twice its highest harmonic in samples; an exact non-smooth orbit's aliasing is below the sampling's
+    resolution of its shares). Returns (H,) shares of the harmonics 1 .. samples // 2 - 1.
+    """
+    samples = np.asarray(samples, float)
+    spectrum = np.fft.rfft(samples, axis=0)[1 : samples.shape[0] // 2] * (2.0 / samples.shape[0])  # (H, dof)
+    q = spectrum.T[None]  # (1, dof, H): cos - i sin coefficients
+    q_cos = np.concatenate([np.zeros((1, q.shape[1], 1)), q.real], axis=2)
+    q_sin = np.concatenate([np.zeros((1, q.shape[1], 1)), -q.imag], axis=2)
+    return harmonic_shares(mass, q_cos, q_sin)[0]
+
+
+def content_kind(shares) -> tuple[int, int, int]:
+    """``(dominant harmonic, tongue harmonic, orbit_kind)`` of one orbit's harmonic ``shares`` (module docstring):
+    the part of its identity that needs no linear mode (to compare an exact orbit with a regularized one)."""
+    shares = np.asarray(shares, float)
+    dominant = int(np.argmax(shares)) + 1
+    others = shares.copy()
+    others[dominant - 1] = 0.0
+    tongue = int(np.argmax(others)) + 1 if dominant == 1 and others.max(initial=0.0) > TONGUE_SHARE else 0
+    return dominant, tongue, 2 if dominant > 1 else (1 if tongue else 0)
 
 
 def _apply(mass, vectors):

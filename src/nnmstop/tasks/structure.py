@@ -44,7 +44,7 @@ def structure_exact(config, inputs, outputs, keywords: str = ""):
 
 def structure_compare(config, inputs, outputs, keywords: str = ""):
     """Exact against regularized NNM1 at matched energies."""
-    from nnmstop.compare.structure_branches import compare_at_energies
+    from nnmstop.compare.structure_branches import compare_at_energies, like_exact_family
     from nnmstop.exact.dataset import one_stop_backbone
 
     exact = one_stop_backbone(read_dataset(inputs["exact"]))  # not its internal resonance: see the dataset
@@ -56,6 +56,7 @@ def structure_compare(config, inputs, outputs, keywords: str = ""):
         regularized.frequency.values,
         config["compare_count"],
         segment=regularized.segment.values,
+        comparable=like_exact_family(regularized, int(exact.attrs.get("struck_stop", 0))),
     )
     ds.attrs = {**structure_from_config(config).attributes, "harmonics": regularized.attrs["harmonics"]}
     write_dataset(
