@@ -258,11 +258,14 @@ def tube_task_config(*sections, branches=False):
 
 
 def explorer_branches():
-    """Datasets drawn by the explorer, by kind of branch (nnmstop.explorer.extract.KINDS)."""
-    exact = rules.exact_nnm1.output.dataset if "exact_multi" in config else rules.exact_two_impacts.output.dataset
+    """Datasets drawn by the explorer, by kind of branch (nnmstop.explorer.extract.KINDS): for another structure
+    than the paper's oscillator its exact one-stop family (kind exact_one_stop, orbits rebuilt on the structure)."""
     regularized = [branch_file("nnm1"), branch_file("nnm2"), *[bifurcated_file(name) for name in config.get("bifurcations", {})]]
     if config.get("explorer", {}).get("tube", False) and "tube" in config:  # the tube's branches, built for it
         regularized += [tube_file(name) for name in config["tube"]["branches"]]
+    if STRUCTURE_KIND != "two_dof":
+        return {"regularized": regularized, "exact_one_stop": [STRUCTURE_DATASETS["exact"]]}
+    exact = rules.exact_nnm1.output.dataset if "exact_multi" in config else rules.exact_two_impacts.output.dataset
     return {"regularized": regularized, "exact": [exact]}
 
 
@@ -285,9 +288,9 @@ def forced_file(kind, scene):
 def forced_datasets():
     """Every dataset of the forced target."""
     names = forced_scene_names()
-    oscillator = forced_scene_names("oscillator")
+    own = forced_scene_names("structure")
     return (
-        [forced_file("exact", s) for s in oscillator]
+        [forced_file("exact", s) for s in own]
         + [forced_file("regularized", s) for s in names]
         + [rules.forced_backbone.output.dataset, rules.forced_prediction.output.dataset]
     )

@@ -6,11 +6,14 @@
 
 
 
-FORCED_CONFIG = task_config("model", "anm", "forced", "metadata", tube=["structure"])
+# `structure` and `model`: the structure forced (nnmstop.forced.scenes); its matrix files, if any, are inputs
+FORCED_CONFIG = task_config("model", "structure", "anm", "forced", "metadata", tube=["structure"])
 
 
 rule forced_exact:
-    """Exact response of the non-smooth oscillator at one force level."""
+    """Exact response of the non-smooth structure at one force level."""
+    input:
+        unpack(structure_files),
     output:
         dataset=results("forced/exact_{scene}.nc"),
     log:
@@ -27,6 +30,8 @@ rule forced_exact:
 
 rule forced_regularized:
     """Regularized response (harmonic balance + ANM) at one force level, or the tube's."""
+    input:
+        unpack(structure_files),
     output:
         dataset=results("forced/regularized_{scene}.nc"),
     log:
@@ -43,6 +48,8 @@ rule forced_regularized:
 
 rule forced_backbone:
     """Regularized NNM backbones over the forced frequency range and the peaks they predict at each force level."""
+    input:
+        unpack(structure_files),
     output:
         dataset=results("forced/backbone.nc"),
     log:
@@ -59,6 +66,8 @@ rule forced_backbone:
 
 rule forced_prediction:
     """The backbone's prediction of the NNM1 peak against the located peak as the damping goes to zero."""
+    input:
+        unpack(structure_files),
     output:
         dataset=results("forced/prediction_error.nc"),
     log:
@@ -76,17 +85,17 @@ rule forced_prediction:
 # Datasets each forced figure draws (the keys are the figure task's named inputs).
 FORCED_FIGURE_INPUTS = {
     "frequency_response": lambda: {
-        "exact": [forced_file("exact", s) for s in forced_scene_names("oscillator")],
-        "regularized": [forced_file("regularized", s) for s in forced_scene_names("oscillator")],
+        "exact": [forced_file("exact", s) for s in forced_scene_names("structure")],
+        "regularized": [forced_file("regularized", s) for s in forced_scene_names("structure")],
         "backbone": rules.forced_backbone.output.dataset,
     },
     "phase_lag": lambda: {
-        "exact": [forced_file("exact", s) for s in forced_scene_names("oscillator")],
-        "regularized": [forced_file("regularized", s) for s in forced_scene_names("oscillator")],
+        "exact": [forced_file("exact", s) for s in forced_scene_names("structure")],
+        "regularized": [forced_file("regularized", s) for s in forced_scene_names("structure")],
     },
     "orbits": lambda: {
-        "exact": [forced_file("exact", forced_scene_names("oscillator")[-1])],
-        "regularized": [forced_file("regularized", forced_scene_names("oscillator")[-1])],
+        "exact": [forced_file("exact", forced_scene_names("structure")[-1])],
+        "regularized": [forced_file("regularized", forced_scene_names("structure")[-1])],
     },
     "prediction_error": lambda: {"prediction": rules.forced_prediction.output.dataset},
     "tube": lambda: {"regularized": [forced_file("regularized", s) for s in forced_scene_names("tube")]},

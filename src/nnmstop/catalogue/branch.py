@@ -306,15 +306,23 @@ IDENTITY_VARIABLES = (
         "harmonic k >= 1 carrying the largest share of the mass-weighted mean square of the motion (1: the orbit "
         "moves at its own frequency; n > 1: it is an orbit of n times the stored frequency read over n periods)",
     ),
-    Variable("dominant_harmonic_share", ("point",), "share of the mass-weighted mean square of the motion in dominant_harmonic"),
-    Variable("fundamental_share", ("point",), "share of the mass-weighted mean square of the motion in the first harmonic"),
+    Variable(
+        "dominant_harmonic_share",
+        ("point",),
+        "share of the mass-weighted mean square of the motion in dominant_harmonic",
+    ),
+    Variable(
+        "fundamental_share", ("point",), "share of the mass-weighted mean square of the motion in the first harmonic"
+    ),
     Variable(
         "dominant_mode",
         ("point",),
         "linear mode (1 the lowest) carrying most of the dominant harmonic's motion: a mode of the structure with each "
         "stop replaced by its effective_stop_stiffness (eta near rest, alpha as the gap closes)",
     ),
-    Variable("dominant_mode_share", ("point",), "share of the dominant harmonic's mass-weighted motion in dominant_mode"),
+    Variable(
+        "dominant_mode_share", ("point",), "share of the dominant harmonic's mass-weighted motion in dominant_mode"
+    ),
     Variable(
         "tongue_harmonic",
         ("point",),

@@ -138,9 +138,13 @@ EXACT_VS_REGULARIZED_VARIABLES = tuple(
         "excursions of x into the contact transition of the regularized law, |x| > 1 - sqrt(2 eta / alpha), per period, "
         "regularized orbit",
     ),
-    Variable("exact_dominant_harmonic", ("point",), "harmonic of largest share of the mass-weighted motion, exact orbit"),
     Variable(
-        "regularized_dominant_harmonic", ("point",), "harmonic of largest share of the mass-weighted motion, regularized orbit"
+        "exact_dominant_harmonic", ("point",), "harmonic of largest share of the mass-weighted motion, exact orbit"
+    ),
+    Variable(
+        "regularized_dominant_harmonic",
+        ("point",),
+        "harmonic of largest share of the mass-weighted motion, regularized orbit",
     ),
     Variable(
         "exact_tongue_harmonic",

@@ -408,7 +408,9 @@ def figure_03(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
             if a == "x":
                 for stop in (-1.0, 1.0):
                     ax.axvline(stop, **STOP_STYLE)
-    drawn = _legend_handles() if any(not counterpart_note(comparison, i) for i in marks.values()) else _legend_handles()[:1]
+    drawn = (
+        _legend_handles() if any(not counterpart_note(comparison, i) for i in marks.values()) else _legend_handles()[:1]
+    )
     axes[1, 0].legend(handles=drawn, loc="center", fontsize=7, framealpha=0.9)
     title = (
         "NNM1 orbits at the same energy: x-phase plane, u-phase plane, modal line\n"

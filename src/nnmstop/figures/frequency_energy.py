@@ -46,9 +46,9 @@ from nnmstop.figures.common import (
     save_figure,
     stability_legend_handles,
 )
-from nnmstop.hbm.identity import identity_runs
 from nnmstop.figures.labels import mark_obstacle, place_labels
 from nnmstop.figures.modal_lines import draw_modal_line, label_specs, locate_label, mark_point, modal_line_dofs
+from nnmstop.hbm.identity import identity_runs
 
 __all__ = [
     "PAPER_FIGURES",
@@ -298,8 +298,11 @@ def scene_part(branch: xr.Dataset, name: str) -> tuple[np.ndarray | None, str]:
         start = int(changes[-1]) if changes.size else start
         mask[start:] = True
         what = last.label if last else "the branch"
-        return mask, f"the high-energy end of the continuation: {what}, {int(impacts[-1])} impacts per period " \
-            f"(E {energy[start]:.4g} - {energy[-1]:.4g})"
+        return (
+            mask,
+            f"the high-energy end of the continuation: {what}, {int(impacts[-1])} impacts per period "
+            f"(E {energy[start]:.4g} - {energy[-1]:.4g})",
+        )
     return np.ones(n_points, dtype=bool), "the whole branch"
 
 
@@ -646,7 +649,10 @@ def _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=None, png_dpi=15
     _checked(name, branch, nnm2, exact, bifurcated)
     branch, focus, scene_notes, by_physics = _scene(name, branch, spec, extra.get("whole"))
     if by_physics == "absent":
-        placed, missing = [], [(label, "no such scene at these parameters") for label in label_specs(spec.get("labels"))]
+        placed, missing = (
+            [],
+            [(label, "no such scene at these parameters") for label in label_specs(spec.get("labels"))],
+        )
     elif branch.sizes["point"]:
         placed, missing = _placed_labels(name, branch, spec, any_stage=by_physics == "found")
     else:

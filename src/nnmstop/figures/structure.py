@@ -297,7 +297,9 @@ def _exact_vs_regularized(fig, data, spec):
     finite = difference[np.isfinite(difference)]
     if finite.size and finite.min() > 0 and finite.max() / finite.min() > 10.0:
         ax2.set_yscale("log")
-    unlike = comparison.no_counterpart.values == 1 if "no_counterpart" in comparison else np.zeros(difference.size, bool)
+    unlike = (
+        comparison.no_counterpart.values == 1 if "no_counterpart" in comparison else np.zeros(difference.size, bool)
+    )
     if unlike.any():  # the energies where the regularized NNM1 is of another type: marked, not compared
         for e in comparison.energy.values[unlike]:
             ax2.axvline(e, color="0.75", lw=0.6, zorder=0)

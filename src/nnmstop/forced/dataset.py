@@ -96,6 +96,7 @@ def base_attributes(excitation: Excitation, contact_law: str, frequency_range) -
         raise ValueError(f"contact_law must be 'piecewise_linear' or 'regularized', got {contact_law!r}")
     stop = excitation.structure.stops[0]
     return {
+        **excitation.structure.attributes,
         **excitation.as_attrs(),
         "contact_law": contact_law,
         "frequency_range": np.array(frequency_range, dtype=float),

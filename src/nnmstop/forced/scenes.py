@@ -1,6 +1,9 @@
 """The forced scenes of the configuration: an excitation (structure, damping, force) and a frequency range each.
 
-Light on imports (models only): the configuration's validation builds the scenes to name bad values.
+The structure is the configuration's own (``structure``: the paper's oscillator of ``model``, a beam, or matrices
+from files; :func:`nnmstop.settings.structure_from_config`), forced on the degrees of freedom of ``forced.force``
+(by their labels); the tube of ``tube`` has a scene of its own (``forced.tube``). The configuration's validation
+builds the scenes to name bad values.
 """
 
 from __future__ import annotations
@@ -8,10 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
-from nnmstop.models.structure import Structure, two_dof_structure
-from nnmstop.models.two_dof import ModelParameters
+from nnmstop.models.structure import Structure
 
-__all__ = ["Scene", "scene_name", "forced_scenes", "find_scene", "prediction_excitations"]
+__all__ = ["Scene", "WHICH", "scene_name", "forced_scenes", "find_scene", "prediction_excitations"]
 
 
 @dataclass(frozen=True)
@@ -64,13 +66,27 @@ def _frequency_range(spec, key: str) -> tuple:
     return low, high
 
 
+#: Which scenes :func:`forced_scenes` returns.
+WHICH = ("structure", "tube", "all")
+
+
+def _structure(config: dict) -> Structure:
+    """The configuration's structure (its ``structure`` section; the paper's oscillator of ``model`` without it)."""
+    from nnmstop.settings import structure_from_config
+
+    return structure_from_config(config)
+
+
 def forced_scenes(config: dict, which: str = "all") -> list:
-    """The scenes of the ``forced`` section: one per force amplitude on the paper's oscillator (``model``),
-    and with ``forced.tube`` (and ``tube``) one for the tube. ``which``: "oscillator", "tube" or "all"."""
+    """The scenes of the ``forced`` section: one per force amplitude on the configuration's structure
+    (``structure``, :func:`_structure`), and with ``forced.tube`` (and ``tube``) one for the tube. ``which``:
+    "structure", "tube" or "all"."""
+    if which not in WHICH:
+        raise ValueError(f"which must be one of {WHICH}, got {which!r}")
     forced = config["forced"]
     scenes = []
-    if which in ("oscillator", "all"):
-        structure = two_dof_structure(ModelParameters.from_config(config["model"]))
+    if which in ("structure", "all"):
+        structure = _structure(config)
         damping = _damping(structure, forced["damping"])
         dofs = _dof_indices(structure, forced["force"]["dofs"], "forced.force.dofs")
         frequency_range = _frequency_range(forced["frequency_range"], "forced.frequency_range")
@@ -114,10 +130,10 @@ def _tube_scene(config: dict) -> Scene:
 
 
 def prediction_excitations(config: dict) -> tuple:
-    """The excitations of ``forced.prediction`` (the oscillator, damping ratio ``r`` on the damped modes of
-    ``forced.damping``, ``F = force_per_ratio r`` on the forced DOFs) and its frequency window (Hz)."""
+    """The excitations of ``forced.prediction`` (the configuration's structure, damping ratio ``r`` on the damped
+    modes of ``forced.damping``, ``F = force_per_ratio r`` on the forced DOFs) and its frequency window (Hz)."""
     forced, spec = config["forced"], config["forced"]["prediction"]
-    structure = two_dof_structure(ModelParameters.from_config(config["model"]))
+    structure = _structure(config)
     dofs = tuple(_dof_indices(structure, forced["force"]["dofs"], "forced.force.dofs"))
     modes = forced["damping"].get("modes", [1, 2])
     excitations = []

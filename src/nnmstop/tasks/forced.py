@@ -96,10 +96,10 @@ def _write(ds, path, scene: Scene, law: str, config: dict):
 
 
 def backbone_prediction_dataset(config: dict):
-    """NNM1 and NNM2 backbones of the regularized oscillator over the forced range, and the peaks they predict
+    """NNM1 and NNM2 backbones of the regularized structure over the forced range, and the peaks they predict
     at every force level (:mod:`nnmstop.forced.backbone`)."""
     forced = config["forced"]
-    scenes = forced_scenes(config, "oscillator")
+    scenes = forced_scenes(config, "structure")
     excitation = scenes[0].excitation
     forces = [scene.excitation.force.amplitude for scene in scenes]
     anm = ANMSettings.from_config(config["anm"], points_per_step=int(forced["points_per_step"]))
@@ -172,7 +172,7 @@ def prediction_error_dataset(config: dict):
 
 
 def forced_exact(config, inputs, outputs, scene: str):
-    """Exact response of the non-smooth oscillator at one force level (wildcard ``scene``)."""
+    """Exact response of the non-smooth structure at one force level (wildcard ``scene``)."""
     scene = find_scene(config, scene)
     _write(exact_response_dataset(config, scene), outputs["dataset"], scene, "piecewise_linear", config)
 
@@ -187,7 +187,7 @@ def forced_backbone(config, inputs, outputs):
     """NNM backbones and the resonance peaks they predict (energy balance)."""
     ds = backbone_prediction_dataset(config)
     summary = (
-        "Backbones (NNM1, NNM2) of the regularized oscillator by harmonic balance + ANM over the forced frequency "
+        "Backbones (NNM1, NNM2) of the regularized structure by harmonic balance + ANM over the forced frequency "
         "range, with the force amplitude whose resonance peak each NNM orbit is (damping work over the orbit = "
         "work of the force in quadrature) and the peaks predicted at each force level."
     )
