@@ -7,7 +7,7 @@
 
 
 # `structure` and `model`: the structure forced (nnmstop.forced.scenes); its matrix files, if any, are inputs
-FORCED_CONFIG = task_config("model", "structure", "anm", "forced", "metadata", tube=["structure"])
+FORCED_CONFIG = task_config("model", "structure", "anm", "forced", "metadata", tube=["structure"], hbm=["start_tolerance"])
 
 
 rule forced_exact:

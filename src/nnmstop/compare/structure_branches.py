@@ -46,18 +46,23 @@ def compare_at_energies(
     there: ``no_counterpart`` is 1 and the difference missing.
 
     The common range runs from the larger to the smaller of the two branches' lowest and highest
-    energies, with 1 % of it (in log energy) kept from both ends. Raises ValueError when the branches
-    share no energy. ``exact_*`` is what the regularized branch should be compared with: for the exact
-    one-stop family, its backbone (:func:`nnmstop.exact.dataset.one_stop_backbone`), not the internal
-    resonance it may enter, whose harmonic is far beyond the regularized branch's.
+    energies, with 1 % of it (in log energy) kept from both ends. Where the branches share no energy the
+    dataset holds none and says why (attributes ``skipped`` and ``end_reason``). ``exact_*`` is what the
+    regularized branch should be compared with: for the exact one-stop family, its backbone
+    (:func:`nnmstop.exact.dataset.one_stop_backbone`), not the internal resonance it may enter, whose harmonic
+    is far beyond the regularized branch's.
     """
     low = max(np.min(exact_energy), np.min(energy))
     high = min(np.max(exact_energy), np.max(energy))
-    if not high > low:
-        raise ValueError(
+    if not high > low:  # nothing to compare: a dataset with no energy that says why (the figures say it too)
+        reason = (
             f"the exact ({np.min(exact_energy):.4g}..{np.max(exact_energy):.4g}) and regularized "
             f"({np.min(energy):.4g}..{np.max(energy):.4g}) branches share no energy range"
         )
+        empty = {name: ("energy", np.zeros(0)) for name in ("exact_frequency", "regularized_frequency")}
+        empty.update(relative_difference=("energy", np.zeros(0)), no_counterpart=("energy", np.zeros(0, np.int8)))
+        ds = xr.Dataset(empty, coords={"energy": np.zeros(0)}, attrs={"skipped": 1, "end_reason": reason})
+        return describe(ds, "one_impact_comparison")
     margin = (high / low) ** 0.01
     targets = np.geomspace(low * margin, high / margin, count)
     fe = np.array([first_crossing(exact_energy, exact_frequency, e) for e in targets])

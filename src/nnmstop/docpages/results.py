@@ -417,6 +417,8 @@ def _structure_limits(nnm1: xr.Dataset) -> list:
 
 
 def _structure_comparison(ds: xr.Dataset) -> list:
+    if ds.sizes["energy"] == 0:
+        return [f"Nothing compared: {ds.attrs.get('end_reason', 'no common energy')}."]
     compared = ds["no_counterpart"].values == 0 if "no_counterpart" in ds else np.ones(ds.sizes["energy"], bool)
     difference = np.abs(ds["relative_difference"].values[compared])
     rows = [

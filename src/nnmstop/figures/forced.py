@@ -59,8 +59,10 @@ def scene_text(ds: xr.Dataset) -> str:
         structure = f"α = {a['alpha']:g}, β = {a['beta']:g}, δ = {a['delta']:g}, η = {a['eta']:g}"
     else:
         label = str(ds["dof_label"].values[int(a["stop_dof"])]) if "dof_label" in ds else f"DOF {a['stop_dof']}"
+        kinds = {"beam": "finite-element beam", "matrices": "structure from matrices"}
+        kind = kinds.get(a.get("structure"), "structure")
         structure = (
-            f"{ds.sizes.get('dof', 0)}-DOF {a.get('structure', 'structure')}, stop on {label}: gap {a['stop_gap']:g}, "
+            f"{ds.sizes.get('dof', 0)}-DOF {kind}, stop on {label}: gap {a['stop_gap']:g}, "
             f"α = {a['stop_stiffness']:g}, η = {a['stop_eta']:g}"
         )
     damping = ""

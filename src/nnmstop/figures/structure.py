@@ -308,11 +308,13 @@ def _exact_vs_regularized(fig, data, spec):
     ax2.set_xlabel("energy (nondimensional)")
     ax2.set_ylabel("|f_reg - f_exact| / f_exact")
     label_minor_decades(ax2)
-    fig.suptitle(
+    title = (
         f"{_structure_name(nnm1)}, NNM1: exact against regularized at matched energies\n"
-        f"(drawn over the exact family's energies, {low:.3g} to {high:.3g}; the regularized branch goes on beyond)",
-        fontsize=10,
+        f"(drawn over the exact family's energies, {low:.3g} to {high:.3g}; the regularized branch goes on beyond)"
     )
+    if int(comparison.attrs.get("skipped", 0)):
+        title += f"\nnothing compared: {comparison.attrs['end_reason']}"
+    fig.suptitle(title, fontsize=10)
 
 
 STRUCTURE_FIGURES = {

@@ -95,6 +95,12 @@ def _write(ds, path, scene: Scene, law: str, config: dict):
     logger.info("wrote %s (%d points)", path, ds.sizes["point"])
 
 
+def _start_tolerance(config: dict) -> float:
+    """The residual of a backbone's start point: ``hbm.start_tolerance`` where configured (a fine mesh's round-off
+    floor), else that of :func:`nnmstop.hbm.stages.start_point`."""
+    return float(config.get("hbm", {}).get("start_tolerance", 1e-13))
+
+
 def backbone_prediction_dataset(config: dict):
     """NNM1 and NNM2 backbones of the regularized structure over the forced range, and the peaks they predict
     at every force level (:mod:`nnmstop.forced.backbone`)."""
@@ -106,7 +112,13 @@ def backbone_prediction_dataset(config: dict):
     backbones, predictions = {}, {}
     for mode in (1, 2):
         system, branch = nnm_backbone(
-            excitation, mode, scenes[0].harmonics, anm, float(forced["max_truncation"]), force_limit=1.5 * max(forces)
+            excitation,
+            mode,
+            scenes[0].harmonics,
+            anm,
+            float(forced["max_truncation"]),
+            force_limit=1.5 * max(forces),
+            start_tolerance=_start_tolerance(config),
         )
         U = np.asarray(branch.points)
         backbones[mode] = (
@@ -133,7 +145,15 @@ def prediction_error_dataset(config: dict):
     excitations, window = prediction_excitations(config)
     # the peaks are located on the ANM steps: the step ends are enough
     anm = ANMSettings.from_config(config["anm"], points_per_step=1)
-    found = prediction_errors(excitations, 1, window, int(forced["harmonics"]), anm, float(forced["max_truncation"]))
+    found = prediction_errors(
+        excitations,
+        1,
+        window,
+        int(forced["harmonics"]),
+        anm,
+        float(forced["max_truncation"]),
+        start_tolerance=_start_tolerance(config),
+    )
     stop = excitations[0].structure.stops[0].dof
     ds = xr.Dataset(
         {

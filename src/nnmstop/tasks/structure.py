@@ -58,7 +58,7 @@ def structure_compare(config, inputs, outputs, keywords: str = ""):
         segment=regularized.segment.values,
         comparable=like_exact_family(regularized, int(exact.attrs.get("struck_stop", 0))),
     )
-    ds.attrs = {**structure_from_config(config).attributes, "harmonics": regularized.attrs["harmonics"]}
+    ds.attrs = {**ds.attrs, **structure_from_config(config).attributes, "harmonics": regularized.attrs["harmonics"]}
     write_dataset(
         ds,
         outputs["dataset"],

@@ -1,0 +1,173 @@
+"""The cost of each target of the workflow, wall and CPU time, one after the other in one fresh tree.
+
+Extracts the committed tree (HEAD by default, as :mod:`cold_build` does) into a temporary directory and runs
+``snakemake --cores N <target>`` for each target in turn (default: the default target, then verify, explorer,
+forced, tube, study, docs, bundle, and ``--report`` of every figure built), each one building what it needs
+that the targets before it have not built. Measured per target: the wall time, and the CPU time of its jobs
+(Snakemake's own process tree, from ``resource.getrusage(RUSAGE_CHILDREN)``, plus the jobs run in the warm
+worker, whose forks are outside that tree: their CPU time is in their logs,
+``nnmstop.pipeline.worker``). Prints a Markdown table; ``--output`` also writes it (with the command, commit,
+machine and load on top) and ``--readme`` writes the table into README between its ``target-cost`` markers.
+
+Usage::
+
+    python benchmarks/target_cost.py [--cores 2] [--targets all forced ...] [--output benchmarks/target_cost.md]
+                                     [--readme]
+
+Run it on an otherwise idle machine: it measures wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from cold_build import tracked_copy
+from timing import REPO, emit_report
+
+#: The targets in the order they are built, and what each makes (README, "Main targets").
+TARGETS = {
+    "all": "every figure of the paper and the datasets behind them (the default target)",
+    "verify": "the build against the committed reference",
+    "explorer": "dist/explorer.html",
+    "forced": "forced responses, exact and regularized, and their figures",
+    "tube": "the finite-element tube's NNMs and study",
+    "study": "accuracy against run time, stiff cases",
+    "docs": "docs/results.md and docs/paper_vs_build.md",
+    "bundle": "dist/nnmstop-results.zip",
+    "report": "snakemake --report report.html report_figures (every figure built)",
+}
+WORKER_CPU = re.compile(r"task \w+ ran in the warm worker: [0-9.]+ s wall, ([0-9.]+) s CPU")
+MARKERS = ("<!-- target-cost: written by `python benchmarks/target_cost.py --readme` -->", "<!-- target-cost end -->")
+SLOW_MARKERS = (
+    "<!-- slow-tests: written by `python benchmarks/target_cost.py --slow-tests --readme` -->",
+    "<!-- slow-tests end -->",
+)
+
+
+def worker_cpu(workdir: Path) -> float:
+    """CPU time of every job the warm worker has run in ``workdir`` so far (from the jobs' logs)."""
+    return sum(float(cpu) for log in (workdir / "logs").rglob("*.log") for cpu in WORKER_CPU.findall(log.read_text()))
+
+
+def build(workdir: Path, target: str, cores: int, env: dict) -> tuple[float, float]:
+    """Wall and CPU time (seconds) of ``snakemake <target>`` in ``workdir``."""
+    if target == "report":
+        command = [sys.executable, "-m", "snakemake", "--report", "report.html", "report_figures"]
+    else:
+        command = [sys.executable, "-m", "snakemake", target, "--cores", str(cores), "--quiet", "all"]
+    before_children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    before_worker = worker_cpu(workdir)
+    started = time.perf_counter()
+    run = subprocess.run(command, cwd=workdir, env=env)
+    wall = time.perf_counter() - started
+    if run.returncode != 0:
+        raise RuntimeError(f"snakemake {target} failed (exit {run.returncode}) in {workdir}")
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    children = (after.ru_utime - before_children.ru_utime) + (after.ru_stime - before_children.ru_stime)
+    return wall, children + worker_cpu(workdir) - before_worker
+
+
+def table(rows: list, cores: int) -> list[str]:
+    lines = [
+        f"| target (`snakemake --cores {cores} ...`) | what | wall | CPU |",
+        "|---|---|---:|---:|",
+    ]
+    for target, wall, cpu in rows:
+        lines.append(f"| `{target}` | {TARGETS[target]} | {_duration(wall)} | {_duration(cpu)} |")
+    return lines
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
+def _replace_block(markers: tuple, lines: list[str]) -> None:
+    readme = REPO / "README.md"
+    text = readme.read_text()
+    start, end = (text.index(marker) for marker in markers)
+    readme.write_text(text[:start] + "\n".join([markers[0], *lines, ""]) + text[end:])
+
+
+def write_readme(lines: list[str], cores: int) -> None:
+    """The table into README.md between :data:`MARKERS`, with how it was measured."""
+    note = (
+        f"Measured one after the other in a fresh tree on {cores} shared cores (`benchmarks/target_cost.md`): each "
+        "target builds what the targets above it have not; CPU is the jobs' (the warm worker's included)."
+    )
+    _replace_block(MARKERS, [note, "", *lines])
+
+
+def slow_tests(workdir: Path, env: dict) -> tuple[float, float]:
+    """Wall and CPU time of ``python -m pytest -m slow`` in the tree (the tests at the configured numerics)."""
+    before_children, before_worker = resource.getrusage(resource.RUSAGE_CHILDREN), worker_time(workdir)
+    started = time.perf_counter()
+    run = subprocess.run([sys.executable, "-m", "pytest", "-m", "slow", "-q", "-p", "no:cacheprovider"], cwd=workdir,
+                         env=env)  # fmt: skip
+    wall = time.perf_counter() - started
+    if run.returncode != 0:
+        raise RuntimeError(f"the slow tests failed (exit {run.returncode}) in {workdir}")
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before_children.ru_utime) + (after.ru_stime - before_children.ru_stime)
+    return wall, cpu + worker_time(workdir) - before_worker
+
+
+def worker_time(workdir: Path) -> float:
+    """CPU of the warm worker's jobs in the builds the tests made (their logs under the temporary folders)."""
+    root = Path(tempfile.gettempdir())
+    return sum(
+        float(cpu)
+        for log in root.glob("pytest-of-*/pytest-current/**/logs/**/*.log")
+        for cpu in WORKER_CPU.findall(log.read_text(errors="replace"))
+    )
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cores", type=int, default=2)
+    parser.add_argument("--targets", nargs="*", default=list(TARGETS), choices=list(TARGETS))
+    parser.add_argument("--ref", default="HEAD", help="the commit whose tree is built")
+    parser.add_argument("--output", type=Path, help="also write the Markdown table here")
+    parser.add_argument("--readme", action="store_true", help="write the table into README.md")
+    parser.add_argument("--slow-tests", action="store_true", help="also time `python -m pytest -m slow` in the tree")
+    parser.add_argument("--keep", action="store_true", help="keep the temporary tree")
+    args = parser.parse_args(argv)
+    workdir = Path(tempfile.mkdtemp(prefix="nnmstop-targets-"))
+    rows = []
+    try:
+        tracked_copy(workdir, args.ref)
+        env = {**os.environ, "PYTHONPATH": str(workdir / "src")}
+        for target in args.targets:
+            wall, cpu = build(workdir, target, args.cores, env)
+            print(f"{target}: {wall:.1f} s wall, {cpu:.1f} s CPU", file=sys.stderr)
+            rows.append((target, wall, cpu))
+        slow = slow_tests(workdir, env) if args.slow_tests else None
+    except RuntimeError as error:
+        print(error, file=sys.stderr)
+        return 1
+    finally:
+        if args.keep:
+            print(f"tree kept in {workdir}", file=sys.stderr)
+        else:
+            shutil.rmtree(workdir, ignore_errors=True)
+    lines = table(rows, args.cores) if rows else []
+    if slow is not None:
+        text = f"The slow tests took {_duration(slow[0])} wall, {_duration(slow[1])} CPU on {args.cores} shared cores."
+        lines += ["", text]
+        if args.readme:
+            _replace_block(SLOW_MARKERS, [text])
+    if args.readme and rows:
+        write_readme(table(rows, args.cores), args.cores)
+    return emit_report("\n".join(lines), args.output)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
