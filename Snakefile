@@ -68,20 +68,6 @@ rule all:
         rules.dataset_manifest.output.manifest,
 
 
-def built_figures():
-    """The figures of the default target and every other figure of the configuration that the build made (exists
-    now): the extra figures, the forced, tube and study ones. `snakemake --report report.html report_figures`
-    puts them all in the report; a figure not built is left out rather than built for the report."""
-    candidates = [*rules.regime_error_figure.output, *rules.stability_figure.output]
-    candidates += [*rules.study_error_vs_runtime_figure.output, *rules.study_stiff_cases_figure.output]
-    if "forced" in config:
-        candidates += forced_figures()
-    if "tube" in config:
-        candidates += expand(paper_figures("tube_{figure}.{ext}"), figure=TUBE_FIGURE_INPUTS, ext=("pdf", "png"))
-        candidates += list(rules.tube_study.output)
-    return PAPER_FIGURES + [path for path in candidates if path not in PAPER_FIGURES and os.path.exists(path)]
-
-
 rule report_figures:
     """Every figure the build made (`built_figures`): the target of `snakemake --report report.html report_figures`."""
     input:

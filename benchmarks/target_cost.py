@@ -7,12 +7,13 @@ that the targets before it have not built. Measured per target: the wall time, a
 (Snakemake's own process tree, from ``resource.getrusage(RUSAGE_CHILDREN)``, plus the jobs run in the warm
 worker, whose forks are outside that tree: their CPU time is in their logs,
 ``nnmstop.pipeline.worker``). Prints a Markdown table; ``--output`` also writes it (with the command, commit,
-machine and load on top) and ``--readme`` writes the table into README between its ``target-cost`` markers.
+machine and load on top) and ``--docs`` writes it into ``docs/pipeline.md`` (section "Cost") between its
+``target-cost`` markers. ``--slow-tests`` also times ``python -m pytest -m slow`` in the tree.
 
 Usage::
 
-    python benchmarks/target_cost.py [--cores 2] [--targets all forced ...] [--output benchmarks/target_cost.md]
-                                     [--readme]
+    python benchmarks/target_cost.py [--cores 2] [--targets all forced ...] [--slow-tests]
+                                     [--output benchmarks/target_cost.md] [--docs]
 
 Run it on an otherwise idle machine: it measures wall time.
 """
@@ -46,11 +47,11 @@ TARGETS = {
     "report": "snakemake --report report.html report_figures (every figure built)",
 }
 WORKER_CPU = re.compile(r"task \w+ ran in the warm worker: [0-9.]+ s wall, ([0-9.]+) s CPU")
-MARKERS = ("<!-- target-cost: written by `python benchmarks/target_cost.py --readme` -->", "<!-- target-cost end -->")
-SLOW_MARKERS = (
-    "<!-- slow-tests: written by `python benchmarks/target_cost.py --slow-tests --readme` -->",
-    "<!-- slow-tests end -->",
+MARKERS = (
+    "<!-- target-cost: written by `python benchmarks/target_cost.py --slow-tests --docs` -->",
+    "<!-- target-cost end -->",
 )
+PAGE = REPO / "docs" / "pipeline.md"
 
 
 def worker_cpu(workdir: Path) -> float:
@@ -58,12 +59,12 @@ def worker_cpu(workdir: Path) -> float:
     return sum(float(cpu) for log in (workdir / "logs").rglob("*.log") for cpu in WORKER_CPU.findall(log.read_text()))
 
 
-def build(workdir: Path, target: str, cores: int, env: dict) -> tuple[float, float]:
-    """Wall and CPU time (seconds) of ``snakemake <target>`` in ``workdir``."""
+def build(workdir: Path, target: str, cores: int, env: dict, config: list) -> tuple[float, float]:
+    """Wall and CPU time (seconds) of ``snakemake <target>`` in ``workdir`` (``config``: a --configfile option)."""
     if target == "report":
-        command = [sys.executable, "-m", "snakemake", "--report", "report.html", "report_figures"]
+        command = [sys.executable, "-m", "snakemake", "--report", "report.html", "report_figures", *config]
     else:
-        command = [sys.executable, "-m", "snakemake", target, "--cores", str(cores), "--quiet", "all"]
+        command = [sys.executable, "-m", "snakemake", target, "--cores", str(cores), "--quiet", "all", *config]
     before_children = resource.getrusage(resource.RUSAGE_CHILDREN)
     before_worker = worker_cpu(workdir)
     started = time.perf_counter()
@@ -82,7 +83,7 @@ def table(rows: list, cores: int) -> list[str]:
         "|---|---|---:|---:|",
     ]
     for target, wall, cpu in rows:
-        lines.append(f"| `{target}` | {TARGETS[target]} | {_duration(wall)} | {_duration(cpu)} |")
+        lines.append(f"| `{target}` | {TARGETS.get(target, '')} | {_duration(wall)} | {_duration(cpu)} |")
     return lines
 
 
@@ -90,20 +91,15 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
-def _replace_block(markers: tuple, lines: list[str]) -> None:
-    readme = REPO / "README.md"
-    text = readme.read_text()
-    start, end = (text.index(marker) for marker in markers)
-    readme.write_text(text[:start] + "\n".join([markers[0], *lines, ""]) + text[end:])
-
-
-def write_readme(lines: list[str], cores: int) -> None:
-    """The table into README.md between :data:`MARKERS`, with how it was measured."""
+def write_page(lines: list[str], cores: int) -> None:
+    """The table into docs/pipeline.md between :data:`MARKERS`, with how it was measured."""
     note = (
-        f"Measured one after the other in a fresh tree on {cores} shared cores (`benchmarks/target_cost.md`): each "
-        "target builds what the targets above it have not; CPU is the jobs' (the warm worker's included)."
+        f"Measured on {cores} shared cores (`benchmarks/target_cost.md`): each target builds what the targets above "
+        "it have not; CPU is the jobs' (the warm worker's included)."
     )
-    _replace_block(MARKERS, [note, "", *lines])
+    text = PAGE.read_text()
+    start, end = (text.index(marker) for marker in MARKERS)
+    PAGE.write_text(text[:start] + "\n".join([MARKERS[0], note, "", *lines, ""]) + text[end:])
 
 
 def slow_tests(workdir: Path, env: dict) -> tuple[float, float]:
@@ -133,10 +129,11 @@ def worker_time(workdir: Path) -> float:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cores", type=int, default=2)
-    parser.add_argument("--targets", nargs="*", default=list(TARGETS), choices=list(TARGETS))
+    parser.add_argument("--targets", nargs="*", default=list(TARGETS), help=f"in order (default: {list(TARGETS)})")
+    parser.add_argument("--configfile", type=Path, help="a configuration to build with instead of the tree's own")
     parser.add_argument("--ref", default="HEAD", help="the commit whose tree is built")
     parser.add_argument("--output", type=Path, help="also write the Markdown table here")
-    parser.add_argument("--readme", action="store_true", help="write the table into README.md")
+    parser.add_argument("--docs", action="store_true", help="write the table into docs/pipeline.md")
     parser.add_argument("--slow-tests", action="store_true", help="also time `python -m pytest -m slow` in the tree")
     parser.add_argument("--keep", action="store_true", help="keep the temporary tree")
     args = parser.parse_args(argv)
@@ -145,8 +142,9 @@ def main(argv=None) -> int:
     try:
         tracked_copy(workdir, args.ref)
         env = {**os.environ, "PYTHONPATH": str(workdir / "src")}
+        config = ["--configfile", str(args.configfile.resolve())] if args.configfile else []
         for target in args.targets:
-            wall, cpu = build(workdir, target, args.cores, env)
+            wall, cpu = build(workdir, target, args.cores, env, config)
             print(f"{target}: {wall:.1f} s wall, {cpu:.1f} s CPU", file=sys.stderr)
             rows.append((target, wall, cpu))
         slow = slow_tests(workdir, env) if args.slow_tests else None
@@ -160,12 +158,10 @@ def main(argv=None) -> int:
             shutil.rmtree(workdir, ignore_errors=True)
     lines = table(rows, args.cores) if rows else []
     if slow is not None:
-        text = f"The slow tests took {_duration(slow[0])} wall, {_duration(slow[1])} CPU on {args.cores} shared cores."
-        lines += ["", text]
-        if args.readme:
-            _replace_block(SLOW_MARKERS, [text])
-    if args.readme and rows:
-        write_readme(table(rows, args.cores), args.cores)
+        wall, cpu = (_duration(value) for value in slow)
+        lines += ["", f"The slow tests (`python -m pytest -m slow`): {wall} wall, {cpu} CPU."]
+    if args.docs:
+        write_page(lines, args.cores)
     return emit_report("\n".join(lines), args.output)
 
 

@@ -2,6 +2,9 @@
 # workflow's files is named here once; a rule names its outputs with these helpers and its
 # inputs with `rules.<rule>.output.<name>`, so a path is written in one place only.
 
+from nnmstop.docpages.paper_table import PAPER_TABLE_DATASETS
+from nnmstop.docpages.results import OPTIONAL_DATASETS, RESULT_DATASETS
+from nnmstop.docpages.results import STRUCTURE_DATASETS as STRUCTURE_PAGE_DATASETS
 from nnmstop.settings import study_settings
 from nnmstop.study.error_runtime import sweep_cases
 from nnmstop.study.runs import format_number
@@ -309,3 +312,38 @@ def verified_inputs(wildcards):
     if "forced" in config:
         inputs.update(forced_datasets=forced_datasets(), forced_manifest=rules.forced_manifest.output.manifest)
     return inputs
+
+
+# --------------------------------------------------------------------------- docs and report
+
+
+def docs_inputs(wildcards):
+    """The datasets of the pages: the paper's oscillator's (the switched branches only where `bifurcations` has
+    them; the small test configuration has none), or a structure of one's own's; and the front-page figure."""
+    if STRUCTURE_KIND != "two_dof":
+        return {
+            **{name: results(path) for name, path in STRUCTURE_PAGE_DATASETS.items()},
+            "figure": paper_figures("structure_frequency_energy.png"),
+        }
+    inputs = {
+        name: results(path)
+        for name, path in {**RESULT_DATASETS, **PAPER_TABLE_DATASETS}.items()
+        if name not in OPTIONAL_DATASETS or name in config.get("bifurcations", {})
+    }
+    return {**inputs, "figure": rules.paper_fig02.output.png}
+
+
+
+def built_figures():
+    """The figures of the default target and every other figure of the configuration that the build made (exists
+    now): the extra figures, the forced, tube and study ones. `snakemake --report report.html report_figures`
+    puts them all in the report; a figure not built is left out rather than built for the report."""
+    candidates = [*rules.regime_error_figure.output, *rules.stability_figure.output]
+    candidates += [*rules.study_error_vs_runtime_figure.output, *rules.study_stiff_cases_figure.output]
+    if "forced" in config:
+        candidates += forced_figures()
+    if "tube" in config:
+        candidates += expand(paper_figures("tube_{figure}.{ext}"), figure=TUBE_FIGURE_INPUTS, ext=("pdf", "png"))
+        candidates += list(rules.tube_study.output)
+    return PAPER_FIGURES + [path for path in candidates if path not in PAPER_FIGURES and os.path.exists(path)]
+

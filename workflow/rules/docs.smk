@@ -6,29 +6,8 @@
 #
 # The site itself: sphinx-build -W --keep-going -b html docs docs/_build/html
 
-from nnmstop.docpages.paper_table import PAPER_TABLE_DATASETS
-from nnmstop.docpages.results import OPTIONAL_DATASETS, RESULT_DATASETS
-from nnmstop.docpages.results import STRUCTURE_DATASETS as STRUCTURE_PAGE_DATASETS
-
-
 localrules:
     docs,
-
-
-def docs_inputs(wildcards):
-    """The datasets of the pages: the paper's oscillator's (the switched branches only where `bifurcations` has
-    them; the small test configuration has none), or a structure of one's own's; and the front-page figure."""
-    if STRUCTURE_KIND != "two_dof":
-        return {
-            **{name: results(path) for name, path in STRUCTURE_PAGE_DATASETS.items()},
-            "figure": paper_figures("structure_frequency_energy.png"),
-        }
-    inputs = {
-        name: results(path)
-        for name, path in {**RESULT_DATASETS, **PAPER_TABLE_DATASETS}.items()
-        if name not in OPTIONAL_DATASETS or name in config.get("bifurcations", {})
-    }
-    return {**inputs, "figure": rules.paper_fig02.output.png}
 
 
 rule docs:

@@ -118,7 +118,10 @@ def _points_a_b(compare: xr.Dataset, config: dict) -> list:
     return _table(["point", "the paper", "this build", "placed by (configuration)"], rows)
 
 
-def _anchor_text(entry: dict) -> str:
+def _anchor_text(entry) -> str:
+    """How the configuration places a point: an energy, or its anchor keys (``energy_fraction 0.8``)."""
+    if not isinstance(entry, dict):
+        return f"energy {entry}"
     return ", ".join(f"{key} {value}" for key, value in entry.items() if key not in ("label", "offset"))
 
 

@@ -205,17 +205,14 @@ def _points_a_b(ds: xr.Dataset) -> list:
     for code, label in enumerate(("a", "b"), start=1):  # flag_values of `marked`: 1 point a), 2 point b)
         (k,) = np.flatnonzero(ds["marked"].values == code)
         exact, regularized = ds["frequency_exact"].values[k], ds["frequency_regularized"].values[k]
-        rows.append(
-            [
-                f"{label})",
-                g(ds["exact_energy"].values[k]),
-                g(exact, 6),
-                g(regularized, 6),
-                g(ds["relative_frequency_difference"].values[k], 3),
-                g(ds["max_x_difference"].values[k], 3),
-                g(ds["max_force_difference"].values[k], 3),
-            ]
-        )
+        alike = "counterpart" not in ds or int(ds["counterpart"].values[k]) == 0
+        differences = (
+            [g(ds[name].values[k], 3) for name in ("relative_frequency_difference", "max_x_difference",
+                                                   "max_force_difference")]
+            if alike
+            else ["no counterpart", "", ""]
+        )  # fmt: skip
+        rows.append([f"{label})", g(ds["exact_energy"].values[k]), g(exact, 6), g(regularized, 6), *differences])
     header = [
         "point",
         "E",

@@ -632,7 +632,10 @@ def _scene(name: str, branch: xr.Dataset, spec: dict, whole: xr.Dataset | None):
     if focus is not None and not focus.any() and branch.sizes["point"] and name in SCENES:
         part, why = scene_part(branch, name)
         focus = part
-        notes.append(f"focus stages {list(stages)} hold no orbit: the window follows {why}")
+        if part is None:
+            notes.append(f"focus stages {list(stages)} hold no orbit and {why}: the window spans what is drawn")
+        else:
+            notes.append(f"focus stages {list(stages)} hold no orbit: the window follows {why}")
     return branch, focus, notes, ""
 
 
