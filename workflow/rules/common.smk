@@ -276,11 +276,14 @@ def explorer_branches():
 # Forced responses (workflow/rules/forced.smk): the scenes of the configuration and their files.
 
 
-def forced_scene_names(which="all"):
-    """File stems of the forced responses of the configuration (`F0.05`, ..., `tube_F0.5`)."""
-    from nnmstop.forced.scenes import forced_scenes
+def forced_scene_names(which="all", exact=False):
+    """File stems of the forced responses of the configuration (`F0.05`, ..., `tube_F0.5`); with `exact`, only those
+    whose exact response is computed (nnmstop.forced.scenes.exact_response_gap: one stop)."""
+    from nnmstop.forced.scenes import exact_response_gap, forced_scenes
 
-    return [scene.name for scene in forced_scenes(config, which)] if "forced" in config else []
+    if "forced" not in config:
+        return []
+    return [scene.name for scene in forced_scenes(config, which) if not (exact and exact_response_gap(scene))]
 
 
 def forced_file(kind, scene):
@@ -291,7 +294,7 @@ def forced_file(kind, scene):
 def forced_datasets():
     """Every dataset of the forced target."""
     names = forced_scene_names()
-    own = forced_scene_names("structure")
+    own = forced_scene_names("structure", exact=True)
     return (
         [forced_file("exact", s) for s in own]
         + [forced_file("regularized", s) for s in names]

@@ -85,16 +85,16 @@ rule forced_prediction:
 # Datasets each forced figure draws (the keys are the figure task's named inputs).
 FORCED_FIGURE_INPUTS = {
     "frequency_response": lambda: {
-        "exact": [forced_file("exact", s) for s in forced_scene_names("structure")],
+        "exact": [forced_file("exact", s) for s in forced_scene_names("structure", exact=True)],
         "regularized": [forced_file("regularized", s) for s in forced_scene_names("structure")],
         "backbone": rules.forced_backbone.output.dataset,
     },
     "phase_lag": lambda: {
-        "exact": [forced_file("exact", s) for s in forced_scene_names("structure")],
+        "exact": [forced_file("exact", s) for s in forced_scene_names("structure", exact=True)],
         "regularized": [forced_file("regularized", s) for s in forced_scene_names("structure")],
     },
     "orbits": lambda: {
-        "exact": [forced_file("exact", forced_scene_names("structure")[-1])],
+        "exact": [forced_file("exact", s) for s in forced_scene_names("structure", exact=True)[-1:]],
         "regularized": [forced_file("regularized", forced_scene_names("structure")[-1])],
     },
     "prediction_error": lambda: {"prediction": rules.forced_prediction.output.dataset},

@@ -23,6 +23,7 @@ from matplotlib.lines import Line2D
 
 from nnmstop import fourier
 from nnmstop.figures.common import save_figure, unit_text
+from nnmstop.figures.frequency_energy import wrapped_title
 from nnmstop.forced.stability_changes import KINDS
 
 __all__ = [
@@ -135,11 +136,12 @@ def _response_panel(ax, exact, regularized, backbone, dof: int, colors):
             lw=1.0,
             zorder=1,
         )
-    for color, reg, ex in zip(colors, regularized, exact):
+    for color, reg, ex in zip(colors, regularized, _paired(exact, regularized)):
         _draw_response(ax, reg, reg["amplitude"].values[:, dof], color, zorder=2, **REGULARIZED_STYLE)
-        _draw_response(ax, ex, ex["amplitude"].values[:, dof], _dark(color), zorder=3, **EXACT_STYLE)
         _draw_changes(ax, reg, dof, color)
-        _draw_changes(ax, ex, dof, "white", 4.5, edge=_dark(color))
+        if ex is not None:
+            _draw_response(ax, ex, ex["amplitude"].values[:, dof], _dark(color), zorder=3, **EXACT_STYLE)
+            _draw_changes(ax, ex, dof, "white", 4.5, edge=_dark(color))
     for i, color in enumerate(colors):
         f = backbone["predicted_frequency"].values[i]
         a = backbone["predicted_amplitude"].values[i, :, dof]
@@ -150,18 +152,27 @@ def _response_panel(ax, exact, regularized, backbone, dof: int, colors):
     ax.set_xlabel("forcing frequency (Hz, nondimensional time)")
 
 
-def _level_handles(colors, regularized) -> list:
+def _paired(exact: list, regularized: list) -> list:
+    """The exact response of each level of ``regularized`` (None where there is none: a structure the exact forced
+    solver does not cover, :func:`nnmstop.forced.scenes.exact_response_gap`)."""
+    return list(exact) if exact else [None] * len(regularized)
+
+
+def _level_handles(colors, regularized, exact=True) -> list:
     """Each force level's pair: its regularized response (wide, pale) and its exact one (thin, dark)."""
     handles = []
     for c, r in zip(colors, regularized):
         level = f"F = {r.attrs['forcing_amplitude']:g}"
         handles.append(Line2D([], [], color=c, label=f"{level}: regularized (HBM)", **REGULARIZED_STYLE))
-        handles.append(Line2D([], [], color=_dark(c), label=f"{level}: exact (piecewise-linear law)", **EXACT_STYLE))
+        if exact:
+            handles.append(
+                Line2D([], [], color=_dark(c), label=f"{level}: exact (piecewise-linear law)", **EXACT_STYLE)
+            )
     return handles
 
 
-def _legend_handles(colors, regularized) -> list:
-    handles = _level_handles(colors, regularized)
+def _legend_handles(colors, regularized, exact=True) -> list:
+    handles = _level_handles(colors, regularized, exact)
     handles += [
         Line2D([], [], color="0.3", lw=1.0, ls="--", label="unstable"),
         Line2D([], [], color="0.3", lw=1.0, ls=":", label="stability unresolved"),
@@ -177,7 +188,7 @@ def _legend_handles(colors, regularized) -> list:
 
 
 def frequency_response_figure(
-    exact: list, regularized: list, backbone: xr.Dataset, pdf_path, png_dpi: int = 150, zoom=None
+    exact: list, regularized: list, backbone: xr.Dataset, pdf_path, png_dpi: int = 150, zoom=None, no_exact: str = ""
 ):
     """``max |x|`` and ``max |u|`` against frequency at every force level (see the module docstring).
 
@@ -207,26 +218,33 @@ def frequency_response_figure(
     axes[0, 0].set_title("stop DOF (the gap dotted)")
     axes[0, 1].set_title("forced DOF")
     axes[1, 0].set_title("the primary resonance of NNM1 past grazing")
-    fig.legend(handles=_legend_handles(colors, regularized), loc="outside lower center", ncol=4, fontsize=7)
+    fig.legend(
+        handles=_legend_handles(colors, regularized, bool(exact)), loc="outside lower center", ncol=4, fontsize=7
+    )
     title = f"Frequency responses at {len(regularized)} force levels: {scene_text(regularized[0])}"
-    fig.suptitle(title, fontsize=9)
+    if not exact:
+        title += f"\nno exact responses: {no_exact}"
+    fig.suptitle(wrapped_title(title, 9, fig.get_figwidth()), fontsize=9)
     return save_figure(fig, pdf_path, png_dpi, description=title)
 
 
-def phase_lag_figure(exact: list, regularized: list, pdf_path, png_dpi: int = 150):
+def phase_lag_figure(exact: list, regularized: list, pdf_path, png_dpi: int = 150, no_exact: str = ""):
     """Lag of the forced DOF's fundamental behind the force, against frequency (90 degrees: phase resonance)."""
     fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
     colors = _level_colors(len(regularized))
     dof = int(np.atleast_1d(regularized[0].attrs["forcing_dofs"])[0])
-    for color, reg, ex in zip(colors, regularized, exact):
+    for color, reg, ex in zip(colors, regularized, _paired(exact, regularized)):
         _draw_response(ax, reg, reg["phase_lag"].values[:, dof], color, zorder=2, **REGULARIZED_STYLE)
-        _draw_response(ax, ex, ex["phase_lag"].values[:, dof], _dark(color), zorder=3, **EXACT_STYLE)
+        if ex is not None:
+            _draw_response(ax, ex, ex["phase_lag"].values[:, dof], _dark(color), zorder=3, **EXACT_STYLE)
     ax.axhline(90.0, color="0.4", lw=0.6, ls=":")
     ax.set_xlabel("forcing frequency (Hz, nondimensional time)")
     ax.set_ylabel(f"phase lag of {regularized[0]['dof_label'].values[dof]} behind the force (degrees)")
-    ax.legend(handles=_level_handles(colors, regularized), fontsize=6.5)
+    ax.legend(handles=_level_handles(colors, regularized, bool(exact)), fontsize=6.5)
     title = f"Phase lag behind the force\n{scene_text(regularized[0])}"
-    ax.set_title(title, fontsize=7.5)
+    if not exact:
+        title += f"\nno exact responses: {no_exact}"
+    ax.set_title(wrapped_title(title, 7.5, fig.get_figwidth()), fontsize=7.5)
     return save_figure(fig, pdf_path, png_dpi, description=title)
 
 
@@ -273,7 +291,8 @@ def orbits_figure(
     for column, target in enumerate(frequencies):
         top, bottom = axes[0, column], axes[1, column]
         notes = []
-        index = exact_ds["contact_point_index"].values if "contact_point_index" in exact_ds else np.zeros(0, int)
+        has_contacts = exact_ds is not None and "contact_point_index" in exact_ds
+        index = exact_ds["contact_point_index"].values if has_contacts else np.zeros(0, int)
         crossing = _crossings(exact_ds["frequency"].values[index], target) if index.size else np.zeros(0, int)
         if crossing.size:
             y = exact_ds["contact_unknowns"].values[crossing[0]]
@@ -292,7 +311,7 @@ def orbits_figure(
                 f"{_verdict(exact_ds, point)})"
             )
         else:
-            notes.append("exact: no response with contact at this frequency")
+            notes.append("exact: not computed" if exact_ds is None else "exact: no response with contact here")
         crossing = _crossings(regularized_ds["frequency"].values, target)
         if crossing.size:
             i = int(crossing[0])
@@ -315,7 +334,7 @@ def orbits_figure(
         "Coexisting responses: the first reached along each continuation is drawn (max|q| at the stop)\n"
         + scene_text(regularized_ds)
     )
-    fig.suptitle(title, fontsize=8.5)
+    fig.suptitle(wrapped_title(title, 8.5, fig.get_figwidth()), fontsize=8.5)
     return save_figure(fig, pdf_path, png_dpi, description=title)
 
 
@@ -336,7 +355,7 @@ def tube_figure(regularized: list, pdf_path, png_dpi: int = 150):
     ax.set_ylabel("max |q| over the period (gaps)")
     ax.legend(fontsize=7)
     title = "The tube's frequency response\n" + scene_text(regularized[0])
-    ax.set_title(title, fontsize=7.5)
+    ax.set_title(wrapped_title(title, 7.5, fig.get_figwidth()), fontsize=7.5)
     return save_figure(fig, pdf_path, png_dpi, description=title)
 
 
@@ -379,5 +398,5 @@ def prediction_error_figure(ds: xr.Dataset, pdf_path, png_dpi: int = 150):
         f"order {order} in the damping\n(damping and force add a component of order zeta in quadrature with the NNM "
         "orbit, which moves its amplitude and frequency at second order)\n" + scene_text(ds)
     )
-    fig.suptitle(title, fontsize=8.5)
+    fig.suptitle(wrapped_title(title, 8.5, fig.get_figwidth()), fontsize=8.5)
     return save_figure(fig, pdf_path, png_dpi, description=title)

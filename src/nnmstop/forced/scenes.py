@@ -13,7 +13,15 @@ from dataclasses import dataclass
 from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
 from nnmstop.models.structure import Structure
 
-__all__ = ["Scene", "WHICH", "scene_name", "forced_scenes", "find_scene", "prediction_excitations"]
+__all__ = [
+    "Scene",
+    "WHICH",
+    "scene_name",
+    "forced_scenes",
+    "exact_response_gap",
+    "find_scene",
+    "prediction_excitations",
+]
 
 
 @dataclass(frozen=True)
@@ -141,6 +149,22 @@ def prediction_excitations(config: dict) -> tuple:
         damping = Damping.from_modal_ratios(structure, [float(ratio)] * len(modes), modes)
         excitations.append(Excitation(structure, damping, HarmonicForce(float(spec["force_per_ratio"]) * ratio, dofs)))
     return excitations, _frequency_range(spec["frequency_window"], "forced.prediction.frequency_window")
+
+
+def exact_response_gap(scene: Scene) -> str:
+    """Why the exact (non-smooth) response of ``scene`` is not computed, or "" where it is: the exact forced solver
+    (:mod:`nnmstop.exact.forced`) strikes one stop and checks the others only along its contact families, not
+    along the non-impacting response and its grazings, so a structure with several stops is not covered; nor is
+    the tube's scene (regularized only: each exact orbit's lags and multipliers are costly on a fine mesh)."""
+    if scene.name.startswith("tube_"):
+        return "the tube's forced response is regularized only"
+    stops = len(scene.excitation.structure.stops)
+    if stops > 1:
+        return (
+            f"the exact forced solver covers structures with one stop; this one has {stops} (regularized responses "
+            "only)"
+        )
+    return ""
 
 
 def find_scene(config: dict, name: str) -> Scene:

@@ -18,7 +18,14 @@ from nnmstop.forced.backbone import nnm_backbone, predicted_peaks, required_forc
 from nnmstop.forced.dataset import backbone_dataset, base_attributes, exact_dataset, regularized_dataset
 from nnmstop.forced.regularized import ForcedStabilitySettings, regularized_stability
 from nnmstop.forced.responses import ExactSettings, RegularizedSettings, exact_response, regularized_response
-from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, prediction_excitations, scene_name
+from nnmstop.forced.scenes import (
+    Scene,
+    exact_response_gap,
+    find_scene,
+    forced_scenes,
+    prediction_excitations,
+    scene_name,
+)
 from nnmstop.hbm.forced import response_amplitudes
 from nnmstop.models.excitation import modal_damping_ratios
 from nnmstop.netcdf import read_dataset, write_dataset
@@ -249,17 +256,21 @@ def forced_figure(config, inputs, outputs, figure: str):
     dpi = int(spec["png_dpi"])
 
     def read(key):
-        paths = inputs[key] if isinstance(inputs[key], (list, tuple)) else [inputs[key]]
+        found = inputs.get(key, [])
+        paths = found if isinstance(found, (list, tuple)) else [found]
         return [read_dataset(path) for path in paths]
 
+    no_exact = exact_response_gap(forced_scenes(config, "structure")[0])  # "" where the exact responses exist
     if figure == "frequency_response":
-        draw.frequency_response_figure(read("exact"), read("regularized"), read("backbone")[0], outputs["pdf"], dpi)
+        draw.frequency_response_figure(
+            read("exact"), read("regularized"), read("backbone")[0], outputs["pdf"], dpi, no_exact=no_exact
+        )
     elif figure == "phase_lag":
-        draw.phase_lag_figure(read("exact"), read("regularized"), outputs["pdf"], dpi)
+        draw.phase_lag_figure(read("exact"), read("regularized"), outputs["pdf"], dpi, no_exact=no_exact)
     elif figure == "orbits":
-        exact, regularized = read("exact")[0], read("regularized")[0]
-        scene = find_scene(config, scene_name(float(exact.attrs["forcing_amplitude"])))
-        problem = SymmetricContactProblem(scene.excitation)
+        exact, regularized = (read("exact") or [None])[0], read("regularized")[0]
+        scene = find_scene(config, scene_name(float(regularized.attrs["forcing_amplitude"])))
+        problem = SymmetricContactProblem(scene.excitation) if exact is not None else None
         draw.orbits_figure(exact, regularized, problem, spec["orbit_frequencies"], outputs["pdf"], dpi)
     elif figure == "prediction_error":
         draw.prediction_error_figure(read("prediction")[0], outputs["pdf"], dpi)
