@@ -446,12 +446,6 @@ def test_the_nnm2_curve_at_f2_over_n_is_a_pale_band_under_the_branch(nnm1_stages
 # --------------------------------------------------------------------------- issue 29: scenes and names by physics
 
 
-def _description(png) -> str:
-    from PIL import Image
-
-    return Image.open(png).info.get("Description", "")
-
-
 def test_a_figure_whose_stages_were_not_continued_draws_its_scene_by_physics(nnm1_stages, small_config, tmp_path):
     """Fig 11 asks for stage 4; here that stage was skipped (the continuation ended before it), but NNM1 reached
     high energy earlier: the figure draws the branch's high-energy end (its last run of one identity and one
@@ -462,8 +456,8 @@ def test_a_figure_whose_stages_were_not_continued_draws_its_scene_by_physics(nnm
     whole = combine_stages(list(nnm1_stages[:3]))
     skipped = skipped_stage_dataset(system_from_config(small_config), 4, {"branch": "nnm1"}, "skipped: test")
     spec = {"nnm1_stages": [4], "labels": [{"label": "r", "energy_fraction": 0.5, "stage": 4}]}
-    pdf, png = fe.figure_11(skipped, spec, tmp_path / "fig11.pdf", PNG_DPI, stages=[skipped], whole=whole)
-    text = _description(png)
+    pdf, _ = fe.figure_11(skipped, spec, tmp_path / "fig11.pdf", PNG_DPI, stages=[skipped], whole=whole)
+    text = _description(pdf)
     assert "drawn instead the high-energy end of the continuation" in text
     assert "no orbit of" not in text and "not on this branch" not in text  # r) placed on the part drawn
     part, _ = fe.scene_part(whole, "fig11")
@@ -481,8 +475,8 @@ def test_a_scene_that_does_not_exist_draws_the_branch_without_letters(nnm1_stage
     spec = {"nnm1_stages": [2, 3], "labels": [{"label": "j", "energy_fraction": 0.5, "stage": 2}]}
     nnm2 = whole.copy()
     nnm2.attrs["branch"] = "nnm2"
-    pdf, png = fe.figure_09(empty, nnm2, spec, tmp_path / "fig09.pdf", PNG_DPI, stages=[], whole=whole)
-    text = _description(png)
+    pdf, _ = fe.figure_09(empty, nnm2, spec, tmp_path / "fig09.pdf", PNG_DPI, stages=[], whole=whole)
+    text = _description(pdf)
     assert "no 5:1 internal resonance on this branch" in text and "j)" in text
 
 
