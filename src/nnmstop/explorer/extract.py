@@ -200,6 +200,7 @@ def _branch_fields(ds: xr.Dataset) -> tuple[dict, dict]:
 REGULARIZED_NUMBERS = (
     "energy", "frequency", "x_max", "u_max", "impacts_per_period", "algebraic_residual", "time_residual",
     "truncation", "stable", "stability_reason", "max_multiplier", "stage", "segment",
+    "orbit_kind", "dominant_mode", "dominant_harmonic", "tongue_harmonic",  # what the orbit is (issue 29)
 )  # fmt: skip
 
 
