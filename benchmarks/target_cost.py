@@ -91,39 +91,46 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
-def write_page(lines: list[str], cores: int) -> None:
-    """The table into docs/pipeline.md between :data:`MARKERS`, with how it was measured."""
+SLOW_LINE = "The slow tests (`python -m pytest -m slow`):"
+
+
+def write_page(table_lines: list[str], slow_line: str, cores: int) -> None:
+    """The table and the slow tests' line into docs/pipeline.md between :data:`MARKERS`, with how they were
+    measured; either kept from the page where this run did not measure it."""
+    text = PAGE.read_text()
+    start, end = (text.index(marker) for marker in MARKERS)
+    old = text[start:end].splitlines()[1:]
+    if not table_lines:
+        table_lines = [line for line in old if line.startswith("|")]
+    if not slow_line:
+        slow_line = next((line for line in old if line.startswith(SLOW_LINE)), "")
     note = (
         f"Measured on {cores} shared cores (`benchmarks/target_cost.md`): each target builds what the targets above "
         "it have not; CPU is the jobs' (the warm worker's included)."
     )
-    text = PAGE.read_text()
-    start, end = (text.index(marker) for marker in MARKERS)
-    PAGE.write_text(text[:start] + "\n".join([MARKERS[0], note, "", *lines, ""]) + text[end:])
+    block = [MARKERS[0], note, "", *table_lines] + (["", slow_line] if slow_line else []) + [""]
+    PAGE.write_text(text[:start] + "\n".join(block) + text[end:])
 
 
 def slow_tests(workdir: Path, env: dict) -> tuple[float, float]:
-    """Wall and CPU time of ``python -m pytest -m slow`` in the tree (the tests at the configured numerics)."""
-    before_children, before_worker = resource.getrusage(resource.RUSAGE_CHILDREN), worker_time(workdir)
+    """Wall and CPU time of ``python -m pytest -m slow`` in the tree (the tests at the configured numerics); their
+    builds' temporary folders under the tree (``--basetemp``), where the warm worker's CPU time is read."""
+    basetemp = workdir / ".slow-tests"
+    before_children = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
-    run = subprocess.run([sys.executable, "-m", "pytest", "-m", "slow", "-q", "-p", "no:cacheprovider"], cwd=workdir,
-                         env=env)  # fmt: skip
+    command = [sys.executable, "-m", "pytest", "-m", "slow", "-q", "-p", "no:cacheprovider", f"--basetemp={basetemp}"]
+    run = subprocess.run(command, cwd=workdir, env=env)
     wall = time.perf_counter() - started
     if run.returncode != 0:
         raise RuntimeError(f"the slow tests failed (exit {run.returncode}) in {workdir}")
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before_children.ru_utime) + (after.ru_stime - before_children.ru_stime)
-    return wall, cpu + worker_time(workdir) - before_worker
-
-
-def worker_time(workdir: Path) -> float:
-    """CPU of the warm worker's jobs in the builds the tests made (their logs under the temporary folders)."""
-    root = Path(tempfile.gettempdir())
-    return sum(
-        float(cpu)
-        for log in root.glob("pytest-of-*/pytest-current/**/logs/**/*.log")
-        for cpu in WORKER_CPU.findall(log.read_text(errors="replace"))
+    worker = sum(
+        float(value)
+        for log in basetemp.rglob("logs/**/*.log")
+        for value in WORKER_CPU.findall(log.read_text(errors="replace"))
     )
+    return wall, cpu + worker
 
 
 def main(argv=None) -> int:
@@ -156,13 +163,14 @@ def main(argv=None) -> int:
             print(f"tree kept in {workdir}", file=sys.stderr)
         else:
             shutil.rmtree(workdir, ignore_errors=True)
-    lines = table(rows, args.cores) if rows else []
+    table_lines = table(rows, args.cores) if rows else []
+    slow_line = ""
     if slow is not None:
         wall, cpu = (_duration(value) for value in slow)
-        lines += ["", f"The slow tests (`python -m pytest -m slow`): {wall} wall, {cpu} CPU."]
+        slow_line = f"{SLOW_LINE} {wall} wall, {cpu} CPU."
     if args.docs:
-        write_page(lines, args.cores)
-    return emit_report("\n".join(lines), args.output)
+        write_page(table_lines, slow_line, args.cores)
+    return emit_report("\n".join(table_lines + ([""] if table_lines and slow_line else []) + [slow_line]), args.output)
 
 
 if __name__ == "__main__":
