@@ -16,7 +16,7 @@ def config(repo_root):
 def test_default_scene_is_the_paper_oscillator_and_the_tube(config):
     names = [scene.name for scene in forced_scenes(config)]
     assert names == ["F0.01", "F0.02", "F0.05", "F0.1", "tube_F0.5"]
-    scene = forced_scenes(config, "oscillator")[0]
+    scene = forced_scenes(config, "structure")[0]
     assert scene.excitation.force.dofs == (1,)  # u
     assert scene.excitation.damping.ratios == (0.01, 0.01)
 
