@@ -28,7 +28,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from nnmstop.models.structure import two_dof_structure
-from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_contact_force, regularized_vector_field
+from nnmstop.models.two_dof import ModelParameters, linear_modes, regularized_vector_field
 
 __all__ = [
     "Trajectory",
@@ -139,29 +139,6 @@ def integrate_regularized(params: ModelParameters, z0, t_eval, rtol: float = 1e-
 
     def rhs(_t, z):
         return regularized_vector_field(z, params)
-
-    if t_eval.size == 1:
-        return Trajectory(t_eval, z0[None, :].copy(), np.empty(0))
-    sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), z0, method="DOP853", rtol=rtol, atol=atol, t_eval=t_eval)
-    if sol.status != 0:
-        raise RuntimeError(f"solve_ivp failed: {sol.message}")
-    return Trajectory(t_eval, sol.y.T, np.empty(0))
-
-
-def integrate_structure_regularized(structure, z0, t_eval, rtol: float = 1e-12, atol: float = 1e-13) -> Trajectory:
-    """Integrate ``M q'' + K q + sum_s gap_s f_s(q_(d_s) / gap_s) e_(d_s) = 0`` with DOP853, every stop with its
-    regularized law; ``z0 = (q, qdot)`` at ``t_eval[0]``, the states at ``t_eval`` returned."""
-    n = structure.n_dofs
-    z0, t_eval = _checked_start(z0, t_eval, n)
-    mass, stiffness = structure.dense_matrices()
-    mass_inverse = np.linalg.inv(mass)
-    laws = [(s.dof, s.gap, ModelParameters(alpha=s.stiffness, eta=s.eta)) for s in structure.stops]
-
-    def rhs(_t, z):
-        force = stiffness @ z[:n]
-        for dof, gap, law in laws:
-            force[dof] += gap * float(regularized_contact_force(z[dof] / gap, law))
-        return np.concatenate([z[n:], -mass_inverse @ force])
 
     if t_eval.size == 1:
         return Trajectory(t_eval, z0[None, :].copy(), np.empty(0))
@@ -313,6 +290,8 @@ def integrate_structure_regularized(structure, z0, t_eval, rtol: float = 1e-12, 
         contact.apply(force, contact.forces(contact.coordinates(q)))
         return np.concatenate([z[n:], -minv @ force])
 
+    if t_eval.size == 1:
+        return Trajectory(t_eval, z0[None, :].copy(), np.zeros(0), np.zeros(0, dtype=int))
     sol = solve_ivp(field, (t_eval[0], t_eval[-1]), z0, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
     if sol.status < 0:
         raise RuntimeError(f"solve_ivp failed: {sol.message}")
