@@ -96,7 +96,7 @@ def test_the_forced_section_applies_to_the_structure_of_the_configuration(config
         },
     }
     chain["forced"]["force"].update(dofs=["x3"], amplitudes=[0.1])
-    (scene,) = forced_scenes(chain, "oscillator")
+    (scene,) = forced_scenes(chain, "structure")
     assert scene.excitation.structure.n_dofs == 3 and scene.excitation.force.dofs == (2,)
     assert scene.excitation.structure.stops[0].kind == "one_sided"
     ds = describe(exact_response_dataset(chain, scene), "forced_exact")

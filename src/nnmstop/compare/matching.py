@@ -30,7 +30,7 @@ from nnmstop.continuation.newton import newton_solve
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem
 from nnmstop.hbm.dataset import dataset_unknowns, orbit_variables
-from nnmstop.hbm.identity import content_kind, identity_label, orbit_identity, sampled_shares
+from nnmstop.hbm.identity import ORBIT_FORCE_NAMES, content_kind, identity_label, orbit_identity, sampled_shares
 from nnmstop.hbm.system import HarmonicBalanceSystem, impacts_per_period
 from nnmstop.models.structure import two_dof_parameters, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
@@ -520,7 +520,7 @@ def orbit_types(matched: MatchedOrbits, system: HarmonicBalanceSystem, samples: 
     exact = {"impacts_per_period": impacts_per_period(history.x), "dominant_harmonic": dominant,
              "tongue_harmonic": tongue}  # fmt: skip
     data = orbit_variables(system, np.atleast_2d(matched.regularized))
-    ident = orbit_identity(system.structure, *(data[k][1] for k in ("q_cos", "q_sin", "f_cos", "f_sin")))
+    ident = orbit_identity(system.structure, *(data[k][1] if k in data else None for k in ORBIT_FORCE_NAMES))
     reg_x = system.to_time(system.split(matched.regularized)[0], samples)  # x: the first block (stop on x)
     regularized = {
         "contacts_per_period": impacts_per_period(reg_x / (1.0 - np.sqrt(2.0 * params.eps))),

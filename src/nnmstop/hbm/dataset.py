@@ -26,7 +26,7 @@ import xarray as xr
 from nnmstop import fourier
 from nnmstop.catalogue import describe
 from nnmstop.continuation.core import Branch, ContinuationError, relative_residual
-from nnmstop.hbm.identity import orbit_identity
+from nnmstop.hbm.identity import ORBIT_FORCE_NAMES, orbit_identity
 from nnmstop.models.structure import limit_modes
 
 __all__ = [
@@ -435,7 +435,7 @@ def identity_variables(structure, data) -> dict:
     ``data``: the branch's variables ``name -> (dims, values)`` holding ``q_cos`` ... ``f_sin``.
     """
     dims = {"dof_dominant_harmonic": ("point", "dof"), "effective_stop_stiffness": ("point", "stop")}
-    found = orbit_identity(structure, *(data[name][1] for name in ("q_cos", "q_sin", "f_cos", "f_sin")))
+    found = orbit_identity(structure, *(data[name][1] if name in data else None for name in ORBIT_FORCE_NAMES))
     return {name: _var(name, dims.get(name, "point"), values) for name, values in found.items()}
 
 

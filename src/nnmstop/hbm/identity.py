@@ -97,6 +97,10 @@ def sampled_shares(mass, samples) -> np.ndarray:
     return harmonic_shares(mass, q_cos, q_sin)[0]
 
 
+#: The orbit variables :func:`orbit_identity` reads, in its argument order (``f2_*`` only with a circular clearance).
+ORBIT_FORCE_NAMES = ("q_cos", "q_sin", "f_cos", "f_sin", "f2_cos", "f2_sin")
+
+
 def content_kind(shares) -> tuple[int, int, int]:
     """``(dominant harmonic, tongue harmonic, orbit_kind)`` of one orbit's harmonic ``shares`` (module docstring):
     the part of its identity that needs no linear mode (to compare an exact orbit with a regularized one)."""
@@ -115,27 +119,48 @@ def _apply(mass, vectors):
     return np.moveaxis((mass @ flat).reshape(n, p, k), 0, 1)
 
 
-def effective_stop_stiffness(structure: Structure, q_cos, q_sin, f_cos, f_sin) -> np.ndarray:
-    """Equivalent linear stiffness ``<f x> / <x^2>`` of each stop over each orbit (point, stop).
+def effective_stop_stiffness(structure: Structure, q_cos, q_sin, f_cos, f_sin, f2_cos=None, f2_sin=None):
+    """Equivalent linear stiffness ``<f . x> / <|x|^2>`` of each stop over each orbit (point, stop).
 
-    ``x = q_dof / gap`` and ``f`` (force over gap) over the period, by Parseval's identity on the harmonics
-    ``k >= 1``: the least-squares slope of the stop force against its displacement, in ``[eta, alpha)`` for the
-    regularized law (its ``f(x) / x`` grows with ``|x|``). ``eta`` where the stop's degree of freedom is at rest.
+    ``x = A q / gap`` (the stop's scaled coordinates, :meth:`~nnmstop.models.contact.Stop.coordinates`) and ``f``
+    (force over gap, and ``f2`` its second component for a circular clearance) over the period, by Parseval's
+    identity on the harmonics ``k >= 1``: the least-squares slope of the stop force against its displacement, in
+    ``[eta, alpha)`` for the regularized law (its ``f(x) / x`` grows with ``|x|``). ``eta`` where the stop's
+    coordinates are at rest.
     """
-    out = np.empty((np.shape(q_cos)[0], len(structure.stops)))
+    q_cos, q_sin = np.asarray(q_cos, float), np.asarray(q_sin, float)
+    out = np.empty((q_cos.shape[0], len(structure.stops)))
     for j, stop in enumerate(structure.stops):
-        xc, xs = np.asarray(q_cos)[:, stop.dof, 1:] / stop.gap, np.asarray(q_sin)[:, stop.dof, 1:] / stop.gap
-        fc, fs = np.asarray(f_cos)[:, j, 1:], np.asarray(f_sin)[:, j, 1:]
-        power = (xc**2 + xs**2).sum(axis=1)
-        cross = (fc * xc + fs * xs).sum(axis=1)
+        xc, xs = stop.coordinates(q_cos[..., 1:], axis=1), stop.coordinates(q_sin[..., 1:], axis=1)
+        fc, fs = [np.asarray(f_cos)[:, j, 1:]], [np.asarray(f_sin)[:, j, 1:]]
+        if stop.n_components == 2:
+            if f2_cos is None or f2_sin is None:
+                raise ValueError(f"stop {j} ({stop.label}) has two force components: give f2_cos and f2_sin")
+            fc.append(np.asarray(f2_cos)[:, j, 1:])
+            fs.append(np.asarray(f2_sin)[:, j, 1:])
+        power = sum((xc[k] ** 2 + xs[k] ** 2).sum(axis=1) for k in range(stop.n_components))
+        cross = sum((fc[k] * xc[k] + fs[k] * xs[k]).sum(axis=1) for k in range(stop.n_components))
         out[:, j] = np.divide(cross, power, out=np.full(power.shape, stop.eta), where=power > 0)
     return out
 
 
+def _stiffness_added(structure: Structure, stiffness_added) -> scipy.sparse.csr_matrix:
+    """``sum_j k_j A_j^T A_j``: each stop replaced by a linear spring of stiffness ``k_j`` on its coordinates."""
+    n = structure.n_dofs
+    rows, cols, values = [], [], []
+    for stop, k in zip(structure.stops, stiffness_added):
+        for terms in stop.coordinate_terms:
+            for dof_a, sign_a in terms:
+                for dof_b, sign_b in terms:
+                    rows.append(dof_a)
+                    cols.append(dof_b)
+                    values.append(k * sign_a * sign_b)
+    return scipy.sparse.csr_matrix((values, (rows, cols)), shape=(n, n))
+
+
 def _mode_shares(structure: Structure, mass, stiffness, stiffness_added, cos, sin) -> np.ndarray:
-    """Share of ``cos - i sin`` (dof,) carried by each mode of ``K + diag(stiffness_added)`` (lowest first)."""
-    dofs = list(structure.stop_dofs)
-    added = scipy.sparse.csr_matrix((stiffness_added, (dofs, dofs)), shape=stiffness.shape)
+    """Share of ``cos - i sin`` (dof,) carried by each mode of ``K`` with each stop a spring (lowest first)."""
+    added = _stiffness_added(structure, stiffness_added)
     loaded = (stiffness + added).tocsr() if scipy.sparse.issparse(stiffness) else stiffness + added.toarray()
     n_modes = structure.n_dofs if structure.n_dofs <= 400 else min(MAX_MODES, structure.n_dofs)
     _, shapes = generalized_modes(mass, loaded, n_modes)
@@ -144,7 +169,7 @@ def _mode_shares(structure: Structure, mass, stiffness, stiffness_added, cos, si
     return (projected**2).sum(axis=1) / norm if norm > 0 else np.zeros(n_modes)
 
 
-def orbit_identity(structure: Structure, q_cos, q_sin, f_cos, f_sin) -> dict:
+def orbit_identity(structure: Structure, q_cos, q_sin, f_cos, f_sin, f2_cos=None, f2_sin=None) -> dict:
     """The identity of each orbit (module docstring) as arrays, the variables of the branch datasets.
 
     Parameters
@@ -154,6 +179,8 @@ def orbit_identity(structure: Structure, q_cos, q_sin, f_cos, f_sin) -> dict:
         Fourier coefficients of the degrees of freedom (mean first).
     f_cos, f_sin : array_like, shape (point, stop, harmonic)
         Of the stop forces (force over gap).
+    f2_cos, f2_sin : array_like, shape (point, stop, harmonic), optional
+        Of the second force component of each stop (needed with a circular clearance).
 
     Returns
     -------
@@ -182,7 +209,7 @@ def orbit_identity(structure: Structure, q_cos, q_sin, f_cos, f_sin) -> dict:
     n_points = shares.shape[0]
     dominant = np.argmax(shares, axis=1) + 1 if shares.size else np.zeros(0, dtype=int)
     rows = np.arange(n_points)
-    stiffness_eff = effective_stop_stiffness(structure, q_cos, q_sin, f_cos, f_sin)
+    stiffness_eff = effective_stop_stiffness(structure, q_cos, q_sin, f_cos, f_sin, f2_cos, f2_sin)
     mode, mode_share = np.zeros(n_points, dtype=np.int32), np.zeros(n_points)
     for i in range(n_points):
         k = int(dominant[i])
