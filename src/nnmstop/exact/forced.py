@@ -244,27 +244,37 @@ def _extreme_values(phase: ForcedPhase, z_s, theta_s: float, delta: float, omega
     The closed-form velocity is sampled at :data:`SAMPLES_PER_PERIOD` points per period of the fastest of the
     phase's oscillations and the force; each sign change is refined by Brent's method to round-off.
     """
+    return _extreme_values_of(phase, z_s, theta_s, delta, omega, [dof])[0]
+
+
+def _extreme_values_of(phase: ForcedPhase, z_s, theta_s: float, delta: float, omega: float, dofs) -> list:
+    """:func:`_extreme_values` of several DOFs, ``[(minima, maxima) per dof]``, the samples computed once."""
     if not delta > 0:
-        return [], []
+        return [([], []) for _ in dofs]
     P = phase.amplitude(omega)[0]
     fastest = max(phase.fastest, omega)
     n = SAMPLES_PER_PERIOD * max(1, int(np.ceil(delta / omega * fastest / (2 * np.pi)))) + 1
     theta = np.linspace(theta_s, theta_s + delta, n)
     n_dofs = phase.n
-
-    def velocity(r):
-        return phase.states(z_s, theta_s, omega, r, P)[n_dofs + dof]
-
-    v = phase.states(z_s, theta_s, omega, theta, P)[:, n_dofs + dof]
-    minima, maxima = [], []
+    samples = phase.states(z_s, theta_s, omega, theta, P)
     edge = 1e-12 * max(delta, 1.0)
-    for i in np.flatnonzero(np.sign(v[:-1]) != np.sign(v[1:])):
-        lo, hi = theta[i], theta[i + 1]
-        r = scipy.optimize.brentq(velocity, lo, hi, xtol=1e-15, rtol=1e-15) if velocity(lo) * velocity(hi) < 0 else lo
-        if theta_s + edge < r < theta_s + delta - edge:
-            value = phase.states(z_s, theta_s, omega, r, P)[dof]
-            (maxima if v[i] > 0 else minima).append(float(value))
-    return minima, maxima
+    out = []
+    for dof in dofs:
+
+        def velocity(r, dof=dof):
+            return phase.states(z_s, theta_s, omega, r, P)[n_dofs + dof]
+
+        v = samples[:, n_dofs + dof]
+        minima, maxima = [], []
+        for i in np.flatnonzero(np.sign(v[:-1]) != np.sign(v[1:])):
+            lo, hi = theta[i], theta[i + 1]
+            bracketed = velocity(lo) * velocity(hi) < 0
+            r = scipy.optimize.brentq(velocity, lo, hi, xtol=1e-15, rtol=1e-15) if bracketed else lo
+            if theta_s + edge < r < theta_s + delta - edge:
+                value = phase.states(z_s, theta_s, omega, r, P)[dof]
+                (maxima if v[i] > 0 else minima).append(float(value))
+        out.append((minima, maxima))
+    return out
 
 
 class SymmetricContactProblem:
@@ -384,8 +394,7 @@ class SymmetricContactProblem:
             (self.phases["R"], z1, theta1, delta),
             (self.phases["F"], z2, theta1 + delta, np.pi - delta),
         ):
-            for j in range(self.n):
-                low, high = _extreme_values(phase, z_s, theta_s, duration, omega, j)
+            for j, (low, high) in enumerate(_extreme_values_of(phase, z_s, theta_s, duration, omega, range(self.n))):
                 out[j] = max([out[j]] + [abs(v) for v in low + high])
         return out
 
