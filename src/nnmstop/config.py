@@ -111,7 +111,20 @@ def validate_config(config: dict) -> dict:
         _check_structure({"kind": "beam", "beam": config["tube"]["structure"]}, config["tube"]["branches"], "tube")
     if "forced" in config:
         _check_forced(config)
+    if "atlas" in config:
+        _check_atlas(config)
     return config
+
+
+def _check_atlas(config: dict) -> None:
+    """Every atlas map builds: its structure, damping and force DOFs, slices covering its seeds and checks
+    (nnmstop.atlas.maps)."""
+    from nnmstop.atlas.maps import atlas_maps
+
+    try:
+        atlas_maps(config)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"config key 'atlas': {err}") from None
 
 
 def _check_forced(config: dict) -> None:

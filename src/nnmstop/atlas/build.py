@@ -13,8 +13,7 @@ into independent pieces, so that each is its own job (:mod:`nnmstop.tasks.atlas`
   (:mod:`nnmstop.atlas.codim2`); and the checks: at every check slice, every point of that kind the
   one-parameter response locates must lie on a curve (the curve's point at that value, solved on the
   augmented system, within ``check_tolerance`` of it in frequency), or the job fails;
-* :func:`atlas_dataset`: the slices' regions and the curves in one dataset, with the backbone's prediction
-  of the peak.
+* :func:`atlas_dataset`: the slices' regions and the curves in one dataset.
 
 Method note: ``docs/methods/atlas.md``.
 """
@@ -34,11 +33,12 @@ from nnmstop.atlas.augmented import (
     InteriorGrazingTest,
     NeimarkSackerTest,
 )
-from nnmstop.atlas.codim2 import CODIM2_KINDS, locate_codim2
+from nnmstop.atlas.codim2 import locate_codim2
 from nnmstop.atlas.curves import CurveSettings, correct_on_curve, follow_curve, grazing_test
 from nnmstop.atlas.equations import ORBIT_HARMONICS, ExactSymmetricEquations
+from nnmstop.atlas.flags import CODIM2_KINDS, CURVE_KINDS, END_KINDS, LAWS
 from nnmstop.atlas.parameters import PLANES, parameter_value, with_parameters
-from nnmstop.atlas.slices import END_KINDS, REGIONS, classify, compute_slice, orbit_dofs
+from nnmstop.atlas.slices import classify, compute_slice, orbit_dofs
 from nnmstop.continuation.core import ContinuationError
 from nnmstop.forced.responses import ExactSettings
 from nnmstop.forced.stability_changes import KINDS as CHANGE_KINDS
@@ -57,13 +57,9 @@ __all__ = [
 
 logger = logging.getLogger("nnmstop.atlas.build")
 
-#: Kinds of curves (dataset flag values).
-CURVE_KINDS = ("grazing", "fold", "neimark_sacker", "flip", "second_contact")
 #: The curve kinds of the exact responses and of the regularized ones (one job each).
 EXACT_KINDS = CURVE_KINDS
 REGULARIZED_KINDS = ("regularized_fold", "regularized_neimark_sacker")
-#: Contact laws of the curves (flag values).
-LAWS = ("piecewise_linear", "regularized")
 #: The located changes of a one-parameter response that seed (and check) each kind of curve.
 SEEDING_CHANGES = {
     "fold": ("fold",),
@@ -122,6 +118,8 @@ class AtlasMap:
             missing = [v for v in getattr(self, key) if not any(np.isclose(v, s, rtol=1e-12) for s in self.slices)]
             if missing:
                 raise ValueError(f"atlas map {self.name!r}: {key} {missing} are not values of its slices")
+        if self.regularized is None and any(k in REGULARIZED_KINDS for k in self.kinds):
+            raise ValueError(f"atlas map {self.name!r}: the regularized curve kinds need a `regularized` section")
         unknown = [k for k in self.kinds if k not in EXACT_KINDS + REGULARIZED_KINDS]
         if unknown:
             raise ValueError(
@@ -356,10 +354,10 @@ def _crossings(curve, atlas: AtlasMap, value: float, tolerance: float) -> list:
     return out
 
 
-def check_curves(atlas: AtlasMap, kind: str, curves: list, located: list) -> list:
+def check_curves(atlas: AtlasMap, kind: str, curves: list, located: list, tolerance: float) -> list:
     """Rows ``(curve index, value, curve frequency Hz, located frequency Hz, relative distance)``: every located
     point (``(value, omega)`` pairs from the one-parameter responses) matched with the nearest crossing of a
-    curve. Raises :class:`CheckFailed` when one lies on no curve within ``atlas.check_tolerance``."""
+    curve. Raises :class:`CheckFailed` when one lies on no curve within ``tolerance`` (relative)."""
     rows, missed = [], []
     for value, omega in located:
         best = None
@@ -368,14 +366,14 @@ def check_curves(atlas: AtlasMap, kind: str, curves: list, located: list) -> lis
                 distance = abs(crossing - omega) / omega
                 if best is None or distance < best[-1]:
                     best = (j, value, crossing / (2 * np.pi), omega / (2 * np.pi), distance)
-        if best is None or best[-1] > atlas.check_tolerance:
+        if best is None or best[-1] > tolerance:
             missed.append((value, omega / (2 * np.pi), None if best is None else best[-1]))
         if best is not None:
             rows.append(best)
     if missed:
         raise CheckFailed(
             f"atlas map {atlas.name!r}: {kind} points located by the one-parameter responses lie on no {kind} curve "
-            f"(value, frequency Hz, nearest relative distance): {missed}; tolerance {atlas.check_tolerance:g}"
+            f"(value, frequency Hz, nearest relative distance): {missed}; tolerance {tolerance:g}"
         )
     return rows
 
@@ -472,36 +470,38 @@ def _check_variables(rows: list, curve_offset: int = 0) -> dict:
         "check_second": ("check", rows[:, 1]),
         "check_curve_frequency": ("check", rows[:, 2]),
         "check_response_frequency": ("check", rows[:, 3]),
-        "check_distance": ("check", rows[:, 4]),
+        "check_deviation": ("check", rows[:, 4]),
     }
 
 
 def curves_dataset(atlas: AtlasMap, kind: str, seed_slices: list, check_slices: list, regularized=None) -> xr.Dataset:
     """The curves of one kind with their codimension-two points and checks (module docstring).
 
-    ``regularized`` (regularized kinds): ``(equations, seeds, located)`` from
-    :func:`nnmstop.atlas.regularized.regularized_seeds`.
+    ``regularized`` (regularized kinds): ``(equations, seeds, located)``, the harmonic-balance equations, the
+    seeds and the ``(value, omega)`` located at the check values (:mod:`nnmstop.atlas.regularized`).
     """
     law = "regularized" if kind in REGULARIZED_KINDS else "piecewise_linear"
     if law == "regularized":
         equations, seeds, located = regularized
         curves = follow_kind(atlas, kind, [], equations=equations, seeds=seeds)
+        tolerance = float(atlas.regularized["check_tolerance"])
     else:
         curves = follow_kind(atlas, kind, seed_slices)
         located = _located_exact(atlas, kind, check_slices)
-    rows = check_curves(atlas, kind, curves, located)
+        tolerance = float(atlas.check_tolerance)
+    rows = check_curves(atlas, kind, curves, located, tolerance)
     ds = xr.Dataset({**curve_points_variables(atlas, curves, kind, law), **_check_variables(rows)})
     ds.attrs.update(_map_attributes(atlas))
-    ds.attrs.update(curve_kind=kind, contact_law=law, check_tolerance=float(atlas.check_tolerance))
+    ds.attrs.update(curve_kind=kind, contact_law=law, check_tolerance=tolerance)
     return ds
 
 
 # --------------------------------------------------------------------------- the atlas
 
 
-def atlas_dataset(atlas: AtlasMap, slices: list, curve_sets: list, backbone=None) -> xr.Dataset:
-    """Slices (regions, response points) and curve sets (points, curves, codimension-two points, checks) of
-    ``atlas`` in one dataset; ``backbone``: ``(frequency Hz, second, mode)`` of the backbone's prediction."""
+def atlas_dataset(atlas: AtlasMap, slices: list, curve_sets: list) -> xr.Dataset:
+    """Slices (regions) and curve sets (points, curves, codimension-two points, checks) of ``atlas`` in one
+    dataset. The slices' response points and orbits stay in the slice datasets (the explorer reads them)."""
     slices = sorted(slices, key=lambda ds: ds.attrs["slice_index"])
     values = np.array([ds.attrs["slice_value"] for ds in slices], dtype=float)
     data = {
@@ -512,44 +512,24 @@ def atlas_dataset(atlas: AtlasMap, slices: list, curve_sets: list, backbone=None
         "responses": (("slice", "grid"), np.stack([ds["responses"].values for ds in slices])),
         "stable_responses": (("slice", "grid"), np.stack([ds["stable_responses"].values for ds in slices])),
     }
-    per_response = (
-        "response_frequency",
-        "response_impacting",
-        "response_stable",
-        "response_amplitude",
-        "response_orbit",
-        "response_multiplier_real",
-        "response_multiplier_imag",
-    )
-    for name in per_response:
-        data[name] = (slices[0][name].dims, np.concatenate([ds[name].values for ds in slices]))
-    data["response_slice"] = (
-        "response",
-        np.concatenate([np.full(ds.sizes["response"], k, dtype=np.int32) for k, ds in enumerate(slices)]),
-    )
     point_vars = ("frequency", "second", "amplitude", "multiplier_real", "multiplier_imag", "orbit", "test_unknown")
     curve_vars = ("curve_kind", "curve_law", "curve_ends", "curve_seed")
     codim2_vars = ("codim2_kind", "codim2_frequency", "codim2_second")
-    check_vars = ("check_second", "check_curve_frequency", "check_response_frequency", "check_distance")
-    offset, parts = 0, {name: [] for name in point_vars + curve_vars + codim2_vars + check_vars}
-    parts.update(point_curve=[], codim2_curve=[], check_curve=[])
-    dims = {}
+    check_vars = ("check_second", "check_curve_frequency", "check_response_frequency", "check_deviation")
+    indexed = ("point_curve", "codim2_curve", "check_curve")
+    parts = {name: [] for name in point_vars + curve_vars + codim2_vars + check_vars + indexed}
+    dims, offset = {}, 0
     for ds in curve_sets:
-        for name in point_vars + curve_vars + codim2_vars + check_vars:
-            parts[name].append(ds[name].values)
-            dims[name] = ds[name].dims
-        for name in ("point_curve", "codim2_curve", "check_curve"):
-            parts[name].append(ds[name].values + offset)
+        for name in parts:
+            parts[name].append(ds[name].values + (offset if name in indexed else 0))
             dims[name] = ds[name].dims
         offset += ds.sizes.get("curve", 0)
     for name, values in parts.items():
-        data[name] = (dims[name], np.concatenate(values) if values else np.zeros(0))
-    if backbone is not None:
-        data["backbone_frequency"] = ("backbone_point", np.asarray(backbone[0], dtype=float))
-        data["backbone_second"] = ("backbone_point", np.asarray(backbone[1], dtype=float))
-        data["backbone_mode"] = ("backbone_point", np.asarray(backbone[2], dtype=np.int32))
+        data[name] = (dims[name], np.concatenate(values))
     ds = xr.Dataset(data)
     ds.attrs.update(_map_attributes(atlas))
     ds.attrs["check_tolerance"] = float(atlas.check_tolerance)
-    ds.attrs["region_meanings"] = " ".join(REGIONS)
+    if atlas.regularized is not None:
+        ds.attrs["regularized_check_tolerance"] = float(atlas.regularized["check_tolerance"])
+        ds.attrs["harmonics"] = int(atlas.regularized["harmonics"])
     return ds

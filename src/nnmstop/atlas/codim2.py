@@ -28,13 +28,12 @@ import numpy as np
 import scipy.optimize
 
 from nnmstop.atlas.augmented import FoldTest, NeimarkSackerTest
+from nnmstop.atlas.flags import CODIM2_KINDS
 from nnmstop.continuation.core import unit_tangent
 from nnmstop.continuation.corrected_path import CorrectedPath
 
 __all__ = ["CODIM2_KINDS", "Codim2Point", "locate_codim2", "curve_end_kind"]
 
-#: Kinds of codimension-two points (dataset flag values 0, 1, ...).
-CODIM2_KINDS = ("cusp", "isola", "fold_flip", "resonance_1_1", "resonance_1_2", "grazing", "second_contact")
 
 _SECOND_CONTACT = ("early_impact", "leaves_stop", "other_stops", "free_duration")
 

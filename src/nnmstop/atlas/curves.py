@@ -53,14 +53,15 @@ END_REASONS = {
 @dataclass(frozen=True)
 class CurveSettings:
     """Continuation of a curve: the dense step (``step``, ``min_step``, ``tolerance``), the points per segment
-    between border refreshes, the largest condition number of a bordered matrix before a refresh, and the most
-    points of a curve (both directions together)."""
+    between border refreshes, how far the borders may drift from the null vectors before a refresh
+    (:meth:`~nnmstop.atlas.augmented.TestFunction.conditioning`), and the most points of a curve (both directions
+    together)."""
 
     step: float = 0.02
     min_step: float = 1e-9
     tolerance: float = 1e-11
     segment_points: int = 25
-    max_condition: float = 1e8
+    max_condition: float = 1e3
     max_points: int = 2000
 
     def dense(self) -> DenseArclengthSettings:

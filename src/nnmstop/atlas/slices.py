@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nnmstop.atlas.equations import ORBIT_HARMONICS, ExactSymmetricEquations
+from nnmstop.atlas.flags import END_KINDS, REGIONS
 from nnmstop.atlas.parameters import with_parameters
 from nnmstop.exact.forced import CONTACT_MARGINS, non_impacting_response
 from nnmstop.forced.responses import ExactSettings, exact_response
@@ -33,10 +34,10 @@ from nnmstop.forced.stability_changes import KINDS
 
 __all__ = ["REGIONS", "END_KINDS", "Slice", "compute_slice", "classify", "orbit_dofs"]
 
-#: Regions of the atlas (dataset flag values 0..4).
-REGIONS = ("no_contact", "impacting", "coexisting", "no_stable_periodic", "not_covered")
-#: How a piece of a slice ends (flag values): the margins of :data:`nnmstop.exact.forced.CONTACT_MARGINS`.
-END_KINDS = tuple(CONTACT_MARGINS)
+if END_KINDS != tuple(CONTACT_MARGINS):  # the flags of the datasets follow the exact formulation's margins
+    raise ImportError(
+        f"nnmstop.atlas.flags.END_KINDS {END_KINDS} differ from the contact margins {tuple(CONTACT_MARGINS)}"
+    )
 #: Response points kept per piece for the explorer (with the points around every located change).
 KEPT_POINTS = 120
 
@@ -160,12 +161,16 @@ def classify(frequencies, stable, impacting, end_frequency, grid) -> dict:
         count_stable += (inside & verdict).sum(axis=1)
         stable_impacting += (inside & verdict & imp[None, :-1]).sum(axis=1)
     region = np.where(
-        count_stable >= 2,
-        REGIONS.index("coexisting"),
+        count == 0,
+        REGIONS.index("not_covered"),
         np.where(
-            count_stable == 1,
-            np.where(stable_impacting > 0, REGIONS.index("impacting"), REGIONS.index("no_contact")),
-            REGIONS.index("no_stable_periodic"),
+            count_stable >= 2,
+            REGIONS.index("coexisting"),
+            np.where(
+                count_stable == 1,
+                np.where(stable_impacting > 0, REGIONS.index("impacting"), REGIONS.index("no_contact")),
+                REGIONS.index("no_stable_periodic"),
+            ),
         ),
     )
     ends = np.asarray(end_frequency, dtype=float)

@@ -207,13 +207,15 @@ def _compact_json(format_version: int, shared: dict, files: dict) -> str:
 #: responses' (``snakemake forced``; recorded when present).
 MANIFEST = "MANIFEST.sha256"
 FORCED_MANIFEST = "forced/MANIFEST.sha256"
+ATLAS_MANIFEST = "atlas/MANIFEST.sha256"  # the bifurcation atlas (``snakemake atlas``; recorded when present)
 
 
 def build_manifests(results_dir) -> list[str]:
     """The manifests of the build in ``results_dir`` that a reference records: :data:`MANIFEST` and, where the
-    forced responses were built, :data:`FORCED_MANIFEST`."""
+    forced responses or the atlas were built, :data:`FORCED_MANIFEST` and :data:`ATLAS_MANIFEST`."""
     results = Path(results_dir)
-    return [MANIFEST] + ([FORCED_MANIFEST] if (results / FORCED_MANIFEST).is_file() else [])
+    optional = [name for name in (FORCED_MANIFEST, ATLAS_MANIFEST) if (results / name).is_file()]
+    return [MANIFEST] + optional
 
 
 def update_reference(results_dir, reference_dir="reference", manifests=None) -> Path:
@@ -236,7 +238,7 @@ def update_reference(results_dir, reference_dir="reference", manifests=None) -> 
     for name in manifests:
         manifest = results / name
         if not manifest.is_file():
-            target = "forced" if name == FORCED_MANIFEST else "the default target"
+            target = {FORCED_MANIFEST: "forced", ATLAS_MANIFEST: "atlas"}.get(name, "the default target")
             raise ValueError(f"{manifest} is missing: build {target} first (`snakemake --cores 2`)")
         lines += manifest.read_text().splitlines()
     reference = Path(reference_dir)
@@ -764,6 +766,10 @@ def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, sh
     ]
     if relative == REGIMES_NC:
         checks.append(("regimes", lambda: _regime_rows(listed, ds, reference_dir)))
+    if ds.attrs.get("dataset_kind") == "atlas":  # the atlas' curves: checked on the build (nnmstop.atlas.verification)
+        from nnmstop.atlas.verification import atlas_rows
+
+        checks.append(("atlas", lambda: atlas_rows(listed, ds, Row, WITHIN, DISCREPANT)))
     if entry.get("curve"):
         checks.append(("curve", lambda: _check_points(listed, ds, entry, reference_dir)))
     rows = []

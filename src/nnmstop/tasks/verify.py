@@ -46,11 +46,13 @@ def verify(config: dict, inputs: dict, outputs: dict) -> None:
 
 def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
     """Regenerate :data:`REFERENCE` from the build whose manifest is ``inputs["manifest"]`` (and the forced
-    responses' ``inputs["forced_manifest"]`` where the configuration has them)."""
-    from nnmstop.pipeline.verify import FORCED_MANIFEST, MANIFEST
+    responses' ``inputs["forced_manifest"]`` and the atlas' ``inputs["atlas_manifest"]`` where the configuration
+    has them)."""
+    from nnmstop.pipeline.verify import ATLAS_MANIFEST, FORCED_MANIFEST, MANIFEST
     from nnmstop.pipeline.verify import update_reference as regenerate
 
     manifests = [MANIFEST] + ([FORCED_MANIFEST] if inputs.get("forced_manifest") else [])
+    manifests += [ATLAS_MANIFEST] if inputs.get("atlas_manifest") else []
     folder = regenerate(_results_folder(inputs), REFERENCE, manifests)
     print(f"reference regenerated in {folder}")
     logger.info("reference regenerated in %s", folder)
