@@ -7,7 +7,9 @@ The objects a user composes (numpydoc docstrings with examples; ``examples/quick
   a structure of one's own from ``.mtx``/``.npz`` files; :func:`normal_modes` — its linear modes.
 * :func:`continue_nnm` — an NNM by harmonic balance and the asymptotic numerical method, as a labelled
   :class:`xarray.Dataset`; :func:`stability` — Floquet multipliers of its orbits;
-  :func:`exact_family` — the exact NNM1 of the non-smooth structure with one impact per stop side.
+  :func:`exact_family` — the exact NNM1 of the non-smooth structure with one impact per stop side;
+  :func:`atlas` — the bifurcation atlas of the structure forced and damped (regions and curves over the
+  frequency and the force, or a structural parameter).
 
 Data flow of the package: :mod:`nnmstop.models` -> :mod:`nnmstop.exact` (closed-form orbits of the
 non-smooth system) -> :mod:`nnmstop.hbm` / :mod:`nnmstop.continuation` (regularized NNMs) ->
@@ -40,6 +42,7 @@ _EXPORTS = {
     "continue_nnm": "nnmstop.api",
     "stability": "nnmstop.api",
     "exact_family": "nnmstop.api",
+    "atlas": "nnmstop.api",
 }
 
 __all__ = [*_EXPORTS, "__version__"]

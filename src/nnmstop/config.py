@@ -118,8 +118,8 @@ def validate_config(config: dict) -> dict:
 
 def _check_atlas(config: dict) -> None:
     """Every atlas map builds: its structure, damping and force DOFs, slices covering its seeds and checks
-    (nnmstop.atlas.maps)."""
-    from nnmstop.atlas.maps import atlas_maps
+    (nnmstop.bifurcation_atlas.maps)."""
+    from nnmstop.bifurcation_atlas.maps import atlas_maps
 
     try:
         atlas_maps(config)

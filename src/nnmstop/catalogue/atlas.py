@@ -1,6 +1,6 @@
 """Dataset kinds of the bifurcation atlas (issue 31; see :mod:`nnmstop.catalogue` and docs/atlas.md)."""
 
-from nnmstop.atlas.flags import CODIM2_KINDS, CURVE_KINDS, END_KINDS, LAWS, REGIONS
+from nnmstop.bifurcation_atlas.flags import CODIM2_KINDS, CURVE_KINDS, END_KINDS, LAWS, REGIONS
 from nnmstop.catalogue import DatasetKind, Variable
 from nnmstop.forced.stability_changes import KINDS as CHANGE_KINDS
 

@@ -17,7 +17,7 @@ from matplotlib.colors import ListedColormap
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from nnmstop.atlas.flags import CODIM2_KINDS, CURVE_KINDS, LAWS, REGIONS
+from nnmstop.bifurcation_atlas.flags import CODIM2_KINDS, CURVE_KINDS, LAWS, REGIONS
 from nnmstop.figures.common import save_figure
 
 __all__ = ["atlas_figure", "REGION_COLORS", "REGION_LABELS"]

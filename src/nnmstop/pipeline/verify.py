@@ -766,8 +766,8 @@ def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, sh
     ]
     if relative == REGIMES_NC:
         checks.append(("regimes", lambda: _regime_rows(listed, ds, reference_dir)))
-    if ds.attrs.get("dataset_kind") == "atlas":  # the atlas' curves: checked on the build (nnmstop.atlas.verification)
-        from nnmstop.atlas.verification import atlas_rows
+    if ds.attrs.get("dataset_kind") == "atlas":  # the atlas' curves: checked on the build (nnmstop.bifurcation_atlas.verification)
+        from nnmstop.bifurcation_atlas.verification import atlas_rows
 
         checks.append(("atlas", lambda: atlas_rows(listed, ds, Row, WITHIN, DISCREPANT)))
     if entry.get("curve"):

@@ -4,16 +4,17 @@ Each slice of a map and each kind of curve is its own job, so that a cluster spr
 (``snakemake --profile profiles/slurm atlas``):
 
 * :func:`atlas_slice`: the exact one-parameter response at one value of the map's second parameter, classified
-  into regions (:func:`nnmstop.atlas.build.slice_dataset`);
+  into regions (:func:`nnmstop.bifurcation_atlas.build.slice_dataset`);
 * :func:`atlas_curves`: every curve of one kind through the points the seed slices locate, checked against the
-  check slices (:func:`nnmstop.atlas.build.curves_dataset`; the regularized kinds on harmonic-balance responses
-  computed in the job, :mod:`nnmstop.atlas.regularized`);
+  check slices (:func:`nnmstop.bifurcation_atlas.build.curves_dataset`; the regularized kinds on harmonic-balance
+  responses
+  computed in the job, :mod:`nnmstop.bifurcation_atlas.regularized`);
 * :func:`atlas_map`: the slices and the curves in one atlas dataset;
 * :func:`atlas_backbone`: the NNM backbones and the peaks they predict (``results/atlas/<map>_backbone.nc``);
 * :func:`atlas_figure`: ``paper_figures/atlas_<map>.{pdf,png}``;
 * :func:`atlas_manifest`: ``results/atlas/MANIFEST.sha256`` (verify and update_reference cover the atlas).
 
-The numerics live in :mod:`nnmstop.atlas`; method note docs/methods/atlas.md, user page docs/atlas.md.
+The numerics live in :mod:`nnmstop.bifurcation_atlas`; method note docs/methods/atlas.md, user page docs/atlas.md.
 """
 
 from __future__ import annotations
@@ -46,8 +47,8 @@ def _paths(value) -> list:
 
 def atlas_slice(config, inputs, outputs, map: str, index: str):
     """One slice of the map ``map`` (wildcards ``map``, ``index``)."""
-    from nnmstop.atlas.build import slice_dataset
-    from nnmstop.atlas.maps import find_map
+    from nnmstop.bifurcation_atlas.build import slice_dataset
+    from nnmstop.bifurcation_atlas.maps import find_map
 
     atlas = find_map(config, map)
     k = int(index)
@@ -71,8 +72,8 @@ def atlas_slice(config, inputs, outputs, map: str, index: str):
 
 def atlas_curves(config, inputs, outputs, map: str, kind: str):
     """The curves of kind ``kind`` of the map ``map``: seeded on the seed slices, checked on the check slices."""
-    from nnmstop.atlas.build import REGULARIZED_KINDS, curves_dataset
-    from nnmstop.atlas.maps import find_map
+    from nnmstop.bifurcation_atlas.build import REGULARIZED_KINDS, curves_dataset
+    from nnmstop.bifurcation_atlas.maps import find_map
 
     atlas = find_map(config, map)
     if kind not in atlas.kinds:
@@ -102,7 +103,7 @@ def atlas_curves(config, inputs, outputs, map: str, kind: str):
 
 def _regularized_inputs(config, atlas, kind):
     """The harmonic-balance equations, seeds and checked points of a regularized kind (computed here)."""
-    from nnmstop.atlas.regularized import regularized_equations, regularized_located, regularized_seeds
+    from nnmstop.bifurcation_atlas.regularized import regularized_equations, regularized_located, regularized_seeds
     from nnmstop.continuation.anm import ANMSettings
     from nnmstop.forced.regularized import ForcedStabilitySettings
 
@@ -128,7 +129,7 @@ def backbone_dataset_of(config, atlas):
     ``g f(q / g)`` makes the equations homogeneous in
     ``(q, g, F)``: the backbone orbit at the gap ``g0`` whose required force is ``F_r`` is the peak at the gap
     ``g0 F / F_r`` of the map's force ``F`` (the figure draws it so)."""
-    from nnmstop.atlas.maps import map_excitation
+    from nnmstop.bifurcation_atlas.maps import map_excitation
     from nnmstop.continuation.anm import ANMSettings
     from nnmstop.forced.backbone import nnm_backbone, predicted_peaks, required_force
     from nnmstop.forced.dataset import backbone_dataset, base_attributes
@@ -159,7 +160,7 @@ def backbone_dataset_of(config, atlas):
 
 def atlas_backbone(config, inputs, outputs, map: str):
     """The backbones of the map ``map`` and their predicted peaks (:func:`backbone_dataset_of`)."""
-    from nnmstop.atlas.maps import find_map
+    from nnmstop.bifurcation_atlas.maps import find_map
 
     atlas = find_map(config, map)
     write_dataset(
@@ -178,8 +179,8 @@ def atlas_backbone(config, inputs, outputs, map: str):
 
 def atlas_map(config, inputs, outputs, map: str):
     """The atlas dataset of the map ``map`` from its slices and curves."""
-    from nnmstop.atlas.build import atlas_dataset
-    from nnmstop.atlas.maps import find_map
+    from nnmstop.bifurcation_atlas.build import atlas_dataset
+    from nnmstop.bifurcation_atlas.maps import find_map
 
     atlas = find_map(config, map)
     slices = [read_dataset(path) for path in _paths(inputs["slices"])]

@@ -1,6 +1,6 @@
 r"""Minimally augmented systems: a codimension-one point of periodic responses as a curve in two parameters.
 
-A periodic response solves ``G(x; Omega, F, p) = 0`` (:mod:`nnmstop.atlas.equations`). A codimension-one
+A periodic response solves ``G(x; Omega, F, p) = 0`` (:mod:`nnmstop.bifurcation_atlas.equations`). A codimension-one
 point (fold, flip, Neimark-Sacker, grazing) adds test functions ``psi(x, e; Omega, F, p) = 0`` with ``e``
 extra unknowns (one more equation than extra unknowns): with two of the three parameters free,
 ``[G; psi] = 0`` is a curve, followed by the project's continuation driver like any branch

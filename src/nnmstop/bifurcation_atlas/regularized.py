@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from nnmstop.atlas.augmented import FoldTest, NeimarkSackerTest
-from nnmstop.atlas.equations import HarmonicBalanceEquations
+from nnmstop.bifurcation_atlas.augmented import FoldTest, NeimarkSackerTest
+from nnmstop.bifurcation_atlas.equations import HarmonicBalanceEquations
 
 __all__ = ["regularized_equations", "regularized_located", "regularized_seeds", "CHANGES_OF"]
 

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.atlas.equations import ORBIT_HARMONICS, ExactSymmetricEquations
-from nnmstop.atlas.flags import END_KINDS, REGIONS
-from nnmstop.atlas.parameters import with_parameters
+from nnmstop.bifurcation_atlas.equations import ORBIT_HARMONICS, ExactSymmetricEquations
+from nnmstop.bifurcation_atlas.flags import END_KINDS, REGIONS
+from nnmstop.bifurcation_atlas.parameters import with_parameters
 from nnmstop.exact.forced import CONTACT_MARGINS, non_impacting_response
 from nnmstop.forced.responses import ExactSettings, exact_response
 from nnmstop.forced.stability_changes import KINDS
@@ -36,7 +36,8 @@ __all__ = ["REGIONS", "END_KINDS", "Slice", "compute_slice", "classify", "orbit_
 
 if END_KINDS != tuple(CONTACT_MARGINS):  # the flags of the datasets follow the exact formulation's margins
     raise ImportError(
-        f"nnmstop.atlas.flags.END_KINDS {END_KINDS} differ from the contact margins {tuple(CONTACT_MARGINS)}"
+        f"nnmstop.bifurcation_atlas.flags.END_KINDS {END_KINDS} differ from the contact margins "
+        f"{tuple(CONTACT_MARGINS)}"
     )
 #: Response points kept per piece for the explorer (with the points around every located change).
 KEPT_POINTS = 120

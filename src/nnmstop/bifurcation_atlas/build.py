@@ -1,18 +1,19 @@
 r"""An atlas, step by step: its map, its slices, its curves (seeded on slices, checked on others), the whole.
 
-:class:`AtlasMap` is one map: a forced structure (the excitation of a forced scene), the plane
-(``force``: frequency against force amplitude; or a structural parameter, :data:`~nnmstop.atlas.parameters.STRUCTURAL`,
-at a fixed force), the window, the values of the slices (one exact one-parameter response each,
-:mod:`nnmstop.atlas.slices`), the slices that seed the curves and those that check them. The work splits
-into independent pieces, so that each is its own job (:mod:`nnmstop.tasks.atlas`):
+:class:`AtlasMap` is one map: a forced structure (the excitation of a forced scene), the plane (``force``:
+frequency against force amplitude; or a structural parameter,
+:data:`~nnmstop.bifurcation_atlas.parameters.STRUCTURAL`, at a fixed force), the window, the values of the
+slices (one exact one-parameter response each, :mod:`nnmstop.bifurcation_atlas.slices`), the slices that seed
+the curves and those that check them. The work splits into independent pieces, so that each is its own job
+(:mod:`nnmstop.tasks.atlas`):
 
 * :func:`slice_dataset`: one slice;
 * :func:`curves_dataset`: the curves of one kind (grazing, fold, Neimark-Sacker, flip, second contact; the
   regularized folds and Neimark-Sacker points) through the points the seed slices locate, each followed both
-  ways (:mod:`nnmstop.atlas.curves`), a seed on a curve already followed skipped; their codimension-two points
-  (:mod:`nnmstop.atlas.codim2`); and the checks: at every check slice, every point of that kind the
-  one-parameter response locates must lie on a curve (the curve's point at that value, solved on the
-  augmented system, within ``check_tolerance`` of it in frequency), or the job fails;
+  ways (:mod:`nnmstop.bifurcation_atlas.curves`), a seed on a curve already followed skipped; their
+  codimension-two points (:mod:`nnmstop.bifurcation_atlas.codim2`); and the checks: at every check slice, every
+  point of that kind the one-parameter response locates must lie on a curve (the curve's point at that value,
+  solved on the augmented system, within ``check_tolerance`` of it in frequency), or the job fails;
 * :func:`atlas_dataset`: the slices' regions and the curves in one dataset.
 
 Method note: ``docs/methods/atlas.md``.
@@ -26,19 +27,19 @@ from dataclasses import dataclass, field
 import numpy as np
 import xarray as xr
 
-from nnmstop.atlas.augmented import (
+from nnmstop.bifurcation_atlas.augmented import (
     CurveSystem,
     FlipTest,
     FoldTest,
     InteriorGrazingTest,
     NeimarkSackerTest,
 )
-from nnmstop.atlas.codim2 import locate_codim2
-from nnmstop.atlas.curves import CurveSettings, correct_on_curve, follow_curve, grazing_test
-from nnmstop.atlas.equations import ORBIT_HARMONICS, ExactSymmetricEquations
-from nnmstop.atlas.flags import CODIM2_KINDS, CURVE_KINDS, END_KINDS, LAWS
-from nnmstop.atlas.parameters import PLANES, parameter_value, with_parameters
-from nnmstop.atlas.slices import classify, compute_slice, orbit_dofs
+from nnmstop.bifurcation_atlas.codim2 import locate_codim2
+from nnmstop.bifurcation_atlas.curves import CurveSettings, correct_on_curve, follow_curve, grazing_test
+from nnmstop.bifurcation_atlas.equations import ORBIT_HARMONICS, ExactSymmetricEquations
+from nnmstop.bifurcation_atlas.flags import CODIM2_KINDS, CURVE_KINDS, END_KINDS, LAWS
+from nnmstop.bifurcation_atlas.parameters import PLANES, parameter_value, with_parameters
+from nnmstop.bifurcation_atlas.slices import classify, compute_slice, orbit_dofs
 from nnmstop.continuation.core import ContinuationError
 from nnmstop.forced.responses import ExactSettings
 from nnmstop.forced.stability_changes import KINDS as CHANGE_KINDS
@@ -55,7 +56,7 @@ __all__ = [
     "atlas_dataset",
 ]
 
-logger = logging.getLogger("nnmstop.atlas.build")
+logger = logging.getLogger("nnmstop.bifurcation_atlas.build")
 
 #: The curve kinds of the exact responses and of the regularized ones (one job each).
 EXACT_KINDS = CURVE_KINDS
@@ -166,7 +167,7 @@ class AtlasMap:
 
 
 def slice_dataset(atlas: AtlasMap, index: int) -> xr.Dataset:
-    """The slice ``index`` of ``atlas`` (:func:`nnmstop.atlas.slices.compute_slice`) with its regions."""
+    """The slice ``index`` of ``atlas`` (:func:`nnmstop.bifurcation_atlas.slices.compute_slice`) with its regions."""
     value = float(atlas.slices[index])
     result = compute_slice(atlas.excitation, atlas.plane, value, atlas.frequency_range, atlas.exact)
     grid = np.linspace(*atlas.frequency_range, atlas.grid)
@@ -478,7 +479,7 @@ def curves_dataset(atlas: AtlasMap, kind: str, seed_slices: list, check_slices: 
     """The curves of one kind with their codimension-two points and checks (module docstring).
 
     ``regularized`` (regularized kinds): ``(equations, seeds, located)``, the harmonic-balance equations, the
-    seeds and the ``(value, omega)`` located at the check values (:mod:`nnmstop.atlas.regularized`).
+    seeds and the ``(value, omega)`` located at the check values (:mod:`nnmstop.bifurcation_atlas.regularized`).
     """
     law = "regularized" if kind in REGULARIZED_KINDS else "piecewise_linear"
     if law == "regularized":

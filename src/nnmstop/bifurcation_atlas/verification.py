@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nnmstop.atlas.flags import LAWS
+from nnmstop.bifurcation_atlas.flags import LAWS
 
 __all__ = ["atlas_rows"]
 
@@ -32,14 +32,29 @@ def atlas_rows(name: str, ds, row, within: str, discrepant: str) -> list:
         worst = int(np.argmax(excess))
         ok = bool(np.all(excess <= 1.0))
         rows.append(
-            row(name, f"{ds.sizes['check']} located points on their curves (relative distance)", "on the curve",
-                f"{ds['check_deviation'].values[worst]:.3g}", float(ds["check_deviation"].values[worst]),
-                float(tolerance[worst]), within if ok else discrepant)
+            row(
+                name,
+                f"{ds.sizes['check']} located points on their curves (relative distance)",
+                "on the curve",
+                f"{ds['check_deviation'].values[worst]:.3g}",
+                float(ds["check_deviation"].values[worst]),
+                float(tolerance[worst]),
+                within if ok else discrepant,
+            )
         )
     if ds.sizes.get("point", 0):
         low, high = (float(v) for v in ds.attrs["frequency_range"])
         f = ds["frequency"].values
         outside = int(np.count_nonzero((f < low * (1 - 1e-9)) | (f > high * (1 + 1e-9))))
-        rows.append(row(name, "curve points inside the frequency window", "0 outside", f"{outside} outside",
-                        float(outside), 0.0, within if outside == 0 else discrepant))
+        rows.append(
+            row(
+                name,
+                "curve points inside the frequency window",
+                "0 outside",
+                f"{outside} outside",
+                float(outside),
+                0.0,
+                within if outside == 0 else discrepant,
+            )
+        )
     return rows

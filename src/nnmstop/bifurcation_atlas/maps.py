@@ -1,7 +1,8 @@
 """The maps of the ``atlas:`` section of the configuration (validated by ``config_schema.yaml``).
 
 Light on imports where the workflow plans jobs (:func:`map_names`, :func:`slice_values`, :func:`curve_kinds`);
-:func:`atlas_maps` builds the :class:`~nnmstop.atlas.build.AtlasMap` of each map: the oscillator of ``model``
+:func:`atlas_maps` builds the :class:`~nnmstop.bifurcation_atlas.build.AtlasMap` of each map: the oscillator of
+``model``
 or the tube of ``tube.structure``, damped and forced as the map says or, where it does not, as the forced
 scene of ``forced`` says (``forced.damping``, ``forced.force.dofs``; ``forced.tube.force_dofs`` and
 ``forced.tube.amplitude`` for the tube).
@@ -73,8 +74,8 @@ def map_excitation(config: dict, name: str, spec: dict):
 
 def atlas_maps(config: dict) -> dict:
     """``name -> AtlasMap`` of every configured map (ValueError naming the offending key)."""
-    from nnmstop.atlas.build import AtlasMap
-    from nnmstop.atlas.curves import CurveSettings
+    from nnmstop.bifurcation_atlas.build import AtlasMap
+    from nnmstop.bifurcation_atlas.curves import CurveSettings
     from nnmstop.continuation.pseudo_arclength import PseudoArclengthSettings
     from nnmstop.forced.responses import ExactSettings
 

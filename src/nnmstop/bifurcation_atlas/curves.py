@@ -1,13 +1,13 @@
 r"""Curves of codimension-one points followed in two parameters, on the project's continuation driver.
 
 A curve starts from a point located on a one-parameter response (a fold, a flip, a Neimark-Sacker point, a
-grazing orbit), corrected onto the augmented system :class:`~nnmstop.atlas.augmented.CurveSystem` with the
+grazing orbit), corrected onto the augmented system :class:`~nnmstop.bifurcation_atlas.augmented.CurveSystem` with the
 second parameter held (:func:`correct_on_curve`), and is followed both ways by
 :func:`nnmstop.continuation.driver.continue_branch` with the dense pseudo-arclength step (the step of the
 exact families: corrected to round-off) and validity events (:class:`CurveEvents`): the formulation's own
 assumptions (the exact one-contact response: the contact lasts, free flight remains, no second contact),
 the parameter window, and for a Neimark-Sacker curve ``|cos theta| < 1``. The curve ends at the located
-event, which is a codimension-two point where the event is one (:mod:`nnmstop.atlas.codim2`). The borders
+event, which is a codimension-two point where the event is one (:mod:`nnmstop.bifurcation_atlas.codim2`). The borders
 of the test functions are refreshed every ``segment_points`` points and where the bordered matrix loses
 its conditioning: the curve is continued in segments, each starting where the last one stopped.
 Method note: ``docs/methods/atlas.md``.
@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from nnmstop.atlas.augmented import CurveSystem, NeimarkSackerTest, StateTest
-from nnmstop.atlas.equations import Margins
+from nnmstop.bifurcation_atlas.augmented import CurveSystem, NeimarkSackerTest, StateTest
+from nnmstop.bifurcation_atlas.equations import Margins
 from nnmstop.continuation.core import ContinuationError
 from nnmstop.continuation.dense_arclength import DenseArclengthSettings
 from nnmstop.continuation.driver import continue_branch
@@ -29,7 +29,7 @@ from nnmstop.continuation.newton import newton_solve, round_off_criterion
 
 __all__ = ["CurveSettings", "CurveEvents", "Curve", "correct_on_curve", "follow_curve", "END_REASONS"]
 
-logger = logging.getLogger("nnmstop.atlas.curves")
+logger = logging.getLogger("nnmstop.bifurcation_atlas.curves")
 
 #: What each validity margin means when a curve reaches it.
 END_REASONS = {
@@ -54,7 +54,8 @@ END_REASONS = {
 class CurveSettings:
     """Continuation of a curve: the dense step (``step``, ``min_step``, ``tolerance``), the points per segment
     between border refreshes, how far the borders may drift from the null vectors before a refresh
-    (:meth:`~nnmstop.atlas.augmented.TestFunction.conditioning`), and the most points of a curve (both directions
+    (:meth:`~nnmstop.bifurcation_atlas.augmented.TestFunction.conditioning`), and the most points of a curve (both
+    directions
     together)."""
 
     step: float = 0.02

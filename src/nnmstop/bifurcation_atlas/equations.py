@@ -31,7 +31,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from nnmstop.atlas.parameters import check_structural, parameter_value, with_parameters
+from nnmstop.bifurcation_atlas.parameters import check_structural, parameter_value, with_parameters
 from nnmstop.exact.forced import SymmetricContactProblem
 from nnmstop.models.excitation import Excitation
 
@@ -96,7 +96,7 @@ class OrbitEquations:
     law : str
         ``"piecewise_linear"`` or ``"regularized"``.
     parameter : str or None
-        The structural parameter ``p`` (:data:`nnmstop.atlas.parameters.STRUCTURAL`); None: ``p`` is unused.
+        The structural parameter ``p`` (:data:`nnmstop.bifurcation_atlas.parameters.STRUCTURAL`); None: ``p`` is unused.
     """
 
     n: int

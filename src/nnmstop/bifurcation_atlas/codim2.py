@@ -1,6 +1,6 @@
 r"""Codimension-two points of the atlas: located on the curves and typed.
 
-Along a followed curve (:class:`nnmstop.atlas.curves.Curve`) a codimension-two point is either a sign change
+Along a followed curve (:class:`nnmstop.bifurcation_atlas.curves.Curve`) a codimension-two point is either a sign change
 of a second test function between two stored points, located by Brent's method on the continuation path of
 that step (the same path the driver locates events on), or the located event that ends the curve:
 
@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 
-from nnmstop.atlas.augmented import FoldTest, NeimarkSackerTest
-from nnmstop.atlas.flags import CODIM2_KINDS
+from nnmstop.bifurcation_atlas.augmented import FoldTest, NeimarkSackerTest
+from nnmstop.bifurcation_atlas.flags import CODIM2_KINDS
 from nnmstop.continuation.core import unit_tangent
 from nnmstop.continuation.corrected_path import CorrectedPath
 
