@@ -208,7 +208,7 @@ def atlas(
     force_dofs : sequence of int or str
         Forced degrees of freedom (indices or labels); unit weights.
     second_range : (float, float)
-        Window of the second parameter.
+        Range of the slices; the curves run on ten per cent of it beyond either end.
     slices : int
         Number of slices (one exact response each).
     damping : float or Damping
@@ -256,12 +256,14 @@ def atlas(
         return tuple(values[int(np.argmin(np.abs(np.asarray(values) - v)))] for v in chosen)
 
     n = len(values)
+    low, high = (float(v) for v in second_range)
+    margin = 0.1 * (high - low)  # the curves run past the end slices, so that they cross them
     atlas_map = AtlasMap(
         name="atlas",
         excitation=excitation,
         plane=plane,
         frequency_range=tuple(float(v) for v in frequency_range),
-        second_range=tuple(float(v) for v in second_range),
+        second_range=(max(low - margin, 0.5 * low), high + margin),
         slices=values,
         seeds=snap(seeds) if seeds is not None else (values[n // 2],),
         checks=snap(checks) if checks is not None else tuple(sorted({values[n // 4], values[(3 * n) // 4]})),

@@ -3,7 +3,18 @@
 # large atlas (`snakemake --profile profiles/slurm atlas`). `snakemake --cores 2 atlas` builds every map, its
 # figure and the manifest. Thin rules: the tasks are in nnmstop.tasks.atlas.
 
-ATLAS_CONFIG = task_config("model", "anm", "forced", "atlas", "metadata", tube=["structure"])
+def ATLAS_CONFIG(wildcards):
+    """The configuration an atlas job reads: its own map of `atlas.maps` (with the section's shared keys), and the
+    sections the maps take their structure, damping and numerics from. Editing one map reruns only its jobs."""
+    sliced = task_config("model", "anm", "forced", "metadata", tube=["structure"])(wildcards)
+    atlas = {key: value for key, value in config["atlas"].items() if key != "maps"}
+    names = [wildcards.map] if "map" in wildcards.keys() else list(config["atlas"]["maps"])
+    atlas["maps"] = {name: config["atlas"]["maps"][name] for name in names}
+    return {**sliced, "atlas": atlas}
+
+
+# a map's name as a wildcard: one of the configured maps (so that `<map>_backbone.nc` is never taken for a map)
+ATLAS_MAP = "|".join(atlas_map_names()) or "no_map"
 
 
 rule atlas_slice:
@@ -11,7 +22,7 @@ rule atlas_slice:
     output:
         dataset=results("atlas/{map}/slice_{index}.nc"),
     wildcard_constraints:
-        map="[a-z0-9_]+",
+        map=ATLAS_MAP,
         index=r"\d+",
     log:
         logs("atlas/{map}/slice_{index}.log"),
@@ -32,7 +43,7 @@ rule atlas_curves:
     output:
         dataset=results("atlas/{map}/curves_{kind}.nc"),
     wildcard_constraints:
-        map="[a-z0-9_]+",
+        map=ATLAS_MAP,
         kind="[a-z_]+",
     log:
         logs("atlas/{map}/curves_{kind}.log"),
@@ -54,7 +65,7 @@ rule atlas_map:
     output:
         dataset=results("atlas/{map}.nc"),
     wildcard_constraints:
-        map="[a-z0-9_]+",
+        map=ATLAS_MAP,
     log:
         logs("atlas/{map}.log"),
     benchmark:
@@ -72,7 +83,7 @@ rule atlas_backbone:
     output:
         dataset=results("atlas/{map}_backbone.nc"),
     wildcard_constraints:
-        map="[a-z0-9_]+",
+        map=ATLAS_MAP,
     log:
         logs("atlas/{map}_backbone.log"),
     benchmark:
@@ -93,7 +104,7 @@ rule atlas_figure:
         pdf=paper_figures("atlas_{map}.pdf"),
         png=report(paper_figures("atlas_{map}.png"), category="Bifurcation atlas"),
     wildcard_constraints:
-        map="[a-z0-9_]+",
+        map=ATLAS_MAP,
     log:
         logs("atlas/figure_{map}.log"),
     benchmark:

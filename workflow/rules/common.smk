@@ -298,19 +298,19 @@ def forced_figures():
 
 
 # --------------------------------------------------------------------------- atlas
-# The bifurcation atlas (workflow/rules/atlas.smk): its maps, slices and curves (nnmstop.atlas.maps).
+# The bifurcation atlas (workflow/rules/atlas.smk): its maps, slices and curves (nnmstop.bifurcation_atlas.maps).
 
 
 def atlas_map_names():
     """The maps of the `atlas` section (none without it)."""
-    from nnmstop.atlas.maps import map_names
+    from nnmstop.bifurcation_atlas.maps import map_names
 
     return map_names(config)
 
 
 def atlas_slice_files(name):
     """The slice datasets of a map, in order."""
-    from nnmstop.atlas.maps import slice_values
+    from nnmstop.bifurcation_atlas.maps import slice_values
 
     count = len(slice_values(config["atlas"]["maps"][name]))
     return [results(f"atlas/{name}/slice_{k}.nc") for k in range(count)]
@@ -322,7 +322,7 @@ def atlas_curve_files(name):
 
 
 def _atlas_slices_at(name, values):
-    from nnmstop.atlas.maps import slice_values
+    from nnmstop.bifurcation_atlas.maps import slice_values
 
     slices = slice_values(config["atlas"]["maps"][name])
     files = atlas_slice_files(name)

@@ -522,7 +522,7 @@ def atlas_dataset(atlas: AtlasMap, slices: list, curve_sets: list) -> xr.Dataset
     dims, offset = {}, 0
     for ds in curve_sets:
         for name in parts:
-            parts[name].append(ds[name].values + (offset if name in indexed else 0))
+            parts[name].append(ds[name].values + offset if name in indexed else ds[name].values)
             dims[name] = ds[name].dims
         offset += ds.sizes.get("curve", 0)
     for name, values in parts.items():

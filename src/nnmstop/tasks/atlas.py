@@ -220,4 +220,4 @@ def atlas_manifest(config, inputs, outputs):
 
 
 #: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
-TASKS = {f.__name__: f for f in (atlas_slice, atlas_curves, atlas_map, atlas_figure, atlas_manifest)}
+TASKS = {f.__name__: f for f in (atlas_slice, atlas_curves, atlas_map, atlas_backbone, atlas_figure, atlas_manifest)}
