@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.atlas.conftest import oscillator
 
 from nnmstop.bifurcation_atlas.artefacts import fold_distances, multiplier_departure, power_law_exponent
 from nnmstop.exact.forced import grazing_frequencies
-from tests.atlas.conftest import oscillator
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "benchmarks"))

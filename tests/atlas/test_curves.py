@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
+from tests.atlas.conftest import WINDOW_HZ, located, oscillator
 
 from nnmstop.bifurcation_atlas.build import AtlasMap, check_curves, follow_kind
 from nnmstop.bifurcation_atlas.curves import CurveSettings
 from nnmstop.bifurcation_atlas.slices import compute_slice
 from nnmstop.forced.responses import ExactSettings
-from tests.atlas.conftest import WINDOW_HZ, located, oscillator
 
 pytestmark = pytest.mark.numerics
 

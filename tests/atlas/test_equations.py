@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from tests.atlas.conftest import located, oscillator
 
 from nnmstop.bifurcation_atlas.equations import ExactSymmetricEquations, HarmonicBalanceEquations, fourier_orbit
-from tests.atlas.conftest import located, oscillator
 
 
 def _differences(function, point, h=1e-6):

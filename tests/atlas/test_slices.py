@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
+from tests.atlas.conftest import WINDOW_HZ, located, oscillator
 
 from nnmstop.bifurcation_atlas.flags import REGIONS
 from nnmstop.bifurcation_atlas.slices import classify, compute_slice
 from nnmstop.forced.responses import ExactSettings
-from tests.atlas.conftest import WINDOW_HZ, located, oscillator
 
 
 def test_classify_counts_the_crossings_of_a_folded_curve():

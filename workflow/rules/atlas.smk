@@ -141,3 +141,25 @@ rule atlas:
         atlas_datasets(),
         rules.atlas_manifest.output.manifest,
         expand(paper_figures("atlas_{map}.{ext}"), map=atlas_map_names(), ext=("pdf", "png")),
+
+
+localrules:
+    atlas_docs,
+
+
+rule atlas_docs:
+    """docs/atlas_numbers.md from the atlas datasets and the map figures in docs/ (committed; the atlas page)."""
+    input:
+        atlas=[results(f"atlas/{name}.nc") for name in atlas_map_names()],
+        figures=expand(paper_figures("atlas_{map}.png"), map=atlas_map_names()),
+    output:
+        numbers="docs/atlas_numbers.md",
+        figures=expand("docs/atlas_{map}.png", map=atlas_map_names()),
+    log:
+        logs("atlas/docs.log"),
+    params:
+        config=task_config(),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"

@@ -21,6 +21,7 @@ Method note: ``docs/methods/atlas.md``.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass, field
 
@@ -305,14 +306,17 @@ def _on_curves(curves: list, atlas: AtlasMap, omega: float, value: float) -> boo
 def _follow(atlas: AtlasMap, equations, seed, label: str):
     test, x, extra, params = seed
     system = CurveSystem(equations, test, atlas.free, params)
+    settings = atlas.curve
+    if equations.law == "regularized":  # its own step: the unknowns are Fourier coefficients of q, f and z
+        settings = dataclasses.replace(settings, step=float(atlas.regularized["step"]))
     test.prepare(equations, x, extra, params)
     if isinstance(test, NeimarkSackerTest):
         test.choose_entries(equations, x, extra, params, atlas.free)
-    U = correct_on_curve(system, system.pack(x, extra, params), tolerance=atlas.curve.tolerance)
+    U = correct_on_curve(system, system.pack(x, extra, params), tolerance=settings.tolerance)
     skip = ("contact_duration",) if test.kind == "grazing" else ()
     if test.kind == "second_contact":
         skip = ("early_impact",) if test.phase == "F" else ("leaves_stop",)
-    return follow_curve(system, U, atlas.window(), atlas.curve, skip=skip, label=label)
+    return follow_curve(system, U, atlas.window(), settings, skip=skip, label=label)
 
 
 def follow_kind(atlas: AtlasMap, kind: str, seed_slices: list, equations=None, seeds=None) -> list:

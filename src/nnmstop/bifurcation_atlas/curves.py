@@ -52,11 +52,11 @@ END_REASONS = {
 
 @dataclass(frozen=True)
 class CurveSettings:
-    """Continuation of a curve: the dense step (``step``, ``min_step``, ``tolerance``), the points per segment
-    between border refreshes, how far the borders may drift from the null vectors before a refresh
-    (:meth:`~nnmstop.bifurcation_atlas.augmented.TestFunction.conditioning`), and the most points of a curve (both
-    directions
-    together)."""
+    """Continuation of a curve: the dense step (``step``, ``min_step``, ``tolerance``, and the largest move in the
+    plane per step: ``max_frequency_step`` Hz, ``max_log_second_step``), the points per segment between border
+    refreshes, how far the borders may drift from the null vectors before a refresh
+    (:meth:`~nnmstop.bifurcation_atlas.augmented.TestFunction.conditioning`), and the most points of a curve
+    (both directions together)."""
 
     step: float = 0.02
     min_step: float = 1e-9
@@ -64,9 +64,20 @@ class CurveSettings:
     segment_points: int = 25
     max_condition: float = 1e3
     max_points: int = 2000
+    max_frequency_step: float = 0.002
+    max_log_second_step: float = 0.05
 
     def dense(self) -> DenseArclengthSettings:
-        return DenseArclengthSettings(step=self.step, min_step=self.min_step, tolerance=self.tolerance)
+        """The dense step; its energy is the second parameter (:meth:`CurveSystem.diagnostics`), so a step moves
+        the point by at most ``max_frequency_step`` Hz and ``max_log_second_step`` in log of the second parameter
+        (a fine curve in the plane whatever the scale of the unknowns)."""
+        return DenseArclengthSettings(
+            step=self.step,
+            min_step=self.min_step,
+            tolerance=self.tolerance,
+            max_frequency_step=self.max_frequency_step,
+            max_log_energy_step=self.max_log_second_step,
+        )
 
 
 #: Contact duration (phase, radians) below which a curve point is a grazing orbit to round-off. Every grazing orbit

@@ -12,6 +12,7 @@ Each slice of a map and each kind of curve is its own job, so that a cluster spr
 * :func:`atlas_map`: the slices and the curves in one atlas dataset;
 * :func:`atlas_backbone`: the NNM backbones and the peaks they predict (``results/atlas/<map>_backbone.nc``);
 * :func:`atlas_figure`: ``paper_figures/atlas_<map>.{pdf,png}``;
+* :func:`atlas_docs`: ``docs/atlas_numbers.md`` and the map figures of the atlas page;
 * :func:`atlas_manifest`: ``results/atlas/MANIFEST.sha256`` (verify and update_reference cover the atlas).
 
 The numerics live in :mod:`nnmstop.bifurcation_atlas`; method note docs/methods/atlas.md, user page docs/atlas.md.
@@ -212,6 +213,20 @@ def atlas_figure(config, inputs, outputs, map: str):
     draw(read_dataset(inputs["atlas"]), outputs["pdf"], dpi, backbone=backbone)
 
 
+def atlas_docs(config, inputs, outputs):
+    """``docs/atlas_numbers.md`` from the atlas datasets (:mod:`nnmstop.docpages.atlas`), and the map figures
+    copied into ``docs/`` (``docs/atlas_<map>.png``) for the atlas page."""
+    import shutil
+    from pathlib import Path
+
+    from nnmstop.docpages.atlas import write_page
+
+    write_page(_paths(inputs["atlas"]), outputs["numbers"])
+    for figure in _paths(inputs["figures"]):
+        target = Path(outputs["numbers"]).parent / Path(figure).name
+        shutil.copyfile(figure, target)
+
+
 def atlas_manifest(config, inputs, outputs):
     """SHA-256 manifest of the atlas datasets (:func:`nnmstop.tasks.manifest.dataset_manifest`)."""
     from nnmstop.tasks.manifest import dataset_manifest
@@ -220,4 +235,7 @@ def atlas_manifest(config, inputs, outputs):
 
 
 #: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
-TASKS = {f.__name__: f for f in (atlas_slice, atlas_curves, atlas_map, atlas_backbone, atlas_figure, atlas_manifest)}
+TASKS = {
+    f.__name__: f
+    for f in (atlas_slice, atlas_curves, atlas_map, atlas_backbone, atlas_figure, atlas_docs, atlas_manifest)
+}
