@@ -261,7 +261,12 @@ def explorer_branches():
     regularized = [branch_file("nnm1"), branch_file("nnm2"), *[bifurcated_file(name) for name in config.get("bifurcations", {})]]
     if config.get("explorer", {}).get("tube", False) and "tube" in config:  # the tube's branches, built for it
         regularized += [tube_file(name) for name in config["tube"]["branches"]]
-    return {"regularized": regularized, "exact": [exact]}
+    inputs = {"regularized": regularized, "exact": [exact]}
+    if config.get("explorer", {}).get("atlas", False) and "atlas" in config:  # the atlas' maps, built for it
+        names = list(config["atlas"]["maps"])
+        inputs["atlas"] = [results(f"atlas/{name}.nc") for name in names]
+        inputs["atlas_slices"] = [path for name in names for path in atlas_slice_files(name)]
+    return inputs
 
 
 # --------------------------------------------------------------------------- forced

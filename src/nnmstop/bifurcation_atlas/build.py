@@ -316,7 +316,10 @@ def _follow(atlas: AtlasMap, equations, seed, label: str):
     skip = ("contact_duration",) if test.kind == "grazing" else ()
     if test.kind == "second_contact":
         skip = ("early_impact",) if test.phase == "F" else ("leaves_stop",)
-    return follow_curve(system, U, atlas.window(), settings, skip=skip, label=label)
+    window = atlas.window()
+    if equations.law == "regularized" and "range" in atlas.regularized:
+        window = (window[0], tuple(float(v) for v in atlas.regularized["range"]))
+    return follow_curve(system, U, window, settings, skip=skip, label=label)
 
 
 def follow_kind(atlas: AtlasMap, kind: str, seed_slices: list, equations=None, seeds=None) -> list:

@@ -111,8 +111,11 @@ def _regularized_inputs(config, atlas, kind):
     if atlas.regularized is None:
         raise ValueError(f"atlas map {atlas.name!r}: the kind {kind!r} needs a `regularized` section")
     anm = ANMSettings.from_config(config["anm"], points_per_step=2)
-    stability = ForcedStabilitySettings.from_config(config["forced"]["stability"])
     spec = atlas.regularized
+    # the responses' multipliers at least as precise as the curves' (Magnus steps of `regularized.steps`), so
+    # that a located Neimark-Sacker point is where the curve's test function says it is
+    steps = int(spec["steps"])
+    stability = ForcedStabilitySettings(steps, max(4 * steps, 2048), 2.0)
     located = {float(v): regularized_located(atlas, kind, float(v), anm, stability) for v in spec["seeds"]}
     checks = []
     for value in spec["checks"]:

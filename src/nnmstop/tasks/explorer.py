@@ -16,14 +16,15 @@ def explorer(config: dict, inputs: dict, outputs: dict) -> Path:
         Section ``explorer`` (optional): :class:`nnmstop.explorer.extract.ExplorerSettings`.
     inputs : dict
         One list of dataset paths per kind of branch (``regularized``, ``exact``, ...; the keys of
-        :data:`nnmstop.explorer.extract.KINDS`) and ``manifest`` (``results/MANIFEST.sha256``).
+        :data:`nnmstop.explorer.extract.KINDS`) and ``manifest`` (``results/MANIFEST.sha256``); with the atlas,
+        ``atlas`` (its datasets) and ``atlas_slices`` (their slices).
     outputs : dict
         ``page``: the HTML file to write.
     """
     from nnmstop.explorer.extract import KINDS, ExplorerSettings
     from nnmstop.explorer.page import build_explorer
 
-    unknown = sorted(set(inputs) - set(KINDS) - {"manifest"})
+    unknown = sorted(set(inputs) - set(KINDS) - {"manifest", "atlas", "atlas_slices"})
     if unknown:
         raise ValueError(f"explorer inputs {unknown} are no kind of branch; known kinds: {sorted(KINDS)}")
     branches = {
@@ -31,9 +32,23 @@ def explorer(config: dict, inputs: dict, outputs: dict) -> Path:
         for kind in KINDS
         if kind in inputs
     }
+    atlases = {}
+    slices = [Path(p) for p in _listed(inputs.get("atlas_slices", []))]
+    for path in _listed(inputs.get("atlas", [])):
+        stem = Path(path).stem  # results/atlas/<map>.nc; its slices are results/atlas/<map>/slice_<k>.nc
+        mine = sorted((p for p in slices if p.parent.name == stem), key=lambda p: int(p.stem.split("_")[-1]))
+        atlases[str(path)] = [str(p) for p in mine]
     return build_explorer(
-        branches, inputs["manifest"], outputs["page"], ExplorerSettings.from_config(config.get("explorer"))
+        branches,
+        inputs["manifest"],
+        outputs["page"],
+        ExplorerSettings.from_config(config.get("explorer")),
+        atlases=atlases,
     )
+
+
+def _listed(value) -> list:
+    return [value] if isinstance(value, (str, Path)) else list(value)
 
 
 #: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).
