@@ -375,13 +375,14 @@ def extract_atlas(path, slice_paths, manifest: dict, root=".") -> dict:
                 "second": ds["codim2_second"].values.astype(np.float64),
             },
         }
-    responses = {name: [] for name in ("frequency", "second", "stable", "impacting", "orbit")}
+    responses = {name: [] for name in ("frequency", "second", "piece", "stable", "impacting", "orbit")}
     for slice_path in slice_paths:
         with xr.open_dataset(Path(root) / slice_path) as sl:
             sl.load()
             n = sl.sizes["response"]
             responses["frequency"].append(sl["response_frequency"].values)
             responses["second"].append(np.full(n, float(sl.attrs["slice_value"])))
+            responses["piece"].append(sl["response_piece"].values.astype(np.int32))
             responses["stable"].append(sl["response_stable"].values.astype(np.int8))
             responses["impacting"].append(sl["response_impacting"].values.astype(np.int8))
             responses["orbit"].append(sl["response_orbit"].values.astype(np.float32))

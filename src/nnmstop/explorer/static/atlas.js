@@ -185,8 +185,10 @@
     for (let i = 0; i < r.second.data.length; i++) if (r.second.data[i] === value) indices.push(i);
     for (let n = 0; n + 1 < indices.length; n++) {
       const i = indices[n], k = indices[n + 1];
+      if (r.piece.data[i] !== r.piece.data[k]) continue; // consecutive points of one piece of the response only
       const a0 = r.frequency.data[i], a1 = r.frequency.data[k];
-      if ((a0 - f) * (a1 - f) <= 0) picks.push(Math.abs(a0 - f) <= Math.abs(a1 - f) ? i : k);
+      const lo = Math.min(a0, a1), hi = Math.max(a0, a1);
+      if (lo <= f && f < hi) picks.push(Math.abs(a0 - f) <= Math.abs(a1 - f) ? i : k);
     }
     const region = regionAt(a, f, s);
     const orbits = picks.map(function (i, n) {
