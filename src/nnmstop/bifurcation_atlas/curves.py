@@ -64,7 +64,7 @@ class CurveSettings:
     segment_points: int = 25
     max_condition: float = 1e3
     max_points: int = 2000
-    max_frequency_step: float = 0.002
+    max_frequency_step: float = 2e-4
     max_log_second_step: float = 0.05
 
     def dense(self) -> DenseArclengthSettings:

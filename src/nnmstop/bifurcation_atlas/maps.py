@@ -108,6 +108,8 @@ def atlas_maps(config: dict) -> dict:
                 tolerance=float(curve["tolerance"]),
                 segment_points=int(curve["segment_points"]),
                 max_points=int(curve["max_points"]),
+                max_frequency_step=float(curve.get("max_frequency_step", CurveSettings.max_frequency_step)),
+                max_log_second_step=float(curve.get("max_log_second_step", CurveSettings.max_log_second_step)),
             ),
             grid=int(section["frequency_samples"]),
             check_tolerance=float(section["check_tolerance"]),
