@@ -7,8 +7,13 @@ import hashlib
 import pytest
 
 import nnmstop
+from nnmstop.bifurcation_atlas.curves import CurveSettings
 from nnmstop.netcdf import read_dataset, write_dataset
 from nnmstop.pipeline.verify import ATLAS_MANIFEST, file_verdicts, update_reference, verify
+
+#: Coarser steps in the plane than the workflow's: the tests check the curves where they cross values, not
+#: their drawing.
+FAST = CurveSettings(step=0.05, max_frequency_step=0.002)
 
 pytestmark = pytest.mark.numerics
 
@@ -28,7 +33,8 @@ def recorded(tmp_path_factory):
     results = root / "results"
     (results / "atlas").mkdir(parents=True)
     ds = nnmstop.atlas(nnmstop.two_dof_structure(), (0.085, 0.16), ["u"], (0.08, 0.12), slices=3,
-                       kinds=("grazing", "fold"), frequency_samples=40, seeds=[0.1], checks=[0.08, 0.12])  # fmt: skip
+                       kinds=("grazing", "fold"), frequency_samples=40, seeds=[0.1], checks=[0.08, 0.12],
+                       curve=FAST)  # fmt: skip
     path = _write(ds, results)
     reference = update_reference(results, root / "reference", manifests=[ATLAS_MANIFEST])
     return results, reference, path

@@ -15,7 +15,8 @@ pytestmark = pytest.mark.numerics
 def atlas_map(plane="force", second=(0.085, 0.125), force=0.1, kinds=("fold",), values=(0.1,)) -> AtlasMap:
     return AtlasMap(
         "test", oscillator(force), plane, WINDOW_HZ, second, tuple(values), (values[0],), (), kinds,
-        exact=ExactSettings(), curve=CurveSettings(step=0.05, tolerance=1e-11, max_points=1200),
+        exact=ExactSettings(),
+        curve=CurveSettings(step=0.05, tolerance=1e-11, max_points=1200, max_frequency_step=0.002),
     )  # fmt: skip
 
 
