@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import scipy.optimize
+from tests.atlas.conftest import oscillator
 
 from nnmstop.exact.forced import non_impacting_response
-from tests.atlas.conftest import oscillator
 
 REPO = Path(__file__).resolve().parents[2]
 PAGE = REPO / "docs" / "atlas_numbers.md"
