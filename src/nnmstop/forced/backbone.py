@@ -52,13 +52,15 @@ def nnm_backbone(
     max_truncation: float,
     force_limit: float,
     start_amplitude: float = 0.05,
+    start_tolerance: float = 1e-13,
 ):
     """The regularized NNM ``mode`` from near rest until the required force exceeds ``force_limit``.
 
-    Returns the system (cosine basis) and the continued branch.
+    ``start_tolerance``: relative residual of the start point (a fine mesh's round-off floor is higher, as
+    ``tube.hbm.start_tolerance`` says). Returns the system (cosine basis) and the continued branch.
     """
     system = HarmonicBalanceSystem(excitation.structure, harmonics)
-    U0, direction = start_point(system, mode, start_amplitude)
+    U0, direction = start_point(system, mode, start_amplitude, tol=start_tolerance)
 
     def beyond(U, diag):
         return f"required force above {force_limit:g}" if required_force(system, excitation, U) > force_limit else ""

@@ -150,7 +150,13 @@ def backbone_dataset_of(config, atlas):
     backbones, predictions = {}, {}
     for mode in spec.get("modes", [1, 2]):
         system, branch = nnm_backbone(
-            excitation, int(mode), int(spec["harmonics"]), anm, float(spec["max_truncation"]), force_limit=limit
+            excitation,
+            int(mode),
+            int(spec["harmonics"]),
+            anm,
+            float(spec["max_truncation"]),
+            force_limit=limit,
+            start_tolerance=float(spec.get("start_tolerance", 1e-13)),
         )
         U = np.asarray(branch.points)
         required = np.array([required_force(system, excitation, u) for u in U])
