@@ -313,7 +313,10 @@ def _follow(atlas: AtlasMap, equations, seed, label: str):
     if isinstance(test, NeimarkSackerTest):
         test.choose_entries(equations, x, extra, params, atlas.free)
     U = correct_on_curve(system, system.pack(x, extra, params), tolerance=settings.tolerance)
-    skip = ("contact_duration",) if test.kind == "grazing" else ()
+    # On the grazing curve the linear response touches the gap at its maximum by construction: the margins of a
+    # second contact are zero there up to round-off (a mesh's fast modes put a sampled extremum at -1e-12), not
+    # assumptions to check.
+    skip = ("contact_duration", "early_impact", "leaves_stop") if test.kind == "grazing" else ()
     if test.kind == "second_contact":
         skip = ("early_impact",) if test.phase == "F" else ("leaves_stop",)
     window = atlas.window()
