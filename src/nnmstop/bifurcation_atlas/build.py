@@ -171,7 +171,8 @@ def slice_dataset(atlas: AtlasMap, index: int) -> xr.Dataset:
     """The slice ``index`` of ``atlas`` (:func:`nnmstop.bifurcation_atlas.slices.compute_slice`) with its regions."""
     value = float(atlas.slices[index])
     result = compute_slice(atlas.excitation, atlas.plane, value, atlas.frequency_range, atlas.exact)
-    grid = np.linspace(*atlas.frequency_range, atlas.grid)
+    low, high = atlas.frequency_range
+    grid = low + (np.arange(atlas.grid) + 0.5) * (high - low) / atlas.grid  # cell centres: the range's ends excluded
     regions = classify(result.all_frequency, result.all_stable, result.all_impacting, result.end_frequency, grid)
     mu = result.multipliers
     ds = xr.Dataset(

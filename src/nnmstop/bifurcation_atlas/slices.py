@@ -79,6 +79,18 @@ def _keep(n: int, changes) -> np.ndarray:
     return np.array(sorted(kept), dtype=int)
 
 
+def _with_changes(piece, stable):
+    """The piece's frequencies and verdicts with its located stability changes inserted where they lie: a fold's
+    tip (the curve turns back between two stored points) and a change of verdict are then where they are, not
+    at the nearer stored point. An inserted point takes the verdict of the point before it."""
+    frequency, verdict = list(piece.frequency), list(stable)
+    for change in sorted(piece.changes, key=lambda c: c.after_point, reverse=True):
+        k = change.after_point + 1
+        frequency.insert(k, float(change.U[-1]) / (2 * np.pi))
+        verdict.insert(k, verdict[k - 1])
+    return np.array(frequency), np.array(verdict, dtype=bool)
+
+
 def compute_slice(excitation, plane: str, value: float, frequency_range, settings: ExactSettings) -> Slice:
     """The exact response at the second parameter ``value`` (a force, or the structural parameter ``plane``)."""
     if plane == "force":
@@ -96,9 +108,10 @@ def compute_slice(excitation, plane: str, value: float, frequency_range, setting
     for k, piece in enumerate(pieces):
         impacting = piece.kind == "one_contact"
         stable = np.all(np.abs(piece.multipliers) <= 1.0 + 1e-12, axis=1)
-        all_frequency.append(piece.frequency)
-        all_stable.append(stable)
-        all_impacting.append(np.full(len(piece.frequency), impacting))
+        frequency, verdict = _with_changes(piece, stable)
+        all_frequency.append(frequency)
+        all_stable.append(verdict)
+        all_impacting.append(np.full(len(frequency), impacting))
         index = _keep(len(piece.frequency), piece.changes)
         kept["frequency"].append(piece.frequency[index])
         kept["piece"].append(np.full(len(index), k))
