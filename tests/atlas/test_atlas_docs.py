@@ -17,7 +17,11 @@ PAGE = REPO / "docs" / "atlas_numbers.md"
 
 def quoted_first_contact(map_name: str) -> tuple[float, float]:
     section = PAGE.read_text().split(f"### `{map_name}`")[1]
-    found = re.search(r"First contact: the grazing curves reach \S+ = ([0-9.e+-]+) at ([0-9.e+-]+) Hz", section)
+    number = r"([0-9.e+-]+)"
+    found = re.search(
+        rf"First contact: the non-impacting response touches the stop from \S+ = {number} \w+ \(at {number} Hz\)",
+        section,
+    )
     assert found, f"docs/atlas_numbers.md has no first contact for {map_name}"
     return float(found[1]), float(found[2])
 

@@ -22,6 +22,21 @@ __all__ = ["atlas_numbers_page", "first_contact", "first_coexistence"]
 SECOND = {"force": "F", "gap": "gap", "stiffness": "stop stiffness", "damping_ratio": "damping ratio"}
 
 
+def curve_text(kind: str) -> str:
+    return kind.replace("_", " ").replace("neimark sacker", "Neimark-Sacker")
+
+
+CODIM2_TEXT = {
+    "cusp": "cusp",
+    "isola": "isola (extremum on a fold curve)",
+    "fold_flip": "fold-flip",
+    "resonance_1_1": "1:1 resonance",
+    "resonance_1_2": "1:2 resonance",
+    "grazing": "meets grazing",
+    "second_contact": "meets a second contact",
+}
+
+
 def g(value, digits: int = 4) -> str:
     return f"{float(value):.{digits}g}"
 
@@ -56,23 +71,21 @@ def _map_section(name: str, ds: xr.Dataset) -> list:
     symbol = SECOND.get(plane, plane)
     lines = [f"### `{name}`", ""]
     contact = first_contact(ds)
+    lowest, down = ("lowest", "on") if plane == "force" else ("largest", "down")
     lines.append(
-        f"- First contact: the grazing curves reach {symbol} = {g(contact[0])} at {g(contact[1], 5)} Hz "
-        + (
-            "(below this force the structure never touches the stop)."
-            if plane == "force"
-            else "(above this gap no contact)."
-        )
+        f"- First contact: the non-impacting response touches the stop from {symbol} = {g(contact[0])} {down} "
+        f"(at {g(contact[1], 5)} Hz), the {lowest} point of the grazing curves."
     )
     coexist = first_coexistence(ds)
     if coexist is not None:
+        reach = "down" if plane == "force" else "up"
         lines.append(
-            f"- Jumps: the fold curves reach {symbol} = {g(coexist[0])} at {g(coexist[1], 5)} Hz; beyond, two stable "
-            "responses coexist between the folds."
+            f"- Folds: the fold curves reach {reach} to {symbol} = {g(coexist[0])} (at {g(coexist[1], 5)} Hz); beyond, "
+            "two stable responses can coexist between them (the response jumps)."
         )
     kinds, laws = ds["curve_kind"].values, ds["curve_law"].values
     counts = [
-        f"{int(np.count_nonzero((kinds == k) & (laws == law)))} {CURVE_KINDS[k].replace('_', ' ')}"
+        f"{int(np.count_nonzero((kinds == k) & (laws == law)))} {curve_text(CURVE_KINDS[k])}"
         + (" (regularized)" if LAWS[law] == "regularized" else "")
         for k in range(len(CURVE_KINDS))
         for law in range(len(LAWS))
@@ -94,9 +107,9 @@ def _map_section(name: str, ds: xr.Dataset) -> list:
     for kind, curve, f, s in zip(
         ds["codim2_kind"].values, ds["codim2_curve"].values, ds["codim2_frequency"].values, ds["codim2_second"].values
     ):
-        curve_kind = CURVE_KINDS[int(ds["curve_kind"].values[curve])].replace("_", " ")
+        curve_kind = curve_text(CURVE_KINDS[int(ds["curve_kind"].values[curve])])
         law = " (regularized)" if LAWS[int(ds["curve_law"].values[curve])] == "regularized" else ""
-        lines.append(f"| {CODIM2_KINDS[int(kind)].replace('_', ' ')} | {curve_kind}{law} | {f:.6f} | {s:.6g} |")
+        lines.append(f"| {CODIM2_TEXT[CODIM2_KINDS[int(kind)]]} | {curve_kind}{law} | {f:.6f} | {s:.6g} |")
     return lines + [""]
 
 
