@@ -3,8 +3,8 @@
 Light on imports where the workflow plans jobs (:func:`map_names`, :func:`slice_values`, :func:`curve_kinds`);
 :func:`atlas_maps` builds the :class:`~nnmstop.bifurcation_atlas.build.AtlasMap` of each map: the oscillator of
 ``model``, the tube of ``tube.structure`` or the configuration's own structure (``structure:``), damped and forced
-as the map says or, where it does not, as the forced scene of ``forced`` says (``forced.damping``, ``forced.force.dofs``; ``forced.tube.force_dofs`` and
-``forced.tube.amplitude`` for the tube).
+as the map says or, where it does not, as the forced scene of ``forced`` says (``forced.damping``,
+``forced.force.dofs``; ``forced.tube.force_dofs`` and ``forced.tube.amplitude`` for the tube).
 """
 
 from __future__ import annotations
