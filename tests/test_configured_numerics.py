@@ -57,7 +57,7 @@ def built(request, tmp_path_factory):
     workdir = tmp_path_factory.mktemp(request.param)
     config = copy.deepcopy(load_config(REPO / "config" / "config.yaml"))
     config["model"].update(PARAMETER_SETS[request.param])
-    for section in ("tube", "study", "forced"):
+    for section in ("tube", "study", "forced", "atlas"):
         config.pop(section, None)
     (workdir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
     run_snakemake(workdir, workdir / "config.yaml", "--cores", "2", timeout=3600)

@@ -63,6 +63,13 @@ FORCED_EXACT = DatasetKind(
             "the phase duration of the contact, Omega",
             optional=True,
         ),
+        Variable(
+            "contact_struck",
+            ("contact_point",),
+            "contact (index of the structure's half-space contacts, contact_stop) that a one-contact response "
+            "with several stops strikes each half period",
+            optional=True,
+        ),
         Variable("contact_point_index", ("contact_point",), "index of the point of the response", optional=True),
         Variable(
             "switch_state",

@@ -181,6 +181,7 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolut
     """
     parts, changes, offset, owner = [], [], 0, {}
     contact_rows, contact_index, switch_parts, contact_points = [], [], [], 0
+    struck = []  # per half-wave orbit, the contact of its sequence [{c}, {}]
     for k, piece in enumerate(pieces):
         problem = piece.problem
         if piece.kind == "one_contact" and problem is None:  # a piece built without its problem: the paper's
@@ -191,6 +192,7 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolut
             multipliers = np.array([problem.multipliers(y)[1] for y in piece.unknowns])
             error = 2 * np.abs(multipliers).max(axis=1) * error  # of mu = nu**2
             contact_rows.append(piece.unknowns)
+            struck.append(np.full(len(piece.unknowns), _half_wave_contact(problem), dtype=np.int32))
         elif piece.kind == "one_contact":
             switch_parts.append(_switch_variables(problem, piece.unknowns, contact_points))
         if piece.kind == "one_contact":
@@ -219,6 +221,8 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolut
             raise ValueError("an exact response mixes half-wave and full-period families: store them apart")
         if contact_rows:
             ds["contact_unknowns"] = (("contact_point", "unknown"), np.concatenate(contact_rows))
+            if len(excitation.structure.stops) > 1:  # which stop's contact each orbit strikes
+                ds["contact_struck"] = ("contact_point", np.concatenate(struck))
         else:
             switches = {key: np.concatenate([part[key] for part in switch_parts]) for key in switch_parts[0]}
             ds["switch_state"] = (("contact_point", "state"), switches.pop("switch_state"))
@@ -242,6 +246,14 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolut
     return ds
 
 
+def _half_wave_contact(problem) -> int:
+    """The contact ``c`` of a half-wave problem of sequence ``[{c}, {}]`` (one contact per half period)."""
+    sequence = problem.sequence
+    if len(sequence) != 2 or len(sequence[0]) != 1 or sequence[1]:
+        raise ValueError(f"a half-wave family stores one contact per half period, got {problem.describe()}")
+    return int(next(iter(sequence[0])))
+
+
 def exact_time_history(ds: xr.Dataset, excitation: Excitation, contact_point: int, samples: int = 1024) -> dict:
     """One period of the stored exact orbit ``contact_point`` of an exact response dataset of ``excitation``
     (:meth:`~nnmstop.exact.forced.ForcedResponseProblem.time_history`), from either layout."""
@@ -253,7 +265,11 @@ def stored_contact_orbit(ds: xr.Dataset, excitation: Excitation, contact_point: 
     """The problem and the unknowns of the stored exact orbit ``contact_point`` of an exact response dataset of
     ``excitation``, from either layout (the half-wave ``contact_unknowns``, the full-period switches)."""
     if "contact_unknowns" in ds:
-        return SymmetricContactProblem(excitation), np.asarray(ds["contact_unknowns"].values[contact_point], float)
+        y = np.asarray(ds["contact_unknowns"].values[contact_point], float)
+        if "contact_struck" in ds:  # several stops: the contact its half-wave sequence strikes
+            contact = int(ds["contact_struck"].values[contact_point])
+            return ForcedResponseProblem(excitation, [{contact}, set()], half_wave=True), y
+        return SymmetricContactProblem(excitation), y
     pick = ds["switch_point"].values == contact_point
     contacts = [int(c) for c in ds["switch_contact"].values[pick]]
     entry = ds["switch_entry"].values[pick].astype(bool)
