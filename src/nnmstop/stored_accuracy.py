@@ -225,12 +225,10 @@ def _hbm_system(ds: xr.Dataset):
     missing = [k for k in ("harmonics", "time_samples", "basis") if k not in ds.attrs]
     if missing:
         raise ValueError(f"it does not record the harmonic balance's settings {missing}")
-    return HarmonicBalanceSystem(
-        structure_from_attributes(ds),
-        int(ds.attrs["harmonics"]),
-        time_samples=int(ds.attrs["time_samples"]),
-        basis=str(ds.attrs["basis"]),
-    )
+    from nnmstop.hbm.dataset import system_arguments
+
+    structure = structure_from_attributes(ds)
+    return HarmonicBalanceSystem(structure, int(ds.attrs["harmonics"]), **system_arguments(ds.attrs))
 
 
 def _excitation(ds: xr.Dataset):
