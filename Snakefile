@@ -81,3 +81,9 @@ onstart:
 
     for stale in remove_stale_temporaries(["results", "paper_figures", "dist", "docs"]):
         print(f"nnmstop: removed {stale}, a partial file left by an interrupted job", file=sys.stderr)
+
+
+rule report_figures:
+    """Every figure the build made (`built_figures`): the target of `snakemake --report report.html report_figures`."""
+    input:
+        built_figures(),

@@ -37,6 +37,7 @@ TINY_RUNS = {
     "exact_build": ["--compare", "HEAD", "HEAD", "--repeat", "1", "--configfile", SMALL,
                     "--tasks", "exact_two_impacts"],
     "explorer": None,  # times a built dist/explorer.html in Chromium: its --help here; the page has its own tests
+    "target_cost": ["--targets", "results/exact/nnm1_two_impacts.nc", "--configfile", SMALL, "--output", "{out}"],
     "exact_slices": ["--compare", "HEAD", "HEAD", "--nnm1-stage1", "{build}/" + NNM1_STAGE1, "--configfile", SMALL,
                      "--slices", "2", "--points", "20", "--energies", "2"],
     "forced_build": None,  # a cold build of the forced target (over a minute): its --help

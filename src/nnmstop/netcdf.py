@@ -214,12 +214,16 @@ def flag_variable(dims, values, long_name: str, meanings: str, **extra) -> tuple
 
 
 def check_labelled(ds: xr.Dataset) -> None:
-    """Raise ``ValueError`` if a variable lacks ``long_name``/``units`` or holds NaN/inf."""
+    """Raise ``ValueError`` if a variable lacks ``long_name``/``units`` or holds NaN/inf (NaN allowed only where
+    the variable declares a fill value for values not computed, :func:`may_be_missing`)."""
     for name, var in {**ds.coords, **ds.data_vars}.items():
         missing = [a for a in ("long_name", "units") if a not in var.attrs]
         if missing:
             raise ValueError(f"variable {name!r} lacks the attribute(s) {missing}")
-        if np.issubdtype(var.dtype, np.number) and not np.all(np.isfinite(var.values)):
+        values = np.asarray(var.values)
+        if np.issubdtype(var.dtype, np.number) and may_be_missing(var.variable):
+            values = values[~np.isnan(values)]
+        if np.issubdtype(var.dtype, np.number) and not np.all(np.isfinite(values)):
             raise ValueError(f"variable {name!r} holds NaN or infinite values; refusing to write the dataset")
 
 

@@ -23,9 +23,23 @@ def test_compare_at_energies_on_two_linear_branches():
     assert ds.energy.values.min() > 1.5 and ds.energy.values.max() < 10.0
 
 
-def test_disjoint_branches_are_an_error():
-    with pytest.raises(ValueError, match="share no energy"):
-        compare_at_energies([1.0, 2.0], [1.0, 1.0], [3.0, 4.0], [1.0, 1.0], 4)
+def test_disjoint_branches_compare_nothing_and_say_why():
+    ds = compare_at_energies([1.0, 2.0], [1.0, 1.0], [3.0, 4.0], [1.0, 1.0], 4)
+    assert ds.sizes["energy"] == 0 and int(ds.attrs["skipped"]) == 1
+    assert "share no energy range" in ds.attrs["end_reason"]
+
+
+def test_energies_where_the_regularized_orbit_is_of_another_type_are_not_compared():
+    """Issue 29: a regularized point outside the exact family's type (here the second half of the branch) makes
+    the energies it brackets no counterparts: their difference is missing, the others are compared."""
+    energy = np.geomspace(1.0, 10.0, 11)
+    comparable = energy < 4.0
+    ds = compare_at_energies(energy, np.ones(11), energy, 1.01 * np.ones(11), 6, comparable=comparable)
+    unlike = ds["no_counterpart"].values == 1
+    assert unlike.any() and not unlike.all()
+    assert np.all(np.isnan(ds["relative_difference"].values[unlike]))
+    np.testing.assert_allclose(ds["relative_difference"].values[~unlike], 0.01, rtol=1e-12)
+    assert np.all(ds["energy"].values[unlike] > 3.0)
 
 
 def test_first_crossing_never_brackets_across_segments():

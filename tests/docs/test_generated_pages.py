@@ -40,6 +40,21 @@ def test_results_page_was_generated_from_the_reference_build():
     )
 
 
+def test_paper_table_was_generated_from_the_reference_build():
+    """docs/paper_vs_build.md (the paper against this build, `snakemake --cores 2 docs`) lists the digests of the
+    datasets it read: they must be the reference build's, or the page has fallen behind it."""
+    from nnmstop.docpages.paper_table import PAPER_TABLE_DATASETS
+
+    listed = page_inputs((REPO / "docs" / "paper_vs_build.md").read_text())
+    assert set(PAPER_TABLE_DATASETS.values()) <= set(listed)
+    reference = reference_digests()
+    stale = {path: (digest, reference.get(path)) for path, digest in listed.items() if reference.get(path) != digest}
+    assert not stale, (
+        f"docs/paper_vs_build.md was generated from other datasets than the reference build: {stale}; run "
+        "`snakemake --cores 2 docs` on the reference build and commit the page"
+    )
+
+
 def test_page_inputs_reads_the_listed_digests():
     digest = "0123456789abcdef" * 4
     page = f"# Results\n\n| dataset | data digest |\n|---|---|\n| `results/hbm/nnm1.nc` | `{digest}` |\n"

@@ -190,3 +190,25 @@ def test_the_structure_layout_gives_the_same_orbits(small_build):
     beam.attrs["stop_nodes"] = "7"
     with pytest.raises(ValueError, match="first stop's degree of freedom"):
         regularized_branch(beam, SETTINGS)
+
+
+def test_a_structures_exact_family_is_rebuilt_on_the_structure(tmp_path):
+    """Issue 29: the explorer draws the exact one-stop family of a structure of one's own. The orbits, rebuilt in
+    closed form on the structure from the stored start velocities and periods and turned into the page's cosine
+    series, reach at the struck stop the stored x_max (an independent quantity: the family's own extremum search),
+    at the turning point t = 0 of the series."""
+    from nnmstop.api import exact_family_dataset
+    from nnmstop.exact.ndof import follow_one_stop_family
+    from nnmstop.explorer.extract import one_stop_branch
+    from nnmstop.models.structure import Stop, Structure
+
+    chain = Structure(np.eye(3), [[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]],
+                      [Stop(dof=0, gap=1.0, stiffness=30.0, eta=0.1)])  # fmt: skip
+    ds = exact_family_dataset(chain, follow_one_stop_family(chain, step=0.1, max_points=15))
+    branch = one_stop_branch(ds, ExplorerSettings(exact_harmonics=64, structure=chain))
+    x = branch.orbit["fields"]["x"].astype(float)  # cosine coefficients of the kept harmonics
+    assert branch.orbit["labels"]["x"] == "q0" and branch.orbit["force"] == "piecewise_law"
+    # x(t = 0) = sum of the cosine coefficients; 64 harmonics of the kinked orbit leave about 1e-3 of it
+    np.testing.assert_allclose(x.sum(axis=1), ds["x_max"].values, rtol=2e-3)
+    with pytest.raises(ValueError, match="needs the structure"):
+        one_stop_branch(ds, ExplorerSettings())

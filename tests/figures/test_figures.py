@@ -441,3 +441,74 @@ def test_the_nnm2_curve_at_f2_over_n_is_a_pale_band_under_the_branch(nnm1_stages
     legend = [text.get_text() for text in fig.legends[0].get_texts()] if fig.legends else []
     legend += [text.get_text() for ax in fig.axes if ax.get_legend() for text in ax.get_legend().get_texts()]
     assert any("NNM2 frequency / 3" in text and "band" in text for text in legend)
+
+
+# --------------------------------------------------------------------------- issue 29: scenes and names by physics
+
+
+def test_a_figure_whose_stages_were_not_continued_draws_its_scene_by_physics(nnm1_stages, small_config, tmp_path):
+    """Fig 11 asks for stage 4; here that stage was skipped (the continuation ended before it), but NNM1 reached
+    high energy earlier: the figure draws the branch's high-energy end (its last run of one identity and one
+    impact count) with its letters placed there, instead of an empty panel, and says so."""
+    from nnmstop.hbm.dataset import skipped_stage_dataset
+    from nnmstop.settings import system_from_config
+
+    whole = combine_stages(list(nnm1_stages[:3]))
+    skipped = skipped_stage_dataset(system_from_config(small_config), 4, {"branch": "nnm1"}, "skipped: test")
+    spec = {"nnm1_stages": [4], "labels": [{"label": "r", "energy_fraction": 0.5, "stage": 4}]}
+    pdf, _ = fe.figure_11(skipped, spec, tmp_path / "fig11.pdf", PNG_DPI, stages=[skipped], whole=whole)
+    text = _description(pdf)
+    assert "drawn instead the high-energy end of the continuation" in text
+    assert "no orbit of" not in text and "not on this branch" not in text  # r) placed on the part drawn
+    part, _ = fe.scene_part(whole, "fig11")
+    impacts = whole["impacts_per_period"].values
+    last = np.flatnonzero(part)
+    assert last[-1] == whole.sizes["point"] - 1 and np.all(impacts[last] == impacts[-1])
+
+
+def test_a_scene_that_does_not_exist_draws_the_branch_without_letters(nnm1_stages, tmp_path):
+    """No 5:1 resonance on this short branch: Fig 9's scene by physics does not exist; the whole branch is drawn,
+    the letters are named as not on it."""
+    whole = combine_stages(list(nnm1_stages))
+    assert fe.scene_part(whole, "fig09")[0] is None
+    empty = whole.isel(point=slice(0, 0))
+    spec = {"nnm1_stages": [2, 3], "labels": [{"label": "j", "energy_fraction": 0.5, "stage": 2}]}
+    nnm2 = whole.copy()
+    nnm2.attrs["branch"] = "nnm2"
+    pdf, _ = fe.figure_09(empty, nnm2, spec, tmp_path / "fig09.pdf", PNG_DPI, stages=[], whole=whole)
+    text = _description(pdf)
+    assert "no 5:1 internal resonance on this branch" in text and "j)" in text
+
+
+def test_titles_are_wrapped_to_the_figure_width():
+    """A title line never runs past the figure: rendered at its font size, each wrapped line fits the width."""
+    import matplotlib.pyplot as plt
+
+    title = "NNM1 skipped: stage 3 (resonance_5to1) ended without its condition (at most 2 impacts per period): " * 3
+    for size in (8.5, 9.0):
+        fig = plt.figure(figsize=(fe.FIGURE_WIDTH, 2.0))
+        renderer = fig.canvas.get_renderer()
+        for line in fe.wrapped_title(title, size).split("\n"):
+            text = fig.text(0.5, 0.5, line, fontsize=size, ha="center")
+            assert text.get_window_extent(renderer).width <= fe.FIGURE_WIDTH * fig.dpi
+        plt.close(fig)
+
+
+def test_the_branch_is_drawn_and_named_by_identity(tmp_path, small_config):
+    """A branch whose orbits include another family seen at 1/n: that part gets its own colour and legend
+    entry named by its identity (here an NNM2 orbit read over three periods appended to NNM1)."""
+    import matplotlib.pyplot as plt
+
+    from nnmstop.figures.common import identity_legend_handles, plot_identities
+
+    whole = build_stage(small_config, "nnm1", 1)
+    ds = whole.copy(deep=True)
+    n = ds.sizes["point"]
+    ds["orbit_kind"].values[n // 2 :] = 2
+    ds["dominant_mode"].values[n // 2 :] = 2
+    ds["dominant_harmonic"].values[n // 2 :] = 3
+    fig, ax = plt.subplots()
+    _, others = plot_identities(ax, ds, "tab:blue")
+    labels = [h.get_label() for h in identity_legend_handles(others)]
+    plt.close(fig)
+    assert labels == [f"NNM2 seen at 1/3 of its frequency (from E = {float(ds['energy'].values[n // 2]):.4g})"]

@@ -16,7 +16,7 @@ def config(repo_root):
 def test_default_scene_is_the_paper_oscillator_and_the_tube(config):
     names = [scene.name for scene in forced_scenes(config)]
     assert names == ["F0.01", "F0.02", "F0.05", "F0.1", "tube_F0.5"]
-    scene = forced_scenes(config, "oscillator")[0]
+    scene = forced_scenes(config, "structure")[0]
     assert scene.excitation.force.dofs == (1,)  # u
     assert scene.excitation.damping.ratios == (0.01, 0.01)
 
@@ -96,7 +96,7 @@ def test_the_forced_section_applies_to_the_structure_of_the_configuration(config
         },
     }
     chain["forced"]["force"].update(dofs=["x3"], amplitudes=[0.1])
-    (scene,) = forced_scenes(chain, "oscillator")
+    (scene,) = forced_scenes(chain, "structure")
     assert scene.excitation.structure.n_dofs == 3 and scene.excitation.force.dofs == (2,)
     assert scene.excitation.structure.stops[0].kind == "one_sided"
     ds = describe(exact_response_dataset(chain, scene), "forced_exact")

@@ -26,7 +26,13 @@ from nnmstop.exact.stability import exact_multipliers
 from nnmstop.floquet import symplectic_invariants
 from nnmstop.hbm.dataset import dataset_unknowns
 from nnmstop.hbm.monodromy import MonodromySettings, branch_monodromy, orbit_monodromy, variational_step_matrices
-from nnmstop.hbm.shooting_refinement import RegularizedDynamics, refined_stability, segment_flow, shooting_stability
+from nnmstop.hbm.shooting_refinement import (
+    RegularizedDynamics,
+    _newton_update,
+    refined_stability,
+    segment_flow,
+    shooting_stability,
+)
 from nnmstop.hbm.stability import branch_hill, orbit_stability
 from nnmstop.hbm.system import HarmonicBalanceSystem
 from nnmstop.hbm.variational import Linearization
@@ -186,6 +192,28 @@ def test_segment_flows_chain_into_the_whole_flow():
         Q = Q_m[0] @ Q
     np.testing.assert_allclose(state, whole_end, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(Q, whole_Q[0], rtol=1e-11, atol=1e-11 * np.abs(whole_Q).max())
+
+
+def test_a_singular_shooting_system_is_flagged_and_the_others_are_solved():
+    """Issue 29: one orbit whose condensed Jacobian J (N x (N + 1)) has rank below N used to fail the whole batch
+    with numpy's LinAlgError. Its update is now flagged unsolvable; the other orbits get the minimum-norm
+    solution of J d = -c (numpy's lstsq, an independent solver)."""
+    rng = np.random.default_rng(29)
+    N, segments = 2, 3
+    Qs = rng.normal(size=(3, segments, 2 * N, 2 * N))
+    dp = rng.normal(size=(3, segments, 2 * N))
+    mismatch = rng.normal(size=(3, segments, 2 * N))
+    Qs[1, -1, :N] = 0.0  # orbit 1: the last segment maps every change onto q = 0 (rank 0)
+    dp[1, -1, :N] = 0.0
+    update, solvable = _newton_update(Qs, dp, mismatch, N)
+    assert solvable.tolist() == [True, False, True]
+    for i in (0, 2):
+        A, b, c = Qs[i, 0, :, :N], dp[i, 0], mismatch[i, 0]
+        for m in range(1, segments):
+            A, b, c = Qs[i, m] @ A, Qs[i, m] @ b + dp[i, m], Qs[i, m] @ c + mismatch[i, m]
+        J = np.column_stack([A[:N], b[:N]])
+        expected = np.linalg.lstsq(J, -c[:N], rcond=None)[0]
+        np.testing.assert_allclose(update[i], expected, rtol=1e-10, atol=1e-12)
 
 
 def test_refined_orbits_match_adaptive_integration(system, refined):

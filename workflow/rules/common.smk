@@ -2,6 +2,9 @@
 # workflow's files is named here once; a rule names its outputs with these helpers and its
 # inputs with `rules.<rule>.output.<name>`, so a path is written in one place only.
 
+from nnmstop.docpages.paper_table import PAPER_TABLE_DATASETS
+from nnmstop.docpages.results import OPTIONAL_DATASETS, RESULT_DATASETS
+from nnmstop.docpages.results import STRUCTURE_DATASETS as STRUCTURE_PAGE_DATASETS
 from nnmstop.settings import study_settings
 from nnmstop.study.error_runtime import sweep_cases
 from nnmstop.study.runs import format_number
@@ -116,7 +119,9 @@ def bifurcation_parent(wildcards):
 
 
 def figure_stages(figure):
-    """NNM1 stage datasets drawn on paper figure `figure` (`figures.<figure>.nnm1_stages`)."""
+    """NNM1 stage datasets read by paper figure `figure`: stages 1 to the last of `figures.<figure>.nnm1_stages`
+    (each stage is built from the one before, so this builds nothing more); the figure draws its own stages,
+    or its scene by physics where they hold no orbit (nnmstop.figures.frequency_energy.scene_part)."""
     stages = config["figures"].get(figure, {}).get("nnm1_stages")
     if not stages:
         raise ValueError(f"the configuration has no 'figures.{figure}.nnm1_stages'")
@@ -126,7 +131,7 @@ def figure_stages(figure):
         raise ValueError(
             f"figures.{figure}.nnm1_stages: stage(s) {unknown} do not exist (branches.nnm1 has {available} stages)"
         )
-    return [stage_file("nnm1", k) for k in stages]
+    return [stage_file("nnm1", k) for k in range(1, max(stages) + 1)]
 
 
 def bifurcated_files(figure):
@@ -305,11 +310,14 @@ def plates_forced_file():
 
 
 def explorer_branches():
-    """Datasets drawn by the explorer, by kind of branch (nnmstop.explorer.extract.KINDS)."""
-    exact = rules.exact_nnm1.output.dataset if "exact_multi" in config else rules.exact_two_impacts.output.dataset
+    """Datasets drawn by the explorer, by kind of branch (nnmstop.explorer.extract.KINDS): for another structure
+    than the paper's oscillator its exact one-stop family (kind exact_one_stop, orbits rebuilt on the structure)."""
     regularized = [branch_file("nnm1"), branch_file("nnm2"), *[bifurcated_file(name) for name in config.get("bifurcations", {})]]
     if config.get("explorer", {}).get("tube", False) and "tube" in config:  # the tube's branches, built for it
         regularized += [tube_file(name) for name in config["tube"]["branches"]]
+    if STRUCTURE_KIND != "two_dof":
+        return {"regularized": regularized, "exact_one_stop": [STRUCTURE_DATASETS["exact"]]}
+    exact = rules.exact_nnm1.output.dataset if "exact_multi" in config else rules.exact_two_impacts.output.dataset
     return {"regularized": regularized, "exact": [exact]}
 
 
@@ -317,11 +325,14 @@ def explorer_branches():
 # Forced responses (workflow/rules/forced.smk): the scenes of the configuration and their files.
 
 
-def forced_scene_names(which="all"):
-    """File stems of the forced responses of the configuration (`F0.05`, ..., `tube_F0.5`)."""
-    from nnmstop.forced.scenes import forced_scenes
+def forced_scene_names(which="all", exact=False):
+    """File stems of the forced responses of the configuration (`F0.05`, ..., `tube_F0.5`); with `exact`, only those
+    whose exact response is computed (nnmstop.forced.scenes.exact_response_gap: one stop)."""
+    from nnmstop.forced.scenes import exact_response_gap, forced_scenes
 
-    return [scene.name for scene in forced_scenes(config, which)] if "forced" in config else []
+    if "forced" not in config:
+        return []
+    return [scene.name for scene in forced_scenes(config, which) if not (exact and exact_response_gap(scene))]
 
 
 def forced_file(kind, scene):
@@ -332,9 +343,9 @@ def forced_file(kind, scene):
 def forced_datasets():
     """Every dataset of the forced target."""
     names = forced_scene_names()
-    oscillator = forced_scene_names("oscillator")
+    own = forced_scene_names("structure", exact=True)
     return (
-        [forced_file("exact", s) for s in oscillator]
+        [forced_file("exact", s) for s in own]
         + [forced_file("regularized", s) for s in names]
         + [rules.forced_backbone.output.dataset, rules.forced_prediction.output.dataset]
     )
@@ -357,3 +368,38 @@ def verified_inputs(wildcards):
     if "study" in config:
         inputs.update(study_manifest=rules.study_manifest.output.manifest)
     return inputs
+
+
+# --------------------------------------------------------------------------- docs and report
+
+
+def docs_inputs(wildcards):
+    """The datasets of the pages: the paper's oscillator's (the switched branches only where `bifurcations` has
+    them; the small test configuration has none), or a structure of one's own's; and the front-page figure."""
+    if STRUCTURE_KIND != "two_dof":
+        return {
+            **{name: results(path) for name, path in STRUCTURE_PAGE_DATASETS.items()},
+            "figure": paper_figures("structure_frequency_energy.png"),
+        }
+    inputs = {
+        name: results(path)
+        for name, path in {**RESULT_DATASETS, **PAPER_TABLE_DATASETS}.items()
+        if name not in OPTIONAL_DATASETS or name in config.get("bifurcations", {})
+    }
+    return {**inputs, "figure": rules.paper_fig02.output.png}
+
+
+
+def built_figures():
+    """The figures of the default target and every other figure of the configuration that the build made (exists
+    now): the extra figures, the forced, tube and study ones. `snakemake --report report.html report_figures`
+    puts them all in the report; a figure not built is left out rather than built for the report."""
+    candidates = [*rules.regime_error_figure.output, *rules.stability_figure.output]
+    candidates += [*rules.study_error_vs_runtime_figure.output, *rules.study_stiff_cases_figure.output]
+    if "forced" in config:
+        candidates += forced_figures()
+    if "tube" in config:
+        candidates += expand(paper_figures("tube_{figure}.{ext}"), figure=TUBE_FIGURE_INPUTS, ext=("pdf", "png"))
+        candidates += list(rules.tube_study.output)
+    return PAPER_FIGURES + [path for path in candidates if path not in PAPER_FIGURES and os.path.exists(path)]
+

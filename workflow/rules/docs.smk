@@ -6,32 +6,23 @@
 #
 # The site itself: sphinx-build -W --keep-going -b html docs docs/_build/html
 
-from nnmstop.docpages.results import OPTIONAL_DATASETS, RESULT_DATASETS
-
-
 localrules:
     docs,
 
 
 rule docs:
-    """docs/results.md from the datasets of the default build, and the front-page figure (Fig 2)."""
+    """docs/results.md and docs/paper_vs_build.md from the datasets of the default build, and the front-page figure
+    (Fig 2, or the structure's frequency-energy plot)."""
     input:
-        # the switched branches only where `bifurcations` has them (the small test configuration has none)
-        unpack(
-            lambda wildcards: {
-                name: results(path)
-                for name, path in RESULT_DATASETS.items()
-                if name not in OPTIONAL_DATASETS or name in config.get("bifurcations", {})
-            }
-        ),
-        figure=rules.paper_fig02.output.png,
+        unpack(docs_inputs),
     output:
         results="docs/results.md",
+        paper_table="docs/paper_vs_build.md",
         figure="docs/nnm1_frequency_energy.png",
     log:
         logs("docs.log"),
     params:
-        config=task_config("model"),
+        config=task_config("model", "structure", "compare", figures=["fig06", "fig07", "fig08", "fig09", "fig10", "fig11"]),
     conda:
         "../envs/nnmstop.yaml"
     script:

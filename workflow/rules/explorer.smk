@@ -8,6 +8,7 @@ rule explorer:
     """dist/explorer.html: frequency-energy plot of every branch, orbits synthesized in the browser."""
     input:
         **explorer_branches(),
+        **structure_files(),
         manifest=rules.dataset_manifest.output.manifest,
     output:
         page="dist/explorer.html",
@@ -16,7 +17,7 @@ rule explorer:
     benchmark:
         benchmarks("explorer.tsv")
     params:
-        config=task_config("explorer"),
+        config=task_config("explorer", "model", "structure"),
     conda:
         "../envs/nnmstop.yaml"
     script:

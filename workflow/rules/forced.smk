@@ -6,11 +6,12 @@
 
 
 
-FORCED_CONFIG = task_config("model", "structure", "anm", "forced", "metadata", tube=["structure"])
+# `structure` and `model`: the structure forced (nnmstop.forced.scenes); its matrix files, if any, are inputs
+FORCED_CONFIG = task_config("model", "structure", "anm", "forced", "metadata", tube=["structure"], hbm=["start_tolerance"])
 
 
 rule forced_exact:
-    """Exact response of the non-smooth oscillator at one force level."""
+    """Exact response of the non-smooth structure at one force level."""
     input:
         unpack(structure_files),
     output:
@@ -84,17 +85,17 @@ rule forced_prediction:
 # Datasets each forced figure draws (the keys are the figure task's named inputs).
 FORCED_FIGURE_INPUTS = {
     "frequency_response": lambda: {
-        "exact": [forced_file("exact", s) for s in forced_scene_names("oscillator")],
-        "regularized": [forced_file("regularized", s) for s in forced_scene_names("oscillator")],
+        "exact": [forced_file("exact", s) for s in forced_scene_names("structure", exact=True)],
+        "regularized": [forced_file("regularized", s) for s in forced_scene_names("structure")],
         "backbone": rules.forced_backbone.output.dataset,
     },
     "phase_lag": lambda: {
-        "exact": [forced_file("exact", s) for s in forced_scene_names("oscillator")],
-        "regularized": [forced_file("regularized", s) for s in forced_scene_names("oscillator")],
+        "exact": [forced_file("exact", s) for s in forced_scene_names("structure", exact=True)],
+        "regularized": [forced_file("regularized", s) for s in forced_scene_names("structure")],
     },
     "orbits": lambda: {
-        "exact": [forced_file("exact", forced_scene_names("oscillator")[-1])],
-        "regularized": [forced_file("regularized", forced_scene_names("oscillator")[-1])],
+        "exact": [forced_file("exact", s) for s in forced_scene_names("structure", exact=True)[-1:]],
+        "regularized": [forced_file("regularized", forced_scene_names("structure")[-1])],
     },
     "prediction_error": lambda: {"prediction": rules.forced_prediction.output.dataset},
     "tube": lambda: {"regularized": [forced_file("regularized", s) for s in forced_scene_names("tube")]},

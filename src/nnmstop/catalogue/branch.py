@@ -289,7 +289,9 @@ STABILITY_VARIABLES = (
         "time_residual above stability.max_orbit_residual (the HBM orbit's own error; more steps would not resolve it), "
         "and the orbit not refined; 3 resolved on the orbit refined by shooting into a periodic orbit of the regularized "
         "equations of motion (the HBM orbit's own error decided; stability variables from the refined orbit); 4 the "
-        "shooting did not converge (verdict of the HBM orbit, unresolved); 5 the refined orbit's margin within 2 x its "
+        "shooting did not converge: Newton diverged, went farther than refine_max_change, or met a singular system (an "
+        "orbit whose period is a multiple of its own, next to an n:1 branch point) (verdict of the HBM orbit, "
+        "unresolved); 5 the refined orbit's margin within 2 x its "
         "integration error at the largest step count or below trace_tol: a non-trivial pair sits at +1 (a stability "
         "change, e.g. an energy fold)",
         flags=(
@@ -406,9 +408,69 @@ WEAR_VARIABLES = tuple(
     for v in wear_variables(("point", "stop"), "regularized law of the stop")
 )
 
+#: What each orbit is, from its harmonic content (:mod:`nnmstop.hbm.identity`, ``docs/methods/identity.md``).
+IDENTITY_VARIABLES = (
+    Variable(
+        "dominant_harmonic",
+        ("point",),
+        "harmonic k >= 1 carrying the largest share of the mass-weighted mean square of the motion (1: the orbit "
+        "moves at its own frequency; n > 1: it is an orbit of n times the stored frequency read over n periods)",
+    ),
+    Variable(
+        "dominant_harmonic_share",
+        ("point",),
+        "share of the mass-weighted mean square of the motion in dominant_harmonic",
+    ),
+    Variable(
+        "fundamental_share", ("point",), "share of the mass-weighted mean square of the motion in the first harmonic"
+    ),
+    Variable(
+        "dominant_mode",
+        ("point",),
+        "linear mode (1 the lowest) carrying most of the dominant harmonic's motion: a mode of the structure with each "
+        "stop replaced by its effective_stop_stiffness (eta near rest, alpha as the gap closes)",
+    ),
+    Variable(
+        "dominant_mode_share", ("point",), "share of the dominant harmonic's mass-weighted motion in dominant_mode"
+    ),
+    Variable(
+        "tongue_harmonic",
+        ("point",),
+        "n of the n:1 internal resonance tongue the orbit lies on: a harmonic n >= 2 holding more than a tenth of the "
+        "motion's mean square while the first harmonic dominates; 0 outside a tongue",
+    ),
+    Variable(
+        "orbit_kind",
+        ("point",),
+        "what the orbit is: NNM dominant_mode at its own frequency; in the tongue_harmonic:1 tongue of NNM "
+        "dominant_mode; NNM dominant_mode seen at 1/dominant_harmonic of its frequency",
+        flags=("own_frequency", "tongue", "seen_at_fraction"),
+    ),
+    Variable(
+        "dof_dominant_harmonic",
+        ("point", "dof"),
+        "harmonic k >= 1 of the largest amplitude of each degree of freedom's motion (0 where it does not move)",
+    ),
+    Variable(
+        "effective_stop_stiffness",
+        ("point", "stop"),
+        "equivalent linear stiffness <f x> / <x^2> of each stop over the orbit (least squares of the stop force in "
+        "time), between eta and alpha",
+    ),
+    Variable(
+        "identity_change_point",
+        ("identity_change",),
+        "index of the first point of a new identity along the branch (dominant_harmonic, dominant_mode, "
+        "tongue_harmonic, orbit_kind): where the branch crosses onto another family or a tongue; that point's "
+        "identity says what it becomes",
+    ),
+    Variable("identity_change_energy", ("identity_change",), "energy at identity_change_point"),
+    Variable("identity_change_frequency", ("identity_change",), "frequency at identity_change_point", units="Hz"),
+)
+
 NNM_BRANCH_VARIABLES = (
     ORBIT_VARIABLES + PATH_VARIABLES + DIAGNOSTIC_VARIABLES + WEAR_VARIABLES + LOCATED_VARIABLES
-    + STABILITY_VARIABLES + STRUCTURE_VARIABLES
+    + STABILITY_VARIABLES + STRUCTURE_VARIABLES + IDENTITY_VARIABLES
 )  # fmt: skip
 NNM_BRANCH = DatasetKind(
     "nnm_branch",

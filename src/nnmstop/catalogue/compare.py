@@ -1,5 +1,7 @@
 """Dataset kinds of the compare datasets (see :mod:`nnmstop.catalogue`)."""
 
+from dataclasses import replace
+
 from nnmstop.catalogue import DatasetKind, Variable
 
 EXACT_VS_REGULARIZED_VARIABLES = (
@@ -109,6 +111,53 @@ EXACT_VS_REGULARIZED_VARIABLES = (
     Variable("stop", ("stop",), "index of the stop"),
     Variable("energy", ("point",), "matched total energy of the exact and regularized orbits"),
 )
+#: The differences of a pair exist between like orbits only (``counterpart`` 0): missing otherwise.
+_BETWEEN_LIKE_ORBITS = (
+    "frequency_difference", "relative_frequency_difference", "max_x_difference", "max_u_difference",
+    "max_xdot_difference", "max_udot_difference", "max_force_difference", "x_max_exact", "u_max_exact",
+    "force_max_exact", "regularized_origin_shift",
+)  # fmt: skip
+EXACT_VS_REGULARIZED_VARIABLES = tuple(
+    replace(v, missing="where the regularized orbit is no counterpart of the exact one", reason="counterpart")
+    if v.name in _BETWEEN_LIKE_ORBITS
+    else v
+    for v in EXACT_VS_REGULARIZED_VARIABLES
+) + (
+    Variable(
+        "counterpart",
+        ("point",),
+        "whether the regularized orbit is of the exact orbit's type: as many contacts per period with the stop "
+        "(regularized_contacts_per_period, exact_impacts_per_period) and the same dominant and tongue harmonics "
+        "(nnmstop.compare.matching.orbit_types); only then are they compared",
+        flags=("counterpart", "other_contacts", "other_harmonic_content"),
+    ),
+    Variable("exact_impacts_per_period", ("point",), "excursions of x beyond the stops per period, exact orbit"),
+    Variable(
+        "regularized_contacts_per_period",
+        ("point",),
+        "excursions of x into the contact transition of the regularized law, |x| > 1 - sqrt(2 eta / alpha), per period, "
+        "regularized orbit",
+    ),
+    Variable(
+        "exact_dominant_harmonic", ("point",), "harmonic of largest share of the mass-weighted motion, exact orbit"
+    ),
+    Variable(
+        "regularized_dominant_harmonic",
+        ("point",),
+        "harmonic of largest share of the mass-weighted motion, regularized orbit",
+    ),
+    Variable(
+        "exact_tongue_harmonic",
+        ("point",),
+        "harmonic n >= 2 holding more than a tenth of the exact orbit's motion while the first dominates (0: none)",
+    ),
+    Variable(
+        "regularized_tongue_harmonic",
+        ("point",),
+        "harmonic n >= 2 holding more than a tenth of the regularized orbit's motion while the first dominates (0: none)",
+    ),
+)
+
 EXACT_VS_REGULARIZED = DatasetKind(
     "exact_vs_regularized",
     "Exact against regularized NNM1 at matched energies",

@@ -10,7 +10,21 @@ from nnmstop.catalogue import DatasetKind, Variable
 ONE_IMPACT_COMPARISON_VARIABLES = (
     Variable("exact_frequency", ("energy",), "frequency of the exact non-smooth orbit", units="Hz"),
     Variable("regularized_frequency", ("energy",), "frequency of the regularized HBM orbit", units="Hz"),
-    Variable("relative_difference", ("energy",), "(regularized - exact) / exact frequency"),
+    Variable(
+        "relative_difference",
+        ("energy",),
+        "(regularized - exact) / exact frequency",
+        missing="where the regularized orbit is no counterpart of the exact one",
+        reason="no_counterpart",
+    ),
+    Variable(
+        "no_counterpart",
+        ("energy",),
+        "1 where the regularized NNM1 first reaches the energy on orbits not of the exact family's type (not NNM1 at "
+        "its own frequency: an internal resonance tongue, another NNM seen at 1/n; or striking another stop): not "
+        "compared",
+        flags=("counterpart", "no_counterpart"),
+    ),
     Variable(
         "exact_interpolation_error",
         ("energy",),

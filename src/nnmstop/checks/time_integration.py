@@ -290,6 +290,8 @@ def integrate_structure_regularized(structure, z0, t_eval, rtol: float = 1e-12, 
         contact.apply(force, contact.forces(contact.coordinates(q)))
         return np.concatenate([z[n:], -minv @ force])
 
+    if t_eval.size == 1:
+        return Trajectory(t_eval, z0[None, :].copy(), np.zeros(0), np.zeros(0, dtype=int))
     sol = solve_ivp(field, (t_eval[0], t_eval[-1]), z0, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
     if sol.status < 0:
         raise RuntimeError(f"solve_ivp failed: {sol.message}")

@@ -20,7 +20,7 @@ import numpy as np
 import xarray as xr
 
 from nnmstop.catalogue import describe
-from nnmstop.compare.matching import EnergyMatcher, orbit_differences
+from nnmstop.compare.matching import EnergyMatcher, orbit_differences, orbit_types
 from nnmstop.hbm.dataset import ORBIT_COEFFICIENTS, orbit_variables
 
 __all__ = ["comparison_energies", "comparison_dataset", "empty_comparison_dataset"]
@@ -102,6 +102,7 @@ def comparison_dataset(
     rows = [_matched(matcher, energy, phase_samples, cache) for energy in energies]
     system = matcher.system
     data = _difference_variables(rows, system)
+    data.update(_type_variables(rows))
     data["marked"] = _marked_variable(len(energies), marks)
     # the regularized orbits, in the layout of the branch datasets (for nnmstop.figures.common.orbit)
     orbit_data = orbit_variables(system, np.array([pair.regularized for pair, _ in rows]))
@@ -121,10 +122,21 @@ def comparison_dataset(
         "matching": MATCHING,
         "alignment": ALIGNMENT,
         **{f"point_{label}_energy": float(energies[i]) for label, i in marks.items()},
+        "counterparts": COUNTERPARTS,
     }
+    for label, i in marks.items():
+        if rows[i][1]["why"]:
+            ds.attrs[f"point_{label}_counterpart"] = rows[i][1]["why"]
     return describe(ds, "exact_vs_regularized")
 
 
+#: Which orbits are compared (global attribute ``counterparts``).
+COUNTERPARTS = (
+    "only orbits of one type: the same impacts per period at the stop and the same dominant and tongue harmonics "
+    "of the mass-weighted motion (nnmstop.compare.matching.orbit_types); where the regularized orbit at the exact "
+    "orbit's energy is of another type (an internal resonance tongue, no contact), it is no counterpart: "
+    "counterpart says why and the differences are missing"
+)
 #: How the orbits are matched and aligned (global attributes of the comparison).
 MATCHING = (
     "Newton's method at fixed energy on both sides: exact closed-form quarter-period equations plus energy; "
@@ -165,10 +177,31 @@ PAIRS = (
 EXACT_UNKNOWNS = ("exact_xdot0", "exact_udot0", "exact_tau1", "exact_T1")
 
 
+#: The types of each pair (:func:`~nnmstop.compare.matching.orbit_types`), variables of the dataset.
+TYPES = (
+    "exact_impacts_per_period",
+    "regularized_contacts_per_period",
+    "exact_dominant_harmonic",
+    "regularized_dominant_harmonic",
+    "exact_tongue_harmonic",
+    "regularized_tongue_harmonic",
+)
+
+
 def _matched(matcher: EnergyMatcher, energy: float, phase_samples: int, synthesis_cache: dict):
-    """The matched pair at ``energy`` and its differences (the phase grid's synthesis shared by all pairs)."""
+    """The matched pair at ``energy``, its types and, between like orbits, its differences (the phase grid's
+    synthesis shared by all pairs); between orbits of different types the differences are NaN."""
     pair = matcher.match(energy)
-    diff = orbit_differences(pair, matcher.system, phase_samples, synthesis_cache)
+    types = orbit_types(pair, matcher.system)
+    if types["counterpart"]:
+        logger.info("%s", types["why"])
+        frequency_exact = 1.0 / (4.0 * pair.exact[3])
+        missing = {name: np.nan for name in DIFFERENCES}
+        missing.update(
+            frequency_exact=frequency_exact, frequency_regularized=float(matcher.system.frequency_hz(pair.regularized))
+        )
+        return pair, {**missing, **types}
+    diff = {**orbit_differences(pair, matcher.system, phase_samples, synthesis_cache), **types}
     logger.info(
         "E = %.6g: frequency exact %.8f Hz, regularized %.8f Hz (relative difference %+.3e); max |dx| %.3e, "
         "|du| %.3e, |df| %.3e",
@@ -193,6 +226,12 @@ def _difference_variables(rows, system) -> dict:
     data["regularized_energy_spread"] = _column([system.diagnostics(p.regularized)["energy_spread"] for p, _ in rows])
     y = np.array([p.exact for p, _ in rows])
     data.update({name: _column(y[:, j]) for j, name in enumerate(EXACT_UNKNOWNS)})
+    return data
+
+
+def _type_variables(rows) -> dict:
+    data = {name: ("point", np.array([d[name] for _, d in rows], dtype=np.int32)) for name in TYPES}
+    data["counterpart"] = ("point", np.array([d["counterpart"] for _, d in rows], dtype=np.int8))
     return data
 
 

@@ -29,8 +29,9 @@ from nnmstop.continuation.core import relative_residual
 from nnmstop.continuation.newton import newton_solve
 from nnmstop.exact.grazing import assess_orbit
 from nnmstop.exact.problem import TwoImpactProblem
-from nnmstop.hbm.dataset import dataset_unknowns
-from nnmstop.hbm.system import HarmonicBalanceSystem
+from nnmstop.hbm.dataset import dataset_unknowns, orbit_variables
+from nnmstop.hbm.identity import ORBIT_FORCE_NAMES, content_kind, identity_label, orbit_identity, sampled_shares
+from nnmstop.hbm.system import HarmonicBalanceSystem, impacts_per_period
 from nnmstop.models.structure import two_dof_parameters, two_dof_structure
 from nnmstop.models.two_dof import ModelParameters, regularized_contact_force, total_energy
 
@@ -48,6 +49,8 @@ __all__ = [
     "hbm_energy",
     "regularized_orbit_on_phase",
     "largest_differences",
+    "COUNTERPART_STATUS",
+    "orbit_types",
     "orbit_differences",
 ]
 
@@ -481,6 +484,66 @@ def largest_differences(first: dict, second: dict, first_on, second_on, keys) ->
         first_fine, second_fine = refined[j]
         fine = np.abs(first_fine[key] - second_fine[key])
         out[key] = float(max(diff[j], fine.max()))
+    return out
+
+
+#: Codes of ``counterpart`` in the comparison dataset: the regularized orbit at the energy of the exact one is of
+#: the same type, or not (other contacts with the stop, other harmonic content) and then it is no counterpart.
+COUNTERPART_STATUS = ("counterpart", "other_contacts", "other_harmonic_content")
+
+
+def orbit_types(matched: MatchedOrbits, system: HarmonicBalanceSystem, samples: int = 1024) -> dict:
+    """The type of each orbit of a matched pair, and whether they are alike (:data:`COUNTERPART_STATUS`).
+
+    Type: contacts per period with the stop, dominant harmonic and tongue harmonic of the mass-weighted motion
+    (:mod:`nnmstop.hbm.identity`): the regularized orbit's from its Fourier coefficients, the exact orbit's from
+    ``samples`` instants of its closed-form time history. A contact of the exact orbit is an excursion beyond the
+    gap, ``|x| > 1``; one of the regularized orbit an excursion into its law's contact transition,
+    ``|x| > 1 - w`` with ``w = sqrt(2 eta / alpha)`` the half-width over which the regularized stiffness goes from
+    ``eta`` to ``alpha`` (:meth:`nnmstop.hbm.shooting_refinement.RegularizedDynamics.width`): the regularized
+    orbit that meets its smoothed stop there is the exact one's counterpart just above grazing (the paper's
+    point a)), while a tongue orbit that stays in the soft part of the law is not. Orbits of different types
+    are not compared.
+
+    Returns
+    -------
+    dict
+        ``counterpart`` (code), ``exact_impacts_per_period``, ``regularized_contacts_per_period``, ``exact_*`` and
+        ``regularized_*`` ``dominant_harmonic`` and ``tongue_harmonic``, and ``why`` (words, empty for a
+        counterpart).
+    """
+    params = two_dof_parameters(system.structure, "the comparison with the exact two-impact family")
+    y = matched.exact
+    history = TwoImpactProblem(params).time_history(y, 4.0 * y[3] * np.arange(samples) / samples)
+    mass = np.diag([1.0, params.delta])
+    dominant, tongue, kind = content_kind(sampled_shares(mass, np.column_stack([history.x, history.u])))
+    exact = {"impacts_per_period": impacts_per_period(history.x), "dominant_harmonic": dominant,
+             "tongue_harmonic": tongue}  # fmt: skip
+    data = orbit_variables(system, np.atleast_2d(matched.regularized))
+    ident = orbit_identity(system.structure, *(data[k][1] if k in data else None for k in ORBIT_FORCE_NAMES))
+    reg_x = system.to_time(system.split(matched.regularized)[0], samples)  # x: the first block (stop on x)
+    regularized = {
+        "contacts_per_period": impacts_per_period(reg_x / (1.0 - np.sqrt(2.0 * params.eps))),
+        "dominant_harmonic": int(ident["dominant_harmonic"][0]),
+        "tongue_harmonic": int(ident["tongue_harmonic"][0]),
+    }
+    status, why = 0, ""
+    if regularized["contacts_per_period"] != exact["impacts_per_period"]:
+        status = 1
+    elif (regularized["dominant_harmonic"], regularized["tongue_harmonic"]) != (dominant, tongue):
+        status = 2
+    if status:
+        label = identity_label(int(ident["orbit_kind"][0]), int(ident["dominant_mode"][0]),
+                               regularized["dominant_harmonic"], regularized["tongue_harmonic"])  # fmt: skip
+        exact_label = identity_label(kind, 1, dominant, tongue)
+        why = (
+            f"no counterpart at E = {matched.energy:.4g}: the regularized orbit is {label} with "
+            f"{regularized['contacts_per_period']} contacts per period, the exact one {exact_label} with "
+            f"{exact['impacts_per_period']}"
+        )
+    out = {"counterpart": status, "why": why}
+    out.update({f"exact_{k}": v for k, v in exact.items()})
+    out.update({f"regularized_{k}": v for k, v in regularized.items()})
     return out
 
 

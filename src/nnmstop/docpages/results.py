@@ -19,7 +19,15 @@ import xarray as xr
 
 from nnmstop.models.two_dof import ModelParameters, linear_modes
 
-__all__ = ["RESULT_DATASETS", "OPTIONAL_DATASETS", "results_page", "page_inputs"]
+__all__ = [
+    "RESULT_DATASETS",
+    "OPTIONAL_DATASETS",
+    "STRUCTURE_DATASETS",
+    "results_page",
+    "structure_results_page",
+    "identity_table",
+    "page_inputs",
+]
 
 #: The datasets the page reads, under ``results/``, by the name the page uses.
 RESULT_DATASETS = {
@@ -33,6 +41,7 @@ RESULT_DATASETS = {
     "regimes": "compare/nnm1_regimes.nc",
 }
 _BRANCHES = {
+    "exact_one_stop": "exact NNM1, one impact per side of its struck stop",
     "exact_two_impacts": "exact NNM1, two impacts per period",
     "exact_nnm1": "exact NNM1, any number of impacts",
     "nnm1": "regularized NNM1",
@@ -42,6 +51,14 @@ _BRANCHES = {
 }
 #: Datasets the page shows only when the build has them (the switched branches of ``bifurcations``).
 OPTIONAL_DATASETS = ("nnm1_3to1", "nnm1_5to1")
+#: The datasets of the page of a structure of one's own (``structure.kind`` beam or matrices), under ``results/``.
+STRUCTURE_DATASETS = {
+    "nnm1": "hbm/nnm1.nc",
+    "nnm2": "hbm/nnm2.nc",
+    "exact_one_stop": "exact/nnm1_one_impact.nc",
+    "compare_one_stop": "compare/nnm1_one_impact.nc",
+}
+_PATHS = {**RESULT_DATASETS, **STRUCTURE_DATASETS}
 _INPUT_LINE = re.compile(r"^\| `results/(?P<path>[^`]+)` \| `(?P<digest>[0-9a-f]{64})` \|$")
 
 
@@ -79,10 +96,18 @@ def _linear_limits(params: ModelParameters) -> list:
 
 
 def _stability_counts(ds: xr.Dataset) -> tuple:
+    """Resolved verdicts, stable and unstable among them, and the unresolved orbits (whose ``stable`` is only the
+    HBM orbit's unconfirmed verdict, so it is counted in neither): the four add up to the points."""
     if "stable" not in ds:
-        return "", ""
-    resolved = int(ds["stability_resolved"].sum()) if "stability_resolved" in ds else ds.sizes["point"]
-    return str(resolved), str(int((ds["stable"] == 1).sum()))
+        return "", "", "", ""
+    resolved = ds["stability_resolved"].values == 1 if "stability_resolved" in ds else np.ones(ds.sizes["point"], bool)
+    stable = ds["stable"].values == 1
+    return (
+        str(int(resolved.sum())),
+        str(int((stable & resolved).sum())),
+        str(int((~stable & resolved).sum())),
+        str(int((~resolved).sum())),
+    )
 
 
 def _branches(data: dict) -> list:
@@ -92,21 +117,33 @@ def _branches(data: dict) -> list:
             continue
         ds = data[name]
         energy, frequency = ds["energy"].values, ds["frequency"].values
-        residual = ds["residual"] if "residual" in ds else ds["algebraic_residual"]
-        resolved, stable = _stability_counts(ds)
+        residual = next((ds[v] for v in ("residual", "algebraic_residual") if v in ds), None)
+        resolved, stable, unstable, unresolved = _stability_counts(ds)
         rows.append(
             [
-                f"{what} (`{RESULT_DATASETS[name]}`)",
+                f"{what} (`{_PATHS[name]}`)",
                 ds.sizes["point"],
                 f"{g(energy.min())} - {g(energy.max())}",
                 f"{g(frequency[0], 5)} -> {g(frequency[-1], 5)}",
-                g(float(residual.max()), 2),
+                g(float(residual.max()), 2) if residual is not None else "",
                 resolved,
                 stable,
+                unstable,
+                unresolved,
             ]
         )
         ends.append(f"- {what}: {ds.attrs.get('end_reason', '')}")
-    header = ["branch (dataset)", "points", "E range", "f first -> last [Hz]", "max residual", "verdicts", "stable"]
+    header = [
+        "branch (dataset)",
+        "points",
+        "E range",
+        "f first -> last [Hz]",
+        "max residual",
+        "verdicts",
+        "stable",
+        "unstable",
+        "unresolved",
+    ]
     return [*_table(header, rows), "", "Where each branch ends (`end_reason`):", "", *ends]
 
 
@@ -123,7 +160,7 @@ def _exact_regimes(ds: xr.Dataset) -> list:
                 part.sizes["point"],
                 f"{g(energy.min())} - {g(energy.max())}",
                 f"{g(energy[0])} -> {g(energy[-1])}",
-                int((part["stable"] == 1).sum()),
+                _stability_counts(part)[1],
             ]
         )
     header = ["segment", "sequence", "impacts per period", "points", "E range", "E first -> last", "stable"]
@@ -168,17 +205,14 @@ def _points_a_b(ds: xr.Dataset) -> list:
     for code, label in enumerate(("a", "b"), start=1):  # flag_values of `marked`: 1 point a), 2 point b)
         (k,) = np.flatnonzero(ds["marked"].values == code)
         exact, regularized = ds["frequency_exact"].values[k], ds["frequency_regularized"].values[k]
-        rows.append(
-            [
-                f"{label})",
-                g(ds["exact_energy"].values[k]),
-                g(exact, 6),
-                g(regularized, 6),
-                g(ds["relative_frequency_difference"].values[k], 3),
-                g(ds["max_x_difference"].values[k], 3),
-                g(ds["max_force_difference"].values[k], 3),
-            ]
-        )
+        alike = "counterpart" not in ds or int(ds["counterpart"].values[k]) == 0
+        differences = (
+            [g(ds[name].values[k], 3) for name in ("relative_frequency_difference", "max_x_difference",
+                                                   "max_force_difference")]
+            if alike
+            else ["no counterpart", "", ""]
+        )  # fmt: skip
+        rows.append([f"{label})", g(ds["exact_energy"].values[k]), g(exact, 6), g(regularized, 6), *differences])
     header = [
         "point",
         "E",
@@ -222,6 +256,26 @@ def _regimes(ds: xr.Dataset) -> list:
         "max abs df / f",
     ]
     return _table(header, rows)
+
+
+def identity_table(data: dict) -> list:
+    """What the orbits of each regularized branch are along it (:func:`nnmstop.hbm.identity.identity_runs`): one row
+    per run of one identity, with its points and energies (where the branch crosses onto another family)."""
+    from nnmstop.hbm.identity import identity_runs
+
+    rows = []
+    for name in ("nnm1", "nnm2", "nnm1_3to1", "nnm1_5to1"):
+        if name not in data:
+            continue
+        ds = data[name]
+        energy, frequency = ds["energy"].values, ds["frequency"].values
+        for run in identity_runs(ds):
+            a, b = run.start, run.stop - 1
+            rows.append(
+                [_BRANCHES[name], run.label, f"{a} - {b}", f"{g(energy[a])} -> {g(energy[b])}",
+                 f"{g(frequency[a], 5)} -> {g(frequency[b], 5)}"]
+            )  # fmt: skip
+    return _table(["branch", "orbits are", "points", "E first -> last", "f first -> last [Hz]"], rows)
 
 
 def _stability_reasons(data: dict) -> list:
@@ -292,7 +346,8 @@ def results_page(results_dir, params: ModelParameters, digests: dict) -> str:
         "",
         "Each dataset's points, energy range, frequency at its first and last point, largest residual",
         "(relative algebraic residual of the HBM equations; norm of the quarter-period equations for the exact",
-        "orbits), Floquet verdicts resolved and stable orbits.",
+        "orbits), Floquet verdicts resolved (stable and unstable among them) and orbits whose verdict is",
+        "unresolved (their `stable` is the HBM orbit's unconfirmed verdict, counted in neither column).",
         "",
         *_branches(data),
         "",
@@ -302,6 +357,14 @@ def results_page(results_dir, params: ModelParameters, digests: dict) -> str:
         "one phase sequence (F free flight, L and R contact with the left and right stop), in branch order.",
         "",
         *_exact_regimes(data["exact_nnm1"]),
+        "",
+        "## What the orbits are along each branch",
+        "",
+        "From each orbit's harmonic content (`dominant_harmonic`, `dominant_mode`, `tongue_harmonic`, `orbit_kind`;",
+        "[the method](methods/identity.md)): runs of one identity in branch order; a change is where the branch",
+        "enters an internal resonance tongue or crosses onto another family (an NNM seen at 1/n of its frequency).",
+        "",
+        *identity_table(data),
         "",
         "## Branch points and energy folds",
         "",
@@ -336,6 +399,100 @@ def results_page(results_dir, params: ModelParameters, digests: dict) -> str:
         "| dataset | data digest |",
         "|---|---|",
         *(f"| `results/{RESULT_DATASETS[name]}` | `{digests[RESULT_DATASETS[name]]}` |" for name in data),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _structure_limits(nnm1: xr.Dataset) -> list:
+    rows = []
+    for limit, what in (
+        ("no_contact_frequency", "no contact (every gap infinite)"),
+        ("regularized_frequency", "regularized, near rest (added stiffness eta at each stop)"),
+        ("gap_zero_frequency", "gap 0 (every stop always engaged, added stiffness alpha)"),
+    ):
+        values = nnm1[limit].values[:2]
+        rows.append([what, *(g(v, 4) for v in values)])
+    return _table(["limit", "f mode 1 [Hz]", "f mode 2 [Hz]"][: 1 + len(nnm1["mode"].values[:2])], rows)
+
+
+def _structure_comparison(ds: xr.Dataset) -> list:
+    if ds.sizes["energy"] == 0:
+        return [f"Nothing compared: {ds.attrs.get('end_reason', 'no common energy')}."]
+    compared = ds["no_counterpart"].values == 0 if "no_counterpart" in ds else np.ones(ds.sizes["energy"], bool)
+    difference = np.abs(ds["relative_difference"].values[compared])
+    rows = [
+        [
+            ds.sizes["energy"],
+            int(compared.sum()),
+            f"{g(float(ds['energy'].values.min()))} - {g(float(ds['energy'].values.max()))}",
+            g(float(difference.max()), 3) if difference.size else "",
+            g(float(np.median(difference)), 3) if difference.size else "",
+        ]
+    ]
+    return _table(["energies", "compared (counterparts)", "E range", "max abs df / f", "median abs df / f"], rows)
+
+
+def structure_results_page(results_dir, digests: dict) -> str:
+    """The results page of the build of a structure of one's own (``structure.kind`` beam or matrices).
+
+    The sections that apply to any structure (linear limits, branches, what the orbits are, branch points,
+    stability verdicts, the exact one-stop family against the regularized NNM1) from the datasets of
+    :data:`STRUCTURE_DATASETS`; what exists for the paper's oscillator only is named as such.
+    """
+    from nnmstop.figures.frequency_energy import structure_line
+
+    results_dir = Path(results_dir)
+    data = {name: xr.load_dataset(results_dir / path) for name, path in STRUCTURE_DATASETS.items()}
+    nnm1 = data["nnm1"]
+    branches = {name: data[name] for name in ("exact_one_stop", "nnm1", "nnm2")}
+    branches["exact_one_stop"] = branches["exact_one_stop"].rename({"orbit": "point"})  # the family's orbits
+    lines = [
+        "# Results",
+        "",
+        "<!-- Generated by `snakemake --cores 2 docs` (nnmstop.docpages.results): do not edit by hand. -->",
+        "",
+        f"Every number on this page is written by `snakemake --cores 2 docs` from the datasets of this build: "
+        f"{structure_line(nnm1)}, ANM order {nnm1.attrs['order']}. Frequencies in Hz of the nondimensional time, "
+        "energies nondimensional.",
+        "",
+        "## Linear limits",
+        "",
+        *_structure_limits(nnm1),
+        "",
+        "## Branches",
+        "",
+        *_branches(branches),
+        "",
+        "## What the orbits are along each branch",
+        "",
+        *identity_table(data),
+        "",
+        "## Branch points and energy folds",
+        "",
+        *_located(data),
+        "",
+        "## Exact against regularized NNM1",
+        "",
+        "From `results/compare/nnm1_one_impact.nc`: frequencies where each branch first reaches log-spaced energies",
+        "of the exact family's backbone; energies where the regularized NNM1 is of another type are not compared.",
+        "",
+        *_structure_comparison(data["compare_one_stop"]),
+        "",
+        "## Stability verdicts",
+        "",
+        *_stability_reasons(data),
+        "",
+        "## For the paper's oscillator only",
+        "",
+        "The exact NNM1 through any number of impacts, the branches switched at its 3:1 and 5:1 resonances, the",
+        "orbits at the paper's points a) and b) and the error per impact regime are built for the paper's 2-DOF",
+        "oscillator (`structure.kind: two_dof`); this build has none of them.",
+        "",
+        "## Datasets read",
+        "",
+        "| dataset | data digest |",
+        "|---|---|",
+        *[f"| `results/{path}` | `{digest}` |" for path, digest in sorted(digests.items())],
     ]
     return "\n".join(lines) + "\n"
 

@@ -280,6 +280,7 @@ def one_stop_dataset(family) -> xr.Dataset:
     )
     ds.attrs = {
         "start": family.start,
+        "struck_stop": int(problem.structure.stops.index(problem.stop)),
         "end_reason": family.end_reason,
         "end_margin": family.end_margin or "none",
         "end_check": family.end_check or "not confirmed (not asked)",

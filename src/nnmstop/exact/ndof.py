@@ -44,6 +44,7 @@ __all__ = [
     "OneStopFamily",
     "NdofTimeHistory",
     "grazing_orbit",
+    "first_grazed_stop",
     "assess_orbit",
     "orbit_at_contact_time",
     "orbit_at_energy",
@@ -310,6 +311,30 @@ def grazing_orbit(problem: OneStopProblem, mode: int = 0) -> np.ndarray:
     b = np.zeros(problem.n)
     b[mode] = w * problem.gap / phi[problem.dof]
     return np.concatenate([b, [quarter, quarter]])
+
+
+def first_grazed_stop(structure: Structure, mode: int = 0) -> int:
+    """Index of the stop that linear mode ``mode`` (no contact) reaches first as its amplitude grows.
+
+    The mode's grazing amplitude at stop ``s`` is ``gap_s / |phi_(dof_s)|``; the smallest one wins (the first
+    listed among equals). A family started at another stop's grazing would have the first one struck already.
+
+    Raises
+    ------
+    ValueError
+        If the mode moves none of the stops' degrees of freedom.
+    """
+    mass, stiffness = structure.dense_matrices()
+    _, modes = generalized_modes(mass, stiffness, structure.n_dofs)
+    if not 0 <= mode < structure.n_dofs:
+        raise ValueError(f"mode must be in [0, {structure.n_dofs}), got {mode!r}")
+    phi = modes[:, mode]
+    moved = np.abs(phi[list(structure.stop_dofs)]) > 1e-12 * np.abs(phi).max()
+    if not moved.any():
+        raise ValueError(f"linear mode {mode} moves none of the stops' degrees of freedom: no grazing orbit")
+    amplitude = np.full(len(structure.stops), np.inf)
+    amplitude[moved] = [s.gap / abs(phi[s.dof]) for s, m in zip(structure.stops, moved) if m]
+    return int(np.argmin(amplitude))
 
 
 # --------------------------------------------------------------------------- validity
@@ -604,7 +629,7 @@ def follow_one_stop_family(
     mode: int = 0,
     start=None,
     direction=None,
-    stop_index: int = 0,
+    stop_index: int | None = None,
     min_step_ratio: float = 1e-6,
     confirm: bool = False,
 ) -> OneStopFamily:
@@ -628,8 +653,8 @@ def follow_one_stop_family(
         A first orbit ``(b, tau1, T1)`` instead of the grazing one.
     direction : array_like, optional
         Orientation of the first tangent; by default increasing contact duration.
-    stop_index : int
-        The struck stop.
+    stop_index : int, optional
+        The struck stop; by default the one the linear mode ``mode`` reaches first (:func:`first_grazed_stop`).
     min_step_ratio : float
         The continuation fails (ContinuationError) when a step below ``min_step_ratio * step`` is needed.
     confirm : bool
@@ -638,12 +663,16 @@ def follow_one_stop_family(
     """
     if not (np.isfinite(step) and step > 0):
         raise ValueError(f"step must be a finite number > 0, got {step!r}")
+    if stop_index is None:
+        stop_index = first_grazed_stop(structure, mode)
     problem = OneStopProblem(structure, stop_index)
     y0 = grazing_orbit(problem, mode) if start is None else problem.check(start)
     if direction is None:
         direction = np.zeros(problem.n_unknowns)
         direction[-2:] = (-1.0, 1.0)
     label = f"grazing orbit of linear mode {mode}" if start is None else "user-supplied orbit"
+    if len(structure.stops) > 1:
+        label += f" striking stop {stop_index} (on {structure.dof_labels[problem.dof]}, gap {problem.gap:g})"
     settings = DenseArclengthSettings(step=float(step), min_step=min_step_ratio * float(step))
     branch = continue_exact_family(
         problem, y0, direction, validity_events(problem), settings, max_points=max_points, label="one-stop family"

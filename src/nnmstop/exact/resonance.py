@@ -37,10 +37,13 @@ def energy_growth(family: OneStopFamily) -> np.ndarray:
     """``dE_k / ds`` of every linear mode ``k`` at every orbit (shape ``(n, N)``), ``s`` along the continuation.
 
     The tangent at each orbit is the unit null vector of the Jacobian oriented along the chord of its
-    neighbours.
+    neighbours. A family of a single orbit (it ended where it started, its end reason says why) has no
+    chord: no growth, zeros.
     """
     problem, y = family.problem, np.asarray(family.unknowns)
-    growth = np.empty((len(y), problem.n))
+    growth = np.zeros((len(y), problem.n))
+    if len(y) < 2:
+        return growth
     for i in range(len(y)):
         chord = y[min(i + 1, len(y) - 1)] - y[max(i - 1, 0)]
         tangent, _ = unit_tangent(problem, y[i], chord, singular_tol=None)

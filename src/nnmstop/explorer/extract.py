@@ -40,6 +40,7 @@ class ExplorerSettings:
     time_samples: int = 512
     exact_harmonics: int = 64
     tube: bool = False
+    structure: object = None  # the Structure of an exact one-stop family (its orbits are rebuilt on it); not configured
 
     def __post_init__(self):
         if not isinstance(self.tube, bool):
@@ -50,8 +51,8 @@ class ExplorerSettings:
                 raise ValueError(f"explorer.{name} must be an integer >= 8, got {value!r}")
 
     @classmethod
-    def from_config(cls, section: dict | None) -> ExplorerSettings:
-        return cls(**(section or {}))
+    def from_config(cls, section: dict | None, structure=None) -> ExplorerSettings:
+        return cls(**(section or {}), structure=structure)
 
 
 @dataclass
@@ -199,6 +200,7 @@ def _branch_fields(ds: xr.Dataset) -> tuple[dict, dict]:
 REGULARIZED_NUMBERS = (
     "energy", "frequency", "x_max", "u_max", "impacts_per_period", "algebraic_residual", "time_residual",
     "truncation", "stable", "stability_reason", "max_multiplier", "stage", "segment",
+    "orbit_kind", "dominant_mode", "dominant_harmonic", "tongue_harmonic",  # what the orbit is (issue 29)
 )  # fmt: skip
 
 
@@ -266,10 +268,60 @@ def exact_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
     )
 
 
+ONE_STOP_NUMBERS = ("energy", "frequency", "x_max", "contact_time", "resonant_mode", "resonance_order")
+
+
+def one_stop_branch(ds: xr.Dataset, settings: ExplorerSettings) -> Branch:
+    """The exact NNM1 of a structure of one's own (``results/exact/nnm1_one_impact.nc``, one impact per side of its
+    struck stop): orbits rebuilt in closed form (:mod:`nnmstop.exact.ndof`) on ``settings.structure`` from the
+    stored start velocities, periods and contact times; drawn as x the struck stop's degree of freedom."""
+    from nnmstop.exact.ndof import OneStopProblem, time_history
+    from nnmstop.fourier import to_coefficients
+
+    structure = settings.structure
+    if structure is None:
+        raise ValueError(f"{ds.attrs.get('id', 'exact family')}: the exact family of a structure needs the structure")
+    struck = int(ds.attrs.get("struck_stop", 0))
+    problem = OneStopProblem(structure, struck)
+    labels = list(structure.dof_labels)
+    x = problem.dof
+    others = [i for i in range(problem.n) if i != x]
+    u = next((i for i in others if i in structure.stop_dofs), others[-1] if others else x)
+    period = 1.0 / ds["frequency"].values
+    H = settings.exact_harmonics
+    samples = 8 * H
+    fields = {"x": [], "u": []}
+    for v, T, contact in zip(ds["initial_velocity"].values, period, ds["contact_time"].values):
+        y = problem.unknowns_from_velocity(v, T / 4.0 - contact, T / 4.0)
+        t = T / 4.0 + T * np.arange(samples) / samples  # from the turning point in contact: a cosine series
+        q = time_history(problem, y, t).q
+        for name, dof in (("x", x), ("u", u)):
+            fields[name].append(to_coefficients(q[:, dof], H)[: H + 1])  # even about the turning point: cosines
+    columns, meta = _columns(ds, ONE_STOP_NUMBERS)
+    stop = structure.stops[struck]
+    model = {"alpha": float(stop.stiffness), "gap": float(stop.gap)}
+    return Branch(
+        kind="exact",
+        columns=columns,
+        meta=meta,
+        numbers=list(columns),
+        piece="",
+        orbit=_orbit(
+            {name: (np.array(c), np.zeros_like(np.array(c))) for name, c in fields.items()},
+            2.0 * np.pi / period,
+            "piecewise_law",
+            {"t": "t [1]", "x": labels[x], "u": labels[u], "f": f"force of the struck stop (on {labels[x]})"},
+        ),
+        multipliers={"real": np.ones((len(period), 2)), "imag": np.zeros((len(period), 2))},
+        attrs={"model": model, "family": "nnm1"},
+    )
+
+
 #: Kinds of branch the explorer draws: the function that reads a dataset of that kind.
 KINDS: dict[str, Callable[[xr.Dataset, ExplorerSettings], Branch]] = {
     "regularized": regularized_branch,
     "exact": exact_branch,
+    "exact_one_stop": one_stop_branch,
 }
 
 

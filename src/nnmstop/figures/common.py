@@ -28,6 +28,9 @@ __all__ = [
     "frequency_energy_axes",
     "label_minor_decades",
     "plot_branch",
+    "plot_identities",
+    "identity_legend_handles",
+    "branch_identity_name",
     "stability_legend_handles",
     "orbit",
     "orbit_series",
@@ -123,6 +126,87 @@ def unit_text(ds: xr.Dataset, name: str) -> str:
 
 
 STABILITY_LINESTYLES = {"stable": "-", "unstable": "--", "unresolved": ":"}
+
+
+#: Under the orbits of a branch in an n:1 tongue: a wide pale band (the curve keeps its family's colour on top).
+TONGUE_STYLE = {"color": "gold", "alpha": 0.6, "lw": 6.0, "solid_capstyle": "butt"}
+#: Colours of the other families a branch crosses onto (an NNM seen at 1/n of its frequency), in order of appearance.
+OTHER_FAMILY_COLORS = ("tab:purple", "tab:orange", "tab:brown", "tab:pink", "tab:olive")
+
+
+def branch_identity_name(ds: xr.Dataset) -> str:
+    """What most of a branch's orbits are (:func:`nnmstop.hbm.identity.identity_label`), e.g. for a switched branch
+    ``"NNM2 seen at 1/3 of its frequency"``; the branch's own name where the dataset holds no identity."""
+    from nnmstop.hbm.identity import identity_runs
+
+    runs = identity_runs(ds)
+    if not runs:
+        return str(ds.attrs.get("branch", "branch")).upper()
+    lengths: dict[str, int] = {}
+    for run in runs:
+        lengths[run.label] = lengths.get(run.label, 0) + run.stop - run.start
+    return max(lengths, key=lengths.get)
+
+
+def plot_identities(ax, ds: xr.Dataset, color, lw: float = 1.2, zorder: float = 3, own: str | None = None):
+    """A branch drawn by what its orbits are (:mod:`nnmstop.hbm.identity`), stability in the line style.
+
+    The runs that are NNM ``own`` (``"NNM1"``; by default the branch's ``mode`` attribute) and its tongues
+    are drawn in ``color``, a tongue with a pale band under it (:data:`TONGUE_STYLE`); the runs where the
+    branch has crossed onto another family (an NNM seen at 1/n of its frequency, or another NNM) in a colour
+    of their own (:data:`OTHER_FAMILY_COLORS`). Consecutive runs share their end points. Without identity
+    variables the whole branch is drawn in ``color`` (:func:`plot_branch`).
+
+    Returns
+    -------
+    drawn : set
+        Stability classes drawn (:func:`stability_legend_handles`).
+    others : dict
+        Label of each other family drawn -> ``(colour, first energy)``; plus ``"tongue"`` -> the tongue
+        orders drawn, when any (:func:`identity_legend_handles`).
+    """
+    from nnmstop.hbm.identity import identity_runs
+
+    runs = identity_runs(ds)
+    if not runs:
+        return plot_branch(ax, ds, color, lw=lw, zorder=zorder), {}
+    own = own or (f"NNM{int(ds.attrs['mode'])}" if "mode" in ds.attrs else None)
+    drawn, others, tongues = set(), {}, set()
+    energy, frequency = ds["energy"].values, ds["frequency"].values
+    n = ds.sizes["point"]
+    for run in runs:
+        part = slice(run.start, min(run.stop + 1, n))
+        if run.family == own or own is None:
+            run_color = color
+        else:
+            if run.label not in others:
+                others[run.label] = (OTHER_FAMILY_COLORS[len(others) % len(OTHER_FAMILY_COLORS)], energy[run.start])
+            run_color = others[run.label][0]
+        if run.kind == 1:
+            ax.plot(energy[part], frequency[part], zorder=zorder - 0.2, **TONGUE_STYLE)
+            tongues.add(run.tongue)
+        drawn |= plot_branch(ax, ds.isel(point=part), run_color, lw=lw, zorder=zorder)
+    if tongues:
+        others["tongue"] = tuple(sorted(tongues))
+    return drawn, others
+
+
+def identity_legend_handles(others: dict, lw: float = 1.2) -> list:
+    """Legend entries of the other families and the tongues drawn by :func:`plot_identities`."""
+    from matplotlib.lines import Line2D
+
+    from nnmstop.hbm.identity import TONGUE_SHARE
+
+    handles = []
+    for label, value in others.items():
+        if label == "tongue":
+            orders = ", ".join(f"{n}:1" for n in value)
+            text = f"{orders} tongue: harmonic n > {TONGUE_SHARE:.0%} of the motion"
+            handles.append(Line2D([], [], label=text, **TONGUE_STYLE))
+        else:
+            color, energy = value
+            handles.append(Line2D([], [], color=color, lw=lw, label=f"{label} (from E = {energy:.4g})"))
+    return handles
 
 
 def plot_branch(ax, ds: xr.Dataset, color, lw: float = 1.2, zorder: float = 3, frequency_divisor: float = 1.0):

@@ -64,11 +64,14 @@ EXACT_LINE = {"color": EXACT_COLOR, "lw": 1.3, "ls": (0, (5, 2.2)), "zorder": 4}
 
 
 def _check(ds: xr.Dataset, where: str, required: tuple) -> None:
-    """Required variables present, numeric values finite."""
+    """Required variables present, numeric values finite (but where the catalogue lets a value be missing and
+    names the variable saying why: the differences of orbits that are no counterparts)."""
     missing = [v for v in required if v not in ds.variables]
     if missing:
         raise ValueError(f"{where}: the dataset lacks the variable(s) {missing}")
     for name, var in {**ds.coords, **ds.data_vars}.items():
+        if "ancillary_variables" in var.attrs:
+            continue
         if np.issubdtype(var.dtype, np.number) and not np.all(np.isfinite(var.values)):
             raise ValueError(f"{where}: variable {name!r} holds NaN or infinite values; refusing to draw it")
 
@@ -117,6 +120,24 @@ def marked_points(comparison: xr.Dataset, where: str = "figure") -> dict:
     return out
 
 
+def counterpart_note(comparison: xr.Dataset, point: int) -> str:
+    """Why the regularized orbit of a compared point is no counterpart of the exact one ('' when it is)."""
+    if "counterpart" not in comparison or int(comparison["counterpart"].values[point]) == 0:
+        return ""
+    p = comparison.isel(point=point)
+    impacts = (int(p["regularized_contacts_per_period"]), int(p["exact_impacts_per_period"]))
+    harmonic = (int(p["regularized_dominant_harmonic"]), int(p["exact_dominant_harmonic"]))
+    tongue = (int(p["regularized_tongue_harmonic"]), int(p["exact_tongue_harmonic"]))
+
+    def kind(dominant, n):
+        return f"harmonic {dominant} dominant" if dominant > 1 else (f"{n}:1 tongue" if n else "fundamental")
+
+    return (
+        f"no counterpart: regularized orbit {impacts[0]} contacts/period, {kind(harmonic[0], tongue[0])}; "
+        f"exact {impacts[1]}, {kind(harmonic[1], tongue[1])}"
+    )
+
+
 def aligned_orbits(comparison: xr.Dataset, point: int, phase) -> tuple[dict, dict]:
     """Exact and regularized orbits of a compared point on the phase ``t/T``.
 
@@ -145,6 +166,9 @@ def _title(comparison: xr.Dataset, label: str, point: int) -> str:
     e = float(comparison["energy"].values[point])
     fe = float(comparison["frequency_exact"].values[point])
     fr = float(comparison["frequency_regularized"].values[point])
+    note = counterpart_note(comparison, point)
+    if note:
+        return f"{label})  E = {e:.3g}: exact {fe:.4f} Hz\n" + _wrapped(note, 44)
     return f"{label})  E = {e:.3g}\nexact {fe:.4f} Hz, regularized {fr:.4f} Hz"
 
 
@@ -178,9 +202,11 @@ def _fig02_curves(axis, curves: dict, comparison: xr.Dataset, marks: dict, lw: f
     axis.plot([e_reg[-1]], [f_reg[-1]], marker="s", mec=REGULARIZED_COLOR, **end)
     for i in marks.values():
         e = float(comparison["energy"].values[i])
+        alike = not counterpart_note(comparison, i)
         for key, colour in (("frequency_exact", EXACT_COLOR), ("frequency_regularized", REGULARIZED_COLOR)):
             f = float(comparison[key].values[i])
-            axis.plot([e], [f], marker="o", ms=4.5, color=colour, mec="black", mew=0.6, ls="none", zorder=7)
+            face = colour if alike or key == "frequency_exact" else "white"  # hollow: no counterpart
+            axis.plot([e], [f], marker="o", ms=4.5, color=colour, mfc=face, mec="black", mew=0.6, ls="none", zorder=7)
 
 
 def _fig02_annotations(ax, curves: dict, comparison: xr.Dataset, marks: dict) -> None:
@@ -305,6 +331,10 @@ def figure_02(exact: xr.Dataset, stage1: xr.Dataset, comparison: xr.Dataset, pdf
     title = f"NNM1, non-smooth vs regularized   ({_parameter_text(params, comparison)})"
     if not compared:
         title += f"\nno points a), b) compared: {comparison.attrs['end_reason']}"
+    for label, i in marks.items():
+        note = counterpart_note(comparison, i)
+        if note:
+            title += f"\n{label}) (hollow blue) {note}"
     ax.set_title(_wrapped(title, 100), fontsize=8.5)
     return save_figure(fig, pdf_path, png_dpi, description=title)
 
@@ -366,17 +396,22 @@ def figure_03(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
     phase = _phase()
     for col, (label, i) in enumerate(marks.items()):
         exact, reg = aligned_orbits(comparison, i, phase)
+        alike = not counterpart_note(comparison, i)  # no counterpart: the exact orbit alone
         axes[0, col].set_title(_title(comparison, label, i), fontsize=8.5)
         for row, (a, b, la, lb) in enumerate(rows):
             ax = axes[row, col]
-            ax.plot(reg[a], reg[b], **REG_LINE)
+            if alike:
+                ax.plot(reg[a], reg[b], **REG_LINE)
             ax.plot(exact[a], exact[b], **EXACT_LINE)
             ax.set_xlabel(f"{la} {NONDIMENSIONAL}")
             ax.set_ylabel(f"{lb} {NONDIMENSIONAL}")
             if a == "x":
                 for stop in (-1.0, 1.0):
                     ax.axvline(stop, **STOP_STYLE)
-    axes[1, 0].legend(handles=_legend_handles(), loc="center", fontsize=7, framealpha=0.9)
+    drawn = (
+        _legend_handles() if any(not counterpart_note(comparison, i) for i in marks.values()) else _legend_handles()[:1]
+    )
+    axes[1, 0].legend(handles=drawn, loc="center", fontsize=7, framealpha=0.9)
     title = (
         "NNM1 orbits at the same energy: x-phase plane, u-phase plane, modal line\n"
         f"({_parameter_text(params, comparison)}; dotted: stops x = ±1)"
@@ -399,6 +434,8 @@ def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
     phase = _phase(start=-0.25)
     for col, (label, i) in enumerate(marks.items()):
         exact, reg = aligned_orbits(comparison, i, phase)
+        if counterpart_note(comparison, i):  # no counterpart: the exact orbit alone
+            reg = {key: np.full_like(value, np.nan) for key, value in reg.items()}
         ax = axes[0, col]
         ax.plot(phase, reg["f"], **REG_LINE)
         ax.plot(phase, exact["f"], **EXACT_LINE)
@@ -407,13 +444,13 @@ def figure_04(comparison: xr.Dataset, pdf_path, png_dpi: int = 150):
         ax.set_ylabel(f"contact force f {NONDIMENSIONAL}")
         ax.set_title(_title(comparison, label, i), fontsize=8.5)
         ax = axes[1, col]
-        xmax = 1.08 * max(np.abs(reg["x"]).max(), np.abs(exact["x"]).max())
+        xmax = 1.08 * np.nanmax(np.abs(np.concatenate([reg["x"], exact["x"]])))
         xs = np.linspace(-xmax, xmax, 2001)
         ax.plot(reg["x"], reg["f"], **REG_LINE)
         ax.plot(xs, piecewise_contact_force(xs, params.alpha), **EXACT_LINE)
         for stop in (-1.0, 1.0):
             ax.axvline(stop, **STOP_STYLE)
-        fmax = 1.25 * max(np.abs(reg["f"]).max(), np.abs(exact["f"]).max())
+        fmax = 1.25 * np.nanmax(np.abs(np.concatenate([reg["f"], exact["f"]])))
         ax.set_xlim(-xmax, xmax)
         ax.set_ylim(-fmax, fmax)
         ax.set_xlabel(f"x {NONDIMENSIONAL}")

@@ -23,7 +23,7 @@ Reading the files, joining the NNM1 stages and the settings: :mod:`nnmstop.tasks
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -37,14 +37,18 @@ from nnmstop.figures.common import (
     NNM2_COLOR,
     REGULARIZED_COLOR,
     RESONANCE_COLOR,
+    branch_identity_name,
     frequency_energy_axes,
+    identity_legend_handles,
     label_minor_decades,
     plot_branch,
+    plot_identities,
     save_figure,
     stability_legend_handles,
 )
 from nnmstop.figures.labels import mark_obstacle, place_labels
 from nnmstop.figures.modal_lines import draw_modal_line, label_specs, locate_label, mark_point, modal_line_dofs
+from nnmstop.hbm.identity import identity_runs
 
 __all__ = [
     "PAPER_FIGURES",
@@ -54,6 +58,8 @@ __all__ = [
     "gap_zero_frequencies",
     "structure_line",
     "energy_window",
+    "scene_part",
+    "wrapped_title",
     "figure_05",
     "figure_06",
     "figure_07",
@@ -80,6 +86,11 @@ RESONANCE_BAND_ALPHA = 0.3
 STRUCTURE_KEYS = ("structure", "alpha", "beta", "delta", "eta", "dofs", "stops")
 #: Relative widening of an automatic energy window on each side, in log energy.
 WINDOW_MARGIN = 0.1
+#: Width (inches) of Figs 5-11 and the size (points) of their titles.
+FIGURE_WIDTH = 7.5
+TITLE_FONTSIZE = 8.5
+#: The NNM1 figures whose scene can be found by physics where their configured stages hold no orbit.
+SCENES = ("fig07", "fig08", "fig09", "fig10", "fig11")
 
 
 @dataclass(frozen=True)
@@ -215,23 +226,84 @@ def _range(spec: dict, key: str, where: str):
     return lo, hi
 
 
-def energy_window(branch: xr.Dataset, spec: dict, points: list[int], where: str):
+def energy_window(branch: xr.Dataset, spec: dict, points: list[int], where: str, focus=None):
     """The plotted energy range: ``energy_range`` if configured, else from the data.
 
-    The points of the ``focus_stages`` (all points without them), their log-energy span widened by
-    :data:`WINDOW_MARGIN` on each side, and widened further to hold every labelled point. None when the
-    branch holds no point.
+    The points of the ``focus_stages`` (all points without them; ``focus``, a mask of the points, when
+    given instead: the scene by physics where those stages hold no orbit, :func:`scene_part`), their
+    log-energy span widened by :data:`WINDOW_MARGIN` on each side, and widened further to hold every
+    labelled point. None when the branch holds no point.
     """
     explicit = _range(spec, "energy_range", where)
     energy = branch["energy"].values
     if explicit is not None or energy.size == 0:
         return explicit
-    focus = spec.get("focus_stages")
-    inside = np.isin(branch["stage"].values, focus) if focus else np.ones(energy.size, dtype=bool)
+    if focus is None:
+        stages = spec.get("focus_stages")
+        focus = np.isin(branch["stage"].values, stages) if stages else np.ones(energy.size, dtype=bool)
+    inside = np.asarray(focus, dtype=bool)
     chosen = np.concatenate([energy[inside] if inside.any() else energy, energy[list(points)]])
     lo, hi = np.log(chosen.min()), np.log(chosen.max())
     pad = WINDOW_MARGIN * max(hi - lo, np.log(2.0))
     return float(np.exp(lo - pad)), float(np.exp(hi + pad))
+
+
+def _involves(run, n: int) -> bool:
+    """Whether an identity run is in the ``n:1`` tongue or on an NNM seen at 1/n of its frequency."""
+    return (run.kind == 1 and run.tongue == n) or (run.kind == 2 and run.harmonic == n)
+
+
+def scene_part(branch: xr.Dataset, name: str) -> tuple[np.ndarray | None, str]:
+    """The points of ``branch`` that NNM1 figure ``name`` is about by physics, and that part in words.
+
+    Where a figure's configured stages hold no orbit (the paper's continuation stages end elsewhere at other
+    parameters), its scene is found from what the orbits are (:mod:`nnmstop.hbm.identity`) and their impacts:
+
+    * ``fig07``: NNM1 up to its first orbit with more than one impact per stop side;
+    * ``fig08``, ``fig09``: the orbits in the 3:1 (5:1) tongue or on an NNM seen at 1/3 (1/5) of its frequency;
+    * ``fig10``: the orbits after the last of those of the 5:1 resonance;
+    * ``fig11``: the high-energy end of the continuation: its last run of one identity, from the last change of
+      the impacts per period in it.
+
+    Returns ``(None, why)`` when the branch has no such part (no 5:1 resonance, say).
+    """
+    n_points = branch.sizes["point"]
+    mask = np.zeros(n_points, dtype=bool)
+    if n_points == 0:
+        return None, "no orbit"
+    energy, impacts = branch["energy"].values, branch["impacts_per_period"].values
+    runs = identity_runs(branch)
+    stops = int(branch.sizes.get("stop", 1))
+    if name == "fig07":
+        above = np.flatnonzero(impacts > 2 * stops)
+        mask[: above[0] if above.size else n_points] = True
+        return mask, "NNM1 up to its first orbit with more than one impact per stop side"
+    if name in ("fig08", "fig09", "fig10"):
+        n = PAPER_FIGURES[name].resonance
+        hits = [run for run in runs if _involves(run, n)]
+        if not hits:
+            return None, f"no {n}:1 internal resonance on this branch (no orbit in a {n}:1 tongue or seen at 1/{n})"
+        if name == "fig10":
+            mask[hits[-1].stop :] = True
+            if not mask.any():
+                return None, f"no orbit after the {n}:1 internal resonance (the branch ends in it)"
+            return mask, f"the branch after its {n}:1 internal resonance (E > {energy[hits[-1].stop - 1]:.4g})"
+        mask[hits[0].start : hits[-1].stop] = True
+        lo, hi = energy[mask].min(), energy[mask].max()
+        return mask, f"the branch in its {n}:1 internal resonance (E {lo:.4g} - {hi:.4g})"
+    if name == "fig11":
+        last = runs[-1] if runs else None
+        start = last.start if last else 0
+        changes = np.flatnonzero(impacts[start + 1 :] != impacts[start:-1]) + start + 1
+        start = int(changes[-1]) if changes.size else start
+        mask[start:] = True
+        what = last.label if last else "the branch"
+        return (
+            mask,
+            f"the high-energy end of the continuation: {what}, {int(impacts[-1])} impacts per period "
+            f"(E {energy[start]:.4g} - {energy[-1]:.4g})",
+        )
+    return np.ones(n_points, dtype=bool), "the whole branch"
 
 
 def _bifurcation_markers(ax, ds: xr.Dataset) -> set:
@@ -265,16 +337,23 @@ def _bifurcation_legend(drawn: set) -> list:
 
 
 def _auto_limits(ds_list, energy_range, levels=()):
-    """Frequency limits covering the branches within the energy window and the
-    horizontal ``levels`` (the gap-0 asymptotes), with room for the letters above."""
-    freqs = [np.asarray(levels, dtype=float)]
+    """Frequency limits covering the branches within the energy window and the horizontal ``levels`` (the
+    gap-0 asymptotes) near them (within half the branches' frequency span), with room for the letters above.
+
+    A level far from the branches (the gap-0 mode of another scene) would squash them into a line."""
+    freqs = []
     for ds in ds_list:
         e, f = ds["energy"].values, ds["frequency"].values
         inside = (
             np.ones(e.shape, dtype=bool) if energy_range is None else (e >= energy_range[0]) & (e <= energy_range[1])
         )
         freqs.append(f[inside])
-    f = np.concatenate(freqs)
+    data = np.concatenate(freqs) if freqs else np.zeros(0)
+    levels = np.asarray(levels, dtype=float)
+    if data.size:
+        reach = 0.5 * max(float(np.ptp(data)), 1e-3 * float(np.abs(data).max()))
+        levels = levels[(levels >= data.min() - reach) & (levels <= data.max() + reach)]
+    f = np.concatenate([levels, data])
     if f.size == 0:
         return None
     span = max(float(f.max() - f.min()), 1e-3 * float(f.max()))
@@ -377,7 +456,7 @@ def _companions(ax, kind: _FigureKind, nnm2, exact, bifurcated) -> list:
         if ds.sizes["point"] == 0:
             continue
         drawn = plot_branch(ax, ds, BIFURCATED_COLOR, lw=0.7, zorder=2.6)
-        label = f"branch switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)"
+        label = f"{branch_identity_name(ds)}: switched at the {ds.attrs['resonance']}:1 branch point (HBM-ANM)"
         handles.append(Line2D([], [], color=BIFURCATED_COLOR, lw=0.7, label=label))
         shown = {h.get_label() for h in handles}
         handles.extend(
@@ -405,8 +484,11 @@ def _draw_fep(ax, kind: _FigureKind, branch, nnm2, spec, where, branch_label, wi
     color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
     handles = []
     if branch.sizes["point"]:
-        drawn = plot_branch(ax, branch, color, lw=1.2, zorder=3)
-        handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
+        drawn, others = plot_identities(ax, branch, color, lw=1.2, zorder=3)
+        runs = identity_runs(branch)
+        if not runs or any(run.family == kind.branch.upper() for run in runs):  # its own orbits are drawn
+            handles.append(Line2D([], [], color=color, lw=1.2, label=branch_label))
+        handles.extend(identity_legend_handles(others))
         handles.extend(stability_legend_handles(drawn, color=color))
     handles.extend(_companions(ax, kind, nnm2, exact, list(bifurcated)))
     frequency_range = _range(spec, "frequency_range", where)
@@ -427,10 +509,17 @@ def _draw_fep(ax, kind: _FigureKind, branch, nnm2, spec, where, branch_label, wi
 
 
 def _inset_line(branch: xr.Dataset) -> str:
-    """What the modal-line panels show, in words (their plane and the grey lines of the first stop)."""
-    a, b = (str(branch["dof_label"].values[k]) for k in modal_line_dofs(branch))
-    gap = float(branch["stop_gap"].values[0])
-    return f"modal lines below: one period in the ({a}, {b}) plane; grey verticals: the stop at {a} = ±{gap:g}"
+    """What the modal-line panels show, in words (their plane and the grey lines of the stops in it)."""
+    ia, ib = modal_line_dofs(branch)
+    a, b = (str(branch["dof_label"].values[k]) for k in (ia, ib))
+    gaps = {int(d): float(g) for d, g in zip(branch["stop_dof"].values, branch["stop_gap"].values)}
+    lines = [f"grey verticals: the stop at {a} = ±{gaps[ia]:g}"]
+    if ib in gaps:
+        lines.append(f"grey horizontals: the stop at {b} = ±{gaps[ib]:g}")
+    others = [str(branch["dof_label"].values[d]) for d in gaps if d not in (ia, ib)]
+    if others:
+        lines.append(f"stops on {', '.join(others)} not in this plane")
+    return f"modal lines below: one period in the ({a}, {b}) plane; " + "; ".join(lines)
 
 
 def _inset_grid(n: int) -> tuple[int, int]:
@@ -457,11 +546,17 @@ def _checked(name: str, branch, nnm2, exact, bifurcated) -> None:
             raise ValueError(f"{where}: {dataset_name(ds)} is not a branch bifurcated from {kind.branch.upper()}")
 
 
-def _placed_labels(name: str, branch: xr.Dataset, spec: dict):
-    """The labels that land on ``branch`` with their points, and notes on those that do not."""
+def _placed_labels(name: str, branch: xr.Dataset, spec: dict, any_stage: bool = False):
+    """The labels that land on ``branch`` with their points, and notes on those that do not.
+
+    ``any_stage``: the branch drawn is the figure's scene by physics (its configured stages hold no orbit),
+    and a label's ``stage`` is not asked for: it lands on the part drawn.
+    """
     labels = label_specs(spec.get("labels"))
     if not labels:
         raise ValueError(f"{name}: no labelled points configured (figures.{name}.labels)")
+    if any_stage:
+        labels = [replace(label, stage=None) for label in labels]
     placed, missing = [], []
     for label in labels:
         place = locate_label(branch, label)
@@ -500,45 +595,103 @@ def _inset_slope(kind: _FigureKind, branch: xr.Dataset) -> float | None:
     return float(shape[b] / shape[a]) if shape[a] != 0 else None
 
 
+def _points_of(ds: xr.Dataset, points: np.ndarray) -> xr.Dataset:
+    """The consecutive ``points`` of a branch dataset, with its located branch points, folds and identity changes
+    among them (their point indices renumbered)."""
+    out = ds.isel(point=points).assign_coords(point=np.arange(len(points)))
+    for dim, index in (
+        ("located_branch_point", "branch_point_flagged_point"),
+        ("located_fold", "fold_point"),
+        ("identity_change", "identity_change_point"),
+    ):
+        if index in out:
+            kept = np.flatnonzero(np.isin(out[index].values, points))
+            out = out.isel({dim: kept})
+            out[index] = out[index] - int(points[0])
+    return out
+
+
+def _scene(name: str, branch: xr.Dataset, spec: dict, whole: xr.Dataset | None):
+    """The branch drawn, the mask of its focus points and a note, by the configuration or, failing it, by physics.
+
+    The configured stages are drawn when they hold orbits, their ``focus_stages`` set the window; where those
+    hold none, the focus is the figure's scene by physics within what is drawn (:func:`scene_part`); where the
+    configured stages hold no orbit at all, the scene by physics of ``whole`` (every NNM1 stage read) is drawn
+    instead, so that a stage the continuation did not reach at these parameters leaves no empty panel.
+    """
+    notes = []
+    if branch.sizes["point"] == 0 and whole is not None and whole.sizes["point"] and name in SCENES:
+        part, why = scene_part(whole, name)
+        if part is None:  # the scene does not exist here: the branch is shown as it is, no letter placed
+            notes.append(f"{why}: the whole branch is drawn, without the figure's labelled points")
+            return whole, None, notes, "absent"
+        notes.append(f"the configured stages hold no orbit: drawn instead {why}")
+        return _points_of(whole, np.flatnonzero(part)), None, notes, "found"
+    stages = spec.get("focus_stages")
+    focus = np.isin(branch["stage"].values, stages) if stages else None
+    if focus is not None and not focus.any() and branch.sizes["point"] and name in SCENES:
+        part, why = scene_part(branch, name)
+        focus = part
+        if part is None:
+            notes.append(f"focus stages {list(stages)} hold no orbit and {why}: the window spans what is drawn")
+        else:
+            notes.append(f"focus stages {list(stages)} hold no orbit: the window follows {why}")
+    return branch, focus, notes, ""
+
+
 def _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, **extra):
     """Frequency-energy plot of ``branch`` on top, the modal lines of its placed labels below.
 
-    ``extra``: ``branch_label``, ``exact``, ``bifurcated`` (switched branches) and ``stages`` (the stage
-    datasets read, skipped ones included, for the notes).
+    ``extra``: ``branch_label``, ``exact``, ``bifurcated`` (switched branches), ``stages`` (the stage
+    datasets read, skipped ones included, for the notes) and ``whole`` (every NNM1 stage read, joined: the
+    scene by physics where the configured stages hold no orbit, :func:`_scene`).
     """
     kind, where = PAPER_FIGURES[name], name
     bifurcated = list(extra.get("bifurcated") or [])
     exact = extra.get("exact")
     _checked(name, branch, nnm2, exact, bifurcated)
-    placed, missing = _placed_labels(name, branch, spec) if branch.sizes["point"] else ([], [])
-    window = energy_window(branch, spec, [p for _, p in placed], where)
+    branch, focus, scene_notes, by_physics = _scene(name, branch, spec, extra.get("whole"))
+    if by_physics == "absent":
+        placed, missing = (
+            [],
+            [(label, "no such scene at these parameters") for label in label_specs(spec.get("labels"))],
+        )
+    elif branch.sizes["point"]:
+        placed, missing = _placed_labels(name, branch, spec, any_stage=by_physics == "found")
+    else:
+        placed, missing = [], []
+    window = energy_window(branch, spec, [p for _, p in placed], where, focus)
     placed = _inside_window(branch, placed, missing, _range(spec, "energy_range", where))
     color = NNM1_COLOR if kind.branch == "nnm1" else NNM2_COLOR
     rows, cols = _inset_grid(max(len(placed), 1))
     below = spec.get("legend") == "below"
-    fig = plt.figure(figsize=(7.5, 4.4 + 2.3 * rows), layout="constrained")
+    fig = plt.figure(figsize=(FIGURE_WIDTH, 4.4 + 2.3 * rows), layout="constrained")
     try:
         fig.get_layout_engine().set(h_pad=0.06, w_pad=0.06, hspace=0.04, wspace=0.06)
         top = 2 if below else 1  # the first row of modal lines, under the plot and its legend row
         grid = fig.add_gridspec(top + rows, cols, height_ratios=[4.0] + [1.0] * (top - 1) + [2.3] * rows)
         ax = fig.add_subplot(grid[0, :])
         branch_label = extra.get("branch_label") or kind.branch.upper()
+        if by_physics == "found":
+            branch_label = f"{kind.branch.upper()} (the part of the continuation this figure is about)"
+        elif by_physics == "absent":
+            branch_label = f"{kind.branch.upper()} (every stage continued)"
         handles, _ = _draw_fep(ax, kind, branch, nnm2, spec, where, branch_label, window, exact, bifurcated)
         slope = _inset_slope(kind, branch)
         for i, (label, point) in enumerate(placed):
             mark_point(ax, branch, point, label)
             inset = fig.add_subplot(grid[top + i // cols, i % cols])
             draw_modal_line(inset, branch, point, label, color, reference_slope=slope)
-        if handles and below:
-            _legend_below(fig, grid, handles)
-        elif handles:
+        if handles and not below:
             ax.legend(handles=handles, loc=spec.get("legend", "best"), fontsize=7.5, framealpha=0.9)
-        notes = _missing_notes(branch, extra.get("stages") or [], bifurcated, missing)
+        notes = scene_notes + _missing_notes(branch, extra.get("stages") or [], bifurcated, missing)
         scene = _scene_line(branch, window, kind.resonance)
         if placed:
             scene += ("\n" if scene else "") + _inset_line(branch)
         title = _title(kind, branch, scene, notes)
-        fig.suptitle(_wrapped(title), fontsize=8.5, linespacing=1.35)
+        fig.suptitle(wrapped_title(title, TITLE_FONTSIZE), fontsize=TITLE_FONTSIZE, linespacing=1.35)
+        if handles and below:
+            _legend_below(fig, grid, handles)
     except Exception:
         plt.close(fig)
         raise
@@ -546,25 +699,57 @@ def _figure_with_modal_lines(name, branch, spec, pdf_path, nnm2=None, png_dpi=15
 
 
 def _legend_below(fig, grid, handles) -> None:
-    """The legend in two columns in its own row under the frequency-energy plot, off the data.
+    """The legend in its own row under the frequency-energy plot, off the data: two columns, or one where two
+    would not fit the figure's width.
 
-    The row is as high as the legend measures (the height ratios of the grid are in inches).
+    The row is made as high as the legend measures: the figure is laid out (its title included, so call this
+    last) and the row's height ratio and the figure's height corrected until the row holds the legend.
     """
     holder = fig.add_subplot(grid[1, :])
     holder.axis("off")
-    legend = holder.legend(handles=handles, loc="center", ncols=2, fontsize=7.5, frameon=False, borderaxespad=0.0)
-    legend.set_in_layout(False)  # sized below: the layout must not squeeze the columns to fit it
-    height = legend.get_window_extent(fig.canvas.get_renderer()).height / fig.dpi
+    renderer = fig.canvas.get_renderer()
+    for ncols in (2, 1):  # one column where two would not fit the figure's width (less its margins)
+        legend = holder.legend(handles=handles, loc="center", ncols=ncols, fontsize=7.5, frameon=False, borderaxespad=0)
+        if legend.get_window_extent(renderer).width <= 0.88 * fig.get_figwidth() * fig.dpi:
+            break
+    legend.set_in_layout(False)  # sized here: the layout must not squeeze the columns to fit it
+    need = legend.get_window_extent(renderer).height / fig.dpi + 0.05
     ratios = list(grid.get_height_ratios())
-    ratios[1] = height
+    ratios[1] = need
     grid.set_height_ratios(ratios)
     width, total = fig.get_size_inches()
-    fig.set_size_inches(width, total + height)
+    fig.set_size_inches(width, total + need)
+    for _ in range(4):
+        fig.get_layout_engine().execute(fig)
+        have = holder.get_position().height * fig.get_figheight()
+        if have >= 0.99 * need:
+            break
+        per_inch = sum(ratios) / (sum(ax.get_position().height for ax in _row_axes(fig, grid)) * fig.get_figheight())
+        ratios[1] += (need - have) * per_inch
+        grid.set_height_ratios(ratios)
+        fig.set_size_inches(width, fig.get_figheight() + need - have)
 
 
-def _wrapped(title: str, width: int = 118) -> str:
+def _row_axes(fig, grid) -> list:
+    """One axes of each row of ``grid`` (for the rows' heights)."""
+    rows = {}
+    for ax in fig.axes:
+        spec = ax.get_subplotspec()
+        if spec is not None and spec.get_gridspec() is grid:
+            rows.setdefault(spec.rowspan.start, ax)
+    return list(rows.values())
+
+
+def wrapped_title(title: str, fontsize: float, width_inches: float = FIGURE_WIDTH) -> str:
+    """``title`` with each line wrapped to fit ``width_inches`` at ``fontsize`` points (a figure title that is
+    cut at both edges says nothing).
+
+    The width of a character of the figures' sans-serif font is taken as 0.6 of the font size, above the
+    mean of lower-case text (about 0.5), so that a line of digits and capitals fits too.
+    """
     import textwrap
 
+    width = max(20, int(width_inches * 72.0 / (0.6 * fontsize)))
     return "\n".join(textwrap.fill(line, width) for line in title.split("\n"))
 
 
@@ -596,7 +781,7 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
     check_same_structure(nnm1, nnm2, where=where)
     energy_range = _range(spec, "energy_range", where)
     gap_zero = gap_zero_frequencies(nnm1)[[m - 1 for m in kind.gap_zero_modes]]
-    fig, (ax, zoom) = plt.subplots(2, 1, figsize=(7.5, 8.0), layout="constrained", height_ratios=[1.1, 1.0])
+    fig, (ax, zoom) = plt.subplots(2, 1, figsize=(FIGURE_WIDTH, 8.0), layout="constrained", height_ratios=[1.1, 1.0])
     try:
         zoom_window = _fig05_zoom_window(nnm1, energy_range)
         zoom_range = _auto_limits([nnm1], zoom_window, gap_zero[:1])
@@ -611,13 +796,30 @@ def figure_05(nnm1: xr.Dataset, nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi:
         zoom.set_ylim(*zoom_range)
         label_minor_decades(zoom)
         zoom.legend(handles=zoom_handles, loc="best", fontsize=7.5, framealpha=0.9)
-        notes = [f"NNM1 {nnm1.attrs['skip_reason']}"] if "skip_reason" in nnm1.attrs else []
+        notes = _fig05_notes(nnm1)
         title = _title(kind, nnm1, "", notes)
-        fig.suptitle(_wrapped(title), fontsize=9.0, linespacing=1.4)
+        fig.suptitle(wrapped_title(title, 9.0), fontsize=9.0, linespacing=1.4)
     except Exception:
         plt.close(fig)
         raise
     return save_figure(fig, pdf_path, png_dpi=png_dpi, description=title)
+
+
+def _fig05_notes(nnm1: xr.Dataset) -> list[str]:
+    """What Fig 5 says of NNM1 beyond its curve: stages not continued and why; what its continuation ends as."""
+    notes = []
+    if "skip_reason" in nnm1.attrs:
+        stages = ", ".join(str(int(k)) for k in np.atleast_1d(nnm1.attrs.get("skipped_stages", [])))
+        reason = str(nnm1.attrs["skip_reason"]).removeprefix("skipped: ")
+        notes.append(f"NNM1 stage(s) {stages} not continued: {reason}")
+    runs = identity_runs(nnm1)
+    if runs and runs[-1].label != "NNM1":
+        energy = nnm1["energy"].values
+        notes.append(
+            f"the NNM1 continuation ends as {runs[-1].label} (from E = {energy[runs[-1].start]:.4g} to "
+            f"{energy[-1]:.4g}): it crossed onto that family, this part is not NNM1"
+        )
+    return notes
 
 
 def _fig05_zoom_window(nnm1: xr.Dataset, energy_range) -> tuple[float, float]:
@@ -637,10 +839,13 @@ def _fig05_zoom_window(nnm1: xr.Dataset, energy_range) -> tuple[float, float]:
 
 def _fig05_whole(ax, nnm1, nnm2, kind: _FigureKind, gap_zero, zoom) -> list:
     """Panel (a) of Fig 5: both NNMs, the gap-0 modes and the frame enlarged in (b); legend handles."""
-    handles, drawn = [], set()
+    handles, drawn, others = [], set(), {}
     for ds, color, label in ((nnm1, NNM1_COLOR, "NNM1 (enlarged in (b))"), (nnm2, NNM2_COLOR, "NNM2")):
-        drawn |= plot_branch(ax, ds, color, lw=1.3, zorder=3)
+        classes, found = plot_identities(ax, ds, color, lw=1.3, zorder=3)
+        drawn |= classes
+        others.update(found)
         handles.append(Line2D([], [], color=color, lw=1.3, label=label))
+    handles.extend(identity_legend_handles(others, lw=1.3))
     handles.extend(stability_legend_handles(drawn, lw=1.3))
     _fig05_gap_zero(ax, kind.gap_zero_modes, gap_zero)
     handles.append(Line2D([], [], label="gap-0 linear modes (every stop engaged)", **GAP_ZERO_STYLE))
@@ -656,8 +861,9 @@ def _fig05_whole(ax, nnm1, nnm2, kind: _FigureKind, gap_zero, zoom) -> list:
 
 def _fig05_nnm1(ax, nnm1, gap_zero: float, mode: int) -> list:
     """Panel (b) of Fig 5: NNM1 alone on its own frequency scale, with its branch points and folds."""
-    drawn = plot_branch(ax, nnm1, NNM1_COLOR, lw=1.2, zorder=3)
+    drawn, others = plot_identities(ax, nnm1, NNM1_COLOR, lw=1.2, zorder=3)
     handles = [Line2D([], [], color=NNM1_COLOR, lw=1.2, label="NNM1")]
+    handles.extend(identity_legend_handles(others))
     handles.extend(stability_legend_handles(drawn, color=NNM1_COLOR))
     _fig05_gap_zero(ax, (mode,), [gap_zero])
     handles.extend(_bifurcation_legend(_bifurcation_markers(ax, nnm1)))
@@ -691,7 +897,8 @@ def figure_06(nnm2: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150):
     return _figure_with_modal_lines("fig06", nnm2, spec, pdf_path, png_dpi=png_dpi)
 
 
-def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None, stages=None):
+def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=None, bifurcated=None, stages=None,
+                 whole=None):  # fmt: skip
     held = np.unique(branch["stage"].values)
     if held.size == 0:  # every stage read was skipped
         held = [int(ds.attrs.get("skipped_stage", 0)) for ds in stages or [branch]]
@@ -707,32 +914,37 @@ def _nnm1_figure(name, branch, spec, pdf_path, nnm2=None, png_dpi=150, exact=Non
         exact=exact,
         bifurcated=bifurcated,
         stages=stages,
+        whole=whole,
     )
 
 
-def figure_07(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, stages=None):
+def figure_07(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, stages=None, whole=None):
     """Fig 7: NNM1 at low energy, modal lines a)-c) (no impact, one impact per stop, secondary
-    oscillation between impacts). ``nnm1``: the NNM1 stages read, joined
-    (``nnmstop.tasks.figures.combine_nnm1_stages``); ``stages``: those datasets, for the notes."""
-    return _nnm1_figure("fig07", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact, stages=stages)
+    oscillation between impacts). ``nnm1``: the NNM1 stages of the figure, joined
+    (``nnmstop.tasks.figures.combine_nnm1_stages``); ``stages``: those datasets, for the notes; ``whole``: every
+    NNM1 stage read (up to the figure's last), joined, for the scene by physics (:func:`scene_part`)."""
+    return _nnm1_figure("fig07", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact, stages=stages, whole=whole)
 
 
-def figure_08(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None):
+def figure_08(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None,
+              whole=None):  # fmt: skip
     """Fig 8: NNM1 with the NNM2 curve at ``f2/3``; the 3:1 internal resonance and the branch switched there,
     modal lines d)-i)."""
-    return _nnm1_figure("fig08", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages)
+    return _nnm1_figure("fig08", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages, whole)
 
 
-def figure_09(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None):
+def figure_09(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None,
+              whole=None):  # fmt: skip
     """Fig 9: NNM1 with the NNM2 curve at ``f2/5``; the 5:1 internal resonance, modal lines j)-m)."""
-    return _nnm1_figure("fig09", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages)
+    return _nnm1_figure("fig09", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages, whole)
 
 
-def figure_10(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None):
+def figure_10(nnm1, nnm2, spec: dict, pdf_path, png_dpi: int = 150, exact=None, bifurcated=None, stages=None,
+              whole=None):  # fmt: skip
     """Fig 10: NNM1 with the NNM2 curve at ``f2/5`` after the 5:1 resonance, modal lines o)-q)."""
-    return _nnm1_figure("fig10", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages)
+    return _nnm1_figure("fig10", nnm1, spec, pdf_path, nnm2, png_dpi, exact, bifurcated, stages, whole)
 
 
-def figure_11(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, stages=None):
+def figure_11(nnm1: xr.Dataset, spec: dict, pdf_path, png_dpi: int = 150, exact=None, stages=None, whole=None):
     """Fig 11: NNM1 at high energy, tending to the gap-0 first linear mode (dash-dotted)."""
-    return _nnm1_figure("fig11", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact, stages=stages)
+    return _nnm1_figure("fig11", nnm1, spec, pdf_path, png_dpi=png_dpi, exact=exact, stages=stages, whole=whole)

@@ -40,6 +40,8 @@ __all__ = [
     "locate_label",
     "select_point",
     "modal_line_dofs",
+    "impact_text",
+    "identity_text",
     "mark_point",
     "draw_modal_line",
 ]
@@ -297,14 +299,42 @@ def select_point(ds: xr.Dataset, spec: LabelSpec, where: str) -> int:
 
 
 def modal_line_dofs(ds: xr.Dataset) -> tuple[int, int]:
-    """The two degrees of freedom of the modal lines: the first stop's, and the other that moves most.
+    """The two degrees of freedom of the modal lines: those of the first two stops on distinct degrees of freedom
+    (every stop of a two-stop structure then shows as lines of the plane), else the first stop's and the other
+    that moves most.
 
     ``(x, u)`` for the paper's oscillator.
     """
-    first = int(ds["stop_dof"].values[0])
+    dofs = list(dict.fromkeys(int(d) for d in ds["stop_dof"].values))
+    if len(dofs) >= 2:
+        return dofs[0], dofs[1]
+    first = dofs[0]
     amplitude = np.abs(ds["q_max"].values).max(axis=0) if ds.sizes["point"] else np.zeros(ds.sizes["dof"])
     amplitude[first] = -np.inf
     return first, int(np.argmax(amplitude)) if ds.sizes["dof"] > 1 else first
+
+
+def impact_text(ds: xr.Dataset, point: int) -> str:
+    """Impacts per period of an orbit: the total for one stop, each stop's for several (``x1 2, x4 2 impacts``)."""
+    total = int(ds["impacts_per_period"].values[point])
+    if ds.sizes.get("stop", 1) < 2 or "stop_impacts" not in ds:
+        return f"{total} {'impact' if total == 1 else 'impacts'}/period"
+    names = [str(ds["dof_label"].values[int(d)]) for d in ds["stop_dof"].values]
+    each = ", ".join(f"{n} {int(k)}" for n, k in zip(names, ds["stop_impacts"].values[point]))
+    return f"impacts/period {each}"
+
+
+def identity_text(ds: xr.Dataset, point: int) -> str:
+    """``", NNM2 at 1/3"``: what the orbit is, where it is not the branch's own mode (:mod:`nnmstop.hbm.identity`)."""
+    if "orbit_kind" not in ds:
+        return ""
+    kind, mode = int(ds["orbit_kind"].values[point]), int(ds["dominant_mode"].values[point])
+    if kind == 2:
+        return f", NNM{mode} at 1/{int(ds['dominant_harmonic'].values[point])}"
+    if kind == 1:
+        return f", {int(ds['tongue_harmonic'].values[point])}:1 tongue"
+    own = int(ds.attrs.get("mode", mode))
+    return "" if mode == own else f", NNM{mode}"
 
 
 def mark_point(ax, ds: xr.Dataset, point: int, spec: LabelSpec) -> None:
@@ -347,14 +377,13 @@ def draw_modal_line(
     names = [str(v) for v in ds["dof_label"].values]
     o = orbit(ds, point, samples)
     x, u = o[names[a]], o[names[b]]
-    impacts = int(ds["impacts_per_period"].values[point])
     e = float(ds["energy"].values[point])
     f = float(ds["frequency"].values[point])
-    gap = float(ds["stop_gap"].values[0])
+    gaps = {int(d): float(g) for d, g in zip(ds["stop_dof"].values, ds["stop_gap"].values)}
     x_amp = float(np.max(np.abs(x)))
     u_amp = float(np.max(np.abs(u)))
-    xlim = 1.15 * max(x_amp, gap)
-    ulim = 1.15 * u_amp if u_amp > 0 else 1.0
+    xlim = 1.15 * max(x_amp, gaps.get(a, 0.0))
+    ulim = 1.15 * max(u_amp, gaps.get(b, 0.0)) if max(u_amp, gaps.get(b, 0.0)) > 0 else 1.0
     if reference_slope is not None:
         ax.plot(
             [-xlim, xlim],
@@ -365,8 +394,10 @@ def draw_modal_line(
     ax.plot(x, u, color=color, lw=1.1, zorder=2)
     ax.set_xlim(-xlim, xlim)
     ax.set_ylim(-ulim, ulim)
-    for stop in (-gap, gap):
-        ax.axvline(stop, color=STOP_COLOR, lw=0.7, ls="-", zorder=0)
+    for dof, line in ((a, ax.axvline), (b, ax.axhline)):
+        if dof in gaps:  # every stop on a degree of freedom of the plane: its gap as two grey lines
+            for stop in (-gaps[dof], gaps[dof]):
+                line(stop, color=STOP_COLOR, lw=0.7, ls="-", zorder=0)
     ax.set_box_aspect(1.0)
     ax.xaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
     ax.yaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
@@ -374,9 +405,8 @@ def draw_modal_line(
     unit = unit_text(ds, "q_cos")
     ax.set_xlabel(f"{names[a]} {unit}", fontsize=7.5, labelpad=1)
     ax.set_ylabel(f"{names[b]} {unit}", fontsize=7.5, labelpad=1)
-    noun = "impact" if impacts == 1 else "impacts"
     ax.set_title(
-        f"{spec.label}) {impacts} {noun}/period\nE = {e:.4g}, f = {f:.4f} Hz\n"
+        f"{spec.label}) {impact_text(ds, point)}{identity_text(ds, point)}\nE = {e:.4g}, f = {f:.4f} Hz\n"
         f"max|{names[b]}| / max|{names[a]}| = {u_amp / x_amp:.3g}",
         fontsize=7.5,
         pad=3,

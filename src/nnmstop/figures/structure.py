@@ -331,8 +331,17 @@ def _exact_vs_regularized(fig, data, spec):
     fig.legend(handles=ax1.get_legend_handles_labels()[0], loc="outside lower center", ncols=2, fontsize=8)
     difference = np.abs(comparison.relative_difference.values)
     ax2.plot(comparison.energy.values, difference, "o-", color="k", ms=3)
-    if difference.size and difference.min() > 0 and difference.max() / difference.min() > 10.0:
+    finite = difference[np.isfinite(difference)]
+    if finite.size and finite.min() > 0 and finite.max() / finite.min() > 10.0:
         ax2.set_yscale("log")
+    unlike = (
+        comparison.no_counterpart.values == 1 if "no_counterpart" in comparison else np.zeros(difference.size, bool)
+    )
+    if unlike.any():  # the energies where the regularized NNM1 is of another type: marked, not compared
+        for e in comparison.energy.values[unlike]:
+            ax2.axvline(e, color="0.75", lw=0.6, zorder=0)
+        ax2.plot([], [], color="0.75", lw=0.6, label="no counterpart (regularized orbit of another type)")
+        ax2.legend(fontsize=7, loc="best")
     ax2.set_xlabel("energy (nondimensional)")
     ax2.set_ylabel("|f_reg - f_exact| / f_exact")
     label_minor_decades(ax2)
@@ -341,9 +350,10 @@ def _exact_vs_regularized(fig, data, spec):
         if none
         else f"(drawn over the exact family's energies, {low:.3g} to {high:.3g}; the regularized branch goes on beyond)"
     )
-    fig.suptitle(
-        f"{_structure_name(nnm1)}, NNM1: exact against regularized at matched energies\n{window_text}", fontsize=10
-    )
+    title = f"{_structure_name(nnm1)}, NNM1: exact against regularized at matched energies\n{window_text}"
+    if int(comparison.attrs.get("skipped", 0)):
+        title += f"\nnothing compared: {comparison.attrs['end_reason']}"
+    fig.suptitle(title, fontsize=10)
 
 
 STRUCTURE_FIGURES = {

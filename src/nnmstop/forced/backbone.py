@@ -52,13 +52,15 @@ def nnm_backbone(
     max_truncation: float,
     force_limit: float,
     start_amplitude: float = 0.05,
+    start_tolerance: float = 1e-13,
 ):
     """The regularized NNM ``mode`` from near rest until the required force exceeds ``force_limit``.
 
-    Returns the system (cosine basis) and the continued branch.
+    ``start_tolerance``: relative residual of the start point (``hbm.start_tolerance``: above the round-off floor
+    of a fine mesh). Returns the system (cosine basis) and the continued branch.
     """
     system = HarmonicBalanceSystem(excitation.structure, harmonics)
-    U0, direction = start_point(system, mode, start_amplitude)
+    U0, direction = start_point(system, mode, start_amplitude, start_tolerance)
 
     def beyond(U, diag):
         return f"required force above {force_limit:g}" if required_force(system, excitation, U) > force_limit else ""
@@ -123,7 +125,13 @@ def locate_peak(system, branch, settings: ANMSettings, dof: int, rel_tol: float 
 
 
 def prediction_errors(
-    excitations, mode: int, frequency_window, harmonics: int, settings: ANMSettings, max_truncation: float
+    excitations,
+    mode: int,
+    frequency_window,
+    harmonics: int,
+    settings: ANMSettings,
+    max_truncation: float,
+    start_tolerance: float = 1e-13,
 ) -> dict:
     """The backbone's predicted peak against the located peak of the response, for each excitation.
 
@@ -138,7 +146,9 @@ def prediction_errors(
     from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, continue_frequency_response, phase_lags
 
     first = excitations[0]
-    system, backbone = nnm_backbone(first, mode, harmonics, settings, max_truncation, 2 * first.force.amplitude)
+    system, backbone = nnm_backbone(
+        first, mode, harmonics, settings, max_truncation, 2 * first.force.amplitude, start_tolerance=start_tolerance
+    )
     keys = ("predicted_frequency", "predicted_amplitude", "peak_frequency", "peak_amplitude", "peak_phase_lag")
     out = {key: [] for key in keys}
     for excitation in excitations:

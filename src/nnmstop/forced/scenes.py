@@ -1,6 +1,9 @@
 """The forced scenes of the configuration: an excitation (structure, damping, force) and a frequency range each.
 
-Light on imports (models only): the configuration's validation builds the scenes to name bad values.
+The structure is the configuration's own (``structure``: the paper's oscillator of ``model``, a beam, or matrices
+from files; :func:`nnmstop.settings.structure_from_config`), forced on the degrees of freedom of ``forced.force``
+(by their labels); the tube of ``tube`` has a scene of its own (``forced.tube``). The configuration's validation
+builds the scenes to name bad values.
 """
 
 from __future__ import annotations
@@ -10,10 +13,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from nnmstop.models.excitation import Damping, Excitation, HarmonicForce, linear_response
-from nnmstop.models.structure import Structure, two_dof_structure
-from nnmstop.models.two_dof import ModelParameters
+from nnmstop.models.structure import Structure
 
-__all__ = ["Scene", "scene_name", "forced_scenes", "find_scene", "prediction_excitations", "check_forced_section"]
+__all__ = [
+    "Scene",
+    "WHICH",
+    "scene_name",
+    "forced_scenes",
+    "exact_response_gap",
+    "find_scene",
+    "prediction_excitations",
+    "check_forced_section",
+]
 
 
 @dataclass(frozen=True)
@@ -66,22 +77,26 @@ def _frequency_range(spec, key: str) -> tuple:
     return low, high
 
 
+#: Which scenes :func:`forced_scenes` returns.
+WHICH = ("structure", "tube", "all")
+
+
 def _structure(config: dict) -> Structure:
-    """The structure of the ``structure`` section: the paper's oscillator of ``model`` by default."""
-    if config.get("structure", {}).get("kind", "two_dof") == "two_dof":
-        return two_dof_structure(ModelParameters.from_config(config["model"]))
-    from nnmstop.settings import structure_from_config  # the numerics' imports: only for a structure of one's own
+    """The configuration's structure (its ``structure`` section; the paper's oscillator of ``model`` without it)."""
+    from nnmstop.settings import structure_from_config
 
     return structure_from_config(config)
 
 
 def forced_scenes(config: dict, which: str = "all") -> list:
-    """The scenes of the ``forced`` section: one per force amplitude on the structure of the configuration (the
-    ``structure`` section; the paper's oscillator of ``model`` by default), and with ``forced.tube`` (and ``tube``)
-    one for the tube. ``which``: "oscillator" (the configured structure), "tube" or "all"."""
+    """The scenes of the ``forced`` section: one per force amplitude on the configuration's structure
+    (``structure``, :func:`_structure`), and with ``forced.tube`` (and ``tube``) one for the tube. ``which``:
+    "structure", "tube" or "all"."""
+    if which not in WHICH:
+        raise ValueError(f"which must be one of {WHICH}, got {which!r}")
     forced = config["forced"]
     scenes = []
-    if which in ("oscillator", "all"):
+    if which in ("structure", "all"):
         structure = _structure(config)
         damping = _damping(structure, forced["damping"])
         dofs = _dof_indices(structure, forced["force"]["dofs"], "forced.force.dofs")
@@ -135,8 +150,8 @@ def _tube_scene(config: dict) -> Scene:
 
 
 def prediction_excitations(config: dict) -> tuple:
-    """The excitations of ``forced.prediction`` (the oscillator, damping ratio ``r`` on the damped modes of
-    ``forced.damping``, ``F = force_per_ratio r`` on the forced DOFs) and its frequency window (Hz)."""
+    """The excitations of ``forced.prediction`` (the configuration's structure, damping ratio ``r`` on the damped
+    modes of ``forced.damping``, ``F = force_per_ratio r`` on the forced DOFs) and its frequency window (Hz)."""
     forced, spec = config["forced"], config["forced"]["prediction"]
     structure = _structure(config)
     dofs = tuple(_dof_indices(structure, forced["force"]["dofs"], "forced.force.dofs"))
@@ -181,11 +196,12 @@ def check_forced_section(config: dict) -> None:
             "Hz: no response is computed there, so their panels would be empty"
         )
     for scene in scenes:
-        if scene.name.startswith("tube_"):
+        if exact_response_gap(scene):  # no exact response to start
             continue
         stop = scene.excitation.structure.stops[0]
         omega = 2 * np.pi * np.linspace(*scene.frequency_range, _GRID)
-        amplitude = np.abs(linear_response(scene.excitation, omega)[:, stop.dof])
+        coordinate = stop.coordinate_matrix(scene.excitation.structure.n_dofs)[0]  # the stop's first coordinate
+        amplitude = np.abs(linear_response(scene.excitation, omega) @ coordinate)
         if amplitude.min() > stop.gap:
             raise ValueError(
                 f"forced.force.amplitudes: at F = {scene.excitation.force.amplitude:g} the linear response reaches "
@@ -193,6 +209,20 @@ def check_forced_section(config: dict) -> None:
                 f"(max |x| >= {amplitude.min():.3g} > gap {stop.gap:g}): the exact response has no non-impacting "
                 "piece and no grazing to start from; lower the force or widen forced.frequency_range"
             )
+
+
+def exact_response_gap(scene: Scene) -> str:
+    """Why the exact (non-smooth) response of ``scene`` is not computed, or "" where it is: a stop whose law is
+    not piecewise linear (a circular clearance: the regularized path only), or the tube's scene (regularized only:
+    each exact orbit's lags and multipliers are costly on a fine mesh)."""
+    if scene.name.startswith("tube_"):
+        return "the tube's forced response is regularized only"
+    for stop in scene.excitation.structure.stops:
+        try:
+            stop.contacts()
+        except ValueError as err:
+            return f"{err} (regularized responses only)"
+    return ""
 
 
 def find_scene(config: dict, name: str) -> Scene:

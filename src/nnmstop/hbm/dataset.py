@@ -27,6 +27,7 @@ from nnmstop import fourier
 from nnmstop.catalogue import describe
 from nnmstop.continuation.core import Branch, ContinuationError, relative_residual
 from nnmstop.hbm.bifurcation import circular_pair, is_whirl_branch_point, swept_area
+from nnmstop.hbm.identity import ORBIT_FORCE_NAMES, orbit_identity
 from nnmstop.models.structure import limit_modes
 from nnmstop.wear import orbit_wear
 
@@ -34,6 +35,7 @@ __all__ = [
     "BRANCH_POINT_DIM",
     "FOLD_DIM",
     "RESONANCE_DIM",
+    "IDENTITY_CHANGE_DIM",
     "ORBIT_COEFFICIENTS",
     "orbit_variables",
     "branch_kind",
@@ -46,6 +48,8 @@ __all__ = [
     "located_fold_variables",
     "segment_fold_variables",
     "passed_resonance_variables",
+    "identity_variables",
+    "identity_change_variables",
     "energy_folds",
     "dataset_unknowns",
     "rotation_attributes",
@@ -60,6 +64,9 @@ ORBIT_COEFFICIENTS = ("q_cos", "q_sin", "f_cos", "f_sin", "z_cos", "z_sin", "ome
 BRANCH_POINT_DIM = "located_branch_point"
 FOLD_DIM = "located_fold"
 RESONANCE_DIM = "passed_resonance"
+IDENTITY_CHANGE_DIM = "identity_change"
+#: Per-point variables that make up an orbit's identity (a change of any is an identity change).
+IDENTITY_CODES = ("orbit_kind", "dominant_mode", "dominant_harmonic", "tongue_harmonic")
 
 
 def _var(name: str, dims, values) -> tuple:
@@ -304,6 +311,8 @@ def branch_dataset(
     data.update(located_branch_point_variables(system, located))
     data.update(segment_fold_variables(coefficient_vectors(data), energy, data["frequency"][1], data["segment"][1]))
     data.update(passed_resonance_variables(getattr(branch, "resonances", [])))
+    data.update(identity_variables(system.structure, data))
+    data.update(identity_change_variables(data, energy, data["frequency"][1]))
     data.update(stability.data_vars())
     structure_data, coords = _structure_variables(system)
     data.update(structure_data)
@@ -453,6 +462,37 @@ def passed_resonance_variables(resonances) -> dict:
         "passed_resonance_landing_frequency": _var(
             "passed_resonance_landing_frequency", dim, np.array([r.landing_frequency for r in resonances], float)
         ),
+    }
+
+
+def identity_variables(structure, data) -> dict:
+    """What each orbit is, from its Fourier coefficients (:func:`nnmstop.hbm.identity.orbit_identity`).
+
+    ``data``: the branch's variables ``name -> (dims, values)`` holding ``q_cos`` ... ``f_sin``.
+    """
+    dims = {"dof_dominant_harmonic": ("point", "dof"), "effective_stop_stiffness": ("point", "stop")}
+    found = orbit_identity(structure, *(data[name][1] if name in data else None for name in ORBIT_FORCE_NAMES))
+    return {name: _var(name, dims.get(name, "point"), values) for name, values in found.items()}
+
+
+def identity_change_variables(ds, energy, frequency) -> dict:
+    """Dataset variables (dimension ``identity_change``) of the points where an orbit's identity changes.
+
+    ``ds``: a branch dataset or the mapping of its variables ``name -> (dims, values)`` with
+    :data:`IDENTITY_CODES`; a change of any of them starts a new identity (:func:`nnmstop.hbm.identity.identity_runs`).
+    """
+
+    def values(name):
+        item = ds[name]
+        return np.asarray(item[1] if isinstance(item, tuple) else item.values)
+
+    codes = np.column_stack([values(name) for name in IDENTITY_CODES])
+    changed = np.flatnonzero(np.any(codes[1:] != codes[:-1], axis=1)) + 1 if len(codes) > 1 else np.zeros(0, int)
+    dim = (IDENTITY_CHANGE_DIM,)
+    return {
+        "identity_change_point": _var("identity_change_point", dim, changed.astype(np.int32)),
+        "identity_change_energy": _var("identity_change_energy", dim, np.asarray(energy, float)[changed]),
+        "identity_change_frequency": _var("identity_change_frequency", dim, np.asarray(frequency, float)[changed]),
     }
 
 

@@ -622,12 +622,15 @@ def _refine(system, U_array, found: PairInvariants, err, steps, reason, halfwave
     out["refined_energy_change"][done] = r.energy[ok] / r.initial_energy[ok] - 1.0
     out["refine_seconds"] = time.perf_counter() - start
     logger.info(
-        "refined %d orbits by shooting in %.2f s: %d resolved, %d at a type change, %d not converged",
+        "refined %d orbits by shooting in %.2f s: %d resolved, %d at a type change, %d not converged "
+        "(%d of them on a singular Newton system: an orbit whose period is a multiple of its own, at an n:1 "
+        "branch point)",
         len(idx),
         out["refine_seconds"],
         np.sum(reason[idx] == 3),
         np.sum(reason[idx] == 5),
         np.sum(reason[idx] == 4),
+        np.sum(r.singular),
     )
     return out
 

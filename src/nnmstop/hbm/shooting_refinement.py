@@ -439,6 +439,10 @@ def shoot(dynamics: RegularizedDynamics, states, period, phases, tol: float, max
         ``residual <= tol`` within ``max_iter`` updates.
     Q : ndarray, shape (n, 2N, 2N)
         ``Phi(T/4)``, the product of the segments' fundamental matrices, at the returned unknowns.
+    singular : ndarray of bool
+        The Newton system was singular (no minimum-norm update: the conditions' Jacobian has rank below
+        ``N``, as on an orbit whose period is a multiple of its own, at an ``n:1`` branch point): the
+        orbit is left at its last iterate, not converged.
     """
     states = np.array(states, dtype=float)
     period = np.array(period, dtype=float)
@@ -449,6 +453,7 @@ def shoot(dynamics: RegularizedDynamics, states, period, phases, tol: float, max
     phase_span = (segment_phases[..., -1] - segment_phases[..., 0]) / (0.5 * np.pi)  # shares of T/4
     residual = np.full(n, np.inf)
     converged = np.zeros(n, dtype=bool)
+    singular = np.zeros(n, dtype=bool)
     Q_all = np.full((n, n_states, n_states), np.nan)
     active = np.arange(n)
     positions = np.r_[np.ones(N), np.zeros(N)]
@@ -481,7 +486,12 @@ def shoot(dynamics: RegularizedDynamics, states, period, phases, tol: float, max
         active, end, Qs, mismatch, omega = active[keep], end[keep], Qs[keep], mismatch[keep], omega[keep]
         # d(segment end)/d(omega T/4): the segment lasts its share of T/4
         dp = dynamics.vector_field(end) * (phase_span[active] / omega[:, None])[..., None]
-        update = _newton_update(Qs, dp, mismatch, N)
+        update, solvable = _newton_update(Qs, dp, mismatch, N)
+        singular[active[~solvable]] = True
+        active, end, Qs, mismatch, omega, dp = (a[solvable] for a in (active, end, Qs, mismatch, omega, dp))
+        update = update[solvable]
+        if not len(active):
+            break
         correction = np.zeros((len(active), n_states))
         correction[:, :N] = update[:, :N]
         states[active, 0] += correction
@@ -489,7 +499,7 @@ def shoot(dynamics: RegularizedDynamics, states, period, phases, tol: float, max
             correction = mismatch[:, m] + np.einsum("nij,nj->ni", Qs[:, m], correction) + dp[:, m] * update[:, N:]
             states[active, m + 1] += correction
         period[active] += 4.0 * update[:, N] / omega
-    return states, period, residual, converged, Q_all
+    return states, period, residual, converged, Q_all, singular
 
 
 def _newton_update(Qs, dp, mismatch, N: int):
@@ -497,6 +507,8 @@ def _newton_update(Qs, dp, mismatch, N: int):
 
     ``Qs`` (a, segments, 2N, 2N) the segments' fundamental matrices, ``dp`` (a, segments, 2N) the
     derivatives of their ends with respect to ``omega T/4``, ``mismatch`` (a, segments, 2N).
+    Returns the updates and whether each system was solvable: where ``J J^T`` is singular (LAPACK finds
+    an exactly zero pivot) the update is zero and the flag False, the others solved as usual.
     """
     # condensing: the last segment's end as a function of (dq0, dp) and the joints' mismatches
     A, b, c = Qs[:, 0, :, :N], dp[:, 0], mismatch[:, 0]
@@ -505,7 +517,18 @@ def _newton_update(Qs, dp, mismatch, N: int):
         b = np.einsum("nij,nj->ni", Qs[:, m], b) + dp[:, m]
         c = np.einsum("nij,nj->ni", Qs[:, m], c) + mismatch[:, m]
     J = np.concatenate([A[:, :N], b[:, :N, None]], axis=2)
-    return -np.einsum("nji,nj->ni", J, np.linalg.solve(J @ np.swapaxes(J, 1, 2), c[:, :N, None])[..., 0])
+    normal, rhs = J @ np.swapaxes(J, 1, 2), c[:, :N, None]
+    solvable = np.ones(len(J), dtype=bool)
+    try:
+        y = np.linalg.solve(normal, rhs)[..., 0]
+    except np.linalg.LinAlgError:  # one singular system fails the batch: solve them one by one
+        y = np.zeros(rhs.shape[:2])
+        for i in range(len(J)):
+            try:
+                y[i] = np.linalg.solve(normal[i], rhs[i])[:, 0]
+            except np.linalg.LinAlgError:
+                solvable[i] = False
+    return -np.einsum("nji,nj->ni", J, y), solvable
 
 
 def _half_period_invariants(dynamics: RegularizedDynamics, Q):
@@ -567,6 +590,8 @@ class RefinedStability:
     residual : ndarray
         Closure of the shooting conditions relative to the amplitude (:func:`shoot`).
     converged : ndarray of bool
+    singular : ndarray of bool
+        Not converged because the shooting's Newton system was singular (:func:`shoot`).
     start : ndarray, shape (n, N)
         ``q`` of the refined orbits at ``t = 0`` (at rest).
     period, energy : ndarray
@@ -580,6 +605,7 @@ class RefinedStability:
     steps: np.ndarray
     residual: np.ndarray
     converged: np.ndarray
+    singular: np.ndarray
     start: np.ndarray
     period: np.ndarray
     energy: np.ndarray
@@ -708,7 +734,7 @@ def shooting_stability(
     states[:, 0, N:] = 0.0
     initial_start, initial_period = states[:, 0, :N].copy(), period.copy()
     levels = _Levels(dynamics, n, (x_phase, x_slope_phase, joints, width), steps, max_steps, resolution_factor, floor)
-    found, err, used, residual, converged = levels.run(states, period, tol, max_iter)
+    found, err, used, residual, converged, singular = levels.run(states, period, tol, max_iter)
     start = states[:, 0, :N]
     amplitude = np.abs(initial_start).max(axis=1)
     change = np.maximum(np.abs(start - initial_start).max(axis=1) / amplitude, np.abs(period / initial_period - 1.0))
@@ -719,6 +745,7 @@ def shooting_stability(
         steps=used,
         residual=residual,
         converged=converged,
+        singular=singular & ~converged,
         start=start,
         period=period,
         energy=dynamics.energy_at_rest(start),
@@ -743,6 +770,7 @@ class _Levels:
         self.found, self.previous = PairInvariants.empty(n, pairs), PairInvariants.empty(n, pairs)
         self.err, self.used = np.full(n, np.inf), np.zeros(n, dtype=int)
         self.residual, self.converged = np.full(n, np.inf), np.zeros(n, dtype=bool)
+        self.singular = np.zeros(n, dtype=bool)
 
     def run(self, states, period, tol, max_iter):
         """Shoot level after level (``states``, ``period`` corrected in place) while the margin needs it."""
@@ -750,8 +778,9 @@ class _Levels:
         todo, K = np.arange(len(period)), self.steps
         while len(todo):
             phases = step_phases(x_phase[todo], x_slope_phase[todo], joints[todo], K, width)
-            z, T, res, conv, Q = shoot(self.dynamics, states[todo], period[todo], phases, tol, max_iter)
+            z, T, res, conv, Q, singular = shoot(self.dynamics, states[todo], period[todo], phases, tol, max_iter)
             states[todo], period[todo], self.residual[todo], self.converged[todo] = z, T, res, conv
+            self.singular[todo] |= singular
             ok = todo[conv]
             if not len(ok):
                 break
@@ -762,7 +791,7 @@ class _Levels:
                     break
             self.previous.assign(todo[conv], level)
             todo, K = ok, 2 * K
-        return self.found, self.err, self.used, self.residual, self.converged
+        return self.found, self.err, self.used, self.residual, self.converged, self.singular
 
     def _compare(self, ok, level, K):
         """Keep ``level`` for the orbits ``ok`` with its change from the previous level; those to refine further."""

@@ -45,11 +45,13 @@ from nnmstop.hbm.criteria import (
 from nnmstop.hbm.dataset import (
     BRANCH_POINT_DIM,
     FOLD_DIM,
+    IDENTITY_CHANGE_DIM,
     bifurcated_dataset,
     branch_dataset,
     coefficient_vectors,
     dataset_unknowns,
     energy_folds,
+    identity_change_variables,
     is_skipped,
     labelled,
     segment_fold_variables,
@@ -509,8 +511,9 @@ def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
     ]
     located = [v for v in held[0].data_vars if BRANCH_POINT_DIM in held[0][v].dims]
     folds = [v for v in held[0].data_vars if FOLD_DIM in held[0][v].dims]
+    changes = [v for v in held[0].data_vars if IDENTITY_CHANGE_DIM in held[0][v].dims]
     parts = [held[0]] + [ds.isel(point=slice(1, None)) for ds in held[1:]]
-    parts = [ds.drop_vars(located + folds) for ds in parts]
+    parts = [ds.drop_vars(located + folds + changes) for ds in parts]
     per_point = [v for v in parts[0].data_vars if "point" in parts[0][v].dims]
     out = xr.concat(parts, dim="point", data_vars=per_point, coords="minimal", combine_attrs="override")
     # point indices of each stage shift by the points of the stages before it (start points dropped)
@@ -534,6 +537,7 @@ def combine_stages(stages: list[xr.Dataset]) -> xr.Dataset:
     out = out.assign(
         segment_fold_variables(coefficient_vectors(out), out["energy"].values, out["frequency"].values, segment)
     )
+    out = out.assign(identity_change_variables(out, out["energy"].values, out["frequency"].values))
     return labelled(_combined_attributes(out, stages, held))
 
 

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from nnmstop.netcdf import PROVENANCE_ATTRIBUTES
+from nnmstop.netcdf import PROVENANCE_ATTRIBUTES, may_be_missing
 
 __all__ = [
     "CURVE_COORDINATES",
@@ -303,6 +303,10 @@ def point_table(ds: xr.Dataset) -> dict:
     accuracy = ACCURACY_BY_DATASET_KIND.get(ds.attrs.get("dataset_kind"), frozenset())
     for name, variable in ds.variables.items():
         kind = variable_kind(str(name), variable, coordinates, accuracy)
+        if kind != "discrete" and may_be_missing(variable):
+            # missing where not computed (a comparison between orbits that are no counterparts): no curve to
+            # interpolate or bound through its gaps; the flag saying where and why is compared as discrete
+            continue
         if kind in table and kind != "curve":
             table[kind].update(_columns(ds, str(name)))
     table["orbit"] = _signals(ds)

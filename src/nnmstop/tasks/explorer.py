@@ -13,7 +13,8 @@ def explorer(config: dict, inputs: dict, outputs: dict) -> Path:
     Parameters
     ----------
     config : dict
-        Section ``explorer`` (optional): :class:`nnmstop.explorer.extract.ExplorerSettings`.
+        Section ``explorer`` (optional): :class:`nnmstop.explorer.extract.ExplorerSettings`; ``structure`` (and
+        ``model``) where the exact family is a structure's (``exact_one_stop``), whose orbits are rebuilt on it.
     inputs : dict
         One list of dataset paths per kind of branch (``regularized``, ``exact``, ...; the keys of
         :data:`nnmstop.explorer.extract.KINDS`) and ``manifest`` (``results/MANIFEST.sha256``).
@@ -23,7 +24,7 @@ def explorer(config: dict, inputs: dict, outputs: dict) -> Path:
     from nnmstop.explorer.extract import KINDS, ExplorerSettings
     from nnmstop.explorer.page import build_explorer
 
-    unknown = sorted(set(inputs) - set(KINDS) - {"manifest"})
+    unknown = sorted(set(inputs) - set(KINDS) - {"manifest", "mass", "stiffness"})  # the structure's files
     if unknown:
         raise ValueError(f"explorer inputs {unknown} are no kind of branch; known kinds: {sorted(KINDS)}")
     branches = {
@@ -31,9 +32,13 @@ def explorer(config: dict, inputs: dict, outputs: dict) -> Path:
         for kind in KINDS
         if kind in inputs
     }
-    return build_explorer(
-        branches, inputs["manifest"], outputs["page"], ExplorerSettings.from_config(config.get("explorer"))
-    )
+    structure = None
+    if "exact_one_stop" in branches:  # the exact family of a structure of one's own: its orbits are rebuilt on it
+        from nnmstop.settings import structure_from_config
+
+        structure = structure_from_config(config)
+    settings = ExplorerSettings.from_config(config.get("explorer"), structure)
+    return build_explorer(branches, inputs["manifest"], outputs["page"], settings)
 
 
 #: The tasks of this module's rule file, by rule name (nnmstop.pipeline.run).

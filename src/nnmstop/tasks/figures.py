@@ -199,13 +199,21 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
         )
     if name == "fig06":
         return fep.figure_06(read_dataset(_need(name, inputs, "nnm2")), spec, pdf, png_dpi)
-    stages = [read_dataset(p) for p in _as_list(_need(name, inputs, "nnm1_stages"))]
-    nnm1 = combine_nnm1_stages(stages, name, spec.get("nnm1_stages"))
+    # the rule reads stages 1 .. the figure's last (each stage starts from the one before, so nothing more is
+    # built); the figure draws its own stages, or its scene by physics where they hold no orbit
+    read = [read_dataset(p) for p in _as_list(_need(name, inputs, "nnm1_stages"))]
+    wanted = [int(k) for k in spec.get("nnm1_stages") or []]
+    numbers = list(range(1, len(read) + 1))
+    if wanted and numbers[-1] != max(wanted):
+        raise ValueError(f"{name}: expected NNM1 stages 1-{max(wanted)} as inputs, got {len(read)} dataset(s)")
+    whole = combine_nnm1_stages(read, name, numbers)
+    stages = [ds for k, ds in zip(numbers, read) if k in wanted] if wanted else read
+    nnm1 = combine_nnm1_stages(stages, name, wanted or None)
     # optional overlay of the exact multi-impact NNM1 (figures.overlay_exact)
     exact = read_dataset(inputs["exact"]) if inputs.get("exact") else None
     if name in ("fig07", "fig11"):
         builder = fep.figure_07 if name == "fig07" else fep.figure_11
-        return builder(nnm1, spec, pdf, png_dpi, exact=exact, stages=stages)
+        return builder(nnm1, spec, pdf, png_dpi, exact=exact, stages=stages, whole=whole)
     builder = {"fig08": fep.figure_08, "fig09": fep.figure_09, "fig10": fep.figure_10}[name]
     # branches switched at branch points (figures.<name>.bifurcated), one input file each
     wanted = spec.get("bifurcated", [])
@@ -215,7 +223,7 @@ def build_paper_figure(name: str, config: dict, inputs: dict, outputs: dict) -> 
             f"{name}: figures.{name}.bifurcated lists {wanted}, the inputs hold {len(bifurcated)} datasets"
         )
     nnm2 = read_dataset(_need(name, inputs, "nnm2"))
-    return builder(nnm1, nnm2, spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated, stages=stages)
+    return builder(nnm1, nnm2, spec, pdf, png_dpi, exact=exact, bifurcated=bifurcated, stages=stages, whole=whole)
 
 
 def build_regime_error_figure(config: dict, dataset_path, pdf_path) -> tuple[Path, Path]:

@@ -20,7 +20,14 @@ from nnmstop.forced.backbone import nnm_backbone, predicted_peaks, required_forc
 from nnmstop.forced.dataset import backbone_dataset, base_attributes
 from nnmstop.forced.regularized import ForcedStabilitySettings
 from nnmstop.forced.responses import ExactSettings, RegularizedSettings
-from nnmstop.forced.scenes import Scene, find_scene, forced_scenes, prediction_excitations, scene_name
+from nnmstop.forced.scenes import (
+    Scene,
+    exact_response_gap,
+    find_scene,
+    forced_scenes,
+    prediction_excitations,
+    scene_name,
+)
 from nnmstop.hbm.forced import response_amplitudes
 from nnmstop.netcdf import read_dataset, write_dataset
 
@@ -96,18 +103,30 @@ def _write(ds, path, scene: Scene, law: str, config: dict):
     logger.info("wrote %s (%d points)", path, ds.sizes["point"])
 
 
+def _start_tolerance(config: dict) -> float:
+    """The residual of a backbone's start point: ``hbm.start_tolerance`` where configured (a fine mesh's round-off
+    floor), else that of :func:`nnmstop.hbm.stages.start_point`."""
+    return float(config.get("hbm", {}).get("start_tolerance", 1e-13))
+
+
 def backbone_prediction_dataset(config: dict):
-    """NNM1 and NNM2 backbones of the regularized oscillator over the forced range, and the peaks they predict
+    """NNM1 and NNM2 backbones of the regularized structure over the forced range, and the peaks they predict
     at every force level (:mod:`nnmstop.forced.backbone`)."""
     forced = config["forced"]
-    scenes = forced_scenes(config, "oscillator")
+    scenes = forced_scenes(config, "structure")
     excitation = scenes[0].excitation
     forces = [scene.excitation.force.amplitude for scene in scenes]
     anm = ANMSettings.from_config(config["anm"], points_per_step=int(forced["points_per_step"]))
     backbones, predictions = {}, {}
     for mode in (1, 2):
         system, branch = nnm_backbone(
-            excitation, mode, scenes[0].harmonics, anm, float(forced["max_truncation"]), force_limit=1.5 * max(forces)
+            excitation,
+            mode,
+            scenes[0].harmonics,
+            anm,
+            float(forced["max_truncation"]),
+            force_limit=1.5 * max(forces),
+            start_tolerance=_start_tolerance(config),
         )
         U = np.asarray(branch.points)
         backbones[mode] = (
@@ -134,7 +153,15 @@ def prediction_error_dataset(config: dict):
     excitations, window = prediction_excitations(config)
     # the peaks are located on the ANM steps: the step ends are enough
     anm = ANMSettings.from_config(config["anm"], points_per_step=1)
-    found = prediction_errors(excitations, 1, window, int(forced["harmonics"]), anm, float(forced["max_truncation"]))
+    found = prediction_errors(
+        excitations,
+        1,
+        window,
+        int(forced["harmonics"]),
+        anm,
+        float(forced["max_truncation"]),
+        start_tolerance=_start_tolerance(config),
+    )
     stop = excitations[0].structure.stop_dofs[0]
     ds = xr.Dataset(
         {
@@ -173,7 +200,7 @@ def prediction_error_dataset(config: dict):
 
 
 def forced_exact(config, inputs, outputs, scene: str):
-    """Exact response of the non-smooth oscillator at one force level (wildcard ``scene``)."""
+    """Exact response of the non-smooth structure at one force level (wildcard ``scene``)."""
     scene = find_scene(config, scene)
     _write(exact_response_dataset(config, scene), outputs["dataset"], scene, "piecewise_linear", config)
 
@@ -188,7 +215,7 @@ def forced_backbone(config, inputs, outputs):
     """NNM backbones and the resonance peaks they predict (energy balance)."""
     ds = backbone_prediction_dataset(config)
     summary = (
-        "Backbones (NNM1, NNM2) of the regularized oscillator by harmonic balance + ANM over the forced frequency "
+        "Backbones (NNM1, NNM2) of the regularized structure by harmonic balance + ANM over the forced frequency "
         "range, with the force amplitude whose resonance peak each NNM orbit is (damping work over the orbit = "
         "work of the force in quadrature) and the peaks predicted at each force level."
     )
@@ -229,16 +256,20 @@ def forced_figure(config, inputs, outputs, figure: str):
     dpi = int(spec["png_dpi"])
 
     def read(key):
-        paths = inputs[key] if isinstance(inputs[key], (list, tuple)) else [inputs[key]]
+        found = inputs.get(key, [])
+        paths = found if isinstance(found, (list, tuple)) else [found]
         return [read_dataset(path) for path in paths]
 
+    no_exact = exact_response_gap(forced_scenes(config, "structure")[0])  # "" where the exact responses exist
     if figure == "frequency_response":
-        draw.frequency_response_figure(read("exact"), read("regularized"), read("backbone")[0], outputs["pdf"], dpi)
+        draw.frequency_response_figure(
+            read("exact"), read("regularized"), read("backbone")[0], outputs["pdf"], dpi, no_exact=no_exact
+        )
     elif figure == "phase_lag":
-        draw.phase_lag_figure(read("exact"), read("regularized"), outputs["pdf"], dpi)
+        draw.phase_lag_figure(read("exact"), read("regularized"), outputs["pdf"], dpi, no_exact=no_exact)
     elif figure == "orbits":
-        exact, regularized = read("exact")[0], read("regularized")[0]
-        scene = find_scene(config, scene_name(float(exact.attrs["forcing_amplitude"])))
+        exact, regularized = (read("exact") or [None])[0], read("regularized")[0]
+        scene = find_scene(config, scene_name(float(regularized.attrs["forcing_amplitude"])))
         draw.orbits_figure(exact, regularized, scene.excitation, spec["orbit_frequencies"], outputs["pdf"], dpi)
     elif figure == "prediction_error":
         draw.prediction_error_figure(read("prediction")[0], outputs["pdf"], dpi)

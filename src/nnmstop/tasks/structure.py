@@ -12,8 +12,6 @@ backbone (before its first internal resonance, :func:`nnmstop.exact.dataset.one_
 
 from __future__ import annotations
 
-import numpy as np
-
 from nnmstop.api import exact_family_dataset, switching_family_dataset, uses_quarter_period
 from nnmstop.netcdf import read_dataset, write_dataset
 from nnmstop.settings import structure_from_config
@@ -84,25 +82,24 @@ def _switching_exact(structure, config, outputs, keywords: str) -> None:
 
 def structure_compare(config, inputs, outputs, keywords: str = ""):
     """Exact against regularized NNM1 at matched energies."""
-    from nnmstop.compare.structure_branches import compare_at_energies
+    from nnmstop.compare.structure_branches import compare_at_energies, like_exact_family
     from nnmstop.exact.dataset import one_stop_backbone
 
     exact = read_dataset(inputs["exact"])
     if "resonant_mode" in exact:
         exact = one_stop_backbone(exact)  # not its internal resonance: see the dataset
     regularized = read_dataset(inputs["nnm1"])
-    if exact.sizes["orbit"] == 0:
-        ds = compare_at_energies(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), 0)
-        ds.attrs["no_comparison"] = f"no exact orbits: {exact.attrs['end_reason']}"
-    else:
-        ds = compare_at_energies(
-            exact.energy.values,
-            exact.frequency.values,
-            regularized.energy.values,
-            regularized.frequency.values,
-            config["compare_count"],
-            segment=regularized.segment.values,
-        )
+    ds = compare_at_energies(
+        exact.energy.values,
+        exact.frequency.values,
+        regularized.energy.values,
+        regularized.frequency.values,
+        config["compare_count"],
+        segment=regularized.segment.values,
+        comparable=like_exact_family(regularized, int(exact.attrs.get("struck_stop", 0))),
+    )
+    if exact.sizes["orbit"] == 0:  # no exact orbit (a law that is not piecewise linear): say why
+        ds.attrs["end_reason"] = f"no exact orbits: {exact.attrs['end_reason']}"
     ds.attrs = {**ds.attrs, **structure_from_config(config).attributes, "harmonics": regularized.attrs["harmonics"]}
     write_dataset(
         ds,
