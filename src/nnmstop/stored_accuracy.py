@@ -191,6 +191,7 @@ def full_structure_from_attributes(ds: xr.Dataset):
             left=str(attrs["left_end"]),
             right=str(attrs["right_end"]),
             stops=stops,
+            planes=int(attrs.get("planes", 1)),
         )
         return beam_structure(beam)
     if kind == "matrices":
