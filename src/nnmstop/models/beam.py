@@ -213,7 +213,10 @@ class Beam:
         missing = [k for k in keys if k not in parameters]
         unknown = sorted(set(parameters) - set(keys) - {"planes"})  # planes: optional (default 1)
         if missing or unknown:
-            raise ValueError(f"beam parameters: missing keys {missing}, unknown keys {unknown}; expected {list(keys)}")
+            raise ValueError(
+                f"beam parameters: missing keys {missing}, unknown keys {unknown}; expected {list(keys)} "
+                "and optionally 'planes'"
+            )
         stop_keys = {"gap", "stiffness", "eta", "node", "position", "kind", "side"}
         for stop in parameters["stops"]:
             if not isinstance(stop, dict) or set(stop) - stop_keys:
