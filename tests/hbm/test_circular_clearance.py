@@ -339,3 +339,21 @@ def test_planar_motion_gives_way_to_whirl_in_an_imperfect_hole():
             probe = float(CubicSpline(np.log(e[order]), f[order])(np.log(energy_probe)))
             gaps.append(abs(probe - reference) / reference)
     assert max(gaps) < 2e-3 and all(1.7 < a / b < 2.4 for a, b in zip(gaps[:2], gaps[2:]))
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.3, np.pi / 4, 2.0])
+def test_identity_counts_a_mode_and_its_turned_copy_as_one(angle):
+    """In a hole every diameter is alike: planar motion along any of them, and a whirl, are NNM1 with all of the
+    motion in it (a mode and its copy turned by 90 degrees share a frequency; which basis of the pair the
+    eigensolver returns is round-off, the pair's share is not)."""
+    from nnmstop.hbm.identity import orbit_identity
+
+    q_cos, q_sin = np.zeros((2, 2, 3)), np.zeros((2, 2, 3))
+    q_cos[0, :, 1] = 0.8 * np.array([np.cos(angle), np.sin(angle)])  # planar, along the diameter at angle
+    q_cos[1, :, 1] = [0.8, 0.0]  # a whirl: x = R cos, y = R sin
+    q_sin[1, :, 1] = [0.0, 0.8]
+    f_cos, f_sin = ETA * q_cos[:, :1], ETA * q_sin[:, :1]
+    f2_cos, f2_sin = ETA * q_cos[:, 1:], ETA * q_sin[:, 1:]
+    found = orbit_identity(isotropic(), q_cos, q_sin, f_cos, f_sin, f2_cos, f2_sin)
+    assert list(found["dominant_mode"]) == [1, 1]
+    np.testing.assert_allclose(found["dominant_mode_share"], 1.0, rtol=1e-12)

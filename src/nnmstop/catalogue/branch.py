@@ -428,7 +428,8 @@ IDENTITY_VARIABLES = (
         "dominant_mode",
         ("point",),
         "linear mode (1 the lowest) carrying most of the dominant harmonic's motion: a mode of the structure with each "
-        "stop replaced by its effective_stop_stiffness (eta near rest, alpha as the gap closes)",
+        "stop replaced by its effective_stop_stiffness (eta near rest, alpha as the gap closes); for a structure "
+        "invariant under rotations a mode and its copy turned by 90 degrees are one, the lower",
     ),
     Variable(
         "dominant_mode_share", ("point",), "share of the dominant harmonic's mass-weighted motion in dominant_mode"
