@@ -476,8 +476,17 @@ NNM_BRANCH_VARIABLES = (
 NNM_BRANCH = DatasetKind(
     "nnm_branch",
     "Regularized NNM branch of a structure (HBM + ANM)",
-    ("hbm/nnm*.nc", "hbm/stages/nnm*_stage*.nc", "tube/nnm*.nc", "tube/stages/nnm*_stage*.nc", "tube/study/gap*_k*.nc"),
-    "A regularized NNM of any structure (the paper's oscillator, the finite-element tube, a structure from matrices) "
+    (
+        "hbm/nnm*.nc",
+        "hbm/stages/nnm*_stage*.nc",
+        "tube/nnm*.nc",
+        "tube/stages/nnm*_stage*.nc",
+        "tube/study/gap*_k*.nc",
+        "tube/circular/*.nc",
+        "tube/circular/stages/*_stage*.nc",
+    ),
+    "A regularized NNM of any structure (the paper's oscillator, the finite-element tube, the tube in a circular hole, "
+    "a structure from matrices) "
     "continued by harmonic balance and the asymptotic numerical method: one stage, or the whole branch (the stages "
     "concatenated). Fourier coefficients in the phase omega t, diagnostics, located branch points, folds and "
     "resonance tongues passed, Floquet stability, the structure's stops and linear limits "
