@@ -60,7 +60,12 @@ if "forced" in config:  # forced responses (issue 23); a configuration may leave
     include: "workflow/rules/forced.smk"
 
 
-include: "workflow/rules/verify.smk"  # after the forced rules: it checks their datasets too
+if "atlas" in config:  # the bifurcation atlas (issue 31); a configuration may leave it out
+
+    include: "workflow/rules/atlas.smk"
+
+
+include: "workflow/rules/verify.smk"  # after the forced and atlas rules: it checks their datasets too
 include: "workflow/rules/bundle.smk"
 include: "workflow/rules/docs.smk"
 

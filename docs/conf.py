@@ -35,7 +35,7 @@ extensions = [
 ]
 source_suffix = {".md": "myst-nb", ".rst": "restructuredtext"}
 root_doc = "index"
-exclude_patterns = ["_build", "jupyter_execute", "**.ipynb_checkpoints"]
+exclude_patterns = ["_build", "jupyter_execute", "**.ipynb_checkpoints", "atlas_numbers.md"]  # included by atlas.md
 
 # MyST: $...$ maths, ::: fences, and anchors for headings down to level 3 (links such as page.md#section)
 myst_enable_extensions = ["dollarmath", "colon_fence"]

@@ -1,8 +1,8 @@
 """The workflow through a real SLURM scheduler gives the same bytes as a local build.
 
-Runs the small configuration (tests/data/small_config.yaml) with ``--profile profiles/slurm``
-on whatever cluster ``sinfo`` reaches, then locally, and compares every dataset and figure
-byte for byte. The cluster check (tests/cluster/run_cluster_check.sh, see README) brings up
+Runs the small configuration (tests/data/small_config.yaml: the default target and its small atlas) with
+``--profile profiles/slurm`` on whatever cluster ``sinfo`` reaches, then locally, and compares every dataset
+and figure byte for byte. The cluster check (tests/cluster/run_cluster_check.sh, see README) brings up
 a single-node cluster without accounting on this machine and runs this test; elsewhere the
 test is skipped when no SLURM cluster answers, unless NNMSTOP_REQUIRE_SLURM=1 (set by the
 cluster check) turns that into a failure.
@@ -94,7 +94,10 @@ def outputs(workdir: Path) -> dict[str, bytes]:
 def test_slurm_build_is_byte_identical_to_local_build(cluster_partition, tmp_path):
     on_cluster = tmp_path / "slurm"
     start = time.monotonic()
-    run = run_under_timeout(snakemake_command(on_cluster, "--profile", str(PROFILE)), SLURM_RUN_TIMEOUT_SECONDS)
+    # the default target and the small atlas (one job per slice and per kind of curve, tests/data/small_config.yaml)
+    run = run_under_timeout(
+        snakemake_command(on_cluster, "--profile", str(PROFILE), "all", "atlas"), SLURM_RUN_TIMEOUT_SECONDS
+    )
     slurm_seconds = time.monotonic() - start
     assert run.returncode == 0, f"SLURM run failed:\n{run.stdout[-6000:]}"
     # every job went through the scheduler (none ran as a local rule)
@@ -103,7 +106,9 @@ def test_slurm_build_is_byte_identical_to_local_build(cluster_partition, tmp_pat
 
     local = tmp_path / "local"
     start = time.monotonic()
-    build = subprocess.run(snakemake_command(local, "--cores", "2"), capture_output=True, text=True, timeout=900)
+    build = subprocess.run(
+        snakemake_command(local, "--cores", "2", "all", "atlas"), capture_output=True, text=True, timeout=900
+    )
     local_seconds = time.monotonic() - start
     assert build.returncode == 0, f"local run failed:\n{build.stdout[-3000:]}\n{build.stderr[-3000:]}"
 
@@ -112,6 +117,7 @@ def test_slurm_build_is_byte_identical_to_local_build(cluster_partition, tmp_pat
     assert sorted(produced) == sorted(expected)
     differing = [path for path in expected if produced[path] != expected[path]]
     assert not differing, f"differ between the SLURM and the local build: {differing}"
+    assert any(path.startswith("results/atlas/") for path in expected), "the small atlas was not built"
     print(
         f"\nSLURM run ({cluster_partition}): {slurm_seconds:.0f} s; local run (--cores 2): {local_seconds:.0f} s; "
         f"{len(expected)} files byte-identical"

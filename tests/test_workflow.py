@@ -290,8 +290,9 @@ folder, build = Path(sys.argv[1]), Path({build!r})
 for name, write in (
     ("explorer", lambda: build_explorer({{"regularized": [build / "results/hbm/nnm2.nc"]}},
                                         build / "results/MANIFEST.sha256", folder / "explorer.html")),
-    ("docs", lambda: docs({{"model": {model!r}}}, {{**{inputs!r}, "figure": str(build / "paper_figures/fig02.png")}},
-                          {{"results": folder / "results.md", "figure": folder / "front.png"}})),
+    ("docs", lambda: docs({config!r}, {{**{inputs!r}, "figure": str(build / "paper_figures/fig02.png")}},
+                          {{"results": folder / "results.md", "paper_table": folder / "paper_vs_build.md",
+                            "figure": folder / "front.png"}})),
 ):
     try:
         write()
@@ -310,10 +311,13 @@ def test_the_explorer_and_docs_pages_on_a_full_disk_name_their_path_and_leave_no
     config = yaml.safe_load(SMALL_CONFIG.read_text())
     inputs = {name: str(built / "results" / path) for name, path in RESULT_DATASETS.items()
               if (built / "results" / path).exists()}  # fmt: skip
-    out = run_in_small_tmpfs(FULL_DISK_PAGES.format(build=str(built), model=config["model"], inputs=inputs), "size=8k")
+    out = run_in_small_tmpfs(FULL_DISK_PAGES.format(build=str(built), config=config, inputs=inputs), "size=8k")
     assert re.search(r"REFUSED explorer .*cannot write \S*/explorer\.html: No space left on device", out), out
-    assert re.search(r"REFUSED docs .*cannot write \S*/(results\.md|front\.png): No space left on device", out), out
-    assert re.search(r"LEFT \[('results\.md')?\]", out), out  # the page whole or not at all, no temporary
+    pages = r"(results|paper_vs_build)\.md|front\.png"
+    assert re.search(rf"REFUSED docs .*cannot write \S*/({pages}): No space left on device", out), out
+    left = re.search(r"LEFT \[(.*)\]", out)
+    assert left, out  # each page whole or not at all, no temporary
+    assert set(re.findall(r"'([^']*)'", left.group(1))) <= {"results.md", "paper_vs_build.md"}, out
 
 
 def test_workflow_lint_is_clean():

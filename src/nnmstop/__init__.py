@@ -11,6 +11,8 @@ The objects a user composes (numpydoc docstrings with examples; ``examples/quick
   :class:`xarray.Dataset`; :func:`stability` — Floquet multipliers of its orbits;
   :func:`exact_family` — the exact NNM1 of the non-smooth structure with one impact per stop side;
   :func:`forced_response` — its damped response to a harmonic force, exact or regularized, with stability.
+  :func:`atlas` — the bifurcation atlas of the structure forced and damped (regions and curves over the
+  frequency and the force, or a structural parameter).
 
 Data flow of the package: :mod:`nnmstop.models` -> :mod:`nnmstop.exact` (closed-form orbits of the
 non-smooth system) -> :mod:`nnmstop.hbm` / :mod:`nnmstop.continuation` (regularized NNMs) ->
@@ -44,6 +46,7 @@ _EXPORTS = {
     "stability": "nnmstop.api",
     "exact_family": "nnmstop.api",
     "forced_response": "nnmstop.api",
+    "atlas": "nnmstop.api",
 }
 
 __all__ = [*_EXPORTS, "__version__"]

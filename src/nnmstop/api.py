@@ -1,4 +1,5 @@
-"""The few functions a user composes: continue an NNM, its stability, the exact one-impact family, a forced response.
+"""The few functions a user composes: continue an NNM, its stability, the exact one-impact family, a forced response,
+the bifurcation atlas.
 
 They take a :class:`~nnmstop.models.structure.Structure` (the paper's oscillator is
 :func:`~nnmstop.models.structure.two_dof_structure`, a structure of one's own is built from matrices,
@@ -27,6 +28,7 @@ __all__ = [
     "exact_family_dataset",
     "switching_family_dataset",
     "forced_response",
+    "atlas",
 ]
 
 
@@ -363,3 +365,113 @@ def forced_response(
         ds = assemble.regularized_response_dataset(excitation, frequency_range, settings, stability)
     ds.attrs = {**structure.attributes, **ds.attrs}
     return describe(ds, f"forced_{'exact' if method == 'exact' else 'regularized'}")
+
+
+def atlas(
+    structure: Structure,
+    frequency_range,
+    force_dofs,
+    second_range,
+    slices: int = 12,
+    damping=0.01,
+    plane: str = "force",
+    force: float = 1.0,
+    seeds=None,
+    checks=None,
+    kinds=("grazing", "fold", "neimark_sacker", "flip", "second_contact"),
+    frequency_samples: int = 200,
+    check_tolerance: float = 1e-7,
+    curve=None,
+    exact=None,
+) -> xr.Dataset:
+    """The bifurcation atlas of ``structure`` forced on ``force_dofs``, as a labelled dataset (kind ``atlas``).
+
+    The same computation as ``snakemake atlas`` (:mod:`nnmstop.bifurcation_atlas.build`), in this process: ``slices``
+    exact
+    one-parameter responses evenly spaced over ``second_range`` (force amplitudes on the ``force`` plane, else
+    values of the structural parameter ``plane`` at the force ``force``), classified into regions, and every
+    curve of ``kinds`` (exact, piecewise-linear stop) through the points the ``seeds`` slices locate, checked
+    against the ``checks`` slices (a located point on no curve raises
+    :class:`~nnmstop.bifurcation_atlas.build.CheckFailed`), with their codimension-two points.
+
+    Parameters
+    ----------
+    structure : Structure
+        Any structure with at least one stop (the first is the struck one) and no rigid-body mode.
+    frequency_range : (float, float)
+        Hz of the nondimensional time.
+    force_dofs : sequence of int or str
+        Forced degrees of freedom (indices or labels); unit weights.
+    second_range : (float, float)
+        Range of the slices; the curves run on ten per cent of it beyond either end.
+    slices : int
+        Number of slices (one exact response each).
+    damping : float or Damping
+        Damping ratio of the first two linear modes (one mode for a 1-DOF structure), or a Damping.
+    plane : {"force", "gap", "stiffness", "damping_ratio"}
+    force : float
+        The force amplitude of a structural plane.
+    seeds, checks : sequence of float, optional
+        Slice values (they snap to the nearest slice) that seed and check the curves; by default the middle
+        slice seeds and the slices at a quarter and three quarters check.
+    kinds : sequence of str
+        Curve kinds (:data:`nnmstop.bifurcation_atlas.build.EXACT_KINDS`).
+    frequency_samples : int
+        Grid frequencies of the regions.
+    check_tolerance : float
+        Relative frequency distance allowed between a curve and a located point.
+    curve : CurveSettings, optional
+    exact : ExactSettings, optional
+
+    Examples
+    --------
+    >>> import nnmstop
+    >>> ds = nnmstop.atlas(nnmstop.two_dof_structure(), (0.08, 0.12), ["u"], (0.05, 0.1), slices=3,
+    ...                    kinds=("grazing",), frequency_samples=20)  # doctest: +SKIP
+    >>> sorted(set(ds["curve_kind"].values.tolist()))  # doctest: +SKIP
+    [0]
+    """
+    from nnmstop.bifurcation_atlas.build import AtlasMap, atlas_dataset, curves_dataset, slice_dataset
+    from nnmstop.bifurcation_atlas.curves import CurveSettings
+    from nnmstop.forced.responses import ExactSettings
+    from nnmstop.forced.scenes import _dof_indices
+    from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
+
+    if not isinstance(damping, Damping):
+        ratio = float(damping)
+        count = min(2, structure.n_dofs)
+        damping = Damping.from_modal_ratios(structure, [ratio] * count, list(range(1, count + 1)))
+    dofs = tuple(_dof_indices(structure, list(force_dofs), "force_dofs"))
+    excitation = Excitation(structure, damping, HarmonicForce(float(force), dofs))
+    values = (
+        tuple(float(v) for v in np.linspace(*second_range, int(slices))) if slices > 1 else (float(second_range[0]),)
+    )
+
+    def snap(chosen):
+        return tuple(values[int(np.argmin(np.abs(np.asarray(values) - v)))] for v in chosen)
+
+    n = len(values)
+    low, high = (float(v) for v in second_range)
+    margin = 0.1 * (high - low)  # the curves run past the end slices, so that they cross them
+    atlas_map = AtlasMap(
+        name="atlas",
+        excitation=excitation,
+        plane=plane,
+        frequency_range=tuple(float(v) for v in frequency_range),
+        second_range=(max(low - margin, 0.5 * low), high + margin),
+        slices=values,
+        seeds=snap(seeds) if seeds is not None else (values[n // 2],),
+        checks=snap(checks) if checks is not None else tuple(sorted({values[n // 4], values[(3 * n) // 4]})),
+        kinds=tuple(kinds),
+        exact=exact or ExactSettings(),
+        curve=curve or CurveSettings(),
+        grid=int(frequency_samples),
+        check_tolerance=float(check_tolerance),
+    )
+    slice_sets = [slice_dataset(atlas_map, k) for k in range(n)]
+
+    def at(chosen):
+        return [slice_sets[values.index(v)] for v in chosen]
+
+    curve_sets = [curves_dataset(atlas_map, kind, at(atlas_map.seeds), at(atlas_map.checks)) for kind in kinds]
+    return describe(atlas_dataset(atlas_map, slice_sets, curve_sets), "atlas")

@@ -115,7 +115,20 @@ def validate_config(config: dict) -> dict:
         _check_structure(section, plates["branches"], "tube_plates")
     if "forced" in config:
         _check_forced(config)
+    if "atlas" in config:
+        _check_atlas(config)
     return config
+
+
+def _check_atlas(config: dict) -> None:
+    """Every atlas map builds: its structure, damping and force DOFs, slices covering its seeds and checks
+    (nnmstop.bifurcation_atlas.maps)."""
+    from nnmstop.bifurcation_atlas.maps import atlas_maps
+
+    try:
+        atlas_maps(config)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"config key 'atlas': {err}") from None
 
 
 def _check_forced(config: dict) -> None:

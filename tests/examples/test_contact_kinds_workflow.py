@@ -41,6 +41,7 @@ def built(request, tmp_path_factory):
     scipy.io.mmwrite(workdir / "stiffness.mtx", np.array(STIFFNESS[name]))
     config = yaml.safe_load((EXAMPLE / "config.yaml").read_text())
     config["structure"]["matrices"].update(dof_labels=["x", "u"], stops=STOPS[name])
+    config["forced"]["force"]["dofs"] = ["u"]  # the example forces its chain's free end, x3
     config["hbm"].update(harmonics=24, max_truncation=1e-2, points_per_step=1)
     config["branches"]["nnm1"]["stages"] = [
         {"name": "near_rest", "until": {"energy_above": 0.3}},

@@ -145,3 +145,19 @@ def test_overlay_pairs_the_same_nnm_at_the_same_energy(browser_page, small_build
     assert exact_ds["impacts_per_period"].values[j] == 2
     assert abs(np.log(exact_ds["energy"].values[j] / regular["energy"].values[i])) <= 0.05
     assert page.evaluate("b => window.explorer.partnerOf(b, 3)", nnm2) is None
+
+
+def test_the_atlas_shows_the_orbit_of_a_curve_point_and_the_responses_of_a_region(browser_page, small_build):
+    """The small atlas below the branches: a curve point's orbit, and in the jump region between the folds the
+    two stable responses of the nearest slice (and the unstable one between them)."""
+    page, log, _ = browser_page
+    assert page.evaluate("() => window.atlas.atlases.length") == 1
+    text = page.evaluate("() => window.atlas.showCurvePoint(0)")
+    assert "Hz" in text
+    with xr.open_dataset(small_build / "results/atlas/oscillator_force.nc") as ds:
+        region = ds["region"].values
+        k, j = np.argwhere(region == 2)[len(np.argwhere(region == 2)) // 2]  # a coexisting cell
+        f, s = float(ds["grid_frequency"].values[j]), float(ds["slice_value"].values[k])
+    shown = page.evaluate("([f, s]) => window.atlas.showRegion(f, s)", [f, s])
+    assert shown["region"] == "coexisting" and shown["responses"] >= 2
+    assert not [m for m in log["console"] if m[0] in ("error", "pageerror")]

@@ -212,3 +212,31 @@ def test_a_structures_exact_family_is_rebuilt_on_the_structure(tmp_path):
     np.testing.assert_allclose(x.sum(axis=1), ds["x_max"].values, rtol=2e-3)
     with pytest.raises(ValueError, match="needs the structure"):
         one_stop_branch(ds, ExplorerSettings())
+
+
+def test_the_atlas_record_holds_its_regions_curves_and_orbits(small_build):
+    """The small build's atlas in the explorer: the region runs tile every slice row over the grid, each curve
+    point's orbit synthesized from the float32 coefficients peaks at the dataset's amplitude, and the slices'
+    response points come with their orbits."""
+    from nnmstop.explorer.extract import extract_atlas
+
+    path = "results/atlas/oscillator_force.nc"
+    slices = sorted((small_build / "results/atlas/oscillator_force").glob("slice_*.nc"))
+    record = extract_atlas(path, [s.relative_to(small_build) for s in slices], {}, root=small_build)
+    with xr.open_dataset(small_build / path) as ds:
+        runs = record["regions"]["runs"]
+        assert len(np.unique(runs[:, 2])) == ds.sizes["slice"]
+        width = np.ptp(ds["grid_frequency"].values) * ds.sizes["grid"] / (ds.sizes["grid"] - 1)
+        for row in np.unique(runs[:, 2]):
+            mine = runs[runs[:, 2] == row]
+            assert np.isclose(np.sum(mine[:, 1] - mine[:, 0]), width)
+        K = int(ds.attrs["orbit_harmonics"])
+        theta = 2 * np.pi * np.arange(2048) / 2048
+        k = np.arange(1, K + 1)
+        for i in (0, ds.sizes["point"] // 2, ds.sizes["point"] - 1):
+            c = record["curves"]["orbit"][i, 0].astype(float)
+            x = c[0] + c[1 : K + 1] @ np.cos(np.outer(k, theta)) + c[K + 1 :] @ np.sin(np.outer(k, theta))
+            assert np.abs(x).max() == pytest.approx(float(ds["amplitude"].values[i, 0]), rel=1e-5)
+    assert record["responses"]["orbit"].shape[0] == record["responses"]["frequency"].shape[0] > 0
+    page = (small_build / "dist" / "explorer.html").read_text()
+    assert 'id="atlas-section"' in page and "showRegion" in page

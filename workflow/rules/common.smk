@@ -369,9 +369,15 @@ def explorer_branches():
     if config.get("explorer", {}).get("tube", False) and "tube" in config:  # the tube's branches, built for it
         regularized += [tube_file(name) for name in config["tube"]["branches"]]
     if STRUCTURE_KIND != "two_dof":
-        return {"regularized": regularized, "exact_one_stop": [STRUCTURE_DATASETS["exact"]]}
-    exact = rules.exact_nnm1.output.dataset if "exact_multi" in config else rules.exact_two_impacts.output.dataset
-    return {"regularized": regularized, "exact": [exact]}
+        inputs = {"regularized": regularized, "exact_one_stop": [STRUCTURE_DATASETS["exact"]]}
+    else:
+        exact = rules.exact_nnm1.output.dataset if "exact_multi" in config else rules.exact_two_impacts.output.dataset
+        inputs = {"regularized": regularized, "exact": [exact]}
+    if config.get("explorer", {}).get("atlas", False) and "atlas" in config:  # the atlas' maps, built for it
+        names = list(config["atlas"]["maps"])
+        inputs["atlas"] = [results(f"atlas/{name}.nc") for name in names]
+        inputs["atlas_slices"] = [path for name in names for path in atlas_slice_files(name)]
+    return inputs
 
 
 # --------------------------------------------------------------------------- forced
@@ -410,9 +416,72 @@ def forced_figures():
     return expand(paper_figures("forced_{figure}.{ext}"), figure=figures, ext=("pdf", "png"))
 
 
+# --------------------------------------------------------------------------- atlas
+# The bifurcation atlas (workflow/rules/atlas.smk): its maps, slices and curves (nnmstop.bifurcation_atlas.maps).
+
+
+def atlas_map_names():
+    """The maps of the `atlas` section (none without it)."""
+    from nnmstop.bifurcation_atlas.maps import map_names
+
+    return map_names(config)
+
+
+def atlas_slice_files(name):
+    """The slice datasets of a map, in order."""
+    from nnmstop.bifurcation_atlas.maps import slice_values
+
+    count = len(slice_values(config["atlas"]["maps"][name]))
+    return [results(f"atlas/{name}/slice_{k}.nc") for k in range(count)]
+
+
+def atlas_curve_files(name):
+    """The curve datasets of a map, one per kind."""
+    return [results(f"atlas/{name}/curves_{kind}.nc") for kind in config["atlas"]["maps"][name]["kinds"]]
+
+
+def _atlas_slices_at(name, values):
+    from nnmstop.bifurcation_atlas.maps import slice_values
+
+    slices = slice_values(config["atlas"]["maps"][name])
+    files = atlas_slice_files(name)
+    return [files[min(range(len(slices)), key=lambda k: abs(slices[k] - float(v)))] for v in values]
+
+
+def atlas_curve_inputs(wildcards):
+    """The seed and check slices of a curve job (none for the regularized kinds, computed in the job)."""
+    spec = config["atlas"]["maps"][wildcards.map]
+    if wildcards.kind.startswith("regularized_"):
+        return {}
+    return {"seeds": _atlas_slices_at(wildcards.map, spec["seeds"]), "checks": _atlas_slices_at(wildcards.map, spec["checks"])}
+
+
+def atlas_has_backbone(name):
+    """Whether a map draws the backbones' prediction (a `backbone` section, force or gap plane)."""
+    spec = config["atlas"]["maps"][name]
+    return "backbone" in spec and spec["plane"] in ("force", "gap")
+
+
+def atlas_figure_inputs(wildcards):
+    """The atlas dataset of a map and, where it draws them, its backbones."""
+    inputs = {"atlas": results(f"atlas/{wildcards.map}.nc")}
+    if atlas_has_backbone(wildcards.map):
+        inputs["backbone"] = results(f"atlas/{wildcards.map}_backbone.nc")
+    return inputs
+
+
+def atlas_datasets():
+    """The atlas dataset of every map and its backbones."""
+    names = atlas_map_names()
+    return [results(f"atlas/{name}.nc") for name in names] + [
+        results(f"atlas/{name}_backbone.nc") for name in names if atlas_has_backbone(name)
+    ]
+
+
 def verified_inputs(wildcards):
     """What verify checks and update_reference record (workflow/rules/verify.smk): the paper's datasets and
-    their manifest and, where the configuration has them, the forced, tube and study datasets (their manifests)."""
+    their manifest and, where the configuration has them, the forced, tube, study and atlas datasets (their
+    manifests)."""
     inputs = dict(datasets=PAPER_DATASETS, manifest=rules.dataset_manifest.output.manifest)
     if "forced" in config:
         inputs.update(forced_datasets=forced_datasets(), forced_manifest=rules.forced_manifest.output.manifest)
@@ -420,6 +489,8 @@ def verified_inputs(wildcards):
         inputs.update(tube_manifest=rules.tube_manifest.output.manifest)
     if "study" in config:
         inputs.update(study_manifest=rules.study_manifest.output.manifest)
+    if "atlas" in config:
+        inputs.update(atlas_datasets=atlas_datasets(), atlas_manifest=rules.atlas_manifest.output.manifest)
     return inputs
 
 
@@ -445,7 +516,7 @@ def docs_inputs(wildcards):
 
 def built_figures():
     """The figures of the default target and every other figure of the configuration that the build made (exists
-    now): the extra figures, the forced, tube and study ones. `snakemake --report report.html report_figures`
+    now): the extra figures, the forced, tube, study, tube-on-plates and atlas ones. `snakemake --report report.html report_figures`
     puts them all in the report; a figure not built is left out rather than built for the report."""
     candidates = [*rules.regime_error_figure.output, *rules.stability_figure.output]
     candidates += [*rules.study_error_vs_runtime_figure.output, *rules.study_stiff_cases_figure.output]
@@ -454,5 +525,10 @@ def built_figures():
     if "tube" in config:
         candidates += expand(paper_figures("tube_{figure}.{ext}"), figure=TUBE_FIGURE_INPUTS, ext=("pdf", "png"))
         candidates += list(rules.tube_study.output)
+    if "tube_plates" in config:
+        candidates += expand(paper_figures("tube_plates_{figure}.{ext}"), figure=PLATES_FIGURES + ("forced",),
+                             ext=("pdf", "png"))
+    if "atlas" in config:
+        candidates += expand(paper_figures("atlas_{map}.{ext}"), map=atlas_map_names(), ext=("pdf", "png"))
     return PAPER_FIGURES + [path for path in candidates if path not in PAPER_FIGURES and os.path.exists(path)]
 

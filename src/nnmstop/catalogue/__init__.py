@@ -10,7 +10,7 @@ variable with other dimensions, a missing required one, and a missing value wher
 (``--check docs/datasets.md`` says whether the page is up to date).
 
 One module per domain holds its kinds (:mod:`.branch`, :mod:`.exact`, :mod:`.compare`,
-:mod:`.study`, :mod:`.tube`, :mod:`.forced`); :data:`KINDS` gathers them.
+:mod:`.study`, :mod:`.tube`, :mod:`.forced`, :mod:`.atlas`); :data:`KINDS` gathers them.
 """
 
 from __future__ import annotations
@@ -116,10 +116,10 @@ class DatasetKind:
 
 
 def _collect() -> dict:
-    from nnmstop.catalogue import branch, compare, exact, forced, study, tube
+    from nnmstop.catalogue import atlas, branch, compare, exact, forced, study, tube
 
     kinds = {}
-    for module in (exact, branch, compare, tube, study, forced):
+    for module in (exact, branch, compare, tube, study, forced, atlas):
         for entry in module.KINDS:
             if entry.name in kinds:
                 raise ValueError(f"dataset kind {entry.name!r} is defined twice")

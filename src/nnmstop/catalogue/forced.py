@@ -153,7 +153,7 @@ FORCED_REGULARIZED = DatasetKind(
 FORCED_BACKBONE = DatasetKind(
     "forced_backbone",
     "NNM backbones and the resonance peaks they predict",
-    ("forced/backbone.nc",),
+    ("forced/backbone.nc", "atlas/<map>_backbone.nc"),
     "NNM1 and NNM2 of the regularized oscillator (HBM + ANM) over the forced range with the force whose resonance "
     "peak each orbit is (energy balance), and the peaks predicted at each force level (nnmstop.forced.backbone).",
     (

@@ -349,37 +349,43 @@ class ContactAssessment(MarginChecks):
     margins: dict
 
 
-def _extreme_values(phase: ForcedPhase, z_s, theta_s: float, delta: float, omega: float, direction):
-    """Interior local minima and maxima of ``direction . q`` over the phases ``(theta_s, theta_s + delta)``.
+def _extreme_values_of(phase: ForcedPhase, z_s, theta_s: float, delta: float, omega: float, directions) -> list:
+    """Interior local minima and maxima of ``direction . q`` over the phases ``(theta_s, theta_s + delta)``, for
+    each of ``directions`` (vectors of length N or DOF indices): ``[(minima, maxima) per direction]``.
 
-    ``direction``: a vector of length N (or a DOF index). The closed-form velocity is sampled at
+    The closed-form state is sampled once (the amplitudes of every DOF of a large structure) at
     :data:`SAMPLES_PER_PERIOD` points per period of the fastest of the phase's oscillations and the force; each
-    sign change is refined by Brent's method to round-off.
+    sign change of a velocity is refined by Brent's method to round-off.
     """
     if not delta > 0:
-        return [], []
+        return [([], []) for _ in directions]
     n_dofs = phase.n
-    if np.ndim(direction) == 0:
-        direction = np.eye(n_dofs)[int(direction)]
-    direction = np.asarray(direction, dtype=float)
     P = phase.amplitude(omega)[0]
     fastest = max(phase.fastest, omega)
     n = SAMPLES_PER_PERIOD * max(1, int(np.ceil(delta / omega * fastest / (2 * np.pi)))) + 1
     theta = np.linspace(theta_s, theta_s + delta, n)
-
-    def velocity(r):
-        return phase.states(z_s, theta_s, omega, r, P)[n_dofs:] @ direction
-
-    v = phase.states(z_s, theta_s, omega, theta, P)[:, n_dofs:] @ direction
-    minima, maxima = [], []
+    samples = phase.states(z_s, theta_s, omega, theta, P)
     edge = 1e-12 * max(delta, 1.0)
-    for i in np.flatnonzero(np.sign(v[:-1]) != np.sign(v[1:])):
-        lo, hi = theta[i], theta[i + 1]
-        r = scipy.optimize.brentq(velocity, lo, hi, xtol=1e-15, rtol=1e-15) if velocity(lo) * velocity(hi) < 0 else lo
-        if theta_s + edge < r < theta_s + delta - edge:
-            value = phase.states(z_s, theta_s, omega, r, P)[:n_dofs] @ direction
-            (maxima if v[i] > 0 else minima).append(float(value))
-    return minima, maxima
+    out = []
+    for direction in directions:
+        if np.ndim(direction) == 0:
+            direction = np.eye(n_dofs)[int(direction)]
+        direction = np.asarray(direction, dtype=float)
+
+        def velocity(r, direction=direction):
+            return phase.states(z_s, theta_s, omega, r, P)[n_dofs:] @ direction
+
+        v = samples[:, n_dofs:] @ direction
+        minima, maxima = [], []
+        for i in np.flatnonzero(np.sign(v[:-1]) != np.sign(v[1:])):
+            lo, hi = theta[i], theta[i + 1]
+            bracketed = velocity(lo) * velocity(hi) < 0
+            r = scipy.optimize.brentq(velocity, lo, hi, xtol=1e-15, rtol=1e-15) if bracketed else lo
+            if theta_s + edge < r < theta_s + delta - edge:
+                value = phase.states(z_s, theta_s, omega, r, P)[:n_dofs] @ direction
+                (maxima if v[i] > 0 else minima).append(float(value))
+        out.append((minima, maxima))
+    return out
 
 
 class ForcedResponseProblem:
@@ -697,12 +703,10 @@ class ForcedResponseProblem:
             margins[key] = min(margins[key], float(d))
         leaves, early, other = [], [], []
         for k, (phase, active) in enumerate(zip(self.phase_list, self.sequence)):
-            extremes = {}
+            extremes = _extreme_values_of(phase, states[k], thetas[k], durations[k], omega, directions)
             switching = {self.switches[k].contact, self._end_switch(k).contact}
             for c in range(len(self.contacts)):
                 i, sign = of[c]
-                if i not in extremes:
-                    extremes[i] = _extreme_values(phase, states[k], thetas[k], durations[k], omega, directions[i])
                 low, high = extremes[i] if sign > 0 else ([-v for v in extremes[i][1]], [-v for v in extremes[i][0]])
                 ends = [] if c in switching else [self.normals[c] @ z[: self.n] for z in (states[k], states[k + 1])]
                 g = self.gaps[c]
@@ -722,8 +726,8 @@ class ForcedResponseProblem:
         states, thetas = self.switch_states(y), self.switch_phases(y)
         out = np.max(np.abs(np.array(states)[:, : self.n]), axis=0)
         for k, phase in enumerate(self.phase_list):
-            for j in range(self.n):
-                low, high = _extreme_values(phase, states[k], thetas[k], durations[k], omega, j)
+            extremes = _extreme_values_of(phase, states[k], thetas[k], durations[k], omega, range(self.n))
+            for j, (low, high) in enumerate(extremes):
                 out[j] = max([out[j]] + [abs(v) for v in low + high])
         return out
 

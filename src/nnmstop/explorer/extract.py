@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-__all__ = ["Branch", "ExplorerSettings", "KINDS", "read_manifest", "file_sha256", "extract_branch"]
+__all__ = ["Branch", "ExplorerSettings", "KINDS", "read_manifest", "file_sha256", "extract_branch", "extract_atlas"]
 
 
 @dataclass(frozen=True)
@@ -35,16 +35,20 @@ class ExplorerSettings:
         Harmonics of the cosine series that represent an exact (non-smooth) orbit.
     tube : bool
         The workflow's rule also draws the finite-element tube's regularized branches (and builds them).
+    atlas : bool
+        The workflow's rule also shows the maps of the bifurcation atlas (and builds them).
     """
 
     time_samples: int = 512
     exact_harmonics: int = 64
     tube: bool = False
     structure: object = None  # the Structure of an exact one-stop family (its orbits are rebuilt on it); not configured
+    atlas: bool = False
 
     def __post_init__(self):
-        if not isinstance(self.tube, bool):
-            raise ValueError(f"explorer.tube must be true or false, got {self.tube!r}")
+        for name in ("tube", "atlas"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"explorer.{name} must be true or false, got {getattr(self, name)!r}")
         for name in ("time_samples", "exact_harmonics"):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 8:
@@ -360,3 +364,81 @@ def extract_branch(kind: str, path, manifest: dict, settings: ExplorerSettings, 
         "multipliers": branch.multipliers,
         "marks": branch.marks,
     }
+
+
+def _cell_edges(centres) -> np.ndarray:
+    """Edges of the cells around ``centres`` (half way between them; the end cells as wide as their neighbours)."""
+    centres = np.asarray(centres, dtype=float)
+    if len(centres) == 1:
+        return np.array([0.9 * centres[0], 1.1 * centres[0]])
+    middle = 0.5 * (centres[1:] + centres[:-1])
+    return np.concatenate([[2 * centres[0] - middle[0]], middle, [2 * centres[-1] - middle[-1]]])
+
+
+def extract_atlas(path, slice_paths, manifest: dict, root=".") -> dict:
+    """The explorer's record of an atlas (``results/atlas/<map>.nc``) and its slices (``slice_<k>.nc``).
+
+    Regions as runs of equal region along each slice row (the page draws one rectangle per run); the curves
+    with, at each point, the orbit's Fourier coefficients of the two kept DOFs (float32) and the multipliers;
+    the codimension-two points; the slices' response points with their orbits (a click on a region shows the
+    responses of the nearest slice there). A dataset listed in ``manifest`` must have the listed SHA-256.
+    """
+    from nnmstop.bifurcation_atlas.flags import CODIM2_KINDS, CURVE_KINDS, LAWS, REGIONS
+
+    path = Path(path)
+    digest = file_sha256(Path(root) / path)
+    listed = manifest.get(path.as_posix())
+    if listed is not None and listed != digest:
+        raise ValueError(f"{path}: SHA-256 {digest} differs from the manifest's {listed}; rebuild the manifest")
+    with xr.open_dataset(Path(root) / path) as ds:
+        ds.load()
+        region, grid, values = ds["region"].values, ds["grid_frequency"].values, ds["slice_value"].values
+        runs = []
+        edges = _cell_edges(grid)
+        value_edges = _cell_edges(values)
+        for k in range(len(values)):
+            start = 0
+            for j in range(1, len(grid) + 1):
+                if j == len(grid) or region[k, j] != region[k, start]:
+                    runs.append([edges[start], edges[j], value_edges[k], value_edges[k + 1], int(region[k, start])])
+                    start = j
+        record = {
+            "kind": "atlas",
+            "path": path.as_posix(),
+            "sha256": digest,
+            "in_manifest": listed is not None,
+            "title": str(ds.attrs.get("title", "")),
+            "name": str(ds.attrs.get("atlas_map", path.stem)),
+            "plane": str(ds.attrs["plane"]),
+            "gap": float(ds.attrs["stop_gap"]),
+            "harmonics": int(ds.attrs["orbit_harmonics"]),
+            "regions": {"runs": np.array(runs, dtype=np.float64), "meanings": list(REGIONS)},
+            "curves": {
+                "frequency": ds["frequency"].values.astype(np.float64),
+                "second": ds["second"].values.astype(np.float64),
+                "curve": ds["point_curve"].values.astype(np.int32),
+                "kind": [CURVE_KINDS[k] for k in ds["curve_kind"].values],
+                "law": [LAWS[k] for k in ds["curve_law"].values],
+                "orbit": ds["orbit"].values.astype(np.float32),
+                "multiplier_real": ds["multiplier_real"].values.astype(np.float32),
+                "multiplier_imag": ds["multiplier_imag"].values.astype(np.float32),
+            },
+            "codim2": {
+                "kind": [CODIM2_KINDS[k] for k in ds["codim2_kind"].values],
+                "frequency": ds["codim2_frequency"].values.astype(np.float64),
+                "second": ds["codim2_second"].values.astype(np.float64),
+            },
+        }
+    responses = {name: [] for name in ("frequency", "second", "piece", "stable", "impacting", "orbit")}
+    for slice_path in slice_paths:
+        with xr.open_dataset(Path(root) / slice_path) as sl:
+            sl.load()
+            n = sl.sizes["response"]
+            responses["frequency"].append(sl["response_frequency"].values)
+            responses["second"].append(np.full(n, float(sl.attrs["slice_value"])))
+            responses["piece"].append(sl["response_piece"].values.astype(np.int32))
+            responses["stable"].append(sl["response_stable"].values.astype(np.int8))
+            responses["impacting"].append(sl["response_impacting"].values.astype(np.int8))
+            responses["orbit"].append(sl["response_orbit"].values.astype(np.float32))
+    record["responses"] = {name: np.concatenate(parts) for name, parts in responses.items()} if slice_paths else {}
+    return record

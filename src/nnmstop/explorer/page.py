@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from nnmstop.atomic import atomic_output
-from nnmstop.explorer.extract import ExplorerSettings, extract_branch, read_manifest
+from nnmstop.explorer.extract import ExplorerSettings, extract_atlas, extract_branch, read_manifest
 
 __all__ = ["PLOTLY", "SCRIPTS", "encode", "render_page", "build_explorer"]
 
@@ -31,7 +31,7 @@ PLOTLY = {
     "sha256": "99784e3abfb07b142a15e521a439e6d9addceadb3f79553fd24c72774f0649ba",
 }
 #: The page's own scripts, in loading order.
-SCRIPTS = ("static/synthesis.js", "static/views.js", "static/explorer.js")
+SCRIPTS = ("static/synthesis.js", "static/views.js", "static/explorer.js", "static/atlas.js")
 # numpy dtype kind and size -> the typed array the page decodes into
 _TYPES = {("f", 4): "f32", ("f", 8): "f64", ("i", 1): "i8", ("u", 1): "u8", ("i", 2): "i16", ("i", 4): "i32"}
 _LITTLE_ENDIAN = {"f32": "<f4", "f64": "<f8", "i8": "i1", "u8": "u1", "i16": "<i2", "i32": "<i4"}
@@ -105,7 +105,9 @@ def render_page(data: dict) -> str:
     return re.sub(r"\{\{([A-Z]+)\}\}", lambda m: parts[m.group(1)], template)
 
 
-def build_explorer(branches: dict, manifest, output, settings: ExplorerSettings | None = None, root=".") -> Path:
+def build_explorer(
+    branches: dict, manifest, output, settings: ExplorerSettings | None = None, root=".", atlases: dict | None = None
+) -> Path:
     """Write the explorer page ``output`` and return its path.
 
     Parameters
@@ -118,6 +120,9 @@ def build_explorer(branches: dict, manifest, output, settings: ExplorerSettings 
     output
         The HTML file to write (e.g. ``dist/explorer.html``), through :func:`nnmstop.atomic.atomic_output`
         (a failed write names its path and the reason, and leaves no partial file).
+    atlases
+        ``{atlas dataset path: [its slice dataset paths]}``: the maps of the atlas, shown below the branches
+        (:func:`nnmstop.explorer.extract.extract_atlas`).
     """
     settings = settings or ExplorerSettings()
     listed = read_manifest(Path(root) / manifest)
@@ -128,6 +133,7 @@ def build_explorer(branches: dict, manifest, output, settings: ExplorerSettings 
         raise ValueError("the explorer needs at least one branch dataset")
     data = {
         "branches": records,
+        "atlases": [extract_atlas(path, slices, listed, root=root) for path, slices in (atlases or {}).items()],
         "settings": {"time_samples": settings.time_samples},
         "manifest": Path(manifest).as_posix(),
         "plotly": {key: PLOTLY[key] for key in ("package", "version")},

@@ -64,12 +64,19 @@ def scene_text(ds: xr.Dataset) -> str:
     if a.get("structure") == "two_dof":
         structure = f"α = {a['alpha']:g}, β = {a['beta']:g}, δ = {a['delta']:g}, η = {a['eta']:g}"
     else:
-        label = str(ds["dof_label"].values[int(a["stop_dof"])]) if "dof_label" in ds else f"DOF {a['stop_dof']}"
+        dofs = np.atleast_1d(a["stop_dof"]).astype(int)
+        labels = [str(ds["dof_label"].values[d]) if "dof_label" in ds else f"DOF {d}" for d in dofs]
         kinds = {"beam": "finite-element beam", "matrices": "structure from matrices"}
         kind = kinds.get(a.get("structure"), "structure")
+
+        def values(name):
+            return ", ".join(f"{v:g}" for v in np.atleast_1d(a[name]))
+
+        stops = f"stop on {labels[0]}" if len(dofs) == 1 else f"{len(dofs)} stops on {', '.join(labels)}"
+        gaps = "gap" if len(dofs) == 1 else "gaps"
         structure = (
-            f"{ds.sizes.get('dof', 0)}-DOF {kind}, stop on {label}: gap {a['stop_gap']:g}, "
-            f"α = {a['stop_stiffness']:g}, η = {a['stop_eta']:g}"
+            f"{ds.sizes.get('dof', 0)}-DOF {kind}, {stops}: {gaps} {values('stop_gap')}, "
+            f"α = {values('stop_stiffness')}, η = {values('stop_eta')}"
         )
     damping = ""
     if "damping_ratio" in a:

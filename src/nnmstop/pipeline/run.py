@@ -105,6 +105,15 @@ TASK_INDEX = {
         "forced_figure",
         "forced_manifest",
     ),
+    "atlas": (
+        "atlas_slice",
+        "atlas_curves",
+        "atlas_map",
+        "atlas_backbone",
+        "atlas_figure",
+        "atlas_docs",
+        "atlas_manifest",
+    ),
 }
 TASK_MODULES = tuple(TASK_INDEX)
 

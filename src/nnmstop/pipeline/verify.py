@@ -219,15 +219,17 @@ MANIFEST = "MANIFEST.sha256"
 FORCED_MANIFEST = "forced/MANIFEST.sha256"
 TUBE_MANIFEST = "tube/MANIFEST.sha256"
 STUDY_MANIFEST = "study/MANIFEST.sha256"
+ATLAS_MANIFEST = "atlas/MANIFEST.sha256"  # the bifurcation atlas (``snakemake atlas``; recorded when present)
 TARGET_OF_MANIFEST = {MANIFEST: "the default target", FORCED_MANIFEST: "forced", TUBE_MANIFEST: "tube",
-                      STUDY_MANIFEST: "study"}
+                      STUDY_MANIFEST: "study", ATLAS_MANIFEST: "atlas"}
 
 
 def build_manifests(results_dir) -> list[str]:
     """The manifests of the build in ``results_dir`` that a reference records: :data:`MANIFEST` and those of the
-    forced, tube and study targets where they were built."""
+    forced, tube, study and atlas targets where they were built."""
     results = Path(results_dir)
-    return [MANIFEST] + [name for name in (FORCED_MANIFEST, TUBE_MANIFEST, STUDY_MANIFEST) if (results / name).is_file()]
+    optional = (FORCED_MANIFEST, TUBE_MANIFEST, STUDY_MANIFEST, ATLAS_MANIFEST)
+    return [MANIFEST] + [name for name in optional if (results / name).is_file()]
 
 
 class ReferenceRefused(ValueError):
@@ -947,6 +949,10 @@ def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, sh
     ]
     if relative == REGIMES_NC:
         checks.append(("regimes", lambda: _regime_rows(listed, ds, reference_dir)))
+    if ds.attrs.get("dataset_kind") == "atlas":  # the atlas' curves: checked on the build (nnmstop.bifurcation_atlas.verification)
+        from nnmstop.bifurcation_atlas.verification import atlas_rows
+
+        checks.append(("atlas", lambda: atlas_rows(listed, ds, Row, WITHIN, DISCREPANT)))
     if entry.get("curve"):
         checks.append(("curve", lambda: _check_points(listed, ds, entry, reference_dir)))
     rows = []

@@ -46,7 +46,7 @@ def verify(config: dict, inputs: dict, outputs: dict) -> None:
 
 def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
     """Regenerate :data:`REFERENCE` from the build whose manifest is ``inputs["manifest"]`` (and the forced
-    responses', the tube's and the study's manifests where the configuration has them).
+    responses', the tube's, the study's and the atlas' manifests where the configuration has them).
 
     Raises
     ------
@@ -54,6 +54,7 @@ def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
         If a file of the build cannot be recorded (the table says which and why); the reference is untouched.
     """
     from nnmstop.pipeline.verify import (
+        ATLAS_MANIFEST,
         FORCED_MANIFEST,
         MANIFEST,
         STUDY_MANIFEST,
@@ -63,7 +64,12 @@ def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
     )
     from nnmstop.pipeline.verify import update_reference as regenerate
 
-    optional = {"forced_manifest": FORCED_MANIFEST, "tube_manifest": TUBE_MANIFEST, "study_manifest": STUDY_MANIFEST}
+    optional = {
+        "forced_manifest": FORCED_MANIFEST,
+        "tube_manifest": TUBE_MANIFEST,
+        "study_manifest": STUDY_MANIFEST,
+        "atlas_manifest": ATLAS_MANIFEST,
+    }
     manifests = [MANIFEST] + [name for key, name in optional.items() if inputs.get(key)]
     try:
         folder = regenerate(_results_folder(inputs), REFERENCE, manifests)

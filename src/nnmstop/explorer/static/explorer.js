@@ -413,5 +413,5 @@
     document.body.dataset.ready = "true";
   });
 
-  window.explorer = { timings: timings, state: state, branches: branches, samples: samples, select: select, orbitOf: orbitOf, partnerOf: partnerOf };
+  window.explorer = { timings: timings, state: state, branches: branches, samples: samples, select: select, orbitOf: orbitOf, partnerOf: partnerOf, data: data };
 })();
