@@ -3,16 +3,6 @@
 # large atlas (`snakemake --profile profiles/slurm atlas`). `snakemake --cores 2 atlas` builds every map, its
 # figure and the manifest. Thin rules: the tasks are in nnmstop.tasks.atlas.
 
-def ATLAS_CONFIG(wildcards):
-    """The configuration an atlas job reads: its own map of `atlas.maps` (with the section's shared keys), and the
-    sections the maps take their structure, damping and numerics from. Editing one map reruns only its jobs."""
-    sliced = task_config("model", "anm", "forced", "metadata", tube=["structure"])(wildcards)
-    atlas = {key: value for key, value in config["atlas"].items() if key != "maps"}
-    names = [wildcards.map] if "map" in wildcards.keys() else list(config["atlas"]["maps"])
-    atlas["maps"] = {name: config["atlas"]["maps"][name] for name in names}
-    return {**sliced, "atlas": atlas}
-
-
 # a map's name as a wildcard: one of the configured maps (so that `<map>_backbone.nc` is never taken for a map)
 ATLAS_MAP = "|".join(atlas_map_names()) or "no_map"
 
@@ -151,7 +141,7 @@ rule atlas_docs:
     """docs/atlas_numbers.md from the atlas datasets and the map figures in docs/ (committed; the atlas page)."""
     input:
         atlas=[results(f"atlas/{name}.nc") for name in atlas_map_names()],
-        figures=expand(paper_figures("atlas_{map}.png"), map=atlas_map_names()),
+        figures=atlas_figure_pngs(),
     output:
         numbers="docs/atlas_numbers.md",
         figures=expand("docs/atlas_{map}.png", map=atlas_map_names()),

@@ -420,6 +420,16 @@ def forced_figures():
 # The bifurcation atlas (workflow/rules/atlas.smk): its maps, slices and curves (nnmstop.bifurcation_atlas.maps).
 
 
+def ATLAS_CONFIG(wildcards):
+    """The configuration an atlas job reads: its own map of `atlas.maps` (with the section's shared keys), and the
+    sections the maps take their structure, damping and numerics from. Editing one map reruns only its jobs."""
+    sliced = task_config("model", "anm", "forced", "metadata", tube=["structure"])(wildcards)
+    atlas = {key: value for key, value in config["atlas"].items() if key != "maps"}
+    names = [wildcards.map] if "map" in wildcards.keys() else list(config["atlas"]["maps"])
+    atlas["maps"] = {name: config["atlas"]["maps"][name] for name in names}
+    return {**sliced, "atlas": atlas}
+
+
 def atlas_map_names():
     """The maps of the `atlas` section (none without it)."""
     from nnmstop.bifurcation_atlas.maps import map_names
@@ -468,6 +478,11 @@ def atlas_figure_inputs(wildcards):
     if atlas_has_backbone(wildcards.map):
         inputs["backbone"] = results(f"atlas/{wildcards.map}_backbone.nc")
     return inputs
+
+
+def atlas_figure_pngs():
+    """The PNG of every map's figure (the docs page shows them)."""
+    return expand(paper_figures("atlas_{map}.png"), map=atlas_map_names())
 
 
 def atlas_datasets():

@@ -158,11 +158,23 @@ def _fixed_interface_modes(k_ii, m_ii, solve, n_wanted: int):
         lam, phi = scipy.linalg.eigh(k_ii.toarray(), m_ii.toarray(), subset_by_index=[0, n_wanted - 1])
     else:
         inverse = scipy.sparse.linalg.LinearOperator((n, n), matvec=solve, dtype=float)
-        lam, phi = scipy.sparse.linalg.eigsh(k_ii, k=n_wanted, M=m_ii, sigma=0.0, which="LM", OPinv=inverse)
+        start = np.ones(n)  # a fixed start vector: the same Lanczos run on every call
+        lam, phi = scipy.sparse.linalg.eigsh(k_ii, k=n_wanted, M=m_ii, sigma=0.0, which="LM", OPinv=inverse, v0=start)
         order = np.argsort(lam)
         lam, phi = lam[order], phi[:, order]
     phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
-    return np.sqrt(np.maximum(lam, 0.0)), phi
+    return np.sqrt(np.maximum(lam, 0.0)), phi * _mode_signs(phi)
+
+
+def _mode_signs(phi) -> np.ndarray:
+    """``+-1`` per column: its first entry above a hundredth of its largest made positive. An eigensolver
+    returns each mode up to its sign, and the sign fixes the modal coordinates a dataset stores: a reduction
+    rebuilt to check a stored orbit (:mod:`nnmstop.stored_accuracy`) must find the same ones."""
+    if phi.shape[1] == 0:
+        return np.ones(0)
+    magnitude = np.abs(phi)
+    first = np.argmax(magnitude > 0.01 * magnitude.max(axis=0), axis=0)
+    return np.where(phi[first, np.arange(phi.shape[1])] < 0, -1.0, 1.0)
 
 
 def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Structure:

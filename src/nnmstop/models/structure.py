@@ -453,7 +453,8 @@ def generalized_modes(mass, stiffness, n_modes: int):
         lam = sigma + 1.0 / mu
     else:
         mass, stiffness = scipy.sparse.csc_matrix(mass), scipy.sparse.csc_matrix(stiffness)
-        lam, shapes = scipy.sparse.linalg.eigsh(stiffness, k=n_modes, M=mass, sigma=sigma, which="LM")
+        # a fixed start vector: the same Lanczos run, hence the same signs of the modes, on every call
+        lam, shapes = scipy.sparse.linalg.eigsh(stiffness, k=n_modes, M=mass, sigma=sigma, which="LM", v0=np.ones(n))
         order = np.argsort(lam)
         lam, shapes = lam[order], shapes[:, order]
     shapes = shapes / np.sqrt(np.einsum("ij,ij->j", shapes, mass @ shapes))
