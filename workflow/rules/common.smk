@@ -531,7 +531,7 @@ def docs_inputs(wildcards):
 
 def built_figures():
     """The figures of the default target and every other figure of the configuration that the build made (exists
-    now): the extra figures, the forced, tube, study, tube-on-plates and atlas ones. `snakemake --report report.html report_figures`
+    now): the extra figures, the forced, tube (and tube in a circular hole), study, tube-on-plates and atlas ones. `snakemake --report report.html report_figures`
     puts them all in the report; a figure not built is left out rather than built for the report."""
     candidates = [*rules.regime_error_figure.output, *rules.stability_figure.output]
     candidates += [*rules.study_error_vs_runtime_figure.output, *rules.study_stiff_cases_figure.output]
@@ -540,6 +540,7 @@ def built_figures():
     if "tube" in config:
         candidates += expand(paper_figures("tube_{figure}.{ext}"), figure=TUBE_FIGURE_INPUTS, ext=("pdf", "png"))
         candidates += list(rules.tube_study.output)
+        candidates += [path for path in tube_circular_outputs() if path.startswith(paper_figures(""))]
     if "tube_plates" in config:
         candidates += expand(paper_figures("tube_plates_{figure}.{ext}"), figure=PLATES_FIGURES + ("forced",),
                              ext=("pdf", "png"))
