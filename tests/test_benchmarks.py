@@ -32,6 +32,7 @@ SMALL = str(SMALL_CONFIG)
 #: The tiny run of each script: its arguments ({build}: the small build, {out}: a report file).
 # fmt: off
 TINY_RUNS = {
+    "atlas_artefacts": ["--exponent-only", "--output", "{out}"],
     "cold_build": ["--target", "results/exact/nnm1_two_impacts.nc", "--configfile", SMALL, "--output", "{out}"],
     "continuation_benchmark": ["--harmonics", "5", "--branches", "NNM2", "--repeat", "1", "--output", "{out}"],
     "exact_build": ["--compare", "HEAD", "HEAD", "--repeat", "1", "--configfile", SMALL,

@@ -51,7 +51,7 @@ def scene_config(model: dict) -> dict:
     config["compare"].update(energy_count=4, phase_samples=256, png_dpi=50)
     config["stability"].update(steps=64, max_steps=128, refine=False)
     config["figures"]["png_dpi"] = 50
-    for section in ("tube", "study"):
+    for section in ("tube", "study", "atlas"):
         config.pop(section, None)
     config["forced"].pop("tube", None)  # the tube's forced response needs the tube section (issue 33.7)
     return validate_config(config)

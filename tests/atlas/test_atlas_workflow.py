@@ -59,3 +59,33 @@ def test_a_bad_atlas_configuration_is_refused_naming_the_key(edit, key):
     edit(config["atlas"])
     with pytest.raises(ConfigError, match=key):
         validate_config(config)
+
+
+def test_an_atlas_of_a_structure_of_ones_own_from_its_configuration(tmp_path):
+    """Issue 29: the atlas target for `structure: kind: matrices` from the configuration alone (the 3-DOF example,
+    its map `structure: structure`, forced as its forced scene says). Its grazing curve is the closed form
+    F_g(Omega) = gap / max_t |x1(t)| of the chain's linear response at unit force, computed here independently."""
+    import numpy as np
+    import xarray as xr
+
+    from nnmstop.exact.forced import non_impacting_response
+    from nnmstop.forced.scenes import forced_scenes
+
+    example = REPO / "examples" / "three_dof_chain"
+    config = yaml.safe_load((example / "config.yaml").read_text())
+    for name in ("mass", "stiffness"):
+        config["structure"]["matrices"][name] = str(example / f"{name}.mtx")
+    spec = config["atlas"]["maps"]["chain_force"]
+    spec.update(slices={"from": 0.02, "to": 0.04, "count": 2}, seeds=[0.04], checks=[0.02], kinds=["grazing"])
+    config["atlas"]["frequency_samples"] = 20
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(config))
+    run_snakemake(tmp_path, path, "--cores", "2", "atlas", timeout=600)
+    assert (tmp_path / "paper_figures" / "atlas_chain_force.png").is_file()
+    with xr.open_dataset(tmp_path / "results" / "atlas" / "chain_force.nc") as ds:
+        assert ds.sizes["point"] > 10
+        omega, force = 2 * np.pi * ds["frequency"].values, ds["second"].values
+    unit = forced_scenes({**config, "forced": {**config["forced"], "force": {"dofs": ["x3"], "amplitudes": [1.0]}}},
+                         "structure")[0].excitation  # fmt: skip
+    assert unit.structure.n_dofs == 3
+    np.testing.assert_allclose(force, 1.0 / np.abs(non_impacting_response(unit, omega)[:, 0]), rtol=1e-9)

@@ -79,10 +79,18 @@ def test_the_exact_family_is_the_full_period_one_or_says_why_there_is_none(built
             assert exact.sizes["orbit"] > 10 and int(exact.stop_impacts.values[-1].sum()) == 2
     with xr.open_dataset(workdir / "results" / "compare" / "nnm1_one_impact.nc") as comparison:
         if name == "circular":
-            assert comparison.sizes["energy"] == 0 and "no exact orbits" in comparison.attrs["no_comparison"]
-        else:  # the regularized law (eta / alpha = 1/300) moves the frequency by a per cent or so near grazing
-            assert comparison.sizes["energy"] >= 4
-            assert float(np.median(np.abs(comparison.relative_difference))) < 2e-2
+            assert comparison.sizes.get("energy", 0) == 0
+            assert "no exact orbits" in comparison.attrs["end_reason"]
+        else:
+            # energies where the regularized orbit is not like the exact one have no counterpart (NaN); near
+            # grazing the regularized law's slope eta at rest (0.1, against the chain's stiffness of order 1)
+            # moves the frequency by several per cent, and the difference falls as the stop's alpha takes over
+            energy = comparison.energy.values
+            difference = np.abs(comparison.relative_difference.values)
+            finite = np.isfinite(difference)
+            assert finite.sum() >= 4
+            energy, difference = energy[finite], difference[finite]
+            assert np.all(np.diff(difference[np.argsort(energy)]) < 0) and difference.min() < 1e-2
 
 
 def test_a_bad_stop_in_the_configuration_is_refused_by_key(tmp_path):

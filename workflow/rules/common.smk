@@ -423,7 +423,7 @@ def forced_figures():
 def ATLAS_CONFIG(wildcards):
     """The configuration an atlas job reads: its own map of `atlas.maps` (with the section's shared keys), and the
     sections the maps take their structure, damping and numerics from. Editing one map reruns only its jobs."""
-    sliced = task_config("model", "anm", "forced", "metadata", tube=["structure"])(wildcards)
+    sliced = task_config("model", "structure", "anm", "forced", "metadata", tube=["structure"])(wildcards)
     atlas = {key: value for key, value in config["atlas"].items() if key != "maps"}
     names = [wildcards.map] if "map" in wildcards.keys() else list(config["atlas"]["maps"])
     atlas["maps"] = {name: config["atlas"]["maps"][name] for name in names}

@@ -2,10 +2,9 @@
 
 Light on imports where the workflow plans jobs (:func:`map_names`, :func:`slice_values`, :func:`curve_kinds`);
 :func:`atlas_maps` builds the :class:`~nnmstop.bifurcation_atlas.build.AtlasMap` of each map: the oscillator of
-``model``
-or the tube of ``tube.structure``, damped and forced as the map says or, where it does not, as the forced
-scene of ``forced`` says (``forced.damping``, ``forced.force.dofs``; ``forced.tube.force_dofs`` and
-``forced.tube.amplitude`` for the tube).
+``model``, the tube of ``tube.structure`` or the configuration's own structure (``structure:``), damped and forced
+as the map says or, where it does not, as the forced scene of ``forced`` says (``forced.damping``,
+``forced.force.dofs``; ``forced.tube.force_dofs`` and ``forced.tube.amplitude`` for the tube).
 """
 
 from __future__ import annotations
@@ -15,7 +14,7 @@ import numpy as np
 __all__ = ["map_names", "slice_values", "curve_kinds", "map_excitation", "atlas_maps", "find_map", "STRUCTURES"]
 
 #: Structures an atlas map can take from the configuration.
-STRUCTURES = ("oscillator", "tube")
+STRUCTURES = ("oscillator", "tube", "structure")
 
 
 def map_names(config: dict) -> list:
@@ -42,6 +41,10 @@ def _structure(config: dict, name: str):
 
     if name == "oscillator":
         return two_dof_structure(ModelParameters.from_config(config["model"]))
+    if name == "structure":  # the configuration's own structure (structure:, the paper's oscillator without it)
+        from nnmstop.settings import structure_from_config
+
+        return structure_from_config(config)
     if "tube" not in config:
         raise ValueError("an atlas map of the tube needs the `tube` section (its structure)")
     from nnmstop.models.beam import Beam, beam_structure
@@ -60,7 +63,7 @@ def map_excitation(config: dict, name: str, spec: dict):
     damping_spec = spec.get("damping", forced.get("damping"))
     if damping_spec is None:
         raise ValueError(f"{key}: give `damping` (or a `forced.damping` section)")
-    if spec["structure"] == "oscillator":
+    if spec["structure"] in ("oscillator", "structure"):
         dofs = spec.get("force_dofs", forced.get("force", {}).get("dofs"))
         amplitude = spec.get("force", 1.0)
     else:
