@@ -43,6 +43,7 @@ def continue_nnm(
     pass_resonances: int = 0,
     continuation: ANMSettings | None = None,
     stability: StabilitySettings | None = None,
+    motion: str = "planar",
 ) -> xr.Dataset:
     """Continue the regularized NNM ``mode`` of ``structure`` from its linear mode and return its dataset.
 
@@ -74,6 +75,10 @@ def continue_nnm(
     stability : StabilitySettings, optional
         How the Floquet multipliers are computed (:func:`nnmstop.hbm.stability.orbit_stability`; default: the
         monodromy with Magnus steps, error estimates and shooting refinement, ``docs/methods/monodromy.md``).
+    motion : {"planar", "whirl"}
+        For a structure invariant under rotations (``Structure.rotation_pairs``: an isotropic structure in a
+        circular hole): ``planar`` orbits (the rotation fixed by a phase condition) or ``whirl``, the mode
+        whirling round the hole (full basis; ``docs/methods/circular_clearance.md``).
 
     Returns
     -------
@@ -99,7 +104,8 @@ def continue_nnm(
         truncation_setting="max_truncation",
     )
     stage = StageSpec("api", until or {"energy_above": float(energy_max)}, pass_resonances=pass_resonances)
-    spec = BranchSpec(f"nnm{mode}", mode, start_amplitude, (stage,), energy_max=float(energy_max))
+    name = f"{'whirl' if motion == 'whirl' else 'nnm'}{mode}"
+    spec = BranchSpec(name, mode, start_amplitude, (stage,), energy_max=float(energy_max), motion=motion)
     return continue_stage(system, settings, spec, 1)
 
 
@@ -126,10 +132,10 @@ def stability(structure: Structure, branch: xr.Dataset, settings: StabilitySetti
     >>> bool(verdicts.stable.all()), bool(verdicts.stability_resolved.all())  # NNM1 below grazing: linear, stable
     (True, True)
     """
-    from nnmstop.hbm.dataset import dataset_unknowns
+    from nnmstop.hbm.dataset import dataset_unknowns, system_arguments
     from nnmstop.hbm.stability import orbit_stability
 
-    system = HarmonicBalanceSystem(structure, int(branch.attrs["harmonics"]), basis=str(branch.attrs["basis"]))
+    system = HarmonicBalanceSystem(structure, int(branch.attrs["harmonics"]), **system_arguments(branch.attrs))
     residual = branch["time_residual"].values if "time_residual" in branch else None
     verdicts = orbit_stability(
         system, dataset_unknowns(branch, system), settings or StabilitySettings(), time_residual=residual

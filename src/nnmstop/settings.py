@@ -165,7 +165,8 @@ def branch_spec(config: dict, name: str) -> BranchSpec:
         for stage in spec["stages"]
     )
     bound = {"energy_max": float(spec["energy_max"])} if "energy_max" in spec else {}
-    return BranchSpec(name, int(spec["mode"]), spec["start_amplitude"], stages, **bound)
+    motion = {"motion": spec["motion"]} if "motion" in spec else {}
+    return BranchSpec(name, int(spec["mode"]), spec["start_amplitude"], stages, **bound, **motion)
 
 
 def bifurcation_spec(config: dict, name: str) -> BifurcationSpec:

@@ -191,6 +191,7 @@ def full_structure_from_attributes(ds: xr.Dataset):
             left=str(attrs["left_end"]),
             right=str(attrs["right_end"]),
             stops=stops,
+            planes=int(attrs.get("planes", 1)),
         )
         return beam_structure(beam)
     if kind == "matrices":
@@ -225,12 +226,10 @@ def _hbm_system(ds: xr.Dataset):
     missing = [k for k in ("harmonics", "time_samples", "basis") if k not in ds.attrs]
     if missing:
         raise ValueError(f"it does not record the harmonic balance's settings {missing}")
-    return HarmonicBalanceSystem(
-        structure_from_attributes(ds),
-        int(ds.attrs["harmonics"]),
-        time_samples=int(ds.attrs["time_samples"]),
-        basis=str(ds.attrs["basis"]),
-    )
+    from nnmstop.hbm.dataset import system_arguments
+
+    structure = structure_from_attributes(ds)
+    return HarmonicBalanceSystem(structure, int(ds.attrs["harmonics"]), **system_arguments(ds.attrs))
 
 
 def _excitation(ds: xr.Dataset):

@@ -168,3 +168,47 @@ def test_analytical_frequencies_validation():
         euler_bernoulli_frequencies("sliding", "free", 2, 1.0, 1.0, 1.0)
     with pytest.raises(ValueError, match=r"n_modes must be an integer >= 1, got 0"):
         euler_bernoulli_frequencies("clamped", "free", 0, 1.0, 1.0, 1.0)
+
+
+def _hole(planes=2, **stop):
+    parameters = default_tube_parameters()
+    parameters["stops"][0].update(stop)
+    return Beam.from_parameters({**parameters, "planes": planes})
+
+
+def test_a_beam_bending_in_two_planes_in_a_circular_hole():
+    """Two planes of the same section: the one-plane matrices twice, every frequency twice (the circular stop's eta
+    acts in both directions as the bilateral stop's in one), invariant under the rotations turning (w, v) and
+    (theta, psi) together; the second plane's deflection is read from its own DOFs."""
+    one = beam_structure(_tube())
+    two = beam_structure(_hole(kind="circular"))
+    n = one.n_dofs
+    assert two.n_dofs == 2 * n and two.rotation_pairs == tuple((i, n + i) for i in range(n))
+    for name in ("mass", "stiffness"):
+        a, b = getattr(one, name).toarray(), getattr(two, name).toarray()
+        np.testing.assert_array_equal(b[:n, :n], a)
+        np.testing.assert_array_equal(b[n:, n:], a)
+        assert not b[:n, n:].any() and not b[n:, :n].any()
+    (stop,) = two.stops
+    assert stop.kind == "circular" and list(stop.dofs) == [one.stops[0].dof, n + one.stops[0].dof]
+    assert two.dof_labels[n + one.stops[0].dof] == "v" + one.dof_labels[one.stops[0].dof][1:]
+    np.testing.assert_allclose(linear_frequencies(two, 6), np.repeat(linear_frequencies(one, 3), 2), rtol=1e-10)
+    x = np.linalg.solve(one.stiffness.toarray(), np.eye(n)[one.stops[0].dof])
+    s = np.linspace(0.0, 1.0, 11)
+    q = np.concatenate([np.zeros(n), x])  # bent in the second plane only
+    np.testing.assert_allclose(beam_deflection(two, q, s, plane=2), beam_deflection(one, x, s), rtol=1e-14)
+    assert not beam_deflection(two, q, s, plane=1).any()
+    assert two.attributes["planes"] == 2 and "planes" not in one.attributes  # the one-plane datasets keep theirs
+
+
+@pytest.mark.parametrize(
+    "planes, stop, match",
+    [
+        (1, {"kind": "circular"}, r"a circular stop needs a beam bending in two planes \(planes: 2\)"),
+        (3, {}, r"planes must be 1 or 2 .*got 3"),
+        (2, {"kind": "circular", "side": "positive"}, r"'side' is not allowed for a circular beam stop"),
+    ],
+)
+def test_two_plane_validation_names_the_value(planes, stop, match):
+    with pytest.raises(ValueError, match=match):
+        _hole(planes, **stop)

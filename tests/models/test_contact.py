@@ -212,7 +212,8 @@ def test_a_beam_takes_one_sided_stops_and_unequal_gaps_at_a_node():
     assert positive.dof == negative.dof and negative.gap == pytest.approx(2.0 * positive.gap, rel=1e-15)
     assert structure.attributes["stop_kinds"] == "one_sided:positive one_sided:negative"
     for bad, match in (
-        ({"kind": "circular"}, "beam stop kind must be bilateral or one_sided"),
+        ({"kind": "relative"}, r"beam stop kind must be one of \('bilateral', 'one_sided', 'circular'\)"),
+        ({"kind": "circular"}, r"a circular stop needs a beam bending in two planes \(planes: 2\)"),
         ({"kind": "one_sided"}, "needs the key 'side'"),
         ({"side": "positive"}, "'side' is not allowed for a bilateral beam stop"),
     ):

@@ -9,7 +9,7 @@ from nnmstop.settings import study_settings
 from nnmstop.study.error_runtime import sweep_cases
 from nnmstop.study.runs import format_number
 from nnmstop.study.stiff_cases import stiff_case_parameters
-from nnmstop.tasks.tube import tube_config
+from nnmstop.tasks.tube import circular_hole_config, tube_config
 from nnmstop.tasks.tube_plates import plates_config
 
 
@@ -233,9 +233,62 @@ def tube_study_files():
 
 
 def tube_manifest_datasets():
-    """Every dataset of the tube target: branches and their stages, exact family, comparison, study cases."""
+    """Every dataset of the tube target: branches and their stages, exact family, comparison, study cases (and the
+    tube in a circular hole's branches and stages when `tube.circular_hole` is configured)."""
     stages = [path for branch in config["tube"]["branches"] for path in tube_stage_files(branch)]
-    return sorted(set(TUBE_DATASETS.values()) | set(stages) | set(tube_study_files()))
+    circular = [path for branch in circular_hole_branches() for path in tube_circular_stage_files(branch)]
+    circular += list(tube_circular_datasets().values())
+    return sorted(set(TUBE_DATASETS.values()) | set(stages) | set(tube_study_files()) | set(circular))
+
+
+# The tube in a circular hole at its plates (`tube.circular_hole`, rules tube_circular_*): figures and the datasets
+# they draw (every branch of the scene).
+TUBE_CIRCULAR_FIGURES = ("wear",)
+
+
+def circular_hole_branches():
+    """The branches of the tube in a circular hole: none when `tube.circular_hole` is not configured."""
+    return config["tube"].get("circular_hole", {}).get("branches", {})
+
+
+def tube_circular_datasets():
+    """The branch datasets of the tube in a circular hole, by branch name."""
+    return {branch: results(f"tube/circular/{branch}.nc") for branch in circular_hole_branches()}
+
+
+def tube_circular_stage_files(branch):
+    """The stage datasets of a branch of the tube in a circular hole, in order (rule tube_circular_stage)."""
+    count = len(circular_hole_branches()[branch]["stages"])
+    return [results(f"tube/circular/stages/{branch}_stage{k}.nc") for k in range(1, count + 1)]
+
+
+def tube_circular_previous_stage(wildcards):
+    """Stage k > 1 of a branch of the tube in a circular hole starts from the dataset of stage k - 1."""
+    stage = int(wildcards.stage)
+    return {"previous": tube_circular_stage_files(wildcards.branch)[stage - 2]} if stage > 1 else {}
+
+
+def tube_circular_outputs():
+    """What the tube target builds of the tube in a circular hole: its branches and figures (nothing when
+    `tube.circular_hole` is not configured)."""
+    if not circular_hole_branches():
+        return []
+    figures = expand(paper_figures("tube_circular_{figure}.{ext}"), figure=TUBE_CIRCULAR_FIGURES, ext=("pdf", "png"))
+    return list(tube_circular_datasets().values()) + figures
+
+
+def tube_circular_task_config(*sections, branches=False):
+    """`params: config=...` of a tube_circular rule: `sections` of nnmstop.tasks.tube.circular_hole_config, and with
+    `branches` only the rule's own branch."""
+
+    def config_of_job(wildcards):
+        shaped = circular_hole_config(config)
+        sliced = {name: shaped[name] for name in sections}
+        if branches:
+            sliced["branches"] = {wildcards.branch: shaped["branches"][wildcards.branch]}
+        return sliced
+
+    return config_of_job
 
 
 def tube_stage_files(branch):
@@ -478,7 +531,7 @@ def docs_inputs(wildcards):
 
 def built_figures():
     """The figures of the default target and every other figure of the configuration that the build made (exists
-    now): the extra figures, the forced, tube, study, tube-on-plates and atlas ones. `snakemake --report report.html report_figures`
+    now): the extra figures, the forced, tube (and tube in a circular hole), study, tube-on-plates and atlas ones. `snakemake --report report.html report_figures`
     puts them all in the report; a figure not built is left out rather than built for the report."""
     candidates = [*rules.regime_error_figure.output, *rules.stability_figure.output]
     candidates += [*rules.study_error_vs_runtime_figure.output, *rules.study_stiff_cases_figure.output]
@@ -487,6 +540,7 @@ def built_figures():
     if "tube" in config:
         candidates += expand(paper_figures("tube_{figure}.{ext}"), figure=TUBE_FIGURE_INPUTS, ext=("pdf", "png"))
         candidates += list(rules.tube_study.output)
+        candidates += [path for path in tube_circular_outputs() if path.startswith(paper_figures(""))]
     if "tube_plates" in config:
         candidates += expand(paper_figures("tube_plates_{figure}.{ext}"), figure=PLATES_FIGURES + ("forced",),
                              ext=("pdf", "png"))

@@ -155,10 +155,81 @@ rule tube_manifest:
         "../scripts/run_task.py"
 
 
+rule tube_circular_stage:
+    """One continuation stage of a branch of the tube in a circular hole (`tube.circular_hole.branches`)."""
+    input:
+        unpack(tube_circular_previous_stage),
+    output:
+        dataset=results("tube/circular/stages/{branch}_stage{stage}.nc"),
+    wildcard_constraints:
+        branch="(nnm|whirl)[0-9]+",
+        stage=r"\d+",
+    log:
+        logs("tube/circular_{branch}_stage{stage}.log"),
+    benchmark:
+        benchmarks("tube_circular_{branch}_stage{stage}.tsv")
+    params:
+        config=tube_circular_task_config("structure", "hbm", "anm", "stability", "metadata", branches=True),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule tube_circular_branch:
+    """A branch of the tube in a circular hole (planar or whirling): its stages joined."""
+    input:
+        stages=lambda wildcards: tube_circular_stage_files(wildcards.branch),
+    output:
+        dataset=results("tube/circular/{branch}.nc"),
+    wildcard_constraints:
+        branch="(nnm|whirl)[0-9]+",
+    log:
+        logs("tube/circular_{branch}.log"),
+    benchmark:
+        benchmarks("tube_circular_{branch}.tsv")
+    params:
+        config=tube_circular_task_config("metadata"),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule tube_circular_figure:
+    """paper_figures/tube_circular_<figure>.{pdf,png}: the branches of the tube in a circular hole, their frequency
+    and wear power along them."""
+    input:
+        unpack(lambda wildcards: tube_circular_datasets()),
+    output:
+        pdf=paper_figures("tube_circular_{figure}.pdf"),
+        png=report(paper_figures("tube_circular_{figure}.png"), category="Tube", subcategory="circular hole"),
+    wildcard_constraints:
+        figure="|".join(TUBE_CIRCULAR_FIGURES),
+    log:
+        logs("tube/circular_figure_{figure}.log"),
+    benchmark:
+        benchmarks("tube_circular_figure_{figure}.tsv")
+    params:
+        config=tube_circular_task_config("figures"),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule tube_circular:
+    """The tube in a circular hole alone (`tube.circular_hole`; part of the tube target when configured)."""
+    input:
+        tube_circular_outputs(),
+
+
 rule tube:
-    """Everything of the tube: datasets, their manifest and figures (not in the default target)."""
+    """Everything of the tube: datasets, their manifest and figures (not in the default target); the tube in a
+    circular hole too when `tube.circular_hole` is configured."""
     input:
         list(TUBE_DATASETS.values()),
         rules.tube_manifest.output.manifest,
         expand(paper_figures("tube_{figure}.{ext}"), figure=TUBE_FIGURE_INPUTS, ext=("pdf", "png")),
         rules.tube_study.output,
+        tube_circular_outputs(),

@@ -109,6 +109,13 @@ PATH_VARIABLES = (
     Variable(
         "unfolding", ("point",), "unfolding parameter nu (fictitious damping times omega; zero on periodic orbits)"
     ),
+    Variable(
+        "rotation_unfolding",
+        ("point",),
+        "unfolding parameter mu of the rotation phase condition (coefficient of the circulatory force mu M J q of a "
+        "structure invariant under rotations; zero on periodic orbits but circles)",
+        optional=True,
+    ),
     Variable("period", ("point",), "period of the orbit in nondimensional time"),
     Variable(
         "energy",
@@ -168,6 +175,13 @@ DIAGNOSTIC_VARIABLES = (
         ("point",),
         "share of the mean square of x'' or f carried by the top tenth of the harmonics (largest over the stops)",
     ),
+    Variable(
+        "swept_area",
+        ("point",),
+        "area swept per period by the first circular clearance's coordinates, int (x dy - y dx), over 2 pi max(x^2 + "
+        "y^2): 0 for planar motion, 1 for a whirl round a circle (structures with a circular clearance)",
+        optional=True,
+    ),
 )
 
 LOCATED_VARIABLES = (
@@ -183,6 +197,14 @@ LOCATED_VARIABLES = (
         ("located_branch_point",),
         "1 where the bifurcated tangent holds even harmonics only (the crossing curve breaks x(t + T/2) = -x(t))",
         flags=("no", "yes"),
+    ),
+    Variable(
+        "branch_point_whirl",
+        ("located_branch_point",),
+        "1 where planar motion in a circular clearance gives way to whirl: the crossing curve's tangent sweeps area "
+        "round the hole (nnmstop.hbm.bifurcation.is_whirl_branch_point); structures with a circular clearance",
+        flags=("no", "yes"),
+        optional=True,
     ),
     Variable(
         "branch_point_tangent_angle",
@@ -346,6 +368,46 @@ STABILITY_VARIABLES = (
     ),
 )
 
+
+def wear_variables(dims: tuple, where: str) -> tuple:
+    """The wear quantities of every orbit at every stop (:mod:`nnmstop.wear`, ``docs/methods/wear.md``), with
+    dimensions ``dims``; ``where`` says whose normal force (the law of the orbits)."""
+    units = "nondimensional: forces in k0 L0, speeds in L0/T0, powers in k0 L0^2/T0 (docs/structures.md)"
+    return (
+        Variable(
+            "contact_force_max",
+            dims,
+            f"largest normal contact force over the period ({where}; zero where the stop is not touched, its "
+            f"coordinates within the gap); {units}",
+        ),
+        Variable("contact_force_mean", dims, f"normal contact force averaged over the period ({where}); {units}"),
+        Variable(
+            "sliding_speed_max",
+            dims,
+            "largest sliding speed while in contact: the circumferential speed in a circular clearance; zero for a "
+            f"stop on one coordinate, whose model has no motion along the contact surface; {units}",
+        ),
+        Variable(
+            "wear_power",
+            dims,
+            f"wear power <|F_N| |v_t|>: normal contact force times sliding speed averaged over the period (Archard; "
+            f"code_aster POST_USURE's definition); zero for a stop on one coordinate; {units}",
+        ),
+        Variable(
+            "impact_work_rate",
+            dims,
+            f"work done by the normal contact force on the stop while it is compressed, per unit time "
+            f"<(F_N v_N)+> (given back on unloading); zero on a permanent contact such as a whirl; {units}",
+        ),
+    )
+
+
+#: Wear of every orbit of a branch at every stop (every branch dataset written by nnmstop.hbm.dataset).
+WEAR_VARIABLES = tuple(
+    Variable(v.name, v.dims, v.long_name, optional=True)
+    for v in wear_variables(("point", "stop"), "regularized law of the stop")
+)
+
 #: What each orbit is, from its harmonic content (:mod:`nnmstop.hbm.identity`, ``docs/methods/identity.md``).
 IDENTITY_VARIABLES = (
     Variable(
@@ -366,7 +428,8 @@ IDENTITY_VARIABLES = (
         "dominant_mode",
         ("point",),
         "linear mode (1 the lowest) carrying most of the dominant harmonic's motion: a mode of the structure with each "
-        "stop replaced by its effective_stop_stiffness (eta near rest, alpha as the gap closes)",
+        "stop replaced by its effective_stop_stiffness (eta near rest, alpha as the gap closes); for a structure "
+        "invariant under rotations a mode and its copy turned by 90 degrees are one, the lower",
     ),
     Variable(
         "dominant_mode_share", ("point",), "share of the dominant harmonic's mass-weighted motion in dominant_mode"
@@ -407,14 +470,23 @@ IDENTITY_VARIABLES = (
 )
 
 NNM_BRANCH_VARIABLES = (
-    ORBIT_VARIABLES + PATH_VARIABLES + DIAGNOSTIC_VARIABLES + LOCATED_VARIABLES + STABILITY_VARIABLES
-    + STRUCTURE_VARIABLES + IDENTITY_VARIABLES
+    ORBIT_VARIABLES + PATH_VARIABLES + DIAGNOSTIC_VARIABLES + WEAR_VARIABLES + LOCATED_VARIABLES
+    + STABILITY_VARIABLES + STRUCTURE_VARIABLES + IDENTITY_VARIABLES
 )  # fmt: skip
 NNM_BRANCH = DatasetKind(
     "nnm_branch",
     "Regularized NNM branch of a structure (HBM + ANM)",
-    ("hbm/nnm*.nc", "hbm/stages/nnm*_stage*.nc", "tube/nnm*.nc", "tube/stages/nnm*_stage*.nc", "tube/study/gap*_k*.nc"),
-    "A regularized NNM of any structure (the paper's oscillator, the finite-element tube, a structure from matrices) "
+    (
+        "hbm/nnm*.nc",
+        "hbm/stages/nnm*_stage*.nc",
+        "tube/nnm*.nc",
+        "tube/stages/nnm*_stage*.nc",
+        "tube/study/gap*_k*.nc",
+        "tube/circular/*.nc",
+        "tube/circular/stages/*_stage*.nc",
+    ),
+    "A regularized NNM of any structure (the paper's oscillator, the finite-element tube, the tube in a circular hole, "
+    "a structure from matrices) "
     "continued by harmonic balance and the asymptotic numerical method: one stage, or the whole branch (the stages "
     "concatenated). Fourier coefficients in the phase omega t, diagnostics, located branch points, folds and "
     "resonance tongues passed, Floquet stability, the structure's stops and linear limits "
@@ -442,7 +514,9 @@ SWITCHED_BRANCH = NNM_BRANCH.extended(
         "subharmonic_share",
         ("point",),
         "share of the mean square of the degrees of freedom in harmonics that are not multiples of n (global "
-        "attribute resonance; zero for an orbit of period T/n)",
+        "attribute resonance; zero for an orbit of period T/n); absent from a branch switched where planar motion "
+        "gives way to whirl (resonance 0: swept_area says how far round the hole it goes)",
+        optional=True,
     ),
 )
 

@@ -1,6 +1,7 @@
 """Dataset kinds of the forced responses (issue 23; see :mod:`nnmstop.catalogue` and docs/forced.md)."""
 
 from nnmstop.catalogue import DatasetKind, Variable
+from nnmstop.catalogue.branch import wear_variables
 from nnmstop.forced.stability_changes import KINDS as CHANGE_KINDS
 from nnmstop.forced.stability_changes import REGIMES
 
@@ -45,6 +46,12 @@ RESPONSE_VARIABLES = (
     Variable("change_amplitude", ("change", "dof"), "largest |q| of each DOF at the located stability change"),
     Variable("change_kind", ("change",), "kind of the located stability change", flags=CHANGE_KINDS),
 )
+
+
+def _wear(law: str) -> tuple:
+    """The wear of every response orbit at every stop (nnmstop.wear), optional: datasets written before it lack it."""
+    return tuple(Variable(v.name, v.dims, v.long_name, optional=True) for v in wear_variables(("point", "stop"), law))
+
 
 FORCED_EXACT = DatasetKind(
     "forced_exact",
@@ -106,7 +113,8 @@ FORCED_EXACT = DatasetKind(
             "difference of the multipliers from the eigen-decomposed phase exponentials and from scipy's expm "
             "(error estimate)",
         ),
-    ),
+    )
+    + _wear("piecewise-linear law of the stop, on the exact orbit"),
 )
 
 FORCED_REGULARIZED = DatasetKind(
@@ -145,7 +153,8 @@ FORCED_REGULARIZED = DatasetKind(
             "(time_residual x max(1, max |mu|))",
         ),
         Variable("stability_steps", ("point",), "Magnus steps per period of the kept multipliers"),
-    ),
+    )
+    + _wear("regularized law of the stop"),
 )
 
 FORCED_BACKBONE = DatasetKind(

@@ -4,7 +4,8 @@
 resonance tongues passed marked), the exact NNM1, the linear frequencies (no contact; for a beam also
 Euler-Bernoulli); ``shapes`` (finite-element beams): deformed shapes over half a period at the configured
 energies; ``contact_force``: the stop force over a period at those energies; ``exact_vs_regularized``:
-the relative frequency difference at matched energies.
+the relative frequency difference at matched energies; ``wear``: every branch's frequency and, at each stop, the wear
+power and impact work rate of its orbits along the energy (:mod:`nnmstop.wear`).
 """
 
 from __future__ import annotations
@@ -356,11 +357,81 @@ def _exact_vs_regularized(fig, data, spec):
     fig.suptitle(title, fontsize=10)
 
 
+#: Colours of the branches in the wear figure: planar NNMs blue, whirling ones orange (in order of their names).
+WEAR_COLORS = {"nnm": ("tab:blue", "tab:green", "tab:purple"), "whirl": ("tab:orange", "tab:red", "tab:brown")}
+
+
+#: The wear panel's lower limit, relative to its largest value: a whirl's impact work rate is zero up to round-off
+#: of the stored contact energy, which a log axis would otherwise stretch over many decades.
+WEAR_DECADES_SHOWN = 1e-4
+
+
+def _branch_color(name: str) -> str:
+    family = "whirl" if name.startswith("whirl") else "nnm"
+    number = int("".join(c for c in name if c.isdigit()) or 1)
+    colors = WEAR_COLORS[family]
+    return colors[(number - 1) % len(colors)]
+
+
+def _branch_label(name: str, ds) -> str:
+    motion = "whirling" if ds.attrs.get("motion", "planar") == "whirl" or name.startswith("whirl") else "planar"
+    return f"{name} ({motion}, H = {ds.attrs['harmonics']})"
+
+
+def _wear(fig, data, spec):
+    """Every branch of the scene (planar and whirling) along energy: its frequency (dashed where unstable), then at
+    each stop the wear power <|F_N| v_t> (solid) and the impact work rate (dotted) of its orbits, on a log scale
+    where they are positive (an orbit that touches no stop has neither; planar motion wears by impacts only)."""
+    names = sorted(data)
+    if not names:
+        raise ValueError("the wear figure needs at least one branch dataset")
+    missing = [name for name in names if "wear_power" not in data[name]]
+    if missing:
+        raise ValueError(f"branch datasets {missing} have no wear variables (written before nnmstop.wear)")
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    curves = []  # (energy, value, colour, style, label) of every positive wear quantity
+    for name in names:
+        ds = data[name]
+        color, label = _branch_color(name), _branch_label(name, ds)
+        energy = ds.energy.values
+        _line_segments(top, energy, ds.frequency.values, ds.stable.values, color, label)
+        for k, stop in enumerate(ds.stop.values):
+            suffix = f", stop {int(stop) + 1}" if ds.sizes["stop"] > 1 else ""
+            for variable, style, what in (("wear_power", "-", "wear power"), ("impact_work_rate", ":", "impact work")):
+                value = ds[variable].values[:, k]
+                if (value > 0).any():
+                    curves.append((energy, np.where(value > 0, value, np.nan), color, style, f"{name}{suffix}: {what}"))
+    largest = max((float(np.nanmax(curve[1])) for curve in curves), default=0.0)
+    drawn = [curve for curve in curves if np.nanmax(curve[1]) >= WEAR_DECADES_SHOWN * largest]
+    for energy, value, color, style, label in drawn:
+        bottom.plot(energy, value, color=color, ls=style, lw=1.2, label=label)
+    top.set_xscale("log")
+    top.set_ylabel("frequency (Hz of the nondimensional time)")
+    top.set_title("frequency along each branch (dashed where unstable)", fontsize=9)
+    top.legend(fontsize=7, loc="best")
+    bottom.set_xlabel("energy (nondimensional)")
+    bottom.set_ylabel("power (nondimensional: k0 L0^2 / T0)")
+    if drawn:
+        bottom.set_yscale("log")
+        bottom.set_ylim(WEAR_DECADES_SHOWN * largest, 2.0 * largest)
+        bottom.legend(fontsize=7, loc="best")
+    else:
+        bottom.text(0.5, 0.5, "no orbit touches a stop", transform=bottom.transAxes, ha="center", fontsize=8)
+    bottom.set_title(
+        "at each stop: wear power <|F_N| v_t> (solid) and impact work rate <(F_N v_N)+> (dotted)\n"
+        f"planar motion does not slide, a whirl does not impact; curves below {WEAR_DECADES_SHOWN:g} x the largest "
+        "(round-off) not drawn",
+        fontsize=9,
+    )
+    fig.suptitle(f"{_structure_name(data[names[0]])}: branches and the wear of the stops", fontsize=10)
+
+
 STRUCTURE_FIGURES = {
     "frequency_energy": (_frequency_energy, (11.0, 9.0)),
     "shapes": (_shapes, (10.0, 4.5)),
     "contact_force": (_contact_force, (10.0, 4.0)),
     "exact_vs_regularized": (_exact_vs_regularized, (7.5, 6.8)),
+    "wear": (_wear, (8.5, 7.5)),
 }
 
 

@@ -26,6 +26,7 @@ from nnmstop.exact.forced import (
 from nnmstop.forced.stability_changes import KINDS, regimes
 from nnmstop.hbm.forced import phase_lags, response_amplitudes
 from nnmstop.models.excitation import Excitation
+from nnmstop.wear import WEAR_VARIABLES, orbit_wear, structure_wear
 
 __all__ = [
     "canonical_order",
@@ -158,6 +159,28 @@ def _switch_variables(problem: ForcedResponseProblem, unknowns, first: int) -> d
     }
 
 
+#: Samples per period of an exact orbit for its wear (:func:`nnmstop.wear.structure_wear`): the sampled peak force
+#: and impact work are off by about (pi / samples)**2 relative (docs/methods/wear.md), here about 1.5e-7, below the
+#: accuracy to which verify compares the exact responses' smooth quantities between builds storing other points
+#: (2048 samples left about 1.5e-6 there, above it).
+WEAR_SAMPLES = 8192
+
+
+def _exact_wear(piece, excitation: Excitation) -> dict:
+    """Wear of every orbit of an exact piece at every stop (piecewise-linear laws): zero on the non-impacting
+    response, which touches no stop."""
+    n_stops = len(excitation.structure.stops)
+    if piece.kind == "non_impacting":
+        return {name: (("point", "stop"), np.zeros((len(piece.frequency), n_stops))) for name in WEAR_VARIABLES}
+    rows = []
+    for y, frequency in zip(piece.unknowns, piece.frequency):
+        history = piece.problem.time_history(y, WEAR_SAMPLES)
+        rows.append(
+            structure_wear(excitation.structure, history["q"], history["qdot"], 1.0 / frequency, law="piecewise_linear")
+        )
+    return {name: (("point", "stop"), np.stack([row[name] for row in rows])) for name in WEAR_VARIABLES}
+
+
 def exact_verdicts(mu, error, resolution_factor: float) -> dict:
     """``multiplier_error``, ``stability_margin``, ``stability_resolved`` of exact multipliers ``mu`` (points, 2N)."""
     margin = np.abs(np.abs(np.asarray(mu)) - 1.0).min(axis=1)
@@ -208,6 +231,7 @@ def exact_dataset(excitation: Excitation, pieces: list, frequency_range, resolut
             np.full(len(piece.frequency), k),
         )
         variables.update(exact_verdicts(piece.multipliers, error, resolution_factor))
+        variables.update(_exact_wear(piece, excitation))
         parts.append(xr.Dataset(variables))
         changes += piece.changes
         owner.update({id(c.U): problem for c in piece.changes})
@@ -317,6 +341,7 @@ def regularized_dataset(system, branch, multipliers, half_period: bool, changes,
     variables["truncation"] = ("point", np.array([d["truncation"] for d in diagnostics], dtype=float))
     variables["time_residual"] = ("point", np.array([d["time_residual"] for d in diagnostics], dtype=float))
     variables["step"] = ("point", np.asarray(branch.step, dtype=np.int32))
+    variables.update({name: (("point", "stop"), values) for name, values in orbit_wear(system, U).items()})
     variables["dof_label"] = dof_label_variable(excitation.structure)
     ds = xr.Dataset(variables, coords={"harmonic": ("harmonic", np.arange(H + 1))})
     ds.update(change_variables(changes, system.frequency_hz, lambda V: response_amplitudes(system, V[None])[0], N))

@@ -7,7 +7,8 @@ names are re-exported unchanged). What stays here needs the harmonic-balance unk
 * :func:`quadratic_form`, the exact bilinear part ``Q`` of the quadratic recast ``S = L + Q``,
   which :func:`bifurcation_tangents` uses for Keller's bifurcation equation;
 * :func:`subharmonic_share` and :func:`classify_branch_point`: an ``n:1`` internal resonance (the
-  crossing curve holds the orbits of period ``T/n``) or a symmetry breaking;
+  crossing curve holds the orbits of period ``T/n``) or a symmetry breaking; :func:`is_whirl_branch_point`:
+  planar motion in a circular clearance giving way to whirl (the crossing curve goes round the hole);
 * :func:`locate_flagged_branch_points`: locate and classify every flagged step of a branch.
 
 Method notes: ``docs/methods/continuation.md`` (location, switching), ``docs/methods/hbm.md``.
@@ -39,6 +40,9 @@ __all__ = [
     "continue_bifurcated_branch",
     "branch_point_kind",
     "classify_branch_point",
+    "circular_pair",
+    "swept_area",
+    "is_whirl_branch_point",
     "locate_flagged_branch_points",
 ]
 
@@ -93,6 +97,60 @@ def classify_branch_point(system, point: BranchPoint, max_resonance: int = 20, s
     return 0, bool(subharmonic_share(system, point.bifurcated, 2) < share_tol)
 
 
+def circular_pair(system):
+    """The two stop components (indices) of the first circular clearance of ``system``'s structure, or None."""
+    for stop, components in zip(system.structure.stops, system.contact.components):
+        if stop.kind == "circular":
+            return components.start, components.start + 1
+    return None
+
+
+def _pair_samples(system, U, samples: int = 256):
+    """Samples of the first circular clearance's two scaled coordinates and their theta-derivatives, (2, samples)
+    each."""
+    a, b = circular_pair(system)
+    Q = np.asarray(U, dtype=float)[: system.n_dofs * system.nc].reshape(system.n_dofs, system.nc)
+    X = system.stop_coordinates(Q)[[a, b]]
+    return system.to_time(system.to_full(X), samples), system.to_time(system.derivative(X), samples)
+
+
+def swept_area(system, U, tangent=None) -> float:
+    """Area swept per period by the first circular clearance's coordinates, ``int (x y' - y x') dtheta``, relative
+    to ``2 pi max(x^2 + y^2)`` (scaled coordinates): zero for planar motion, 1 for a whirl round a circle.
+
+    With ``tangent``, the first-order change of the swept area along it (relative to the orbit's size times the
+    tangent's): nonzero when a curve leaving a planar orbit along ``tangent`` goes round the hole.
+    """
+    (x, y), (dx, dy) = _pair_samples(system, U)
+    if tangent is None:
+        size = 2 * np.pi * float(np.max(x * x + y * y))
+        return float(2 * np.pi * np.mean(x * dy - y * dx) / size) if size > 0 else 0.0
+    (tx, ty), (dtx, dty) = _pair_samples(system, tangent)
+    change = 2 * np.pi * np.mean(x * dty + tx * dy - y * dtx - ty * dx)
+    size = 2 * np.pi * np.sqrt(np.max(x * x + y * y) * np.max(tx * tx + ty * ty))
+    return float(change / size) if size > 0 else 0.0
+
+
+#: Relative first-order swept area (:func:`swept_area` along the crossing tangent) above which a branch point of a
+#: planar orbit gives way to whirl.
+WHIRL_AREA_TOL = 1e-3
+
+
+def is_whirl_branch_point(system, point: BranchPoint) -> bool:
+    """Whether the curve crossing a planar orbit in a circular clearance at ``point`` goes round the hole.
+
+    The orbit at the branch point sweeps no area (planar motion, :func:`swept_area` below
+    :data:`WHIRL_AREA_TOL`) and the crossing curve's tangent sweeps some at first order: leaving the branch point
+    along it the clearance's coordinates turn round the hole (an elliptic whirl that grows into the whirling
+    orbits). False for a structure without a circular clearance.
+    """
+    if circular_pair(system) is None:
+        return False
+    if abs(swept_area(system, point.U)) > WHIRL_AREA_TOL:
+        return False
+    return abs(swept_area(system, point.U, point.bifurcated)) > WHIRL_AREA_TOL
+
+
 def locate_flagged_branch_points(system, points, steps, flagged, method=None) -> list:
     """Locate and classify the branch points of the steps flagged by a continuation.
 
@@ -122,12 +180,16 @@ def locate_flagged_branch_points(system, points, steps, flagged, method=None) ->
             "branch point at energy %.6g, frequency %.6g Hz: %s",
             system.diagnostics(point.U)["energy"],
             system.frequency_hz(point.U),
-            branch_point_kind(n, breaking),
+            branch_point_kind(n, breaking, not n and is_whirl_branch_point(system, point)),
         )
         out.append((i, point, n, breaking))
     return out
 
 
-def branch_point_kind(n: int, symmetry_breaking: bool) -> str:
-    """Words for the classification of :func:`classify_branch_point`."""
-    return f"{n}:1 resonance" if n else ("symmetry breaking" if symmetry_breaking else "unclassified")
+def branch_point_kind(n: int, symmetry_breaking: bool, whirl: bool = False) -> str:
+    """Words for the classification of :func:`classify_branch_point` (and :func:`is_whirl_branch_point`)."""
+    if n:
+        return f"{n}:1 resonance"
+    if whirl:
+        return "planar motion giving way to whirl"
+    return "symmetry breaking" if symmetry_breaking else "unclassified"

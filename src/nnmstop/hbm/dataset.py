@@ -26,8 +26,10 @@ import xarray as xr
 from nnmstop import fourier
 from nnmstop.catalogue import describe
 from nnmstop.continuation.core import Branch, ContinuationError, relative_residual
+from nnmstop.hbm.bifurcation import circular_pair, is_whirl_branch_point, swept_area
 from nnmstop.hbm.identity import ORBIT_FORCE_NAMES, orbit_identity
 from nnmstop.models.structure import limit_modes
+from nnmstop.wear import orbit_wear
 
 __all__ = [
     "BRANCH_POINT_DIM",
@@ -50,6 +52,8 @@ __all__ = [
     "identity_change_variables",
     "energy_folds",
     "dataset_unknowns",
+    "rotation_attributes",
+    "system_arguments",
     "coefficient_vectors",
     "is_skipped",
 ]
@@ -106,6 +110,8 @@ def orbit_variables(system, U: np.ndarray) -> dict:
     lam, nu = blocks[-2], blocks[-1]
     data["omega_squared"] = _var("omega_squared", "point", lam)
     data["unfolding"] = _var("unfolding", "point", nu)
+    if system.rotation:
+        data["rotation_unfolding"] = _var("rotation_unfolding", "point", system.rotation_unfolding(U))
     data["period"] = _var("period", "point", 2 * np.pi / np.sqrt(lam))
     return data
 
@@ -125,6 +131,10 @@ def _diagnostic_variables(system, U: np.ndarray, diagnostics: list) -> dict:
     )
     for name in ("time_residual", "force_error", "energy_spread", "truncation"):
         data[name] = _var(name, "point", col(name))
+    if circular_pair(system) is not None:
+        data["swept_area"] = _var("swept_area", "point", np.array([swept_area(system, u) for u in U], dtype=float))
+    wear = orbit_wear(system, U)
+    data.update({name: _var(name, ("point", "stop"), values) for name, values in wear.items()})
     return data
 
 
@@ -217,6 +227,25 @@ def stop_kind_variables(stops) -> dict:
     }
 
 
+def rotation_attributes(system) -> dict:
+    """``rotation_condition`` (1 when the system fixes the rotation, :mod:`nnmstop.hbm.system`) and
+    ``rotation_angle`` for a structure invariant under rotations; nothing otherwise (the other datasets keep their
+    layout). Readers rebuild the system with them (:func:`system_arguments`)."""
+    if system.structure.rotation_pairs is None:
+        return {}
+    return {"rotation_condition": int(system.rotation), "rotation_angle": float(system.rotation_angle)}
+
+
+def system_arguments(attrs) -> dict:
+    """The keywords of :class:`~nnmstop.hbm.system.HarmonicBalanceSystem` a branch dataset's attributes record
+    besides its harmonics: ``time_samples``, ``basis`` and, for a structure invariant under rotations, whether
+    the rotation was fixed (:func:`rotation_attributes`)."""
+    out = {"time_samples": int(attrs["time_samples"]), "basis": str(attrs["basis"])}
+    if "rotation_condition" in attrs:
+        out.update(rotation=bool(int(attrs["rotation_condition"])), rotation_angle=float(attrs["rotation_angle"]))
+    return out
+
+
 def _attributes(system, branch: Branch, continuation, labels: dict, unlocated: int) -> dict:
     stats = branch.stats
     return {
@@ -227,6 +256,7 @@ def _attributes(system, branch: Branch, continuation, labels: dict, unlocated: i
         "harmonics": system.H,
         "time_samples": system.M,
         "basis": system.basis,
+        **rotation_attributes(system),
         "order": continuation.order,
         "tolerance": continuation.tolerance,
         "newton_threshold": continuation.newton_threshold,
@@ -315,6 +345,7 @@ def skipped_stage_dataset(system, stage: int, labels: dict, reason: str) -> xr.D
         "stops": system.n_stops,
         **labels,
         "harmonics": system.H,
+        **rotation_attributes(system),
         "skipped": 1,
         "skipped_stage": int(stage),
         "stage_condition_met": 0,
@@ -327,7 +358,7 @@ def branch_kind(ds: xr.Dataset) -> str:
     """The catalogue's kind of a branch dataset: ``skipped_branch``, ``switched_branch`` or ``nnm_branch``."""
     if is_skipped(ds):
         return "skipped_branch"
-    return "switched_branch" if "subharmonic_share" in ds else "nnm_branch"
+    return "switched_branch" if "subharmonic_share" in ds or "parent_branch" in ds.attrs else "nnm_branch"
 
 
 def labelled(ds: xr.Dataset) -> xr.Dataset:
@@ -344,7 +375,12 @@ def located_branch_point_variables(system, located) -> dict:
     """Dataset variables (dimension ``located_branch_point``) of located branch points."""
     dim = (BRANCH_POINT_DIM,)
     diags = [system.diagnostics(point.U) for _, point, _, _ in located]
+    whirl = {}
+    if circular_pair(system) is not None:
+        flags = [not n and is_whirl_branch_point(system, point) for _, point, n, _ in located]
+        whirl["branch_point_whirl"] = _var("branch_point_whirl", dim, np.array(flags, dtype=np.int8))
     return {
+        **whirl,
         "branch_point_energy": _var("branch_point_energy", dim, np.array([d["energy"] for d in diags], float)),
         "branch_point_frequency": _var("branch_point_frequency", dim, np.array([d["frequency"] for d in diags], float)),
         "branch_point_resonance": _var(
@@ -501,6 +537,10 @@ def dataset_unknowns(ds: xr.Dataset, system) -> np.ndarray:
     tail = [ds["omega_squared"].values[:, None]]
     if system.full:
         tail.append(ds["unfolding"].values[:, None])
+    if system.rotation:
+        if "rotation_unfolding" not in ds:
+            raise ValueError("dataset has no rotation_unfolding: it was not computed with the rotation phase condition")
+        tail.append(ds["rotation_unfolding"].values[:, None])
     return np.concatenate(parts + tail, axis=1)
 
 
@@ -530,14 +570,16 @@ def bifurcated_dataset(
 ) -> xr.Dataset:
     """Turn the :func:`branch_dataset` of a bifurcated branch into its final layout.
 
-    Adds ``subharmonic_share`` (one value per point, zero on orbits of period ``T/n``), relabels
+    Adds ``subharmonic_share`` (one value per point, zero on orbits of period ``T/n``; None for a branch switched
+    where planar motion gives way to whirl, ``resonance`` 0, whose ``swept_area`` says how far it goes), relabels
     ``stage`` and ``step``, and replaces the stage attributes (``mode``, ``stages``) by those of the
     switch: ``branch`` (``name``), ``parent_branch``, ``resonance``, ``switch_step`` and
     ``branch_point`` (``branch_point_energy``, ``branch_point_frequency``, ``tangent_angle`` in
     degrees, ``singular_ratio``).
     """
     n = int(resonance)
-    ds["subharmonic_share"] = _var("subharmonic_share", "point", np.asarray(subharmonic_share, dtype=float))
+    if subharmonic_share is not None:
+        ds["subharmonic_share"] = _var("subharmonic_share", "point", np.asarray(subharmonic_share, dtype=float))
     for key in ("mode", "stages"):
         ds.attrs.pop(key, None)
     ds.attrs.update(
@@ -567,7 +609,12 @@ def summarize_bifurcated(ds, nnm2=None) -> str:
         f"  {ds.sizes['point']} points, energy {e.min():.4g} .. {e.max():.4g}, frequency {f.min():.6g} .. "
         f"{f.max():.6g} Hz, "
         f"{int(ds.attrs['anm_steps'])} ANM steps",
-        f"  largest share of harmonics not multiple of {n}: {float(ds['subharmonic_share'].max()):.2e}",
+        (
+            f"  largest share of harmonics not multiple of {n}: {float(ds['subharmonic_share'].max()):.2e}"
+            if "subharmonic_share" in ds
+            else f"  swept area round the hole: {float(ds['swept_area'].min()):.3g} .. "
+            f"{float(ds['swept_area'].max()):.3g}"
+        ),
         f"  stability: {int(((ds['stable'] == 1) & resolved).sum())} stable, "
         f"{int(((ds['stable'] == 0) & resolved).sum())} unstable, {int((~resolved).sum())} unresolved "
         f"of {ds.sizes['point']} points",

@@ -121,7 +121,7 @@ class ForcedHarmonicBalanceSystem(HarmonicBalanceSystem):
         ``f_c = eta_c x_c`` and each stop's ``z`` balanced exactly (:meth:`linear_mode_guess`): exact for the
         linear structure, the first guess of Newton for the regularized one.
         """
-        if self.contact.grounded and len(set(self.stop_dofs.tolist())) == len(self.stop_dofs):
+        if self._one_dof_stops:
             extra = np.zeros((self.n_dofs, self.n_dofs))
             extra[self.stop_dofs, self.stop_dofs] = self.etas
         else:

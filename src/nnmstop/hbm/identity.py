@@ -163,10 +163,34 @@ def _mode_shares(structure: Structure, mass, stiffness, stiffness_added, cos, si
     added = _stiffness_added(structure, stiffness_added)
     loaded = (stiffness + added).tocsr() if scipy.sparse.issparse(stiffness) else stiffness + added.toarray()
     n_modes = structure.n_dofs if structure.n_dofs <= 400 else min(MAX_MODES, structure.n_dofs)
-    _, shapes = generalized_modes(mass, loaded, n_modes)
+    omega, shapes = generalized_modes(mass, loaded, n_modes)
     projected = shapes.T @ (mass @ np.column_stack([cos, sin]))
     norm = float(cos @ (mass @ cos) + sin @ (mass @ sin))
-    return (projected**2).sum(axis=1) / norm if norm > 0 else np.zeros(n_modes)
+    shares = (projected**2).sum(axis=1) / norm if norm > 0 else np.zeros(n_modes)
+    return _rotated_pairs_merged(structure, omega, shares)
+
+
+#: Relative gap of two frequencies below which, for a structure invariant under rotations, two modes are one mode
+#: and its copy turned by 90 degrees (the tolerance of nnmstop.hbm.system's rotated pairs).
+ROTATED_PAIR_TOLERANCE = 1e-8
+
+
+def _rotated_pairs_merged(structure: Structure, omega, shares) -> np.ndarray:
+    """For a structure invariant under rotations, each mode and its copy turned by 90 degrees (one frequency) are one
+    mode: their shares summed on the first (any basis of the pair is as good as another, so the split between them
+    is round-off, their sum is not), the second's zero. Other structures' shares unchanged."""
+    if structure.rotation_pairs is None:
+        return shares
+    shares = np.array(shares, dtype=float)
+    scale = max(float(np.max(np.abs(omega))), 1e-300)
+    j = 0
+    while j < len(omega) - 1:
+        if abs(omega[j + 1] - omega[j]) <= ROTATED_PAIR_TOLERANCE * scale:
+            shares[j], shares[j + 1] = shares[j] + shares[j + 1], 0.0
+            j += 2
+        else:
+            j += 1
+    return shares
 
 
 def orbit_identity(structure: Structure, q_cos, q_sin, f_cos, f_sin, f2_cos=None, f2_sin=None) -> dict:

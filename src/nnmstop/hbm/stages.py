@@ -68,6 +68,9 @@ __all__ = [
     "StageSpec",
     "BranchSpec",
     "BifurcationSpec",
+    "CROSSINGS",
+    "MOTIONS",
+    "branch_system",
     "start_point",
     "stage_criterion",
     "TruncationGuard",
@@ -135,12 +138,19 @@ class StageSpec:
             )
 
 
+#: How a branch moves: ``planar`` orbits start from a linear mode, ``whirl`` orbits from that mode whirling (a
+#: structure invariant under rotations: :meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.whirl_guess`).
+MOTIONS = ("planar", "whirl")
+
+
 @dataclass(frozen=True)
 class BranchSpec:
     """A regularized NNM branch: name, mode index, start amplitude ``x_c^1``, stages and their default bound.
 
     ``energy_max`` bounds every stage that gives no bound of its own; ``resonance_margin`` (relative
     frequency) is how far beyond a tongue the backbone is taken up again (:mod:`nnmstop.hbm.tongues`).
+    ``motion`` (:data:`MOTIONS`): ``whirl`` starts from the mode whirling, on the system of
+    :func:`branch_system` (full basis, no rotation phase condition).
     """
 
     name: str
@@ -149,8 +159,11 @@ class BranchSpec:
     stages: tuple[StageSpec, ...]
     energy_max: float = 1.5e5
     resonance_margin: float = 1e-3
+    motion: str = "planar"
 
     def __post_init__(self):
+        if self.motion not in MOTIONS:
+            raise ValueError(f"branch {self.name!r}: motion must be one of {MOTIONS}, got {self.motion!r}")
         if not (np.isfinite(self.energy_max) and self.energy_max > 0):
             raise ValueError(f"branch {self.name!r}: energy_max must be finite and > 0, got {self.energy_max!r}")
         if not 0 < self.resonance_margin < 0.1:
@@ -159,9 +172,15 @@ class BranchSpec:
             )
 
 
+#: Which branch point a switched branch starts from: an ``n:1`` internal ``resonance``, or where planar motion in a
+#: circular clearance gives way to ``whirl`` (:func:`nnmstop.hbm.bifurcation.is_whirl_branch_point`).
+CROSSINGS = ("resonance", "whirl")
+
+
 @dataclass(frozen=True)
 class BifurcationSpec:
-    """The branch switched at the first ``n:1`` branch point of branch ``parent``, wherever it lies.
+    """The branch switched at the first ``n:1`` branch point of branch ``parent`` (``crossing="whirl"``: at its
+    first branch point where planar motion gives way to whirl), wherever it lies.
 
     ``energy_range`` bounds the energy along the switched curve, ``switch_step`` is the first step
     along its tangent relative to ``|U*|`` (:func:`nnmstop.hbm.bifurcation.switch_branch`).
@@ -172,19 +191,37 @@ class BifurcationSpec:
     resonance: int
     energy_range: tuple[float, float]
     switch_step: float
+    crossing: str = "resonance"
+
+    def __post_init__(self):
+        if self.crossing not in CROSSINGS:
+            raise ValueError(f"bifurcations.{self.name}: crossing must be one of {CROSSINGS}, got {self.crossing!r}")
 
 
-def start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float, tol: float = 1e-13):
+def branch_system(system: HarmonicBalanceSystem, spec: BranchSpec) -> HarmonicBalanceSystem:
+    """The system a branch is continued on: ``system`` itself, or for a whirling branch the same structure and
+    harmonics in the full basis without the rotation phase condition (a circle turned is the circle shifted in
+    time: one phase condition fixes both)."""
+    if spec.motion == "planar" or (system.full and not system.rotation):
+        return system
+    return HarmonicBalanceSystem(
+        system.structure, system.H, system.M, basis="full", linear_algebra=system.linear_algebra, rotation=False
+    )
+
+
+def start_point(system: HarmonicBalanceSystem, mode: int, amplitude: float, tol: float = 1e-13, motion="planar"):
     """A point of NNM ``mode`` at small amplitude, and the direction of growing amplitude.
 
     The linear mode of the regularized system (the first stop's coordinate ``x = amplitude cos(theta)``,
-    :meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.linear_mode_guess`) is corrected by Newton, to the relative
-    residual ``tol``, with the amplitude of that coordinate held fixed
+    :meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.linear_mode_guess`; with ``motion="whirl"`` the mode
+    whirling, :meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.whirl_guess`) is corrected by Newton, to the
+    relative residual ``tol``, with the amplitude of that coordinate held fixed
     (:meth:`~nnmstop.hbm.system.HarmonicBalanceSystem.amplitude_direction`).
     """
     if not (np.isfinite(amplitude) and 0 < amplitude < 1):
         raise ValueError(f"start amplitude must lie in (0, 1) (inside the gap), got {amplitude!r}")
-    U0 = system.linear_mode_guess(mode, amplitude)
+    guess = system.whirl_guess if motion == "whirl" else system.linear_mode_guess
+    U0 = guess(mode, amplitude)
     direction = system.amplitude_direction(mode)
     U0, _ = newton_correct(system, U0, direction, ContinuationStats(), tol=tol)
     return U0, direction
@@ -324,7 +361,7 @@ def follow_stage(system, settings: BranchSettings, spec: BranchSpec, stage: int 
     """
     if start is None:
         check_grounded(system.structure, f"branch {spec.name}")
-        start = start_point(system, spec.mode, spec.start_amplitude, settings.start_tolerance)
+        start = start_point(system, spec.mode, spec.start_amplitude, settings.start_tolerance, spec.motion)
     U0, direction = start
     current = spec.stages[stage - 1]
     label = f"{spec.name} stage {stage} ({current.name})"
@@ -422,6 +459,7 @@ def continue_stage(system, settings: BranchSettings, spec: BranchSpec, stage: in
     """
     if not 1 <= stage <= len(spec.stages):
         raise ValueError(f"stage must be in 1..{len(spec.stages)} for branch {spec.name!r}, got {stage!r}")
+    system = branch_system(system, spec)
     current = spec.stages[stage - 1]
     labels = {
         "branch": spec.name,
@@ -429,6 +467,7 @@ def continue_stage(system, settings: BranchSettings, spec: BranchSpec, stage: in
         "stages": len(spec.stages),
         "stage_name": current.name,
         "stage_condition": describe_condition(current.until),
+        **({"motion": spec.motion} if spec.motion != "planar" else {}),
     }
     start = None
     if stage > 1:
@@ -534,9 +573,13 @@ def _parent_stage_rows(parent: xr.Dataset, flagged: int) -> tuple[xr.Dataset, in
 
 
 def _resonance_point(system, settings: BranchSettings, spec: BifurcationSpec, parent: xr.Dataset):
-    """The located ``n:1`` branch point of ``parent`` and the stage holding it, or the reason there is none."""
+    """The located ``n:1`` (or whirl) branch point of ``parent`` and the stage holding it, or the reason there is
+    none."""
     resonance = parent["branch_point_resonance"].values if "branch_point_resonance" in parent else np.zeros(0)
     match = np.flatnonzero(resonance == spec.resonance)
+    if spec.crossing == "whirl":
+        whirl = parent["branch_point_whirl"].values if "branch_point_whirl" in parent else np.zeros_like(resonance)
+        match = np.flatnonzero(whirl == 1)
     if match.size == 0:
         found = (
             [
@@ -548,10 +591,13 @@ def _resonance_point(system, settings: BranchSettings, spec: BifurcationSpec, pa
             if resonance.size
             else []
         )
-        reason = (
-            f"no branch point of the {spec.resonance}:1 resonance (orbit of period T/{spec.resonance}) on "
-            f"{spec.parent.upper()}; located: " + ("; ".join(found) if found else "none")
+        wanted = (
+            "where planar motion gives way to whirl"
+            if spec.crossing == "whirl"
+            else f"of the {spec.resonance}:1 resonance (orbit of period T/{spec.resonance})"
         )
+        located = "; ".join(found) if found else "none"
+        reason = f"no branch point {wanted} on {spec.parent.upper()}; located: {located}"
         return None, None, reason
     flagged = int(parent["branch_point_flagged_point"].values[match[0]])
     rows, index = _parent_stage_rows(parent, flagged)
@@ -596,14 +642,15 @@ def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, p
             f"bifurcations.{spec.name}: expected the branch dataset of {spec.parent}, got branch "
             f"{parent.attrs.get('branch')!r}"
         )
-    n = spec.resonance
+    n = spec.resonance if spec.crossing == "resonance" else 0
     point, stage, reason = _resonance_point(system, settings, spec, parent)
     labels = {"branch": spec.name, "parent_branch": spec.parent, "resonance": n, "switch_step": spec.switch_step}
     if point is None:
         logger.info("bifurcations.%s: %s", spec.name, reason)
         return skipped_stage_dataset(system, 0, labels, reason)
     low, high = spec.energy_range
-    label = f"{spec.name} (bifurcated from {spec.parent} at the {n}:1 resonance)"
+    where = f"the {n}:1 resonance" if n else "planar motion giving way to whirl"
+    label = f"{spec.name} (bifurcated from {spec.parent} at {where})"
 
     def out_of_range(U, d):
         return f"energy left [{low:g}, {high:g}]" if not low <= d["energy"] <= high else ""
@@ -639,5 +686,5 @@ def bifurcated_branch(system, settings: BranchSettings, spec: BifurcationSpec, p
         "tangent_angle": point.angle,
         "singular_ratio": point.singular_ratio,
     }
-    share = [subharmonic_share(system, U, n) for U in branch.points]
+    share = [subharmonic_share(system, U, n) for U in branch.points] if n else None
     return bifurcated_dataset(ds, spec.name, spec.parent, n, share, described, spec.switch_step)

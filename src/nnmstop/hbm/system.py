@@ -66,6 +66,23 @@ class HarmonicBalanceSystem:
     linear_algebra : {"auto", "dense", "sparse"}
         Storage of the Jacobian and factorization of the bordered Jacobian; "auto" is sparse
         above :data:`DENSE_MAX_UNKNOWNS` unknowns.
+    rotation : bool, optional
+        Fix the rotation of a structure invariant under the rotations of a plane
+        (:attr:`~nnmstop.models.structure.Structure.rotation_pairs`): the rotation phase condition and its
+        unfolding term (below). Default: on for such a structure. Off, the orbits that rotation turns into time
+        shifts (the whirling orbits, relative equilibria) are the ones the system can follow; on, the others.
+    rotation_angle : float
+        Direction (rad, from the first DOF of the reference pair) the rotation phase condition fixes.
+
+    Notes
+    -----
+    With ``rotation``, the structure's rotations ``q -> exp(phi J) q`` (``J`` the rotation generator) map orbits
+    to orbits: without a condition the Jacobian is singular along ``J q`` (and its angular momentum makes one
+    equation redundant). The system then gets one more equation, ``-sin(a) q_i(0) + cos(a) q_j(0) = 0`` on
+    the reference pair ``(i, j)`` (the first stop's, a circular clearance, or the first pair): the orbit's
+    position at ``t = 0`` lies along the direction ``a`` (a section transverse to the rotation generator), and
+    one more unknown ``mu``, the coefficient of the circulatory force ``mu M J q`` in the equations of motion,
+    zero on every periodic orbit that is not a circle (``docs/methods/circular_clearance.md``).
 
     Examples
     --------
@@ -82,7 +99,14 @@ class HarmonicBalanceSystem:
     LINEAR_ALGEBRA = ("auto", "dense", "sparse")
 
     def __init__(
-        self, structure, harmonics: int, time_samples: int = 0, basis: str = "cosine", linear_algebra: str = "auto"
+        self,
+        structure,
+        harmonics: int,
+        time_samples: int = 0,
+        basis: str = "cosine",
+        linear_algebra: str = "auto",
+        rotation: bool | None = None,
+        rotation_angle: float = 0.0,
     ):
         if not isinstance(structure, Structure):
             hint = (
@@ -97,6 +121,17 @@ class HarmonicBalanceSystem:
             raise ValueError(f"basis must be one of {self.BASES}, got {basis!r}")
         if linear_algebra not in self.LINEAR_ALGEBRA:
             raise ValueError(f"linear_algebra must be one of {self.LINEAR_ALGEBRA}, got {linear_algebra!r}")
+        if rotation is None:
+            rotation = structure.rotation_pairs is not None
+        if rotation and structure.rotation_pairs is None:
+            raise ValueError(
+                "rotation=True needs a structure invariant under rotations (Structure.rotation_pairs), this one "
+                "declares none"
+            )
+        if not np.isfinite(rotation_angle):
+            raise ValueError(f"rotation_angle must be finite, got {rotation_angle!r}")
+        self.rotation = bool(rotation)
+        self.rotation_angle = float(rotation_angle)
         minimum_samples = 3 * harmonics + 1
         if time_samples == 0:
             time_samples = int(2 ** np.ceil(np.log2(minimum_samples)))
@@ -130,8 +165,12 @@ class HarmonicBalanceSystem:
         # cosine basis the phase is fixed by the symmetry and nu D x (a sine series) has
         # no component on the balanced cosine equations.
         self.i_nu = self.i_lam + 1 if self.full else None
-        self.n_unknowns = self.i_lam + (2 if self.full else 1)
-        self.n_equations = self.i_lam + (1 if self.full else 0)
+        # the rotation's unfolding coefficient mu and its phase condition come after the time's (nu, phase)
+        self.i_mu = self.i_lam + 1 + self.full if self.rotation else None
+        self.n_unknowns = self.i_lam + 1 + self.full + self.rotation
+        self.n_equations = self.i_lam + self.full + self.rotation
+        self.i_phase_row = self.i_lam if self.full else None
+        self.i_rotation_row = self.i_lam + self.full if self.rotation else None
         if linear_algebra == "auto":
             linear_algebra = "sparse" if self.n_unknowns > DENSE_MAX_UNKNOWNS else "dense"
         self.linear_algebra = linear_algebra
@@ -165,16 +204,39 @@ class HarmonicBalanceSystem:
         self._squared = np.array([stop.recast.family == "squared_gap" for stop in stops])
         # every stop one component with z = g**2: the paper's and the bilateral structures' arrays and sums
         self._bilateral = bool(self._squared.all()) and self.n_components == self.n_stops
+        # every stop reads one DOF of its own with sign +1 (the fast path of eta on the diagonal near rest; a
+        # circular clearance reads two)
+        self._one_dof_stops = (
+            contact.grounded and self.n_components == self.n_stops and len(set(self.stop_dofs.tolist())) == self.n_stops
+        )
         # DOFs whose equations hold a contact force, in the order the stops read them
         self._stop_rows = np.array(list(dict.fromkeys(d for stop in stops for d in stop.dofs)), dtype=int)
         # the phase condition and the amplitude of the start: the first coordinate of the first stop
         self._reference_terms = list(contact.terms[0])
-        # stored entries of M and K together: the DOF pairs (i, j) of the linear blocks
-        pattern = sp.coo_matrix(abs(self._mass) + abs(self._stiffness))
+        # the rotation's circulatory unfolding M J (zero without rotation: nothing added to the pattern)
+        self._circulatory = sp.csr_matrix(self._mass.shape)
+        if structure.rotation_pairs is not None:
+            self._rotation_pair = self._reference_pair(structure)
+        if self.rotation:
+            self._circulatory = sp.csr_matrix(self._mass @ structure.rotation_generator)
+            self._circulatory.eliminate_zeros()
+        # stored entries of M, K (and M J) together: the DOF pairs (i, j) of the linear blocks
+        pattern = sp.coo_matrix(abs(self._mass) + abs(self._stiffness) + abs(self._circulatory))
         self._pair_rows, self._pair_cols = pattern.row.astype(int), pattern.col.astype(int)
         self._pair_mass = np.asarray(self._mass[self._pair_rows, self._pair_cols]).ravel()
         self._pair_stiffness = np.asarray(self._stiffness[self._pair_rows, self._pair_cols]).ravel()
+        self._pair_circulatory = np.asarray(self._circulatory[self._pair_rows, self._pair_cols]).ravel()
         self._set_velocity_matrix(self._mass)
+
+    @staticmethod
+    def _reference_pair(structure: Structure) -> tuple:
+        """The pair of DOFs of the rotation phase condition: the first stop's when it is a circular clearance on a
+        rotation pair (in the order the stop reads them), else the first rotation pair."""
+        first = structure.stops[0]
+        pairs = {tuple(sorted(p)) for p in structure.rotation_pairs}
+        if first.kind == "circular" and tuple(sorted(first.dofs)) in pairs:
+            return tuple(first.dofs)
+        return tuple(structure.rotation_pairs[0])
 
     def _set_velocity_matrix(self, matrix):
         """The matrix ``V`` of the full basis' velocity term ``nu V D q``: ``M`` (unfolding), ``C`` (forced, damped)."""
@@ -216,7 +278,8 @@ class HarmonicBalanceSystem:
         """Views ``(q_1, .., q_N, f_1, .., f_s, z_1, .., z_s, lam, nu)`` into an unknown vector (or a stack).
 
         For the paper's oscillator this is ``(x, u, f, z, lam, nu)``. ``nu`` is zero in the
-        cosine basis, which has no unfolding term.
+        cosine basis, which has no unfolding term. The rotation's unfolding coefficient is
+        :meth:`rotation_unfolding`.
         """
         U = np.asarray(U)
         nc = self.nc
@@ -224,13 +287,22 @@ class HarmonicBalanceSystem:
         blocks = tuple(U[..., b * nc : (b + 1) * nc] for b in range(self.n_fields))
         return blocks + (U[..., self.i_lam], nu)
 
+    def rotation_unfolding(self, U):
+        """The coefficient ``mu`` of the rotation's circulatory unfolding term of ``U`` (or a stack); zero without
+        rotation."""
+        U = np.asarray(U)
+        return U[..., self.i_mu] if self.rotation else np.zeros(U.shape[:-1])
+
     def pack(self, *parts):
-        """Unknown vector from its parts ``q_1, .., q_N, f_1, .., f_s, z_1, .., z_s, lam[, nu]``."""
-        if len(parts) not in (self.n_fields + 1, self.n_fields + 2):
-            raise ValueError(f"pack takes {self.n_fields} field blocks, lam and optionally nu; got {len(parts)} parts")
-        fields, tail = parts[: self.n_fields], list(parts[self.n_fields :])
-        nu = tail[1] if len(tail) == 2 else 0.0
-        return np.concatenate(list(fields) + [[tail[0], nu] if self.full else [tail[0]]])
+        """Unknown vector from its parts ``q_1, .., q_N, f_1, .., f_s, z_1, .., z_s, lam[, nu[, mu]]``."""
+        if len(parts) not in (self.n_fields + 1, self.n_fields + 2, self.n_fields + 3):
+            raise ValueError(
+                f"pack takes {self.n_fields} field blocks, lam and optionally nu and mu; got {len(parts)} parts"
+            )
+        fields, tail = parts[: self.n_fields], list(parts[self.n_fields :]) + [0.0, 0.0]
+        return np.concatenate(
+            list(fields) + [[tail[0]]] + ([[tail[1]]] if self.full else []) + ([[tail[2]]] if self.rotation else [])
+        )
 
     def _fields(self, U):
         """Blocks ``Q`` (N, nc), ``F`` (m, nc: one per stop component), ``Z`` (s, nc) and ``lam``, ``nu`` of one
@@ -302,6 +374,8 @@ class HarmonicBalanceSystem:
             r_q = self._mass @ (lam * (Q * self._d2)) + self._stiffness @ Q
             if self.full:
                 r_q += self._velocity @ (nu * self.derivative(Q))
+            if self.rotation:
+                r_q += U[self.i_mu] * (self._circulatory @ Q)
         self.contact.apply(r_q, F)
         # f - eta x + c f z (c = -1 for z = g**2: Eq. (12); c = kappa for the one-sided law's z = g)
         r_f = F - self._component_etas[:, None] * X + self._coefficients[:, None] * products[:m]
@@ -309,7 +383,19 @@ class HarmonicBalanceSystem:
         parts = [r_q.ravel(), r_f.ravel(), r_z.ravel()]
         if self.full:
             parts.append([self._closing_residual(Q, lam, nu)])
+        if self.rotation:
+            parts.append([self._rotation_residual(Q)])
         return np.concatenate(parts)
+
+    def _rotation_weights(self) -> list:
+        """``(dof, weight)`` of the rotation phase condition ``-sin(a) q_i(0) + cos(a) q_j(0)`` on the pair."""
+        (i, j), a = self._rotation_pair, self.rotation_angle
+        return [(i, -np.sin(a)), (j, np.cos(a))]
+
+    def _rotation_residual(self, Q) -> float:
+        """The rotation phase condition: the reference pair's position at ``t = 0`` along ``rotation_angle``."""
+        cosines = slice(0, self.H + 1)  # q(0) is the sum of the mean and the cosine coefficients
+        return sum(weight * Q[dof, cosines].sum() for dof, weight in self._rotation_weights())
 
     def _closing_residual(self, Q, lam, nu) -> float:
         """Last equation of the full basis: the phase condition ``c_0'(0) = 0`` on the first stop's first coordinate
@@ -320,19 +406,21 @@ class HarmonicBalanceSystem:
         """Jacobian entries of :meth:`_closing_residual` (one group per DOF of the coordinate)."""
         sines = np.arange(self.H + 1, 2 * self.H + 1)
         return [
-            (np.full(self.H, self.n_equations - 1), dof * self.nc + sines, self.k if sign == 1 else sign * self.k)
+            (np.full(self.H, self.i_phase_row), dof * self.nc + sines, self.k if sign == 1 else sign * self.k)
             for dof, sign in self._reference_terms
         ]
 
-    def _linear_entries(self, Q, lam, nu) -> list:
+    def _linear_entries(self, Q, lam, nu, mu=0.0) -> list:
         """``(rows, columns, values)`` of the Jacobian outside the stops' blocks, in groups that never share a
         position: the linear blocks, the stop forces on their DOFs, ``-eta_c x_c`` in the force equations, the
-        ``lam`` and ``nu`` columns and the closing row. None of them touches a ``z`` row or column."""
+        ``lam`` and ``nu`` columns and the closing row (and with rotation the ``mu`` column, ``mu M J`` in the linear
+        blocks and the rotation row). None of them touches a ``z`` row or column."""
         N, nc, H = self.n_dofs, self.nc, self.H
         diagonal = np.arange(nc)
         groups = []
         # linear blocks of each DOF pair (i, j): diag(M_ij lam d2 + K_ij) (+ M_ij nu D1)
         pi, pj, m_ij, k_ij = self._pair_rows, self._pair_cols, self._pair_mass, self._pair_stiffness
+        k_ij = k_ij + self._pair_circulatory * mu if self.rotation else k_ij
         groups.append(
             (pi[:, None] * nc + diagonal, pj[:, None] * nc + diagonal, (m_ij * lam)[:, None] * self._d2 + k_ij[:, None])
         )
@@ -356,6 +444,12 @@ class HarmonicBalanceSystem:
         if self.full:
             groups.append((q_rows, np.full(N * nc, self.i_nu), (self._velocity @ self.derivative(Q)).ravel()))
             groups.extend(self._closing_entries(Q, lam, nu))
+        if self.rotation:
+            groups.append((q_rows, np.full(N * nc, self.i_mu), (self._circulatory @ Q).ravel()))
+            cosines = np.arange(self.H + 1)
+            for dof, weight in self._rotation_weights():
+                row = np.full(self.H + 1, self.i_rotation_row)
+                groups.append((row, dof * nc + cosines, np.full(self.H + 1, weight)))
         return groups
 
     def _jacobian_parts(self, U):
@@ -387,7 +481,7 @@ class HarmonicBalanceSystem:
                 )
                 channels.append(Channel(slice((N + c) * nc, (N + c + 1) * nc), Mf, Mg, q_terms, f_factor))
             couplings.append(StopCoupling(z, Mz, float(self._coefficients[components.start]), tuple(channels)))
-        return self._linear_entries(Q, lam, nu), couplings
+        return self._linear_entries(Q, lam, nu, float(self.rotation_unfolding(U))), couplings
 
     @staticmethod
     def _stop_blocks(couplings) -> list:
@@ -554,12 +648,14 @@ class HarmonicBalanceSystem:
         N, s, m, nc = self.n_dofs, self.n_stops, self.n_components, self.nc
         nq = N * nc
         # sum_r lam_r M D^2 q_{p-r} = M D^2 sum_r lam_r q_{p-r} (and nu D likewise): both sums in one product
-        parameters = series[1:p, self.i_lam :]  # lam_r (, nu_r) for r = 1 .. p-1
+        parameters = series[1:p, self.i_lam :]  # lam_r (, nu_r)(, mu_r) for r = 1 .. p-1
         sums = (parameters.T @ series[p - 1 : 0 : -1, :nq]).reshape(-1, N, nc)
         q_out = out[:nq].reshape(N, nc)
         q_out[:] = self._mass @ (sums[0] * self._d2)
         if self.full:
             q_out += self._velocity @ (sums[1][:, self._derivative_order] * self._derivative_factors)
+        if self.rotation:
+            q_out += self._circulatory @ sums[1 + self.full]
         # channels (f, g | z, g) of every component: the products f z and g g in one sum over the orders
         t = cache.samples
         np.einsum("rkm,rkm->km", t[1:p, : 2 * m], t[p - 1 : 0 : -1, 2 * m :], out=cache.products)
@@ -594,14 +690,47 @@ class HarmonicBalanceSystem:
             lam = omega**2
         else:
             stiffness = _dense(self._stiffness)
-            if self.contact.grounded and len(set(self.stop_dofs.tolist())) == len(self.stop_dofs):
+            if self._one_dof_stops:
                 stiffness[self.stop_dofs, self.stop_dofs] += self.etas
             else:
                 stiffness += self.contact.stiffness_matrix([stop.stiffness_at_rest for stop in self.structure.stops])
             lam, vectors = eigh(stiffness, _dense(self._mass))
+        if self.structure.rotation_pairs is not None:
+            vectors = self._aligned_pairs(lam, vectors)
         reference = np.array([self.mode_reference(vectors[:, j])[1] for j in range(vectors.shape[1])])
         with np.errstate(divide="ignore", invalid="ignore"):  # a mode that moves no stop: not finite, refused when used
             return np.sqrt(lam), vectors / reference
+
+    #: Relative gap of two eigenvalues below which, with rotation, their modes are one mode and its rotated copy.
+    ROTATED_PAIR_TOLERANCE = 1e-8
+
+    def _rotated_pairs(self, lam) -> list:
+        """Indices ``j`` where modes ``j`` and ``j + 1`` share one eigenvalue (a mode and its copy rotated by 90
+        degrees, for a structure invariant under rotations)."""
+        lam = np.asarray(lam, dtype=float)
+        scale = max(float(np.max(np.abs(lam))), 1e-300)
+        out, j = [], 0
+        while j < len(lam) - 1:
+            if abs(lam[j + 1] - lam[j]) <= self.ROTATED_PAIR_TOLERANCE * scale:
+                out.append(j)
+                j += 2
+            else:
+                j += 1
+        return out
+
+    def _aligned_pairs(self, lam, vectors) -> np.ndarray:
+        """The shapes of each pair of :meth:`_rotated_pairs` turned within their plane so that the first satisfies
+        the rotation phase condition (its reference pair along ``rotation_angle``) and the second is across it
+        (for a structure invariant under rotations, whether the system fixes them or not)."""
+        vectors = np.array(vectors, dtype=float)
+        for j in self._rotated_pairs(lam):
+            plane = vectors[:, j : j + 2]
+            r = np.array([sum(w * plane[dof, k] for dof, w in self._rotation_weights()) for k in range(2)])
+            size = np.hypot(*r)
+            if size > 0:
+                vectors[:, j] = plane @ (np.array([r[1], -r[0]]) / size)
+                vectors[:, j + 1] = plane @ (r / size)
+        return vectors
 
     def mode_reference(self, shape):
         """``(component, value)``: the stop coordinate a mode shape is normalized by, and its value (physical).
@@ -628,6 +757,11 @@ class HarmonicBalanceSystem:
         if not isinstance(mode, (int, np.integer)) or isinstance(mode, bool) or not 1 <= mode <= self.n_dofs:
             raise ValueError(f"mode must be an integer in 1..{self.n_dofs}, got {mode!r}")
         omega, shapes = self.linear_modes(mode)
+        if self.rotation and any(j + 2 == mode for j in self._rotated_pairs(omega**2)):
+            raise ValueError(
+                f"mode {mode} is mode {mode - 1} turned by 90 degrees (the structure is invariant under rotations): "
+                "its NNMs are those of the mode before it, turned (the rotation phase condition fixes them): use it"
+            )
         shape = shapes[:, mode - 1]
         if not np.all(np.isfinite(shape)):
             raise ValueError(f"mode {mode} does not move the coordinate of any stop (first stop: DOF {self.phase_dof})")
@@ -640,6 +774,39 @@ class HarmonicBalanceSystem:
         g_t = self.to_time(G)
         Z = self._gap_terms(self.to_coefficients(g_t * g_t), G)
         return self.pack(*Q, *F, *Z, omega[mode - 1] ** 2, 0.0)
+
+    def whirl_guess(self, mode: int, amplitude: float):
+        """Unknown vector of the whirling orbit of linear mode ``mode`` of a structure invariant under rotations.
+
+        The mode's shape ``phi`` (its reference pair along ``rotation_angle``, :meth:`linear_modes`) along
+        ``cos(theta)`` and the same shape turned by 90 degrees, ``J phi``, along ``sin(theta)``: the reference pair
+        goes round a circle of radius ``amplitude gap`` (``x = R cos``, ``y = R sin`` for a body in a hole). The
+        stops' regularized forces of that motion, ``z`` balanced exactly and ``omega**2`` the Rayleigh quotient
+        with them: exact for an isotropic body in a hole; a Newton correction makes it a whirling orbit of any
+        such structure. Needs the full basis (the sine series) and ``rotation`` off: a circle is turned into
+        itself by a time shift, the rotation phase condition would fix it twice.
+        """
+        if self.structure.rotation_pairs is None:
+            raise ValueError("a whirling orbit needs a structure invariant under rotations (Structure.rotation_pairs)")
+        if not self.full or self.rotation:
+            raise ValueError(
+                "whirling orbits are computed in the full basis without the rotation phase condition "
+                f"(basis='full', rotation=False), got basis={self.basis!r}, rotation={self.rotation}"
+            )
+        U = self.linear_mode_guess(mode, amplitude)
+        Q = U[: self.n_dofs * self.nc].reshape(self.n_dofs, self.nc).copy()
+        Q[:, self.H + 1] = self.structure.rotation_generator @ Q[:, 1]  # J phi along sin(theta)
+        X = self.stop_coordinates(Q)
+        F = self.to_coefficients(self.contact.forces(self.to_time(X)))
+        G = F / self._component_alphas[:, None] - X
+        g_t = self.to_time(G)
+        Z = self._gap_terms(self.to_coefficients(g_t * g_t), G)
+        # omega**2 of the Rayleigh quotient of the first cosine harmonic, the stops' secant stiffness included
+        q1 = Q[:, 1]
+        contact = np.zeros(self.n_dofs)
+        self.contact.apply(contact, F[:, 1])
+        lam = (q1 @ (self._stiffness @ q1) + q1 @ contact) / (q1 @ (self._mass @ q1))
+        return self.pack(*Q, *F, *Z, lam, 0.0)
 
     # ------------------------------------------------------------------ post-processing
 

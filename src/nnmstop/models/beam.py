@@ -1,8 +1,10 @@
 """Euler-Bernoulli beam of Hermite cubic elements with bilateral elastic stops at nodes.
 
-:class:`Beam` holds the physical description (length, ``EI``, ``rho A``, elements, end conditions, stops);
+:class:`Beam` holds the physical description (length, ``EI``, ``rho A``, elements, end conditions, stops, and
+whether it bends in one plane or in two: ``planes``);
 :func:`beam_structure` assembles banded sparse mass and stiffness matrices on the (transverse displacement,
-rotation) degrees of freedom of the nodes, removes the constrained ones and returns the nondimensional
+rotation) degrees of freedom of the nodes (of each plane), removes the constrained ones and returns the
+nondimensional
 :class:`~nnmstop.models.structure.Structure` (length unit the gap of the first stop, time unit the inverse
 of the first linear no-contact angular frequency, see docs/methods/beam.md).
 :func:`euler_bernoulli_frequencies` gives the analytical frequencies of the continuous beam, the
@@ -43,6 +45,11 @@ BOUNDARY_CONDITIONS = {"clamped": (0, 1), "pinned": (0,), "free": ()}
 
 #: A stop position is on a node when it is within this fraction of the length of it.
 NODE_TOLERANCE = 1e-9
+#: The kinds of stop a beam takes at its nodes (``circular`` needs a beam bending in two planes).
+BEAM_STOP_KINDS = ("bilateral", "one_sided", "circular")
+#: Labels of the (displacement, rotation) DOFs of each plane: ``w``, ``theta`` in the first, ``v``, ``psi`` in the
+#: second (a beam bending in two planes).
+PLANE_LABELS = (("w", "theta"), ("v", "psi"))
 
 
 def _positive(name: str, value) -> float:
@@ -55,14 +62,16 @@ def _positive(name: str, value) -> float:
 
 @dataclass(frozen=True)
 class BeamStop:
-    """An elastic stop at a node of the beam (physical units): bilateral, or one-sided with ``side``.
+    """An elastic stop at a node of the beam (physical units): bilateral, one-sided with ``side``, or circular.
 
     Give either ``node`` (index from the left end, 0..n_elements) or ``position`` (distance from the left
     end), which must fall on a node. ``gap`` is a length, ``stiffness`` and ``eta`` are forces per unit
     transverse displacement (``0 < eta < stiffness``). ``kind`` is ``"bilateral"`` (default) or ``"one_sided"``
-    (:class:`~nnmstop.models.contact.OneSidedStop`, with ``side``: ``"positive"`` or ``"negative"``); two
-    one-sided stops at one node make unequal gaps. A beam moves in one transverse direction: relative stops and
-    circular clearances need a structure given by its matrices.
+    (:class:`~nnmstop.models.contact.OneSidedStop`, with ``side``: ``"positive"`` or ``"negative"``), acting on
+    the displacement of the first plane; two one-sided stops at one node make unequal gaps. ``"circular"``: a
+    circular clearance of radius ``gap`` and radial ``stiffness`` on the node's displacements in both planes
+    (:class:`~nnmstop.models.contact.CircularStop`; a beam bending in two planes, ``Beam.planes = 2``). Relative
+    stops need a structure given by its matrices.
     """
 
     gap: float
@@ -74,13 +83,13 @@ class BeamStop:
     side: str | None = None
 
     def __post_init__(self):
-        if self.kind not in ("bilateral", "one_sided"):
+        if self.kind not in BEAM_STOP_KINDS:
             raise ValueError(
-                f"beam stop kind must be bilateral or one_sided, got {self.kind!r} (a beam has one transverse "
-                "direction: relative stops and circular clearances need a structure given by its matrices)"
+                f"beam stop kind must be one of {BEAM_STOP_KINDS}, got {self.kind!r} (relative stops need a structure "
+                "given by its matrices)"
             )
-        if self.kind == "bilateral" and self.side is not None:
-            raise ValueError(f"stop key 'side' is not allowed for a bilateral beam stop, got side={self.side!r}")
+        if self.kind in ("bilateral", "circular") and self.side is not None:
+            raise ValueError(f"stop key 'side' is not allowed for a {self.kind} beam stop, got side={self.side!r}")
         if self.kind == "one_sided" and self.side not in ("positive", "negative"):
             raise ValueError(f"a one_sided beam stop needs the key 'side' (positive or negative), got {self.side!r}")
         for name in ("gap", "stiffness", "eta"):
@@ -115,6 +124,9 @@ class Beam:
         End conditions at ``s = 0`` and ``s = L``.
     stops : sequence of BeamStop
         At least one, on distinct nodes that are not fixed transversally.
+    planes : {1, 2}
+        Bending in one transverse plane, or in two (the same section in both: an isotropic beam, the DOFs of the
+        second plane after those of the first); a circular clearance needs two.
     """
 
     length: float
@@ -124,6 +136,7 @@ class Beam:
     left: str = "clamped"
     right: str = "free"
     stops: tuple = ()
+    planes: int = 1
 
     def __post_init__(self):
         for name in ("length", "bending_stiffness", "mass_per_length"):
@@ -141,9 +154,13 @@ class Beam:
                     f"{side} boundary condition must be one of {sorted(BOUNDARY_CONDITIONS)}, "
                     f"got {getattr(self, side)!r}"
                 )
+        if self.planes not in (1, 2) or isinstance(self.planes, bool):
+            raise ValueError(f"planes must be 1 or 2 (bending in one transverse plane or in two), got {self.planes!r}")
         stops = tuple(self.stops)
         if not stops:
             raise ValueError("a beam needs at least one stop, got none")
+        if self.planes == 1 and any(s.kind == "circular" for s in stops):
+            raise ValueError("a circular stop needs a beam bending in two planes (planes: 2), this one has planes: 1")
         object.__setattr__(self, "stops", stops)
         nodes = self.stop_nodes
         shared = [n for n in set(nodes) if nodes.count(n) > 1]
@@ -194,15 +211,18 @@ class Beam:
         """Build from a dict shaped like :func:`default_tube_parameters` (missing or unknown keys are named)."""
         keys = ("length", "bending_stiffness", "mass_per_length", "n_elements", "left", "right", "stops")
         missing = [k for k in keys if k not in parameters]
-        unknown = sorted(set(parameters) - set(keys))
+        unknown = sorted(set(parameters) - set(keys) - {"planes"})  # planes: optional (default 1)
         if missing or unknown:
-            raise ValueError(f"beam parameters: missing keys {missing}, unknown keys {unknown}; expected {list(keys)}")
+            raise ValueError(
+                f"beam parameters: missing keys {missing}, unknown keys {unknown}; expected {list(keys)} "
+                "and optionally 'planes'"
+            )
         stop_keys = {"gap", "stiffness", "eta", "node", "position", "kind", "side"}
         for stop in parameters["stops"]:
             if not isinstance(stop, dict) or set(stop) - stop_keys:
                 raise ValueError(f"each stop must be a dict with keys among {sorted(stop_keys)}, got {stop!r}")
         stops = tuple(BeamStop(**stop) for stop in parameters["stops"])
-        return cls(**{k: parameters[k] for k in keys[:-1]}, stops=stops)
+        return cls(**{k: parameters[k] for k in keys[:-1]}, stops=stops, planes=parameters.get("planes", 1))
 
 
 def element_matrices(h: float, bending_stiffness: float, mass_per_length: float):
@@ -300,32 +320,49 @@ def beam_structure(beam: Beam) -> Structure:
     first linear angular frequency is exactly 1. Stop stiffness and eta become ``K L**3 / EI``, gaps
     ``gap / e``. Degrees of freedom are the (displacement, rotation) pairs of the nodes left after the end
     conditions, labelled ``w<i>`` and ``theta<i>``; the stop degrees of freedom are the displacements of the
-    stop nodes.
+    stop nodes. A beam bending in two planes has those of the second plane after them, ``v<i>`` and ``psi<i>``
+    (the same matrices: an isotropic section); when every stop is a circular clearance the structure is invariant
+    under the rotations about the beam's axis, which turn each pair (``w<i>``, ``v<i>``), (``theta<i>``,
+    ``psi<i>``) together (``Structure.rotation_pairs``).
     """
     unit_k, unit_m, kept = _constrained(beam, 1.0, 1.0, 1.0)
     scales = beam_scales(beam)
     position = {int(d): i for i, d in enumerate(kept)}
+    n = len(kept)
     stops = []
     for stop, node in zip(beam.stops, beam.stop_nodes):
-        law = {"kind": stop.kind, "side": stop.side} if stop.kind != "bilateral" else {}
+        law = {"kind": stop.kind, "side": stop.side} if stop.kind == "one_sided" else {}
+        where = {"dof": position[2 * node]}
+        if stop.kind == "circular":
+            law, where = {"kind": "circular"}, {"dofs": [position[2 * node], n + position[2 * node]]}
         stops.append(
             Stop(
-                dof=position[2 * node],
+                **where,
                 gap=stop.gap / scales["length"],
                 stiffness=stop.stiffness / scales["stiffness"],
                 eta=stop.eta / scales["stiffness"],
                 **law,
             )
         )
-    labels = tuple(("w" if d % 2 == 0 else "theta") + str(d // 2) for d in kept)
+    mass, stiffness = unit_m * scales["first_eigenvalue_unit_beam"], unit_k
+    labels = [PLANE_LABELS[0][d % 2] + str(d // 2) for d in kept]
+    nodes = [int(d) // 2 for d in kept]
+    pairs = None
+    if beam.planes == 2:
+        mass, stiffness = (scipy.sparse.block_diag([a, a], format="csr") for a in (mass, stiffness))
+        labels += [PLANE_LABELS[1][d % 2] + str(d // 2) for d in kept]
+        nodes += nodes
+        if all(stop.kind == "circular" for stop in beam.stops):
+            pairs = tuple((i, n + i) for i in range(n))
     return Structure(
-        mass=unit_m * scales["first_eigenvalue_unit_beam"],
-        stiffness=unit_k,
+        mass=mass,
+        stiffness=stiffness,
         stops=tuple(stops),
-        dof_labels=labels,
+        dof_labels=tuple(labels),
         node_coordinates=beam.node_coordinates / beam.length,
-        dof_nodes=tuple(int(d) // 2 for d in kept),
+        dof_nodes=tuple(nodes),
         attributes=beam_attributes(beam, scales, stops[0]),
+        rotation_pairs=pairs,
     )
 
 
@@ -343,12 +380,13 @@ def beam_attributes(beam: Beam, scales: dict, first_stop: Stop) -> dict:
         "elements": beam.n_elements,
         "left_end": beam.left,
         "right_end": beam.right,
+        **({"planes": 2} if beam.planes == 2 else {}),
         "stop_nodes": np.array(beam.stop_nodes, dtype=np.int32),
         "stop_gap_m": np.array([s.gap for s in beam.stops]),
         "stop_stiffness_N_per_m": np.array([s.stiffness for s in beam.stops]),
         "stop_eta_N_per_m": np.array([s.eta for s in beam.stops]),
         **(
-            {"stop_kinds": " ".join(s.kind if s.kind == "bilateral" else f"{s.kind}:{s.side}" for s in beam.stops)}
+            {"stop_kinds": " ".join(f"{s.kind}:{s.side}" if s.kind == "one_sided" else s.kind for s in beam.stops)}
             if any(s.kind != "bilateral" for s in beam.stops)
             else {}
         ),
@@ -364,7 +402,7 @@ def beam_attributes(beam: Beam, scales: dict, first_stop: Stop) -> dict:
     }
 
 
-def beam_deflection(structure: Structure, q, s) -> np.ndarray:
+def beam_deflection(structure: Structure, q, s, plane: int = 1) -> np.ndarray:
     """Transverse displacement along the beam from degree-of-freedom vectors, by the Hermite shape functions.
 
     Parameters
@@ -375,12 +413,18 @@ def beam_deflection(structure: Structure, q, s) -> np.ndarray:
         Degree-of-freedom vectors (nondimensional: displacements over the gap, rotations over gap / L).
     s : array_like, shape (m,)
         Nondimensional positions ``s / L`` in ``[0, 1]``.
+    plane : {1, 2}
+        The displacement in the first plane (``w``, DOFs ``w<i>``, ``theta<i>``) or in the second (``v``, DOFs
+        ``v<i>``, ``psi<i>``) of a beam bending in two.
 
     Returns
     -------
     ndarray, shape (..., m)
-        Nondimensional displacement ``w / gap`` at ``s`` (constrained degrees of freedom are 0).
+        Nondimensional displacement ``w / gap`` (``v / gap``) at ``s`` (constrained degrees of freedom are 0).
     """
+    if plane not in (1, 2):
+        raise ValueError(f"plane must be 1 or 2, got {plane!r}")
+    displacement, rotation = PLANE_LABELS[plane - 1]
     if structure.dof_labels is None or structure.dof_nodes is None or structure.node_coordinates is None:
         raise ValueError("beam_deflection needs a structure from beam_structure (labels, nodes and coordinates)")
     nodes = structure.node_coordinates
@@ -392,7 +436,9 @@ def beam_deflection(structure: Structure, q, s) -> np.ndarray:
         raise ValueError(f"s must be a 1-D array of positions in [{nodes[0]}, {nodes[-1]}]")
     nodal = np.zeros(q.shape[:-1] + (len(nodes), 2))  # (w, theta) at every node, 0 where constrained
     for k, (label, node) in enumerate(zip(structure.dof_labels, structure.dof_nodes)):
-        nodal[..., node, 0 if label.startswith("w") else 1] = q[..., k]
+        name = label.rstrip("0123456789")
+        if name in (displacement, rotation):
+            nodal[..., node, 0 if name == displacement else 1] = q[..., k]
     element = np.clip(np.searchsorted(nodes, s, side="right") - 1, 0, len(nodes) - 2)
     h = nodes[element + 1] - nodes[element]
     xi = (s - nodes[element]) / h

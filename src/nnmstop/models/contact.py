@@ -22,7 +22,9 @@ force ``gap A^T f(x)``, ``f`` the force of its law in the scaled coordinates, so
 * **labels and counts**: :attr:`~Stop.label`, :meth:`~Stop.metadata` (dataset variables), :meth:`~Stop.impacts`
   (entries into contact per period), :attr:`~Stop.odd` (``f(-x) = -f(x)``: orbits may have the half-wave
   symmetry);
-* for wear (later): :meth:`~Stop.normal_force` and :meth:`~Stop.sliding_velocity`.
+* for wear (:mod:`nnmstop.wear`): :meth:`~Stop.penetration` (beyond the gap, scaled: the stop is touched where
+  it is positive) and its rate :meth:`~Stop.penetration_rate`, :meth:`~Stop.normal_force` and
+  :meth:`~Stop.sliding_velocity`.
 
 Kinds (``kind`` in the configuration; ``Stop(kind=..., ...)`` builds the right class):
 
@@ -347,8 +349,19 @@ class Stop:
         raise NotImplementedError
 
     def sliding_velocity(self, x, xdot) -> np.ndarray:
-        """Tangential (sliding) velocity of the contact, scaled: zero for a stop with one component."""
+        """Tangential (sliding) velocity of the contact, scaled: zero for a stop with one component (its model has
+        no motion along the contact surface)."""
         return np.zeros(np.shape(x)[1:])
+
+    def penetration(self, x) -> np.ndarray:
+        """How far the scaled coordinates ``x`` are beyond the gap (scaled; negative inside the clearance), shape
+        ``x.shape[1:]``: the stop is touched where it is positive. The piecewise-linear normal force is ``alpha``
+        times its positive part."""
+        raise NotImplementedError
+
+    def penetration_rate(self, x, xdot) -> np.ndarray:
+        """Time derivative of :meth:`penetration` along a motion with velocities ``xdot`` (scaled)."""
+        raise NotImplementedError
 
     @property
     def recast(self) -> Recast:
@@ -428,6 +441,14 @@ class _ScalarLaw(Stop):
     def normal_force(self, x):
         f = self.force(x)[0]
         return f if self._law_side() else np.abs(f)
+
+    def penetration(self, x):
+        x = np.asarray(x, dtype=float)[0]
+        return x - 1.0 if self._law_side() else np.abs(x) - 1.0
+
+    def penetration_rate(self, x, xdot):
+        x, xdot = np.asarray(x, dtype=float)[0], np.asarray(xdot, dtype=float)[0]
+        return xdot if self._law_side() else np.sign(x) * xdot
 
     @property
     def odd(self) -> bool:
@@ -761,6 +782,16 @@ class CircularStop(Stop):
 
     def normal_force(self, x):
         return regularized_contact_force(self._radial(x)[1], self._params)
+
+    def penetration(self, x):
+        return self._radial(x)[1] - 1.0
+
+    def penetration_rate(self, x, xdot):
+        """Radial velocity ``(x_0 xdot_0 + x_1 xdot_1) / r`` (scaled), zero at the centre."""
+        x, r = self._radial(x)
+        xdot = np.asarray(xdot, dtype=float)
+        dot = x[0] * xdot[0] + x[1] * xdot[1]
+        return np.where(r > 0, dot / np.where(r > 0, r, 1.0), 0.0)
 
     def sliding_velocity(self, x, xdot):
         """Circumferential velocity ``(x_0 xdot_1 - x_1 xdot_0) / r`` (scaled), zero at the centre."""

@@ -204,6 +204,13 @@ class Structure:
     reduction : nnmstop.models.reduction.Reduction, optional
         Set on a reduced structure (:func:`nnmstop.models.reduction.craig_bampton`): the recovery matrix back
         to the full model's DOFs and what the reduction kept. Nothing in the engines reads it.
+    rotation_pairs : sequence of (int, int), optional
+        Declares the structure invariant under the rotations of a plane (an isotropic structure in a circular
+        hole): rotating every pair ``(q_i, q_j)`` by one angle leaves ``M``, ``K`` and the stops unchanged. Its
+        NNMs then come in circles of rotated orbits, which the harmonic balance fixes by a rotation phase
+        condition (:mod:`nnmstop.hbm.system`, ``docs/methods/circular_clearance.md``). Checked: ``M`` and ``K``
+        commute with the rotation generator :attr:`rotation_generator` to round-off, every stop that reads a
+        rotated DOF is a circular clearance on one of the pairs.
 
     Examples
     --------
@@ -224,6 +231,7 @@ class Structure:
     dof_nodes: tuple | None = None
     attributes: dict | None = None
     reduction: object | None = None
+    rotation_pairs: tuple | None = None
 
     def __post_init__(self):
         mass = _square_matrix("mass", self.mass)
@@ -266,6 +274,8 @@ class Structure:
             raise ValueError(
                 f"the reduction's recovery matrix has {self.reduction.recovery.shape[1]} columns, not the {n} DOFs"
             )
+        if self.rotation_pairs is not None:
+            object.__setattr__(self, "rotation_pairs", _checked_rotation_pairs(self, self.rotation_pairs))
 
     @property
     def n_dofs(self) -> int:
@@ -282,6 +292,15 @@ class Structure:
         """The stops as the engines see them (:class:`~nnmstop.models.contact.StopSet`)."""
         return StopSet(self.stops, self.n_dofs)
 
+    @functools.cached_property
+    def rotation_generator(self):
+        """The generator ``J`` of the rotations declared by :attr:`rotation_pairs` (sparse CSR, ``(N, N)``), None
+        without them: ``J q`` is ``(-q_j, q_i)`` on each pair ``(i, j)`` and 0 elsewhere, the velocity of the DOFs
+        under a rotation of unit angular speed."""
+        if self.rotation_pairs is None:
+            return None
+        return _rotation_matrix(self.rotation_pairs, self.n_dofs)
+
     @property
     def is_sparse(self) -> bool:
         """Whether the matrices are stored sparse."""
@@ -290,6 +309,52 @@ class Structure:
     def dense_matrices(self) -> tuple:
         """``(M, K)`` as dense arrays (copies)."""
         return tuple(a.toarray() if scipy.sparse.issparse(a) else a.copy() for a in (self.mass, self.stiffness))
+
+
+def _rotation_matrix(pairs, n: int):
+    rows, cols, vals = [], [], []
+    for i, j in pairs:
+        rows += [i, j]
+        cols += [j, i]
+        vals += [-1.0, 1.0]
+    return scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(n, n))
+
+
+def _checked_rotation_pairs(structure: Structure, pairs) -> tuple:
+    """``pairs`` as a tuple of int pairs, checked against the structure (see ``Structure.rotation_pairs``)."""
+    n = structure.n_dofs
+    try:
+        pairs = tuple((int(i), int(j)) for i, j in pairs)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"rotation_pairs must be a sequence of pairs of degrees of freedom [i, j], got {pairs!r}"
+        ) from None
+    flat = [d for pair in pairs for d in pair]
+    if not pairs or any(not 0 <= d < n for d in flat) or len(set(flat)) != len(flat):
+        raise ValueError(
+            f"rotation_pairs must pair distinct degrees of freedom in 0..{n - 1}, each at most once, got {list(pairs)}"
+        )
+    J = _rotation_matrix(pairs, n)
+    for name, symbol, matrix in (("mass", "M", structure.mass), ("stiffness", "K", structure.stiffness)):
+        commutator = J @ matrix - matrix @ J
+        commutator = abs(scipy.sparse.csr_matrix(commutator)).max()
+        scale = abs(scipy.sparse.csr_matrix(matrix)).max()
+        if commutator > 1e-10 * scale:
+            raise ValueError(
+                f"rotation_pairs {list(pairs)}: the {name} matrix is not invariant under their rotations "
+                f"(max |J {symbol} - {symbol} J| = {commutator:.3e} for max |{symbol}| = {scale:.3e}): the structure "
+                "is not isotropic in those planes"
+            )
+    rotated = set(flat)
+    for k, stop in enumerate(structure.stops):
+        if not rotated.intersection(stop.dofs):
+            continue
+        if stop.kind != "circular" or tuple(sorted(stop.dofs)) not in {tuple(sorted(p)) for p in pairs}:
+            raise ValueError(
+                f"rotation_pairs {list(pairs)}: stop {k} ({stop.label}) is not invariant under their rotations: a stop "
+                "on rotated degrees of freedom must be a circular clearance on one of the pairs"
+            )
+    return pairs
 
 
 def two_dof_structure(params: ModelParameters | None = None) -> Structure:

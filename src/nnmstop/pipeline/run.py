@@ -86,6 +86,9 @@ TASK_INDEX = {
         "tube_study_case",
         "tube_study",
         "tube_manifest",
+        "tube_circular_stage",
+        "tube_circular_branch",
+        "tube_circular_figure",
     ),
     "tube_plates": (
         "tube_plates_stage",

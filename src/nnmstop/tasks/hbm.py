@@ -87,7 +87,10 @@ def _structure_words(ds: xr.Dataset) -> str:
     if kind == "two_dof":
         return "the regularized 2-DOF oscillator with a bilateral elastic stop"
     noun = "finite-element beam" if kind == "beam" else "structure"
-    return f"the regularized {int(ds.attrs['dofs'])}-DOF {noun} with {int(ds.attrs['stops'])} bilateral elastic stop(s)"
+    stops = "bilateral elastic stop(s)"
+    if "stop_kind" in ds:  # not all the paper's bilateral stop: say which
+        stops = f"stop(s): {', '.join(str(k).replace('_', ' ') for k in ds.stop_kind.values)}"
+    return f"the regularized {int(ds.attrs['dofs'])}-DOF {noun} with {int(ds.attrs['stops'])} {stops}"
 
 
 def hbm_bifurcated(config, inputs, outputs, bifurcation: str, keywords: str = ""):

@@ -4,7 +4,8 @@ The tube is a structure like any other: its stages, branches and datasets come f
 (:mod:`nnmstop.tasks.hbm`, which the rules call with :func:`tube_config`, the ``tube`` section shaped as
 the top-level sections), its exact one-impact family, comparison and figures from the structure tasks
 (:mod:`nnmstop.tasks.structure`). What is the tube's own: its keywords and its parameter study over the
-gap and the stop stiffness (:func:`study_case_config`, one case per job).
+gap and the stop stiffness (:func:`study_case_config`, one case per job); the tube in a circular hole at its plates
+(:func:`circular_hole_config`, when ``tube.circular_hole`` is configured).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from nnmstop.netcdf import write_dataset
 from nnmstop.tasks import hbm, structure
 from nnmstop.tasks.manifest import dataset_manifest
 
-__all__ = ["KEYWORDS", "tube_config", "study_case_config", "TASKS"]
+__all__ = ["KEYWORDS", "tube_config", "circular_hole_config", "study_case_config", "TASKS"]
 
 KEYWORDS = "finite element, Euler-Bernoulli beam, steam-generator tube, support plate"
 
@@ -36,6 +37,45 @@ def tube_config(config: dict) -> dict:
         "compare_count": tube["compare_count"],
         "figures": tube["figures"],
         "metadata": config.get("metadata", {}),
+    }
+
+
+def circular_hole_config(config: dict) -> dict:
+    """:func:`tube_config` for the tube in a circular hole at each plate (``tube.circular_hole``).
+
+    The beam bends in two planes (``planes: 2``, an isotropic section) and each stop of ``tube.structure`` becomes a
+    circular clearance of the same gap (the hole's radial clearance), radial stiffness and ``eta``; the branches
+    are those of ``tube.circular_hole`` (``motion: whirl`` for the whirling ones) and its ``hbm`` keys replace those
+    of ``tube.hbm``. Only bilateral stops have a circular counterpart: a one-sided stop is refused by name.
+
+    Examples
+    --------
+    >>> tube = {"structure": {"stops": [{"gap": 1e-4, "stiffness": 1e4, "eta": 30.0}]}, "hbm": {"harmonics": 8},
+    ...         "branches": {}, "exact": {}, "compare_count": 2, "figures": {}, "study": {},
+    ...         "circular_hole": {"hbm": {"harmonics": 6}, "branches": {"whirl1": {"mode": 1}}}}
+    >>> case = circular_hole_config({"anm": {}, "tube": tube})
+    >>> case["structure"]["beam"]["planes"], case["structure"]["beam"]["stops"][0]["kind"], case["hbm"]["harmonics"]
+    (2, 'circular', 6)
+    """
+    hole = config["tube"].get("circular_hole")
+    if hole is None:
+        raise ValueError("tube.circular_hole is not configured: the tube's holes are its planar stops (tube.structure)")
+    case = tube_config(config)
+    beam = copy.deepcopy(case["structure"]["beam"])
+    for i, stop in enumerate(beam["stops"]):
+        kind = stop.get("kind", "bilateral")
+        if kind != "bilateral":
+            raise ValueError(
+                f"tube.circular_hole turns each bilateral stop of tube.structure into a circular clearance of the same "
+                f"gap: tube.structure.stops[{i}] is {kind!r}, which has no circular counterpart"
+            )
+        stop["kind"] = "circular"
+    beam["planes"] = 2
+    return {
+        **case,
+        "structure": {"kind": "beam", "beam": beam},
+        "hbm": {**case["hbm"], **hole.get("hbm", {})},
+        "branches": hole["branches"],
     }
 
 
@@ -84,5 +124,8 @@ TASKS = {
     "tube_figure": structure.structure_figure,
     "tube_study_case": tube_study_case,
     "tube_study": structure.study_figure,
+    "tube_circular_stage": functools.partial(hbm.hbm_stage, keywords=KEYWORDS + ", circular clearance, whirl, wear"),
+    "tube_circular_branch": functools.partial(hbm.hbm_branch, keywords=KEYWORDS + ", circular clearance, whirl, wear"),
+    "tube_circular_figure": structure.structure_figure,
     "tube_manifest": dataset_manifest,
 }
