@@ -99,6 +99,12 @@ SAMPLING_VARIABLES = frozenset(
         # over the tongue, of a length doubled from the chord of the last stored points, was corrected
         "passed_resonance_energy",
         "passed_resonance_landing_frequency",
+        # where an orbit's identity changes (nnmstop.hbm.identity): the first stored point past a harmonic share's
+        # threshold, so its index, energy and frequency follow the steps; the identity of every point is compared
+        # along the curve
+        "identity_change_point",
+        "identity_change_energy",
+        "identity_change_frequency",
     }
 )
 #: Measurements of the machine that ran the build (the study's run times, CPU times and load averages): they
