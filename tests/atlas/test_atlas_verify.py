@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 
+import numpy as np
 import pytest
 
 import nnmstop
@@ -63,3 +64,29 @@ def test_verify_names_a_moved_located_point_and_a_check_off_its_curve(recorded, 
     assert "check_response_frequency" in quantities, quantities
     assert "located points on their curves" in quantities, quantities
     assert ds.sizes["check"] >= 4
+
+
+def _move_first_boundary(region, cells: int):
+    """``region`` with the first class boundary of the first slice that has one moved right by ``cells``."""
+    region = region.copy()
+    for row in region:
+        edges = np.flatnonzero(np.diff(row)) + 1
+        if len(edges) and edges[0] + cells < len(row):
+            row[edges[0] : edges[0] + cells] = row[edges[0] - 1]
+            return region
+    raise AssertionError("no slice of the small atlas has a class boundary")
+
+
+@pytest.mark.parametrize(("cells", "verdict"), [(1, "within tolerance"), (3, "discrepant")])
+def test_a_region_boundary_may_move_by_one_grid_cell(recorded, tmp_path, cells, verdict):
+    """The regions are read on a frequency grid: a cell next to a boundary changes class with round-off (another
+    BLAS kernel), so a boundary may move by one cell; by more it is discrepant. Another class order is discrepant."""
+    results, reference, path = recorded
+    ds = read_dataset(path).load()
+    moved = ds.copy(deep=True)
+    moved["region"].values[:] = _move_first_boundary(ds["region"].values, cells)
+    other = tmp_path / "results"
+    (other / "atlas").mkdir(parents=True)
+    _write(moved, other)
+    rows = [r for r in verify(other, reference) if r.quantity.startswith("variable region: classes along")]
+    assert [r.verdict for r in rows] == [verdict], rows

@@ -382,6 +382,22 @@ def share(shared: dict, value) -> str:
     return key
 
 
+#: Classes read on a frequency grid, one row per slice (the atlas' regions and response counts): a grid cell next
+#: to a boundary changes class with round-off, so the reference keeps each row's runs of one class (:func:`grid_runs`)
+#: and the verifier allows each boundary one cell.
+GRID_CLASS_DIMS = ("slice", "grid")
+
+
+def grid_runs(values) -> list:
+    """The runs of one class along each row of an integer array ``(slice, grid)``: per row, ``[[class, first
+    index], ...]``."""
+    runs = []
+    for row in np.asarray(values):
+        starts = np.r_[0, np.flatnonzero(np.diff(row)) + 1]
+        runs.append([[int(row[k]), int(k)] for k in starts])
+    return runs
+
+
 def profile(ds: xr.Dataset, shared: dict) -> dict:
     """What the reference keeps of one dataset (read with CF decoding), in JSON types.
 
@@ -403,7 +419,9 @@ def profile(ds: xr.Dataset, shared: dict) -> dict:
         if POINT in variable.dims or SAMPLED_DIMENSIONS & set(variable.dims) or not_compared(str(name), ds):
             continue
         values = np.asarray(variable.values)
-        if values.size <= 256:
+        if variable.dims == GRID_CLASS_DIMS and values.dtype.kind in "iu":
+            entry.setdefault("grid_runs", {})[str(name)] = grid_runs(values)
+        elif values.size <= 256:
             entry["values"][str(name)] = json_value(values)
         else:
             entry["values"][str(name)] = array_fingerprint(values)

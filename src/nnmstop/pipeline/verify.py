@@ -39,6 +39,7 @@ from nnmstop.pipeline.curve import Curve
 from nnmstop.pipeline.reference import (
     ACCURACY_FACTOR,
     ACCURACY_PATTERN,
+    GRID_CLASS_DIMS,
     POINT,
     PROJECTIONS,
     REFERENCE_FORMAT,
@@ -48,6 +49,7 @@ from nnmstop.pipeline.reference import (
     STUDY_KINDS,
     attribute_kind,
     fingerprint_sums,
+    grid_runs,
     json_value,
     point_table,
     profile,
@@ -504,6 +506,36 @@ def _check_attributes(name: str, ds: xr.Dataset, entry: dict) -> list[Row]:
     return rows
 
 
+# --------------------------------------------------------------------------- classes on a grid
+
+
+def _check_grid_runs(name: str, ds: xr.Dataset, wanted: dict) -> list[Row]:
+    """Classes read on a frequency grid per slice (:data:`~nnmstop.pipeline.reference.GRID_CLASS_DIMS`): each
+    slice's runs of one class in the same order, each boundary within one grid cell of the reference's (a cell
+    next to a boundary changes class with round-off)."""
+    rows = []
+    for var, reference in wanted.items():
+        if var not in ds.variables or ds[var].dims != GRID_CLASS_DIMS:
+            rows.append(Row(name, f"variable {var}: classes on the grid", "present", "absent", float("nan"), 0.0,
+                            DISCREPANT))
+            continue
+        build = grid_runs(ds[var].values)
+        moved, changed = 0, []
+        for k, (want, got) in enumerate(zip(reference, build)):
+            if len(want) != len(got) or [c for c, _ in want] != [c for c, _ in got]:
+                changed.append(k)
+                continue
+            moved = max([moved] + [abs(a - b) for (_, a), (_, b) in zip(want, got)])
+        if len(reference) != len(build):
+            changed.append(min(len(reference), len(build)))
+        ok = not changed and moved <= 1
+        what = f"slices {changed[:5]} with other classes" if changed else f"boundaries moved by {moved} cell(s)"
+        rows.append(Row(name, f"variable {var}: classes along each slice's grid (boundaries within one cell)",
+                        f"{len(reference)} slices", what, float(moved if not changed else len(changed)), 1.0,
+                        _verdict(ok)))
+    return rows
+
+
 # --------------------------------------------------------------------------- values off the curve
 
 
@@ -949,6 +981,8 @@ def _check_dataset(listed: str, path: Path, entry: dict, reference_dir: Path, sh
     ]
     if relative == REGIMES_NC:
         checks.append(("regimes", lambda: _regime_rows(listed, ds, reference_dir)))
+    if entry.get("grid_runs"):
+        checks.append(("classes on a grid", lambda: _check_grid_runs(listed, ds, entry["grid_runs"])))
     if ds.attrs.get("dataset_kind") == "atlas":  # the atlas' curves: checked on the build (nnmstop.bifurcation_atlas.verification)
         from nnmstop.bifurcation_atlas.verification import atlas_rows
 
