@@ -353,6 +353,13 @@ def plates_task_config(*sections, branches=False):
     return config_of_job
 
 
+def plates_manifest_datasets():
+    """Every dataset of the tube on plates: its branches and their stages, and the forced response."""
+    branches = config["tube_plates"]["branches"]
+    stages = [path for branch in branches for path in plates_stage_files(branch)]
+    return [plates_file(name) for name in branches] + stages + [plates_forced_file()]
+
+
 def plates_forced_file():
     """The forced response of the tube on plates at `tube_plates.forced.amplitude`."""
     amplitude = config["tube_plates"]["forced"]["amplitude"]
@@ -495,8 +502,8 @@ def atlas_datasets():
 
 def verified_inputs(wildcards):
     """What verify checks and update_reference record (workflow/rules/verify.smk): the paper's datasets and
-    their manifest and, where the configuration has them, the forced, tube, study and atlas datasets (their
-    manifests)."""
+    their manifest and, where the configuration has them, the forced, tube, study, tube-on-plates and atlas datasets
+    (their manifests)."""
     inputs = dict(datasets=PAPER_DATASETS, manifest=rules.dataset_manifest.output.manifest)
     if "forced" in config:
         inputs.update(forced_datasets=forced_datasets(), forced_manifest=rules.forced_manifest.output.manifest)
@@ -504,6 +511,8 @@ def verified_inputs(wildcards):
         inputs.update(tube_manifest=rules.tube_manifest.output.manifest)
     if "study" in config:
         inputs.update(study_manifest=rules.study_manifest.output.manifest)
+    if "tube_plates" in config:
+        inputs.update(tube_plates_manifest=rules.tube_plates_manifest.output.manifest)
     if "atlas" in config:
         inputs.update(atlas_datasets=atlas_datasets(), atlas_manifest=rules.atlas_manifest.output.manifest)
     return inputs

@@ -102,9 +102,30 @@ rule tube_plates_forced_figure:
         "../scripts/run_task.py"
 
 
-rule tube_plates:
-    """Everything of the tube on plates: NNM1 (stability included), its figures and the forced response."""
+rule tube_plates_manifest:
+    """results/tube_plates/MANIFEST.sha256 over the tube on plates' branches, stages and forced response (recorded
+    by update_reference, checked by verify)."""
     input:
+        datasets=plates_manifest_datasets(),
+    output:
+        manifest=results("tube_plates/MANIFEST.sha256"),
+    log:
+        logs("tube_plates/manifest.log"),
+    benchmark:
+        benchmarks("tube_plates_manifest.tsv")
+    params:
+        config=task_config(),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule tube_plates:
+    """Everything of the tube on plates: NNM1 (stability included), its figures, the forced response and the
+    manifest."""
+    input:
+        rules.tube_plates_manifest.output.manifest,
         [plates_file(name) for name in config["tube_plates"]["branches"]],
         expand(paper_figures("tube_plates_{figure}.{ext}"), figure=PLATES_FIGURES, ext=("pdf", "png")),
         rules.tube_plates_forced_figure.output,

@@ -96,6 +96,7 @@ TASK_INDEX = {
         "tube_plates_figure",
         "tube_plates_forced",
         "tube_plates_forced_figure",
+        "tube_plates_manifest",
     ),
     "forced": (
         "forced_exact",

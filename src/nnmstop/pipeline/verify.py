@@ -222,15 +222,16 @@ FORCED_MANIFEST = "forced/MANIFEST.sha256"
 TUBE_MANIFEST = "tube/MANIFEST.sha256"
 STUDY_MANIFEST = "study/MANIFEST.sha256"
 ATLAS_MANIFEST = "atlas/MANIFEST.sha256"  # the bifurcation atlas (``snakemake atlas``; recorded when present)
+TUBE_PLATES_MANIFEST = "tube_plates/MANIFEST.sha256"  # the tube on plates (``snakemake tube_plates``)
 TARGET_OF_MANIFEST = {MANIFEST: "the default target", FORCED_MANIFEST: "forced", TUBE_MANIFEST: "tube",
-                      STUDY_MANIFEST: "study", ATLAS_MANIFEST: "atlas"}
+                      STUDY_MANIFEST: "study", ATLAS_MANIFEST: "atlas", TUBE_PLATES_MANIFEST: "tube_plates"}
 
 
 def build_manifests(results_dir) -> list[str]:
     """The manifests of the build in ``results_dir`` that a reference records: :data:`MANIFEST` and those of the
-    forced, tube, study and atlas targets where they were built."""
+    forced, tube, study, atlas and tube-on-plates targets where they were built."""
     results = Path(results_dir)
-    optional = (FORCED_MANIFEST, TUBE_MANIFEST, STUDY_MANIFEST, ATLAS_MANIFEST)
+    optional = (FORCED_MANIFEST, TUBE_MANIFEST, STUDY_MANIFEST, ATLAS_MANIFEST, TUBE_PLATES_MANIFEST)
     return [MANIFEST] + [name for name in optional if (results / name).is_file()]
 
 

@@ -14,6 +14,7 @@ import functools
 
 from nnmstop.netcdf import read_dataset
 from nnmstop.tasks import hbm, structure
+from nnmstop.tasks.manifest import dataset_manifest
 from nnmstop.tasks.tube import KEYWORDS
 
 __all__ = ["PLATES_KEYWORDS", "plates_config", "plates_forced_dataset", "TASKS"]
@@ -96,4 +97,5 @@ TASKS = {
     "tube_plates_figure": structure.structure_figure,
     "tube_plates_forced": tube_plates_forced,
     "tube_plates_forced_figure": tube_plates_forced_figure,
+    "tube_plates_manifest": dataset_manifest,
 }

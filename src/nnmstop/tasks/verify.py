@@ -46,7 +46,7 @@ def verify(config: dict, inputs: dict, outputs: dict) -> None:
 
 def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
     """Regenerate :data:`REFERENCE` from the build whose manifest is ``inputs["manifest"]`` (and the forced
-    responses', the tube's, the study's and the atlas' manifests where the configuration has them).
+    responses', the tube's, the study's, the tube on plates' and the atlas' manifests where the configuration has them).
 
     Raises
     ------
@@ -59,6 +59,7 @@ def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
         MANIFEST,
         STUDY_MANIFEST,
         TUBE_MANIFEST,
+        TUBE_PLATES_MANIFEST,
         ReferenceRefused,
         format_table,
     )
@@ -69,6 +70,7 @@ def update_reference(config: dict, inputs: dict, outputs: dict) -> None:
         "tube_manifest": TUBE_MANIFEST,
         "study_manifest": STUDY_MANIFEST,
         "atlas_manifest": ATLAS_MANIFEST,
+        "tube_plates_manifest": TUBE_PLATES_MANIFEST,
     }
     manifests = [MANIFEST] + [name for key, name in optional.items() if inputs.get(key)]
     try:
