@@ -437,12 +437,10 @@ def atlas(
     from nnmstop.forced.scenes import _dof_indices
     from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
 
-    if not isinstance(damping, Damping):
-        ratio = float(damping)
-        count = min(2, structure.n_dofs)
-        damping = Damping.from_modal_ratios(structure, [ratio] * count, list(range(1, count + 1)))
+    if not isinstance(damping, Damping):  # one ratio for the first two linear modes (one for a 1-DOF structure)
+        damping = [float(damping)] * min(2, structure.n_dofs)
     dofs = tuple(_dof_indices(structure, list(force_dofs), "force_dofs"))
-    excitation = Excitation(structure, damping, HarmonicForce(float(force), dofs))
+    excitation = Excitation(structure, _damping(structure, damping), HarmonicForce(float(force), dofs))
     values = (
         tuple(float(v) for v in np.linspace(*second_range, int(slices))) if slices > 1 else (float(second_range[0]),)
     )

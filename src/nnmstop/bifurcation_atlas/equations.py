@@ -33,6 +33,7 @@ import numpy as np
 
 from nnmstop.bifurcation_atlas.parameters import check_structural, parameter_value, with_parameters
 from nnmstop.exact.forced import SymmetricContactProblem
+from nnmstop.exact.grazing import MarginChecks
 from nnmstop.models.excitation import Excitation
 
 __all__ = [
@@ -51,20 +52,12 @@ PARAMETER_STEP = 1e-6
 ORBIT_HARMONICS = 24
 
 
-class Margins:
-    """Validity margins (each > 0 while its assumption holds), with ``valid``, ``violated`` and ``margins``."""
+class Margins(MarginChecks):
+    """Validity margins (each > 0 while its assumption holds), with ``valid``, ``violated`` and ``margins``
+    (:class:`~nnmstop.exact.grazing.MarginChecks` over a dict of floats)."""
 
     def __init__(self, margins: dict):
         self.margins = {key: float(value) for key, value in margins.items()}
-
-    @property
-    def valid(self) -> bool:
-        return all(m > 0 for m in self.margins.values())
-
-    @property
-    def violated(self) -> list:
-        bad = [k for k, m in self.margins.items() if not m > 0]
-        return sorted(bad, key=lambda k: self.margins[k])
 
 
 class _Cache(OrderedDict):

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from nnmstop.docpages.results import _table, g
+from nnmstop.docpages.results import _table, datasets_read, g
 from nnmstop.figures.modal_lines import identity_text, impact_text, label_specs, locate_label
 
 __all__ = ["PAPER_TABLE_DATASETS", "QUOTED", "paper_table_page"]
@@ -195,10 +195,6 @@ def paper_table_page(results_dir, config: dict, digests: dict) -> str:
         "",
         *_labelled(data, config),
         "",
-        "## Datasets read",
-        "",
-        "| dataset | data digest |",
-        "|---|---|",
-        *[f"| `results/{path}` | `{digest}` |" for path, digest in sorted(digests.items())],
+        *datasets_read(dict(sorted(digests.items()))),
     ]
     return "\n".join(lines) + "\n"

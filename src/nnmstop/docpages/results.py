@@ -24,6 +24,7 @@ __all__ = [
     "OPTIONAL_DATASETS",
     "STRUCTURE_DATASETS",
     "results_page",
+    "datasets_read",
     "structure_results_page",
     "identity_table",
     "page_inputs",
@@ -394,11 +395,7 @@ def results_page(results_dir, params: ModelParameters, digests: dict) -> str:
         "",
         *_stability_reasons(data),
         "",
-        "## Datasets read",
-        "",
-        "| dataset | data digest |",
-        "|---|---|",
-        *(f"| `results/{RESULT_DATASETS[name]}` | `{digests[RESULT_DATASETS[name]]}` |" for name in data),
+        *datasets_read({RESULT_DATASETS[name]: digests[RESULT_DATASETS[name]] for name in data}),
     ]
     return "\n".join(lines) + "\n"
 
@@ -488,13 +485,21 @@ def structure_results_page(results_dir, digests: dict) -> str:
         "orbits at the paper's points a) and b) and the error per impact regime are built for the paper's 2-DOF",
         "oscillator (`structure.kind: two_dof`); this build has none of them.",
         "",
+        *datasets_read(dict(sorted(digests.items()))),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def datasets_read(digests: dict) -> list[str]:
+    """The section "Datasets read" of a generated page: the data digest of each dataset ``{path under results/:
+    digest}``, in the given order (what :func:`page_inputs` reads back)."""
+    return [
         "## Datasets read",
         "",
         "| dataset | data digest |",
         "|---|---|",
-        *[f"| `results/{path}` | `{digest}` |" for path, digest in sorted(digests.items())],
+        *(f"| `results/{path}` | `{digest}` |" for path, digest in digests.items()),
     ]
-    return "\n".join(lines) + "\n"
 
 
 def page_inputs(page: str) -> dict:

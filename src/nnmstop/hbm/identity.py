@@ -147,15 +147,11 @@ def effective_stop_stiffness(structure: Structure, q_cos, q_sin, f_cos, f_sin, f
 def _stiffness_added(structure: Structure, stiffness_added) -> scipy.sparse.csr_matrix:
     """``sum_j k_j A_j^T A_j``: each stop replaced by a linear spring of stiffness ``k_j`` on its coordinates."""
     n = structure.n_dofs
-    rows, cols, values = [], [], []
+    added = scipy.sparse.csr_matrix((n, n))
     for stop, k in zip(structure.stops, stiffness_added):
-        for terms in stop.coordinate_terms:
-            for dof_a, sign_a in terms:
-                for dof_b, sign_b in terms:
-                    rows.append(dof_a)
-                    cols.append(dof_b)
-                    values.append(k * sign_a * sign_b)
-    return scipy.sparse.csr_matrix((values, (rows, cols)), shape=(n, n))
+        A = scipy.sparse.csr_matrix(stop.coordinate_matrix(n))
+        added = added + k * (A.T @ A)
+    return added.tocsr()
 
 
 def _mode_shares(structure: Structure, mass, stiffness, stiffness_added, cos, sin) -> np.ndarray:
