@@ -128,6 +128,16 @@ class AtlasMap:
                 f"atlas map {self.name!r}: unknown curve kinds {unknown} (allowed: "
                 f"{list(EXACT_KINDS + REGULARIZED_KINDS)})"
             )
+        curved = [s.label for s in self.excitation.structure.stops if not s.piecewise_linear]
+        if curved:
+            exact = [k for k in self.kinds if k in EXACT_KINDS]
+            raise ValueError(
+                f"atlas map {self.name!r}: the {', '.join(curved)} is not piecewise linear, so it has no exact "
+                f"responses: neither the exact curve kinds ({exact or list(EXACT_KINDS)}) nor the slices (exact "
+                "one-parameter responses: the regions) can be computed. Its responses are the regularized ones "
+                f"(harmonic balance, forced_response(method='regularized')); an atlas of them, regularized slices "
+                f"with the regularized curve kinds {list(REGULARIZED_KINDS)}, is not available yet"
+            )
 
     @property
     def free(self) -> tuple:

@@ -448,8 +448,9 @@ class HarmonicBalanceEquations(OrbitEquations):
         self.d_force = (self._systems.get((2 * self.force0, self.p0))[0].residual(zero) - system.residual(zero)) / (
             self.force0
         )
-        nc, dofs = system.nc, system.stop_dofs
-        self.stop_indices = np.concatenate([d * nc + np.arange(nc) for d in dofs])
+        # every DOF a stop reads (both of a relative stop or a circular clearance), not only its first
+        dofs = sorted({int(d) for s in excitation.structure.stops for d in s.dofs})
+        self.stop_indices = np.concatenate([d * system.nc + np.arange(system.nc) for d in dofs])
 
     def _build(self, key):
         from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, ForcedLinearization
