@@ -192,6 +192,25 @@ def test_a_fold_orbit_is_periodic_with_a_multiplier_one_under_time_integration(o
 
 
 @pytest.mark.numerics
+def test_regularized_folds_converge_to_the_exact_fold_curve_at_first_order_in_eta(one_sided_folds):
+    """A second method: the harmonic-balance responses (H = 40) of the regularized one-sided law at F = 0.17 have
+    their jump-down fold within O(eta) of where the exact fold curve crosses F = 0.17 (a point of the curve
+    between the slices): the distance falls at first order as eta halves (0.04, 0.02) and stays below eta."""
+    from nnmstop.bifurcation_atlas.artefacts import fold_distances
+    from nnmstop.continuation.anm import ANMSettings
+
+    atlas, curves = one_sided_folds
+    exact = max(c for curve in curves for c in _crossings(curve, atlas, 0.17, 1e-11)) / (2 * np.pi)
+    anm = ANMSettings(order=20, tolerance=1e-8, newton_threshold=1e-7, max_steps=3000, points_per_step=2)
+    etas = (0.04, 0.02)
+    _, regularized, _ = fold_distances(chain_excitation([one_sided()]), etas, (0.17,), 40, anm, 1e-2, (0.14, 0.2))
+    distance = np.abs(regularized[:, 0] - exact) / exact
+    order = np.log(distance[0] / distance[1]) / np.log(2.0)
+    assert order > 0.8, (distance, order)
+    assert np.all(distance < np.array(etas)), distance
+
+
+@pytest.mark.numerics
 def test_with_unequal_gaps_the_fold_curve_ends_on_the_second_contact_curve():
     """Gaps 1 (positive side) and 1.3 (negative side) on the first mass: the one-contact responses end where the
     orbit reaches the other side. The fold curve seeded at F = 0.15 ends there (a located codimension-two point,
