@@ -129,3 +129,12 @@ def test_harmonic_balance_map_derivatives_cover_both_dofs_of_a_relative_stop():
     moved = x.copy()
     moved[2 * nc + 1] += 1e-3
     assert np.abs(equations.monodromy(moved, params) - equations.monodromy(x, params)).max() == 0.0
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    from nnmstop.bifurcation_atlas import equations
+
+    result = doctest.testmod(equations, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0 and result.failed == 0

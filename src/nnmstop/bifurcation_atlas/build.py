@@ -167,7 +167,8 @@ class AtlasMap:
 
     def exact_equations(self, contact: int | None = None):
         """The exact formulation of the responses striking ``contact`` (the first stop's by default): half-wave
-        or full period, as the structure's stops allow (:func:`~nnmstop.bifurcation_atlas.equations.exact_equations`)."""
+        or full period, as the structure's stops allow
+        (:func:`~nnmstop.bifurcation_atlas.equations.exact_equations`)."""
         return exact_equations(self.excitation, self.parameter, contact)
 
     def excitation_at(self, value: float):
