@@ -379,22 +379,6 @@ class ExactSymmetricEquations(ExactContactEquations):
     def _problem_of(self, excitation: Excitation):
         return SymmetricContactProblem(excitation, self.stop_index)
 
-    def stop_state(self, x, params, theta: float, phase: str, contact: int | None = None):
-        """``(q_c, qdot_c)`` of the struck stop's DOF at the phase ``theta`` of the force, computed in ``phase``
-        ("R": the contact from ``theta1``, "F": the free flight from ``theta1 + delta``; closed form, any
-        ``theta``); with ``contact``, that contact's coordinate."""
-        if contact is not None:
-            return super().stop_state(x, params, theta, phase, contact)
-        problem = self.problem(params)
-        omega = float(params[0])
-        y = np.append(np.asarray(x, dtype=float), omega)
-        z1, z2, _ = problem.switch_states(y)
-        theta1, delta = float(x[-2]), float(x[-1])
-        start, start_phase = (z1, theta1) if phase == "R" else (z2, theta1 + delta)
-        state = problem.phases[phase].states(start, start_phase, omega, theta)
-        n, c = problem.n, self.stop.dof
-        return float(state[c]), float(state[n + c])
-
     def penetration(self, x, params) -> float:
         """Largest penetration ``max |q_c| - gap`` of the struck stop."""
         gap = self.problem(params).stop.gap
