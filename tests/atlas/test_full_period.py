@@ -6,6 +6,8 @@ grazing force of the linear response, the folds that independent one-parameter e
 integration of the piecewise-linear equations of motion.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.integrate
@@ -268,3 +270,44 @@ def test_a_circular_clearance_is_refused_with_its_name():
     with pytest.raises(ValueError, match="circular"):
         exact_equations(Excitation(structure, Damping.from_modal_ratios(structure, [0.02, 0.02]),
                                    HarmonicForce(0.1, [0])))  # fmt: skip
+
+
+@pytest.mark.numerics
+def test_the_configuration_route_takes_a_one_sided_stop(tmp_path):
+    """The workflow's jobs (slices, curves, map: :mod:`nnmstop.tasks.atlas`) on the 3-DOF example with its stop made
+    one-sided (its map `structure: structure`): datasets written and read back, the grazing curve the closed form
+    gap / max_t x1(t) of the chain's linear response at unit force (1e-9)."""
+    import yaml
+
+    from nnmstop.config import validate_config
+    from nnmstop.forced.scenes import forced_scenes
+    from nnmstop.netcdf import read_dataset
+    from nnmstop.tasks import atlas as tasks
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "three_dof_chain"
+    config = yaml.safe_load((example / "config.yaml").read_text())
+    matrices = config["structure"]["matrices"]
+    for name in ("mass", "stiffness"):
+        matrices[name] = str(example / f"{name}.mtx")
+    matrices["stops"] = [{"kind": "one_sided", "dof": 0, "side": "positive", "gap": 1.0, "stiffness": 30.0,
+                          "eta": 0.1}]  # fmt: skip
+    config["atlas"]["maps"]["chain_force"].update(
+        slices={"from": 0.02, "to": 0.04, "count": 2}, seeds=[0.04], checks=[0.02], kinds=["grazing"]
+    )
+    config["atlas"]["frequency_samples"] = 20
+    config = validate_config(config)
+    slices = [str(tmp_path / f"slice_{k}.nc") for k in range(2)]
+    for k, path in enumerate(slices):
+        tasks.atlas_slice(config, {}, {"dataset": path}, map="chain_force", index=str(k))
+    curves = str(tmp_path / "curves_grazing.nc")
+    tasks.atlas_curves(config, {"seeds": slices[1:], "checks": slices[:1]}, {"dataset": curves}, map="chain_force",
+                       kind="grazing")  # fmt: skip
+    tasks.atlas_map(config, {"slices": slices, "curves": [curves]}, {"dataset": str(tmp_path / "map.nc")},
+                    map="chain_force")  # fmt: skip
+    ds = read_dataset(tmp_path / "map.nc")
+    assert ds.sizes["point"] > 10 and ds.sizes["check"] >= 1
+    omega, force = 2 * np.pi * ds["frequency"].values, ds["second"].values
+    unit = forced_scenes({**config, "forced": {**config["forced"], "force": {"dofs": ["x3"], "amplitudes": [1.0]}}},
+                         "structure")[0].excitation  # fmt: skip
+    assert unit.structure.stops[0].kind == "one_sided"
+    np.testing.assert_allclose(force, 1.0 / np.abs(non_impacting_response(unit, omega)[:, 0]), rtol=1e-9)
