@@ -133,6 +133,22 @@ def test_fold_curve_of_a_one_sided_stop_holds_the_folds_of_the_responses_at_othe
 
 
 @pytest.mark.numerics
+def test_the_gap_map_of_a_one_sided_stop_is_its_force_map_rescaled(one_sided_folds):
+    """The piecewise-linear law is homogeneous of degree one in (q, gap, F): the fold at gap g and force 0.2 is the
+    fold at gap 1 and force 0.2 / g. The fold curves continued in (Omega, gap) at F = 0.2 (the full-period
+    formulation's gap derivative by central differences) meet g = 0.2 / 0.17 where the curves in (Omega, F) meet
+    F = 0.17, to 1e-9."""
+    force_atlas, force_curves = one_sided_folds
+    gap_atlas = AtlasMap("gap", chain_excitation([one_sided()]), "gap", WINDOW_HZ, (0.7, 1.5), (1.0,), (1.0,), (),
+                         ("fold",), curve=FAST)  # fmt: skip
+    gap_curves = follow_kind(gap_atlas, "fold", [slice_dataset(gap_atlas, 0)])
+    by_force = sorted(c for curve in force_curves for c in _crossings(curve, force_atlas, 0.17, 1e-11))
+    by_gap = sorted(c for curve in gap_curves for c in _crossings(curve, gap_atlas, 0.2 / 0.17, 1e-11))
+    assert len(by_force) == 2 and len(by_gap) == 2, (by_force, by_gap)
+    np.testing.assert_allclose(by_gap, by_force, rtol=1e-9)
+
+
+@pytest.mark.numerics
 def test_a_fold_orbit_is_periodic_with_a_multiplier_one_under_time_integration(one_sided_folds):
     """At a point of the one-sided stop's fold curve (F = 0.17, between the slices), time integration of the
     piecewise-linear equations of motion from the orbit's state returns to it after one period, and the monodromy
