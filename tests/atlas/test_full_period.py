@@ -13,7 +13,14 @@ import pytest
 import scipy.integrate
 
 import nnmstop
-from nnmstop.bifurcation_atlas.build import AtlasMap, _crossings, check_curves, follow_kind, slice_dataset
+from nnmstop.bifurcation_atlas.build import (
+    AtlasMap,
+    _crossings,
+    check_curves,
+    curves_dataset,
+    follow_kind,
+    slice_dataset,
+)
 from nnmstop.bifurcation_atlas.curves import CurveSettings
 from nnmstop.bifurcation_atlas.equations import ExactContactEquations, contact_entered, exact_equations
 from nnmstop.exact.forced import non_impacting_response
@@ -279,13 +286,21 @@ def test_atlas_of_a_relative_stop_between_two_masses():
 
 
 def test_a_circular_clearance_is_refused_with_its_name():
+    """No exact responses for a circular clearance: the atlas' slices and exact curves are refused, naming it, where
+    they would be computed; the map itself is still read (a configuration of that structure stays valid)."""
     hole = nnmstop.Stop(kind="circular", dofs=[0, 1], gap=1.0, stiffness=10.0, eta=0.1)
     structure = nnmstop.Structure(np.eye(2), np.diag([1.0, 1.5]), [hole])
-    with pytest.raises(ValueError, match="circular clearance of q0, q1 is not piecewise linear.*regularized_fold"):
+    refused = "circular clearance of q0, q1 is not piecewise linear.*regularized_fold"
+    with pytest.raises(ValueError, match=refused):
         nnmstop.atlas(structure, (0.1, 0.2), [0], (0.1, 0.2), kinds=("grazing", "fold"))
+    excitation = Excitation(structure, Damping.from_modal_ratios(structure, [0.02, 0.02]), HarmonicForce(0.1, [0]))
+    atlas = AtlasMap("hole", excitation, "force", (0.1, 0.2), (0.1, 0.2), (0.1,), (0.1,), (), ("fold",))
+    with pytest.raises(ValueError, match=refused):
+        slice_dataset(atlas, 0)
+    with pytest.raises(ValueError, match=refused):
+        curves_dataset(atlas, "fold", [], [])
     with pytest.raises(ValueError, match="circular"):
-        exact_equations(Excitation(structure, Damping.from_modal_ratios(structure, [0.02, 0.02]),
-                                   HarmonicForce(0.1, [0])))  # fmt: skip
+        exact_equations(excitation)
 
 
 @pytest.mark.numerics

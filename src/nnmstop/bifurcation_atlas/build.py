@@ -128,6 +128,11 @@ class AtlasMap:
                 f"atlas map {self.name!r}: unknown curve kinds {unknown} (allowed: "
                 f"{list(EXACT_KINDS + REGULARIZED_KINDS)})"
             )
+
+    def check_exact(self) -> None:
+        """Refuse (ValueError naming it) a structure whose stop is not piecewise linear: the slices and the exact
+        curves are exact responses. Checked where they are computed, not when the map is read (a configuration
+        of such a structure whose other targets do not build the atlas stays valid)."""
         curved = [s.label for s in self.excitation.structure.stops if not s.piecewise_linear]
         if curved:
             exact = [k for k in self.kinds if k in EXACT_KINDS]
@@ -182,6 +187,7 @@ class AtlasMap:
 
 def slice_dataset(atlas: AtlasMap, index: int) -> xr.Dataset:
     """The slice ``index`` of ``atlas`` (:func:`nnmstop.bifurcation_atlas.slices.compute_slice`) with its regions."""
+    atlas.check_exact()
     value = float(atlas.slices[index])
     result = compute_slice(atlas.excitation, atlas.plane, value, atlas.frequency_range, atlas.exact)
     low, high = atlas.frequency_range
@@ -543,6 +549,7 @@ def curves_dataset(atlas: AtlasMap, kind: str, seed_slices: list, check_slices: 
         curves = follow_kind(atlas, kind, [], equations=equations, seeds=seeds)
         tolerance = float(atlas.regularized["check_tolerance"])
     else:
+        atlas.check_exact()
         curves = follow_kind(atlas, kind, seed_slices)
         located = _located_exact(atlas, kind, check_slices)
         tolerance = float(atlas.check_tolerance)
