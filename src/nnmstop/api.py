@@ -387,17 +387,20 @@ def atlas(
     """The bifurcation atlas of ``structure`` forced on ``force_dofs``, as a labelled dataset (kind ``atlas``).
 
     The same computation as ``snakemake atlas`` (:mod:`nnmstop.bifurcation_atlas.build`), in this process: ``slices``
-    exact
-    one-parameter responses evenly spaced over ``second_range`` (force amplitudes on the ``force`` plane, else
-    values of the structural parameter ``plane`` at the force ``force``), classified into regions, and every
-    curve of ``kinds`` (exact, piecewise-linear stop) through the points the ``seeds`` slices locate, checked
+    exact one-parameter responses evenly spaced over ``second_range`` (force amplitudes on the ``force`` plane,
+    else values of the structural parameter ``plane`` at the force ``force``), classified into regions, and every
+    curve of ``kinds`` (exact, piecewise-linear stops) through the points the ``seeds`` slices locate, checked
     against the ``checks`` slices (a located point on no curve raises
-    :class:`~nnmstop.bifurcation_atlas.build.CheckFailed`), with their codimension-two points.
+    :class:`~nnmstop.bifurcation_atlas.build.CheckFailed`), with their codimension-two points. The exact
+    formulation follows the stops (:func:`nnmstop.bifurcation_atlas.equations.exact_equations`): the symmetric
+    responses over half a period for bilateral stops and relative stops on both sides, the responses with one
+    contact per period over the full period for one-sided stops, unequal gaps and one-sided relative stops.
 
     Parameters
     ----------
     structure : Structure
-        Any structure with at least one stop (the first is the struck one) and no rigid-body mode.
+        Any structure with at least one piecewise-linear stop (the structural parameter is the first stop's) and
+        no rigid-body mode; a circular clearance is refused (ValueError naming it: no exact responses).
     frequency_range : (float, float)
         Hz of the nondimensional time.
     force_dofs : sequence of int or str

@@ -98,3 +98,43 @@ def test_fourier_orbit_recovers_a_series_from_any_phase_origin():
     expected = np.zeros(9)
     expected[[0, 1, 5, 7]] = [0.3, 1.2, -0.4, 0.05]
     np.testing.assert_allclose(coefficients, expected, atol=1e-14)
+
+
+def test_harmonic_balance_map_derivatives_cover_both_dofs_of_a_relative_stop():
+    """A relative stop reads q0 - q1: the monodromy of the regularized response depends on the coefficients of both
+    DOFs (its derivatives along those of q1 match differences) and on none of the free DOF q2's."""
+    from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, forced_start_point
+    from nnmstop.models.contact import Stop
+    from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
+    from nnmstop.models.structure import Structure
+
+    stop = Stop(kind="relative", dofs=[0, 1], gap=0.5, stiffness=3.0, eta=0.3)
+    chain = Structure(np.eye(3), [[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]], [stop])
+    excitation = Excitation(chain, Damping.from_modal_ratios(chain, [0.02, 0.02]), HarmonicForce(0.05, [2]))
+    equations = HarmonicBalanceEquations(excitation, 8, steps=64)
+    U, _ = forced_start_point(ForcedHarmonicBalanceSystem(excitation, 8), 0.3)
+    x, params = U[:-1], np.array([U[-1], 0.05, 0.0])
+    indices, d_state, _ = equations.monodromy_derivatives(x, params)
+    nc = equations.system(params).nc
+    assert sorted(set(indices // nc)) == [0, 1]
+    for j in (nc + 1, nc + 2):  # coefficients of q1
+        k = indices[j]
+        step = 1e-6 * max(1.0, abs(x[k]))
+        up, down = x.copy(), x.copy()
+        up[k] += step
+        down[k] -= step
+        expected = (equations.monodromy(up, params) - equations.monodromy(down, params)) / (2 * step)
+        assert np.abs(expected).max() > 1e-3  # the map does depend on q1
+        np.testing.assert_allclose(d_state[j], expected, atol=1e-6)
+    moved = x.copy()
+    moved[2 * nc + 1] += 1e-3
+    assert np.abs(equations.monodromy(moved, params) - equations.monodromy(x, params)).max() == 0.0
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    from nnmstop.bifurcation_atlas import equations
+
+    result = doctest.testmod(equations, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0 and result.failed == 0

@@ -295,15 +295,18 @@ class StateTest(TestFunction):
 
 
 class InteriorGrazingTest(TestFunction):
-    """``q_c`` touches ``level`` with zero velocity at the phase ``theta*`` (extra unknown) inside ``phase`` ("F":
-    the free flight, "R": the contact) of the exact formulation (:meth:`ExactSymmetricEquations.stop_state`)."""
+    """The struck coordinate (or that of ``contact``) touches ``level`` with zero velocity at the phase ``theta*``
+    (extra unknown) inside ``phase`` ("F": the free flight, "R": the contact) of the exact formulation
+    (:meth:`ExactContactEquations.stop_state`); ``margin``: the formulation's validity margin that vanishes there
+    (by default ``early_impact`` in the free flight, ``leaves_stop`` in the contact)."""
 
     kind = "second_contact"
     n_extra = 1
     n_tests = 2
 
-    def __init__(self, phase: str, level: float):
-        self.phase, self.level = phase, float(level)
+    def __init__(self, phase: str, level: float, contact: int | None = None, margin: str | None = None):
+        self.phase, self.level, self.contact = phase, float(level), contact
+        self.margin = margin or ("early_impact" if phase == "F" else "leaves_stop")
 
     def margins(self, equations, x, extra, params) -> dict:
         """The touching phase stays inside its phase interval."""
@@ -312,7 +315,7 @@ class InteriorGrazingTest(TestFunction):
         return {"touch_inside": min(theta - start, end - theta) / np.pi}
 
     def values(self, equations, x, extra, params) -> np.ndarray:
-        q, qdot = equations.stop_state(x, params, float(extra[0]), self.phase)
+        q, qdot = equations.stop_state(x, params, float(extra[0]), self.phase, self.contact)
         return np.array([q - self.level, qdot])
 
     def gradients(self, equations, x, extra, params) -> np.ndarray:

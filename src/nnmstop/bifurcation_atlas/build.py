@@ -37,7 +37,7 @@ from nnmstop.bifurcation_atlas.augmented import (
 )
 from nnmstop.bifurcation_atlas.codim2 import locate_codim2
 from nnmstop.bifurcation_atlas.curves import CurveSettings, correct_on_curve, follow_curve, grazing_test
-from nnmstop.bifurcation_atlas.equations import ORBIT_HARMONICS, ExactSymmetricEquations
+from nnmstop.bifurcation_atlas.equations import ORBIT_HARMONICS, contact_entered, exact_equations
 from nnmstop.bifurcation_atlas.flags import CODIM2_KINDS, CURVE_KINDS, END_KINDS, LAWS
 from nnmstop.bifurcation_atlas.parameters import PLANES, parameter_value, with_parameters
 from nnmstop.bifurcation_atlas.slices import classify, compute_slice, orbit_dofs
@@ -129,6 +129,21 @@ class AtlasMap:
                 f"{list(EXACT_KINDS + REGULARIZED_KINDS)})"
             )
 
+    def check_exact(self) -> None:
+        """Refuse (ValueError naming it) a structure whose stop is not piecewise linear: the slices and the exact
+        curves are exact responses. Checked where they are computed, not when the map is read (a configuration
+        of such a structure whose other targets do not build the atlas stays valid)."""
+        curved = [s.label for s in self.excitation.structure.stops if not s.piecewise_linear]
+        if curved:
+            exact = [k for k in self.kinds if k in EXACT_KINDS]
+            raise ValueError(
+                f"atlas map {self.name!r}: the {', '.join(curved)} is not piecewise linear, so it has no exact "
+                f"responses: neither the exact curve kinds ({exact or list(EXACT_KINDS)}) nor the slices (exact "
+                "one-parameter responses: the regions) can be computed. Its responses are the regularized ones "
+                f"(harmonic balance, forced_response(method='regularized')); an atlas of them, regularized slices "
+                f"with the regularized curve kinds {list(REGULARIZED_KINDS)}, is not available yet"
+            )
+
     @property
     def free(self) -> tuple:
         """Indices of the free parameters in ``(Omega, F, p)``."""
@@ -155,8 +170,11 @@ class AtlasMap:
     def window(self) -> tuple:
         return tuple(2 * np.pi * np.asarray(self.frequency_range)), tuple(self.second_range)
 
-    def exact_equations(self) -> ExactSymmetricEquations:
-        return ExactSymmetricEquations(self.excitation, self.parameter)
+    def exact_equations(self, contact: int | None = None):
+        """The exact formulation of the responses striking ``contact`` (the first stop's by default): half-wave
+        or full period, as the structure's stops allow
+        (:func:`~nnmstop.bifurcation_atlas.equations.exact_equations`)."""
+        return exact_equations(self.excitation, self.parameter, contact)
 
     def excitation_at(self, value: float):
         if self.plane == "force":
@@ -169,6 +187,7 @@ class AtlasMap:
 
 def slice_dataset(atlas: AtlasMap, index: int) -> xr.Dataset:
     """The slice ``index`` of ``atlas`` (:func:`nnmstop.bifurcation_atlas.slices.compute_slice`) with its regions."""
+    atlas.check_exact()
     value = float(atlas.slices[index])
     result = compute_slice(atlas.excitation, atlas.plane, value, atlas.frequency_range, atlas.exact)
     low, high = atlas.frequency_range
@@ -210,7 +229,7 @@ def _map_attributes(atlas: AtlasMap) -> dict:
         "frequency_range": np.array(atlas.frequency_range, dtype=float),
         "second_range": np.array(atlas.second_range, dtype=float),
         **excitation.as_attrs(),
-        "stop_dof": int(stop.dof),
+        "stop_dof": int(stop.dofs[0]),
         "stop_gap": float(stop.gap),
         "stop_stiffness": float(stop.stiffness),
         "stop_eta": float(stop.eta),
@@ -222,20 +241,20 @@ def _map_attributes(atlas: AtlasMap) -> dict:
 # --------------------------------------------------------------------------- curves
 
 
-def _half_period_extremum(equations, x, params, phase: str, level: float) -> float:
-    """The interior phase of ``phase`` where ``q_c`` comes closest to ``level`` with zero velocity (a sampled
-    sign change of the velocity refined by Brent's method)."""
+def _half_period_extremum(equations, x, params, phase: str, level: float, contact=None) -> float:
+    """The interior phase of ``phase`` where the struck coordinate (or that of ``contact``) comes closest to
+    ``level`` with zero velocity (a sampled sign change of the velocity refined by Brent's method)."""
     import scipy.optimize
 
     start, end = equations.phase_interval(x, phase)
     theta = np.linspace(start, end, 2049)[1:-1]
-    states = np.array([equations.stop_state(x, params, t, phase) for t in theta])
+    states = np.array([equations.stop_state(x, params, t, phase, contact) for t in theta])
     best, found = np.inf, None
     for i in np.flatnonzero(np.sign(states[:-1, 1]) != np.sign(states[1:, 1])):
         r = scipy.optimize.brentq(
-            lambda t: equations.stop_state(x, params, t, phase)[1], theta[i], theta[i + 1], xtol=1e-15
+            lambda t: equations.stop_state(x, params, t, phase, contact)[1], theta[i], theta[i + 1], xtol=1e-15
         )
-        distance = abs(equations.stop_state(x, params, r, phase)[0] - level)
+        distance = abs(equations.stop_state(x, params, r, phase, contact)[0] - level)
         if distance < best:
             best, found = distance, r
     if found is None:
@@ -244,55 +263,86 @@ def _half_period_extremum(equations, x, params, phase: str, level: float) -> flo
 
 
 def _exact_seeds(atlas: AtlasMap, kind: str, slice_ds: xr.Dataset) -> list:
-    """``(test, x, extra, params)`` of every point of kind ``kind`` the slice locates."""
-    equations = atlas.exact_equations()
+    """``(test, x, extra, params, equations)`` of every point of kind ``kind`` the slice locates, each with the
+    exact formulation of the contact its response strikes."""
     value = float(slice_ds.attrs["slice_value"])
+    at = atlas.excitation_at(value)
     seeds = []
     if kind in SEEDING_CHANGES:
         wanted = [CHANGE_KINDS.index(k) for k in SEEDING_CHANGES[kind]]
         for change, state in zip(slice_ds["change_kind"].values, slice_ds["change_state"].values):
             if change not in wanted:
                 continue
+            equations = atlas.exact_equations(contact_entered(at, state))
             x, params = state[:-1], atlas.params_at(state[-1], value)
             test = {"fold": FoldTest, "neimark_sacker": NeimarkSackerTest, "flip": FlipTest}[kind]()
             extra = test.extra_guess(np.linalg.eigvals(equations.monodromy(x, params)), True)
-            seeds.append((test, x, extra, params))
+            seeds.append((test, x, extra, params, equations))
     elif kind == "grazing":
         for state in _grazing_states(atlas, slice_ds):
+            equations = atlas.exact_equations(contact_entered(at, state))
             x, params = state[:-1], atlas.params_at(state[-1], value)
-            seeds.append((grazing_test(equations), x, np.zeros(0), params))
+            seeds.append((grazing_test(equations), x, np.zeros(0), params, equations))
     elif kind == "second_contact":
         for end, state in zip(slice_ds["end_kind"].values, slice_ds["end_state"].values):
             margin = END_KINDS[int(end)]
-            if margin not in ("early_impact", "leaves_stop"):
-                continue
+            equations = atlas.exact_equations(contact_entered(at, state))
             x, params = state[:-1], atlas.params_at(state[-1], value)
-            gap = equations.problem(params).stop.gap
-            phase = "F" if margin == "early_impact" else "R"
-            candidates = [gap, -gap] if phase == "F" else [gap]
             best = None
-            for level in candidates:
+            for phase, level, contact in _touching_candidates(equations, margin, params):
                 try:
-                    theta = _half_period_extremum(equations, x, params, phase, level)
+                    theta = _half_period_extremum(equations, x, params, phase, level, contact)
                 except ContinuationError:
                     continue
-                distance = abs(equations.stop_state(x, params, theta, phase)[0] - level)
+                distance = abs(equations.stop_state(x, params, theta, phase, contact)[0] - level)
                 if best is None or distance < best[0]:
-                    best = (distance, level, theta)
+                    best = (distance, phase, level, contact, theta)
             if best is not None:
-                seeds.append((InteriorGrazingTest(phase, best[1]), x, np.array([best[2]]), params))
+                _, phase, level, contact, theta = best
+                test = InteriorGrazingTest(phase, level, contact, margin)
+                seeds.append((test, x, np.array([theta]), params, equations))
     return seeds
+
+
+def _touching_candidates(equations, margin: str, params) -> list:
+    """``(phase, level, contact)`` where a one-contact response that ends on ``margin`` may touch a second time:
+    the struck stop's coordinate at ``+-gap`` in the free flight (``early_impact``: the stop itself, or its other
+    side for a symmetric response) or at its gap in the contact (``leaves_stop``); over the full period, the
+    coordinate of any contact not struck at its gap, in either phase (``other_stops``; contact None: the struck
+    coordinate)."""
+    if margin == "early_impact":
+        gap = equations.contact_gap(params)
+        return [("F", gap, None), ("F", -gap, None)] if equations.half_period else [("F", gap, None)]
+    if margin == "leaves_stop":
+        return [("R", equations.contact_gap(params), None)]
+    if margin == "other_stops" and not equations.half_period:
+        problem = equations.problem(params)
+        return [(phase, float(problem.gaps[c]), int(c)) for c in problem.passive for phase in ("F", "R")]
+    return []
 
 
 def _grazing_states(atlas: AtlasMap, slice_ds: xr.Dataset) -> list:
     """The grazing orbits of a slice: the non-impacting response's grazing frequencies, as states of the exact
-    formulation (zero contact duration, :meth:`SymmetricContactProblem.grazing_start`)."""
-    from nnmstop.exact.forced import SymmetricContactProblem, grazing_frequencies
+    formulation (zero contact duration, :meth:`~nnmstop.exact.forced.ForcedResponseProblem.grazing_start` of the
+    family from there, :func:`~nnmstop.exact.forced.grazing_problem`)."""
+    from nnmstop.exact.forced import SymmetricContactProblem, grazing_frequencies, grazing_problem
 
     excitation = atlas.excitation_at(float(slice_ds.attrs["slice_value"]))
     low, high = (2 * np.pi * f for f in atlas.frequency_range)
-    problem = SymmetricContactProblem(excitation)
-    return [problem.grazing_start(omega) for omega in grazing_frequencies(excitation, low, high)]
+    if all(s.kind == "bilateral" for s in excitation.structure.stops):
+        problem = SymmetricContactProblem(excitation)
+        return [problem.grazing_start(omega) for omega in grazing_frequencies(excitation, low, high)]
+    states = []
+    for omega in grazing_frequencies(excitation, low, high):
+        problem, y0, _ = grazing_problem(excitation, omega)
+        if problem.m != 2:  # several contacts graze at once without the half-wave symmetry: not followed
+            raise ValueError(
+                f"atlas map {atlas.name!r}: at {omega / (2 * np.pi):.6g} Hz several contacts graze at once "
+                f"({problem.describe()}) without the half-wave symmetry; the atlas follows one contact phase per "
+                "period (or half period): not yet"
+            )
+        states.append(problem.grazing_start(omega))
+    return states
 
 
 def _on_curves(curves: list, atlas: AtlasMap, omega: float, value: float) -> bool:
@@ -305,7 +355,7 @@ def _on_curves(curves: list, atlas: AtlasMap, omega: float, value: float) -> boo
 
 
 def _follow(atlas: AtlasMap, equations, seed, label: str):
-    test, x, extra, params = seed
+    test, x, extra, params = seed[:4]
     system = CurveSystem(equations, test, atlas.free, params)
     settings = atlas.curve
     if equations.law == "regularized":  # its own step: the unknowns are Fourier coefficients of q, f and z
@@ -319,7 +369,7 @@ def _follow(atlas: AtlasMap, equations, seed, label: str):
     # assumptions to check.
     skip = ("contact_duration", "early_impact", "leaves_stop") if test.kind == "grazing" else ()
     if test.kind == "second_contact":
-        skip = ("early_impact",) if test.phase == "F" else ("leaves_stop",)
+        skip = (test.margin,)
     window = atlas.window()
     if equations.law == "regularized" and "range" in atlas.regularized:
         window = (window[0], tuple(float(v) for v in atlas.regularized["range"]))
@@ -327,8 +377,9 @@ def _follow(atlas: AtlasMap, equations, seed, label: str):
 
 
 def follow_kind(atlas: AtlasMap, kind: str, seed_slices: list, equations=None, seeds=None) -> list:
-    """Every curve of ``kind`` through the points the ``seed_slices`` locate (exact kinds), or through ``seeds``
-    (``(test, x, extra, params)``, the regularized kinds), with their codimension-two points."""
+    """Every curve of ``kind`` through the points the ``seed_slices`` locate (exact kinds, each seed with the
+    formulation of the contact it strikes), or through ``seeds`` (``(test, x, extra, params)`` on ``equations``,
+    or with their own equations as a fifth entry), with their codimension-two points."""
     equations = atlas.exact_equations() if equations is None else equations
     if seeds is None:
         seeds = [seed for ds in seed_slices for seed in _exact_seeds(atlas, kind, ds)]
@@ -338,7 +389,7 @@ def follow_kind(atlas: AtlasMap, kind: str, seed_slices: list, equations=None, s
         if _on_curves(curves, atlas, params[0], params[atlas.free[1]]):
             continue
         label = f"{atlas.name} {kind} curve from {params[0] / (2 * np.pi):.6g} Hz, {params[atlas.free[1]]:.6g}"
-        curve = _follow(atlas, equations, seed, label)
+        curve = _follow(atlas, seed[4] if len(seed) > 4 else equations, seed, label)
         curve.codim2 = locate_codim2(curve)
         curve.seed_value = float(params[atlas.free[1]])
         curves.append(curve)
@@ -498,6 +549,7 @@ def curves_dataset(atlas: AtlasMap, kind: str, seed_slices: list, check_slices: 
         curves = follow_kind(atlas, kind, [], equations=equations, seeds=seeds)
         tolerance = float(atlas.regularized["check_tolerance"])
     else:
+        atlas.check_exact()
         curves = follow_kind(atlas, kind, seed_slices)
         located = _located_exact(atlas, kind, check_slices)
         tolerance = float(atlas.check_tolerance)

@@ -81,8 +81,8 @@ class CurveSettings:
 
 
 #: Contact duration (phase, radians) below which a curve point is a grazing orbit to round-off. Every grazing orbit
-#: is a fold of the symmetric one-contact formulation (the frequency is even in the contact duration there), so a
-#: fold curve that reaches the grazing curve could follow it on: it ends there instead.
+#: is a fold of the one-contact formulation, symmetric or full-period (the frequency is even in the contact duration
+#: there), so a fold curve that reaches the grazing curve could follow it on: it ends there instead.
 GRAZING_DURATION = 1e-9
 
 

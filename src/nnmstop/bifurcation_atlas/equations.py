@@ -7,12 +7,17 @@ eigenvalues are the Floquet multipliers (the monodromy, or the half-period map o
 with the derivatives of that map, the validity margins of the formulation's assumptions and the orbit of a
 state. Two formulations provide them, on the public functions of the forced path as they are:
 
-* :class:`ExactSymmetricEquations`: the exact symmetric one-contact responses of the piecewise-linear stop
-  (:class:`nnmstop.exact.forced.SymmetricContactProblem`: ``x = [z1, theta1, delta]``, ``n = 2N + 2``), its
-  analytic Jacobian; ``G`` is affine in ``F`` (each phase's particular solution is proportional to the force),
-  so ``dG/dF`` and ``G`` at any ``F`` follow exactly from two forced problems; the half-period map
-  ``N = -exp(A_F t_F) exp(A_R t_R)`` depends on ``(delta, Omega)`` only and its derivatives are analytic
-  (``d exp(A t)/dt = A exp(A t)``); the structural parameter enters by central differences;
+* :class:`ExactContactEquations`: the exact responses of a piecewise-linear stop with one contact phase per
+  period (:class:`nnmstop.exact.forced.ForcedResponseProblem` with the sequence ``[{contact}, {}]``:
+  ``x = [z0, theta0, d0]``, ``n = 2N + 2``), any stop: one-sided, unequal gaps (two one-sided stops), relative;
+  its analytic Jacobian; ``G`` is affine in ``F`` (each phase's particular solution is proportional to the
+  force), so ``dG/dF`` and ``G`` at any ``F`` follow exactly from two forced problems; the map is the monodromy
+  ``exp(A_F t_F) exp(A_R t_R)`` over the full period, or, where the half-wave reduction applies (odd laws,
+  mirror contacts), the half-period map ``N = -exp(A_F t_F) exp(A_R t_R)``; it depends on ``(d0, Omega)`` only
+  and its derivatives are analytic (``d exp(A t)/dt = A exp(A t)``); the structural parameter enters by central
+  differences. :class:`ExactSymmetricEquations` is its half-wave form for bilateral stops
+  (:class:`nnmstop.exact.forced.SymmetricContactProblem`, the paper's responses), and :func:`exact_equations`
+  picks the formulation of a structure;
 * :class:`HarmonicBalanceEquations`: the regularized responses by harmonic balance
   (:class:`nnmstop.hbm.forced.ForcedHarmonicBalanceSystem`: ``x`` the unknowns without ``Omega``), its
   Jacobian (the Hill matrix at zero Floquet exponent); the residual is affine in ``F`` (the force enters the
@@ -21,8 +26,9 @@ state. Two formulations provide them, on the public functions of the forced path
   coordinates' Fourier coefficients and ``Omega``: its derivatives by central differences in those
   directions only.
 
-A later formulation (responses without the half-period symmetry, other contact laws) joins by providing the
-same methods. Method note: ``docs/methods/atlas.md``.
+A later formulation (other contact laws, several contact phases per period) joins by providing the same
+methods. The circular clearance is not piecewise linear: no exact formulation (ValueError naming it).
+Method note: ``docs/methods/atlas.md``.
 """
 
 from __future__ import annotations
@@ -32,14 +38,24 @@ from collections import OrderedDict
 import numpy as np
 
 from nnmstop.bifurcation_atlas.parameters import check_structural, parameter_value, with_parameters
-from nnmstop.exact.forced import SymmetricContactProblem
+from nnmstop.exact.forced import (
+    ForcedResponseProblem,
+    StruckStop,
+    SymmetricContactProblem,
+    mirror_contacts,
+    structure_contacts,
+)
 from nnmstop.exact.grazing import MarginChecks
 from nnmstop.models.excitation import Excitation
 
 __all__ = [
     "OrbitEquations",
     "Margins",
+    "ExactContactEquations",
     "ExactSymmetricEquations",
+    "exact_equations",
+    "half_wave_applies",
+    "contact_entered",
     "HarmonicBalanceEquations",
     "fourier_orbit",
     "ORBIT_HARMONICS",
@@ -123,39 +139,125 @@ def _state_split(y):
     return np.asarray(y[:-1], dtype=float), float(y[-1])
 
 
-class ExactSymmetricEquations(OrbitEquations):
-    """The exact symmetric one-contact responses (:class:`~nnmstop.exact.forced.SymmetricContactProblem`).
+def half_wave_applies(structure) -> bool:
+    """Whether the one-contact responses of ``structure`` are the half-wave symmetric ones: every law odd and every
+    contact with its mirror image (bilateral stops, relative stops on both sides), as
+    :func:`nnmstop.exact.forced.grazing_problem` decides for the forced responses."""
+    return bool(structure.contact.odd and mirror_contacts(structure_contacts(structure)) is not None)
+
+
+def exact_equations(excitation: Excitation, parameter: str | None = None, contact: int | None = None):
+    """The exact formulation of the responses with one contact phase per period (or half period) of ``contact``
+    (index into :func:`~nnmstop.exact.forced.structure_contacts`; None: the first contact of the first stop).
+
+    Bilateral stops only: :class:`ExactSymmetricEquations` of the contact's stop (the half-period map);
+    otherwise :class:`ExactContactEquations`, half-wave where :func:`half_wave_applies` (relative stops on both
+    sides), else over the full period (one-sided stops, unequal gaps, one-sided relative stops, any mix).
+
+    Raises
+    ------
+    ValueError
+        For a structure with a stop that is not piecewise linear (the circular clearance), naming it.
+    """
+    structure = excitation.structure
+    contacts = structure_contacts(structure)
+    contact = next(i for i, c in enumerate(contacts) if c.stop == 0) if contact is None else int(contact)
+    if not 0 <= contact < len(contacts):
+        raise ValueError(f"contact must index one of the structure's {len(contacts)} contacts, got {contact!r}")
+    if all(s.kind == "bilateral" for s in structure.stops):
+        if contacts[contact].side != 1:
+            raise ValueError(
+                "the symmetric responses of a bilateral stop are written from their entry on its positive side, not "
+                f"from contact {contact} (its negative side)"
+            )
+        return ExactSymmetricEquations(excitation, parameter, contacts[contact].stop)
+    return ExactContactEquations(excitation, parameter, contact, half_wave_applies(structure))
+
+
+def contact_entered(excitation: Excitation, y) -> int:
+    """The contact a state ``y = [z0, theta0, d0, ...]`` of a one-contact formulation enters at ``z0``: the one
+    whose coordinate is at its gap there (``n . q0 = g``; a state of a solution is at round-off of it)."""
+    contacts = structure_contacts(excitation.structure)
+    n = excitation.structure.n_dofs
+    q0 = np.asarray(y, dtype=float)[:n]
+    misfit = [abs(c.normal(n) @ q0 - c.gap) / c.gap for c in contacts]
+    best = int(np.argmin(misfit))
+    if not misfit[best] <= 1e-6:
+        raise ValueError(
+            f"the state enters no contact of the structure (its nearest, contact {best}, is {misfit[best]:.3g} of its "
+            "gap away): not a state of a one-contact response"
+        )
+    return best
+
+
+class ExactContactEquations(OrbitEquations):
+    """The exact responses with one contact phase per period of one contact, any piecewise-linear stop:
+    :class:`~nnmstop.exact.forced.ForcedResponseProblem` with the sequence ``[{contact}, {}]``.
+
+    ``x = [z0, theta0, d0]`` (``n = 2N + 2``): the state entering the contact, its phase and the contact's phase
+    duration, as for the symmetric responses. Over the full period (``half_wave`` False: one-sided stops, unequal
+    gaps, one-sided relative stops) the map is the monodromy ``exp(A_F t_F) exp(A_R t_R)``,
+    ``t_F = (2 pi - d0) / Omega``; with ``half_wave`` (odd laws, mirror contacts: a relative stop on both sides)
+    it is the half-period map ``-exp(A_F t_F) exp(A_R t_R)``, ``t_F = (pi - d0) / Omega``. ``G`` is affine in
+    ``F`` (each phase's particular solution is proportional to the force), the Jacobian analytic in ``x`` and
+    ``Omega``; the structural parameter (of the first stop) enters by central differences.
 
     Parameters
     ----------
     excitation : Excitation
-        The structure (its first stop is the struck one), damping and force pattern; its force amplitude is
-        the reference of the affine dependence on ``F``.
+        Structure, damping and force pattern; its force amplitude is the reference of the affine dependence.
     parameter : str, optional
         The structural parameter ``p`` of the atlas.
+    contact : int
+        The struck contact (index into :func:`~nnmstop.exact.forced.structure_contacts`).
+    half_wave : bool
+
+    Examples
+    --------
+    A one-sided stop on the first mass of a 2-DOF chain: full period, its grazing orbit a solution.
+
+    >>> import numpy as np
+    >>> from nnmstop.models.contact import Stop
+    >>> from nnmstop.models.structure import Structure
+    >>> from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
+    >>> from nnmstop.exact.forced import grazing_frequencies, grazing_problem
+    >>> stop = Stop(kind="one_sided", dof=0, side="positive", gap=1.0, stiffness=20.0, eta=0.05)
+    >>> chain = Structure(np.eye(2), [[2.0, -1.0], [-1.0, 2.0]], [stop])
+    >>> excitation = Excitation(chain, Damping.from_modal_ratios(chain, [0.02, 0.02]), HarmonicForce(0.2, [0]))
+    >>> equations = exact_equations(excitation)
+    >>> type(equations).__name__, equations.half_period, equations.n
+    ('ExactContactEquations', False, 6)
+    >>> omega = grazing_frequencies(excitation, 0.6, 1.2)[0]
+    >>> y = grazing_problem(excitation, omega)[1]
+    >>> bool(np.abs(equations.residual(y[:-1], (omega, 0.2, 0.0))).max() < 1e-13)
+    True
     """
 
-    half_period = True
     law = "piecewise_linear"
 
-    def __init__(self, excitation: Excitation, parameter: str | None = None):
+    def __init__(self, excitation: Excitation, parameter: str | None = None, contact: int = 0, half_wave=False):
         self.excitation = excitation
         self.parameter = check_structural(parameter)
         self.p0 = parameter_value(excitation, parameter) if parameter else 0.0
         self.force0 = float(excitation.force.amplitude)
         self.n = 2 * excitation.structure.n_dofs + 2
-        self.stop = excitation.structure.stops[0]
+        self.contact = int(contact)
+        self.half_period = bool(half_wave)
+        self.span = np.pi if self.half_period else 2 * np.pi
         self._pairs = _Cache(self._build_pair)
-        self._problems = _Cache(lambda key: SymmetricContactProblem(self.excitation_at((1.0,) + key)))
+        self._problems = _Cache(lambda key: self._problem_of(self.excitation_at((1.0,) + key)))
+
+    def _problem_of(self, excitation: Excitation):
+        return ForcedResponseProblem(excitation, [{self.contact}, set()], half_wave=self.half_period)
 
     def excitation_at(self, params) -> Excitation:
         _, force, p = params
         return with_parameters(self.excitation, force, self.parameter, p if self.parameter else None)
 
     def _build_pair(self, p):
-        return tuple(SymmetricContactProblem(self.excitation_at((1.0, f, p))) for f in (self.force0, 2 * self.force0))
+        return tuple(self._problem_of(self.excitation_at((1.0, f, p))) for f in (self.force0, 2 * self.force0))
 
-    def problem(self, params) -> SymmetricContactProblem:
+    def problem(self, params):
         """The forced problem at ``(F, p)`` (for validity, multipliers and orbits)."""
         return self._problems.get((float(params[1]), float(params[2])))
 
@@ -183,19 +285,22 @@ class ExactSymmetricEquations(OrbitEquations):
 
     def monodromy(self, x, params) -> np.ndarray:
         y = np.append(np.asarray(x, dtype=float), float(params[0]))
-        return self._pairs.get(float(params[2]))[0].half_period_map(y)
+        return self._pairs.get(float(params[2]))[0].period_map(y)
 
     def monodromy_derivatives(self, x, params):
-        """The half-period map depends on ``delta`` and ``Omega`` (analytic) and on ``p`` (central differences)."""
+        """The map ``S exp(A_F t_F) exp(A_R t_R)`` (``S = -1`` for the half-period map) depends on ``d0`` and
+        ``Omega`` (analytic: ``d exp(A t)/dt = A exp(A t)``) and on ``p`` (central differences)."""
         delta, omega = float(x[-1]), float(params[0])
         problem = self._pairs.get(float(params[2]))[0]
-        free, contact = problem.phases["F"], problem.phases["R"]
-        t_free, t_contact = (np.pi - delta) / omega, delta / omega
+        contact, free = problem.phase_list
+        t_free, t_contact = (self.span - delta) / omega, delta / omega
         E_F, E_R = free.exponential(t_free), contact.exponential(t_contact)
         AFER = free.A @ E_F @ E_R
         EFAR = E_F @ contact.A @ E_R
         d_delta = (AFER - EFAR) / omega
         d_omega = (t_free * AFER + t_contact * EFAR) / omega
+        if not self.half_period:  # the monodromy without the half-period map's sign
+            d_delta, d_omega = -d_delta, -d_omega
         d_p = np.zeros_like(d_delta)
         if self.parameter:
             h = PARAMETER_STEP * abs(params[2])
@@ -212,9 +317,9 @@ class ExactSymmetricEquations(OrbitEquations):
         return self.problem(params).amplitudes(np.append(np.asarray(x, dtype=float), float(params[0])))
 
     def multipliers(self, x, params) -> np.ndarray:
-        """Floquet multipliers over one period (``nu**2``)."""
+        """Floquet multipliers over one period (``nu**2`` of the half-period map)."""
         nu = np.linalg.eigvals(self.monodromy(x, params))
-        return nu * nu
+        return nu * nu if self.half_period else nu
 
     def orbit(self, x, params, harmonics: int = ORBIT_HARMONICS) -> np.ndarray:
         """Fourier coefficients ``(N, 2 harmonics + 1)`` of ``q`` against the phase of the force ``Omega t``
@@ -223,23 +328,56 @@ class ExactSymmetricEquations(OrbitEquations):
         history = self.problem(params).time_history(y, samples=8 * harmonics)
         return fourier_orbit(history["theta"], history["q"], harmonics)
 
-    def stop_state(self, x, params, theta: float, phase: str):
-        """``(q_c, qdot_c)`` of the struck stop's DOF at the phase ``theta`` of the force, computed in ``phase`` ("R":
-        the contact from ``theta1``, "F": the free flight from ``theta1 + delta``; closed form, any ``theta``)."""
+    def contact_gap(self, params, contact: int | None = None) -> float:
+        """The gap of ``contact`` (the struck one by default) at ``params``."""
+        return float(self.problem(params).gaps[self.contact if contact is None else int(contact)])
+
+    def stop_state(self, x, params, theta: float, phase: str, contact: int | None = None):
+        """``(n . q, n . qdot)`` of the coordinate of ``contact`` (the struck one by default) at the phase ``theta``
+        of the force, computed in ``phase`` ("R": the contact from ``theta0``, "F": the free flight from
+        ``theta0 + d0``; closed form, any ``theta``)."""
         problem = self.problem(params)
         omega = float(params[0])
         y = np.append(np.asarray(x, dtype=float), omega)
         z1, z2, _ = problem.switch_states(y)
         theta1, delta = float(x[-2]), float(x[-1])
         start, start_phase = (z1, theta1) if phase == "R" else (z2, theta1 + delta)
-        state = problem.phases[phase].states(start, start_phase, omega, theta)
-        n, c = problem.n, self.stop.dof
-        return float(state[c]), float(state[n + c])
+        state = problem.phase_list[0 if phase == "R" else 1].states(start, start_phase, omega, theta)
+        normal = problem.normals[self.contact if contact is None else int(contact)]
+        n = problem.n
+        return float(normal @ state[:n]), float(normal @ state[n:])
 
     def phase_interval(self, x, phase: str):
-        """``(start, end)`` phases of the contact ("R") or of the free flight ("F") of the first half period."""
+        """``(start, end)`` phases of the contact ("R") or of the free flight ("F") of the span."""
         theta1, delta = float(x[-2]), float(x[-1])
-        return (theta1, theta1 + delta) if phase == "R" else (theta1 + delta, theta1 + np.pi)
+        return (theta1, theta1 + delta) if phase == "R" else (theta1 + delta, theta1 + self.span)
+
+
+class ExactSymmetricEquations(ExactContactEquations):
+    """The exact symmetric one-contact responses of a bilateral stop
+    (:class:`~nnmstop.exact.forced.SymmetricContactProblem`): :class:`ExactContactEquations` with the half-wave
+    reduction (the paper's responses), the struck coordinate ``q_c`` the stop's degree of freedom.
+
+    Parameters
+    ----------
+    excitation : Excitation
+        The structure (its stop ``stop`` is the struck one), damping and force pattern; its force amplitude is
+        the reference of the affine dependence on ``F``.
+    parameter : str, optional
+        The structural parameter ``p`` of the atlas.
+    stop : int
+        The struck stop (bilateral).
+    """
+
+    def __init__(self, excitation: Excitation, parameter: str | None = None, stop: int = 0):
+        self.stop = StruckStop.of(excitation, stop)
+        self.stop_index = int(stop)
+        contacts = structure_contacts(excitation.structure)
+        right = next(i for i, c in enumerate(contacts) if c.stop == stop and c.side == 1)
+        super().__init__(excitation, parameter, right, half_wave=True)
+
+    def _problem_of(self, excitation: Excitation):
+        return SymmetricContactProblem(excitation, self.stop_index)
 
     def penetration(self, x, params) -> float:
         """Largest penetration ``max |q_c| - gap`` of the struck stop."""
@@ -294,8 +432,9 @@ class HarmonicBalanceEquations(OrbitEquations):
         self.d_force = (self._systems.get((2 * self.force0, self.p0))[0].residual(zero) - system.residual(zero)) / (
             self.force0
         )
-        nc, dofs = system.nc, system.stop_dofs
-        self.stop_indices = np.concatenate([d * nc + np.arange(nc) for d in dofs])
+        # every DOF a stop reads (both of a relative stop or a circular clearance), not only its first
+        dofs = sorted({int(d) for s in excitation.structure.stops for d in s.dofs})
+        self.stop_indices = np.concatenate([d * system.nc + np.arange(system.nc) for d in dofs])
 
     def _build(self, key):
         from nnmstop.hbm.forced import ForcedHarmonicBalanceSystem, ForcedLinearization

@@ -25,14 +25,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nnmstop.bifurcation_atlas.equations import ORBIT_HARMONICS, ExactSymmetricEquations
+from nnmstop.bifurcation_atlas.equations import ORBIT_HARMONICS, exact_equations
 from nnmstop.bifurcation_atlas.flags import END_KINDS, REGIONS
 from nnmstop.bifurcation_atlas.parameters import with_parameters
 from nnmstop.exact.forced import CONTACT_MARGINS, non_impacting_response
 from nnmstop.forced.responses import ExactSettings, exact_response
 from nnmstop.forced.stability_changes import KINDS
 
-__all__ = ["REGIONS", "END_KINDS", "Slice", "compute_slice", "classify", "orbit_dofs"]
+__all__ = ["REGIONS", "END_KINDS", "Slice", "compute_slice", "classify", "orbit_dofs", "piece_equations"]
 
 if END_KINDS != tuple(CONTACT_MARGINS):  # the flags of the datasets follow the exact formulation's margins
     raise ImportError(
@@ -44,8 +44,23 @@ KEPT_POINTS = 120
 
 
 def orbit_dofs(excitation) -> tuple:
-    """The two DOFs whose orbits an atlas keeps: the struck stop's and the first forced one (x and u)."""
-    return int(excitation.structure.stops[0].dof), int(excitation.force.dofs[0])
+    """The two DOFs whose orbits an atlas keeps: the first stop's (first) and the first forced one (x and u)."""
+    return int(excitation.structure.stops[0].dofs[0]), int(excitation.force.dofs[0])
+
+
+def piece_equations(at, piece):
+    """The exact formulation (:func:`~nnmstop.bifurcation_atlas.equations.exact_equations`) of a contact family of
+    the exact response at ``at``: one contact phase per period (or half period). ValueError for a family with
+    more (several contacts grazing at once without the half-wave symmetry: a bilateral stop beside a
+    one-sided one), which the atlas does not follow."""
+    problem = piece.problem
+    if problem.m != 2 or problem.episodes != 1:
+        raise ValueError(
+            f"the atlas follows responses with one contact phase per period (or half period); the family "
+            f"'{problem.describe()}' of this structure has {problem.m} phases (several contacts graze at once "
+            "without the half-wave symmetry): not yet"
+        )
+    return exact_equations(at, contact=problem.switches[0].contact)
 
 
 @dataclass
@@ -98,13 +113,12 @@ def compute_slice(excitation, plane: str, value: float, frequency_range, setting
     else:
         at = with_parameters(excitation, excitation.force.amplitude, plane, value)
     pieces = exact_response(at, frequency_range, settings)
-    equations = ExactSymmetricEquations(at)
     dofs = list(orbit_dofs(at))
     params = (0.0, at.force.amplitude, 0.0)
     kept = {name: [] for name in ("frequency", "piece", "impacting", "stable", "amplitude", "multipliers", "orbit")}
     change_kind, change_state, end_kind, end_state, end_frequency = [], [], [], [], []
     all_frequency, all_stable, all_impacting = [], [], []
-    n_state = equations.n + 1
+    n_state = 2 * at.structure.n_dofs + 3
     for k, piece in enumerate(pieces):
         impacting = piece.kind == "one_contact"
         stable = np.all(np.abs(piece.multipliers) <= 1.0 + 1e-12, axis=1)
@@ -120,6 +134,7 @@ def compute_slice(excitation, plane: str, value: float, frequency_range, setting
         kept["amplitude"].append(piece.amplitude[index][:, dofs])
         kept["multipliers"].append(piece.multipliers[index])
         if impacting:
+            equations = piece_equations(at, piece)
             orbits = [equations.orbit(y[:-1], (y[-1],) + params[1:])[dofs] for y in piece.unknowns[index]]
         else:
             Q = non_impacting_response(at, 2 * np.pi * piece.frequency[index])[:, dofs]
@@ -130,7 +145,8 @@ def compute_slice(excitation, plane: str, value: float, frequency_range, setting
         for change in piece.changes:
             change_kind.append(KINDS.index(change.kind))
             change_state.append(change.U)
-        margin = next((key for key, text in CONTACT_MARGINS.items() if text == piece.end_reason), None)
+        reasons = piece.problem.margin_reasons if impacting else CONTACT_MARGINS
+        margin = next((key for key, text in reasons.items() if text == piece.end_reason), None)
         if impacting and margin not in (None, "contact_duration"):
             end_kind.append(END_KINDS.index(margin))
             end_state.append(piece.unknowns[-1])
