@@ -5,8 +5,9 @@ resonance tongues passed marked), the exact NNM1, the linear frequencies (no con
 Euler-Bernoulli); ``shapes`` (finite-element beams): deformed shapes over half a period at the configured
 energies; ``contact_force``: the stop force over a period at those energies; ``exact_vs_regularized``:
 the relative frequency difference at matched energies; ``wear``: every branch's frequency and, at each stop, the wear
-power and impact work rate of its orbits along the energy (:mod:`nnmstop.wear`); ``hole_shapes`` and ``hole_contact`` (a beam in circular holes): each branch's
-deformed shapes in both planes, and each plate's contact point in its hole with its radial contact force.
+power and impact work rate of its orbits along the energy (:mod:`nnmstop.wear`); ``hole_shapes`` and
+``hole_contact`` (a beam in circular holes): each branch's deformed shapes in both planes, and each plate's
+contact point in its hole with its radial contact force.
 """
 
 from __future__ import annotations

@@ -202,7 +202,7 @@ def _rotation_of(structure: Structure, interior) -> scipy.sparse.csr_matrix:
 
 
 def _rotation_average(matrix, pairs) -> np.ndarray:
-    """``matrix`` averaged over the four rotations by multiples of 90 degrees of ``pairs``: it then commutes with them."""
+    """``matrix`` averaged over the rotations of ``pairs`` by multiples of 90 degrees: it then commutes with them."""
     quarter = np.eye(len(matrix))
     for i, j in pairs:
         quarter[[i, j], [i, j]] = 0.0

@@ -62,14 +62,18 @@ def plates_circular_config(config: dict) -> dict:
     ...                             "hbm": {"harmonics": 10}, "branches": {"whirl1": {"mode": 1, "motion": "whirl"}}}}
     >>> case = plates_circular_config({"anm": {}, "tube_plates": plates})
     >>> beam = case["structure"]["beam"]
-    >>> beam["planes"], beam["n_elements"], beam["stops"][0]["kind"], case["structure"]["reduction"], case["hbm"]["harmonics"]
-    (2, 12, 'circular', {'modes': 6}, 10)
+    >>> beam["planes"], beam["n_elements"], beam["stops"][0]["kind"], case["hbm"]["harmonics"]
+    (2, 12, 'circular', 10)
+    >>> case["structure"]["reduction"]
+    {'modes': 6}
     """
     from nnmstop.tasks.tube import in_circular_holes
 
     hole = config["tube_plates"].get("circular_hole")
     if hole is None:
-        raise ValueError("tube_plates.circular_hole is not configured: the plates are the bilateral stops of tube_plates")
+        raise ValueError(
+            "tube_plates.circular_hole is not configured: the plates are the bilateral stops of tube_plates"
+        )
     for where, keys, allowed in (
         ("tube_plates.circular_hole", hole, CIRCULAR_KEYS),
         ("tube_plates.circular_hole.structure", hole.get("structure", {}), CIRCULAR_STRUCTURE_KEYS),
