@@ -214,14 +214,27 @@ def _rotation_average(matrix, pairs) -> np.ndarray:
     return 0.25 * average
 
 
-def _paired_modes(phi, k_ii, m_ii, rotation, n_modes: int):
+def _paired_modes(phi, k_ii, m_ii, rotation, n_modes: int, solve, iterations: int = 3):
     """``n_modes`` fixed-interface modes as pairs ``(u, J u)`` spanning the lowest eigenspaces of ``phi``.
 
+    The eigenspaces are first refined by ``iterations`` steps of subspace inverse iteration (``solve``: ``K_ii^-1``)
+    and a Rayleigh-Ritz projection: a dense eigensolver's lowest modes carry errors of about ``eps`` times the
+    stiffness' condition number, which move with the BLAS threads and kernels; the inverse iteration damps them by
+    the ratio of each mode's eigenvalue to the others', so the pairs are the same on every CPU.
+
     An eigensolver returns a degenerate pair as any basis of its plane, which moves with round-off: each plane is
-    spanned here by ``u`` and ``J u`` with ``u`` the one of the plane whose first entry above a hundredth of the
-    largest (of ``|u_p|^2 + |(J u)_p|^2``) is largest and positive (for a beam bending in two planes, the first
-    plane's shape), so that the modal coordinates are the same on every CPU.
+    spanned here by ``u`` and ``J u`` with ``u`` the vector of the plane with the most of its norm on the first DOF
+    of each rotation pair (a least-squares choice, as accurate as the plane itself: for a beam bending in two
+    planes, the first plane's shape), its sign by the rule of :func:`_mode_signs`, so that the modal coordinates are
+    the same on every CPU.
     """
+    first = np.asarray(rotation.sum(axis=0)).ravel() > 0  # J e_i = e_j: the column of a pair's first DOF i sums to 1
+    phi = phi[:, :n_modes]
+    for _ in range(iterations):
+        phi = solve(m_ii @ phi)
+        phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
+    _, ritz = scipy.linalg.eigh(phi.T @ (k_ii @ phi), phi.T @ (m_ii @ phi))
+    phi = phi @ ritz
     basis = []
     for k in range(phi.shape[1]):
         if len(basis) >= n_modes:
@@ -232,12 +245,11 @@ def _paired_modes(phi, k_ii, m_ii, rotation, n_modes: int):
         norm = np.sqrt(vector @ (m_ii @ vector))
         if norm < 0.5:  # in the span of the modes kept already (the pair's second member)
             continue
-        u = vector / norm
-        turned = rotation @ u
-        size = np.hypot(u, turned)
-        p = int(np.argmax(size > 0.01 * size.max()))
-        angle = np.arctan2(turned[p], u[p])
-        u = np.cos(angle) * u + np.sin(angle) * turned
+        plane = np.column_stack([vector / norm, rotation @ (vector / norm)])
+        on_first = plane[first]
+        _, directions = np.linalg.eigh(on_first.T @ on_first)
+        u = plane @ directions[:, -1]
+        u *= _mode_signs(u[:, None])[0]
         basis += [u, rotation @ u]
     if len(basis) < n_modes:
         raise ValueError(f"the fixed-interface modes do not come in {n_modes // 2} pairs turned by the rotations")
@@ -321,7 +333,9 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     omega, phi = _fixed_interface_modes(k_ii, m_ii, factor.solve, wanted)
     pairs = _reduced_rotation_pairs(structure, boundary, n_modes)
     if pairs is not None:  # the modes in pairs (phi, J phi): the reduced structure stays invariant under rotations
-        omega[:n_modes], phi[:, :n_modes] = _paired_modes(phi, k_ii, m_ii, _rotation_of(structure, interior), n_modes)
+        omega[:n_modes], phi[:, :n_modes] = _paired_modes(
+            phi, k_ii, m_ii, _rotation_of(structure, interior), n_modes, factor.solve
+        )
     next_frequency = float(omega[n_modes]) if n_modes < len(omega) else np.inf
     omega, phi = omega[:n_modes], phi[:, :n_modes]
     costs["eigensolve"] = time.perf_counter() - started
