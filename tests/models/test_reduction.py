@@ -212,8 +212,8 @@ def test_circular_stops_reduce_onto_both_components_with_paired_modes():
     assert reduced.rotation_pairs == ((0, 3), (1, 4), (2, 5), (6, 7), (8, 9), (10, 11), (12, 13))
     J = reduced.rotation_generator.toarray()
     M, K = reduced.dense_matrices()
-    np.testing.assert_array_equal(J @ K, K @ J)  # made exactly invariant (averaged over the rotations)
-    np.testing.assert_array_equal(J @ M, M @ J)
+    for matrix in (M, K):  # made invariant to the last bits (averaged over the rotations)
+        np.testing.assert_allclose(J @ matrix, matrix @ J, rtol=0, atol=4e-16 * np.abs(matrix).max())
     np.testing.assert_array_equal(reduced.reduction.mode_frequencies[0::2], reduced.reduction.mode_frequencies[1::2])
     # plane 1: the boundary w DOFs and the first member of each pair against the one-plane reduction
     first = [0, 1, 2, 6, 8, 10, 12]
@@ -245,8 +245,8 @@ def test_paired_modes_do_not_depend_on_the_basis_the_eigensolver_returns(monkeyp
     original = reduction._fixed_interface_modes
     rng = np.random.default_rng(7)
 
-    def turned(k_ii, m_ii, solve, n_wanted):
-        omega, phi = original(k_ii, m_ii, solve, n_wanted)
+    def turned(k_ii, m_ii, solve, n_wanted, *root):
+        omega, phi = original(k_ii, m_ii, solve, n_wanted, *root)
         phi = phi.copy()
         for k in range(0, n_wanted - 1, 2):
             c, s = np.cos(rng.uniform(0, 2 * np.pi)), np.sin(rng.uniform(0, 2 * np.pi))

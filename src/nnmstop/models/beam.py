@@ -258,6 +258,18 @@ def element_matrices(h: float, bending_stiffness: float, mass_per_length: float)
     return k, m
 
 
+def element_root(h: float, bending_stiffness: float) -> np.ndarray:
+    """The ``2 x 4`` stiffness root ``G_e`` of a Hermite element (:func:`element_matrices`' ``k = G_e^T G_e``).
+
+    Its rows are the curvatures at the element's two ends, ``w'' = B_e (w_1, theta_1, w_2, theta_2)``,
+    weighted by the upper Cholesky factor of the linear curvature's energy ``EI h / 6 [[2, 1], [1, 2]]``
+    (:mod:`nnmstop.models.stiffness_root`).
+    """
+    curvatures = np.array([[-6.0, -4.0 * h, 6.0, -2.0 * h], [6.0, 2.0 * h, -6.0, 4.0 * h]]) / h**2
+    weight = np.sqrt(bending_stiffness * h / 6.0) * np.array([[np.sqrt(2.0), np.sqrt(0.5)], [0.0, np.sqrt(1.5)]])
+    return weight @ curvatures
+
+
 def assemble_free_beam(length: float, bending_stiffness: float, mass_per_length: float, n_elements: int):
     """Sparse (CSR, bandwidth 3) stiffness and mass of the unconstrained beam, DOFs ``(w_i, theta_i)``."""
     k_e, m_e = element_matrices(length / n_elements, bending_stiffness, mass_per_length)
@@ -271,6 +283,17 @@ def assemble_free_beam(length: float, bending_stiffness: float, mass_per_length:
     return stiffness, mass
 
 
+def free_beam_root(length: float, bending_stiffness: float, n_elements: int):
+    """Sparse (CSR) stiffness root ``G`` (``2 n_elements x 2 (n_elements + 1)``) of the unconstrained beam:
+    ``G^T G`` is :func:`assemble_free_beam`'s stiffness, two rows of :func:`element_root` per element."""
+    g_e = element_root(length / n_elements, bending_stiffness)
+    rows = np.repeat(2 * np.arange(n_elements)[:, None] + np.arange(2)[None, :], 4, axis=1).ravel()
+    cols = np.tile(2 * np.arange(n_elements)[:, None] + np.arange(4)[None, :], (1, 2)).ravel()
+    return scipy.sparse.csr_matrix(
+        (np.tile(g_e.ravel(), n_elements), (rows, cols)), shape=(2 * n_elements, 2 * (n_elements + 1))
+    )
+
+
 def _kept_dofs(beam: Beam) -> np.ndarray:
     removed = [2 * 0 + j for j in BOUNDARY_CONDITIONS[beam.left]]
     removed += [2 * beam.n_elements + j for j in BOUNDARY_CONDITIONS[beam.right]]
@@ -278,9 +301,11 @@ def _kept_dofs(beam: Beam) -> np.ndarray:
 
 
 def _constrained(beam: Beam, length: float, bending_stiffness: float, mass_per_length: float):
+    """Stiffness, mass, stiffness root and kept DOFs of the beam with its end conditions."""
     stiffness, mass = assemble_free_beam(length, bending_stiffness, mass_per_length, beam.n_elements)
+    root = free_beam_root(length, bending_stiffness, beam.n_elements)
     kept = _kept_dofs(beam)
-    return stiffness[kept][:, kept].tocsr(), mass[kept][:, kept].tocsr(), kept
+    return stiffness[kept][:, kept].tocsr(), mass[kept][:, kept].tocsr(), root[:, kept].tocsr(), kept
 
 
 def beam_scales(beam: Beam) -> dict:
@@ -296,9 +321,11 @@ def beam_scales(beam: Beam) -> dict:
         ``rotation`` (``gap / L``, the unit of rotations) and ``position`` (``L``, unit of the node
         coordinates).
     """
-    unit_k, unit_m, _ = _constrained(beam, 1.0, 1.0, 1.0)
+    unit_k, unit_m, unit_root, _ = _constrained(beam, 1.0, 1.0, 1.0)
     rigid = rigid_body_modes(beam.left, beam.right)
-    lam1 = generalized_modes(unit_m, unit_k, rigid + 1)[0][rigid] ** 2  # first flexible eigenvalue, unit beam
+    # a held beam solves through its stiffness root (fine meshes: docs/reduction.md)
+    root = unit_root if rigid == 0 else None
+    lam1 = generalized_modes(unit_m, unit_k, rigid + 1, root=root)[0][rigid] ** 2  # first flexible eigenvalue
     length, ei, rho_a = beam.length, beam.bending_stiffness, beam.mass_per_length
     return {
         "length": beam.stops[0].gap,
@@ -325,7 +352,7 @@ def beam_structure(beam: Beam) -> Structure:
     under the rotations about the beam's axis, which turn each pair (``w<i>``, ``v<i>``), (``theta<i>``,
     ``psi<i>``) together (``Structure.rotation_pairs``).
     """
-    unit_k, unit_m, kept = _constrained(beam, 1.0, 1.0, 1.0)
+    unit_k, unit_m, unit_root, kept = _constrained(beam, 1.0, 1.0, 1.0)
     scales = beam_scales(beam)
     position = {int(d): i for i, d in enumerate(kept)}
     n = len(kept)
@@ -348,8 +375,10 @@ def beam_structure(beam: Beam) -> Structure:
     labels = [PLANE_LABELS[0][d % 2] + str(d // 2) for d in kept]
     nodes = [int(d) // 2 for d in kept]
     pairs = None
+    root = unit_root if rigid_body_modes(beam.left, beam.right) == 0 else None
     if beam.planes == 2:
         mass, stiffness = (scipy.sparse.block_diag([a, a], format="csr") for a in (mass, stiffness))
+        root = None if root is None else scipy.sparse.block_diag([root, root], format="csr")
         labels += [PLANE_LABELS[1][d % 2] + str(d // 2) for d in kept]
         nodes += nodes
         if all(stop.kind == "circular" for stop in beam.stops):
@@ -363,6 +392,7 @@ def beam_structure(beam: Beam) -> Structure:
         dof_nodes=tuple(nodes),
         attributes=beam_attributes(beam, scales, stops[0]),
         rotation_pairs=pairs,
+        stiffness_root=root,
     )
 
 

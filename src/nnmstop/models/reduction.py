@@ -39,6 +39,7 @@ For example, a clamped-free beam of 40 elements with one stop, reduced onto its 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import time
 from dataclasses import dataclass
@@ -48,6 +49,7 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
+from nnmstop.models.stiffness_root import RootSolver, energy_matrix
 from nnmstop.models.structure import DENSE_EIGEN_LIMIT, Structure
 
 __all__ = [
@@ -149,8 +151,9 @@ def _count(name: str, value, low: int, high: int) -> int:
     return int(value)
 
 
-def _fixed_interface_modes(k_ii, m_ii, solve, n_wanted: int):
-    """The ``n_wanted`` lowest ``(omega, Phi)`` of ``K_ii phi = omega^2 M_ii phi`` (``solve``: ``K_ii^-1``)."""
+def _fixed_interface_modes(k_ii, m_ii, solve, n_wanted: int, root=None):
+    """The ``n_wanted`` lowest ``(omega, Phi)`` of ``K_ii phi = omega^2 M_ii phi`` (``solve``: ``K_ii^-1``; with
+    ``root``, ``G_i``, each ``omega^2`` is the Rayleigh quotient ``|G_i phi|^2``, without cancellation)."""
     n = k_ii.shape[0]
     if n_wanted == 0:
         return np.zeros(0), np.zeros((n, 0))
@@ -163,6 +166,8 @@ def _fixed_interface_modes(k_ii, m_ii, solve, n_wanted: int):
         order = np.argsort(lam)
         lam, phi = lam[order], phi[:, order]
     phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
+    if root is not None:
+        lam = np.diag(energy_matrix(root, phi))
     return np.sqrt(np.maximum(lam, 0.0)), phi * _mode_signs(phi)
 
 
@@ -214,13 +219,13 @@ def _rotation_average(matrix, pairs) -> np.ndarray:
     return 0.25 * average
 
 
-def _paired_modes(phi, k_ii, m_ii, rotation, n_modes: int, solve, iterations: int = 3):
+def _paired_modes(phi, m_ii, rotation, n_modes: int, solve, stiffness_form, iterations: int = 3):
     """``n_modes`` fixed-interface modes as pairs ``(u, J u)`` spanning the lowest eigenspaces of ``phi``.
 
     The eigenspaces are first refined by ``iterations`` steps of subspace inverse iteration (``solve``: ``K_ii^-1``)
-    and a Rayleigh-Ritz projection: a dense eigensolver's lowest modes carry errors of about ``eps`` times the
-    stiffness' condition number, which move with the BLAS threads and kernels; the inverse iteration damps them by
-    the ratio of each mode's eigenvalue to the others', so the pairs are the same on every CPU.
+    and a Rayleigh-Ritz projection (``stiffness_form(V)``: ``V^T K_ii V``): a dense eigensolver's lowest modes carry
+    errors of about ``eps`` times the stiffness' condition number, which move with the BLAS threads and kernels; the
+    inverse iteration damps them by the ratio of each mode's eigenvalue to the others'.
 
     An eigensolver returns a degenerate pair as any basis of its plane, which moves with round-off: each plane is
     spanned here by ``u`` and ``J u`` with ``u`` the vector of the plane with the most of its norm on the first DOF
@@ -233,7 +238,7 @@ def _paired_modes(phi, k_ii, m_ii, rotation, n_modes: int, solve, iterations: in
     for _ in range(iterations):
         phi = solve(m_ii @ phi)
         phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
-    _, ritz = scipy.linalg.eigh(phi.T @ (k_ii @ phi), phi.T @ (m_ii @ phi))
+    _, ritz = scipy.linalg.eigh(stiffness_form(phi), phi.T @ (m_ii @ phi))
     phi = phi @ ritz
     basis = []
     for k in range(phi.shape[1]):
@@ -254,7 +259,7 @@ def _paired_modes(phi, k_ii, m_ii, rotation, n_modes: int, solve, iterations: in
     if len(basis) < n_modes:
         raise ValueError(f"the fixed-interface modes do not come in {n_modes // 2} pairs turned by the rotations")
     paired = np.column_stack(basis[:n_modes])
-    omega = np.sqrt(np.maximum(np.einsum("ij,ij->j", paired, k_ii @ paired), 0.0))
+    omega = np.sqrt(np.maximum(np.diag(stiffness_form(paired)), 0.0))
     omega = np.repeat(0.5 * (omega[0::2] + omega[1::2]), 2)
     return omega, paired
 
@@ -303,38 +308,58 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     k_ii = stiffness[interior][:, interior].tocsc()
     m_ii = mass[interior][:, interior].tocsc()
     k_ib = stiffness[interior][:, boundary].toarray()
-    # K_ii is symmetric positive definite when the interior is held: an L D L^T in a symmetric fill-reducing order
-    # with the diagonal as pivot (no row interchange, which on a shuffled mesh numbering would destroy the
-    # symmetric structure and multiply the fill)
-    try:
-        factor = scipy.sparse.linalg.splu(
-            k_ii, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-        )
-    except RuntimeError:
-        factor = None
-    pivots = factor.U.diagonal() if factor is not None else np.zeros(1)
-    if factor is None or pivots.min() <= 1e-13 * np.abs(pivots).max():
-        ratio = pivots.min() / np.abs(pivots).max() if factor is not None else 0.0
-        raise ValueError(
-            "the interior of the structure (every DOF but the boundary "
-            f"{[structure.dof_labels[d] for d in boundary]}) is singular to double precision when the boundary is "
-            f"held (smallest pivot of K_ii {ratio:.1e} of the largest): either it is free to move (hold the "
-            "structure: a clamped or pinned end; or add the free DOFs to boundary_dofs), or its stiffness is too "
-            "ill-conditioned (a beam's grows as the number of elements to the fourth: a mesh finer than a few "
-            "thousand elements gains no accuracy and loses it to round-off)"
-        )
-    costs["factorization"] = time.perf_counter() - started
-    started = time.perf_counter()
-    psi = -factor.solve(k_ib)
+    held = (
+        "either it is free to move (hold the structure: a clamped or pinned end; or add the free DOFs to "
+        "boundary_dofs), or its stiffness is too ill-conditioned"
+    )
+    root = None if structure.stiffness_root is None else scipy.sparse.csc_matrix(structure.stiffness_root)
+    if root is not None:
+        # K = G^T G: solve and condense through G (an augmented system), losing cond(G) = sqrt(cond K) digits
+        g_i = root[:, interior]
+        try:
+            solver = RootSolver(g_i)
+        except ValueError:
+            raise ValueError(f"the interior of the structure is singular when the boundary is held: {held}") from None
+        solve = solver.solve
+        costs["factorization"] = time.perf_counter() - started
+        started = time.perf_counter()
+        psi, _ = solver.least_squares(root[:, boundary].toarray())
+    else:
+        # K_ii is symmetric positive definite when the interior is held: an L D L^T in a symmetric fill-reducing
+        # order with the diagonal as pivot (no row interchange, which on a shuffled mesh numbering would destroy
+        # the symmetric structure and multiply the fill)
+        try:
+            factor = scipy.sparse.linalg.splu(
+                k_ii, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+            )
+        except RuntimeError:
+            factor = None
+        pivots = factor.U.diagonal() if factor is not None else np.zeros(1)
+        if factor is None or pivots.min() <= 1e-13 * np.abs(pivots).max():
+            ratio = pivots.min() / np.abs(pivots).max() if factor is not None else 0.0
+            raise ValueError(
+                "the interior of the structure (every DOF but the boundary "
+                f"{[structure.dof_labels[d] for d in boundary]}) is singular to double precision when the boundary "
+                f"is held (smallest pivot of K_ii {ratio:.1e} of the largest): {held} (a beam's grows as the number "
+                "of elements to the fourth: give its stiffness root, Structure.stiffness_root, as beams built by "
+                "the project do)"
+            )
+        solve = factor.solve
+        costs["factorization"] = time.perf_counter() - started
+        started = time.perf_counter()
+        psi = -factor.solve(k_ib)
     costs["constraint_modes"] = time.perf_counter() - started
     started = time.perf_counter()
     # one more mode than kept: the first neglected frequency is the a-priori error estimate
     wanted = min(n_modes + 1, len(interior))
-    omega, phi = _fixed_interface_modes(k_ii, m_ii, factor.solve, wanted)
+    omega, phi = _fixed_interface_modes(k_ii, m_ii, solve, wanted, None if root is None else root[:, interior])
+    if root is not None and wanted and omega[0] ** 2 <= 1e-26 * np.max(k_ii.diagonal() / m_ii.diagonal()):
+        raise ValueError(f"the interior of the structure is singular when the boundary is held: {held}")
     pairs = _reduced_rotation_pairs(structure, boundary, n_modes)
     if pairs is not None:  # the modes in pairs (phi, J phi): the reduced structure stays invariant under rotations
+        form = (lambda v: v.T @ (k_ii @ v)) if root is None else functools.partial(energy_matrix, root[:, interior])
         omega[:n_modes], phi[:, :n_modes] = _paired_modes(
-            phi, k_ii, m_ii, _rotation_of(structure, interior), n_modes, factor.solve
+            phi, m_ii, _rotation_of(structure, interior), n_modes, solve, form
         )
     next_frequency = float(omega[n_modes]) if n_modes < len(omega) else np.inf
     omega, phi = omega[:n_modes], phi[:, :n_modes]
@@ -348,10 +373,13 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     reduced_mass = recovery.T @ (mass @ recovery)
     reduced_mass = 0.5 * (reduced_mass + reduced_mass.T)
     reduced_mass[b:, b:] = np.eye(m)  # Phi^T M_ii Phi, mass-normalized
-    reduced_stiffness = np.zeros((b + m, b + m))
-    condensed = stiffness[boundary][:, boundary].toarray() + stiffness[boundary][:, interior] @ psi
-    reduced_stiffness[:b, :b] = 0.5 * (condensed + condensed.T)
-    reduced_stiffness[b:, b:] = np.diag(omega**2)
+    if root is not None:  # the Ritz projection (G T)^T (G T): a sum of squares, no cancellation
+        reduced_stiffness = energy_matrix(root, recovery)
+    else:
+        reduced_stiffness = np.zeros((b + m, b + m))
+        condensed = stiffness[boundary][:, boundary].toarray() + stiffness[boundary][:, interior] @ psi
+        reduced_stiffness[:b, :b] = 0.5 * (condensed + condensed.T)
+        reduced_stiffness[b:, b:] = np.diag(omega**2)
     if pairs is not None:  # invariant to round-off: made exactly so, averaged over the rotations by 90 degrees
         reduced_mass, reduced_stiffness = (_rotation_average(a, pairs) for a in (reduced_mass, reduced_stiffness))
     costs["projection"] = time.perf_counter() - started

@@ -25,6 +25,7 @@ import scipy.sparse
 import scipy.sparse.linalg
 
 from nnmstop.models.contact import BilateralStop, Stop, StopSet
+from nnmstop.models.stiffness_root import RootSolver, check_root
 from nnmstop.models.two_dof import ModelParameters, mass_matrix, stiffness_matrix
 
 __all__ = [
@@ -211,6 +212,11 @@ class Structure:
         condition (:mod:`nnmstop.hbm.system`, ``docs/methods/circular_clearance.md``). Checked: ``M`` and ``K``
         commute with the rotation generator :attr:`rotation_generator` to round-off, every stop that reads a
         rotated DOF is a circular clearance on one of the pairs.
+    stiffness_root : scipy.sparse matrix, shape (m, N), optional
+        ``G`` with ``K = G^T G`` (:mod:`nnmstop.models.stiffness_root`: the element strains), for a held
+        structure (no rigid-body mode). Where it is given, the linear modes and the reduction solve through
+        it, losing the condition of ``G`` instead of that of ``K`` (its square): what keeps a fine beam mesh
+        accurate. Checked: ``G^T G`` equals ``K`` to round-off.
 
     Examples
     --------
@@ -232,6 +238,7 @@ class Structure:
     attributes: dict | None = None
     reduction: object | None = None
     rotation_pairs: tuple | None = None
+    stiffness_root: object | None = None
 
     def __post_init__(self):
         mass = _square_matrix("mass", self.mass)
@@ -276,6 +283,8 @@ class Structure:
             )
         if self.rotation_pairs is not None:
             object.__setattr__(self, "rotation_pairs", _checked_rotation_pairs(self, self.rotation_pairs))
+        if self.stiffness_root is not None:
+            object.__setattr__(self, "stiffness_root", check_root(self.stiffness_root, stiffness))
 
     @property
     def n_dofs(self) -> int:
@@ -418,12 +427,14 @@ def two_dof_parameters(structure: Structure, purpose: str = "this method") -> Mo
     )
 
 
-def generalized_modes(mass, stiffness, n_modes: int):
+def generalized_modes(mass, stiffness, n_modes: int, root=None):
     """The ``n_modes`` lowest solutions of ``K phi = omega**2 M phi`` (``M``, ``K`` dense or sparse, symmetric).
 
     Both paths solve for the largest ``1 / (lambda - sigma)`` (``sigma = 0``, or a small negative shift when
     ``K`` is singular): dense ``eigh`` up to :data:`DENSE_EIGEN_LIMIT` degrees of freedom, shift-invert Lanczos
-    (``eigsh``) on sparse matrices above.
+    (``eigsh``) on sparse matrices above. With ``root`` (``K = G^T G``, positive definite), the sparse path
+    inverts through :class:`~nnmstop.models.stiffness_root.RootSolver` and each ``omega**2`` is the Rayleigh
+    quotient ``|G phi|^2`` of its mass-normalized shape (no cancellation).
 
     Returns
     -------
@@ -439,13 +450,14 @@ def generalized_modes(mass, stiffness, n_modes: int):
     # round-off on the low lambda is then relative to lambda itself, not to the largest eigenvalue as in a
     # direct solve (which loses about lambda_max / lambda_1 in relative accuracy: 1e-5 at 400 beam DOFs).
     # sigma = 0 when K is positive definite, a small negative shift when it has rigid-body modes.
-    if _is_positive_definite(stiffness):
+    if root is not None or _is_positive_definite(stiffness):
         sigma = 0.0
     else:
         diag_k = stiffness.diagonal() if scipy.sparse.issparse(stiffness) else np.diag(stiffness)
         diag_m = mass.diagonal() if scipy.sparse.issparse(mass) else np.diag(mass)
         sigma = -1e-6 * np.abs(diag_k).max() / diag_m.max()
     sparse = scipy.sparse.issparse(mass) and scipy.sparse.issparse(stiffness)
+    inverse = None
     if not sparse or n <= DENSE_EIGEN_LIMIT or n_modes >= n - 1:
         mass, stiffness = (a.toarray() if scipy.sparse.issparse(a) else np.asarray(a) for a in (mass, stiffness))
         mu, shapes = scipy.linalg.eigh(mass, stiffness - sigma * mass, subset_by_index=[n - n_modes, n - 1])
@@ -453,11 +465,18 @@ def generalized_modes(mass, stiffness, n_modes: int):
         lam = sigma + 1.0 / mu
     else:
         mass, stiffness = scipy.sparse.csc_matrix(mass), scipy.sparse.csc_matrix(stiffness)
+        if root is not None:  # the eigenvalues below become the Rayleigh quotients |G phi|^2
+            inverse = scipy.sparse.linalg.LinearOperator((n, n), matvec=RootSolver(root).solve, dtype=float)
         # a fixed start vector: the same Lanczos run, hence the same signs of the modes, on every call
-        lam, shapes = scipy.sparse.linalg.eigsh(stiffness, k=n_modes, M=mass, sigma=sigma, which="LM", v0=np.ones(n))
+        lam, shapes = scipy.sparse.linalg.eigsh(
+            stiffness, k=n_modes, M=mass, sigma=sigma, which="LM", v0=np.ones(n), OPinv=inverse
+        )
         order = np.argsort(lam)
         lam, shapes = lam[order], shapes[:, order]
     shapes = shapes / np.sqrt(np.einsum("ij,ij->j", shapes, mass @ shapes))
+    if inverse is not None:
+        strains = root @ shapes
+        lam = np.einsum("ij,ij->j", strains, strains)
     # Rigid-body modes have eigenvalue 0 up to round-off of the order of eps ||K|| ||M^-1||; clip the
     # negative ones.
     return np.sqrt(np.maximum(lam, 0.0)), shapes
@@ -482,7 +501,9 @@ def normal_modes(structure: Structure, n_modes: int | None = None):
     >>> [round(float(w), 3) for w in omega], shapes.shape
     ([0.618, 1.618], (2, 2))
     """
-    return generalized_modes(structure.mass, structure.stiffness, _mode_count(structure, n_modes))
+    return generalized_modes(
+        structure.mass, structure.stiffness, _mode_count(structure, n_modes), root=structure.stiffness_root
+    )
 
 
 def linear_frequencies(structure: Structure, n_modes: int | None = None) -> np.ndarray:
