@@ -67,6 +67,9 @@ logger = logging.getLogger("nnmstop.models.reduction")
 #: Keys of a configuration's ``reduction`` section (:func:`reduce_structure`).
 REDUCTION_KEYS = ("modes", "boundary_dofs")
 
+#: Most subspace inverse-iteration steps refining the paired modes of a structure invariant under rotations.
+REFINEMENT_STEPS = 200
+
 #: Largest number of nodes whose DOFs a dataset's recovery matrix keeps (:func:`recovered_rows`).
 RECOVERED_NODES = 1001
 
@@ -219,13 +222,15 @@ def _rotation_average(matrix, pairs) -> np.ndarray:
     return 0.25 * average
 
 
-def _paired_modes(phi, m_ii, rotation, n_modes: int, solve, stiffness_form, iterations: int = 3):
+def _paired_modes(phi, omega, m_ii, rotation, n_modes: int, solve, stiffness_form):
     """``n_modes`` fixed-interface modes as pairs ``(u, J u)`` spanning the lowest eigenspaces of ``phi``.
 
-    The eigenspaces are first refined by ``iterations`` steps of subspace inverse iteration (``solve``: ``K_ii^-1``)
-    and a Rayleigh-Ritz projection (``stiffness_form(V)``: ``V^T K_ii V``): a dense eigensolver's lowest modes carry
-    errors of about ``eps`` times the stiffness' condition number, which move with the BLAS threads and kernels; the
-    inverse iteration damps them by the ratio of each mode's eigenvalue to the others'.
+    The eigenspaces are first refined by subspace inverse iteration (``solve``: ``K_ii^-1``) and a Rayleigh-Ritz
+    projection (``stiffness_form(V)``: ``V^T K_ii V``): a dense eigensolver's lowest modes carry errors of about
+    ``eps`` times the stiffness' condition number, which move with the BLAS threads and kernels. Each step damps an
+    error along a neglected mode by the ratio of the eigenvalues, slowest the last kept pair's against the first
+    neglected one (``omega``: the solver's frequencies, one beyond the kept); enough steps are taken to damp it by
+    ``1e-10``, so that the pairs are the same on every CPU to round-off.
 
     An eigensolver returns a degenerate pair as any basis of its plane, which moves with round-off: each plane is
     spanned here by ``u`` and ``J u`` with ``u`` the vector of the plane with the most of its norm on the first DOF
@@ -234,12 +239,14 @@ def _paired_modes(phi, m_ii, rotation, n_modes: int, solve, stiffness_form, iter
     the same on every CPU.
     """
     first = np.asarray(rotation.sum(axis=0)).ravel() > 0  # J e_i = e_j: the column of a pair's first DOF i sums to 1
+    ratio = (omega[n_modes - 1] / omega[n_modes]) ** 2 if len(omega) > n_modes else 0.0
+    iterations = 3 if ratio < 1e-3 else min(REFINEMENT_STEPS, int(np.ceil(np.log(1e-10) / np.log(min(ratio, 0.99)))))
     phi = phi[:, :n_modes]
-    for _ in range(iterations):
+    for _ in range(iterations):  # subspace iteration, Rayleigh-Ritz at each step (keeps the columns apart)
         phi = solve(m_ii @ phi)
         phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
-    _, ritz = scipy.linalg.eigh(stiffness_form(phi), phi.T @ (m_ii @ phi))
-    phi = phi @ ritz
+        _, ritz = scipy.linalg.eigh(stiffness_form(phi), phi.T @ (m_ii @ phi))
+        phi = phi @ ritz
     basis = []
     for k in range(phi.shape[1]):
         if len(basis) >= n_modes:
@@ -359,7 +366,7 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     if pairs is not None:  # the modes in pairs (phi, J phi): the reduced structure stays invariant under rotations
         form = (lambda v: v.T @ (k_ii @ v)) if root is None else functools.partial(energy_matrix, root[:, interior])
         omega[:n_modes], phi[:, :n_modes] = _paired_modes(
-            phi, m_ii, _rotation_of(structure, interior), n_modes, solve, form
+            phi, omega, m_ii, _rotation_of(structure, interior), n_modes, solve, form
         )
     next_frequency = float(omega[n_modes]) if n_modes < len(omega) else np.inf
     omega, phi = omega[:n_modes], phi[:, :n_modes]
