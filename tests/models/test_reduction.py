@@ -191,3 +191,74 @@ def test_matrices_from_files_reduce_through_the_configuration(tmp_path):
         {"structure": {"kind": "matrices", "matrices": matrices, "reduction": {"modes": 2}}}
     )
     np.testing.assert_allclose(normal_modes(everything, 3)[0], normal_modes(full, 3)[0], rtol=1e-12)
+
+
+def _in_circular_holes(n_elements: int):
+    from nnmstop.tasks.tube import in_circular_holes
+
+    return beam_structure(Beam.from_parameters(in_circular_holes(tube_plates_parameters(n_elements), "tube_plates")))
+
+
+def test_circular_stops_reduce_onto_both_components_with_paired_modes():
+    """A tube bending in two planes in circular holes: the boundary holds both transverse DOFs of each plate, the
+    modes come in pairs (u, J u) and the reduced structure stays invariant under the rotations about the axis; in
+    each plane it is the one-plane tube's reduction (the same boundary and modes, the same matrices to round-off)."""
+    holes, one_plane = _in_circular_holes(12), beam_structure(Beam.from_parameters(tube_plates_parameters(12)))
+    reduced, planar = craig_bampton(holes, 8), craig_bampton(one_plane, 4)
+    labels = reduced.dof_labels
+    assert labels[:6] == ("w3", "w6", "w9", "v3", "v6", "v9")
+    for full_stop, stop in zip(holes.stops, reduced.stops):
+        assert [reduced.reduction.boundary[d] for d in stop.dofs] == list(full_stop.dofs)
+    assert reduced.rotation_pairs == ((0, 3), (1, 4), (2, 5), (6, 7), (8, 9), (10, 11), (12, 13))
+    J = reduced.rotation_generator.toarray()
+    M, K = reduced.dense_matrices()
+    for matrix in (M, K):  # made invariant to the last bits (averaged over the rotations)
+        np.testing.assert_allclose(J @ matrix, matrix @ J, rtol=0, atol=4e-16 * np.abs(matrix).max())
+    np.testing.assert_array_equal(reduced.reduction.mode_frequencies[0::2], reduced.reduction.mode_frequencies[1::2])
+    # plane 1: the boundary w DOFs and the first member of each pair against the one-plane reduction
+    first = [0, 1, 2, 6, 8, 10, 12]
+    Mp, Kp = planar.dense_matrices()
+    np.testing.assert_allclose(M[np.ix_(first, first)], Mp, rtol=0, atol=1e-12 * np.abs(Mp).max())
+    np.testing.assert_allclose(K[np.ix_(first, first)], Kp, rtol=0, atol=1e-12 * np.abs(Kp).max())
+    n = one_plane.n_dofs
+    np.testing.assert_allclose(reduced.reduction.recovery[:n, first], planar.reduction.recovery, atol=1e-12)
+    np.testing.assert_allclose(reduced.reduction.recovery[n:, first], 0.0, atol=1e-12)
+
+
+def test_circular_stops_need_whole_pairs_of_modes_and_a_turned_boundary():
+    holes = _in_circular_holes(12)
+    with pytest.raises(ValueError, match="n_modes must be even"):
+        craig_bampton(holes, 5)
+    # a boundary DOF in one plane only (a forced DOF) breaks the invariance: reduced without rotation pairs
+    one_sided = craig_bampton(holes, 5, boundary_dofs=[holes.dof_labels.index("w4")])
+    assert one_sided.rotation_pairs is None and "w4" in one_sided.dof_labels
+
+
+def test_paired_modes_do_not_depend_on_the_basis_the_eigensolver_returns(monkeypatch):
+    """A degenerate pair comes out of an eigensolver as any basis of its plane, with errors that move with the BLAS
+    threads: the Lanczos solve and the dense one, and the dense one's modes turned by arbitrary angles within each
+    plane, give the same reduced structure to round-off."""
+    from nnmstop.models import reduction
+
+    holes = _in_circular_holes(24)
+    dense = craig_bampton(holes, 8)
+    original = reduction._fixed_interface_modes
+    rng = np.random.default_rng(7)
+
+    def turned(k_ii, m_ii, solve, n_wanted, *root):
+        omega, phi = original(k_ii, m_ii, solve, n_wanted, *root)
+        phi = phi.copy()
+        for k in range(0, n_wanted - 1, 2):
+            c, s = np.cos(rng.uniform(0, 2 * np.pi)), np.sin(rng.uniform(0, 2 * np.pi))
+            phi[:, k : k + 2] = phi[:, k : k + 2] @ np.array([[c, -s], [s, c]]) / np.hypot(c, s)
+        return omega, phi
+
+    monkeypatch.setattr(reduction, "_fixed_interface_modes", turned)
+    perturbed = craig_bampton(holes, 8)
+    monkeypatch.setattr(reduction, "_fixed_interface_modes", original)
+    monkeypatch.setattr(reduction, "DENSE_EIGEN_LIMIT", 0)  # shift-invert Lanczos instead
+    lanczos = craig_bampton(holes, 8)
+    for other in (perturbed, lanczos):
+        for a, b in zip(dense.dense_matrices(), other.dense_matrices()):
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * np.abs(a).max())
+        np.testing.assert_allclose(dense.reduction.recovery, other.reduction.recovery, rtol=0, atol=1e-11)

@@ -10,7 +10,7 @@ from nnmstop.study.error_runtime import sweep_cases
 from nnmstop.study.runs import format_number
 from nnmstop.study.stiff_cases import stiff_case_parameters
 from nnmstop.tasks.tube import circular_hole_config, tube_config
-from nnmstop.tasks.tube_plates import plates_config
+from nnmstop.tasks.tube_plates import plates_circular_config, plates_config
 
 
 def results(path):
@@ -354,10 +354,62 @@ def plates_task_config(*sections, branches=False):
 
 
 def plates_manifest_datasets():
-    """Every dataset of the tube on plates: its branches and their stages, and the forced response."""
+    """Every dataset of the tube on plates: its branches and their stages, the forced response (and the tube on plates
+    in circular holes' branches and stages when `tube_plates.circular_hole` is configured)."""
     branches = config["tube_plates"]["branches"]
     stages = [path for branch in branches for path in plates_stage_files(branch)]
-    return [plates_file(name) for name in branches] + stages + [plates_forced_file()]
+    circular = [path for branch in plates_circular_branches() for path in plates_circular_stage_files(branch)]
+    circular += list(plates_circular_datasets().values())
+    return [plates_file(name) for name in branches] + stages + [plates_forced_file()] + circular
+
+
+# The tube on plates in a circular hole at each plate (`tube_plates.circular_hole`, rules tube_plates_circular_*):
+# figures of every branch of the scene.
+PLATES_CIRCULAR_FIGURES = ("wear", "hole_shapes", "hole_contact")
+
+
+def plates_circular_branches():
+    """The branches of the tube on plates in circular holes: none when `tube_plates.circular_hole` is not configured."""
+    return config["tube_plates"].get("circular_hole", {}).get("branches", {})
+
+
+def plates_circular_datasets():
+    """The branch datasets of the tube on plates in circular holes, by branch name."""
+    return {branch: plates_file(f"circular/{branch}") for branch in plates_circular_branches()}
+
+
+def plates_circular_stage_files(branch):
+    """The stage datasets of a branch of the tube on plates in circular holes, in order."""
+    count = len(plates_circular_branches()[branch]["stages"])
+    return [plates_file(f"circular/stages/{branch}_stage{k}") for k in range(1, count + 1)]
+
+
+def plates_circular_previous_stage(wildcards):
+    """Stage k > 1 of a branch of the tube on plates in circular holes starts from the dataset of stage k - 1."""
+    stage = int(wildcards.stage)
+    return {"previous": plates_circular_stage_files(wildcards.branch)[stage - 2]} if stage > 1 else {}
+
+
+def plates_circular_outputs():
+    """What the tube_plates target builds of the circular holes: branches and figures (none when not configured)."""
+    if not plates_circular_branches():
+        return []
+    figures = expand(paper_figures("tube_plates_circular_{figure}.{ext}"), figure=PLATES_CIRCULAR_FIGURES, ext=("pdf", "png"))
+    return list(plates_circular_datasets().values()) + figures
+
+
+def plates_circular_task_config(*sections, branches=False):
+    """`params: config=...` of a tube_plates_circular rule: `sections` of
+    nnmstop.tasks.tube_plates.plates_circular_config, and with `branches` only the rule's own branch."""
+
+    def config_of_job(wildcards):
+        shaped = plates_circular_config(config)
+        sliced = {name: shaped[name] for name in sections}
+        if branches:
+            sliced["branches"] = {wildcards.branch: shaped["branches"][wildcards.branch]}
+        return sliced
+
+    return config_of_job
 
 
 def plates_forced_file():
@@ -553,6 +605,7 @@ def built_figures():
     if "tube_plates" in config:
         candidates += expand(paper_figures("tube_plates_{figure}.{ext}"), figure=PLATES_FIGURES + ("forced",),
                              ext=("pdf", "png"))
+        candidates += [path for path in plates_circular_outputs() if path.startswith(paper_figures(""))]
     if "atlas" in config:
         candidates += expand(paper_figures("atlas_{map}.{ext}"), map=atlas_map_names(), ext=("pdf", "png"))
     return PAPER_FIGURES + [path for path in candidates if path not in PAPER_FIGURES and os.path.exists(path)]

@@ -1,7 +1,9 @@
 # Issue 32: a tube on several support plates (the `tube_plates` section), reduced onto the plates' DOFs
 # (Craig-Bampton, nnmstop.models.reduction): the HBM and structure tasks of any structure on the reduced
 # structure (NNM1 with its stability, figures of the deformed tube and of each plate's contact force), and its
-# forced response. `snakemake --cores 2 tube_plates` builds all of it. Tasks: nnmstop.tasks.tube_plates;
+# forced response; with `tube_plates.circular_hole` the same tube bending in two planes in a circular hole at each
+# plate (planar and whirling branches, results/tube_plates/circular/). `snakemake --cores 2 tube_plates` builds all
+# of it. Tasks: nnmstop.tasks.tube_plates;
 # helpers (plates_file, plates_task_config, ...): workflow/rules/common.smk.
 
 rule tube_plates_stage:
@@ -102,9 +104,73 @@ rule tube_plates_forced_figure:
         "../scripts/run_task.py"
 
 
+rule tube_plates_circular_stage:
+    """One continuation stage of a branch of the reduced tube on plates in circular holes
+    (`tube_plates.circular_hole.branches`: planar or whirling)."""
+    input:
+        unpack(plates_circular_previous_stage),
+    output:
+        dataset=results("tube_plates/circular/stages/{branch}_stage{stage}.nc"),
+    wildcard_constraints:
+        branch="(nnm|whirl)[0-9]+",
+        stage=r"\d+",
+    log:
+        logs("tube_plates/circular_{branch}_stage{stage}.log"),
+    benchmark:
+        benchmarks("tube_plates_circular_{branch}_stage{stage}.tsv")
+    params:
+        config=plates_circular_task_config("structure", "hbm", "anm", "stability", "metadata", branches=True),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule tube_plates_circular_branch:
+    """A branch of the reduced tube on plates in circular holes: its stages joined."""
+    input:
+        stages=lambda wildcards: plates_circular_stage_files(wildcards.branch),
+    output:
+        dataset=results("tube_plates/circular/{branch}.nc"),
+    wildcard_constraints:
+        branch="(nnm|whirl)[0-9]+",
+    log:
+        logs("tube_plates/circular_{branch}.log"),
+    benchmark:
+        benchmarks("tube_plates_circular_{branch}.tsv")
+    params:
+        config=plates_circular_task_config("metadata"),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
+rule tube_plates_circular_figure:
+    """paper_figures/tube_plates_circular_<figure>.{pdf,png}: the branches in circular holes, their wear power per
+    plate, the deformed tube in both planes, each plate's orbit in its hole and radial contact force."""
+    input:
+        unpack(lambda wildcards: plates_circular_datasets()),
+    output:
+        pdf=paper_figures("tube_plates_circular_{figure}.pdf"),
+        png=report(paper_figures("tube_plates_circular_{figure}.png"), category="Tube on plates", subcategory="circular holes"),
+    wildcard_constraints:
+        figure="|".join(PLATES_CIRCULAR_FIGURES),
+    log:
+        logs("tube_plates/circular_figure_{figure}.log"),
+    benchmark:
+        benchmarks("tube_plates_circular_figure_{figure}.tsv")
+    params:
+        config=plates_circular_task_config("figures"),
+    conda:
+        "../envs/nnmstop.yaml"
+    script:
+        "../scripts/run_task.py"
+
+
 rule tube_plates_manifest:
-    """results/tube_plates/MANIFEST.sha256 over the tube on plates' branches, stages and forced response (recorded
-    by update_reference, checked by verify)."""
+    """results/tube_plates/MANIFEST.sha256 over the tube on plates' branches, stages and forced response, and its
+    branches in circular holes when configured (recorded by update_reference, checked by verify)."""
     input:
         datasets=plates_manifest_datasets(),
     output:
@@ -122,10 +188,11 @@ rule tube_plates_manifest:
 
 
 rule tube_plates:
-    """Everything of the tube on plates: NNM1 (stability included), its figures, the forced response and the
-    manifest."""
+    """Everything of the tube on plates: NNM1 (stability included), its figures, the forced response, the branches in
+    circular holes (`tube_plates.circular_hole`) with their figures, and the manifest."""
     input:
         rules.tube_plates_manifest.output.manifest,
         [plates_file(name) for name in config["tube_plates"]["branches"]],
         expand(paper_figures("tube_plates_{figure}.{ext}"), figure=PLATES_FIGURES, ext=("pdf", "png")),
         rules.tube_plates_forced_figure.output,
+        plates_circular_outputs(),

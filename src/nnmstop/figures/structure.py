@@ -5,7 +5,9 @@ resonance tongues passed marked), the exact NNM1, the linear frequencies (no con
 Euler-Bernoulli); ``shapes`` (finite-element beams): deformed shapes over half a period at the configured
 energies; ``contact_force``: the stop force over a period at those energies; ``exact_vs_regularized``:
 the relative frequency difference at matched energies; ``wear``: every branch's frequency and, at each stop, the wear
-power and impact work rate of its orbits along the energy (:mod:`nnmstop.wear`).
+power and impact work rate of its orbits along the energy (:mod:`nnmstop.wear`); ``hole_shapes`` and
+``hole_contact`` (a beam in circular holes): each branch's deformed shapes in both planes, and each plate's
+contact point in its hole with its radial contact force.
 """
 
 from __future__ import annotations
@@ -220,8 +222,9 @@ def _orbit_samples(ds, i: int, samples: int):
     return q, f
 
 
-def _deflection(ds, q, s):
-    """Deflection ``w / gap`` at positions ``s`` from DOF vectors ``q`` (..., dof) of a beam's branch dataset.
+def _deflection(ds, q, s, plane: int = 1):
+    """Deflection ``w / gap`` (``v / gap`` in the second ``plane`` of a beam bending in two) at positions ``s`` from
+    DOF vectors ``q`` (..., dof) of a beam's branch dataset.
 
     A reduced structure's DOFs go through the dataset's ``recovery`` onto the full mesh's DOFs it keeps, whose
     nodes the Hermite shape functions then interpolate between."""
@@ -239,7 +242,7 @@ def _deflection(ds, q, s):
     nodes = np.searchsorted(kept, full_nodes)
     coordinates = ds.node_coordinate.values[kept]
     shape = SimpleNamespace(dof_labels=labels, dof_nodes=nodes, node_coordinates=coordinates, n_dofs=len(labels))
-    return beam_deflection(shape, q, s)
+    return beam_deflection(shape, q, s, plane)
 
 
 def _stop_positions(ds) -> np.ndarray:
@@ -426,12 +429,109 @@ def _wear(fig, data, spec):
     fig.suptitle(f"{_structure_name(data[names[0]])}: branches and the wear of the stops", fontsize=10)
 
 
+def _hole_energies(ds, name: str, spec) -> list:
+    """The configured energies (``energies``) a branch reaches, each drawn at the point nearest to it."""
+    reached = [e for e in spec["energies"] if e <= float(ds.energy.values.max())]
+    if not reached:
+        raise ValueError(
+            f"branch {name} reaches energy {float(ds.energy.values.max()):.4g}, below every configured figure energy "
+            f"{list(spec['energies'])}"
+        )
+    return reached
+
+
+def _hole_orbit(ds, i: int, samples: int):
+    """``(x, y, radial force)`` of every circular stop of point ``i`` over one period: the stop's two displacements
+    over its gap (``(stop, samples)`` each) and the magnitude of its regularized force."""
+    H = int(ds.attrs["harmonics"])
+    q, f = _orbit_samples(ds, i, samples)
+    f2 = fourier.to_time(fourier.from_cos_sin(ds.f2_cos.values[i], ds.f2_sin.values[i]), H, samples)
+    gaps = ds.stop_gap.values[:, None]
+    return q[ds.stop_dof.values] / gaps, q[ds.stop_other_dof.values] / gaps, np.hypot(f, f2)
+
+
+def _circular_stops(data) -> list:
+    names = sorted(data)
+    flat = [name for name in names if "f2_cos" not in data[name] or "stop_other_dof" not in data[name]]
+    if not names or flat:
+        raise ValueError(f"the hole figures draw branches of a structure in circular holes, got {flat or 'none'}")
+    return names
+
+
+def _hole_shapes(fig, data, spec):
+    """Each branch (a row): the deformed tube in both planes over half a period at the largest configured energy it
+    reaches, drawn on the full mesh (the holes' diameters as black bars at each plate)."""
+    names = _circular_stops(data)
+    axes = fig.subplots(len(names), 2, sharey=True, squeeze=False)
+    m = 2 * int(spec.get("shape_samples", 9) - 1)
+    s = np.linspace(0.0, 1.0, 401)
+    for row, name in zip(axes, names):
+        ds = data[name]
+        i = point_at_energy(ds.energy.values, _hole_energies(ds, name, spec)[-1])
+        q, _ = _orbit_samples(ds, i, m * (1 + (2 * int(ds.attrs["harmonics"]) + 1) // m))
+        instants = q[:, : q.shape[1] // 2 + 1 : q.shape[1] // m].T
+        gaps = np.atleast_1d(ds.attrs["stop_gap_m"]) / float(ds.attrs["length_unit_m"])
+        for plane, ax in zip((1, 2), row):
+            for shape, phase in zip(_deflection(ds, instants, s, plane), np.linspace(0.0, 0.5, len(instants))):
+                ax.plot(shape, s, color=SHAPE_COLORS(2.0 * phase), lw=0.9)
+            for s_stop, gap in zip(_stop_positions(ds), gaps):
+                ax.axhline(s_stop, color="0.6", lw=0.6)
+                for side in (-gap, gap):
+                    ax.plot([side, side], [s_stop - 0.03, s_stop + 0.03], "k-", lw=2)
+            ax.set_title(f"{_branch_label(name, ds)}, E = {ds.energy.values[i]:.3g}: plane {plane}", fontsize=9)
+            ax.set_xlabel(f"deflection {'w' if plane == 1 else 'v'} / gap")
+        row[0].set_ylabel("position s / L (foot at 0)")
+    bar = fig.colorbar(ScalarMappable(Normalize(0.0, 0.5), SHAPE_COLORS), ax=list(axes.ravel()), fraction=0.025)
+    bar.set_label("instant t / T (half a period)")
+    fig.suptitle(
+        f"{_structure_name(data[names[0]])}: deformed shapes in both planes\n(plates: the hole's diameter in black;"
+        " reduced orbits drawn on the full mesh)",
+        fontsize=10,
+    )
+
+
+def _hole_contact(fig, data, spec):
+    """Each branch (two rows): the orbit of every plate's contact point in its hole (the clearance circle drawn) and
+    the magnitude of its radial contact force over one period, at each configured energy the branch reaches."""
+    names = _circular_stops(data)
+    stops = int(data[names[0]].attrs["stops"])
+    axes = fig.subplots(2 * len(names), stops, squeeze=False)
+    circle = np.linspace(0.0, 2.0 * np.pi, 361)
+    for k, name in enumerate(names):
+        ds = data[name]
+        samples = 8 * int(ds.attrs["harmonics"]) + 8
+        t = np.arange(samples + 1) / samples
+        places = _stop_positions(ds)
+        for i in sorted({point_at_energy(ds.energy.values, target) for target in _hole_energies(ds, name, spec)}):
+            x, y, force = _hole_orbit(ds, i, samples)
+            label = f"E = {ds.energy.values[i]:.3g}"
+            for j in range(stops):
+                axes[2 * k, j].plot(np.append(x[j], x[j, 0]), np.append(y[j], y[j, 0]), lw=1.0, label=label)
+                axes[2 * k + 1, j].plot(t, np.append(force[j], force[j, 0]), lw=1.0, label=label)
+        for j in range(stops):
+            orbit, radial = axes[2 * k, j], axes[2 * k + 1, j]
+            orbit.plot(np.cos(circle), np.sin(circle), color="k", lw=1.2)
+            orbit.set_aspect("equal", adjustable="datalim")
+            orbit.set_title(f"{name}: plate {j + 1} at s / L = {places[j]:.3g}", fontsize=8)
+            orbit.set_xlabel("x / gap", fontsize=8)
+            radial.set_xlabel("instant t / T", fontsize=8)
+        axes[2 * k, 0].set_ylabel("y / gap (circle: the clearance)", fontsize=8)
+        axes[2 * k + 1, 0].set_ylabel("|F| radial (nondim.)", fontsize=8)
+        axes[2 * k + 1, 0].legend(fontsize=7, title=_branch_label(name, ds), title_fontsize=7)
+    fig.suptitle(
+        f"{_structure_name(data[names[0]])}: each plate's contact point in its hole and its radial contact force",
+        fontsize=10,
+    )
+
+
 STRUCTURE_FIGURES = {
     "frequency_energy": (_frequency_energy, (11.0, 9.0)),
     "shapes": (_shapes, (10.0, 4.5)),
     "contact_force": (_contact_force, (10.0, 4.0)),
     "exact_vs_regularized": (_exact_vs_regularized, (7.5, 6.8)),
     "wear": (_wear, (8.5, 7.5)),
+    "hole_shapes": (_hole_shapes, (9.0, 8.0)),
+    "hole_contact": (_hole_contact, (10.0, 11.0)),
 }
 
 

@@ -951,11 +951,16 @@ class HarmonicBalanceSystem:
     def truncation(self, U) -> float:
         """Truncation indicator of an orbit: :meth:`truncation_indicator` of the stop DOFs' ``q''`` and of ``f``.
 
-        The largest over the stops and the two series.
+        The largest over the stops and the two series; a series below ``1e-12`` of the largest of its kind is left
+        out: it carries round-off only (the second component of a circular clearance on a planar orbit), whose
+        spread over the harmonics means nothing.
         """
         Q, F, _, lam, _ = self._fields(U)
-        series = [lam * (Q[dof] * self._d2) for dof in self._stop_rows] + list(F)
-        return max(self.truncation_indicator(c) for c in series)
+        indicators = []
+        for series in ([lam * (Q[dof] * self._d2) for dof in self._stop_rows], list(F)):
+            sizes = [np.abs(c).max() for c in series]
+            indicators += [self.truncation_indicator(c) for c, size in zip(series, sizes) if size > 1e-12 * max(sizes)]
+        return max(indicators, default=0.0)
 
     def truncation_indicator(self, c, share: float = 0.1):
         """Fraction of the mean square of series ``c`` in the top ``share`` of the harmonics."""

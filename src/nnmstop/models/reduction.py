@@ -39,6 +39,7 @@ For example, a clamped-free beam of 40 elements with one stop, reduced onto its 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import time
 from dataclasses import dataclass
@@ -65,6 +66,9 @@ logger = logging.getLogger("nnmstop.models.reduction")
 
 #: Keys of a configuration's ``reduction`` section (:func:`reduce_structure`).
 REDUCTION_KEYS = ("modes", "boundary_dofs")
+
+#: Most subspace inverse-iteration steps refining the paired modes of a structure invariant under rotations.
+REFINEMENT_STEPS = 200
 
 #: Largest number of nodes whose DOFs a dataset's recovery matrix keeps (:func:`recovered_rows`).
 RECOVERED_NODES = 1001
@@ -135,12 +139,12 @@ class Reduction:
 def contact_dofs(structure: Structure) -> np.ndarray:
     """Sorted indices of every DOF a stop of ``structure`` reads (the boundary of the reduction).
 
-    Every stop reads one DOF today (``Stop.dof``); a stop that reads several (a relative or circular
-    stop) adds all of them, through its ``dofs`` when it has that attribute.
+    A stop that reads several DOFs (a relative stop, a circular clearance's two components) adds all of them
+    (``Stop.dofs``).
     """
     dofs = []
     for stop in structure.stops:
-        dofs.extend(getattr(stop, "dofs", (stop.dof,)))
+        dofs.extend(stop.dofs)
     return np.unique(np.asarray(dofs, dtype=int))
 
 
@@ -179,6 +183,92 @@ def _mode_signs(phi) -> np.ndarray:
     magnitude = np.abs(phi)
     first = np.argmax(magnitude > 0.01 * magnitude.max(axis=0), axis=0)
     return np.where(phi[first, np.arange(phi.shape[1])] < 0, -1.0, 1.0)
+
+
+def _reduced_rotation_pairs(structure: Structure, boundary, n_modes: int):
+    """The rotation pairs of the reduced structure (``None`` when the full one has none, or when the boundary is not
+    turned into itself by the rotations, as with a forced DOF in one plane): the boundary's own pairs, then the kept
+    modes two by two. An invariant structure's modes come in pairs, and a pair is kept whole or not at all."""
+    if structure.rotation_pairs is None:
+        return None
+    position = {int(d): k for k, d in enumerate(boundary)}
+    inside = [(i in position, j in position) for i, j in structure.rotation_pairs]
+    if any(a != b for a, b in inside):
+        return None
+    if n_modes % 2:
+        raise ValueError(
+            f"n_modes must be even for a structure invariant under rotations (its modes come in pairs), got {n_modes}"
+        )
+    pairs = [(position[i], position[j]) for (i, j), (a, _) in zip(structure.rotation_pairs, inside) if a]
+    b = len(boundary)
+    return tuple(pairs) + tuple((b + k, b + k + 1) for k in range(0, n_modes, 2))
+
+
+def _rotation_of(structure: Structure, interior) -> scipy.sparse.csr_matrix:
+    """The rotation generator ``J`` restricted to the interior DOFs (closed under the rotations)."""
+    return scipy.sparse.csr_matrix(structure.rotation_generator[interior][:, interior])
+
+
+def _rotation_average(matrix, pairs) -> np.ndarray:
+    """``matrix`` averaged over the rotations of ``pairs`` by multiples of 90 degrees: it then commutes with them."""
+    quarter = np.eye(len(matrix))
+    for i, j in pairs:
+        quarter[[i, j], [i, j]] = 0.0
+        quarter[j, i], quarter[i, j] = 1.0, -1.0
+    average, turn = np.zeros_like(matrix), np.eye(len(matrix))
+    for _ in range(4):
+        average += turn.T @ matrix @ turn
+        turn = turn @ quarter
+    return 0.25 * average
+
+
+def _paired_modes(phi, omega, m_ii, rotation, n_modes: int, solve, stiffness_form):
+    """``n_modes`` fixed-interface modes as pairs ``(u, J u)`` spanning the lowest eigenspaces of ``phi``.
+
+    The eigenspaces are first refined by subspace inverse iteration (``solve``: ``K_ii^-1``) and a Rayleigh-Ritz
+    projection (``stiffness_form(V)``: ``V^T K_ii V``): a dense eigensolver's lowest modes carry errors of about
+    ``eps`` times the stiffness' condition number, which move with the BLAS threads and kernels. Each step damps an
+    error along a neglected mode by the ratio of the eigenvalues, slowest the last kept pair's against the first
+    neglected one (``omega``: the solver's frequencies, one beyond the kept); enough steps are taken to damp it by
+    ``1e-10``, so that the pairs are the same on every CPU to round-off.
+
+    An eigensolver returns a degenerate pair as any basis of its plane, which moves with round-off: each plane is
+    spanned here by ``u`` and ``J u`` with ``u`` the vector of the plane with the most of its norm on the first DOF
+    of each rotation pair (a least-squares choice, as accurate as the plane itself: for a beam bending in two
+    planes, the first plane's shape), its sign by the rule of :func:`_mode_signs`, so that the modal coordinates are
+    the same on every CPU.
+    """
+    first = np.asarray(rotation.sum(axis=0)).ravel() > 0  # J e_i = e_j: the column of a pair's first DOF i sums to 1
+    ratio = (omega[n_modes - 1] / omega[n_modes]) ** 2 if len(omega) > n_modes else 0.0
+    iterations = 3 if ratio < 1e-3 else min(REFINEMENT_STEPS, int(np.ceil(np.log(1e-10) / np.log(min(ratio, 0.99)))))
+    phi = phi[:, :n_modes]
+    for _ in range(iterations):  # subspace iteration, Rayleigh-Ritz at each step (keeps the columns apart)
+        phi = solve(m_ii @ phi)
+        phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
+        _, ritz = scipy.linalg.eigh(stiffness_form(phi), phi.T @ (m_ii @ phi))
+        phi = phi @ ritz
+    basis = []
+    for k in range(phi.shape[1]):
+        if len(basis) >= n_modes:
+            break
+        vector = phi[:, k].copy()
+        for kept in basis:
+            vector -= kept * (kept @ (m_ii @ vector))
+        norm = np.sqrt(vector @ (m_ii @ vector))
+        if norm < 0.5:  # in the span of the modes kept already (the pair's second member)
+            continue
+        plane = np.column_stack([vector / norm, rotation @ (vector / norm)])
+        on_first = plane[first]
+        _, directions = np.linalg.eigh(on_first.T @ on_first)
+        u = plane @ directions[:, -1]
+        u *= _mode_signs(u[:, None])[0]
+        basis += [u, rotation @ u]
+    if len(basis) < n_modes:
+        raise ValueError(f"the fixed-interface modes do not come in {n_modes // 2} pairs turned by the rotations")
+    paired = np.column_stack(basis[:n_modes])
+    omega = np.sqrt(np.maximum(np.diag(stiffness_form(paired)), 0.0))
+    omega = np.repeat(0.5 * (omega[0::2] + omega[1::2]), 2)
+    return omega, paired
 
 
 def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Structure:
@@ -272,6 +362,12 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     omega, phi = _fixed_interface_modes(k_ii, m_ii, solve, wanted, None if root is None else root[:, interior])
     if root is not None and wanted and omega[0] ** 2 <= 1e-26 * np.max(k_ii.diagonal() / m_ii.diagonal()):
         raise ValueError(f"the interior of the structure is singular when the boundary is held: {held}")
+    pairs = _reduced_rotation_pairs(structure, boundary, n_modes)
+    if pairs is not None:  # the modes in pairs (phi, J phi): the reduced structure stays invariant under rotations
+        form = (lambda v: v.T @ (k_ii @ v)) if root is None else functools.partial(energy_matrix, root[:, interior])
+        omega[:n_modes], phi[:, :n_modes] = _paired_modes(
+            phi, omega, m_ii, _rotation_of(structure, interior), n_modes, solve, form
+        )
     next_frequency = float(omega[n_modes]) if n_modes < len(omega) else np.inf
     omega, phi = omega[:n_modes], phi[:, :n_modes]
     costs["eigensolve"] = time.perf_counter() - started
@@ -291,6 +387,8 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
         condensed = stiffness[boundary][:, boundary].toarray() + stiffness[boundary][:, interior] @ psi
         reduced_stiffness[:b, :b] = 0.5 * (condensed + condensed.T)
         reduced_stiffness[b:, b:] = np.diag(omega**2)
+    if pairs is not None:  # invariant to round-off: made exactly so, averaged over the rotations by 90 degrees
+        reduced_mass, reduced_stiffness = (_rotation_average(a, pairs) for a in (reduced_mass, reduced_stiffness))
     costs["projection"] = time.perf_counter() - started
     position = {int(d): k for k, d in enumerate(boundary)}
     reduction = Reduction(
@@ -310,6 +408,7 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
         dof_labels=tuple(structure.dof_labels[d] for d in boundary) + tuple(f"cb{j + 1}" for j in range(m)),
         attributes={**structure.attributes, **reduction.attributes()},
         reduction=reduction,
+        rotation_pairs=pairs,
     )
 
 

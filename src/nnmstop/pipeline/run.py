@@ -96,6 +96,9 @@ TASK_INDEX = {
         "tube_plates_figure",
         "tube_plates_forced",
         "tube_plates_forced_figure",
+        "tube_plates_circular_stage",
+        "tube_plates_circular_branch",
+        "tube_plates_circular_figure",
         "tube_plates_manifest",
     ),
     "forced": (

@@ -17,7 +17,7 @@ from nnmstop.netcdf import write_dataset
 from nnmstop.tasks import hbm, structure
 from nnmstop.tasks.manifest import dataset_manifest
 
-__all__ = ["KEYWORDS", "tube_config", "circular_hole_config", "study_case_config", "TASKS"]
+__all__ = ["KEYWORDS", "tube_config", "circular_hole_config", "in_circular_holes", "study_case_config", "TASKS"]
 
 KEYWORDS = "finite element, Euler-Bernoulli beam, steam-generator tube, support plate"
 
@@ -61,22 +61,37 @@ def circular_hole_config(config: dict) -> dict:
     if hole is None:
         raise ValueError("tube.circular_hole is not configured: the tube's holes are its planar stops (tube.structure)")
     case = tube_config(config)
-    beam = copy.deepcopy(case["structure"]["beam"])
+    return {
+        **case,
+        "structure": {"kind": "beam", "beam": in_circular_holes(case["structure"]["beam"], "tube")},
+        "hbm": {**case["hbm"], **hole.get("hbm", {})},
+        "branches": hole["branches"],
+    }
+
+
+def in_circular_holes(beam: dict, section: str) -> dict:
+    """The beam parameters ``beam`` (of ``<section>.structure``) bending in two planes in a circular hole at each
+    plate: a copy with ``planes: 2`` and each bilateral stop a circular clearance of the same gap (the hole's radial
+    clearance), radial stiffness and ``eta``. Only bilateral stops have a circular counterpart: another kind is
+    refused by name.
+
+    Examples
+    --------
+    >>> holes = in_circular_holes({"stops": [{"gap": 1e-4, "stiffness": 1e4, "eta": 30.0}]}, "tube")
+    >>> holes["planes"], holes["stops"][0]["kind"]
+    (2, 'circular')
+    """
+    beam = copy.deepcopy(beam)
     for i, stop in enumerate(beam["stops"]):
         kind = stop.get("kind", "bilateral")
         if kind != "bilateral":
             raise ValueError(
-                f"tube.circular_hole turns each bilateral stop of tube.structure into a circular clearance of the same "
-                f"gap: tube.structure.stops[{i}] is {kind!r}, which has no circular counterpart"
+                f"{section}.circular_hole turns each bilateral stop of {section}.structure into a circular clearance "
+                f"of the same gap: {section}.structure.stops[{i}] is {kind!r}, which has no circular counterpart"
             )
         stop["kind"] = "circular"
     beam["planes"] = 2
-    return {
-        **case,
-        "structure": {"kind": "beam", "beam": beam},
-        "hbm": {**case["hbm"], **hole.get("hbm", {})},
-        "branches": hole["branches"],
-    }
+    return beam
 
 
 def study_case_config(config: dict, gap: float, factor: float) -> dict:

@@ -17,9 +17,10 @@ from nnmstop.tasks import hbm, structure
 from nnmstop.tasks.manifest import dataset_manifest
 from nnmstop.tasks.tube import KEYWORDS
 
-__all__ = ["PLATES_KEYWORDS", "plates_config", "plates_forced_dataset", "TASKS"]
+__all__ = ["PLATES_KEYWORDS", "plates_config", "plates_circular_config", "plates_forced_dataset", "TASKS"]
 
 PLATES_KEYWORDS = KEYWORDS + ", support plates, Craig-Bampton reduction, component-mode synthesis"
+CIRCULAR_WORDS = ", circular clearance, whirl, wear"
 
 
 def plates_config(config: dict) -> dict:
@@ -35,6 +36,63 @@ def plates_config(config: dict) -> dict:
         "figures": plates["figures"],
         "forced": plates.get("forced", {}),
         "metadata": config.get("metadata", {}),
+    }
+
+
+#: Keys of ``tube_plates.circular_hole`` (``branches`` required) and of its ``structure`` (what a modest mesh changes).
+CIRCULAR_KEYS = ("structure", "reduction", "hbm", "anm", "branches", "figures")
+CIRCULAR_STRUCTURE_KEYS = ("n_elements",)
+
+
+def plates_circular_config(config: dict) -> dict:
+    """:func:`plates_config` for the tube on plates in a circular hole at each plate (``tube_plates.circular_hole``).
+
+    The beam bends in two planes and each plate's bilateral stop becomes a circular clearance of the same radial gap,
+    stiffness and ``eta`` (:func:`nnmstop.tasks.tube.in_circular_holes`); Craig-Bampton reduces it onto both
+    transverse DOFs of each plate and ``reduction.modes`` fixed-interface modes, which come in pairs turned by the
+    rotations about the tube's axis (an even count: twice the one-plane tube's for the same basis in each plane). The
+    section's ``structure`` (``n_elements``), ``reduction``, ``hbm``, ``anm`` and ``figures`` keys replace those of
+    ``tube_plates``; its branches are planar (``nnm<k>``) or whirling (``whirl<k>``, ``motion: whirl``).
+
+    Examples
+    --------
+    >>> plates = {"structure": {"n_elements": 40, "stops": [{"position": 0.5, "gap": 1e-4, "stiffness": 1e4,
+    ...           "eta": 30.0}]}, "reduction": {"modes": 8}, "hbm": {"harmonics": 30}, "branches": {}, "figures": {},
+    ...           "circular_hole": {"structure": {"n_elements": 12}, "reduction": {"modes": 6},
+    ...                             "hbm": {"harmonics": 10}, "branches": {"whirl1": {"mode": 1, "motion": "whirl"}}}}
+    >>> case = plates_circular_config({"anm": {}, "tube_plates": plates})
+    >>> beam = case["structure"]["beam"]
+    >>> beam["planes"], beam["n_elements"], beam["stops"][0]["kind"], case["hbm"]["harmonics"]
+    (2, 12, 'circular', 10)
+    >>> case["structure"]["reduction"]
+    {'modes': 6}
+    """
+    from nnmstop.tasks.tube import in_circular_holes
+
+    hole = config["tube_plates"].get("circular_hole")
+    if hole is None:
+        raise ValueError(
+            "tube_plates.circular_hole is not configured: the plates are the bilateral stops of tube_plates"
+        )
+    for where, keys, allowed in (
+        ("tube_plates.circular_hole", hole, CIRCULAR_KEYS),
+        ("tube_plates.circular_hole.structure", hole.get("structure", {}), CIRCULAR_STRUCTURE_KEYS),
+    ):
+        unknown = sorted(set(keys) - set(allowed))
+        if unknown:
+            raise ValueError(f"{where}: unknown keys {unknown}; allowed: {list(allowed)}")
+    if "branches" not in hole:
+        raise ValueError("tube_plates.circular_hole: 'branches' is required (planar nnm<k> and whirling whirl<k>)")
+    case = plates_config(config)
+    beam = {**case["structure"]["beam"], **hole.get("structure", {})}
+    reduction = {**case["structure"]["reduction"], **hole.get("reduction", {})}
+    return {
+        **case,
+        "structure": {"kind": "beam", "beam": in_circular_holes(beam, "tube_plates"), "reduction": reduction},
+        "hbm": {**case["hbm"], **hole.get("hbm", {})},
+        "anm": {**case["anm"], **hole.get("anm", {})},
+        "branches": hole["branches"],
+        "figures": {**case["figures"], **hole.get("figures", {})},
     }
 
 
@@ -97,5 +155,8 @@ TASKS = {
     "tube_plates_figure": structure.structure_figure,
     "tube_plates_forced": tube_plates_forced,
     "tube_plates_forced_figure": tube_plates_forced_figure,
+    "tube_plates_circular_stage": functools.partial(hbm.hbm_stage, keywords=PLATES_KEYWORDS + CIRCULAR_WORDS),
+    "tube_plates_circular_branch": functools.partial(hbm.hbm_branch, keywords=PLATES_KEYWORDS + CIRCULAR_WORDS),
+    "tube_plates_circular_figure": structure.structure_figure,
     "tube_plates_manifest": dataset_manifest,
 }
