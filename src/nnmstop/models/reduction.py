@@ -49,7 +49,7 @@ import scipy.linalg
 import scipy.sparse
 import scipy.sparse.linalg
 
-from nnmstop.models.stiffness_root import RootSolver, energy_matrix
+from nnmstop.models.stiffness_root import RootSolver, energy_matrix, fixed_order_product
 from nnmstop.models.structure import DENSE_EIGEN_LIMIT, Structure
 
 __all__ = [
@@ -222,15 +222,31 @@ def _rotation_average(matrix, pairs) -> np.ndarray:
     return 0.25 * average
 
 
-def _paired_modes(phi, omega, m_ii, rotation, n_modes: int, solve, stiffness_form):
-    """``n_modes`` fixed-interface modes as pairs ``(u, J u)`` spanning the lowest eigenspaces of ``phi``.
+def _refined_modes(phi, omega, m_ii, n_modes: int, solve, stiffness_form):
+    """The ``n_modes`` lowest eigenspaces of ``phi`` refined by subspace inverse iteration with a Rayleigh-Ritz
+    projection at each step (``solve``: ``K_ii^-1``; ``stiffness_form(V)``: ``V^T K_ii V``).
 
-    The eigenspaces are first refined by subspace inverse iteration (``solve``: ``K_ii^-1``) and a Rayleigh-Ritz
-    projection (``stiffness_form(V)``: ``V^T K_ii V``): a dense eigensolver's lowest modes carry errors of about
-    ``eps`` times the stiffness' condition number, which move with the BLAS threads and kernels. Each step damps an
-    error along a neglected mode by the ratio of the eigenvalues, slowest the last kept pair's against the first
-    neglected one (``omega``: the solver's frequencies, one beyond the kept); enough steps are taken to damp it by
-    ``1e-10``, so that the pairs are the same on every CPU to round-off.
+    Used on the paired modes of a structure invariant under rotations: a dense eigensolver returns their
+    degenerate eigenspaces with errors of about ``eps`` times the stiffness' condition number, which move with the
+    BLAS threads and kernels. Each step damps an error along a neglected mode by the ratio of the eigenvalues,
+    slowest the last kept mode's against the first neglected one (``omega``: the solver's frequencies, one beyond
+    the kept); enough steps are taken to damp it by ``1e-10``, so that the eigenspaces are the same on every CPU
+    to round-off. Returns the Ritz vectors, mass-normalized, in increasing frequency.
+    """
+    ratio = (omega[n_modes - 1] / omega[n_modes]) ** 2 if len(omega) > n_modes else 0.0
+    iterations = 3 if ratio < 1e-3 else min(REFINEMENT_STEPS, int(np.ceil(np.log(1e-10) / np.log(min(ratio, 0.99)))))
+    phi = phi[:, :n_modes]
+    for _ in range(iterations):  # subspace iteration, Rayleigh-Ritz at each step (keeps the columns apart)
+        phi = solve(m_ii @ phi)
+        phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
+        _, ritz = scipy.linalg.eigh(stiffness_form(phi), fixed_order_product(phi, m_ii @ phi))
+        phi = phi @ ritz
+    return phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
+
+
+def _paired_modes(phi, m_ii, rotation, n_modes: int, stiffness_form):
+    """``n_modes`` fixed-interface modes as pairs ``(u, J u)`` spanning the lowest eigenspaces of ``phi`` (refined:
+    :func:`_refined_modes`).
 
     An eigensolver returns a degenerate pair as any basis of its plane, which moves with round-off: each plane is
     spanned here by ``u`` and ``J u`` with ``u`` the vector of the plane with the most of its norm on the first DOF
@@ -239,14 +255,6 @@ def _paired_modes(phi, omega, m_ii, rotation, n_modes: int, solve, stiffness_for
     the same on every CPU.
     """
     first = np.asarray(rotation.sum(axis=0)).ravel() > 0  # J e_i = e_j: the column of a pair's first DOF i sums to 1
-    ratio = (omega[n_modes - 1] / omega[n_modes]) ** 2 if len(omega) > n_modes else 0.0
-    iterations = 3 if ratio < 1e-3 else min(REFINEMENT_STEPS, int(np.ceil(np.log(1e-10) / np.log(min(ratio, 0.99)))))
-    phi = phi[:, :n_modes]
-    for _ in range(iterations):  # subspace iteration, Rayleigh-Ritz at each step (keeps the columns apart)
-        phi = solve(m_ii @ phi)
-        phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
-        _, ritz = scipy.linalg.eigh(stiffness_form(phi), phi.T @ (m_ii @ phi))
-        phi = phi @ ritz
     basis = []
     for k in range(phi.shape[1]):
         if len(basis) >= n_modes:
@@ -364,9 +372,14 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
         raise ValueError(f"the interior of the structure is singular when the boundary is held: {held}")
     pairs = _reduced_rotation_pairs(structure, boundary, n_modes)
     if pairs is not None:  # the modes in pairs (phi, J phi): the reduced structure stays invariant under rotations
-        form = (lambda v: v.T @ (k_ii @ v)) if root is None else functools.partial(energy_matrix, root[:, interior])
+        form = (
+            (lambda v: fixed_order_product(v, k_ii @ v))
+            if root is None
+            else functools.partial(energy_matrix, root[:, interior])
+        )
+        refined = _refined_modes(phi, omega, m_ii, n_modes, solve, form)
         omega[:n_modes], phi[:, :n_modes] = _paired_modes(
-            phi, omega, m_ii, _rotation_of(structure, interior), n_modes, solve, form
+            refined, m_ii, _rotation_of(structure, interior), n_modes, form
         )
     next_frequency = float(omega[n_modes]) if n_modes < len(omega) else np.inf
     omega, phi = omega[:n_modes], phi[:, :n_modes]
@@ -377,7 +390,7 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     recovery[boundary, np.arange(b)] = 1.0
     recovery[interior, :b] = psi
     recovery[interior, b:] = phi
-    reduced_mass = recovery.T @ (mass @ recovery)
+    reduced_mass = fixed_order_product(recovery, mass @ recovery)
     reduced_mass = 0.5 * (reduced_mass + reduced_mass.T)
     reduced_mass[b:, b:] = np.eye(m)  # Phi^T M_ii Phi, mass-normalized
     if root is not None:  # the Ritz projection (G T)^T (G T): a sum of squares, no cancellation

@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-__all__ = ["RootSolver", "check_root", "energy_matrix"]
+__all__ = ["RootSolver", "check_root", "energy_matrix", "fixed_order_product"]
 
 
 def check_root(root, stiffness, where: str = "stiffness_root"):
@@ -42,10 +42,19 @@ def check_root(root, stiffness, where: str = "stiffness_root"):
     return root
 
 
+def fixed_order_product(a, b) -> np.ndarray:
+    """``a^T b`` for tall dense ``a`` and ``b``, summed in one fixed order (a sparse product's loop, not BLAS).
+
+    A BLAS product's summation order moves with its threads and CPU kernel; a projection onto a basis of
+    10^5 rows then differs at ``1e-14`` between two machines, and a stored orbit checked against a rebuilt
+    reduced structure sees it. This loop gives the same bits everywhere."""
+    return np.asarray(scipy.sparse.csr_matrix(np.asarray(a, dtype=float).T) @ np.asarray(b, dtype=float))
+
+
 def energy_matrix(root, basis) -> np.ndarray:
     """``(G V)^T (G V)``: the stiffness projected on the columns of ``basis``, symmetric by construction."""
     strains = root @ np.asarray(basis, dtype=float)
-    return strains.T @ strains
+    return fixed_order_product(strains, strains)
 
 
 class RootSolver:
