@@ -48,7 +48,8 @@ __all__ = [
 
 #: A recomputed residual may exceed the stored one by this factor (round-off of another CPU is far less).
 ACCURACY_FACTOR = 10.0
-#: Absolute floor of a recomputed residual (round-off of the residual's own evaluation).
+#: Floor of a recomputed residual (round-off of the residual's own evaluation), for a stiffness of the order of
+#: the mass (scaled by their ratio, :func:`_stiffness_scale`).
 ROUND_OFF = 1e-12
 #: Relative accuracy of a number computed in closed form from a stored orbit (energy, amplitude, frequency).
 CLOSED_FORM = 1e-9
@@ -251,6 +252,14 @@ def _excitation(ds: xr.Dataset):
 # --------------------------------------------------------------------------- recomputations by kind
 
 
+def _stiffness_scale(structure) -> float:
+    """``max |K_ij| / max |M_ij|``, at least 1: the residual's round-off floor grows with it. Evaluating ``K q``
+    costs ``eps |K| |q|``, and a structure rebuilt on another CPU differs at round-off relative to its largest
+    entries (a reduction's modal stiffness reaches the square of its highest kept frequency, 1e3 to 1e4)."""
+    largest = [float(abs(a).max()) for a in (structure.stiffness, structure.mass)]
+    return max(1.0, largest[0] / largest[1])
+
+
 def _regularized(ds: xr.Dataset, stored: str) -> list[OrbitCheck]:
     """Relative residual of the harmonic balance of each stored orbit against the stored one."""
     from nnmstop.continuation.core import relative_residual
@@ -263,7 +272,7 @@ def _regularized(ds: xr.Dataset, stored: str) -> list[OrbitCheck]:
     U = dataset_unknowns(ds.isel(point=points), system)
     with np.errstate(all="ignore"):
         recomputed = np.array([relative_residual(system, u) for u in U])
-    allowed = ACCURACY_FACTOR * np.abs(ds[stored].values[points]) + ROUND_OFF
+    allowed = ACCURACY_FACTOR * np.abs(ds[stored].values[points]) + ROUND_OFF * _stiffness_scale(system.structure)
     orbit = tuple(v for v in ("q_cos", "q_sin", "f_cos", "f_sin", "z_cos", "z_sin", "omega_squared", "unfolding")
                   if v in ds.variables)  # fmt: skip
     return [OrbitCheck((*orbit, stored), f"relative residual of the harmonic balance (stored: {stored})", points,
