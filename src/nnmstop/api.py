@@ -417,7 +417,7 @@ def atlas(
     second_range : (float, float)
         Range of the slices; the curves run on ten per cent of it beyond either end.
     slices : int
-        Number of slices (one exact response each).
+        Number of slices (one response each: exact, or regularized for a stop that is not piecewise linear).
     damping : float or Damping
         Damping ratio of the first two linear modes (one mode for a 1-DOF structure), or a Damping.
     plane : {"force", "gap", "stiffness", "damping_ratio"}

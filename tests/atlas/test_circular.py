@@ -219,3 +219,50 @@ def test_the_atlas_of_a_circular_clearance(planar_and_bilateral):
     np.testing.assert_allclose(on_curves, np.sort(folds), rtol=1e-7)
     with pytest.raises(ValueError, match="circular clearance of q0, q2 is not piecewise linear.*regularized_fold"):
         nnmstop.atlas(structure, WINDOW_HZ, [0], (0.2, 0.3), damping=Damping(0.0, 0.04), kinds=("grazing", "fold"))
+
+
+@pytest.mark.numerics
+def test_the_configuration_route_takes_a_circular_clearance(tmp_path):
+    """The workflow's jobs (:mod:`nnmstop.tasks.atlas`) on the 3-DOF example with a circular clearance on (x1, x2):
+    regularized slices written and read back (slice_law, no family ends), the grazing curve the closed form
+    1 / max_theta |(x1, x2)| of the chain's linear response at unit force (sampled orbit, 1e-9), the map assembled."""
+    from pathlib import Path
+
+    import yaml
+
+    from nnmstop.config import validate_config
+    from nnmstop.forced.scenes import forced_scenes
+    from nnmstop.netcdf import read_dataset
+    from nnmstop.tasks import atlas as tasks
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "three_dof_chain"
+    config = yaml.safe_load((example / "config.yaml").read_text())
+    matrices = config["structure"]["matrices"]
+    for name in ("mass", "stiffness"):
+        matrices[name] = str(example / f"{name}.mtx")
+    matrices["stops"] = [{"kind": "circular", "dofs": [0, 1], "gap": 1.0, "stiffness": 5.0, "eta": 0.2}]
+    config["atlas"]["maps"]["chain_force"].update(
+        slices={"from": 0.02, "to": 0.04, "count": 2}, seeds=[0.04], checks=[0.02], kinds=["grazing"],
+        regularized={"harmonics": 10, "max_truncation": 1.0e-2, "steps": 64, "seeds": [0.04], "checks": [],
+                     "check_tolerance": 1.0e-5, "step": 0.5},
+    )  # fmt: skip
+    config["atlas"]["frequency_samples"] = 20
+    config = validate_config(config)
+    slices = [str(tmp_path / f"slice_{k}.nc") for k in range(2)]
+    for k, path in enumerate(slices):
+        tasks.atlas_slice(config, {}, {"dataset": path}, map="chain_force", index=str(k))
+        written = read_dataset(path)
+        assert written.attrs["slice_law"] == "regularized" and written.sizes["end"] == 0
+    curves = str(tmp_path / "curves_grazing.nc")
+    tasks.atlas_curves(config, {"seeds": slices[1:], "checks": slices[:1]}, {"dataset": curves}, map="chain_force",
+                       kind="grazing")  # fmt: skip
+    tasks.atlas_map(config, {"slices": slices, "curves": [curves]}, {"dataset": str(tmp_path / "map.nc")},
+                    map="chain_force")  # fmt: skip
+    ds = read_dataset(tmp_path / "map.nc")
+    assert ds.sizes["point"] > 10 and ds.sizes["check"] >= 1 and float(ds["check_deviation"].max()) < 1e-7
+    unit = forced_scenes({**config, "forced": {**config["forced"], "force": {"dofs": ["x3"], "amplitudes": [1.0]}}},
+                         "structure")[0].excitation  # fmt: skip
+    assert unit.structure.stops[0].kind == "circular"
+    omega, force = 2 * np.pi * ds["frequency"].values[::53], ds["second"].values[::53]
+    Q = non_impacting_response(unit, omega)[:, :2]
+    np.testing.assert_allclose(force, [1.0 / largest_radius(q) for q in Q], rtol=1e-9)

@@ -205,7 +205,7 @@ def slice_dataset(atlas: AtlasMap, index: int, anm=None) -> xr.Dataset:
     """The slice ``index`` of ``atlas`` with its regions: the exact response
     (:func:`nnmstop.bifurcation_atlas.slices.compute_slice`) where every stop is piecewise linear, else the
     regularized one (:func:`nnmstop.bifurcation_atlas.regularized.regularized_slice`, ``anm`` its ANM settings,
-    by default ``ANMSettings(points_per_step=2)``; attribute ``slice_law``)."""
+    by default ``ANMSettings(points_per_step=2)``; attributes ``slice_law = "regularized"`` and ``harmonics``)."""
     value = float(atlas.slices[index])
     if atlas.piecewise_linear:
         result = compute_slice(atlas.excitation, atlas.plane, value, atlas.frequency_range, atlas.exact)
@@ -244,9 +244,8 @@ def slice_dataset(atlas: AtlasMap, index: int, anm=None) -> xr.Dataset:
     )
     ds.attrs.update(_map_attributes(atlas))
     ds.attrs.update(slice_index=int(index), slice_value=value, complete=int(result.end_frequency.size == 0))
-    ds.attrs["slice_law"] = law
-    if law == "regularized":
-        ds.attrs["harmonics"] = int(atlas.regularized["harmonics"])
+    if law == "regularized":  # (an exact slice has no such attribute: its bytes stay those of the exact maps)
+        ds.attrs.update(slice_law=law, harmonics=int(atlas.regularized["harmonics"]))
     return ds
 
 

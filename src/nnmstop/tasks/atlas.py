@@ -3,8 +3,9 @@
 Each slice of a map and each kind of curve is its own job, so that a cluster spreads them
 (``snakemake --profile profiles/slurm atlas``):
 
-* :func:`atlas_slice`: the exact one-parameter response at one value of the map's second parameter, classified
-  into regions (:func:`nnmstop.bifurcation_atlas.build.slice_dataset`);
+* :func:`atlas_slice`: the exact one-parameter response at one value of the map's second parameter (the
+  regularized one for a stop that is not piecewise linear), classified into regions
+  (:func:`nnmstop.bifurcation_atlas.build.slice_dataset`);
 * :func:`atlas_curves`: every curve of one kind through the points the seed slices locate, checked against the
   check slices (:func:`nnmstop.bifurcation_atlas.build.curves_dataset`; the regularized kinds on harmonic-balance
   responses
@@ -64,6 +65,11 @@ def atlas_slice(config, inputs, outputs, map: str, index: str):
             f"The exact periodic responses of the forced structure at {atlas.plane} = {atlas.slices[k]:g} over "
             f"{atlas.frequency_range[0]:g}..{atlas.frequency_range[1]:g} Hz, classified into the atlas' regions on a "
             "frequency grid, with the located stability changes and the ends of the one-contact families."
+            if atlas.piecewise_linear
+            else f"The regularized (harmonic-balance) periodic response of the forced structure at {atlas.plane} = "
+            f"{atlas.slices[k]:g} over {atlas.frequency_range[0]:g}..{atlas.frequency_range[1]:g} Hz (its stop is "
+            "not piecewise linear), classified into the atlas' regions on a frequency grid, with the located "
+            "stability changes."
         ),
         keywords=KEYWORDS,
         metadata=config.get("metadata"),
