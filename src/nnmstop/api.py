@@ -367,6 +367,10 @@ def forced_response(
     return describe(ds, f"forced_{'exact' if method == 'exact' else 'regularized'}")
 
 
+#: Harmonic-balance settings of :func:`atlas` where its ``regularized`` argument does not give them.
+REGULARIZED_DEFAULTS = {"harmonics": 20, "max_truncation": 1e-3, "steps": 128, "step": 0.5, "check_tolerance": 1e-5}
+
+
 def atlas(
     structure: Structure,
     frequency_range,
@@ -383,6 +387,8 @@ def atlas(
     check_tolerance: float = 1e-7,
     curve=None,
     exact=None,
+    regularized=None,
+    anm=None,
 ) -> xr.Dataset:
     """The bifurcation atlas of ``structure`` forced on ``force_dofs``, as a labelled dataset (kind ``atlas``).
 
@@ -394,13 +400,16 @@ def atlas(
     :class:`~nnmstop.bifurcation_atlas.build.CheckFailed`), with their codimension-two points. The exact
     formulation follows the stops (:func:`nnmstop.bifurcation_atlas.equations.exact_equations`): the symmetric
     responses over half a period for bilateral stops and relative stops on both sides, the responses with one
-    contact per period over the full period for one-sided stops, unequal gaps and one-sided relative stops.
+    contact per period over the full period for one-sided stops, unequal gaps and one-sided relative stops. A
+    structure whose stop is not piecewise linear (a circular clearance) has regularized slices (the harmonic-balance
+    responses with their Floquet stability), its grazing curve in closed form and the regularized curve kinds; its
+    exact kinds other than ``grazing`` are refused (ValueError naming the stop).
 
     Parameters
     ----------
     structure : Structure
-        Any structure with at least one piecewise-linear stop (the structural parameter is the first stop's) and
-        no rigid-body mode; a circular clearance is refused (ValueError naming it: no exact responses).
+        Any structure with at least one stop (the structural parameter is the first stop's) and no rigid-body
+        mode.
     frequency_range : (float, float)
         Hz of the nondimensional time.
     force_dofs : sequence of int or str
@@ -408,7 +417,7 @@ def atlas(
     second_range : (float, float)
         Range of the slices; the curves run on ten per cent of it beyond either end.
     slices : int
-        Number of slices (one exact response each).
+        Number of slices (one response each: exact, or regularized for a stop that is not piecewise linear).
     damping : float or Damping
         Damping ratio of the first two linear modes (one mode for a 1-DOF structure), or a Damping.
     plane : {"force", "gap", "stiffness", "damping_ratio"}
@@ -418,13 +427,21 @@ def atlas(
         Slice values (they snap to the nearest slice) that seed and check the curves; by default the middle
         slice seeds and the slices at a quarter and three quarters check.
     kinds : sequence of str
-        Curve kinds (:data:`nnmstop.bifurcation_atlas.build.EXACT_KINDS`).
+        Curve kinds (:data:`nnmstop.bifurcation_atlas.build.EXACT_KINDS`,
+        :data:`~nnmstop.bifurcation_atlas.build.REGULARIZED_KINDS`).
     frequency_samples : int
         Grid frequencies of the regions.
     check_tolerance : float
         Relative frequency distance allowed between a curve and a located point.
     curve : CurveSettings, optional
     exact : ExactSettings, optional
+    regularized : dict, optional
+        The harmonic-balance settings (the keys of a map's ``regularized`` section: ``harmonics``,
+        ``max_truncation``, ``steps``, ``step``, ``check_tolerance``, ``seeds``, ``checks``, ``range``) over
+        :data:`REGULARIZED_DEFAULTS`; ``seeds`` and ``checks`` default to those of the slices. Used by the
+        regularized kinds and the slices of a stop that is not piecewise linear.
+    anm : ANMSettings, optional
+        Continuation of the regularized responses (default ``ANMSettings(points_per_step=2)``).
 
     Examples
     --------
@@ -434,8 +451,16 @@ def atlas(
     >>> sorted(set(ds["curve_kind"].values.tolist()))  # doctest: +SKIP
     [0]
     """
-    from nnmstop.bifurcation_atlas.build import AtlasMap, atlas_dataset, curves_dataset, slice_dataset
+    from nnmstop.bifurcation_atlas.build import (
+        EXACT_KINDS,
+        REGULARIZED_KINDS,
+        AtlasMap,
+        atlas_dataset,
+        curves_dataset,
+        slice_dataset,
+    )
     from nnmstop.bifurcation_atlas.curves import CurveSettings
+    from nnmstop.bifurcation_atlas.regularized import regularized_inputs
     from nnmstop.forced.responses import ExactSettings
     from nnmstop.forced.scenes import _dof_indices
     from nnmstop.models.excitation import Damping, Excitation, HarmonicForce
@@ -452,6 +477,12 @@ def atlas(
         return tuple(values[int(np.argmin(np.abs(np.asarray(values) - v)))] for v in chosen)
 
     n = len(values)
+    chosen_seeds = snap(seeds) if seeds is not None else (values[n // 2],)
+    chosen_checks = snap(checks) if checks is not None else tuple(sorted({values[n // 4], values[(3 * n) // 4]}))
+    curved = any(not s.piecewise_linear for s in structure.stops)
+    spec = None
+    if regularized is not None or curved or any(k in REGULARIZED_KINDS for k in kinds):
+        spec = {**REGULARIZED_DEFAULTS, **(regularized or {})}
     low, high = (float(v) for v in second_range)
     margin = 0.1 * (high - low)  # the curves run past the end slices, so that they cross them
     atlas_map = AtlasMap(
@@ -461,18 +492,32 @@ def atlas(
         frequency_range=tuple(float(v) for v in frequency_range),
         second_range=(max(low - margin, 0.5 * low), high + margin),
         slices=values,
-        seeds=snap(seeds) if seeds is not None else (values[n // 2],),
-        checks=snap(checks) if checks is not None else tuple(sorted({values[n // 4], values[(3 * n) // 4]})),
+        seeds=chosen_seeds,
+        checks=chosen_checks,
         kinds=tuple(kinds),
         exact=exact or ExactSettings(),
         curve=curve or CurveSettings(),
         grid=int(frequency_samples),
         check_tolerance=float(check_tolerance),
+        regularized=None if spec is None else {"seeds": chosen_seeds, "checks": chosen_checks, **spec},
     )
-    slice_sets = [slice_dataset(atlas_map, k) for k in range(n)]
+    for name in kinds:  # refused before anything is computed
+        if name in EXACT_KINDS:
+            atlas_map.check_exact(name)
+    anm = anm or ANMSettings(points_per_step=2)
+    slice_sets = [slice_dataset(atlas_map, k, anm) for k in range(n)]
 
     def at(chosen):
         return [slice_sets[values.index(v)] for v in chosen]
 
-    curve_sets = [curves_dataset(atlas_map, kind, at(atlas_map.seeds), at(atlas_map.checks)) for kind in kinds]
+    curve_sets = [
+        curves_dataset(
+            atlas_map,
+            kind,
+            at(atlas_map.seeds),
+            at(atlas_map.checks),
+            regularized_inputs(atlas_map, kind, anm) if kind in REGULARIZED_KINDS else None,
+        )
+        for kind in kinds
+    ]
     return describe(atlas_dataset(atlas_map, slice_sets, curve_sets), "atlas")

@@ -286,8 +286,9 @@ def test_atlas_of_a_relative_stop_between_two_masses():
 
 
 def test_a_circular_clearance_is_refused_with_its_name():
-    """No exact responses for a circular clearance: the atlas' slices and exact curves are refused, naming it, where
-    they would be computed; the map itself is still read (a configuration of that structure stays valid)."""
+    """No exact responses for a circular clearance: its exact curves are refused, naming it, where they would be
+    computed, and its slices (regularized) without a `regularized` section; the map itself is still read (a
+    configuration of that structure stays valid)."""
     hole = nnmstop.Stop(kind="circular", dofs=[0, 1], gap=1.0, stiffness=10.0, eta=0.1)
     structure = nnmstop.Structure(np.eye(2), np.diag([1.0, 1.5]), [hole])
     refused = "circular clearance of q0, q1 is not piecewise linear.*regularized_fold"

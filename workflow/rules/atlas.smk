@@ -8,7 +8,8 @@ ATLAS_MAP = "|".join(atlas_map_names()) or "no_map"
 
 
 rule atlas_slice:
-    """One slice of a map: the exact one-parameter response at one value of its second parameter, classified."""
+    """One slice of a map: the exact (regularized, for a circular clearance) one-parameter response at one value of
+    its second parameter, classified."""
     output:
         dataset=results("atlas/{map}/slice_{index}.nc"),
     wildcard_constraints:

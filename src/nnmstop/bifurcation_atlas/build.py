@@ -129,19 +129,35 @@ class AtlasMap:
                 f"{list(EXACT_KINDS + REGULARIZED_KINDS)})"
             )
 
-    def check_exact(self) -> None:
-        """Refuse (ValueError naming it) a structure whose stop is not piecewise linear: the slices and the exact
-        curves are exact responses. Checked where they are computed, not when the map is read (a configuration
-        of such a structure whose other targets do not build the atlas stays valid)."""
+    @property
+    def piecewise_linear(self) -> bool:
+        """Whether every stop is piecewise linear (exact responses exist); else the slices are regularized."""
+        return all(s.piecewise_linear for s in self.excitation.structure.stops)
+
+    def check_exact(self, kind: str | None = None) -> None:
+        """Refuse (ValueError naming it) an exact curve ``kind`` (any, by default) of a structure whose stop is not
+        piecewise linear: it has no exact responses. Its grazing curve is in closed form and its slices are the
+        regularized responses (:func:`slice_dataset`). Checked where the curves are computed, not when the map is
+        read (a configuration of such a structure whose other targets do not build the atlas stays valid)."""
         curved = [s.label for s in self.excitation.structure.stops if not s.piecewise_linear]
-        if curved:
-            exact = [k for k in self.kinds if k in EXACT_KINDS]
+        if curved and kind != "grazing":
+            exact = [k for k in self.kinds if k in EXACT_KINDS and k != "grazing"]
             raise ValueError(
                 f"atlas map {self.name!r}: the {', '.join(curved)} is not piecewise linear, so it has no exact "
-                f"responses: neither the exact curve kinds ({exact or list(EXACT_KINDS)}) nor the slices (exact "
-                "one-parameter responses: the regions) can be computed. Its responses are the regularized ones "
-                f"(harmonic balance, forced_response(method='regularized')); an atlas of them, regularized slices "
-                f"with the regularized curve kinds {list(REGULARIZED_KINDS)}, is not available yet"
+                f"responses: the exact curve kinds ({exact or [k for k in EXACT_KINDS if k != 'grazing']}) cannot "
+                "be computed. Its atlas is the regularized one (harmonic balance): regularized slices, the "
+                f"closed-form grazing curve and the regularized curve kinds {list(REGULARIZED_KINDS)}"
+            )
+
+    def check_regularized_slices(self) -> None:
+        """A structure whose stop is not piecewise linear has regularized slices: ValueError naming the stop when
+        the map has no ``regularized`` section (harmonics, steps, max_truncation)."""
+        if not self.piecewise_linear and self.regularized is None:
+            curved = [s.label for s in self.excitation.structure.stops if not s.piecewise_linear]
+            raise ValueError(
+                f"atlas map {self.name!r}: the {', '.join(curved)} is not piecewise linear, so its slices are the "
+                "regularized responses (harmonic balance), which need the map's `regularized` section (harmonics, "
+                f"steps, max_truncation; with the regularized curve kinds {list(REGULARIZED_KINDS)})"
             )
 
     @property
@@ -185,11 +201,22 @@ class AtlasMap:
 # --------------------------------------------------------------------------- slices
 
 
-def slice_dataset(atlas: AtlasMap, index: int) -> xr.Dataset:
-    """The slice ``index`` of ``atlas`` (:func:`nnmstop.bifurcation_atlas.slices.compute_slice`) with its regions."""
-    atlas.check_exact()
+def slice_dataset(atlas: AtlasMap, index: int, anm=None) -> xr.Dataset:
+    """The slice ``index`` of ``atlas`` with its regions: the exact response
+    (:func:`nnmstop.bifurcation_atlas.slices.compute_slice`) where every stop is piecewise linear, else the
+    regularized one (:func:`nnmstop.bifurcation_atlas.regularized.regularized_slice`, ``anm`` its ANM settings,
+    by default ``ANMSettings(points_per_step=2)``; attributes ``slice_law = "regularized"`` and ``harmonics``)."""
     value = float(atlas.slices[index])
-    result = compute_slice(atlas.excitation, atlas.plane, value, atlas.frequency_range, atlas.exact)
+    if atlas.piecewise_linear:
+        result = compute_slice(atlas.excitation, atlas.plane, value, atlas.frequency_range, atlas.exact)
+        law = "piecewise_linear"
+    else:
+        from nnmstop.bifurcation_atlas.regularized import regularized_slice
+        from nnmstop.continuation.anm import ANMSettings
+
+        atlas.check_regularized_slices()
+        result = regularized_slice(atlas, value, anm or ANMSettings(points_per_step=2))
+        law = "regularized"
     low, high = atlas.frequency_range
     grid = low + (np.arange(atlas.grid) + 0.5) * (high - low) / atlas.grid  # cell centres: the range's ends excluded
     regions = classify(result.all_frequency, result.all_stable, result.all_impacting, result.end_frequency, grid)
@@ -217,6 +244,8 @@ def slice_dataset(atlas: AtlasMap, index: int) -> xr.Dataset:
     )
     ds.attrs.update(_map_attributes(atlas))
     ds.attrs.update(slice_index=int(index), slice_value=value, complete=int(result.end_frequency.size == 0))
+    if law == "regularized":  # (an exact slice has no such attribute: its bytes stay those of the exact maps)
+        ds.attrs.update(slice_law=law, harmonics=int(atlas.regularized["harmonics"]))
     return ds
 
 
@@ -513,6 +542,52 @@ def curve_points_variables(atlas: AtlasMap, curves: list, kind: str, law: str) -
     }
 
 
+def closed_form_grazing_variables(atlas: AtlasMap, curves: list) -> dict:
+    """The layout of :func:`curve_points_variables` for closed-form grazing curves (``[(omega, second), ...]``,
+    :func:`nnmstop.bifurcation_atlas.grazing.closed_form_grazing_curves`): each point the linear response at its
+    grazing force (or gap), its multipliers those of the linear flow; ``test_unknown`` 0 (no test function), the
+    seed the curve's first value, no codimension-two point, law ``piecewise_linear`` (the grazing of the
+    non-smooth law, whose non-impacting response is linear)."""
+    from nnmstop.bifurcation_atlas.grazing import linear_multipliers
+    from nnmstop.exact.forced import non_impacting_response
+
+    dofs = list(orbit_dofs(atlas.excitation))
+    freq, second, index, orbit, mu = [], [], [], [], []
+    for j, (omega, values) in enumerate(curves):
+        for w, value in zip(omega, values):
+            at = atlas.excitation_at(float(value))
+            Q = non_impacting_response(at, [w])[0][dofs]
+            coefficients = np.zeros((len(dofs), 2 * ORBIT_HARMONICS + 1))
+            coefficients[:, 1], coefficients[:, ORBIT_HARMONICS + 1] = Q.real, -Q.imag
+            freq.append(w / (2 * np.pi))
+            second.append(value)
+            index.append(j)
+            orbit.append(coefficients)
+            mu.append(linear_multipliers(at, w))
+    m = 2 * atlas.excitation.structure.n_dofs
+    orbit = np.array(orbit, dtype=float).reshape(-1, len(dofs), 2 * ORBIT_HARMONICS + 1)
+    mu = np.array(mu, dtype=complex).reshape(-1, m)
+    ends = "closed form: the frequency range or the window of the second parameter"
+    return {
+        "frequency": ("point", np.array(freq, dtype=float)),
+        "second": ("point", np.array(second, dtype=float)),
+        "point_curve": ("point", np.array(index, dtype=np.int32)),
+        "amplitude": (("point", "orbit_dof"), np.abs(orbit[:, :, 1] - 1j * orbit[:, :, ORBIT_HARMONICS + 1])),
+        "multiplier_real": (("point", "multiplier"), mu.real),
+        "multiplier_imag": (("point", "multiplier"), mu.imag),
+        "orbit": (("point", "orbit_dof", "coefficient"), orbit),
+        "test_unknown": ("point", np.zeros(len(freq))),
+        "curve_kind": ("curve", np.full(len(curves), CURVE_KINDS.index("grazing"), dtype=np.int8)),
+        "curve_law": ("curve", np.full(len(curves), LAWS.index("piecewise_linear"), dtype=np.int8)),
+        "curve_ends": ("curve", np.array([ends] * len(curves), dtype=object)),
+        "curve_seed": ("curve", np.array([float(values[0]) for _, values in curves], dtype=float)),
+        "codim2_kind": ("codim2", np.zeros(0, dtype=np.int8)),
+        "codim2_frequency": ("codim2", np.zeros(0)),
+        "codim2_second": ("codim2", np.zeros(0)),
+        "codim2_curve": ("codim2", np.zeros(0, dtype=np.int32)),
+    }
+
+
 def _sampled_amplitudes(coefficients, samples: int = 2048) -> np.ndarray:
     """``max |q|`` of each row of Fourier coefficients ``[mean, cos 1..K, sin 1..K]`` on ``samples`` phases."""
     K = (coefficients.shape[-1] - 1) // 2
@@ -544,17 +619,34 @@ def curves_dataset(atlas: AtlasMap, kind: str, seed_slices: list, check_slices: 
     seeds and the ``(value, omega)`` located at the check values (:mod:`nnmstop.bifurcation_atlas.regularized`).
     """
     law = "regularized" if kind in REGULARIZED_KINDS else "piecewise_linear"
-    if law == "regularized":
-        equations, seeds, located = regularized
-        curves = follow_kind(atlas, kind, [], equations=equations, seeds=seeds)
-        tolerance = float(atlas.regularized["check_tolerance"])
-    else:
-        atlas.check_exact()
-        curves = follow_kind(atlas, kind, seed_slices)
-        located = _located_exact(atlas, kind, check_slices)
+    if law == "piecewise_linear" and kind == "grazing" and not atlas.piecewise_linear:
+        # no exact formulation to continue it on: the closed form of the non-impacting response
+        from nnmstop.bifurcation_atlas.grazing import closed_form_grazing_curves, grazing_checks
+
+        curves = closed_form_grazing_curves(atlas)
         tolerance = float(atlas.check_tolerance)
-    rows = check_curves(atlas, kind, curves, located, tolerance)
-    ds = xr.Dataset({**curve_points_variables(atlas, curves, kind, law), **_check_variables(rows)})
+        values = [float(ds.attrs["slice_value"]) for ds in check_slices]
+        rows, missed = grazing_checks(atlas, curves, values)
+        missed += [(r[1], r[3], r[4]) for r in rows if r[4] > tolerance]
+        if missed:
+            raise CheckFailed(
+                f"atlas map {atlas.name!r}: grazing points located on the orbits lie on no closed-form grazing "
+                f"curve (value, frequency Hz, nearest relative distance): {missed}; tolerance {tolerance:g}"
+            )
+        variables = closed_form_grazing_variables(atlas, curves)
+    else:
+        if law == "regularized":
+            equations, seeds, located = regularized
+            curves = follow_kind(atlas, kind, [], equations=equations, seeds=seeds)
+            tolerance = float(atlas.regularized["check_tolerance"])
+        else:
+            atlas.check_exact(kind)
+            curves = follow_kind(atlas, kind, seed_slices)
+            located = _located_exact(atlas, kind, check_slices)
+            tolerance = float(atlas.check_tolerance)
+        rows = check_curves(atlas, kind, curves, located, tolerance)
+        variables = curve_points_variables(atlas, curves, kind, law)
+    ds = xr.Dataset({**variables, **_check_variables(rows)})
     ds.attrs.update(_map_attributes(atlas))
     ds.attrs.update(curve_kind=kind, contact_law=law, check_tolerance=tolerance)
     return ds

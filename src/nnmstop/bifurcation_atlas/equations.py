@@ -58,6 +58,7 @@ __all__ = [
     "contact_entered",
     "HarmonicBalanceEquations",
     "fourier_orbit",
+    "harmonic_orbit",
     "ORBIT_HARMONICS",
 ]
 
@@ -519,13 +520,17 @@ class HarmonicBalanceEquations(OrbitEquations):
 
     def orbit(self, x, params, harmonics: int = ORBIT_HARMONICS) -> np.ndarray:
         """Fourier coefficients ``(N, 2 harmonics + 1)`` of ``q`` (``[mean, cos 1..K, sin 1..K]``)."""
-        from nnmstop import fourier
+        return harmonic_orbit(self.system(params), self.unknowns(x, params), harmonics)
 
-        system = self.system(params)
-        U = self.unknowns(x, params)
-        Q = fourier.to_full(U[: system.n_dofs * system.nc].reshape(system.n_dofs, system.nc), system.H)
-        K = min(harmonics, system.H)
-        out = np.zeros((system.n_dofs, 2 * harmonics + 1))
-        out[:, : K + 1] = Q[:, : K + 1]
-        out[:, harmonics + 1 : harmonics + 1 + K] = Q[:, system.H + 1 : system.H + 1 + K]
-        return out
+
+def harmonic_orbit(system, U, harmonics: int = ORBIT_HARMONICS) -> np.ndarray:
+    """Fourier coefficients ``(N, 2 harmonics + 1)`` of ``q`` (``[mean, cos 1..K, sin 1..K]``) of the
+    harmonic-balance unknowns ``U`` of ``system`` (its first ``harmonics``, zero beyond its own)."""
+    from nnmstop import fourier
+
+    Q = fourier.to_full(np.asarray(U)[: system.n_dofs * system.nc].reshape(system.n_dofs, system.nc), system.H)
+    K = min(harmonics, system.H)
+    out = np.zeros((system.n_dofs, 2 * harmonics + 1))
+    out[:, : K + 1] = Q[:, : K + 1]
+    out[:, harmonics + 1 : harmonics + 1 + K] = Q[:, system.H + 1 : system.H + 1 + K]
+    return out

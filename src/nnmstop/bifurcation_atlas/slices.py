@@ -32,7 +32,17 @@ from nnmstop.exact.forced import CONTACT_MARGINS, non_impacting_response
 from nnmstop.forced.responses import ExactSettings, exact_response
 from nnmstop.forced.stability_changes import KINDS
 
-__all__ = ["REGIONS", "END_KINDS", "Slice", "compute_slice", "classify", "orbit_dofs", "piece_equations"]
+__all__ = [
+    "REGIONS",
+    "END_KINDS",
+    "Slice",
+    "compute_slice",
+    "classify",
+    "orbit_dofs",
+    "piece_equations",
+    "keep_points",
+    "with_changes",
+]
 
 if END_KINDS != tuple(CONTACT_MARGINS):  # the flags of the datasets follow the exact formulation's margins
     raise ImportError(
@@ -86,7 +96,7 @@ class Slice:
     end_frequency: np.ndarray
 
 
-def _keep(n: int, changes) -> np.ndarray:
+def keep_points(n: int, changes) -> np.ndarray:
     """Indices of a piece's points kept for the explorer: evenly spread, the ends and both sides of each change."""
     kept = set(np.linspace(0, n - 1, min(n, KEPT_POINTS)).round().astype(int).tolist())
     for change in changes:
@@ -94,12 +104,12 @@ def _keep(n: int, changes) -> np.ndarray:
     return np.array(sorted(kept), dtype=int)
 
 
-def _with_changes(piece, stable):
-    """The piece's frequencies and verdicts with its located stability changes inserted where they lie: a fold's
-    tip (the curve turns back between two stored points) and a change of verdict are then where they are, not
-    at the nearer stored point. An inserted point takes the verdict of the point before it."""
-    frequency, verdict = list(piece.frequency), list(stable)
-    for change in sorted(piece.changes, key=lambda c: c.after_point, reverse=True):
+def with_changes(frequencies, stable, changes):
+    """A piece's frequencies (Hz) and verdicts with its located stability ``changes`` inserted where they lie: a
+    fold's tip (the curve turns back between two stored points) and a change of verdict are then where they are,
+    not at the nearer stored point. An inserted point takes the verdict of the point before it."""
+    frequency, verdict = list(frequencies), list(stable)
+    for change in sorted(changes, key=lambda c: c.after_point, reverse=True):
         k = change.after_point + 1
         frequency.insert(k, float(change.U[-1]) / (2 * np.pi))
         verdict.insert(k, verdict[k - 1])
@@ -122,11 +132,11 @@ def compute_slice(excitation, plane: str, value: float, frequency_range, setting
     for k, piece in enumerate(pieces):
         impacting = piece.kind == "one_contact"
         stable = np.all(np.abs(piece.multipliers) <= 1.0 + 1e-12, axis=1)
-        frequency, verdict = _with_changes(piece, stable)
+        frequency, verdict = with_changes(piece.frequency, stable, piece.changes)
         all_frequency.append(frequency)
         all_stable.append(verdict)
         all_impacting.append(np.full(len(frequency), impacting))
-        index = _keep(len(piece.frequency), piece.changes)
+        index = keep_points(len(piece.frequency), piece.changes)
         kept["frequency"].append(piece.frequency[index])
         kept["piece"].append(np.full(len(index), k))
         kept["impacting"].append(np.full(len(index), impacting))

@@ -77,12 +77,14 @@ CURVE_VARIABLES = (
 
 ATLAS_SLICE = DatasetKind(
     "atlas_slice",
-    "One slice of an atlas: the exact one-parameter response, classified",
+    "One slice of an atlas: the exact (or regularized) one-parameter response, classified",
     ("atlas/<map>/slice_<k>.nc",),
     "The exact response (non-impacting and symmetric one-contact, nnmstop.forced.responses.exact_response) at one "
     "value of the second parameter (attribute slice_value), its regions on a frequency grid, a thinned set of its "
     "points with their orbits, its located stability changes (the states that seed and check the curves) and "
-    "the ends of its one-contact families on a second contact (attribute complete: none).",
+    "the ends of its one-contact families on a second contact (attribute complete: none). A structure whose stop is "
+    "not piecewise linear (a circular clearance) has the regularized response instead (attribute slice_law "
+    "regularized, harmonics): one piece, change_state the harmonic-balance unknowns, no family ends.",
     REGION_VARIABLES[:1]
     + (
         Variable("region", ("grid",), "region of the map at the grid frequency", flags=REGIONS),
@@ -93,7 +95,8 @@ ATLAS_SLICE = DatasetKind(
         Variable(
             "change_state",
             ("change", "unknown"),
-            "unknowns of the exact response at the change: state entering the stop, its phase, contact duration, Omega",
+            "unknowns of the response at the change: exact, state entering the stop, its phase, contact duration, Omega; "
+            "regularized, the harmonic-balance unknowns",
         ),
         Variable("end_kind", ("end",), "why a one-contact family ends there", flags=END_KINDS),
         Variable("end_state", ("end", "unknown"), "unknowns of the exact response at the family's end"),

@@ -74,7 +74,11 @@ class ForcedHarmonicBalanceSystem(HarmonicBalanceSystem):
     def __init__(self, excitation: Excitation, harmonics: int, time_samples: int = 0, linear_algebra: str = "auto"):
         if not isinstance(excitation, Excitation):
             raise TypeError(f"excitation must be an Excitation, got {type(excitation).__name__}")
-        super().__init__(excitation.structure, harmonics, time_samples, basis="full", linear_algebra=linear_algebra)
+        # no rotation condition: the force fixes the plane of a structure invariant under rotations (turning a
+        # response does not give a response), as it fixes the time; the condition would make the system singular
+        super().__init__(
+            excitation.structure, harmonics, time_samples, basis="full", linear_algebra=linear_algebra, rotation=False
+        )
         self.excitation = excitation
         self._set_velocity_matrix(excitation.damping_matrix)
         self.load = excitation.load

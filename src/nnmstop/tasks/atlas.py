@@ -3,8 +3,9 @@
 Each slice of a map and each kind of curve is its own job, so that a cluster spreads them
 (``snakemake --profile profiles/slurm atlas``):
 
-* :func:`atlas_slice`: the exact one-parameter response at one value of the map's second parameter, classified
-  into regions (:func:`nnmstop.bifurcation_atlas.build.slice_dataset`);
+* :func:`atlas_slice`: the exact one-parameter response at one value of the map's second parameter (the
+  regularized one for a stop that is not piecewise linear), classified into regions
+  (:func:`nnmstop.bifurcation_atlas.build.slice_dataset`);
 * :func:`atlas_curves`: every curve of one kind through the points the seed slices locate, checked against the
   check slices (:func:`nnmstop.bifurcation_atlas.build.curves_dataset`; the regularized kinds on harmonic-balance
   responses
@@ -55,7 +56,7 @@ def atlas_slice(config, inputs, outputs, map: str, index: str):
     k = int(index)
     if not 0 <= k < len(atlas.slices):
         raise ValueError(f"atlas map {map!r} has {len(atlas.slices)} slices (0..{len(atlas.slices) - 1}), not {k}")
-    ds = slice_dataset(atlas, k)
+    ds = slice_dataset(atlas, k, _anm(config))
     write_dataset(
         ds,
         outputs["dataset"],
@@ -64,6 +65,11 @@ def atlas_slice(config, inputs, outputs, map: str, index: str):
             f"The exact periodic responses of the forced structure at {atlas.plane} = {atlas.slices[k]:g} over "
             f"{atlas.frequency_range[0]:g}..{atlas.frequency_range[1]:g} Hz, classified into the atlas' regions on a "
             "frequency grid, with the located stability changes and the ends of the one-contact families."
+            if atlas.piecewise_linear
+            else f"The regularized (harmonic-balance) periodic response of the forced structure at {atlas.plane} = "
+            f"{atlas.slices[k]:g} over {atlas.frequency_range[0]:g}..{atlas.frequency_range[1]:g} Hz (its stop is "
+            "not piecewise linear), classified into the atlas' regions on a frequency grid, with the located "
+            "stability changes."
         ),
         keywords=KEYWORDS,
         metadata=config.get("metadata"),
@@ -104,24 +110,16 @@ def atlas_curves(config, inputs, outputs, map: str, kind: str):
 
 def _regularized_inputs(config, atlas, kind):
     """The harmonic-balance equations, seeds and checked points of a regularized kind (computed here)."""
-    from nnmstop.bifurcation_atlas.regularized import regularized_equations, regularized_located, regularized_seeds
-    from nnmstop.continuation.anm import ANMSettings
-    from nnmstop.forced.regularized import ForcedStabilitySettings
+    from nnmstop.bifurcation_atlas.regularized import regularized_inputs
 
-    if atlas.regularized is None:
-        raise ValueError(f"atlas map {atlas.name!r}: the kind {kind!r} needs a `regularized` section")
-    anm = ANMSettings.from_config(config["anm"], points_per_step=2)
-    spec = atlas.regularized
-    # the responses' multipliers at least as precise as the curves' (Magnus steps of `regularized.steps`), so
-    # that a located Neimark-Sacker point is where the curve's test function says it is
-    steps = int(spec["steps"])
-    stability = ForcedStabilitySettings(steps, max(4 * steps, 2048), 2.0)
-    located = {float(v): regularized_located(atlas, kind, float(v), anm, stability) for v in spec["seeds"]}
-    checks = []
-    for value in spec["checks"]:
-        checks += [(float(value), U[-1]) for U in regularized_located(atlas, kind, float(value), anm, stability)]
-    equations = regularized_equations(atlas)
-    return equations, regularized_seeds(atlas, kind, equations, located), checks
+    return regularized_inputs(atlas, kind, _anm(config))
+
+
+def _anm(config):
+    """The ANM settings of the regularized responses (slices of a circular clearance, regularized curves)."""
+    from nnmstop.continuation.anm import ANMSettings
+
+    return ANMSettings.from_config(config["anm"], points_per_step=2)
 
 
 def backbone_dataset_of(config, atlas):
