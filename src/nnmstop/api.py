@@ -401,9 +401,11 @@ def atlas(
     formulation follows the stops (:func:`nnmstop.bifurcation_atlas.equations.exact_equations`): the symmetric
     responses over half a period for bilateral stops and relative stops on both sides, the responses with one
     contact per period over the full period for one-sided stops, unequal gaps and one-sided relative stops. A
-    structure whose stop is not piecewise linear (a circular clearance) has regularized slices (the harmonic-balance
+    structure without exact responses in the atlas
+    (:func:`~nnmstop.bifurcation_atlas.build.without_exact_responses`: a stop not piecewise linear, such as a
+    circular clearance, or a two-sided stop beside a one-sided one) has regularized slices (the harmonic-balance
     responses with their Floquet stability), its grazing curve in closed form and the regularized curve kinds; its
-    exact kinds other than ``grazing`` are refused (ValueError naming the stop).
+    exact kinds other than ``grazing`` are refused (ValueError saying why).
 
     Parameters
     ----------
@@ -417,7 +419,7 @@ def atlas(
     second_range : (float, float)
         Range of the slices; the curves run on ten per cent of it beyond either end.
     slices : int
-        Number of slices (one response each: exact, or regularized for a stop that is not piecewise linear).
+        Number of slices (one response each: exact, or regularized for a structure without exact responses).
     damping : float or Damping
         Damping ratio of the first two linear modes (one mode for a 1-DOF structure), or a Damping.
     plane : {"force", "gap", "stiffness", "damping_ratio"}
@@ -458,6 +460,7 @@ def atlas(
         atlas_dataset,
         curves_dataset,
         slice_dataset,
+        without_exact_responses,
     )
     from nnmstop.bifurcation_atlas.curves import CurveSettings
     from nnmstop.bifurcation_atlas.regularized import regularized_inputs
@@ -479,9 +482,9 @@ def atlas(
     n = len(values)
     chosen_seeds = snap(seeds) if seeds is not None else (values[n // 2],)
     chosen_checks = snap(checks) if checks is not None else tuple(sorted({values[n // 4], values[(3 * n) // 4]}))
-    curved = any(not s.piecewise_linear for s in structure.stops)
+    inexact = without_exact_responses(structure) is not None  # regularized slices (a circular clearance, ...)
     spec = None
-    if regularized is not None or curved or any(k in REGULARIZED_KINDS for k in kinds):
+    if regularized is not None or inexact or any(k in REGULARIZED_KINDS for k in kinds):
         spec = {**REGULARIZED_DEFAULTS, **(regularized or {})}
     low, high = (float(v) for v in second_range)
     margin = 0.1 * (high - low)  # the curves run past the end slices, so that they cross them

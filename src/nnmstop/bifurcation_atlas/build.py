@@ -42,6 +42,7 @@ from nnmstop.bifurcation_atlas.flags import CODIM2_KINDS, CURVE_KINDS, END_KINDS
 from nnmstop.bifurcation_atlas.parameters import PLANES, parameter_value, with_parameters
 from nnmstop.bifurcation_atlas.slices import classify, compute_slice, orbit_dofs
 from nnmstop.continuation.core import ContinuationError
+from nnmstop.exact.forced import mirror_contacts, structure_contacts
 from nnmstop.forced.responses import ExactSettings
 from nnmstop.forced.stability_changes import KINDS as CHANGE_KINDS
 
@@ -74,6 +75,34 @@ SAME_CURVE = 1e-5
 
 class CheckFailed(RuntimeError):
     """A point a one-parameter response locates lies on no curve of its kind (the atlas would miss it)."""
+
+
+def without_exact_responses(structure) -> str | None:
+    """Why the atlas of ``structure`` cannot be exact (a phrase naming the stops), or None where it can.
+
+    The exact atlas follows families of forced responses with one contact phase per period, or per half period
+    under the half-wave symmetry, in closed form. It has none where a stop is not piecewise linear (a circular
+    clearance), nor where two contacts of one stop graze together (a bilateral stop, a relative stop on both
+    sides) without that symmetry, as beside a one-sided stop: the family leaving such a grazing has two contact
+    phases at once. Both kinds of structure get the regularized atlas.
+    """
+    curved = [s.label for s in structure.stops if not s.piecewise_linear]
+    if curved:
+        return f"the {', '.join(curved)} is not piecewise linear, so it has no exact responses"
+    contacts = structure_contacts(structure)
+    if mirror_contacts(contacts) is None:
+        stops = [
+            structure.stops[i].label
+            for i in sorted({c.stop for c in contacts})
+            if sum(d.stop == i for d in contacts) > 1
+        ]
+        if stops:
+            return (
+                f"the two sides of the {', '.join(stops)} graze together without the half-wave symmetry (another "
+                "stop is not odd), so its exact responses leave grazing with two contact phases at once, which the "
+                "exact atlas does not follow"
+            )
+    return None
 
 
 @dataclass(frozen=True)
@@ -131,33 +160,38 @@ class AtlasMap:
 
     @property
     def piecewise_linear(self) -> bool:
-        """Whether every stop is piecewise linear (exact responses exist); else the slices are regularized."""
-        return all(s.piecewise_linear for s in self.excitation.structure.stops)
+        """Whether the slices and curves are exact (:func:`without_exact_responses`); else they are regularized."""
+        return self._without_exact_responses() is None
+
+    def _without_exact_responses(self) -> str | None:
+        """Why the structure has no exact atlas (a phrase naming the stops), or None."""
+        return without_exact_responses(self.excitation.structure)
 
     def check_exact(self, kind: str | None = None) -> None:
-        """Refuse (ValueError naming it) an exact curve ``kind`` (any, by default) of a structure whose stop is not
-        piecewise linear: it has no exact responses. Its grazing curve is in closed form and its slices are the
-        regularized responses (:func:`slice_dataset`). Checked where the curves are computed, not when the map is
-        read (a configuration of such a structure whose other targets do not build the atlas stays valid)."""
-        curved = [s.label for s in self.excitation.structure.stops if not s.piecewise_linear]
-        if curved and kind != "grazing":
+        """Refuse (ValueError naming it) an exact curve ``kind`` (any, by default) of a structure without exact
+        responses in the atlas (:func:`without_exact_responses`). Its grazing curve is in closed form and its
+        slices are the regularized responses (:func:`slice_dataset`). Checked where the curves are computed, not
+        when the map is read (a configuration of such a structure whose other targets do not build the atlas stays
+        valid)."""
+        why = self._without_exact_responses()
+        if why and kind != "grazing":
             exact = [k for k in self.kinds if k in EXACT_KINDS and k != "grazing"]
             raise ValueError(
-                f"atlas map {self.name!r}: the {', '.join(curved)} is not piecewise linear, so it has no exact "
-                f"responses: the exact curve kinds ({exact or [k for k in EXACT_KINDS if k != 'grazing']}) cannot "
-                "be computed. Its atlas is the regularized one (harmonic balance): regularized slices, the "
-                f"closed-form grazing curve and the regularized curve kinds {list(REGULARIZED_KINDS)}"
+                f"atlas map {self.name!r}: {why}: the exact curve kinds "
+                f"({exact or [k for k in EXACT_KINDS if k != 'grazing']}) cannot be computed. Its atlas is the "
+                "regularized one (harmonic balance): regularized slices, the closed-form grazing curve and the "
+                f"regularized curve kinds {list(REGULARIZED_KINDS)}"
             )
 
     def check_regularized_slices(self) -> None:
-        """A structure whose stop is not piecewise linear has regularized slices: ValueError naming the stop when
-        the map has no ``regularized`` section (harmonics, steps, max_truncation)."""
-        if not self.piecewise_linear and self.regularized is None:
-            curved = [s.label for s in self.excitation.structure.stops if not s.piecewise_linear]
+        """A structure without exact responses in the atlas has regularized slices: ValueError saying why when the
+        map has no ``regularized`` section (harmonics, steps, max_truncation)."""
+        why = self._without_exact_responses()
+        if why and self.regularized is None:
             raise ValueError(
-                f"atlas map {self.name!r}: the {', '.join(curved)} is not piecewise linear, so its slices are the "
-                "regularized responses (harmonic balance), which need the map's `regularized` section (harmonics, "
-                f"steps, max_truncation; with the regularized curve kinds {list(REGULARIZED_KINDS)})"
+                f"atlas map {self.name!r}: {why}, so its slices are the regularized responses (harmonic balance), "
+                "which need the map's `regularized` section (harmonics, steps, max_truncation; with the regularized "
+                f"curve kinds {list(REGULARIZED_KINDS)})"
             )
 
     @property
