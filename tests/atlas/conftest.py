@@ -39,3 +39,16 @@ def located(pieces, kind: str) -> list:
 
 def frequencies_hz(points) -> np.ndarray:
     return np.sort([omega / (2 * np.pi) for _, omega in points])
+
+
+def central_differences(function, point, h=1e-6) -> np.ndarray:
+    """The Jacobian of ``function`` at ``point`` by central differences (relative steps ``h``), columns last."""
+    point = np.asarray(point, dtype=float)
+    columns = []
+    for k in range(len(point)):
+        step = h * max(1.0, abs(point[k]))
+        up, down = point.copy(), point.copy()
+        up[k] += step
+        down[k] -= step
+        columns.append((function(up) - function(down)) / (2 * step))
+    return np.stack(columns, axis=-1)

@@ -2,21 +2,9 @@
 
 import numpy as np
 import pytest
-from tests.atlas.conftest import located, oscillator
+from tests.atlas.conftest import central_differences, located, oscillator
 
 from nnmstop.bifurcation_atlas.equations import ExactSymmetricEquations, HarmonicBalanceEquations, fourier_orbit
-
-
-def _differences(function, point, h=1e-6):
-    point = np.asarray(point, dtype=float)
-    columns = []
-    for k in range(len(point)):
-        step = h * max(1.0, abs(point[k]))
-        up, down = point.copy(), point.copy()
-        up[k] += step
-        down[k] -= step
-        columns.append((function(up) - function(down)) / (2 * step))
-    return np.stack(columns, axis=-1)
 
 
 @pytest.mark.parametrize("parameter", [None, "gap", "stiffness", "damping_ratio"])
@@ -28,7 +16,7 @@ def test_exact_jacobian_in_state_and_parameters_matches_differences(response_at,
     params = np.array([omega, 0.1, equations.p0])
     J = equations.jacobian(y[:-1], params)
     n = equations.n
-    numeric = _differences(lambda v: equations.residual(v[:n], v[n:]), np.concatenate([y[:-1], params]))
+    numeric = central_differences(lambda v: equations.residual(v[:n], v[n:]), np.concatenate([y[:-1], params]))
     columns = slice(0, n + 3) if parameter else slice(0, n + 2)  # without a parameter its column is zero
     np.testing.assert_allclose(J[:, columns], numeric[:, columns], atol=2e-7 * np.abs(J).max())
     assert np.all(np.abs(equations.residual(y[:-1], params)) < 1e-12)
@@ -54,7 +42,7 @@ def test_half_period_map_derivatives_match_differences(response_at):
     x, params = y[:-1], np.array([omega, 0.1, 30.0])
     indices, d_state, d_params = equations.monodromy_derivatives(x, params)
     assert indices.tolist() == [equations.n - 1]
-    numeric = _differences(lambda v: equations.monodromy(np.r_[x[:-1], v[0]], v[1:]), np.r_[x[-1], params])
+    numeric = central_differences(lambda v: equations.monodromy(np.r_[x[:-1], v[0]], v[1:]), np.r_[x[-1], params])
     np.testing.assert_allclose(d_state[0], numeric[..., 0], atol=1e-7)
     for k in range(3):
         np.testing.assert_allclose(d_params[k], numeric[..., 1 + k], atol=1e-6)
@@ -71,7 +59,7 @@ def test_harmonic_balance_jacobian_and_monodromy_derivatives_match_differences()
     x, params = U[:-1], np.array([U[-1], 0.05, 1.0])
     J = equations.jacobian(x, params)
     n = equations.n
-    numeric = _differences(lambda p: equations.residual(x, p), params)
+    numeric = central_differences(lambda p: equations.residual(x, p), params)
     np.testing.assert_allclose(J[:, n:], numeric, atol=1e-6 * np.abs(J).max())
     indices, d_state, d_params = equations.monodromy_derivatives(x, params)
     for j in (0, 1, len(indices) - 1):

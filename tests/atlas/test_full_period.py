@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.integrate
+from tests.atlas.conftest import central_differences
 
 import nnmstop
 from nnmstop.bifurcation_atlas.build import (
@@ -83,21 +84,11 @@ def test_full_period_jacobian_and_monodromy_derivatives_match_differences():
     assert np.abs(equations.residual(x, params)).max() < 1e-12
     n = equations.n
 
-    def differences(function, point, h=1e-6):
-        columns = []
-        for k in range(len(point)):
-            step = h * max(1.0, abs(point[k]))
-            up, down = point.copy(), point.copy()
-            up[k] += step
-            down[k] -= step
-            columns.append((function(up) - function(down)) / (2 * step))
-        return np.stack(columns, axis=-1)
-
     J = equations.jacobian(x, params)
-    numeric = differences(lambda v: equations.residual(v[:n], v[n:]), np.concatenate([x, params]))
+    numeric = central_differences(lambda v: equations.residual(v[:n], v[n:]), np.concatenate([x, params]))
     np.testing.assert_allclose(J, numeric, atol=2e-7 * np.abs(J).max())
     indices, d_state, d_params = equations.monodromy_derivatives(x, params)
-    numeric = differences(lambda v: equations.monodromy(np.r_[x[:-1], v[0]], v[1:]), np.r_[x[-1], params])
+    numeric = central_differences(lambda v: equations.monodromy(np.r_[x[:-1], v[0]], v[1:]), np.r_[x[-1], params])
     np.testing.assert_allclose(d_state[0], numeric[..., 0], atol=1e-6)
     for k in range(3):
         np.testing.assert_allclose(d_params[k], numeric[..., 1 + k], atol=1e-6)
