@@ -86,3 +86,19 @@ def test_interpolated_values_agree_within_both_builds_estimates():
     rows = rows_of(reference, comparison([0.163010, 0.171010], [2e-6, 2e-6]))
     named = {r.quantity.split(" (")[0] for r in rows}
     assert named == {"variable regularized_frequency", "variable relative_difference"}
+
+
+def test_an_array_attribute_is_compared_entry_by_entry_like_a_number():
+    """A derived array (the analytic frequencies scaled by the model's own first eigenvalue) that moved at
+    round-off on another CPU passes with the scalar's relative tolerance; a changed entry, a changed length or an
+    integer array off by one does not."""
+    from nnmstop.pipeline.verify import _compare_attribute
+
+    frequencies = [0.15915494309086567, 0.515763955883428, 1.076100325927787]
+    moved = [f * (1 + 2e-15) for f in frequencies]
+    assert _compare_attribute("euler_bernoulli_frequency", frequencies, moved, 1e-8)[2]
+    changed = [frequencies[0], frequencies[1] * (1 + 1e-6), frequencies[2]]
+    assert not _compare_attribute("euler_bernoulli_frequency", frequencies, changed, 1e-8)[2]
+    assert not _compare_attribute("euler_bernoulli_frequency", frequencies, frequencies[:2], 1e-8)[2]
+    assert not _compare_attribute("boundary_full_dofs", [12, 25, 37], [12, 25, 38], 1e-8)[2]
+    assert _compare_attribute("boundary_full_dofs", [12, 25, 37], [12, 25, 37], 1e-8)[2]

@@ -468,16 +468,19 @@ def _compare_attribute(key: str, wanted, got, base: float) -> tuple[float, float
         # text: same words; numbers in it restate what the data hold (range ends, counts of stored points)
         ok = isinstance(wanted, str) and isinstance(got, str) and _mask_numbers(wanted) == _mask_numbers(got)
         return (0.0 if ok else float("nan")), 0.0, ok
-    try:
-        w, g = float(wanted), float(got)
+    try:  # a number, or an array of numbers compared entry by entry with the same tolerance
+        w, g = np.asarray(wanted, dtype=float), np.asarray(got, dtype=float)
     except (TypeError, ValueError):
         return float("nan"), 0.0, wanted == got
-    if not (np.isfinite(w) and np.isfinite(g)):
+    if w.shape != g.shape or not (np.all(np.isfinite(w)) and np.all(np.isfinite(g))):
         return float("nan"), 0.0, False
+    if w.size == 0:
+        return 0.0, 0.0, True
     if kind == "accuracy":
-        return abs(g), ACCURACY_FACTOR * abs(w), abs(g) <= ACCURACY_FACTOR * abs(w)
+        largest, allowed = float(np.max(np.abs(g))), ACCURACY_FACTOR * float(np.max(np.abs(w)))
+        return largest, allowed, largest <= allowed
     tolerance = SETTING_TOLERANCE if kind == "exact" else max(DERIVED_TOLERANCE, 10 * base)
-    difference = abs(g - w) / max(abs(w), 1e-300)
+    difference = float(np.max(np.abs(g - w) / np.maximum(np.abs(w), 1e-300)))
     return difference, tolerance, difference <= tolerance
 
 
