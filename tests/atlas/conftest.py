@@ -41,14 +41,16 @@ def frequencies_hz(points) -> np.ndarray:
     return np.sort([omega / (2 * np.pi) for _, omega in points])
 
 
+def partial_difference(function, point, k: int, h=1e-6):
+    """The derivative of ``function`` in ``point[k]`` by a central difference (relative step ``h``)."""
+    point = np.asarray(point, dtype=float)
+    step = h * max(1.0, abs(point[k]))
+    up, down = point.copy(), point.copy()
+    up[k] += step
+    down[k] -= step
+    return (function(up) - function(down)) / (2 * step)
+
+
 def central_differences(function, point, h=1e-6) -> np.ndarray:
     """The Jacobian of ``function`` at ``point`` by central differences (relative steps ``h``), columns last."""
-    point = np.asarray(point, dtype=float)
-    columns = []
-    for k in range(len(point)):
-        step = h * max(1.0, abs(point[k]))
-        up, down = point.copy(), point.copy()
-        up[k] += step
-        down[k] -= step
-        columns.append((function(up) - function(down)) / (2 * step))
-    return np.stack(columns, axis=-1)
+    return np.stack([partial_difference(function, point, k, h) for k in range(len(point))], axis=-1)

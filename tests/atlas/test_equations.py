@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from tests.atlas.conftest import central_differences, located, oscillator
+from tests.atlas.conftest import central_differences, located, oscillator, partial_difference
 
 from nnmstop.bifurcation_atlas.equations import ExactSymmetricEquations, HarmonicBalanceEquations, fourier_orbit
 
@@ -63,12 +63,7 @@ def test_harmonic_balance_jacobian_and_monodromy_derivatives_match_differences()
     np.testing.assert_allclose(J[:, n:], numeric, atol=1e-6 * np.abs(J).max())
     indices, d_state, d_params = equations.monodromy_derivatives(x, params)
     for j in (0, 1, len(indices) - 1):
-        k = indices[j]
-        step = 1e-6 * max(1.0, abs(x[k]))
-        up, down = x.copy(), x.copy()
-        up[k] += step
-        down[k] -= step
-        expected = (equations.monodromy(up, params) - equations.monodromy(down, params)) / (2 * step)
+        expected = partial_difference(lambda v: equations.monodromy(v, params), x, indices[j])
         np.testing.assert_allclose(d_state[j], expected, atol=1e-6)
     # the map does not depend on the other unknowns (the damped variational equation sees the stop coordinates)
     other = np.setdiff1d(np.arange(n), indices)[5]
@@ -106,12 +101,7 @@ def test_harmonic_balance_map_derivatives_cover_both_dofs_of_a_relative_stop():
     nc = equations.system(params).nc
     assert sorted(set(indices // nc)) == [0, 1]
     for j in (nc + 1, nc + 2):  # coefficients of q1
-        k = indices[j]
-        step = 1e-6 * max(1.0, abs(x[k]))
-        up, down = x.copy(), x.copy()
-        up[k] += step
-        down[k] -= step
-        expected = (equations.monodromy(up, params) - equations.monodromy(down, params)) / (2 * step)
+        expected = partial_difference(lambda v: equations.monodromy(v, params), x, indices[j])
         assert np.abs(expected).max() > 1e-3  # the map does depend on q1
         np.testing.assert_allclose(d_state[j], expected, atol=1e-6)
     moved = x.copy()

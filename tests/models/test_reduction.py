@@ -245,8 +245,8 @@ def test_paired_modes_do_not_depend_on_the_basis_the_eigensolver_returns(monkeyp
     original = reduction._fixed_interface_modes
     rng = np.random.default_rng(7)
 
-    def turned(k_ii, m_ii, solve, n_wanted, *root):
-        omega, phi = original(k_ii, m_ii, solve, n_wanted, *root)
+    def turned(interior, m_ii, n_wanted):
+        omega, phi = original(interior, m_ii, n_wanted)
         phi = phi.copy()
         for k in range(0, n_wanted - 1, 2):
             c, s = np.cos(rng.uniform(0, 2 * np.pi)), np.sin(rng.uniform(0, 2 * np.pi))

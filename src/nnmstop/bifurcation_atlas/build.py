@@ -159,13 +159,9 @@ class AtlasMap:
             )
 
     @property
-    def piecewise_linear(self) -> bool:
+    def exact_responses(self) -> bool:
         """Whether the slices and curves are exact (:func:`without_exact_responses`); else they are regularized."""
-        return self._without_exact_responses() is None
-
-    def _without_exact_responses(self) -> str | None:
-        """Why the structure has no exact atlas (a phrase naming the stops), or None."""
-        return without_exact_responses(self.excitation.structure)
+        return without_exact_responses(self.excitation.structure) is None
 
     def check_exact(self, kind: str | None = None) -> None:
         """Refuse (ValueError naming it) an exact curve ``kind`` (any, by default) of a structure without exact
@@ -173,7 +169,7 @@ class AtlasMap:
         slices are the regularized responses (:func:`slice_dataset`). Checked where the curves are computed, not
         when the map is read (a configuration of such a structure whose other targets do not build the atlas stays
         valid)."""
-        why = self._without_exact_responses()
+        why = without_exact_responses(self.excitation.structure)
         if why and kind != "grazing":
             exact = [k for k in self.kinds if k in EXACT_KINDS and k != "grazing"]
             raise ValueError(
@@ -186,7 +182,7 @@ class AtlasMap:
     def check_regularized_slices(self) -> None:
         """A structure without exact responses in the atlas has regularized slices: ValueError saying why when the
         map has no ``regularized`` section (harmonics, steps, max_truncation)."""
-        why = self._without_exact_responses()
+        why = without_exact_responses(self.excitation.structure)
         if why and self.regularized is None:
             raise ValueError(
                 f"atlas map {self.name!r}: {why}, so its slices are the regularized responses (harmonic balance), "
@@ -241,7 +237,7 @@ def slice_dataset(atlas: AtlasMap, index: int, anm=None) -> xr.Dataset:
     regularized one (:func:`nnmstop.bifurcation_atlas.regularized.regularized_slice`, ``anm`` its ANM settings,
     by default ``ANMSettings(points_per_step=2)``; attributes ``slice_law = "regularized"`` and ``harmonics``)."""
     value = float(atlas.slices[index])
-    if atlas.piecewise_linear:
+    if atlas.exact_responses:
         result = compute_slice(atlas.excitation, atlas.plane, value, atlas.frequency_range, atlas.exact)
         law = "piecewise_linear"
     else:
@@ -653,7 +649,7 @@ def curves_dataset(atlas: AtlasMap, kind: str, seed_slices: list, check_slices: 
     seeds and the ``(value, omega)`` located at the check values (:mod:`nnmstop.bifurcation_atlas.regularized`).
     """
     law = "regularized" if kind in REGULARIZED_KINDS else "piecewise_linear"
-    if law == "piecewise_linear" and kind == "grazing" and not atlas.piecewise_linear:
+    if law == "piecewise_linear" and kind == "grazing" and not atlas.exact_responses:
         # no exact formulation to continue it on: the closed form of the non-impacting response
         from nnmstop.bifurcation_atlas.grazing import closed_form_grazing_curves, grazing_checks
 

@@ -39,7 +39,6 @@ For example, a clamped-free beam of 40 elements with one stop, reduced onto its 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import logging
 import time
 from dataclasses import dataclass
@@ -154,23 +153,97 @@ def _count(name: str, value, low: int, high: int) -> int:
     return int(value)
 
 
-def _fixed_interface_modes(k_ii, m_ii, solve, n_wanted: int, root=None):
-    """The ``n_wanted`` lowest ``(omega, Phi)`` of ``K_ii phi = omega^2 M_ii phi`` (``solve``: ``K_ii^-1``; with
-    ``root``, ``G_i``, each ``omega^2`` is the Rayleigh quotient ``|G_i phi|^2``, without cancellation)."""
+class _InteriorStiffness:
+    """What the reduction asks of ``K_ii`` (the interior held at the boundary): ``solve`` (``K_ii^-1``), the
+    constraint modes ``Psi = -K_ii^-1 K_ib`` and the form ``V^T K_ii V``.
+
+    Where the structure has a stiffness root ``G`` (``K = G^T G``), through the augmented system of ``G_i``
+    (:class:`~nnmstop.models.stiffness_root.RootSolver`: ``cond(G) = sqrt(cond K)`` digits lost), the constraint
+    modes as the least-squares problems ``min |G_i psi + G_b|`` and the form as sums of squares; else through a
+    sparse ``L D L^T`` of ``K_ii`` in a symmetric fill-reducing order with the diagonal as pivot (no row interchange,
+    which on a shuffled mesh numbering would destroy the symmetric structure and multiply the fill). An interior
+    free to move is refused (ValueError).
+    """
+
+    HELD = (
+        "either it is free to move (hold the structure: a clamped or pinned end; or add the free DOFs to "
+        "boundary_dofs), or its stiffness is too ill-conditioned"
+    )
+
+    def __init__(self, structure: Structure, stiffness, interior, boundary):
+        self.k_ii = stiffness[interior][:, interior].tocsc()
+        self._k_ib = stiffness[interior][:, boundary]
+        self.full_root = None if structure.stiffness_root is None else scipy.sparse.csc_matrix(structure.stiffness_root)
+        if self.full_root is not None:
+            self.root, self._root_b = self.full_root[:, interior], self.full_root[:, boundary]
+            try:
+                self._solver = RootSolver(self.root)
+            except ValueError:
+                raise ValueError(
+                    f"the interior of the structure is singular when the boundary is held: {self.HELD}"
+                ) from None
+            self.solve = self._solver.solve
+            return
+        self.root = None
+        try:
+            factor = scipy.sparse.linalg.splu(
+                self.k_ii, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+            )
+        except RuntimeError:
+            factor = None
+        pivots = factor.U.diagonal() if factor is not None else np.zeros(1)
+        if factor is None or pivots.min() <= 1e-13 * np.abs(pivots).max():
+            ratio = pivots.min() / np.abs(pivots).max() if factor is not None else 0.0
+            raise ValueError(
+                "the interior of the structure (every DOF but the boundary "
+                f"{[structure.dof_labels[d] for d in boundary]}) is singular to double precision when the boundary "
+                f"is held (smallest pivot of K_ii {ratio:.1e} of the largest): {self.HELD} (a beam's grows as the "
+                "number of elements to the fourth: give its stiffness root, Structure.stiffness_root, as beams built "
+                "by the project do)"
+            )
+        self.solve = factor.solve
+
+    def constraint_modes(self) -> np.ndarray:
+        """``Psi = -K_ii^-1 K_ib`` (interior rows of the static constraint modes)."""
+        if self.root is not None:
+            return self._solver.least_squares(self._root_b.toarray())[0]
+        return -self.solve(self._k_ib.toarray())
+
+    def form(self, basis) -> np.ndarray:
+        """``V^T K_ii V`` on the columns of ``basis`` (summed in one fixed order)."""
+        if self.root is not None:
+            return energy_matrix(self.root, basis)
+        return fixed_order_product(basis, self.k_ii @ basis)
+
+    def check_held(self, omega, m_ii) -> None:
+        """Through the root an interior free to move factors (to round-off) and shows as a lowest fixed-interface
+        eigenvalue at round-off: refused (ValueError)."""
+        if (
+            self.root is not None
+            and len(omega)
+            and omega[0] ** 2 <= 1e-26 * np.max(self.k_ii.diagonal() / m_ii.diagonal())
+        ):
+            raise ValueError(f"the interior of the structure is singular when the boundary is held: {self.HELD}")
+
+
+def _fixed_interface_modes(interior: _InteriorStiffness, m_ii, n_wanted: int):
+    """The ``n_wanted`` lowest ``(omega, Phi)`` of ``K_ii phi = omega^2 M_ii phi`` (through a stiffness root, each
+    ``omega^2`` is the Rayleigh quotient ``|G_i phi|^2``, without cancellation)."""
+    k_ii = interior.k_ii
     n = k_ii.shape[0]
     if n_wanted == 0:
         return np.zeros(0), np.zeros((n, 0))
     if n <= DENSE_EIGEN_LIMIT or n_wanted >= n - 1:
         lam, phi = scipy.linalg.eigh(k_ii.toarray(), m_ii.toarray(), subset_by_index=[0, n_wanted - 1])
     else:
-        inverse = scipy.sparse.linalg.LinearOperator((n, n), matvec=solve, dtype=float)
+        inverse = scipy.sparse.linalg.LinearOperator((n, n), matvec=interior.solve, dtype=float)
         start = np.ones(n)  # a fixed start vector: the same Lanczos run on every call
         lam, phi = scipy.sparse.linalg.eigsh(k_ii, k=n_wanted, M=m_ii, sigma=0.0, which="LM", OPinv=inverse, v0=start)
         order = np.argsort(lam)
         lam, phi = lam[order], phi[:, order]
     phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
-    if root is not None:
-        lam = np.diag(energy_matrix(root, phi))
+    if interior.root is not None:
+        lam = np.diag(interior.form(phi))
     return np.sqrt(np.maximum(lam, 0.0)), phi * _mode_signs(phi)
 
 
@@ -320,64 +393,21 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     mass = scipy.sparse.csr_matrix(structure.mass)
     costs = {}
     started = time.perf_counter()
-    k_ii = stiffness[interior][:, interior].tocsc()
     m_ii = mass[interior][:, interior].tocsc()
-    k_ib = stiffness[interior][:, boundary].toarray()
-    held = (
-        "either it is free to move (hold the structure: a clamped or pinned end; or add the free DOFs to "
-        "boundary_dofs), or its stiffness is too ill-conditioned"
-    )
-    root = None if structure.stiffness_root is None else scipy.sparse.csc_matrix(structure.stiffness_root)
-    if root is not None:
-        # K = G^T G: solve and condense through G (an augmented system), losing cond(G) = sqrt(cond K) digits
-        g_i = root[:, interior]
-        try:
-            solver = RootSolver(g_i)
-        except ValueError:
-            raise ValueError(f"the interior of the structure is singular when the boundary is held: {held}") from None
-        solve = solver.solve
-        costs["factorization"] = time.perf_counter() - started
-        started = time.perf_counter()
-        psi, _ = solver.least_squares(root[:, boundary].toarray())
-    else:
-        # K_ii is symmetric positive definite when the interior is held: an L D L^T in a symmetric fill-reducing
-        # order with the diagonal as pivot (no row interchange, which on a shuffled mesh numbering would destroy
-        # the symmetric structure and multiply the fill)
-        try:
-            factor = scipy.sparse.linalg.splu(
-                k_ii, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-            )
-        except RuntimeError:
-            factor = None
-        pivots = factor.U.diagonal() if factor is not None else np.zeros(1)
-        if factor is None or pivots.min() <= 1e-13 * np.abs(pivots).max():
-            ratio = pivots.min() / np.abs(pivots).max() if factor is not None else 0.0
-            raise ValueError(
-                "the interior of the structure (every DOF but the boundary "
-                f"{[structure.dof_labels[d] for d in boundary]}) is singular to double precision when the boundary "
-                f"is held (smallest pivot of K_ii {ratio:.1e} of the largest): {held} (a beam's grows as the number "
-                "of elements to the fourth: give its stiffness root, Structure.stiffness_root, as beams built by "
-                "the project do)"
-            )
-        solve = factor.solve
-        costs["factorization"] = time.perf_counter() - started
-        started = time.perf_counter()
-        psi = -factor.solve(k_ib)
+    interior_stiffness = _InteriorStiffness(structure, stiffness, interior, boundary)
+    costs["factorization"] = time.perf_counter() - started
+    started = time.perf_counter()
+    psi = interior_stiffness.constraint_modes()
     costs["constraint_modes"] = time.perf_counter() - started
     started = time.perf_counter()
     # one more mode than kept: the first neglected frequency is the a-priori error estimate
     wanted = min(n_modes + 1, len(interior))
-    omega, phi = _fixed_interface_modes(k_ii, m_ii, solve, wanted, None if root is None else root[:, interior])
-    if root is not None and wanted and omega[0] ** 2 <= 1e-26 * np.max(k_ii.diagonal() / m_ii.diagonal()):
-        raise ValueError(f"the interior of the structure is singular when the boundary is held: {held}")
+    omega, phi = _fixed_interface_modes(interior_stiffness, m_ii, wanted)
+    interior_stiffness.check_held(omega, m_ii)
     pairs = _reduced_rotation_pairs(structure, boundary, n_modes)
     if pairs is not None:  # the modes in pairs (phi, J phi): the reduced structure stays invariant under rotations
-        form = (
-            (lambda v: fixed_order_product(v, k_ii @ v))
-            if root is None
-            else functools.partial(energy_matrix, root[:, interior])
-        )
-        refined = _refined_modes(phi, omega, m_ii, n_modes, solve, form)
+        form = interior_stiffness.form
+        refined = _refined_modes(phi, omega, m_ii, n_modes, interior_stiffness.solve, form)
         omega[:n_modes], phi[:, :n_modes] = _paired_modes(
             refined, m_ii, _rotation_of(structure, interior), n_modes, form
         )
@@ -393,8 +423,8 @@ def craig_bampton(structure: Structure, n_modes: int, boundary_dofs=()) -> Struc
     reduced_mass = fixed_order_product(recovery, mass @ recovery)
     reduced_mass = 0.5 * (reduced_mass + reduced_mass.T)
     reduced_mass[b:, b:] = np.eye(m)  # Phi^T M_ii Phi, mass-normalized
-    if root is not None:  # the Ritz projection (G T)^T (G T): a sum of squares, no cancellation
-        reduced_stiffness = energy_matrix(root, recovery)
+    if interior_stiffness.root is not None:  # the Ritz projection (G T)^T (G T): a sum of squares, no cancellation
+        reduced_stiffness = energy_matrix(interior_stiffness.full_root, recovery)
     else:
         reduced_stiffness = np.zeros((b + m, b + m))
         condensed = stiffness[boundary][:, boundary].toarray() + stiffness[boundary][:, interior] @ psi

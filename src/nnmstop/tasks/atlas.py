@@ -65,7 +65,7 @@ def atlas_slice(config, inputs, outputs, map: str, index: str):
             f"The exact periodic responses of the forced structure at {atlas.plane} = {atlas.slices[k]:g} over "
             f"{atlas.frequency_range[0]:g}..{atlas.frequency_range[1]:g} Hz, classified into the atlas' regions on a "
             "frequency grid, with the located stability changes and the ends of the one-contact families."
-            if atlas.piecewise_linear
+            if atlas.exact_responses
             else f"The regularized (harmonic-balance) periodic response of the forced structure at {atlas.plane} = "
             f"{atlas.slices[k]:g} over {atlas.frequency_range[0]:g}..{atlas.frequency_range[1]:g} Hz (its stop is "
             "not piecewise linear), classified into the atlas' regions on a frequency grid, with the located "
