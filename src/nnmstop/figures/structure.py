@@ -364,6 +364,9 @@ def _exact_vs_regularized(fig, data, spec):
 WEAR_COLORS = {"nnm": ("tab:blue", "tab:green", "tab:purple"), "whirl": ("tab:orange", "tab:red", "tab:brown")}
 
 
+#: Markers of the stops on the wear panel (the first stop's curves unmarked).
+STOP_MARKERS = ("", "o", "s", "^", "v", "D")
+
 #: The wear panel's lower limit, relative to its largest value: a whirl's impact work rate is zero up to round-off
 #: of the stored contact energy, which a log axis would otherwise stretch over many decades.
 WEAR_DECADES_SHOWN = 1e-4
@@ -392,7 +395,7 @@ def _wear(fig, data, spec):
     if missing:
         raise ValueError(f"branch datasets {missing} have no wear variables (written before nnmstop.wear)")
     top, bottom = fig.subplots(2, 1, sharex=True)
-    curves = []  # (energy, value, colour, style, label) of every positive wear quantity
+    curves = []  # (energy, value, colour, style, stop, label) of every positive wear quantity
     for name in names:
         ds = data[name]
         color, label = _branch_color(name), _branch_label(name, ds)
@@ -403,11 +406,14 @@ def _wear(fig, data, spec):
             for variable, style, what in (("wear_power", "-", "wear power"), ("impact_work_rate", ":", "impact work")):
                 value = ds[variable].values[:, k]
                 if (value > 0).any():
-                    curves.append((energy, np.where(value > 0, value, np.nan), color, style, f"{name}{suffix}: {what}"))
+                    curves.append(
+                        (energy, np.where(value > 0, value, np.nan), color, style, k, f"{name}{suffix}: {what}")
+                    )
     largest = max((float(np.nanmax(curve[1])) for curve in curves), default=0.0)
     drawn = [curve for curve in curves if np.nanmax(curve[1]) >= WEAR_DECADES_SHOWN * largest]
-    for energy, value, color, style, label in drawn:
-        bottom.plot(energy, value, color=color, ls=style, lw=1.2, label=label)
+    for energy, value, color, style, k, label in drawn:  # a branch's stops told apart by their markers
+        marker = STOP_MARKERS[k % len(STOP_MARKERS)]
+        bottom.plot(energy, value, color=color, ls=style, lw=1.2, marker=marker, markevery=0.08, ms=4, label=label)
     top.set_xscale("log")
     top.set_ylabel("frequency (Hz of the nondimensional time)")
     top.set_title("frequency along each branch (dashed where unstable)", fontsize=9)
@@ -421,7 +427,7 @@ def _wear(fig, data, spec):
     else:
         bottom.text(0.5, 0.5, "no orbit touches a stop", transform=bottom.transAxes, ha="center", fontsize=8)
     bottom.set_title(
-        "at each stop: wear power <|F_N| v_t> (solid) and impact work rate <(F_N v_N)+> (dotted)\n"
+        "at each stop (marked by stop): wear power <|F_N| v_t> (solid) and impact work rate <(F_N v_N)+> (dotted)\n"
         f"planar motion does not slide, a whirl does not impact; curves below {WEAR_DECADES_SHOWN:g} x the largest "
         "(round-off) not drawn",
         fontsize=9,
